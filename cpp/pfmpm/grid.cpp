@@ -1,0 +1,79 @@
+#include "grid.h"
+
+#include <algorithm>
+
+namespace pfmpm
+{
+
+Grid::Grid(int degree, std::array<int, 2> cells, double h, std::array<double, 2> origin)
+    : _basis{BSpline1D(degree, cells[0], h, origin[0]), BSpline1D(degree, cells[1], h, origin[1])},
+      _active_index(static_cast<std::size_t>(num_nodes()), -1)
+{
+}
+
+bool Grid::has_walls() const
+{
+  return std::any_of(_walls.begin(), _walls.end(), [](Wall w) { return w != Wall::free; });
+}
+
+void Grid::activate(const std::vector<std::int64_t>& cell_start)
+{
+  const int p = degree();
+  const int ncx = _basis[0].cells(), ncy = _basis[1].cells();
+  const int nnx = _basis[0].size(), nny = _basis[1].size();
+  auto occupied = [&](int cx, int cy)
+  {
+    const std::size_t c = static_cast<std::size_t>(cx) * ncy + cy;
+    return cell_start[c + 1] > cell_start[c];
+  };
+
+  // Node (ix, iy) is supported on cells [ix-p, ix] x [iy-p, iy]: a gather, so
+  // every node is written by one thread only.
+#pragma omp parallel for schedule(static)
+  for (int ix = 0; ix < nnx; ++ix)
+  {
+    const int cx0 = std::max(ix - p, 0), cx1 = std::min(ix, ncx - 1);
+    for (int iy = 0; iy < nny; ++iy)
+    {
+      const int cy0 = std::max(iy - p, 0), cy1 = std::min(iy, ncy - 1);
+      bool active = false;
+      for (int cx = cx0; cx <= cx1 && !active; ++cx)
+        for (int cy = cy0; cy <= cy1 && !active; ++cy)
+          active = occupied(cx, cy);
+      _active_index[static_cast<std::size_t>(ix) * nny + iy] = active ? 0 : -1;
+    }
+  }
+
+  _active.clear();
+  for (std::size_t n = 0; n < _active_index.size(); ++n)
+    if (_active_index[n] >= 0)
+    {
+      _active_index[n] = static_cast<std::int32_t>(_active.size());
+      _active.push_back(static_cast<std::int32_t>(n));
+    }
+
+  _constraints.clear();
+  if (!has_walls())
+    return;
+  // Open knot vectors interpolate at the ends: only the first and last node of
+  // each row and column carry the boundary value, so walls act on them alone.
+  const std::array<std::uint8_t, 3> normal_mask_x{0, 3, 1}; // free, fixed, slip on left/right
+  const std::array<std::uint8_t, 3> normal_mask_y{0, 3, 2}; // free, fixed, slip on bottom/top
+  _constraints.assign(_active.size(), 0);
+  for (std::size_t a = 0; a < _active.size(); ++a)
+  {
+    const int ix = _active[a] / nny, iy = _active[a] % nny;
+    std::uint8_t m = 0;
+    if (ix == 0)
+      m |= normal_mask_x[static_cast<int>(wall(Side::left))];
+    if (ix == nnx - 1)
+      m |= normal_mask_x[static_cast<int>(wall(Side::right))];
+    if (iy == 0)
+      m |= normal_mask_y[static_cast<int>(wall(Side::bottom))];
+    if (iy == nny - 1)
+      m |= normal_mask_y[static_cast<int>(wall(Side::top))];
+    _constraints[a] = m;
+  }
+}
+
+} // namespace pfmpm

@@ -1,0 +1,89 @@
+/// @file grid.h
+/// @brief The background grid: a tensor product of two open-knot B-spline bases.
+#pragma once
+
+#include "bspline.h"
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+namespace pfmpm
+{
+
+/// Sides of the rectangular grid.
+enum class Side : int
+{
+  left = 0,
+  right = 1,
+  bottom = 2,
+  top = 3
+};
+
+/// Kinematic condition on one side of the grid.
+enum class Wall : int
+{
+  free = 0,  ///< no condition
+  fixed = 1, ///< both velocity components zero
+  slip = 2   ///< normal velocity component zero
+};
+
+/// @brief Uniform 2D grid of square cells carrying a tensor-product B-spline basis.
+///
+/// Cells are keyed column by column, `cell = cx * cells_y + cy`, and the basis
+/// functions (grid nodes, i.e. control points) likewise, `node = ix * nodes_y + iy`.
+/// Only active nodes - those in the support of some particle - carry data: the
+/// grid keeps a compact numbering of them, rebuilt every step from the occupied
+/// cells (Algorithm 1, "find active part of Eulerian grid").
+class Grid
+{
+public:
+  /// @param degree B-spline degree (1, 2 or 3), the same in both directions.
+  /// @param cells Number of cells in x and y.
+  /// @param h Cell size.
+  /// @param origin Lower-left corner.
+  Grid(int degree, std::array<int, 2> cells, double h, std::array<double, 2> origin);
+
+  int degree() const { return _basis[0].degree(); }
+  double h() const { return _basis[0].h(); }
+  const BSpline1D& basis(int dim) const { return _basis[dim]; }
+  std::array<int, 2> cells() const { return {_basis[0].cells(), _basis[1].cells()}; }
+  std::array<int, 2> nodes() const { return {_basis[0].size(), _basis[1].size()}; }
+  std::int64_t num_cells() const { return std::int64_t(_basis[0].cells()) * _basis[1].cells(); }
+  std::int64_t num_nodes() const { return std::int64_t(_basis[0].size()) * _basis[1].size(); }
+
+  /// @brief Set the kinematic condition on one side.
+  void set_wall(Side side, Wall wall) { _walls[static_cast<int>(side)] = wall; }
+  Wall wall(Side side) const { return _walls[static_cast<int>(side)]; }
+  bool has_walls() const;
+
+  /// @brief Rebuild the active node set from per-cell particle counts.
+  ///
+  /// A node is active when a cell in its support holds a particle. Active
+  /// nodes are numbered in increasing node order, so the degree+1 nodes of one
+  /// grid column above a cell have consecutive active indices.
+  /// @param cell_start Offsets of each cell's particles, num_cells()+1 entries.
+  void activate(const std::vector<std::int64_t>& cell_start);
+
+  /// Number of active nodes.
+  std::int32_t num_active() const { return static_cast<std::int32_t>(_active.size()); }
+  /// Node index of each active node.
+  const std::vector<std::int32_t>& active_nodes() const { return _active; }
+  /// Active index of node (ix, iy), or -1 when the node is inactive.
+  std::int32_t active_index(int ix, int iy) const
+  {
+    return _active_index[static_cast<std::size_t>(ix) * _basis[1].size() + iy];
+  }
+  /// Per active node: bit 0 set when the x velocity is constrained, bit 1 for y.
+  /// Empty when the grid has no walls.
+  const std::vector<std::uint8_t>& constraints() const { return _constraints; }
+
+private:
+  std::array<BSpline1D, 2> _basis;
+  std::array<Wall, 4> _walls{Wall::free, Wall::free, Wall::free, Wall::free};
+  std::vector<std::int32_t> _active_index; // per node
+  std::vector<std::int32_t> _active;       // per active node
+  std::vector<std::uint8_t> _constraints;  // per active node
+};
+
+} // namespace pfmpm

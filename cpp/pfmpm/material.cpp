@@ -1,0 +1,45 @@
+#include "material.h"
+
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+namespace pfmpm
+{
+
+namespace
+{
+void require(bool ok, const char* name, double value, const char* rule)
+{
+  if (!ok)
+  {
+    std::ostringstream msg;
+    msg << name << " = " << value << ": " << rule;
+    throw std::invalid_argument(msg.str());
+  }
+}
+} // namespace
+
+LinearElastic::LinearElastic(double E, double nu, double density, Plane plane)
+    : _E(E), _nu(nu), _density(density), _plane(plane)
+{
+  require(std::isfinite(E) && E > 0.0, "E", E, "must be > 0");
+  require(std::isfinite(nu) && nu > -1.0 && nu < 0.5, "nu", nu, "must lie in (-1, 0.5)");
+  require(std::isfinite(density) && density > 0.0, "density", density, "must be > 0");
+  _mu = E / (2.0 * (1.0 + nu));
+  const double lambda = E * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
+  if (plane == Plane::strain)
+  {
+    _lambda = lambda;
+    _zz = lambda;
+  }
+  else
+  {
+    _lambda = 2.0 * _mu * lambda / (lambda + 2.0 * _mu);
+    _zz = 0.0;
+  }
+}
+
+double LinearElastic::wave_speed() const { return std::sqrt((_lambda + 2.0 * _mu) / _density); }
+
+} // namespace pfmpm

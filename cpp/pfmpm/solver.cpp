@@ -1,0 +1,343 @@
+#include "solver.h"
+#include "reduce.h"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <type_traits>
+
+namespace pfmpm
+{
+
+namespace
+{
+/// Cell columns per P2G strip. Strips of one parity share no grid node as long
+/// as this is at least the B-spline degree.
+constexpr int strip_width = 4;
+static_assert(strip_width >= max_degree);
+
+/// Call f(std::integral_constant<int, P>) for the run-time degree P.
+template <class F>
+void with_degree(int degree, F&& f)
+{
+  switch (degree)
+  {
+  case 1:
+    f(std::integral_constant<int, 1>{});
+    break;
+  case 2:
+    f(std::integral_constant<int, 2>{});
+    break;
+  default:
+    f(std::integral_constant<int, 3>{});
+  }
+}
+} // namespace
+
+Solver::Solver(Grid& grid, Particles& particles, std::vector<LinearElastic> materials, double dt)
+    : _grid(grid), _particles(particles), _materials(std::move(materials)), _dt(dt),
+      _cell(particles.size()), _order(particles.size()),
+      _cell_start(static_cast<std::size_t>(grid.num_cells()) + 1)
+{
+  if (!(dt > 0.0) || !std::isfinite(dt))
+    throw std::invalid_argument("dt = " + std::to_string(dt) + ": must be > 0");
+  if (_materials.empty())
+    throw std::invalid_argument("materials: at least one material is needed");
+  const auto nmat = static_cast<std::int32_t>(_materials.size());
+  for (std::size_t i = 0; i < particles.size(); ++i)
+    if (particles.material[i] < 0 || particles.material[i] >= nmat)
+      throw std::invalid_argument("particle " + std::to_string(i) + ": material index "
+                                  + std::to_string(particles.material[i]) + " out of range");
+  const double max_mass = particles.size() == 0
+                              ? 0.0
+                              : *std::max_element(particles.mass.begin(), particles.mass.end());
+  // Nodes lighter than this carry no velocity: dividing by their mass would
+  // amplify round-off (a particle at the edge of a node's support).
+  _mass_tol = 1e-12 * max_mass;
+}
+
+void Solver::advance(std::int64_t steps)
+{
+  for (std::int64_t k = 0; k < steps; ++k)
+    with_degree(_grid.degree(), [this](auto P) { step<decltype(P)::value>(); });
+}
+
+template <int P>
+void Solver::step()
+{
+  sort_particles();
+  _grid.activate(_cell_start);
+  particle_to_grid<P>();
+  update_grid();
+  grid_to_particle<P>();
+  _time += _dt;
+  ++_step;
+}
+
+std::string Solver::where(std::size_t i) const
+{
+  std::ostringstream s;
+  s << "particle " << i << " (body " << _particles.body[i] << ") at x = (" << _particles.x[2 * i]
+    << ", " << _particles.x[2 * i + 1] << ") in step " << _step << " (t = " << _time << ")";
+  return s.str();
+}
+
+void Solver::sort_particles()
+{
+  const auto n = static_cast<std::ptrdiff_t>(_particles.size());
+  const BSpline1D& bx = _grid.basis(0);
+  const BSpline1D& by = _grid.basis(1);
+  const int ncy = by.cells();
+  const auto ncells = static_cast<std::size_t>(_grid.num_cells());
+  const double* x = _particles.x.data();
+
+  std::ptrdiff_t outside = n;
+#pragma omp parallel for schedule(static) reduction(min : outside)
+  for (std::ptrdiff_t i = 0; i < n; ++i)
+  {
+    const int cx = bx.cell(x[2 * i]), cy = by.cell(x[2 * i + 1]);
+    if (cx < 0 || cy < 0)
+    {
+      outside = std::min(outside, i);
+      _cell[i] = 0;
+    }
+    else
+      _cell[i] = cx * ncy + cy;
+  }
+  if (outside < n)
+    throw SimulationError(where(outside) + " is outside the grid");
+
+  // Stable counting sort by cell. Each thread counts a contiguous slice; the
+  // offsets put slice t before slice t+1 inside every cell, which is the order
+  // a serial stable sort gives, whatever the number of threads.
+  _histogram.resize(static_cast<std::size_t>(omp_get_max_threads()) * ncells);
+#pragma omp parallel
+  {
+    const std::ptrdiff_t nt = omp_get_num_threads(), t = omp_get_thread_num();
+    const std::ptrdiff_t begin = n * t / nt, end = n * (t + 1) / nt;
+    std::int64_t* count = &_histogram[t * ncells];
+    std::fill(count, count + ncells, 0);
+    for (std::ptrdiff_t i = begin; i < end; ++i)
+      ++count[_cell[i]];
+#pragma omp barrier
+#pragma omp single
+    {
+      std::int64_t running = 0;
+      for (std::size_t c = 0; c < ncells; ++c)
+      {
+        _cell_start[c] = running;
+        for (std::ptrdiff_t s = 0; s < nt; ++s)
+        {
+          std::int64_t& slot = _histogram[s * ncells + c];
+          const std::int64_t k = slot;
+          slot = running;
+          running += k;
+        }
+      }
+      _cell_start[ncells] = running;
+    }
+    for (std::ptrdiff_t i = begin; i < end; ++i)
+      _order[count[_cell[i]]++] = static_cast<std::int32_t>(i);
+  }
+}
+
+template <int P>
+void Solver::particle_to_grid()
+{
+  const BSpline1D& bx = _grid.basis(0);
+  const BSpline1D& by = _grid.basis(1);
+  const int ncx = bx.cells(), ncy = by.cells();
+  const int nstrips = (ncx + strip_width - 1) / strip_width;
+  const double* x = _particles.x.data();
+  const double* v = _particles.v.data();
+  const double* mass = _particles.mass.data();
+  const double* volume = _particles.volume.data();
+  const double* stress = _particles.stress.data();
+  const double* fext = _particles.fext.data();
+
+  _sums.resize(static_cast<std::size_t>(_grid.num_active()));
+  _kinematics.resize(_sums.size());
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t a = 0; a < static_cast<std::ptrdiff_t>(_sums.size()); ++a)
+    _sums[a] = NodeSums{};
+
+  // Strips of `strip_width` cell columns: first all even strips in parallel,
+  // then all odd ones. Strips of one parity touch disjoint nodes, and each
+  // node receives its terms in a fixed order (even strip, then odd strip,
+  // particles in sorted order within a strip): no atomics, same bits for any
+  // thread count.
+  for (int parity = 0; parity < 2; ++parity)
+  {
+#pragma omp parallel for schedule(dynamic, 1)
+    for (int s = parity; s < nstrips; s += 2)
+    {
+      const std::int64_t begin = _cell_start[static_cast<std::size_t>(s) * strip_width * ncy];
+      const std::int64_t end
+          = _cell_start[static_cast<std::size_t>(std::min((s + 1) * strip_width, ncx)) * ncy];
+      for (std::int64_t k = begin; k < end; ++k)
+      {
+        const std::size_t p = _order[k];
+        const int cx = _cell[p] / ncy, cy = _cell[p] % ncy;
+        double Nx[P + 1], dNx[P + 1], Ny[P + 1], dNy[P + 1];
+        bx.evaluate<P>(cx, x[2 * p], Nx, dNx);
+        by.evaluate<P>(cy, x[2 * p + 1], Ny, dNy);
+        const double m = mass[p];
+        const double mvx = m * v[2 * p], mvy = m * v[2 * p + 1];
+        const double V = volume[p];
+        const double sxx = V * stress[4 * p], syy = V * stress[4 * p + 1],
+                     sxy = V * stress[4 * p + 2];
+        const double ex = fext[2 * p], ey = fext[2 * p + 1];
+        for (int a = 0; a <= P; ++a)
+        {
+          NodeSums* node = &_sums[_grid.active_index(cx + a, cy)];
+          for (int b = 0; b <= P; ++b)
+          {
+            const double w = Nx[a] * Ny[b];
+            const double gx = dNx[a] * Ny[b], gy = Nx[a] * dNy[b];
+            NodeSums& n = node[b];
+            n.m += w * m;    // eq. 46
+            n.px += w * mvx; // eq. 61
+            n.py += w * mvy;
+            n.ex += w * ex;  // eq. 42
+            n.ey += w * ey;
+            n.fx += w * ex - (sxx * gx + sxy * gy); // eqs. 42, 62
+            n.fy += w * ey - (sxy * gx + syy * gy);
+          }
+        }
+      }
+    }
+  }
+}
+
+void Solver::update_grid()
+{
+  const std::vector<std::uint8_t>& constrained = _grid.constraints();
+  const bool walls = !constrained.empty();
+  const double dt = _dt;
+  const auto work = deterministic_sum<1>(
+      _sums.size(),
+      [&](std::size_t i, std::array<double, 1>& acc)
+      {
+        const NodeSums& s = _sums[i];
+        NodeKinematics& k = _kinematics[i];
+        if (s.m <= _mass_tol)
+        {
+          k = NodeKinematics{};
+          return;
+        }
+        // Trial momentum (eq. 63) and velocity (eq. 64); with a single field
+        // there is no contact force, so these are final (eq. 65).
+        const double vo[2] = {s.px / s.m, s.py / s.m};
+        double vn[2] = {vo[0] + dt * s.fx / s.m, vo[1] + dt * s.fy / s.m};
+        // A wall sets the new velocity; the acceleration keeps the unconstrained
+        // old velocity so that the particle update (eq. 80) feels the reaction.
+        double vw[2] = {vo[0], vo[1]}; // old velocity as the wall allows it
+        if (walls && constrained[i])
+          for (int d = 0; d < 2; ++d)
+            if (constrained[i] & (1 << d))
+              vn[d] = vw[d] = 0.0;
+        k = NodeKinematics{vn[0], vn[1], (vn[0] - vo[0]) / dt, (vn[1] - vo[1]) / dt};
+        // Work of the nodal external force over the step (trapezoidal velocity).
+        acc[0] += 0.5 * dt * (s.ex * (vw[0] + vn[0]) + s.ey * (vw[1] + vn[1]));
+      });
+  _external_work += work[0];
+}
+
+template <int P>
+void Solver::grid_to_particle()
+{
+  const BSpline1D& bx = _grid.basis(0);
+  const BSpline1D& by = _grid.basis(1);
+  const int ncy = by.cells();
+  const auto n = static_cast<std::ptrdiff_t>(_particles.size());
+  const double dt = _dt;
+  double* x = _particles.x.data();
+  double* v = _particles.v.data();
+  double* volume = _particles.volume.data();
+  double* strain = _particles.strain.data();
+  double* stress = _particles.stress.data();
+  const std::int32_t* material = _particles.material.data();
+
+  std::ptrdiff_t bad = n;
+#pragma omp parallel for schedule(static) reduction(min : bad)
+  for (std::ptrdiff_t p = 0; p < n; ++p)
+  {
+    const int cx = _cell[p] / ncy, cy = _cell[p] % ncy;
+    double Nx[P + 1], dNx[P + 1], Ny[P + 1], dNy[P + 1];
+    bx.evaluate<P>(cx, x[2 * p], Nx, dNx);
+    by.evaluate<P>(cy, x[2 * p + 1], Ny, dNy);
+    double vx = 0, vy = 0, ax = 0, ay = 0, Lxx = 0, Lxy = 0, Lyx = 0, Lyy = 0;
+    for (int a = 0; a <= P; ++a)
+    {
+      const NodeKinematics* node = &_kinematics[_grid.active_index(cx + a, cy)];
+      for (int b = 0; b <= P; ++b)
+      {
+        const double w = Nx[a] * Ny[b];
+        const double gx = dNx[a] * Ny[b], gy = Nx[a] * dNy[b];
+        const NodeKinematics& k = node[b];
+        vx += w * k.vx;
+        vy += w * k.vy;
+        ax += w * k.ax;
+        ay += w * k.ay;
+        Lxx += k.vx * gx; // velocity gradient, L_ij = dv_i/dx_j
+        Lxy += k.vx * gy;
+        Lyx += k.vy * gx;
+        Lyy += k.vy * gy;
+      }
+    }
+    v[2 * p] += dt * ax; // eq. 80
+    v[2 * p + 1] += dt * ay;
+    x[2 * p] += dt * vx; // eq. 82
+    x[2 * p + 1] += dt * vy;
+    // Strain increment, eq. 78; volume follows det(I + dt L).
+    double* eps = &strain[3 * p];
+    eps[0] += dt * Lxx;
+    eps[1] += dt * Lyy;
+    eps[2] += 0.5 * dt * (Lxy + Lyx);
+    volume[p] *= (1.0 + dt * Lxx) * (1.0 + dt * Lyy) - dt * dt * Lxy * Lyx;
+    _materials[material[p]].stress(eps, &stress[4 * p]); // eq. 16, g(c) = 1
+    if (!std::isfinite(x[2 * p] + x[2 * p + 1] + v[2 * p] + v[2 * p + 1]))
+      bad = std::min(bad, p);
+  }
+  if (bad < n)
+    throw SimulationError("velocity or position of " + where(bad) + " is not finite");
+}
+
+Energies Solver::energies() const
+{
+  const auto n = _particles.size();
+  const Particles& P = _particles;
+  const auto sums = deterministic_sum<5>(
+      n,
+      [&](std::size_t p, std::array<double, 5>& acc)
+      {
+        const double m = P.mass[p], vx = P.v[2 * p], vy = P.v[2 * p + 1];
+        acc[0] += 0.5 * m * (vx * vx + vy * vy);
+        acc[1] += P.volume[p] * _materials[P.material[p]].energy_density(&P.strain[3 * p]);
+        acc[2] += m * vx;
+        acc[3] += m * vy;
+        acc[4] += m;
+      });
+  Energies e;
+  e.kinetic = sums[0];
+  e.elastic = sums[1];
+  e.external_work = _external_work;
+  e.momentum = {sums[2], sums[3]};
+  e.mass = sums[4];
+  return e;
+}
+
+std::vector<std::array<double, 4>> Solver::nodal_mass_momentum()
+{
+  sort_particles();
+  _grid.activate(_cell_start);
+  with_degree(_grid.degree(), [this](auto P) { particle_to_grid<decltype(P)::value>(); });
+  std::vector<std::array<double, 4>> out(_sums.size());
+  for (std::size_t a = 0; a < _sums.size(); ++a)
+    out[a] = {static_cast<double>(_grid.active_nodes()[a]), _sums[a].m, _sums[a].px, _sums[a].py};
+  return out;
+}
+
+} // namespace pfmpm

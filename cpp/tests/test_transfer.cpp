@@ -1,0 +1,154 @@
+// Particle-grid transfers: P2G conserves mass and momentum to round-off,
+// free motion conserves momentum exactly, and results do not depend on the
+// number of OpenMP threads (bitwise).
+#include "pfmpm/grid.h"
+#include "pfmpm/material.h"
+#include "pfmpm/particles.h"
+#include "pfmpm/solver.h"
+
+#include <gtest/gtest.h>
+#include <omp.h>
+
+#include <cmath>
+#include <cstring>
+
+using namespace pfmpm;
+
+namespace
+{
+/// A disk of particles with a swirling, stretching velocity field and a
+/// non-uniform pre-stress, on a grid with origin (-1, -2) and h = 0.25.
+Particles make_disk(int n_per_side)
+{
+  std::vector<double> xs, ys;
+  const double r = 2.0, d = 2 * r / n_per_side;
+  for (int i = 0; i < n_per_side; ++i)
+    for (int j = 0; j < n_per_side; ++j)
+    {
+      const double x = -r + (i + 0.5) * d, y = -r + (j + 0.5) * d;
+      if (x * x + y * y < r * r)
+      {
+        xs.push_back(x + 3.0);
+        ys.push_back(y + 2.5);
+      }
+    }
+  Particles P(xs.size());
+  for (std::size_t i = 0; i < xs.size(); ++i)
+  {
+    P.x[2 * i] = xs[i];
+    P.x[2 * i + 1] = ys[i];
+    P.v[2 * i] = 0.3 - 0.2 * (ys[i] - 2.5) + 0.05 * std::sin(3 * xs[i]);
+    P.v[2 * i + 1] = -0.1 + 0.2 * (xs[i] - 3.0);
+    P.volume[i] = d * d;
+    P.mass[i] = d * d * (1.0 + 0.1 * std::cos(xs[i]));
+    P.strain[3 * i] = 1e-3 * std::sin(ys[i]);
+    P.strain[3 * i + 2] = 5e-4 * xs[i];
+  }
+  return P;
+}
+} // namespace
+
+class TransferDegree : public ::testing::TestWithParam<int>
+{
+};
+
+TEST_P(TransferDegree, P2GConservesMassAndMomentum)
+{
+  Grid grid(GetParam(), {40, 40}, 0.25, {-1.0, -2.0});
+  Particles P = make_disk(60);
+  Solver solver(grid, P, {LinearElastic(100.0, 0.3, 1.0, Plane::strain)}, 1e-3);
+  const Energies e = solver.energies();
+  double m = 0, px = 0, py = 0;
+  for (const auto& row : solver.nodal_mass_momentum())
+  {
+    m += row[1];
+    px += row[2];
+    py += row[3];
+  }
+  EXPECT_NEAR(m, e.mass, 1e-14 * e.mass * 20);
+  EXPECT_NEAR(px, e.momentum[0], 1e-13 * e.mass);
+  EXPECT_NEAR(py, e.momentum[1], 1e-13 * e.mass);
+}
+
+TEST_P(TransferDegree, FreeMotionConservesMomentum)
+{
+  // No external force and no walls: the internal forces sum to zero at the
+  // nodes (gradients of a partition of unity), so momentum is exact.
+  Grid grid(GetParam(), {40, 40}, 0.25, {-1.0, -2.0});
+  Particles P = make_disk(60);
+  Solver solver(grid, P, {LinearElastic(100.0, 0.3, 1.0, Plane::strain)}, 1e-3);
+  const Energies before = solver.energies();
+  solver.advance(200);
+  const Energies after = solver.energies();
+  EXPECT_NEAR(after.mass, before.mass, 1e-14 * before.mass * 20);
+  EXPECT_NEAR(after.momentum[0], before.momentum[0], 1e-12 * before.mass);
+  EXPECT_NEAR(after.momentum[1], before.momentum[1], 1e-12 * before.mass);
+}
+
+TEST_P(TransferDegree, ThreadCountDoesNotChangeBits)
+{
+  auto run = [](int threads)
+  {
+    omp_set_num_threads(threads);
+    Grid grid(GetParam(), {40, 40}, 0.25, {-1.0, -2.0});
+    Particles P = make_disk(60);
+    Solver solver(grid, P, {LinearElastic(100.0, 0.3, 1.0, Plane::strain)}, 1e-3);
+    solver.advance(50);
+    return std::make_pair(P, solver.energies());
+  };
+  const int max_threads = omp_get_max_threads();
+  const auto [p1, e1] = run(1);
+  const auto [p3, e3] = run(3);
+  omp_set_num_threads(max_threads);
+  ASSERT_EQ(p1.size(), p3.size());
+  EXPECT_EQ(0, std::memcmp(p1.x.data(), p3.x.data(), p1.x.size() * sizeof(double)));
+  EXPECT_EQ(0, std::memcmp(p1.v.data(), p3.v.data(), p1.v.size() * sizeof(double)));
+  EXPECT_EQ(0, std::memcmp(p1.stress.data(), p3.stress.data(), p1.stress.size() * sizeof(double)));
+  EXPECT_EQ(e1.kinetic, e3.kinetic);
+  EXPECT_EQ(e1.elastic, e3.elastic);
+}
+
+INSTANTIATE_TEST_SUITE_P(Degrees, TransferDegree, ::testing::Values(1, 2, 3));
+
+TEST(Solver, ParticleLeavingTheGridIsReported)
+{
+  Grid grid(2, {8, 8}, 1.0, {0.0, 0.0});
+  Particles P(1);
+  P.x = {7.9, 4.0};
+  P.v = {10.0, 0.0};
+  P.mass = {1.0};
+  P.volume = {1.0};
+  Solver solver(grid, P, {LinearElastic(1.0, 0.0, 1.0, Plane::strain)}, 0.05);
+  try
+  {
+    solver.advance(10);
+    FAIL() << "expected SimulationError";
+  }
+  catch (const SimulationError& e)
+  {
+    EXPECT_NE(std::string(e.what()).find("outside the grid"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("step 1"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Solver, FixedWallStopsAParticleOnIt)
+{
+  // Open knot vectors interpolate at the ends: a particle on the left edge
+  // sees only the wall node, so a fixed wall stops it and a slip wall removes
+  // only the normal component.
+  for (Wall wall : {Wall::fixed, Wall::slip})
+  {
+    Grid grid(2, {8, 8}, 1.0, {0.0, 0.0});
+    grid.set_wall(Side::left, wall);
+    Particles P(1);
+    P.x = {0.0, 4.0};
+    P.v = {-1.0, 0.5};
+    P.mass = {1.0};
+    P.volume = {1.0};
+    Solver solver(grid, P, {LinearElastic(1.0, 0.0, 1.0, Plane::strain)}, 1e-3);
+    solver.advance(1);
+    EXPECT_NEAR(P.v[0], 0.0, 1e-15); // -1 + dt * (1 / dt)
+    EXPECT_NEAR(P.v[1], wall == Wall::fixed ? 0.0 : 0.5, 1e-15);
+    EXPECT_DOUBLE_EQ(P.x[0], 0.0);
+  }
+}

@@ -1,0 +1,1126 @@
+"""Scene declaration for pfmpm: dataclasses, TOML loading, validation and particles.
+
+A scene describes one 2D explicit MPM run: the background grid, the time
+interval, the output cadence, the materials, the bodies (shapes filled with
+particles), the loads and the grid walls.  Scenes are written in TOML (see
+``docs``) or built directly from the dataclasses below; both routes run the
+same validation and report the first problem as a :class:`SceneError` whose
+one-line message names the offending key path, e.g.::
+
+    materials[0].E = -5.0: must be > 0
+    grid.hx: unknown key (allowed: size, h, origin, degree)
+
+Units are any consistent set (typically mm, µs, µg, N, MPa).
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import math
+import numbers
+import tomllib
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from typing import Any, Callable, ClassVar
+
+import numpy as np
+
+__all__ = [
+    "SceneError",
+    "Grid",
+    "Time",
+    "Output",
+    "Material",
+    "Shape",
+    "Rectangle",
+    "Disk",
+    "Ring",
+    "Polygon",
+    "Body",
+    "Traction",
+    "BodyForce",
+    "Wall",
+    "Scene",
+    "apply_overrides",
+    "wave_speed",
+]
+
+PLANES = ("strain", "stress")
+DEGREES = (1, 2, 3)
+MODELS = ("linear_elastic",)
+EDGES = ("top", "bottom", "left", "right")
+SIDES = ("left", "right", "bottom", "top")
+WALL_TYPES = ("fixed", "slip")
+
+_MAX_COUNT = 2**31 - 1  # cells and particles are indexed with int32
+_MAX_STEPS = 2**53  # step counts beyond this are not representable exactly
+_CHUNK = 1 << 20  # candidate particles examined per vectorised batch
+_WHOLE_TOL = 1e-9  # relative tolerance of "size / h is a whole number"
+_EDGE_TOL = 0.51  # edge layer thickness in particle spacings
+_NO_VALUE = object()
+
+
+class SceneError(ValueError):
+    """Invalid scene input, reported as one line naming the key path.
+
+    Parameters
+    ----------
+    path : str
+        Dotted key path of the offending entry (``""`` for the scene itself).
+    reason : str
+        What is wrong.
+    value : object, optional
+        The offending value, shown in the message when given.
+
+    Notes
+    -----
+    The message reads ``"<path> = <value>: <reason>"``, or
+    ``"<path>: <reason>"`` when there is no value.
+    """
+
+    def __init__(self, path: str, reason: str, value: Any = _NO_VALUE):
+        self.path = path
+        self.reason = reason
+        self.value = value
+        where = path or "scene"
+        if value is _NO_VALUE:
+            text = f"{where}: {reason}"
+        else:
+            text = f"{where} = {_fmt(value)}: {reason}"
+        super().__init__(text)
+
+    def within(self, prefix: str) -> "SceneError":
+        """Return the same error with its path nested under ``prefix``."""
+        if not self.path:
+            path = prefix
+        elif self.path.startswith("["):
+            path = prefix + self.path
+        else:
+            path = f"{prefix}.{self.path}"
+        return SceneError(path, self.reason, self.value)
+
+
+@contextmanager
+def _at(prefix: str) -> Iterator[None]:
+    """Prefix the path of any :class:`SceneError` raised in the block."""
+    try:
+        yield
+    except SceneError as err:
+        raise err.within(prefix) from None
+
+
+def _fmt(value: Any, limit: int = 80) -> str:
+    """Format a value TOML-like on one line, shortened to ``limit`` characters."""
+    if isinstance(value, bool):
+        text = "true" if value else "false"
+    elif isinstance(value, (list, tuple)):
+        text = "[" + ", ".join(_fmt(v, limit) for v in value) + "]"
+    else:
+        text = repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+# ----------------------------------------------------------------------------
+# Field validators: each checks one value and returns it normalised.
+# ----------------------------------------------------------------------------
+
+
+def _real(path: str, value: Any, *, gt=None, ge=None, lt=None, le=None) -> float:
+    """Check a finite real number (ints accepted, bools rejected) within bounds."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise SceneError(path, "must be a number", value)
+    try:
+        x = float(value)
+    except OverflowError:
+        raise SceneError(path, "must be finite", value) from None
+    if not math.isfinite(x):
+        raise SceneError(path, "must be finite", value)
+    bounds = [(gt, ">", x > gt if gt is not None else True),
+              (ge, ">=", x >= ge if ge is not None else True),
+              (lt, "<", x < lt if lt is not None else True),
+              (le, "<=", x <= le if le is not None else True)]
+    if not all(ok for _, _, ok in bounds):
+        rule = " and ".join(f"{op} {b:g}" for b, op, _ in bounds if b is not None)
+        raise SceneError(path, f"must be {rule}", value)
+    return x
+
+
+def _integer(path: str, value: Any, *, ge: int | None = None) -> int:
+    """Check an integer (bools rejected), optionally ``>= ge``."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        raise SceneError(path, "must be an integer", value)
+    if ge is not None and value < ge:
+        raise SceneError(path, f"must be >= {ge}", value)
+    return int(value)
+
+
+def _vec2(path: str, value: Any, **bounds: float) -> tuple[float, float]:
+    """Check a 2-vector of finite numbers, each within ``bounds``."""
+    if not isinstance(value, (list, tuple, np.ndarray)) or len(value) != 2:
+        raise SceneError(path, "must be a list of 2 numbers", value)
+    return (_real(f"{path}[0]", value[0], **bounds), _real(f"{path}[1]", value[1], **bounds))
+
+
+def _text(path: str, value: Any, *, empty: bool = False) -> str:
+    """Check a string, non-empty unless ``empty``."""
+    if not isinstance(value, str):
+        raise SceneError(path, "must be a string", value)
+    if not empty and not value:
+        raise SceneError(path, "must not be empty", value)
+    return value
+
+
+def _choice(path: str, value: Any, choices: tuple) -> Any:
+    """Check that a value is one of ``choices`` (and of the same type)."""
+    if not any(type(value) is type(c) and value == c for c in choices):
+        raise SceneError(path, "must be one of " + ", ".join(_fmt(c) for c in choices), value)
+    return value
+
+
+def _seq(path: str, value: Any, what: str) -> tuple:
+    """Check a list or tuple and return it as a tuple."""
+    if not isinstance(value, (list, tuple)):
+        raise SceneError(path, f"must be a list of {what}", value)
+    return tuple(value)
+
+
+def _set(obj: Any, name: str, value: Any) -> None:
+    """Store a normalised field value on a frozen dataclass."""
+    object.__setattr__(obj, name, value)
+
+
+# ----------------------------------------------------------------------------
+# Scene components
+# ----------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Grid:
+    """Uniform background grid of square cells.
+
+    Parameters
+    ----------
+    size : (float, float)
+        Extent in x and y; each must be a whole number of cells of ``h``.
+    h : float
+        Cell side.
+    origin : (float, float)
+        Lower-left corner.
+    degree : int
+        B-spline degree of the shape functions, 1, 2 or 3.
+    """
+
+    size: tuple[float, float]
+    h: float
+    origin: tuple[float, float] = (0.0, 0.0)
+    degree: int = 2
+
+    def __post_init__(self):
+        _set(self, "size", _vec2("size", self.size, gt=0))
+        _set(self, "h", _real("h", self.h, gt=0))
+        _set(self, "origin", _vec2("origin", self.origin))
+        _set(self, "degree", _choice("degree", _integer("degree", self.degree), DEGREES))
+        for s in self.size:
+            n = s / self.h
+            if not math.isfinite(n) or round(n) < 1:
+                raise SceneError("size", f"smaller than one cell of h = {self.h:g}", self.size)
+            if abs(n - round(n)) > _WHOLE_TOL * n:
+                raise SceneError("size", f"not a whole number of cells of h = {self.h:g}", self.size)
+        nx, ny = self.cells
+        if nx * ny > _MAX_COUNT:
+            raise SceneError("size", f"{nx} x {ny} cells exceed the limit of {_MAX_COUNT}", self.size)
+        if not all(math.isfinite(o + s) for o, s in zip(self.origin, self.size)):
+            raise SceneError("origin", "origin + size is not finite", self.origin)
+
+    @property
+    def cells(self) -> tuple[int, int]:
+        """Number of cells ``(nx, ny)``."""
+        return (round(self.size[0] / self.h), round(self.size[1] / self.h))
+
+    def _box(self) -> str:
+        """The grid rectangle as text, ``[x0, x1] x [y0, y1]``."""
+        (x0, y0), (sx, sy) = self.origin, self.size
+        return f"[{x0:g}, {x0 + sx:g}] x [{y0:g}, {y0 + sy:g}]"
+
+
+@dataclass(frozen=True)
+class Time:
+    """Simulated time interval and step control.
+
+    Parameters
+    ----------
+    end : float
+        End time.
+    dt : float or None
+        Fixed time step; ``None`` uses the stable step.  Must not exceed the
+        stability limit (checked by :class:`Scene`).
+    cfl : float
+        Courant factor ``alpha_c`` in ``(0, 1]``.
+    """
+
+    end: float
+    dt: float | None = None
+    cfl: float = 0.8
+
+    def __post_init__(self):
+        _set(self, "end", _real("end", self.end, gt=0))
+        if self.dt is not None:
+            _set(self, "dt", _real("dt", self.dt, gt=0))
+        _set(self, "cfl", _real("cfl", self.cfl, gt=0, le=1))
+
+
+@dataclass(frozen=True)
+class Output:
+    """Output cadence.
+
+    Parameters
+    ----------
+    every : int
+        Write the particles every ``every`` steps.
+    energies_every : int
+        Write an ``energies.csv`` row every ``energies_every`` steps.
+    particles : bool
+        Whether to write the particle time series at all.
+    """
+
+    every: int = 100
+    energies_every: int = 10
+    particles: bool = True
+
+    def __post_init__(self):
+        _set(self, "every", _integer("every", self.every, ge=1))
+        _set(self, "energies_every", _integer("energies_every", self.energies_every, ge=1))
+        if not isinstance(self.particles, bool):
+            raise SceneError("particles", "must be true or false", self.particles)
+
+
+@dataclass(frozen=True)
+class Material:
+    """Material parameters.
+
+    Parameters
+    ----------
+    name : str
+        Unique name, referenced by bodies.
+    E : float
+        Young's modulus, > 0.
+    nu : float
+        Poisson's ratio, in ``(-1, 0.5)``.
+    density : float
+        Mass density, > 0.
+    model : str
+        Constitutive model; only ``"linear_elastic"`` for now.
+    """
+
+    name: str
+    E: float
+    nu: float
+    density: float
+    model: str = "linear_elastic"
+
+    def __post_init__(self):
+        _set(self, "name", _text("name", self.name))
+        _set(self, "E", _real("E", self.E, gt=0))
+        _set(self, "nu", _real("nu", self.nu, gt=-1, lt=0.5))
+        _set(self, "density", _real("density", self.density, gt=0))
+        _set(self, "model", _choice("model", self.model, MODELS))
+
+
+class Shape:
+    """Base of the 2D shapes that bodies and holes are made of.
+
+    Subclasses set ``kind`` (the TOML ``type``) and implement
+    :meth:`contains` and :meth:`bounds`.
+    """
+
+    kind: ClassVar[str]
+
+    def contains(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Return a boolean array, True where the point ``(x, y)`` is inside."""
+        raise NotImplementedError
+
+    def bounds(self) -> tuple[float, float, float, float]:
+        """Return the bounding box ``(xmin, ymin, xmax, ymax)``."""
+        raise NotImplementedError
+
+
+@dataclass(frozen=True)
+class Rectangle(Shape):
+    """Axis-aligned rectangle ``min <= (x, y) <= max`` (closed).
+
+    Parameters
+    ----------
+    min, max : (float, float)
+        Lower-left and upper-right corners, ``min < max`` componentwise.
+    """
+
+    kind: ClassVar[str] = "rectangle"
+    min: tuple[float, float]
+    max: tuple[float, float]
+
+    def __post_init__(self):
+        _set(self, "min", _vec2("min", self.min))
+        _set(self, "max", _vec2("max", self.max))
+        if not (self.min[0] < self.max[0] and self.min[1] < self.max[1]):
+            raise SceneError("max", f"must exceed min = {_fmt(self.min)} componentwise", self.max)
+
+    def contains(self, x, y):
+        x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+        return (x >= self.min[0]) & (x <= self.max[0]) & (y >= self.min[1]) & (y <= self.max[1])
+
+    def bounds(self):
+        return (*self.min, *self.max)
+
+
+@dataclass(frozen=True)
+class Disk(Shape):
+    """Closed disk.
+
+    Parameters
+    ----------
+    center : (float, float)
+        Centre.
+    radius : float
+        Radius, > 0.
+    """
+
+    kind: ClassVar[str] = "disk"
+    center: tuple[float, float]
+    radius: float
+
+    def __post_init__(self):
+        _set(self, "center", _vec2("center", self.center))
+        _set(self, "radius", _real("radius", self.radius, gt=0))
+
+    def contains(self, x, y):
+        dx = np.asarray(x, dtype=float) - self.center[0]
+        dy = np.asarray(y, dtype=float) - self.center[1]
+        with np.errstate(over="ignore"):
+            return dx * dx + dy * dy <= self.radius * self.radius
+
+    def bounds(self):
+        (cx, cy), r = self.center, self.radius
+        return (cx - r, cy - r, cx + r, cy + r)
+
+
+@dataclass(frozen=True)
+class Ring(Shape):
+    """Annulus ``inner_radius <= |p - center| <= outer_radius``.
+
+    Parameters
+    ----------
+    center : (float, float)
+        Centre.
+    inner_radius : float
+        Inner radius, >= 0.
+    outer_radius : float
+        Outer radius, > ``inner_radius``.
+    """
+
+    kind: ClassVar[str] = "ring"
+    center: tuple[float, float]
+    inner_radius: float
+    outer_radius: float
+
+    def __post_init__(self):
+        _set(self, "center", _vec2("center", self.center))
+        _set(self, "inner_radius", _real("inner_radius", self.inner_radius, ge=0))
+        _set(self, "outer_radius", _real("outer_radius", self.outer_radius, gt=self.inner_radius))
+
+    def contains(self, x, y):
+        dx = np.asarray(x, dtype=float) - self.center[0]
+        dy = np.asarray(y, dtype=float) - self.center[1]
+        with np.errstate(over="ignore"):
+            r2 = dx * dx + dy * dy
+            return (r2 >= self.inner_radius * self.inner_radius) & (
+                r2 <= self.outer_radius * self.outer_radius)
+
+    def bounds(self):
+        (cx, cy), r = self.center, self.outer_radius
+        return (cx - r, cy - r, cx + r, cy + r)
+
+
+@dataclass(frozen=True)
+class Polygon(Shape):
+    """Simple polygon; inside is decided by the even-odd rule.
+
+    Parameters
+    ----------
+    vertices : sequence of (float, float)
+        At least 3 vertices enclosing a non-zero area (self-intersection is
+        not checked).
+    """
+
+    kind: ClassVar[str] = "polygon"
+    vertices: tuple[tuple[float, float], ...]
+
+    def __post_init__(self):
+        points = _seq("vertices", self.vertices, "[x, y] points")
+        if len(points) < 3:
+            raise SceneError("vertices", "must have at least 3 points", self.vertices)
+        _set(self, "vertices", tuple(_vec2(f"vertices[{i}]", p) for i, p in enumerate(points)))
+        v = np.array(self.vertices)
+        with np.errstate(over="ignore", invalid="ignore"):
+            area = 0.5 * abs(np.sum(v[:, 0] * np.roll(v[:, 1], -1) - np.roll(v[:, 0], -1) * v[:, 1]))
+            extent = np.ptp(v, axis=0)
+            if not area > 1e-12 * float(extent @ extent):
+                raise SceneError("vertices", "polygon is degenerate (zero area)", self.vertices)
+
+    def contains(self, x, y):
+        x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+        inside = np.zeros(np.broadcast(x, y).shape, dtype=bool)
+        ring = self.vertices[1:] + self.vertices[:1]
+        for (x1, y1), (x2, y2) in zip(self.vertices, ring):
+            if y1 == y2:
+                continue  # horizontal edges never cross a horizontal ray
+            crosses = (y1 > y) != (y2 > y)
+            with np.errstate(over="ignore", invalid="ignore"):
+                x_cross = x1 + (y - y1) * ((x2 - x1) / (y2 - y1))
+            inside ^= crosses & (x < x_cross)
+        return inside
+
+    def bounds(self):
+        v = np.array(self.vertices)
+        return (*map(float, v.min(axis=0)), *map(float, v.max(axis=0)))
+
+
+SHAPES: dict[str, type[Shape]] = {cls.kind: cls for cls in (Rectangle, Disk, Ring, Polygon)}
+
+
+@dataclass(frozen=True)
+class Body:
+    """A body: a shape minus holes, filled with particles of one material.
+
+    Parameters
+    ----------
+    name : str
+        Unique name, referenced by loads.
+    material : str
+        Name of the body's material.
+    shape : Shape
+        Region filled with particles.
+    holes : sequence of Shape
+        Regions removed from ``shape`` (notches, holes).
+    particles_per_cell : int
+        ``n``: particles are placed on an ``n x n`` lattice of sub-cell
+        centres in every grid cell.
+    velocity : (float, float)
+        Initial velocity.
+    """
+
+    name: str
+    material: str
+    shape: Shape
+    holes: tuple[Shape, ...] = ()
+    particles_per_cell: int = 2
+    velocity: tuple[float, float] = (0.0, 0.0)
+
+    def __post_init__(self):
+        _set(self, "name", _text("name", self.name))
+        _set(self, "material", _text("material", self.material))
+        if not isinstance(self.shape, Shape):
+            raise SceneError("shape", "must be a shape (" + ", ".join(SHAPES) + ")", self.shape)
+        holes = _seq("holes", self.holes, "shapes")
+        for i, hole in enumerate(holes):
+            if not isinstance(hole, Shape):
+                raise SceneError(f"holes[{i}]", "must be a shape (" + ", ".join(SHAPES) + ")", hole)
+        _set(self, "holes", holes)
+        _set(self, "particles_per_cell", _integer("particles_per_cell", self.particles_per_cell, ge=1))
+        _set(self, "velocity", _vec2("velocity", self.velocity))
+
+    def contains(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Return True where ``(x, y)`` lies in the shape and in no hole."""
+        inside = self.shape.contains(x, y)
+        for hole in self.holes:
+            inside &= ~hole.contains(x, y)
+        return inside
+
+
+@dataclass(frozen=True)
+class Traction:
+    """Traction on the outermost particle layer of a body on one side.
+
+    Parameters
+    ----------
+    body : str
+        Name of the loaded body.
+    edge : str
+        ``"top"``, ``"bottom"``, ``"left"`` or ``"right"``.
+    traction : (float, float)
+        Traction vector (force per unit boundary area, stress units).
+    """
+
+    kind: ClassVar[str] = "traction"
+    body: str
+    edge: str
+    traction: tuple[float, float]
+
+    def __post_init__(self):
+        _set(self, "body", _text("body", self.body))
+        _set(self, "edge", _choice("edge", self.edge, EDGES))
+        _set(self, "traction", _vec2("traction", self.traction))
+
+
+@dataclass(frozen=True)
+class BodyForce:
+    """Uniform acceleration (gravity-like) on the particles of a body.
+
+    Parameters
+    ----------
+    acceleration : (float, float)
+        Acceleration vector.
+    body : str or None
+        Name of the loaded body; ``None`` loads all bodies.
+    """
+
+    kind: ClassVar[str] = "body_force"
+    acceleration: tuple[float, float]
+    body: str | None = None
+
+    def __post_init__(self):
+        _set(self, "acceleration", _vec2("acceleration", self.acceleration))
+        if self.body is not None:
+            _set(self, "body", _text("body", self.body))
+
+
+LOADS: dict[str, type] = {cls.kind: cls for cls in (Traction, BodyForce)}
+
+
+@dataclass(frozen=True)
+class Wall:
+    """Velocity boundary condition on one side of the grid.
+
+    Parameters
+    ----------
+    side : str
+        ``"left"``, ``"right"``, ``"bottom"`` or ``"top"``.
+    type : str
+        ``"fixed"`` (both velocity components zero) or ``"slip"`` (normal
+        component zero).
+    """
+
+    side: str
+    type: str
+
+    def __post_init__(self):
+        _set(self, "side", _choice("side", self.side, SIDES))
+        _set(self, "type", _choice("type", self.type, WALL_TYPES))
+
+
+def wave_speed(E: float, nu: float, rho: float, plane: str) -> float:
+    """P-wave speed of a linear elastic material in 2D.
+
+    Parameters
+    ----------
+    E, nu, rho : float
+        Young's modulus, Poisson's ratio and density.
+    plane : str
+        ``"strain"``: ``sqrt(E (1 - nu) / (rho (1 + nu) (1 - 2 nu)))``;
+        ``"stress"``: ``sqrt(E / (rho (1 - nu^2)))``.
+
+    Returns
+    -------
+    float
+        The wave speed.
+    """
+    if plane == "strain":
+        return math.sqrt(E * (1 - nu) / (rho * (1 + nu) * (1 - 2 * nu)))
+    if plane == "stress":
+        return math.sqrt(E / (rho * (1 - nu * nu)))
+    raise SceneError("plane", "must be one of " + ", ".join(map(repr, PLANES)), plane)
+
+
+# ----------------------------------------------------------------------------
+# The scene
+# ----------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A complete, validated scene.
+
+    Parameters
+    ----------
+    grid : Grid
+    time : Time
+    materials : sequence of Material
+        At least one; names unique.
+    bodies : sequence of Body
+        At least one; names unique; each names a material, holds at least
+        one particle and has none outside the grid.
+    name, description : str
+    plane : str
+        ``"strain"`` or ``"stress"``.
+    thickness : float
+        Out-of-plane thickness, > 0.
+    loads : sequence of Traction or BodyForce
+    walls : sequence of Wall
+        At most one per grid side.
+    output : Output
+
+    Raises
+    ------
+    SceneError
+        On the first invalid entry.
+    """
+
+    grid: Grid
+    time: Time
+    materials: tuple[Material, ...]
+    bodies: tuple[Body, ...]
+    name: str = "scene"
+    description: str = ""
+    plane: str = "strain"
+    thickness: float = 1.0
+    loads: tuple[Traction | BodyForce, ...] = ()
+    walls: tuple[Wall, ...] = ()
+    output: Output = field(default_factory=Output)
+
+    def __post_init__(self):
+        self.validate()
+
+    # -- validation ---------------------------------------------------------
+
+    def validate(self) -> None:
+        """Check the whole scene, normalising sequences to tuples.
+
+        Raises
+        ------
+        SceneError
+            On the first invalid entry, naming its key path.
+        """
+        _set(self, "name", _text("name", self.name))
+        _set(self, "description", _text("description", self.description, empty=True))
+        _set(self, "plane", _choice("plane", self.plane, PLANES))
+        _set(self, "thickness", _real("thickness", self.thickness, gt=0))
+        for key, cls in (("grid", Grid), ("time", Time), ("output", Output)):
+            if not isinstance(getattr(self, key), cls):
+                raise SceneError(key, f"must be a {cls.__name__}", getattr(self, key))
+        _set(self, "materials", self._items("materials", (Material,), required=True))
+        _set(self, "bodies", self._items("bodies", (Body,), required=True))
+        _set(self, "loads", self._items("loads", (Traction, BodyForce)))
+        _set(self, "walls", self._items("walls", (Wall,)))
+        materials = self._unique("materials", "name")
+        bodies = self._unique("bodies", "name")
+        self._unique("walls", "side")
+        for i, body in enumerate(self.bodies):
+            _reference(f"bodies[{i}].material", body.material, materials, "material")
+        for i, load in enumerate(self.loads):
+            if load.body is not None:
+                _reference(f"loads[{i}].body", load.body, bodies, "body")
+        for i, body in enumerate(self.bodies):
+            with _at(f"bodies[{i}]"):
+                self._check_particles(body)
+        self._check_time()
+
+    def _items(self, key: str, classes: tuple[type, ...], required: bool = False) -> tuple:
+        """Check that field ``key`` is a sequence of ``classes`` instances."""
+        items = _seq(key, getattr(self, key), " or ".join(c.__name__ for c in classes))
+        if required and not items:
+            raise SceneError(key, "at least one entry is required")
+        for i, item in enumerate(items):
+            if not isinstance(item, classes):
+                raise SceneError(f"{key}[{i}]", "must be a " + " or ".join(c.__name__ for c in classes), item)
+        return items
+
+    def _unique(self, key: str, attr: str) -> dict[str, int]:
+        """Check that ``attr`` is unique over field ``key``; map value -> index."""
+        seen: dict[str, int] = {}
+        for i, item in enumerate(getattr(self, key)):
+            value = getattr(item, attr)
+            if value in seen:
+                raise SceneError(f"{key}[{i}].{attr}", f"duplicate (also {key}[{seen[value]}])", value)
+            seen[value] = i
+        return seen
+
+    def _cell_range(self, body: Body) -> tuple[tuple[int, int], tuple[int, int]]:
+        """Cell index ranges of the body's bounding box, clipped to the grid plus one cell."""
+        xmin, ymin, xmax, ymax = body.shape.bounds()
+        (ox, oy), h, (nx, ny) = self.grid.origin, self.grid.h, self.grid.cells
+        lo_x, hi_x = (np.clip([(xmin - ox) / h, (xmax - ox) / h], -1, nx + 1))
+        lo_y, hi_y = (np.clip([(ymin - oy) / h, (ymax - oy) / h], -1, ny + 1))
+        return ((math.floor(lo_x), math.ceil(hi_x)), (math.floor(lo_y), math.ceil(hi_y)))
+
+    def _check_particles(self, body: Body) -> None:
+        """Check that the body has particles, all inside the grid, and not too many."""
+        grid = self.grid
+        (ox, oy), h, (nx, ny) = grid.origin, grid.h, grid.cells
+        xmin, ymin, xmax, ymax = body.shape.bounds()
+        if xmin < ox - h or ymin < oy - h or xmax > ox + (nx + 1) * h or ymax > oy + (ny + 1) * h:
+            raise SceneError("shape", f"extends more than one cell beyond the grid {grid._box()}",
+                             body.shape.bounds())
+        (i0, i1), (j0, j1) = self._cell_range(body)
+        n = body.particles_per_cell
+        candidates = (i1 - i0) * (j1 - j0) * n * n
+        if candidates > _MAX_COUNT:
+            raise SceneError("", f"would need {candidates:.3g} candidate particles"
+                                 f" (limit {_MAX_COUNT}); coarsen the grid or particles_per_cell")
+        inner_i, inner_j = (max(i0, 0), min(i1, nx)), (max(j0, 0), min(j1, ny))
+        strips = [((i0, i1), (j0, min(j1, 0))), ((i0, i1), (max(j0, ny), j1)),
+                  ((i0, min(i1, 0)), inner_j), ((max(i0, nx), i1), inner_j)]
+        outside = sum(len(p) for cells in strips for p in _lattice(body, grid, *cells))
+        if outside:
+            raise SceneError("", f"{outside} particles lie outside the grid {grid._box()}")
+        if not any(len(p) for p in _lattice(body, grid, inner_i, inner_j)):
+            raise SceneError("", f"has no particles (no sub-cell centre of the {n} x {n}"
+                                 f" lattice per cell of h = {h:g} lies in its shape minus holes)")
+
+    def _check_time(self) -> None:
+        """Check the stability limit, a fixed dt against it, and the step count."""
+        for i, material in enumerate(self.materials):
+            c = wave_speed(material.E, material.nu, material.density, self.plane)
+            if not 0 < c < math.inf:
+                raise SceneError(f"materials[{i}]", f"P-wave speed {c:g} is not a positive finite number")
+        for i, body in enumerate(self.bodies):
+            if not math.isfinite(math.hypot(*body.velocity)):
+                raise SceneError(f"bodies[{i}].velocity", "speed is not finite", body.velocity)
+        limit = self.stable_dt()
+        if not limit > 0:
+            raise SceneError("time", "the stability limit cfl * h / (max wave speed + max speed)"
+                                     " underflows to zero")
+        dt = self.time.dt
+        if dt is not None and dt > limit:
+            raise SceneError("time.dt", f"exceeds the stability limit {limit:.4g}"
+                                        " (cfl * h / max wave speed)", dt)
+        steps = self.time.end / self.dt()
+        if not steps <= _MAX_STEPS:
+            raise SceneError("time.end", f"needs {steps:.3g} steps of dt = {self.dt():.4g}"
+                                         f" (limit {_MAX_STEPS})", self.time.end)
+
+    # -- derived quantities -------------------------------------------------
+
+    def stable_dt(self) -> float:
+        """Stability limit ``cfl * h / (c_max + v_max)``.
+
+        ``c_max`` is the largest P-wave speed (see :func:`wave_speed`) over the
+        materials used by bodies and ``v_max`` the largest initial body speed.
+        """
+        used = {body.material for body in self.bodies}
+        c_max = max(wave_speed(m.E, m.nu, m.density, self.plane)
+                    for m in self.materials if m.name in used)
+        v_max = max(math.hypot(*body.velocity) for body in self.bodies)
+        return self.time.cfl * self.grid.h / (c_max + v_max)
+
+    def dt(self) -> float:
+        """Time step: the fixed ``time.dt`` if given, else :meth:`stable_dt`."""
+        return self.time.dt if self.time.dt is not None else self.stable_dt()
+
+    def steps(self) -> int:
+        """Number of steps of :meth:`dt` to reach ``time.end`` (round-off tolerant)."""
+        n = self.time.end / self.dt()
+        return max(1, math.ceil(n - _WHOLE_TOL * n))
+
+    def particles(self) -> dict[str, np.ndarray]:
+        """Generate the particles of all bodies.
+
+        Particles sit at the centres of an ``n x n`` sub-cell lattice in each
+        grid cell, kept if inside the body's shape and outside its holes.
+        Bodies come in order; within a body particles are sorted by cell
+        (row-major, y outer) then by sub-position.
+
+        Returns
+        -------
+        dict of str to ndarray
+            ``x`` (N, 2) positions, ``v`` (N, 2) velocities, ``mass`` (N,),
+            ``volume`` (N,) ``= (h/n)^2 * thickness``, ``body`` (N,) int32
+            body index, ``material`` (N,) int32 material index and ``fext``
+            (N, 2) constant external forces: ``traction * (h/n) * thickness``
+            on the edge layer of each traction load plus
+            ``mass * acceleration`` of each body force.  The edge layer is
+            the particles of the body within ``0.51 h/n`` of its extreme
+            particle coordinate on that side.
+        """
+        h, (nx, ny) = self.grid.h, self.grid.cells
+        materials = {m.name: i for i, m in enumerate(self.materials)}
+        xs, vs, masses, volumes, body_ids, material_ids, slices = [], [], [], [], [], [], {}
+        start = 0
+        for b, body in enumerate(self.bodies):
+            x = np.concatenate(list(_lattice(body, self.grid, (0, nx), (0, ny))))
+            count = len(x)
+            m = materials[body.material]
+            spacing = h / body.particles_per_cell
+            volume = spacing * spacing * self.thickness
+            xs.append(x)
+            vs.append(np.broadcast_to(body.velocity, (count, 2)))
+            volumes.append(np.full(count, volume))
+            masses.append(np.full(count, self.materials[m].density * volume))
+            body_ids.append(np.full(count, b, dtype=np.int32))
+            material_ids.append(np.full(count, m, dtype=np.int32))
+            slices[body.name] = (slice(start, start + count), spacing)
+            start += count
+        out = {
+            "x": np.ascontiguousarray(np.concatenate(xs), dtype=np.float64),
+            "v": np.ascontiguousarray(np.concatenate(vs), dtype=np.float64),
+            "mass": np.concatenate(masses),
+            "volume": np.concatenate(volumes),
+            "body": np.concatenate(body_ids),
+            "material": np.concatenate(material_ids),
+            "fext": np.zeros((start, 2)),
+        }
+        for load in self.loads:
+            if isinstance(load, Traction):
+                part, spacing = slices[load.body]
+                coord = out["x"][part, 0 if load.edge in ("left", "right") else 1]
+                tol = _EDGE_TOL * spacing
+                if load.edge in ("right", "top"):
+                    layer = coord >= coord.max() - tol
+                else:
+                    layer = coord <= coord.min() + tol
+                out["fext"][part][layer] += np.multiply(load.traction, spacing * self.thickness)
+            else:
+                part = slice(None) if load.body is None else slices[load.body][0]
+                out["fext"][part] += out["mass"][part, None] * np.asarray(load.acceleration)
+        return out
+
+    def summary(self) -> dict[str, Any]:
+        """Small dict for logging: name, plane, cells, h, degree, particles, dt, steps."""
+        (nx, ny) = self.grid.cells
+        count = sum(len(p) for body in self.bodies
+                    for p in _lattice(body, self.grid, (0, nx), (0, ny)))
+        return {
+            "name": self.name,
+            "plane": self.plane,
+            "cells": self.grid.cells,
+            "h": self.grid.h,
+            "degree": self.grid.degree,
+            "particles": count,
+            "dt": self.dt(),
+            "steps": self.steps(),
+        }
+
+    # -- dict / TOML --------------------------------------------------------
+
+    @classmethod
+    def from_dict(cls, d: Mapping, overrides: list[str] | tuple[str, ...] = ()) -> "Scene":
+        """Build a scene from a nested dict (as parsed from TOML).
+
+        Parameters
+        ----------
+        d : Mapping
+            The scene tables.
+        overrides : sequence of str
+            ``"dotted.path=value"`` overrides applied first, see
+            :func:`apply_overrides`.
+
+        Raises
+        ------
+        SceneError
+            On unknown or missing keys and any invalid value.
+        """
+        if overrides:
+            d = apply_overrides(d, list(overrides))
+        return _build(cls, d, {
+            "grid": lambda t: _build(Grid, t),
+            "time": lambda t: _build(Time, t),
+            "output": lambda t: _build(Output, t),
+            "materials": lambda v: _tables(v, lambda t: _build(Material, t)),
+            "bodies": lambda v: _tables(v, _body_from_dict),
+            "loads": lambda v: _tables(v, lambda t: _typed(t, LOADS)),
+            "walls": lambda v: _tables(v, lambda t: _build(Wall, t)),
+        })
+
+    @classmethod
+    def from_toml(cls, path, overrides: list[str] | tuple[str, ...] = ()) -> "Scene":
+        """Load a scene from a TOML file; see :meth:`from_dict`.
+
+        Raises
+        ------
+        SceneError
+            On a TOML syntax error (path = the file) or an invalid scene.
+        OSError
+            If the file cannot be read.
+        """
+        with open(path, "rb") as f:
+            try:
+                data = tomllib.load(f)
+            except tomllib.TOMLDecodeError as err:
+                raise SceneError(str(path), f"invalid TOML: {err}") from None
+        return cls.from_dict(data, overrides)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Return the scene as a TOML-ready nested dict; ``from_dict`` inverts it."""
+        return _plain(self)
+
+
+# ----------------------------------------------------------------------------
+# Dict helpers
+# ----------------------------------------------------------------------------
+
+
+def _reference(path: str, name: str, names: Mapping[str, int], what: str) -> None:
+    """Check that ``name`` is one of ``names``."""
+    if name not in names:
+        have = ", ".join(map(repr, names)) or "none"
+        raise SceneError(path, f"no {what} with that name (have: {have})", name)
+
+
+def _lattice(body: Body, grid: Grid, i_range: tuple[int, int],
+             j_range: tuple[int, int]) -> Iterator[np.ndarray]:
+    """Yield the body's particles in cells ``[i0, i1) x [j0, j1)``, in bands of cell rows.
+
+    Each yielded (k, 2) array is sorted by cell (row-major) then sub-position.
+    """
+    (i0, i1), (j0, j1) = i_range, j_range
+    if i1 <= i0 or j1 <= j0:
+        return
+    n, h, (ox, oy) = body.particles_per_cell, grid.h, grid.origin
+    sub = (np.arange(n) + 0.5) / n
+    cx = np.arange(i0, i1)[:, None] + sub  # (cols, n): x in cell units
+    cols = i1 - i0
+    band = max(1, _CHUNK // (cols * n * n))
+    for js in range(j0, j1, band):
+        cy = np.arange(js, min(js + band, j1))[:, None] + sub  # (rows, n)
+        shape = (len(cy), cols, n, n)  # row, col, sub-row, sub-col
+        x = ox + np.broadcast_to(cx[None, :, None, :], shape).ravel() * h
+        y = oy + np.broadcast_to(cy[:, None, :, None], shape).ravel() * h
+        keep = body.contains(x, y)
+        yield np.column_stack((x[keep], y[keep]))
+
+
+def _check_keys(table: Any, cls: type, extra: tuple[str, ...] = ()) -> None:
+    """Check a table for unknown keys and missing required fields of ``cls``."""
+    if not isinstance(table, Mapping):
+        raise SceneError("", "must be a table", table)
+    fields = [f for f in dataclasses.fields(cls)]
+    allowed = [*extra, *(f.name for f in fields)]
+    for key in table:
+        if key not in allowed:
+            raise SceneError(str(key), f"unknown key (allowed: {', '.join(allowed)})")
+    for f in fields:
+        no_default = f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING
+        if no_default and f.name not in table:
+            raise SceneError(f.name, "missing required key")
+
+
+def _build(cls: type, table: Any, convert: Mapping[str, Callable[[Any], Any]] = {},
+           extra: tuple[str, ...] = ()) -> Any:
+    """Construct ``cls`` from a table after checking its keys.
+
+    ``convert`` maps keys to converters for nested tables; ``extra`` are
+    allowed keys that are not fields (e.g. ``type``) and are dropped.
+    """
+    _check_keys(table, cls, extra)
+    kwargs = {k: v for k, v in table.items() if k not in extra}
+    for key, fn in convert.items():
+        if key in kwargs:
+            with _at(key):
+                kwargs[key] = fn(kwargs[key])
+    return cls(**kwargs)
+
+
+def _tables(value: Any, build: Callable[[Any], Any]) -> tuple:
+    """Build each table of an array of tables."""
+    if not isinstance(value, (list, tuple)):
+        raise SceneError("", "must be an array of tables", value)
+    items = []
+    for i, table in enumerate(value):
+        with _at(f"[{i}]"):
+            items.append(build(table))
+    return tuple(items)
+
+
+def _typed(table: Any, classes: Mapping[str, type]) -> Any:
+    """Build a table whose ``type`` key selects the class among ``classes``."""
+    if not isinstance(table, Mapping):
+        raise SceneError("", "must be a table", table)
+    if "type" not in table:
+        raise SceneError("type", "missing required key")
+    cls = classes.get(table["type"]) if isinstance(table["type"], str) else None
+    if cls is None:
+        raise SceneError("type", "must be one of " + ", ".join(map(repr, classes)), table["type"])
+    return _build(cls, table, extra=("type",))
+
+
+def _body_from_dict(table: Any) -> Body:
+    """Build a :class:`Body`, converting its shape and holes tables."""
+    return _build(Body, table, {
+        "shape": lambda t: _typed(t, SHAPES),
+        "holes": lambda v: _tables(v, lambda t: _typed(t, SHAPES)),
+    })
+
+
+def _plain(value: Any) -> Any:
+    """Convert dataclasses and tuples to TOML-ready dicts and lists (None fields omitted)."""
+    if dataclasses.is_dataclass(value):
+        out = {"type": value.kind} if hasattr(value, "kind") else {}
+        for f in dataclasses.fields(value):
+            item = getattr(value, f.name)
+            if item is not None:
+                out[f.name] = _plain(item)
+        return out
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    return value
+
+
+def apply_overrides(d: Mapping, overrides: list[str]) -> dict:
+    """Apply ``"dotted.path=value"`` overrides to a copy of a scene dict.
+
+    Parameters
+    ----------
+    d : Mapping
+        Scene dict (left unchanged).
+    overrides : list of str
+        Each ``"a.b.c=value"``.  ``value`` is parsed as a TOML value, or
+        taken as a plain string if it does not parse.  A segment into an
+        array of tables selects an entry by integer index or by its
+        ``name``; a segment naming a missing table creates it.  Keys
+        unknown to the schema are reported by validation.
+
+    Returns
+    -------
+    dict
+        The overridden deep copy.
+
+    Raises
+    ------
+    SceneError
+        On a malformed override or a path that cannot be followed.
+    """
+    root = copy.deepcopy(dict(d))
+    for text in overrides:
+        key, sep, raw = text.partition("=")
+        key, raw = key.strip(), raw.strip()
+        segments = key.split(".")
+        if not sep or not all(segments):
+            raise SceneError("--set", "expected 'dotted.path=value'", text)
+        try:
+            parsed = tomllib.loads("v = " + raw)
+            value = parsed["v"] if len(parsed) == 1 else raw
+        except tomllib.TOMLDecodeError:
+            value = raw
+        node: Any = root
+        for depth, segment in enumerate(segments):
+            path = ".".join(segments[:depth])
+            last = depth == len(segments) - 1
+            if isinstance(node, list):
+                index = _entry(node, segment, ".".join(segments[: depth + 1]))
+                if last:
+                    node[index] = value
+                else:
+                    node = node[index]
+            elif isinstance(node, dict):
+                if last:
+                    node[segment] = value
+                else:
+                    node = node.setdefault(segment, {})
+            else:
+                raise SceneError(path, "is not a table, cannot set " + key, node)
+    return root
+
+
+def _entry(items: list, segment: str, path: str) -> int:
+    """Index of the array entry selected by an integer index or a ``name``."""
+    try:
+        index = int(segment)
+    except ValueError:
+        names = [t.get("name") for t in items if isinstance(t, Mapping)]
+        if segment not in names:
+            have = ", ".join(repr(n) for n in names if n is not None) or "none"
+            raise SceneError(path, f"no entry with that name (have: {have})") from None
+        return names.index(segment)
+    if not -len(items) <= index < len(items):
+        raise SceneError(path, f"index out of range ({len(items)} entries)")
+    return index
