@@ -9,6 +9,7 @@
 #include "pfmpm/particles.h"
 #include "pfmpm/solver.h"
 
+#include <omp.h>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
@@ -45,6 +46,7 @@ PYBIND11_MODULE(_core, m)
 {
   m.doc() = "pfmpm C++ core: B-spline grid, particles and explicit MPM stepping";
   py::register_exception<SimulationError>(m, "SimulationError", PyExc_RuntimeError);
+  m.def("num_threads", &omp_get_max_threads, "OpenMP threads the kernels use");
 
   py::class_<BSpline1D>(m, "BSpline1D", "B-spline basis on a uniform open knot vector")
       .def(py::init<int, int, double, double>(), py::arg("degree"), py::arg("cells"),

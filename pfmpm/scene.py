@@ -19,6 +19,7 @@ import copy
 import dataclasses
 import math
 import numbers
+import re
 import tomllib
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
@@ -60,6 +61,17 @@ _CHUNK = 1 << 20  # candidate particles examined per vectorised batch
 _WHOLE_TOL = 1e-9  # relative tolerance of "size / h is a whole number"
 _EDGE_TOL = 0.51  # edge layer thickness in particle spacings
 _NO_VALUE = object()
+_BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")
+
+
+#: Critical time step of the lumped-mass B-spline grid in units of h / c, per
+#: degree, as (bodies clear of the grid sides, bodies on a side). Each is the
+#: 1D limit 2 / sqrt(max eig(M_L^-1 K)) of interior functions only, or of all
+#: functions including the open-knot end ones (degree 2: 1.634 and 0.862;
+#: degree 3: 1.929 and 0.653; degree 1: 1 and 1), over sqrt(2) for two
+#: directions and capped at 1, the CFL limit the paper uses (eq. 84).
+#: tests/test_elastic.py recomputes these from the basis.
+CRITICAL_FACTOR = {1: (0.707, 0.707), 2: (1.0, 0.609), 3: (1.0, 0.461)}
 
 
 class SceneError(ValueError):
@@ -111,6 +123,12 @@ def _at(prefix: str) -> Iterator[None]:
         raise err.within(prefix) from None
 
 
+def _key(key: Any) -> str:
+    """A table key as a path segment: bare if TOML allows it bare, else quoted."""
+    text = str(key)
+    return text if _BARE_KEY.fullmatch(text) else _fmt(text)
+
+
 def _fmt(value: Any, limit: int = 80) -> str:
     """Format a value TOML-like on one line, shortened to ``limit`` characters."""
     if isinstance(value, bool):
@@ -158,7 +176,9 @@ def _integer(path: str, value: Any, *, ge: int | None = None) -> int:
 
 def _vec2(path: str, value: Any, **bounds: float) -> tuple[float, float]:
     """Check a 2-vector of finite numbers, each within ``bounds``."""
-    if not isinstance(value, (list, tuple, np.ndarray)) or len(value) != 2:
+    if isinstance(value, np.ndarray):
+        value = value.tolist()
+    if not isinstance(value, (list, tuple)) or len(value) != 2:
         raise SceneError(path, "must be a list of 2 numbers", value)
     return (_real(f"{path}[0]", value[0], **bounds), _real(f"{path}[1]", value[1], **bounds))
 
@@ -180,7 +200,9 @@ def _choice(path: str, value: Any, choices: tuple) -> Any:
 
 
 def _seq(path: str, value: Any, what: str) -> tuple:
-    """Check a list or tuple and return it as a tuple."""
+    """Check a list, tuple or array and return it as a tuple."""
+    if isinstance(value, np.ndarray):
+        value = value.tolist()
     if not isinstance(value, (list, tuple)):
         raise SceneError(path, f"must be a list of {what}", value)
     return tuple(value)
@@ -224,7 +246,10 @@ class Grid:
         _set(self, "degree", _choice("degree", _integer("degree", self.degree), DEGREES))
         for s in self.size:
             n = s / self.h
-            if not math.isfinite(n) or round(n) < 1:
+            if n > _MAX_COUNT:
+                raise SceneError("size", f"{n:.3g} cells of h = {self.h:g} exceed the limit"
+                                         f" of {_MAX_COUNT}", self.size)
+            if round(n) < 1:
                 raise SceneError("size", f"smaller than one cell of h = {self.h:g}", self.size)
             if abs(n - round(n)) > _WHOLE_TOL * n:
                 raise SceneError("size", f"not a whole number of cells of h = {self.h:g}", self.size)
@@ -462,11 +487,11 @@ class Polygon(Shape):
             raise SceneError("vertices", "must have at least 3 points", self.vertices)
         _set(self, "vertices", tuple(_vec2(f"vertices[{i}]", p) for i, p in enumerate(points)))
         v = np.array(self.vertices)
-        with np.errstate(over="ignore", invalid="ignore"):
-            area = 0.5 * abs(np.sum(v[:, 0] * np.roll(v[:, 1], -1) - np.roll(v[:, 0], -1) * v[:, 1]))
-            extent = np.ptp(v, axis=0)
-            if not area > 1e-12 * float(extent @ extent):
-                raise SceneError("vertices", "polygon is degenerate (zero area)", self.vertices)
+        v = v / max(np.abs(v).max(), np.finfo(float).tiny)  # scaled to [-1, 1]: no overflow
+        area = 0.5 * abs(np.sum(v[:, 0] * np.roll(v[:, 1], -1) - np.roll(v[:, 0], -1) * v[:, 1]))
+        extent = np.ptp(v, axis=0)
+        if not area > 1e-12 * float(extent @ extent):
+            raise SceneError("vertices", "polygon is degenerate (zero area)", self.vertices)
 
     def contains(self, x, y):
         x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
@@ -626,10 +651,12 @@ def wave_speed(E: float, nu: float, rho: float, plane: str) -> float:
         The wave speed.
     """
     if plane == "strain":
-        return math.sqrt(E * (1 - nu) / (rho * (1 + nu) * (1 - 2 * nu)))
-    if plane == "stress":
-        return math.sqrt(E / (rho * (1 - nu * nu)))
-    raise SceneError("plane", "must be one of " + ", ".join(map(repr, PLANES)), plane)
+        modulus, inertia = E * (1 - nu), rho * (1 + nu) * (1 - 2 * nu)
+    elif plane == "stress":
+        modulus, inertia = E, rho * (1 - nu * nu)
+    else:
+        raise SceneError("plane", "must be one of " + ", ".join(map(repr, PLANES)), plane)
+    return math.sqrt(modulus / inertia) if inertia > 0 else math.inf
 
 
 # ----------------------------------------------------------------------------
@@ -702,9 +729,9 @@ class Scene:
         _set(self, "bodies", self._items("bodies", (Body,), required=True))
         _set(self, "loads", self._items("loads", (Traction, BodyForce)))
         _set(self, "walls", self._items("walls", (Wall,)))
-        materials = self._unique("materials", "name")
-        bodies = self._unique("bodies", "name")
-        self._unique("walls", "side")
+        materials = self._unique("materials", "name", "duplicate name")
+        bodies = self._unique("bodies", "name", "duplicate name")
+        self._unique("walls", "side", "duplicate wall on this side")
         for i, body in enumerate(self.bodies):
             _reference(f"bodies[{i}].material", body.material, materials, "material")
         for i, load in enumerate(self.loads):
@@ -725,22 +752,22 @@ class Scene:
                 raise SceneError(f"{key}[{i}]", "must be a " + " or ".join(c.__name__ for c in classes), item)
         return items
 
-    def _unique(self, key: str, attr: str) -> dict[str, int]:
+    def _unique(self, key: str, attr: str, reason: str) -> dict[str, int]:
         """Check that ``attr`` is unique over field ``key``; map value -> index."""
         seen: dict[str, int] = {}
         for i, item in enumerate(getattr(self, key)):
             value = getattr(item, attr)
             if value in seen:
-                raise SceneError(f"{key}[{i}].{attr}", f"duplicate (also {key}[{seen[value]}])", value)
+                raise SceneError(f"{key}[{i}].{attr}", f"{reason} (also {key}[{seen[value]}])", value)
             seen[value] = i
         return seen
 
-    def _cell_range(self, body: Body) -> tuple[tuple[int, int], tuple[int, int]]:
-        """Cell index ranges of the body's bounding box, clipped to the grid plus one cell."""
+    def _cell_range(self, body: Body, margin: int = 0) -> tuple[tuple[int, int], tuple[int, int]]:
+        """Cell index ranges of the body's bounding box, clipped to the grid plus ``margin`` cells."""
         xmin, ymin, xmax, ymax = body.shape.bounds()
         (ox, oy), h, (nx, ny) = self.grid.origin, self.grid.h, self.grid.cells
-        lo_x, hi_x = (np.clip([(xmin - ox) / h, (xmax - ox) / h], -1, nx + 1))
-        lo_y, hi_y = (np.clip([(ymin - oy) / h, (ymax - oy) / h], -1, ny + 1))
+        lo_x, hi_x = np.clip([(xmin - ox) / h, (xmax - ox) / h], -margin, nx + margin)
+        lo_y, hi_y = np.clip([(ymin - oy) / h, (ymax - oy) / h], -margin, ny + margin)
         return ((math.floor(lo_x), math.ceil(hi_x)), (math.floor(lo_y), math.ceil(hi_y)))
 
     def _check_particles(self, body: Body) -> None:
@@ -749,9 +776,9 @@ class Scene:
         (ox, oy), h, (nx, ny) = grid.origin, grid.h, grid.cells
         xmin, ymin, xmax, ymax = body.shape.bounds()
         if xmin < ox - h or ymin < oy - h or xmax > ox + (nx + 1) * h or ymax > oy + (ny + 1) * h:
-            raise SceneError("shape", f"extends more than one cell beyond the grid {grid._box()}",
-                             body.shape.bounds())
-        (i0, i1), (j0, j1) = self._cell_range(body)
+            raise SceneError("shape", f"bounds {_fmt(body.shape.bounds())} extend more than"
+                                      f" one cell beyond the grid {grid._box()}")
+        (i0, i1), (j0, j1) = self._cell_range(body, margin=1)
         n = body.particles_per_cell
         candidates = (i1 - i0) * (j1 - j0) * n * n
         if candidates > _MAX_COUNT:
@@ -777,13 +804,12 @@ class Scene:
             if not math.isfinite(math.hypot(*body.velocity)):
                 raise SceneError(f"bodies[{i}].velocity", "speed is not finite", body.velocity)
         limit = self.stable_dt()
-        if not limit > 0:
-            raise SceneError("time", "the stability limit cfl * h / (max wave speed + max speed)"
-                                     " underflows to zero")
+        if not 0 < limit < math.inf:
+            raise SceneError("time", f"the stability limit {limit:g} is not a positive finite step")
         dt = self.time.dt
         if dt is not None and dt > limit:
             raise SceneError("time.dt", f"exceeds the stability limit {limit:.4g}"
-                                        " (cfl * h / max wave speed)", dt)
+                                        " (cfl * kappa * h / (max wave speed + max body speed))", dt)
         steps = self.time.end / self.dt()
         if not steps <= _MAX_STEPS:
             raise SceneError("time.end", f"needs {steps:.3g} steps of dt = {self.dt():.4g}"
@@ -792,16 +818,29 @@ class Scene:
     # -- derived quantities -------------------------------------------------
 
     def stable_dt(self) -> float:
-        """Stability limit ``cfl * h / (c_max + v_max)``.
+        """Stability limit ``cfl * kappa * h / (c_max + v_max)`` (eqs. 83-84).
 
         ``c_max`` is the largest P-wave speed (see :func:`wave_speed`) over the
         materials used by bodies and ``v_max`` the largest initial body speed.
+        ``kappa`` (see :data:`CRITICAL_FACTOR`) is 1 for quadratic and cubic
+        B-splines with the bodies clear of the grid's end functions, as in the
+        paper; it is smaller for degree 1, and for bodies that start within
+        ``degree`` cells of a grid side, where the open knot vector's end
+        functions carry little lumped mass.
         """
         used = {body.material for body in self.bodies}
         c_max = max(wave_speed(m.E, m.nu, m.density, self.plane)
                     for m in self.materials if m.name in used)
         v_max = max(math.hypot(*body.velocity) for body in self.bodies)
-        return self.time.cfl * self.grid.h / (c_max + v_max)
+        interior, boundary = CRITICAL_FACTOR[self.grid.degree]
+        kappa = boundary if any(self._near_side(b) for b in self.bodies) else interior
+        return self.time.cfl * kappa * self.grid.h / (c_max + v_max)
+
+    def _near_side(self, body: Body) -> bool:
+        """Whether the body's bounding box reaches the end functions of the grid."""
+        (i0, i1), (j0, j1) = self._cell_range(body)
+        p, (nx, ny) = self.grid.degree, self.grid.cells
+        return i0 < p or j0 < p or i1 > nx - p or j1 > ny - p
 
     def dt(self) -> float:
         """Time step: the fixed ``time.dt`` if given, else :meth:`stable_dt`."""
@@ -832,12 +871,12 @@ class Scene:
             the particles of the body within ``0.51 h/n`` of its extreme
             particle coordinate on that side.
         """
-        h, (nx, ny) = self.grid.h, self.grid.cells
+        h = self.grid.h
         materials = {m.name: i for i, m in enumerate(self.materials)}
         xs, vs, masses, volumes, body_ids, material_ids, slices = [], [], [], [], [], [], {}
         start = 0
         for b, body in enumerate(self.bodies):
-            x = np.concatenate(list(_lattice(body, self.grid, (0, nx), (0, ny))))
+            x = np.concatenate(list(_lattice(body, self.grid, *self._cell_range(body))))
             count = len(x)
             m = materials[body.material]
             spacing = h / body.particles_per_cell
@@ -851,8 +890,8 @@ class Scene:
             slices[body.name] = (slice(start, start + count), spacing)
             start += count
         out = {
-            "x": np.ascontiguousarray(np.concatenate(xs), dtype=np.float64),
-            "v": np.ascontiguousarray(np.concatenate(vs), dtype=np.float64),
+            "x": np.concatenate(xs),
+            "v": np.concatenate(vs),
             "mass": np.concatenate(masses),
             "volume": np.concatenate(volumes),
             "body": np.concatenate(body_ids),
@@ -876,9 +915,8 @@ class Scene:
 
     def summary(self) -> dict[str, Any]:
         """Small dict for logging: name, plane, cells, h, degree, particles, dt, steps."""
-        (nx, ny) = self.grid.cells
         count = sum(len(p) for body in self.bodies
-                    for p in _lattice(body, self.grid, (0, nx), (0, ny)))
+                    for p in _lattice(body, self.grid, *self._cell_range(body)))
         return {
             "name": self.name,
             "plane": self.plane,
@@ -958,23 +996,21 @@ def _reference(path: str, name: str, names: Mapping[str, int], what: str) -> Non
 
 def _lattice(body: Body, grid: Grid, i_range: tuple[int, int],
              j_range: tuple[int, int]) -> Iterator[np.ndarray]:
-    """Yield the body's particles in cells ``[i0, i1) x [j0, j1)``, in bands of cell rows.
+    """Yield the body's particles in cells ``[i0, i1) x [j0, j1)``, a batch at a time.
 
-    Each yielded (k, 2) array is sorted by cell (row-major) then sub-position.
+    Candidates are numbered by cell (row-major, y outer) then sub-position
+    (row-major) and examined ``_CHUNK`` at a time, so memory stays bounded;
+    each yielded (k, 2) array keeps that order.
     """
     (i0, i1), (j0, j1) = i_range, j_range
-    if i1 <= i0 or j1 <= j0:
-        return
-    n, h, (ox, oy) = body.particles_per_cell, grid.h, grid.origin
-    sub = (np.arange(n) + 0.5) / n
-    cx = np.arange(i0, i1)[:, None] + sub  # (cols, n): x in cell units
-    cols = i1 - i0
-    band = max(1, _CHUNK // (cols * n * n))
-    for js in range(j0, j1, band):
-        cy = np.arange(js, min(js + band, j1))[:, None] + sub  # (rows, n)
-        shape = (len(cy), cols, n, n)  # row, col, sub-row, sub-col
-        x = ox + np.broadcast_to(cx[None, :, None, :], shape).ravel() * h
-        y = oy + np.broadcast_to(cy[:, None, :, None], shape).ravel() * h
+    cols, n, h, (ox, oy) = i1 - i0, body.particles_per_cell, grid.h, grid.origin
+    count = max(cols, 0) * max(j1 - j0, 0) * n * n
+    for start in range(0, count, _CHUNK):
+        cell, sub = np.divmod(np.arange(start, min(start + _CHUNK, count)), n * n)
+        j, i = np.divmod(cell, cols)
+        b, a = np.divmod(sub, n)
+        x = ox + (i0 + i + (a + 0.5) / n) * h
+        y = oy + (j0 + j + (b + 0.5) / n) * h
         keep = body.contains(x, y)
         yield np.column_stack((x[keep], y[keep]))
 
@@ -983,18 +1019,18 @@ def _check_keys(table: Any, cls: type, extra: tuple[str, ...] = ()) -> None:
     """Check a table for unknown keys and missing required fields of ``cls``."""
     if not isinstance(table, Mapping):
         raise SceneError("", "must be a table", table)
-    fields = [f for f in dataclasses.fields(cls)]
+    fields = dataclasses.fields(cls)
     allowed = [*extra, *(f.name for f in fields)]
     for key in table:
         if key not in allowed:
-            raise SceneError(str(key), f"unknown key (allowed: {', '.join(allowed)})")
+            raise SceneError(_key(key), f"unknown key (allowed: {', '.join(allowed)})")
     for f in fields:
         no_default = f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING
         if no_default and f.name not in table:
             raise SceneError(f.name, "missing required key")
 
 
-def _build(cls: type, table: Any, convert: Mapping[str, Callable[[Any], Any]] = {},
+def _build(cls: type, table: Any, convert: Mapping[str, Callable[[Any], Any]] | None = None,
            extra: tuple[str, ...] = ()) -> Any:
     """Construct ``cls`` from a table after checking its keys.
 
@@ -1003,7 +1039,7 @@ def _build(cls: type, table: Any, convert: Mapping[str, Callable[[Any], Any]] = 
     """
     _check_keys(table, cls, extra)
     kwargs = {k: v for k, v in table.items() if k not in extra}
-    for key, fn in convert.items():
+    for key, fn in (convert or {}).items():
         if key in kwargs:
             with _at(key):
                 kwargs[key] = fn(kwargs[key])
@@ -1079,6 +1115,8 @@ def apply_overrides(d: Mapping, overrides: list[str]) -> dict:
     SceneError
         On a malformed override or a path that cannot be followed.
     """
+    if not isinstance(d, Mapping):
+        raise SceneError("", "must be a table", d)
     root = copy.deepcopy(dict(d))
     for text in overrides:
         key, sep, raw = text.partition("=")
@@ -1093,10 +1131,10 @@ def apply_overrides(d: Mapping, overrides: list[str]) -> dict:
             value = raw
         node: Any = root
         for depth, segment in enumerate(segments):
-            path = ".".join(segments[:depth])
+            path = ".".join(map(_key, segments[:depth]))
             last = depth == len(segments) - 1
             if isinstance(node, list):
-                index = _entry(node, segment, ".".join(segments[: depth + 1]))
+                index = _entry(node, segment, ".".join(map(_key, segments[: depth + 1])))
                 if last:
                     node[index] = value
                 else:
@@ -1107,7 +1145,7 @@ def apply_overrides(d: Mapping, overrides: list[str]) -> dict:
                 else:
                     node = node.setdefault(segment, {})
             else:
-                raise SceneError(path, "is not a table, cannot set " + key, node)
+                raise SceneError(path, "is not a table, cannot set " + _fmt(key), node)
     return root
 
 
@@ -1116,7 +1154,7 @@ def _entry(items: list, segment: str, path: str) -> int:
     try:
         index = int(segment)
     except ValueError:
-        names = [t.get("name") for t in items if isinstance(t, Mapping)]
+        names = [t.get("name") if isinstance(t, Mapping) else None for t in items]
         if segment not in names:
             have = ", ".join(repr(n) for n in names if n is not None) or "none"
             raise SceneError(path, f"no entry with that name (have: {have})") from None

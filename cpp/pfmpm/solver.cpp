@@ -60,6 +60,9 @@ Solver::Solver(Grid& grid, Particles& particles, std::vector<LinearElastic> mate
 
 void Solver::advance(std::int64_t steps)
 {
+  // P2G skips the external force when there is none (fext only changes
+  // between calls).
+  _external = has_external_force();
   for (std::int64_t k = 0; k < steps; ++k)
     with_degree(_grid.degree(), [this](auto P) { step<decltype(P)::value>(); });
 }
@@ -146,6 +149,16 @@ void Solver::sort_particles()
 template <int P>
 void Solver::particle_to_grid()
 {
+  if (_external)
+    particle_to_grid<P, true>();
+  else
+    particle_to_grid<P, false>();
+}
+
+template <int P, bool External>
+void Solver::particle_to_grid()
+{
+  constexpr int K = (P + 1) * (P + 1); // nodes touched by one cell
   const BSpline1D& bx = _grid.basis(0);
   const BSpline1D& by = _grid.basis(1);
   const int ncx = bx.cells(), ncy = by.cells();
@@ -164,49 +177,70 @@ void Solver::particle_to_grid()
     _sums[a] = NodeSums{};
 
   // Strips of `strip_width` cell columns: first all even strips in parallel,
-  // then all odd ones. Strips of one parity touch disjoint nodes, and each
-  // node receives its terms in a fixed order (even strip, then odd strip,
-  // particles in sorted order within a strip): no atomics, same bits for any
-  // thread count.
+  // then all odd ones. Strips of one parity touch disjoint nodes. Each cell's
+  // particles are summed in sorted order into a local K-node block, which is
+  // then added to the nodes; a node receives its cell blocks in a fixed order
+  // (even strip, then odd strip, cells in key order). No atomics, and the
+  // same bits for any thread count.
   for (int parity = 0; parity < 2; ++parity)
   {
 #pragma omp parallel for schedule(dynamic, 1)
     for (int s = parity; s < nstrips; s += 2)
     {
-      const std::int64_t begin = _cell_start[static_cast<std::size_t>(s) * strip_width * ncy];
-      const std::int64_t end
-          = _cell_start[static_cast<std::size_t>(std::min((s + 1) * strip_width, ncx)) * ncy];
-      for (std::int64_t k = begin; k < end; ++k)
-      {
-        const std::size_t p = _order[k];
-        const int cx = _cell[p] / ncy, cy = _cell[p] % ncy;
-        double Nx[P + 1], dNx[P + 1], Ny[P + 1], dNy[P + 1];
-        bx.evaluate<P>(cx, x[2 * p], Nx, dNx);
-        by.evaluate<P>(cy, x[2 * p + 1], Ny, dNy);
-        const double m = mass[p];
-        const double mvx = m * v[2 * p], mvy = m * v[2 * p + 1];
-        const double V = volume[p];
-        const double sxx = V * stress[4 * p], syy = V * stress[4 * p + 1],
-                     sxy = V * stress[4 * p + 2];
-        const double ex = fext[2 * p], ey = fext[2 * p + 1];
-        for (int a = 0; a <= P; ++a)
+      for (int cx = s * strip_width; cx < std::min((s + 1) * strip_width, ncx); ++cx)
+        for (int cy = 0; cy < ncy; ++cy)
         {
-          NodeSums* node = &_sums[_grid.active_index(cx + a, cy)];
-          for (int b = 0; b <= P; ++b)
+          const std::size_t cell = static_cast<std::size_t>(cx) * ncy + cy;
+          const std::int64_t begin = _cell_start[cell], end = _cell_start[cell + 1];
+          if (begin == end)
+            continue;
+          double m[K]{}, px[K]{}, py[K]{}, fx[K]{}, fy[K]{}, ex[K]{}, ey[K]{};
+          for (std::int64_t k = begin; k < end; ++k)
           {
-            const double w = Nx[a] * Ny[b];
-            const double gx = dNx[a] * Ny[b], gy = Nx[a] * dNy[b];
-            NodeSums& n = node[b];
-            n.m += w * m;    // eq. 46
-            n.px += w * mvx; // eq. 61
-            n.py += w * mvy;
-            n.ex += w * ex;  // eq. 42
-            n.ey += w * ey;
-            n.fx += w * ex - (sxx * gx + sxy * gy); // eqs. 42, 62
-            n.fy += w * ey - (sxy * gx + syy * gy);
+            const std::size_t p = _order[k];
+            double Nx[P + 1], dNx[P + 1], Ny[P + 1], dNy[P + 1];
+            bx.evaluate<P>(cx, x[2 * p], Nx, dNx);
+            by.evaluate<P>(cy, x[2 * p + 1], Ny, dNy);
+            const double mp = mass[p];
+            const double mvx = mp * v[2 * p], mvy = mp * v[2 * p + 1];
+            const double V = volume[p];
+            const double sxx = V * stress[4 * p], syy = V * stress[4 * p + 1],
+                         sxy = V * stress[4 * p + 2];
+            for (int a = 0; a <= P; ++a)
+              for (int b = 0; b <= P; ++b)
+              {
+                const int i = a * (P + 1) + b;
+                const double w = Nx[a] * Ny[b];
+                const double gx = dNx[a] * Ny[b], gy = Nx[a] * dNy[b];
+                m[i] += w * mp;    // eq. 46
+                px[i] += w * mvx;  // eq. 61
+                py[i] += w * mvy;
+                fx[i] -= sxx * gx + sxy * gy; // eq. 62
+                fy[i] -= sxy * gx + syy * gy;
+                if constexpr (External)
+                {
+                  ex[i] += w * fext[2 * p]; // eq. 42
+                  ey[i] += w * fext[2 * p + 1];
+                }
+              }
+          }
+          for (int a = 0; a <= P; ++a)
+          {
+            NodeSums* node = &_sums[_grid.active_index(cx + a, cy)];
+            for (int b = 0; b <= P; ++b)
+            {
+              const int i = a * (P + 1) + b;
+              NodeSums& n = node[b];
+              n.m += m[i];
+              n.px += px[i];
+              n.py += py[i];
+              n.fx += fx[i] + ex[i];
+              n.fy += fy[i] + ey[i];
+              n.ex += ex[i];
+              n.ey += ey[i];
+            }
           }
         }
-      }
     }
   }
 }
@@ -248,9 +282,10 @@ void Solver::update_grid()
 template <int P>
 void Solver::grid_to_particle()
 {
+  constexpr int K = (P + 1) * (P + 1);
   const BSpline1D& bx = _grid.basis(0);
   const BSpline1D& by = _grid.basis(1);
-  const int ncy = by.cells();
+  const int ncx = bx.cells(), ncy = by.cells();
   const auto n = static_cast<std::ptrdiff_t>(_particles.size());
   const double dt = _dt;
   double* x = _particles.x.data();
@@ -260,47 +295,66 @@ void Solver::grid_to_particle()
   double* stress = _particles.stress.data();
   const std::int32_t* material = _particles.material.data();
 
+  // Cell by cell: the K nodes of a cell are read once for all its particles.
   std::ptrdiff_t bad = n;
 #pragma omp parallel for schedule(static) reduction(min : bad)
-  for (std::ptrdiff_t p = 0; p < n; ++p)
-  {
-    const int cx = _cell[p] / ncy, cy = _cell[p] % ncy;
-    double Nx[P + 1], dNx[P + 1], Ny[P + 1], dNy[P + 1];
-    bx.evaluate<P>(cx, x[2 * p], Nx, dNx);
-    by.evaluate<P>(cy, x[2 * p + 1], Ny, dNy);
-    double vx = 0, vy = 0, ax = 0, ay = 0, Lxx = 0, Lxy = 0, Lyx = 0, Lyy = 0;
-    for (int a = 0; a <= P; ++a)
+  for (int cx = 0; cx < ncx; ++cx)
+    for (int cy = 0; cy < ncy; ++cy)
     {
-      const NodeKinematics* node = &_kinematics[_grid.active_index(cx + a, cy)];
-      for (int b = 0; b <= P; ++b)
+      const std::size_t cell = static_cast<std::size_t>(cx) * ncy + cy;
+      const std::int64_t begin = _cell_start[cell], end = _cell_start[cell + 1];
+      if (begin == end)
+        continue;
+      double nvx[K], nvy[K], nax[K], nay[K];
+      for (int a = 0; a <= P; ++a)
       {
-        const double w = Nx[a] * Ny[b];
-        const double gx = dNx[a] * Ny[b], gy = Nx[a] * dNy[b];
-        const NodeKinematics& k = node[b];
-        vx += w * k.vx;
-        vy += w * k.vy;
-        ax += w * k.ax;
-        ay += w * k.ay;
-        Lxx += k.vx * gx; // velocity gradient, L_ij = dv_i/dx_j
-        Lxy += k.vx * gy;
-        Lyx += k.vy * gx;
-        Lyy += k.vy * gy;
+        const NodeKinematics* node = &_kinematics[_grid.active_index(cx + a, cy)];
+        for (int b = 0; b <= P; ++b)
+        {
+          const int i = a * (P + 1) + b;
+          nvx[i] = node[b].vx;
+          nvy[i] = node[b].vy;
+          nax[i] = node[b].ax;
+          nay[i] = node[b].ay;
+        }
+      }
+      for (std::int64_t k = begin; k < end; ++k)
+      {
+        const std::size_t p = _order[k];
+        double Nx[P + 1], dNx[P + 1], Ny[P + 1], dNy[P + 1];
+        bx.evaluate<P>(cx, x[2 * p], Nx, dNx);
+        by.evaluate<P>(cy, x[2 * p + 1], Ny, dNy);
+        double vx = 0, vy = 0, ax = 0, ay = 0, Lxx = 0, Lxy = 0, Lyx = 0, Lyy = 0;
+        for (int a = 0; a <= P; ++a)
+          for (int b = 0; b <= P; ++b)
+          {
+            const int i = a * (P + 1) + b;
+            const double w = Nx[a] * Ny[b];
+            const double gx = dNx[a] * Ny[b], gy = Nx[a] * dNy[b];
+            vx += w * nvx[i];
+            vy += w * nvy[i];
+            ax += w * nax[i];
+            ay += w * nay[i];
+            Lxx += nvx[i] * gx; // velocity gradient, L_ij = dv_i/dx_j
+            Lxy += nvx[i] * gy;
+            Lyx += nvy[i] * gx;
+            Lyy += nvy[i] * gy;
+          }
+        v[2 * p] += dt * ax; // eq. 80
+        v[2 * p + 1] += dt * ay;
+        x[2 * p] += dt * vx; // eq. 82
+        x[2 * p + 1] += dt * vy;
+        // Strain increment, eq. 78; volume follows det(I + dt L).
+        double* eps = &strain[3 * p];
+        eps[0] += dt * Lxx;
+        eps[1] += dt * Lyy;
+        eps[2] += 0.5 * dt * (Lxy + Lyx);
+        volume[p] *= (1.0 + dt * Lxx) * (1.0 + dt * Lyy) - dt * dt * Lxy * Lyx;
+        _materials[material[p]].stress(eps, &stress[4 * p]); // eq. 16, g(c) = 1
+        if (!std::isfinite(x[2 * p] + x[2 * p + 1] + v[2 * p] + v[2 * p + 1]))
+          bad = std::min(bad, static_cast<std::ptrdiff_t>(p));
       }
     }
-    v[2 * p] += dt * ax; // eq. 80
-    v[2 * p + 1] += dt * ay;
-    x[2 * p] += dt * vx; // eq. 82
-    x[2 * p + 1] += dt * vy;
-    // Strain increment, eq. 78; volume follows det(I + dt L).
-    double* eps = &strain[3 * p];
-    eps[0] += dt * Lxx;
-    eps[1] += dt * Lyy;
-    eps[2] += 0.5 * dt * (Lxy + Lyx);
-    volume[p] *= (1.0 + dt * Lxx) * (1.0 + dt * Lyy) - dt * dt * Lxy * Lyx;
-    _materials[material[p]].stress(eps, &stress[4 * p]); // eq. 16, g(c) = 1
-    if (!std::isfinite(x[2 * p] + x[2 * p + 1] + v[2 * p] + v[2 * p + 1]))
-      bad = std::min(bad, p);
-  }
   if (bad < n)
     throw SimulationError("velocity or position of " + where(bad) + " is not finite");
 }
@@ -329,8 +383,15 @@ Energies Solver::energies() const
   return e;
 }
 
+bool Solver::has_external_force() const
+{
+  return std::any_of(_particles.fext.begin(), _particles.fext.end(),
+                     [](double f) { return f != 0.0; });
+}
+
 std::vector<std::array<double, 4>> Solver::nodal_mass_momentum()
 {
+  _external = has_external_force();
   sort_particles();
   _grid.activate(_cell_start);
   with_degree(_grid.degree(), [this](auto P) { particle_to_grid<decltype(P)::value>(); });

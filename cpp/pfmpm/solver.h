@@ -71,10 +71,13 @@ private:
   void sort_particles();
   template <int P>
   void particle_to_grid();
+  template <int P, bool External>
+  void particle_to_grid();
   void update_grid();
   template <int P>
   void grid_to_particle();
   std::string where(std::size_t particle) const;
+  bool has_external_force() const;
 
   /// P2G accumulators of one active node.
   struct NodeSums
@@ -97,6 +100,7 @@ private:
   std::int64_t _step = 0;
   double _external_work = 0.0;
   double _mass_tol;
+  bool _external = false; // some particle carries an external force
 
   std::vector<std::int32_t> _cell;        // per particle: cell key
   std::vector<std::int32_t> _order;       // particles sorted by cell, stable

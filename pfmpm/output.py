@@ -1,0 +1,133 @@
+"""Run output: particle time series (VTU files with a PVD index) and CSV logs.
+
+The VTU files are VTK XML unstructured grids of vertex cells with base64
+binary data, readable by ParaView and meshio.
+"""
+
+from __future__ import annotations
+
+import base64
+import csv
+from pathlib import Path
+
+import numpy as np
+
+_VTK_TYPES = {np.dtype("float64"): "Float64", np.dtype("int32"): "Int32", np.dtype("int64"): "Int64"}
+
+
+def _data_array(name: str, values: np.ndarray) -> str:
+    values = np.ascontiguousarray(values)
+    ncomp = 1 if values.ndim == 1 else values.shape[1]
+    raw = values.tobytes()
+    payload = base64.b64encode(np.uint64(len(raw)).tobytes() + raw).decode("ascii")
+    return (
+        f'<DataArray type="{_VTK_TYPES[values.dtype]}" Name="{name}" '
+        f'NumberOfComponents="{ncomp}" format="binary">{payload}</DataArray>'
+    )
+
+
+def write_vtu(path: Path, points: np.ndarray, point_data: dict[str, np.ndarray]) -> None:
+    """Write 2D points as VTK vertices with point data.
+
+    Parameters
+    ----------
+    path : Path
+        File to write.
+    points : (N, 2) ndarray
+        Coordinates (z = 0 is added).
+    point_data : dict of name -> (N,) or (N, k) ndarray
+        Fields; 2-component vectors are padded to 3 so ParaView shows them as vectors.
+    """
+    n = len(points)
+    xyz = np.zeros((n, 3))
+    xyz[:, :2] = points
+    arrays = []
+    for name, values in point_data.items():
+        if values.ndim == 2 and values.shape[1] == 2:
+            padded = np.zeros((n, 3), dtype=values.dtype)
+            padded[:, :2] = values
+            values = padded
+        arrays.append(_data_array(name, values))
+    cells = np.arange(n, dtype=np.int64)
+    text = "\n".join(
+        [
+            '<?xml version="1.0"?>',
+            '<VTKFile type="UnstructuredGrid" version="1.0" byte_order="LittleEndian" header_type="UInt64">',
+            "<UnstructuredGrid>",
+            f'<Piece NumberOfPoints="{n}" NumberOfCells="{n}">',
+            "<PointData>",
+            *arrays,
+            "</PointData>",
+            "<Points>",
+            _data_array("Points", xyz),
+            "</Points>",
+            "<Cells>",
+            _data_array("connectivity", cells),
+            _data_array("offsets", cells + 1),
+            _data_array("types", np.ones(n, dtype=np.int32)),  # VTK_VERTEX
+            "</Cells>",
+            "</Piece>",
+            "</UnstructuredGrid>",
+            "</VTKFile>",
+        ]
+    )
+    tmp = path.with_suffix(".tmp")
+    tmp.write_text(text)
+    tmp.replace(path)
+
+
+class ParticleSeries:
+    """Particle snapshots ``particles_NNNNNN.vtu`` with a ``particles.pvd`` index.
+
+    The index is rewritten after every snapshot, so an interrupted run leaves
+    a valid series of the snapshots written so far.
+    """
+
+    def __init__(self, directory: Path):
+        self.directory = Path(directory)
+        self.directory.mkdir(parents=True, exist_ok=True)
+        self._entries: list[tuple[float, str]] = []
+
+    def write(self, step: int, time: float, points: np.ndarray, point_data: dict[str, np.ndarray]) -> Path:
+        name = f"particles_{step:06d}.vtu"
+        write_vtu(self.directory / name, points, point_data)
+        self._entries.append((time, name))
+        lines = ['<?xml version="1.0"?>', '<VTKFile type="Collection" version="0.1">', "<Collection>"]
+        lines += [f'<DataSet timestep="{t!r}" part="0" file="{f}"/>' for t, f in self._entries]
+        lines += ["</Collection>", "</VTKFile>"]
+        index = self.directory / "particles.pvd"
+        tmp = index.with_suffix(".tmp")
+        tmp.write_text("\n".join(lines) + "\n")
+        tmp.replace(index)
+        return self.directory / name
+
+
+class CsvLog:
+    """A CSV file written row by row and flushed after each row."""
+
+    def __init__(self, path: Path, columns: list[str]):
+        self.columns = list(columns)
+        self._file = open(path, "w", newline="")
+        self._writer = csv.writer(self._file)
+        self._writer.writerow(self.columns)
+        self._file.flush()
+
+    def write(self, row: dict[str, float]) -> None:
+        self._writer.writerow([_cell(row[c]) for c in self.columns])
+        self._file.flush()
+
+    def close(self) -> None:
+        self._file.close()
+
+
+def _cell(value) -> str:
+    """Integers as integers, floats with every digit (repr round-trips)."""
+    return str(value) if isinstance(value, int) else repr(float(value))
+
+
+def read_csv(path: Path) -> dict[str, np.ndarray]:
+    """Read a CSV log written by :class:`CsvLog` as columns."""
+    with open(path, newline="") as f:
+        rows = list(csv.reader(f))
+    header, body = rows[0], np.array(rows[1:], dtype=float).reshape(-1, len(rows[0]))
+    return {name: body[:, k] for k, name in enumerate(header)}

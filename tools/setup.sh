@@ -1,0 +1,28 @@
+#!/usr/bin/env bash
+# Install pfmpm's Debian packages (if missing) and build pfmpm into ./.venv.
+# Idempotent; used by tools/main.sh and tools/test.sh.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+packages=(
+  cmake g++ make libeigen3-dev pybind11-dev python3-pybind11 libgtest-dev
+  python3-venv python3-pip python3-setuptools python3-wheel
+  python3-numpy python3-scipy python3-matplotlib python3-tqdm python3-h5py
+  python3-meshio python3-pytest python3-pytest-xdist python3-hypothesis
+)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if ((${#missing[@]})); then
+  echo "installing Debian packages: ${missing[*]}"
+  sudo=""
+  [ "$(id -u)" -eq 0 ] || sudo="sudo"
+  $sudo apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
+fi
+
+# Debian's interpreter has DOLFINx and the numeric stack; the venv sees them.
+[ -x .venv/bin/python ] || /usr/bin/python3 -m venv --system-site-packages .venv
+echo "building pfmpm into .venv"
+.venv/bin/python -m pip install --quiet --no-build-isolation --no-deps --no-index .
