@@ -83,7 +83,8 @@ std::string Solver::where(std::size_t i) const
 {
   std::ostringstream s;
   s << "particle " << i << " (body " << _particles.body[i] << ") at x = (" << _particles.x[2 * i]
-    << ", " << _particles.x[2 * i + 1] << ") in step " << _step << " (t = " << _time << ")";
+    << ", " << _particles.x[2 * i + 1] << ") during the step after step " << _step
+    << " (t = " << _time << ")";
   return s.str();
 }
 
