@@ -37,7 +37,7 @@ def test_run_writes_energies_particles_and_summary(tmp_path):
     for column in ("t", "kinetic", "elastic", "external_work", "momentum_x", "momentum_y"):
         assert column in e
     assert e["t"][0] == 0.0 and e["t"][-1] == pytest.approx(summary["t_end"])
-    assert e["kinetic"][0] == pytest.approx(0.5 * 450 * (1 / 9) * 0.1**2)  # 0.5 M v0^2
+    assert e["kinetic"][0] == 0.0 and e["external_work"][-1] > 0.0
 
     # The PVD index lists every snapshot; each VTU reads back with meshio.
     entries = ET.parse(out / "particles.pvd").getroot().findall(".//DataSet")

@@ -5,6 +5,7 @@ rho = 1, so the bar speed is 10).
 """
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -24,6 +25,7 @@ from pfmpm.scene import (
     wave_speed,
 )
 
+DEMOS = Path(__file__).resolve().parents[1] / "demos"
 SOFT = Material(name="soft", E=100.0, nu=0.0, density=1.0)
 
 
@@ -122,6 +124,25 @@ def test_p_wave_arrives_on_time():
     # Behind the front (before the reflection from x = 40 returns at t = 5.7)
     # the particles move at sigma / (rho c_p).
     assert v[t > 2.8].mean() == pytest.approx(v_star, rel=0.01)
+
+
+def test_demo_bar_under_traction_step():
+    # demos/vibrating_bar.toml: traction sigma on the free end of a fixed-free
+    # bar. The tip oscillates between 0 and 2 sigma L / E, so the traction's
+    # work peaks at sigma * height * 2 sigma L / E = 0.01, and kinetic +
+    # elastic energy follows that work.
+    scene = Scene.from_toml(DEMOS / "vibrating_bar.toml", overrides=["time.end=20.0"])
+    sim = Simulation(scene)
+    work, balance = [], []
+    while sim.step < scene.steps():
+        sim.advance(1)
+        e = sim.energies()
+        work.append(e["external_work"])
+        balance.append(e["total"])
+    sigma, height, L, E = 0.1, 2.0, 25.0, 100.0
+    peak = sigma * height * 2 * sigma * L / E
+    assert max(work) == pytest.approx(peak, rel=0.05)
+    assert np.max(np.abs(balance)) < 0.04 * peak
 
 
 def free_disk(**body):

@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Set up, then run the main job: a vibrating elastic bar, with energy plot.
+# Set up, then run the main job: a fixed-free bar under a traction step, with
+# its energy plot (the PF-MPM vs PF-FEM Borden comparison replaces it later).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash tools/setup.sh
