@@ -7,6 +7,8 @@ import json
 import sys
 from pathlib import Path
 
+from .bench import PHYSICS
+
 
 def _run(args: argparse.Namespace) -> int:
     from .scene import Scene
@@ -53,7 +55,7 @@ def main(argv: list[str] | None = None) -> int:
     run.set_defaults(func=_run)
 
     bench = sub.add_parser("bench", help="time the core step on a synthetic block")
-    bench.add_argument("--physics", default="elastic", choices=["elastic"])
+    bench.add_argument("--physics", default="elastic", choices=PHYSICS)
     bench.add_argument("--particles", type=int, default=1_000_000)
     bench.add_argument("--steps", type=int, default=20)
     bench.add_argument("--repeats", type=int, default=3)

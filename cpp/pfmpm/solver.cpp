@@ -68,11 +68,17 @@ void Solver::advance(std::int64_t steps)
 }
 
 template <int P>
-void Solver::step()
+void Solver::map_to_grid()
 {
   sort_particles();
   _grid.activate(_cell_start);
   particle_to_grid<P>();
+}
+
+template <int P>
+void Solver::step()
+{
+  map_to_grid<P>();
   update_grid();
   grid_to_particle<P>();
   _time += _dt;
@@ -393,9 +399,7 @@ bool Solver::has_external_force() const
 std::vector<std::array<double, 4>> Solver::nodal_mass_momentum()
 {
   _external = has_external_force();
-  sort_particles();
-  _grid.activate(_cell_start);
-  with_degree(_grid.degree(), [this](auto P) { particle_to_grid<decltype(P)::value>(); });
+  with_degree(_grid.degree(), [this](auto P) { map_to_grid<decltype(P)::value>(); });
   std::vector<std::array<double, 4>> out(_sums.size());
   for (std::size_t a = 0; a < _sums.size(); ++a)
     out[a] = {static_cast<double>(_grid.active_nodes()[a]), _sums[a].m, _sums[a].px, _sums[a].py};

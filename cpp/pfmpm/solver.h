@@ -68,6 +68,9 @@ public:
 private:
   template <int P>
   void step();
+  /// Sort, activate nodes and P2G: the grid state at the start of a step.
+  template <int P>
+  void map_to_grid();
   void sort_particles();
   template <int P>
   void particle_to_grid();
