@@ -7,12 +7,15 @@
 #include "pfmpm/grid.h"
 #include "pfmpm/material.h"
 #include "pfmpm/particles.h"
+#include "pfmpm/phasefield.h"
 #include "pfmpm/solver.h"
 
 #include <omp.h>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
+
+#include <optional>
 
 namespace py = pybind11;
 using namespace pfmpm;
@@ -39,6 +42,16 @@ void def_view(py::class_<Particles>& cls, const char* name, std::vector<T> Parti
       name, [member, cols](py::object self)
       { return view(self.cast<Particles&>().*member, cols, self); },
       doc);
+}
+
+using Strains = py::array_t<double, py::array::c_style | py::array::forcecast>;
+
+/// Number of rows of an (N, 3) strain array; throws on another shape.
+py::ssize_t strain_rows(const Strains& strain)
+{
+  if (strain.ndim() != 2 || strain.shape(1) != 3)
+    throw py::value_error("strain must have shape (N, 3)");
+  return strain.shape(0);
 }
 } // namespace
 
@@ -84,6 +97,10 @@ PYBIND11_MODULE(_core, m)
       .value("top", Side::top);
   py::enum_<Wall>(m, "Wall").value("free", Wall::free).value("fixed", Wall::fixed).value("slip", Wall::slip);
   py::enum_<Plane>(m, "Plane").value("strain", Plane::strain).value("stress", Plane::stress);
+  py::enum_<Split>(m, "Split")
+      .value("none", Split::none)
+      .value("spectral", Split::spectral)
+      .value("volumetric_deviatoric", Split::volumetric_deviatoric);
 
   py::class_<Grid>(m, "Grid", "Uniform grid with a tensor-product B-spline basis")
       .def(py::init<int, std::array<int, 2>, double, std::array<double, 2>>(), py::arg("degree"),
@@ -111,18 +128,75 @@ PYBIND11_MODULE(_core, m)
   def_view(particles, "phi", &Particles::phi, 1, "material orientation (N,)");
 
   py::class_<LinearElastic>(m, "LinearElastic", "Isotropic linear elasticity")
-      .def(py::init<double, double, double, Plane>(), py::arg("E"), py::arg("nu"),
-           py::arg("density"), py::arg("plane"))
+      .def(py::init<double, double, double, Plane, Split>(), py::arg("E"), py::arg("nu"),
+           py::arg("density"), py::arg("plane"), py::arg("split") = Split::spectral)
       .def_property_readonly("wave_speed", &LinearElastic::wave_speed)
+      .def(
+          "split_energies",
+          [](const LinearElastic& e, const Strains& strain)
+          {
+            const py::ssize_t n = strain_rows(strain);
+            py::array_t<double> plus(n), minus(n);
+            for (py::ssize_t i = 0; i < n; ++i)
+            {
+              double sig[4];
+              e.degraded(strain.data(i, 0), 1.0, sig, plus.mutable_data()[i],
+                         minus.mutable_data()[i]);
+            }
+            return py::make_tuple(plus, minus);
+          },
+          py::arg("strain"), "(psi+, psi-) of eq. 14 for strains (N, 3): xx, yy, xy")
+      .def(
+          "stresses",
+          [](const LinearElastic& e, const Strains& strain,
+             py::array_t<double, py::array::c_style | py::array::forcecast> g)
+          {
+            const py::ssize_t n = strain_rows(strain);
+            if (g.ndim() != 1 || g.shape(0) != n)
+              throw py::value_error("g must have shape (N,) matching strain");
+            py::array_t<double> sig({n, py::ssize_t(4)});
+            for (py::ssize_t i = 0; i < n; ++i)
+            {
+              double plus, minus;
+              e.degraded(strain.data(i, 0), g.data()[i], sig.mutable_data(i, 0), plus, minus);
+            }
+            return sig;
+          },
+          py::arg("strain"), py::arg("g"),
+          "stresses (N, 4): xx, yy, xy, zz of g psi+ + psi- (eqs. 14, 16)")
       .def_property_readonly("lame", [](const LinearElastic& e)
                              { return std::make_pair(e.lambda(), e.mu()); });
 
-  py::class_<Solver>(m, "Solver", "Explicit MPM stepping (Algorithm 1)")
-      .def(py::init<Grid&, Particles&, std::vector<LinearElastic>, double>(), py::arg("grid"),
-           py::arg("particles"), py::arg("materials"), py::arg("dt"), py::keep_alive<1, 2>(),
-           py::keep_alive<1, 3>())
+  py::class_<Fracture>(m, "Fracture", "Fracture parameters of a material that can crack")
+      .def(py::init([](double Gc, double l0, double k_f) { return Fracture{Gc, l0, k_f}; }),
+           py::arg("Gc"), py::arg("l0"), py::arg("k_f") = 0.0)
+      .def_readonly("Gc", &Fracture::Gc)
+      .def_readonly("l0", &Fracture::l0)
+      .def_readonly("k_f", &Fracture::k_f);
+
+  py::class_<Solver>(m, "Solver", "Explicit MPM stepping with a staggered phase field (Algorithm 1)")
+      .def(py::init<Grid&, Particles&, std::vector<LinearElastic>, double,
+                    std::vector<std::optional<Fracture>>, double, int>(),
+           py::arg("grid"), py::arg("particles"), py::arg("materials"), py::arg("dt"),
+           py::arg("fracture") = std::vector<std::optional<Fracture>>{}, py::arg("tol") = 1e-6,
+           py::arg("max_iterations") = 1000, py::keep_alive<1, 2>(), py::keep_alive<1, 3>())
       .def("advance", &Solver::advance, py::arg("steps"),
            py::call_guard<py::gil_scoped_release>())
+      .def("prepare", [](Solver& s) { s.prepare(); }, py::call_guard<py::gil_scoped_release>(),
+           "sort, activate and solve the phase field for the current state")
+      .def("phase_field_stats",
+           [](const Solver& s)
+           {
+             const PhaseFieldStats& st = s.phase_field().stats();
+             py::dict d;
+             d["solves"] = st.solves;
+             d["iterations"] = st.iterations;
+             d["last_iterations"] = st.last_iterations;
+             d["start_residual"] = st.start_residual;
+             d["last_residual"] = st.last_residual;
+             d["unknowns"] = st.unknowns;
+             return d;
+           })
       .def_property_readonly("dt", &Solver::dt)
       .def_property_readonly("time", &Solver::time)
       .def_property_readonly("step_count", &Solver::step_count)
@@ -133,6 +207,7 @@ PYBIND11_MODULE(_core, m)
              py::dict d;
              d["kinetic"] = e.kinetic;
              d["elastic"] = e.elastic;
+             d["fracture"] = e.fracture;
              d["external_work"] = e.external_work;
              d["momentum_x"] = e.momentum[0];
              d["momentum_y"] = e.momentum[1];

@@ -34,6 +34,7 @@ __all__ = [
     "Time",
     "Output",
     "Material",
+    "Fracture",
     "Shape",
     "Rectangle",
     "Disk",
@@ -43,14 +44,18 @@ __all__ = [
     "Traction",
     "BodyForce",
     "Wall",
+    "Crack",
+    "PhaseField",
     "Scene",
     "apply_overrides",
     "wave_speed",
+    "rayleigh_speed",
 ]
 
 PLANES = ("strain", "stress")
 DEGREES = (1, 2, 3)
 MODELS = ("linear_elastic",)
+SPLITS = ("spectral", "volumetric_deviatoric", "none")
 EDGES = ("top", "bottom", "left", "right")
 SIDES = ("left", "right", "bottom", "top")
 WALL_TYPES = ("fixed", "slip")
@@ -308,17 +313,62 @@ class Output:
         Write an ``energies.csv`` row every ``energies_every`` steps.
     particles : bool
         Whether to write the particle time series at all.
+    snapshots : sequence of float
+        Times at which to draw the phase field (``phase_field.png``); the
+        nearest output step is used.
+    crack_threshold : float
+        A particle belongs to a crack when its phase field is below this, in
+        ``(0, 1)``; it sets where the crack tip is.
+    crack_speed_samples : int
+        ``energies.csv`` rows in the least-squares fit that smooths the
+        crack-tip speed, at least 2.
     """
 
     every: int = 100
     energies_every: int = 10
     particles: bool = True
+    snapshots: tuple[float, ...] = ()
+    crack_threshold: float = 0.2
+    crack_speed_samples: int = 9
 
     def __post_init__(self):
         _set(self, "every", _integer("every", self.every, ge=1))
         _set(self, "energies_every", _integer("energies_every", self.energies_every, ge=1))
         if not isinstance(self.particles, bool):
             raise SceneError("particles", "must be true or false", self.particles)
+        times = _seq("snapshots", self.snapshots, "times")
+        _set(self, "snapshots", tuple(_real(f"snapshots[{i}]", t, ge=0) for i, t in enumerate(times)))
+        _set(self, "crack_threshold", _real("crack_threshold", self.crack_threshold, gt=0, lt=1))
+        _set(self, "crack_speed_samples", _integer("crack_speed_samples", self.crack_speed_samples, ge=2))
+
+
+@dataclass(frozen=True)
+class Fracture:
+    """Phase-field fracture parameters (AT2, eqs. 4, 14-15).
+
+    Parameters
+    ----------
+    Gc : float
+        Critical energy release rate, > 0.
+    l0 : float
+        Length scale, > 0; the scene requires at least the grid spacing.
+    k_f : float
+        Residual stiffness in ``[0, 1)``: ``g(c) = (1 - k_f) c^2 + k_f``.
+    split : str
+        Which energy cracking degrades: ``"spectral"`` (Miehe, eq. 14),
+        ``"volumetric_deviatoric"`` (Amor) or ``"none"``.
+    """
+
+    Gc: float
+    l0: float
+    k_f: float = 0.0
+    split: str = "spectral"
+
+    def __post_init__(self):
+        _set(self, "Gc", _real("Gc", self.Gc, gt=0))
+        _set(self, "l0", _real("l0", self.l0, gt=0))
+        _set(self, "k_f", _real("k_f", self.k_f, ge=0, lt=1))
+        _set(self, "split", _choice("split", self.split, SPLITS))
 
 
 @dataclass(frozen=True)
@@ -337,6 +387,9 @@ class Material:
         Mass density, > 0.
     model : str
         Constitutive model; only ``"linear_elastic"`` for now.
+    fracture : Fracture or None
+        Phase-field parameters; ``None``: the material cannot crack, and its
+        particles take no part in the phase-field solve.
     """
 
     name: str
@@ -344,6 +397,7 @@ class Material:
     nu: float
     density: float
     model: str = "linear_elastic"
+    fracture: Fracture | None = None
 
     def __post_init__(self):
         _set(self, "name", _text("name", self.name))
@@ -351,6 +405,8 @@ class Material:
         _set(self, "nu", _real("nu", self.nu, gt=-1, lt=0.5))
         _set(self, "density", _real("density", self.density, gt=0))
         _set(self, "model", _choice("model", self.model, MODELS))
+        if self.fracture is not None and not isinstance(self.fracture, Fracture):
+            raise SceneError("fracture", "must be a Fracture table", self.fracture)
 
 
 class Shape:
@@ -634,6 +690,70 @@ class Wall:
         _set(self, "type", _choice("type", self.type, WALL_TYPES))
 
 
+@dataclass(frozen=True)
+class Crack:
+    """An initial crack, imposed as an initial history field (Borden et al. 2012).
+
+    Particles within ``half_width`` of the polyline get
+    ``H0 = B G_c / (4 l0) (1 - d / half_width)`` at distance ``d``; with the
+    default ``half_width = l0 / 2`` this is Borden's formula.
+
+    Parameters
+    ----------
+    points : sequence of (float, float)
+        Polyline vertices, at least two.
+    body : str or None
+        Body whose particles get the history; ``None``: every body that can crack.
+    B : float
+        Strength of the imposed history, > 0 (large: ``c`` near 0 on the line).
+    half_width : float or None
+        Half width of the band, > 0; ``None`` means ``l0 / 2``.
+    """
+
+    points: tuple[tuple[float, float], ...]
+    body: str | None = None
+    B: float = 1e3
+    half_width: float | None = None
+
+    def __post_init__(self):
+        points = _seq("points", self.points, "points")
+        if len(points) < 2:
+            raise SceneError("points", "needs at least two points", self.points)
+        _set(self, "points", tuple(_vec2(f"points[{i}]", p) for i, p in enumerate(points)))
+        if self.body is not None:
+            _set(self, "body", _text("body", self.body))
+        _set(self, "B", _real("B", self.B, gt=0))
+        if self.half_width is not None:
+            _set(self, "half_width", _real("half_width", self.half_width, gt=0))
+
+
+@dataclass(frozen=True)
+class PhaseField:
+    """Phase-field solver settings.
+
+    Parameters
+    ----------
+    tol : float
+        Tolerance tol_c of the phase-field solve, relative to ``||F||``
+        (eq. 52), in ``(0, 1)``.
+    max_iterations : int
+        Conjugate-gradient iterations allowed per step; the run stops with
+        an error when they do not reach ``tol``.
+    """
+
+    tol: float = 1e-6
+    max_iterations: int = 1000
+
+    def __post_init__(self):
+        _set(self, "tol", _real("tol", self.tol, gt=0, lt=1))
+        _set(self, "max_iterations", _integer("max_iterations", self.max_iterations, ge=1))
+
+
+def rayleigh_speed(E: float, nu: float, rho: float) -> float:
+    """Rayleigh wave speed from Viktorov's approximation ``c_s (0.862 + 1.14 nu) / (1 + nu)``."""
+    return math.sqrt(E / (2 * (1 + nu) * rho)) * (0.862 + 1.14 * nu) / (1 + nu)
+
+
 def wave_speed(E: float, nu: float, rho: float, plane: str) -> float:
     """P-wave speed of a linear elastic material in 2D.
 
@@ -686,6 +806,10 @@ class Scene:
     walls : sequence of Wall
         At most one per grid side.
     output : Output
+    cracks : sequence of Crack
+        Initial cracks, on bodies whose material can crack.
+    phase_field : PhaseField
+        Phase-field solver settings (used when some material can crack).
 
     Raises
     ------
@@ -704,6 +828,8 @@ class Scene:
     loads: tuple[Traction | BodyForce, ...] = ()
     walls: tuple[Wall, ...] = ()
     output: Output = field(default_factory=Output)
+    cracks: tuple[Crack, ...] = ()
+    phase_field: PhaseField = field(default_factory=PhaseField)
 
     def __post_init__(self):
         self.validate()
@@ -722,13 +848,15 @@ class Scene:
         _set(self, "description", _text("description", self.description, empty=True))
         _set(self, "plane", _choice("plane", self.plane, PLANES))
         _set(self, "thickness", _real("thickness", self.thickness, gt=0))
-        for key, cls in (("grid", Grid), ("time", Time), ("output", Output)):
+        for key, cls in (("grid", Grid), ("time", Time), ("output", Output),
+                         ("phase_field", PhaseField)):
             if not isinstance(getattr(self, key), cls):
                 raise SceneError(key, f"must be a {cls.__name__}", getattr(self, key))
         _set(self, "materials", self._items("materials", (Material,), required=True))
         _set(self, "bodies", self._items("bodies", (Body,), required=True))
         _set(self, "loads", self._items("loads", (Traction, BodyForce)))
         _set(self, "walls", self._items("walls", (Wall,)))
+        _set(self, "cracks", self._items("cracks", (Crack,)))
         materials = self._unique("materials", "name", "duplicate name")
         bodies = self._unique("bodies", "name", "duplicate name")
         self._unique("walls", "side", "duplicate wall on this side")
@@ -740,6 +868,7 @@ class Scene:
         for i, body in enumerate(self.bodies):
             with _at(f"bodies[{i}]"):
                 self._check_particles(body)
+        self._check_fracture(bodies)
         self._check_time()
 
     def _items(self, key: str, classes: tuple[type, ...], required: bool = False) -> tuple:
@@ -793,6 +922,29 @@ class Scene:
         if not any(len(p) for p in _lattice(body, grid, inner_i, inner_j)):
             raise SceneError("", f"has no particles (no sub-cell centre of the {n} x {n}"
                                  f" lattice per cell of h = {h:g} lies in its shape minus holes)")
+
+    def _check_fracture(self, bodies: Mapping[str, int]) -> None:
+        """Check that l0 is resolved by the grid and cracks lie on crackable bodies."""
+        h = self.grid.h
+        for i, material in enumerate(self.materials):
+            if material.fracture is not None and material.fracture.l0 < h:
+                raise SceneError(f"materials[{i}].fracture.l0",
+                                 f"smaller than the grid spacing h = {h:g}, which cannot resolve"
+                                 " the phase-field profile (use l0 >= h; the paper uses l0 = 2 h)",
+                                 material.fracture.l0)
+        crackable = [b.name for b in self.bodies if self.fracture_of(b) is not None]
+        for i, crack in enumerate(self.cracks):
+            if crack.body is not None:
+                _reference(f"cracks[{i}].body", crack.body, bodies, "body")
+                if crack.body not in crackable:
+                    raise SceneError(f"cracks[{i}].body", "its material has no fracture table",
+                                     crack.body)
+            elif not crackable:
+                raise SceneError(f"cracks[{i}]", "no body's material has a fracture table")
+
+    def fracture_of(self, body: Body) -> Fracture | None:
+        """The fracture parameters of a body's material, or ``None``."""
+        return next(m.fracture for m in self.materials if m.name == body.material)
 
     def _check_time(self) -> None:
         """Check the stability limit, a fixed dt against it, and the step count."""
@@ -953,10 +1105,13 @@ class Scene:
             "grid": lambda t: _build(Grid, t),
             "time": lambda t: _build(Time, t),
             "output": lambda t: _build(Output, t),
-            "materials": lambda v: _tables(v, lambda t: _build(Material, t)),
+            "materials": lambda v: _tables(v, lambda t: _build(
+                Material, t, {"fracture": lambda f: _build(Fracture, f)})),
             "bodies": lambda v: _tables(v, _body_from_dict),
             "loads": lambda v: _tables(v, lambda t: _typed(t, LOADS)),
             "walls": lambda v: _tables(v, lambda t: _build(Wall, t)),
+            "cracks": lambda v: _tables(v, lambda t: _build(Crack, t)),
+            "phase_field": lambda t: _build(PhaseField, t),
         })
 
     @classmethod

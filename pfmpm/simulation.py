@@ -11,10 +11,15 @@ from pathlib import Path
 import numpy as np
 
 from . import _core
+from .crack import CrackTip, initial_history
 from .output import CsvLog, ParticleSeries
 from .scene import Scene
 
-ENERGY_COLUMNS = ["step", "t", "kinetic", "elastic", "external_work", "total", "momentum_x", "momentum_y"]
+ENERGY_COLUMNS = ["step", "t", "kinetic", "elastic", "fracture", "external_work", "total",
+                  "momentum_x", "momentum_y"]
+"""Columns of ``energies.csv``; ``total = kinetic + elastic + fracture - external_work``."""
+CRACK_COLUMNS = ["crack_tip_x", "crack_tip_y", "crack_tip_speed"]
+"""Extra ``energies.csv`` columns of scenes with an initial crack (see :class:`~pfmpm.crack.CrackTip`)."""
 
 
 class Simulation:
@@ -27,6 +32,8 @@ class Simulation:
     particles : pfmpm._core.Particles
         Particle arrays as zero-copy numpy views (``x``, ``v``, ``stress``, ...).
     solver : pfmpm._core.Solver
+    crack_tip : CrackTip or None
+        Tracks the tip of the first initial crack, if any.
     """
 
     def __init__(self, scene: Scene):
@@ -40,8 +47,45 @@ class Simulation:
         for name, values in arrays.items():
             getattr(self.particles, name)[...] = values
         plane = _core.Plane.__members__[scene.plane]
-        materials = [_core.LinearElastic(m.E, m.nu, m.density, plane) for m in scene.materials]
-        self.solver = _core.Solver(self.grid, self.particles, materials, scene.dt())
+        materials, fracture = [], []
+        for m in scene.materials:
+            f = m.fracture
+            split = _core.Split.__members__[f.split if f else "none"]
+            materials.append(_core.LinearElastic(m.E, m.nu, m.density, plane, split))
+            fracture.append(_core.Fracture(f.Gc, f.l0, f.k_f) if f else None)
+        self.cracks = any(fracture)
+        self._crackable = np.zeros(len(self.particles), dtype=bool)
+        for b, body in enumerate(scene.bodies):
+            if scene.fracture_of(body) is not None:
+                self._crackable |= self.particles.body == b
+        self._impose_cracks()
+        pf = scene.phase_field
+        self.solver = _core.Solver(self.grid, self.particles, materials, scene.dt(), fracture,
+                                   pf.tol, pf.max_iterations)
+        self.crack_tip = None
+        if scene.cracks:
+            out = scene.output
+            self.crack_tip = CrackTip.for_crack(scene.cracks[0], out.crack_threshold,
+                                                out.crack_speed_samples)
+        if self.cracks:
+            self.solver.prepare()  # the phase field of the initial cracks
+
+    def _impose_cracks(self) -> None:
+        """Set the initial history of every crack on the particles of its bodies."""
+        bodies = {body.name: b for b, body in enumerate(self.scene.bodies)}
+        for crack in self.scene.cracks:
+            names = [crack.body] if crack.body else [
+                body.name for body in self.scene.bodies if self.scene.fracture_of(body)]
+            for name in names:
+                body = self.scene.bodies[bodies[name]]
+                sel = np.flatnonzero(self.particles.body == bodies[name])
+                h0 = initial_history(self.particles.x[sel], crack, self.scene.fracture_of(body))
+                self.particles.history[sel] = np.maximum(self.particles.history[sel], h0)
+
+    @property
+    def columns(self) -> list[str]:
+        """Columns of ``energies.csv`` for this scene."""
+        return ENERGY_COLUMNS + (CRACK_COLUMNS if self.crack_tip else [])
 
     @property
     def time(self) -> float:
@@ -60,20 +104,30 @@ class Simulation:
         e = self.solver.energies()
         e["step"] = self.step
         e["t"] = self.time
-        e["total"] = e["kinetic"] + e["elastic"] - e["external_work"]
+        e["total"] = e["kinetic"] + e["elastic"] + e["fracture"] - e["external_work"]
         return e
+
+    def crack_tip_record(self) -> dict[str, float]:
+        """Record the crack tip now: ``crack_tip_x``, ``crack_tip_y``, ``crack_tip_speed``."""
+        sel = self._crackable
+        x, y, speed = self.crack_tip.update(self.time, self.particles.x[sel], self.particles.c[sel])
+        return {"crack_tip_x": x, "crack_tip_y": y, "crack_tip_speed": speed}
 
     def point_data(self) -> dict[str, np.ndarray]:
         """Particle fields for output; stress as a symmetric tensor (xx, yy, zz, xy, yz, xz)."""
         s = self.particles.stress
         stress = np.zeros((len(s), 6))
         stress[:, [0, 1, 2, 3]] = s[:, [0, 1, 3, 2]]
-        return {
+        data = {
             "velocity": self.particles.v,
             "stress": stress,
             "body": self.particles.body,
             "material": self.particles.material,
         }
+        if self.cracks:
+            data["c"] = self.particles.c
+            data["history"] = self.particles.history
+        return data
 
     def modules(self) -> list[str]:
         """The parts of the method this scene switches on."""
@@ -82,6 +136,10 @@ class Simulation:
             active.append("walls")
         if self.scene.loads:
             active.append("external_loads")
+        if self.cracks:
+            active.append("phase_field")
+        if self.scene.cracks:
+            active.append("initial_cracks")
         return active
 
     def run(self, out_dir: Path | str, progress: bool = True) -> "RunResult":
@@ -99,12 +157,13 @@ class Simulation:
         cfg = self.scene.output
         total = self.scene.steps()
         series = ParticleSeries(out) if cfg.particles else None
-        log = CsvLog(out / "energies.csv", ENERGY_COLUMNS)
+        log = CsvLog(out / "energies.csv", self.columns)
+        snapshots = Snapshots(self.scene) if self.cracks and cfg.snapshots else None
         result = RunResult(out_dir=out, steps_planned=total)
         start = _time.perf_counter()
         bar = tqdm(total=total, disable=not progress, unit="step", desc=self.scene.name)
         try:
-            self._record(log, series, force=True)
+            self._record(log, series, snapshots, force=True)
             while self.step < total:
                 nxt = min(_next_multiple(self.step, cfg.energies_every), total)
                 if series is not None:
@@ -112,7 +171,7 @@ class Simulation:
                 before = self.step
                 self.advance(nxt - before)
                 bar.update(self.step - before)
-                self._record(log, series, force=self.step == total)
+                self._record(log, series, snapshots, force=self.step == total)
             result.status = "completed"
         except KeyboardInterrupt:
             result.status = "interrupted"
@@ -126,17 +185,40 @@ class Simulation:
             result.steps = self.step
             self._write_summary(out / "summary.json", result)
         if result.status == "completed":
-            _plot_energies(out / "energies.csv", out / "energies.png")
+            from . import plots
+
+            plots.energies(out / "energies.csv", out / "energies.png")
+            if self.crack_tip:
+                plots.crack_tip(out / "energies.csv", out / "crack_tip.png",
+                                self._rayleigh_speed())
+        if snapshots is not None and snapshots.images:
+            from . import plots
+
+            plots.phase_field(snapshots, out / "phase_field.png")
         return result
 
-    def _record(self, log: CsvLog, series: ParticleSeries | None, force: bool) -> None:
+    def _rayleigh_speed(self) -> float:
+        """Rayleigh speed of the material of the first crackable body."""
+        from .scene import rayleigh_speed
+
+        body = next(b for b in self.scene.bodies if self.scene.fracture_of(b))
+        m = next(m for m in self.scene.materials if m.name == body.material)
+        return rayleigh_speed(m.E, m.nu, m.density)
+
+    def _record(self, log: CsvLog, series: ParticleSeries | None,
+                snapshots: "Snapshots | None", force: bool) -> None:
         cfg = self.scene.output
         e = self.energies()
         if not all(math.isfinite(v) for v in e.values()):
             bad = [k for k, v in e.items() if not math.isfinite(v)]
             raise _core.SimulationError(f"{', '.join(bad)} not finite at step {self.step} (t = {self.time:g})")
         if force or self.step % cfg.energies_every == 0:
+            if self.crack_tip:
+                e.update(self.crack_tip_record())
             log.write(e)
+        if snapshots is not None:
+            snapshots.take(self.time, self.solver.dt, self.particles.x[self._crackable],
+                           self.particles.c[self._crackable])
         if series is not None and (force or self.step % cfg.every == 0):
             series.write(self.step, self.time, self.particles.x, self.point_data())
 
@@ -156,6 +238,10 @@ class Simulation:
             "modules": self.modules(),
             "grid": {"cells": list(self.scene.grid.cells), "h": self.scene.grid.h, "degree": self.scene.grid.degree},
         }
+        if self.cracks:
+            stats = self.solver.phase_field_stats()
+            stats["mean_iterations"] = stats["iterations"] / max(stats["solves"], 1)
+            summary["phase_field"] = stats
         tmp = path.with_suffix(".tmp")
         tmp.write_text(json.dumps(summary, indent=2) + "\n")
         tmp.replace(path)
@@ -177,21 +263,38 @@ def _next_multiple(step: int, every: int) -> int:
     return (step // every + 1) * every
 
 
-def _plot_energies(csv_path: Path, png_path: Path) -> None:
-    import matplotlib
+class Snapshots:
+    """Phase-field images at the scene's ``output.snapshots`` times.
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    Each image is the mean particle phase field per pixel of side
+    ``h / particles_per_cell``, taken at the first record at or after the
+    requested time (the last record for times past the end).
+    """
 
-    from .output import read_csv
+    def __init__(self, scene: Scene):
+        self.times = sorted(scene.output.snapshots)
+        g = scene.grid
+        self.pixel = g.h / max(b.particles_per_cell for b in scene.bodies)
+        self.origin = np.asarray(g.origin, dtype=float)
+        self.shape = tuple(int(round(s / self.pixel)) for s in g.size)
+        self.images: list[tuple[float, np.ndarray]] = []
+        self._last: tuple[float, np.ndarray, np.ndarray] | None = None
+        self._end = scene.steps() * scene.dt()
 
-    e = read_csv(csv_path)
-    fig, ax = plt.subplots(figsize=(6, 4))
-    for name in ("kinetic", "elastic", "external_work", "total"):
-        ax.plot(e["t"], e[name], label=name.replace("_", " "))
-    ax.set_xlabel("t")
-    ax.set_ylabel("energy")
-    ax.legend()
-    fig.tight_layout()
-    fig.savefig(png_path, dpi=120)
-    plt.close(fig)
+    def take(self, t: float, dt: float, xy: np.ndarray, c: np.ndarray) -> None:
+        """Offer the state at time ``t``; keep an image if a snapshot time is due."""
+        while self.times and (t >= self.times[0] - 0.5 * dt or t >= self._end - 0.5 * dt):
+            self.times.pop(0)
+            self.images.append((t, self.rasterize(xy, c)))
+
+    def rasterize(self, xy: np.ndarray, c: np.ndarray) -> np.ndarray:
+        """Mean of ``c`` per pixel, NaN where no particle lies; shape (ny, nx)."""
+        ij = np.floor((xy - self.origin) / self.pixel).astype(np.int64)
+        nx, ny = self.shape
+        ij[:, 0] = np.clip(ij[:, 0], 0, nx - 1)
+        ij[:, 1] = np.clip(ij[:, 1], 0, ny - 1)
+        key = ij[:, 1] * nx + ij[:, 0]
+        total = np.bincount(key, weights=c, minlength=nx * ny)
+        count = np.bincount(key, minlength=nx * ny)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return (total / count).reshape(ny, nx)

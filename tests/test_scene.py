@@ -349,6 +349,23 @@ BAD = [
     ("bodies.plate.particles_per_cell=5000", "bodies[0]: would need"),
     # time step
     ("time.dt=1.0", "time.dt = 1.0: exceeds the stability limit 0.06"),
+    # fracture
+    ("materials.glass.fracture={Gc=-1.0,l0=1.0}", "materials[0].fracture.Gc = -1.0: must be > 0"),
+    ("materials.glass.fracture={Gc=1.0}", "materials[0].fracture.l0: missing required key"),
+    ("materials.glass.fracture={Gc=1.0,l0=1.0,k_f=1.0}", "materials[0].fracture.k_f = 1.0: must be >= 0 and < 1"),
+    ("materials.glass.fracture={Gc=1.0,l0=1.0,split='miehe'}",
+     "materials[0].fracture.split = 'miehe': must be one of 'spectral'"),
+    ("materials.glass.fracture={Gc=1.0,l0=1.0,gamma=2}", "materials[0].fracture.gamma: unknown key"),
+    ("materials.glass.fracture={Gc=1.0,l0=0.2}",
+     "materials[0].fracture.l0 = 0.2: smaller than the grid spacing h = 0.5"),
+    ("cracks=[{points=[[0,2],[5,2]]}]", "cracks[0]: no body's material has a fracture table"),
+    (_set(("cracks",), [{"points": [[0, 2]]}]), "cracks[0].points"),
+    (_set(("cracks",), [{"points": [[0, 2], [5, 2]], "body": "ghost"}]),
+     "cracks[0].body = 'ghost': no body with that name"),
+    ("phase_field.tol=0", "phase_field.tol = 0: must be > 0"),
+    ("phase_field.max_iterations=0", "phase_field.max_iterations = 0: must be >= 1"),
+    ("output.crack_threshold=1.5", "output.crack_threshold = 1.5: must be > 0 and < 1"),
+    ("output.snapshots=[-1.0]", "output.snapshots[0] = -1.0: must be >= 0"),
 ]
 
 

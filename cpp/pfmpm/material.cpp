@@ -20,8 +20,8 @@ void require(bool ok, const char* name, double value, const char* rule)
 }
 } // namespace
 
-LinearElastic::LinearElastic(double E, double nu, double density, Plane plane)
-    : _E(E), _nu(nu), _density(density), _plane(plane)
+LinearElastic::LinearElastic(double E, double nu, double density, Plane plane, Split split)
+    : _E(E), _nu(nu), _density(density), _plane(plane), _split(split)
 {
   require(std::isfinite(E) && E > 0.0, "E", E, "must be > 0");
   require(std::isfinite(nu) && nu > -1.0 && nu < 0.5, "nu", nu, "must lie in (-1, 0.5)");
@@ -32,11 +32,15 @@ LinearElastic::LinearElastic(double E, double nu, double density, Plane plane)
   {
     _lambda = lambda;
     _zz = lambda;
+    _bulk = lambda + 2.0 * _mu / 3.0;
+    _mean_fraction = 1.0 / 3.0;
   }
   else
   {
     _lambda = 2.0 * _mu * lambda / (lambda + 2.0 * _mu);
     _zz = 0.0;
+    _bulk = _lambda + _mu;
+    _mean_fraction = 0.5;
   }
 }
 

@@ -2,7 +2,8 @@
 /// @brief Constitutive models.
 #pragma once
 
-#include <string>
+#include <algorithm>
+#include <cmath>
 
 namespace pfmpm
 {
@@ -14,11 +15,22 @@ enum class Plane : int
   stress = 1
 };
 
-/// @brief Isotropic linear elasticity in plane strain or plane stress.
+/// How the strain energy splits into a part that cracking degrades and a part
+/// it does not (eq. 14).
+enum class Split : int
+{
+  none = 0,                 ///< psi+ = psi: all energy degrades, also in compression
+  spectral = 1,             ///< Miehe et al. 2010: principal strains, eq. 14
+  volumetric_deviatoric = 2 ///< Amor et al. 2009: compression of volume is kept
+};
+
+/// @brief Isotropic linear elasticity in plane strain or plane stress, with
+/// the degraded energy psi = g psi+ + psi- of eq. 14 and its stress (eq. 16).
 ///
-/// sigma = lambda* tr(eps) I + 2 mu eps (eq. 16 with g(c) = 1), with
-/// lambda* = lambda in plane strain and 2 mu lambda / (lambda + 2 mu) in
-/// plane stress.
+/// Undegraded, sigma = lambda* tr(eps) I + 2 mu eps with lambda* = lambda in
+/// plane strain and 2 mu lambda / (lambda + 2 mu) in plane stress. In plane
+/// strain the split uses the 3D strain (eps_zz = 0); in plane stress it acts
+/// on the in-plane strain with lambda*, the usual 2D treatment.
 class LinearElastic
 {
 public:
@@ -26,19 +38,21 @@ public:
   /// @param nu Poisson ratio (-1 < nu < 0.5).
   /// @param density Mass density (> 0).
   /// @param plane Plane strain or plane stress.
-  LinearElastic(double E, double nu, double density, Plane plane);
+  /// @param split Energy split used when the material can crack.
+  LinearElastic(double E, double nu, double density, Plane plane, Split split = Split::spectral);
 
   double E() const { return _E; }
   double nu() const { return _nu; }
   double density() const { return _density; }
   Plane plane() const { return _plane; }
+  Split split() const { return _split; }
   double lambda() const { return _lambda; } ///< in-plane lambda*
   double mu() const { return _mu; }
 
   /// Dilatational (P) wave speed sqrt((lambda* + 2 mu) / rho).
   double wave_speed() const;
 
-  /// @brief Stress from strain.
+  /// @brief Undegraded stress from strain (eq. 16 with g = 1).
   /// @param eps Strain (xx, yy, xy).
   /// @param[out] sig Stress (xx, yy, xy, zz).
   void stress(const double* eps, double* sig) const
@@ -50,7 +64,7 @@ public:
     sig[3] = _zz * tr;
   }
 
-  /// @brief Strain energy density psi = sigma : eps / 2.
+  /// @brief Undegraded strain energy density psi = sigma : eps / 2.
   double energy_density(const double* eps) const
   {
     const double tr = eps[0] + eps[1];
@@ -58,10 +72,83 @@ public:
            + _mu * (eps[0] * eps[0] + eps[1] * eps[1] + 2.0 * eps[2] * eps[2]);
   }
 
+  /// @brief Split energy (eq. 14) and degraded stress sigma = d(g psi+ + psi-)/d eps (eq. 16).
+  /// @param eps Strain (xx, yy, xy).
+  /// @param g Degradation g(c) (eq. 15).
+  /// @param[out] sig Stress (xx, yy, xy, zz).
+  /// @param[out] psi_plus Tensile energy density psi+ (undegraded).
+  /// @param[out] psi_minus Compressive energy density psi-.
+  void degraded(const double* eps, double g, double* sig, double& psi_plus,
+                double& psi_minus) const
+  {
+    if (_split == Split::spectral)
+      spectral(eps, g, sig, psi_plus, psi_minus);
+    else if (_split == Split::volumetric_deviatoric)
+      volumetric_deviatoric(eps, g, sig, psi_plus, psi_minus);
+    else
+    {
+      stress(eps, sig);
+      for (int k = 0; k < 4; ++k)
+        sig[k] *= g;
+      psi_plus = energy_density(eps);
+      psi_minus = 0.0;
+    }
+  }
+
 private:
+  void spectral(const double* eps, double g, double* sig, double& psi_plus,
+                double& psi_minus) const
+  {
+    // Principal strains l1 >= l2 of the in-plane strain; the out-of-plane
+    // principal strain is zero and adds nothing to either part.
+    const double m = 0.5 * (eps[0] + eps[1]), d = 0.5 * (eps[0] - eps[1]);
+    const double r = std::sqrt(d * d + eps[2] * eps[2]); // strains are small: no overflow
+    const double l1 = m + r, l2 = m - r;
+    const double tr = eps[0] + eps[1];
+    const double trp = std::max(tr, 0.0), trn = tr - trp;
+    const double p1 = std::max(l1, 0.0), p2 = std::max(l2, 0.0);
+    const double n1 = l1 - p1, n2 = l2 - p2;
+    psi_plus = 0.5 * _lambda * trp * trp + _mu * (p1 * p1 + p2 * p2);
+    psi_minus = 0.5 * _lambda * trn * trn + _mu * (n1 * n1 + n2 * n2);
+    // sum_i f(l_i) n_i (x) n_i = (f(l1) + f(l2))/2 I + q (eps - m I) with the
+    // difference quotient q = (f(l1) - f(l2)) / (l1 - l2); for the ramp
+    // f = <.>+ it tends to the step H(m) as r -> 0, and q- = 1 - q+.
+    const double qp = r > 0.0 ? (p1 - p2) / (2.0 * r) : (m > 0.0 ? 1.0 : 0.0);
+    const double qn = 1.0 - qp;
+    const double vol = _lambda * (g * trp + trn);
+    const double iso = 2.0 * _mu * 0.5 * (g * (p1 + p2) + (n1 + n2));
+    const double dev = 2.0 * _mu * (g * qp + qn);
+    sig[0] = vol + iso + dev * d;
+    sig[1] = vol + iso - dev * d;
+    sig[2] = dev * eps[2];
+    sig[3] = _zz * (g * trp + trn);
+  }
+
+  void volumetric_deviatoric(const double* eps, double g, double* sig, double& psi_plus,
+                             double& psi_minus) const
+  {
+    const double tr = eps[0] + eps[1];
+    const double trp = std::max(tr, 0.0), trn = tr - trp;
+    // Deviator of the 3D strain (plane strain) or of the in-plane strain.
+    const double mean = tr * _mean_fraction;
+    const double dxx = eps[0] - mean, dyy = eps[1] - mean;
+    const double dzz = _plane == Plane::strain ? -mean : 0.0;
+    const double dd = dxx * dxx + dyy * dyy + dzz * dzz + 2.0 * eps[2] * eps[2];
+    psi_plus = 0.5 * _bulk * trp * trp + _mu * dd;
+    psi_minus = 0.5 * _bulk * trn * trn;
+    const double vol = _bulk * (g * trp + trn);
+    sig[0] = vol + 2.0 * _mu * g * dxx;
+    sig[1] = vol + 2.0 * _mu * g * dyy;
+    sig[2] = 2.0 * _mu * g * eps[2];
+    sig[3] = _plane == Plane::strain ? vol + 2.0 * _mu * g * dzz : 0.0;
+  }
+
   double _E, _nu, _density;
   Plane _plane;
+  Split _split;
   double _lambda, _mu, _zz; // _zz: sigma_zz per unit in-plane trace
+  double _bulk;             // bulk modulus: 3D in plane strain, 2D in plane stress
+  double _mean_fraction;    // 1/3 (3D trace) or 1/2 (2D trace)
 };
 
 } // namespace pfmpm

@@ -34,10 +34,24 @@ void with_degree(int degree, F&& f)
     f(std::integral_constant<int, 3>{});
   }
 }
+/// Fracture parameters per material: `fracture` itself, or all none when empty.
+std::vector<std::optional<Fracture>> per_material(std::vector<std::optional<Fracture>> fracture,
+                                                  std::size_t materials)
+{
+  if (fracture.empty())
+    fracture.resize(materials);
+  if (fracture.size() != materials)
+    throw std::invalid_argument("fracture: " + std::to_string(fracture.size())
+                                + " entries for " + std::to_string(materials) + " materials");
+  return fracture;
+}
 } // namespace
 
-Solver::Solver(Grid& grid, Particles& particles, std::vector<LinearElastic> materials, double dt)
+Solver::Solver(Grid& grid, Particles& particles, std::vector<LinearElastic> materials, double dt,
+               std::vector<std::optional<Fracture>> fracture, double tol, int max_iterations)
     : _grid(grid), _particles(particles), _materials(std::move(materials)), _dt(dt),
+      _phase_field(grid, per_material(std::move(fracture), _materials.size()), tol,
+                   max_iterations),
       _cell(particles.size()), _order(particles.size()),
       _cell_start(static_cast<std::size_t>(grid.num_cells()) + 1)
 {
@@ -45,6 +59,7 @@ Solver::Solver(Grid& grid, Particles& particles, std::vector<LinearElastic> mate
     throw std::invalid_argument("dt = " + std::to_string(dt) + ": must be > 0");
   if (_materials.empty())
     throw std::invalid_argument("materials: at least one material is needed");
+
   const auto nmat = static_cast<std::int32_t>(_materials.size());
   for (std::size_t i = 0; i < particles.size(); ++i)
     if (particles.material[i] < 0 || particles.material[i] >= nmat)
@@ -67,18 +82,53 @@ void Solver::advance(std::int64_t steps)
     with_degree(_grid.degree(), [this](auto P) { step<decltype(P)::value>(); });
 }
 
+void Solver::prepare()
+{
+  with_degree(_grid.degree(), [this](auto P) { prepare<decltype(P)::value>(); });
+}
+
 template <int P>
-void Solver::map_to_grid()
+void Solver::prepare()
 {
   sort_particles();
   _grid.activate(_cell_start);
-  particle_to_grid<P>();
+  if (!_phase_field.active())
+    return;
+  if (!_phase_field.template solve<P>(_particles, _order, _cell_start))
+  {
+    const PhaseFieldStats& s = _phase_field.stats();
+    std::ostringstream msg;
+    msg << "phase field: conjugate gradients stopped at relative residual " << s.last_residual
+        << " > tol = " << _phase_field.tol() << " after " << s.last_iterations
+        << " iterations, at the start of the step after step " << _step << " (t = " << _time
+        << ")";
+    throw SimulationError(msg.str());
+  }
+  degrade_stresses();
+}
+
+void Solver::degrade_stresses()
+{
+  const auto n = static_cast<std::ptrdiff_t>(_particles.size());
+  const double* strain = _particles.strain.data();
+  const double* c = _particles.c.data();
+  const std::int32_t* material = _particles.material.data();
+  double* stress = _particles.stress.data();
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t p = 0; p < n; ++p)
+    if (const Fracture* f = _phase_field.fracture(material[p]))
+    {
+      double plus, minus;
+      _materials[material[p]].degraded(&strain[3 * p], f->degradation(c[p]), &stress[4 * p],
+                                       plus, minus); // eqs. 14-16
+    }
 }
 
 template <int P>
 void Solver::step()
 {
-  map_to_grid<P>();
+  prepare<P>();
+  particle_to_grid<P>();
   update_grid();
   grid_to_particle<P>();
   _time += _dt;
@@ -300,6 +350,8 @@ void Solver::grid_to_particle()
   double* volume = _particles.volume.data();
   double* strain = _particles.strain.data();
   double* stress = _particles.stress.data();
+  double* history = _particles.history.data();
+  const double* c = _particles.c.data();
   const std::int32_t* material = _particles.material.data();
 
   // Cell by cell: the K nodes of a cell are read once for all its particles.
@@ -357,7 +409,17 @@ void Solver::grid_to_particle()
         eps[1] += dt * Lyy;
         eps[2] += 0.5 * dt * (Lxy + Lyx);
         volume[p] *= (1.0 + dt * Lxx) * (1.0 + dt * Lyy) - dt * dt * Lxy * Lyx;
-        _materials[material[p]].stress(eps, &stress[4 * p]); // eq. 16, g(c) = 1
+        const LinearElastic& mat = _materials[material[p]];
+        if (const Fracture* f = _phase_field.fracture(material[p]))
+        {
+          // eqs. 14-16 with this step's phase field; the history takes the
+          // largest tensile energy so far (eq. 20, Kuhn-Tucker conditions).
+          double plus, minus;
+          mat.degraded(eps, f->degradation(c[p]), &stress[4 * p], plus, minus);
+          history[p] = std::max(history[p], plus);
+        }
+        else
+          mat.stress(eps, &stress[4 * p]); // eq. 16, g = 1
         if (!std::isfinite(x[2 * p] + x[2 * p + 1] + v[2 * p] + v[2 * p + 1]))
           bad = std::min(bad, static_cast<std::ptrdiff_t>(p));
       }
@@ -370,20 +432,34 @@ Energies Solver::energies() const
 {
   const auto n = _particles.size();
   const Particles& P = _particles;
-  const auto sums = deterministic_sum<5>(
+  const std::vector<double>& fracture = _phase_field.fracture_energy();
+  const bool cracks = fracture.size() == n;
+  const auto sums = deterministic_sum<6>(
       n,
-      [&](std::size_t p, std::array<double, 5>& acc)
+      [&](std::size_t p, std::array<double, 6>& acc)
       {
         const double m = P.mass[p], vx = P.v[2 * p], vy = P.v[2 * p + 1];
         acc[0] += 0.5 * m * (vx * vx + vy * vy);
-        acc[1] += P.volume[p] * _materials[P.material[p]].energy_density(&P.strain[3 * p]);
+        const LinearElastic& mat = _materials[P.material[p]];
+        const double* eps = &P.strain[3 * p];
+        if (const Fracture* f = _phase_field.fracture(P.material[p]))
+        {
+          double sig[4], plus, minus;
+          mat.degraded(eps, f->degradation(P.c[p]), sig, plus, minus);
+          acc[1] += P.volume[p] * (f->degradation(P.c[p]) * plus + minus); // eq. 14
+        }
+        else
+          acc[1] += P.volume[p] * mat.energy_density(eps);
         acc[2] += m * vx;
         acc[3] += m * vy;
         acc[4] += m;
+        if (cracks)
+          acc[5] += fracture[p];
       });
   Energies e;
   e.kinetic = sums[0];
   e.elastic = sums[1];
+  e.fracture = sums[5];
   e.external_work = _external_work;
   e.momentum = {sums[2], sums[3]};
   e.mass = sums[4];
@@ -399,7 +475,12 @@ bool Solver::has_external_force() const
 std::vector<std::array<double, 4>> Solver::nodal_mass_momentum()
 {
   _external = has_external_force();
-  with_degree(_grid.degree(), [this](auto P) { map_to_grid<decltype(P)::value>(); });
+  with_degree(_grid.degree(),
+              [this](auto P)
+              {
+                prepare<decltype(P)::value>();
+                particle_to_grid<decltype(P)::value>();
+              });
   std::vector<std::array<double, 4>> out(_sums.size());
   for (std::size_t a = 0; a < _sums.size(); ++a)
     out[a] = {static_cast<double>(_grid.active_nodes()[a]), _sums[a].m, _sums[a].px, _sums[a].py};

@@ -5,6 +5,7 @@
 #include "grid.h"
 #include "material.h"
 #include "particles.h"
+#include "phasefield.h"
 
 #include <array>
 #include <cstdint>
@@ -27,20 +28,29 @@ public:
 struct Energies
 {
   double kinetic = 0.0;        ///< sum of M_p |v_p|^2 / 2
-  double elastic = 0.0;        ///< sum of V_p psi(eps_p)
+  double elastic = 0.0;        ///< sum of V_p (g(c_p) psi+ + psi-) (eq. 14)
+  double fracture = 0.0;       ///< sum of G_c V_p Z(c_p) (eqs. 3-4)
   double external_work = 0.0;  ///< work of the external forces since t = 0
   std::array<double, 2> momentum{}; ///< sum of M_p v_p
   double mass = 0.0;           ///< sum of M_p
 };
 
-/// @brief Explicit update-stress-last MPM in the momentum formulation.
+/// @brief Explicit update-stress-last MPM in the momentum formulation, with
+/// a staggered phase-field solve for materials that can crack.
 ///
-/// One step: sort particles by cell, activate the grid nodes they touch,
-/// map mass, momentum and forces to the grid (P2G), integrate nodal momentum
-/// with wall conditions, map velocity and acceleration back (G2P), then
-/// update strain and stress. Every sum over particles is taken in an order
-/// fixed by the particle positions alone, so results do not depend on the
-/// thread count.
+/// One step: sort particles by cell and activate the grid nodes they touch;
+/// if some material can crack, solve the phase field with the current
+/// history and degrade the stresses (eqs. 56, 14-16); map mass, momentum and
+/// forces to the grid (P2G), integrate nodal momentum with wall conditions,
+/// map velocity and acceleration back (G2P), update strain and stress, and
+/// raise the history field to the new tensile energy (eq. 20). Every sum
+/// over particles is taken in an order fixed by the particle positions alone,
+/// so results do not depend on the thread count.
+///
+/// With explicit time integration the internal force of a step comes from
+/// the stresses fixed at its start, so the staggered loop of Algorithm 1
+/// converges in one pass: the phase field solved at the start of step m+1
+/// uses the history left by step m.
 class Solver
 {
 public:
@@ -48,7 +58,12 @@ public:
   /// @param particles Particle state (kept by reference; must outlive the solver).
   /// @param materials Materials indexed by Particles::material.
   /// @param dt Time step (> 0); the caller checks it against the CFL limit.
-  Solver(Grid& grid, Particles& particles, std::vector<LinearElastic> materials, double dt);
+  /// @param fracture Per material, its fracture parameters or none; empty: nothing cracks.
+  /// @param tol Phase-field tolerance tol_c, relative to ||F|| (eq. 52).
+  /// @param max_iterations Phase-field CG iteration limit per step.
+  Solver(Grid& grid, Particles& particles, std::vector<LinearElastic> materials, double dt,
+         std::vector<std::optional<Fracture>> fracture = {}, double tol = 1e-6,
+         int max_iterations = 1000);
 
   /// @brief Take `steps` explicit steps.
   /// @throws SimulationError when a particle leaves the grid or turns non-finite.
@@ -58,8 +73,17 @@ public:
   double time() const { return _time; }
   std::int64_t step_count() const { return _step; }
 
+  /// @brief Sort the particles, activate the grid and, if something can
+  /// crack, solve the phase field and degrade the stresses: the start of a
+  /// step. Each step does this itself; call it to see the phase field of the
+  /// initial state (an initial crack) before the first step.
+  void prepare();
+
   /// @brief Energies and momentum of the current particle state.
   Energies energies() const;
+
+  /// Phase-field solver state (convergence statistics, per-particle fracture energy).
+  const PhaseField& phase_field() const { return _phase_field; }
 
   /// @brief Map the current particle state to the grid (P2G only) and return,
   /// per active node, (node index, mass, momentum x, momentum y). For checks.
@@ -68,9 +92,8 @@ public:
 private:
   template <int P>
   void step();
-  /// Sort, activate nodes and P2G: the grid state at the start of a step.
   template <int P>
-  void map_to_grid();
+  void prepare();
   void sort_particles();
   template <int P>
   void particle_to_grid();
@@ -81,6 +104,7 @@ private:
   void grid_to_particle();
   std::string where(std::size_t particle) const;
   bool has_external_force() const;
+  void degrade_stresses();
 
   /// P2G accumulators of one active node.
   struct NodeSums
@@ -104,6 +128,7 @@ private:
   double _external_work = 0.0;
   double _mass_tol;
   bool _external = false; // some particle carries an external force
+  PhaseField _phase_field;
 
   std::vector<std::int32_t> _cell;        // per particle: cell key
   std::vector<std::int32_t> _order;       // particles sorted by cell, stable

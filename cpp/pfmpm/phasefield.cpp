@@ -1,0 +1,317 @@
+#include "phasefield.h"
+#include "reduce.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace pfmpm
+{
+
+namespace
+{
+/// Cell columns per assembly strip; see Solver's P2G for the scheme.
+constexpr int strip_width = 4;
+static_assert(strip_width >= max_degree);
+
+std::string text(double v) { return std::to_string(v); }
+} // namespace
+
+PhaseField::PhaseField(const Grid& grid, std::vector<std::optional<Fracture>> fracture, double tol,
+                       int max_iterations)
+    : _grid(grid), _fracture(std::move(fracture)), _tol(tol), _max_iterations(max_iterations),
+      _pad(grid.degree()), _padded_ny(static_cast<std::size_t>(grid.nodes()[1] + 2 * grid.degree()))
+{
+  _active = std::any_of(_fracture.begin(), _fracture.end(), [](const auto& f) { return f.has_value(); });
+  for (std::size_t m = 0; m < _fracture.size(); ++m)
+  {
+    if (!_fracture[m])
+      continue;
+    const Fracture& f = *_fracture[m];
+    const std::string at = "material " + std::to_string(m) + ": ";
+    if (!(f.Gc > 0.0) || !std::isfinite(f.Gc))
+      throw std::invalid_argument(at + "Gc = " + text(f.Gc) + ": must be > 0");
+    if (!(f.l0 > 0.0) || !std::isfinite(f.l0))
+      throw std::invalid_argument(at + "l0 = " + text(f.l0) + ": must be > 0");
+    if (!(f.k_f >= 0.0 && f.k_f < 1.0))
+      throw std::invalid_argument(at + "k_f = " + text(f.k_f) + ": must lie in [0, 1)");
+  }
+  if (!(tol > 0.0 && tol < 1.0))
+    throw std::invalid_argument("tol = " + text(tol) + ": must lie in (0, 1)");
+  if (max_iterations < 1)
+    throw std::invalid_argument("max_iterations = " + std::to_string(max_iterations)
+                                + ": must be >= 1");
+  if (_active)
+  {
+    const std::size_t padded_nx = static_cast<std::size_t>(grid.nodes()[0] + 2 * _pad);
+    _c.assign(padded_nx * _padded_ny, 1.0);
+    _c_previous = _c;
+    _search.assign(_c.size(), 0.0);
+  }
+}
+
+template <int P>
+bool PhaseField::solve(Particles& particles, const std::vector<std::int32_t>& order,
+                       const std::vector<std::int64_t>& cell_start)
+{
+  assemble<P>(particles, order, cell_start);
+  const bool converged = conjugate_gradient<P>();
+  map_to_particles<P>(particles, order, cell_start);
+  return converged;
+}
+
+template <int P>
+void PhaseField::assemble(const Particles& particles, const std::vector<std::int32_t>& order,
+                          const std::vector<std::int64_t>& cell_start)
+{
+  constexpr int K = (P + 1) * (P + 1); // nodes of one cell
+  constexpr int W = 2 * P + 1;         // stencil width
+  constexpr int S = W * W;             // stencil size
+  const BSpline1D& bx = _grid.basis(0);
+  const BSpline1D& by = _grid.basis(1);
+  const int ncx = bx.cells(), ncy = by.cells(), nny = _grid.nodes()[1];
+  const int nstrips = (ncx + strip_width - 1) / strip_width;
+  const auto na = static_cast<std::size_t>(_grid.num_active());
+  const double* x = particles.x.data();
+  const double* volume = particles.volume.data();
+  const double* history = particles.history.data();
+  const std::int32_t* material = particles.material.data();
+
+  _stencil.assign(na * S, 0.0);
+  _rhs.assign(na, 0.0);
+  _diagonal.resize(na);
+  _position.resize(na);
+  _r.resize(na);
+  _z.resize(na);
+  _q.resize(na);
+  const std::vector<std::int32_t>& nodes = _grid.active_nodes();
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t a = 0; a < static_cast<std::ptrdiff_t>(na); ++a)
+    _position[a] = padded(nodes[a] / nny, nodes[a] % nny);
+
+  // Per cell, a local K x K block of eq. 57 (gamma = 0) and K entries of
+  // eq. 52, summed over the cell's particles in sorted order, then added to
+  // the stencil rows; strips of one parity touch disjoint rows.
+  for (int parity = 0; parity < 2; ++parity)
+  {
+#pragma omp parallel for schedule(dynamic, 1)
+    for (int s = parity; s < nstrips; s += 2)
+      for (int cx = s * strip_width; cx < std::min((s + 1) * strip_width, ncx); ++cx)
+        for (int cy = 0; cy < ncy; ++cy)
+        {
+          const std::size_t cell = static_cast<std::size_t>(cx) * ncy + cy;
+          double block[K][K]{}, f[K]{};
+          bool touched = false;
+          for (std::int64_t k = cell_start[cell]; k < cell_start[cell + 1]; ++k)
+          {
+            const std::size_t p = order[k];
+            const Fracture* fr = fracture(material[p]);
+            if (!fr)
+              continue;
+            touched = true;
+            double Nx[P + 1], dNx[P + 1], Ny[P + 1], dNy[P + 1];
+            bx.evaluate<P>(cx, x[2 * p], Nx, dNx);
+            by.evaluate<P>(cy, x[2 * p + 1], Ny, dNy);
+            const double V = volume[p];
+            // eq. 49: F_p = 4 l0 (1 - k_f) H / G_c + 1
+            const double a = (4.0 * fr->l0 * (1.0 - fr->k_f) * history[p] / fr->Gc + 1.0) * V;
+            const double b = 4.0 * fr->l0 * fr->l0 * V;
+            double w[K], gx[K], gy[K];
+            for (int i = 0; i < P + 1; ++i)
+              for (int j = 0; j < P + 1; ++j)
+              {
+                w[i * (P + 1) + j] = Nx[i] * Ny[j];
+                gx[i * (P + 1) + j] = dNx[i] * Ny[j];
+                gy[i * (P + 1) + j] = Nx[i] * dNy[j];
+              }
+            for (int i = 0; i < K; ++i)
+            {
+              f[i] += V * w[i]; // eq. 52
+              const double aw = a * w[i], bx_ = b * gx[i], by_ = b * gy[i];
+              for (int j = i; j < K; ++j) // K is symmetric: the upper triangle
+                block[i][j] += aw * w[j] + bx_ * gx[j] + by_ * gy[j]; // eq. 57
+            }
+          }
+          if (!touched)
+            continue;
+          for (int i = 0; i < K; ++i)
+          {
+            const int ia = i / (P + 1), ib = i % (P + 1);
+            const std::size_t row = _grid.active_index(cx + ia, cy + ib);
+            _rhs[row] += f[i];
+            double* stencil = &_stencil[row * S];
+            for (int j = 0; j < K; ++j)
+            {
+              const int ja = j / (P + 1), jb = j % (P + 1);
+              stencil[(ja - ia + P) * W + (jb - ib + P)] += i <= j ? block[i][j] : block[j][i];
+            }
+          }
+        }
+  }
+
+  // Nodes that no crackable particle touches keep c = 1: an identity row.
+  constexpr int centre = P * W + P;
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t a = 0; a < static_cast<std::ptrdiff_t>(na); ++a)
+  {
+    double& d = _stencil[a * S + centre];
+    if (d == 0.0)
+    {
+      d = 1.0;
+      _rhs[a] = 1.0;
+    }
+    _diagonal[a] = d;
+  }
+}
+
+template <int P>
+void PhaseField::multiply(const std::vector<double>& in, std::vector<double>& out) const
+{
+  constexpr int W = 2 * P + 1, S = W * W;
+  std::ptrdiff_t offset[S];
+  for (int dx = -P; dx <= P; ++dx)
+    for (int dy = -P; dy <= P; ++dy)
+      offset[(dx + P) * W + dy + P] = dx * static_cast<std::ptrdiff_t>(_padded_ny) + dy;
+  const double* v = in.data();
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t a = 0; a < static_cast<std::ptrdiff_t>(out.size()); ++a)
+  {
+    const double* row = &_stencil[a * S];
+    const double* centre = v + _position[a];
+    double sum = 0.0;
+    for (int s = 0; s < S; ++s)
+      sum += row[s] * centre[offset[s]];
+    out[a] = sum;
+  }
+}
+
+template <int P>
+bool PhaseField::conjugate_gradient()
+{
+  const std::size_t na = _rhs.size();
+  const auto norm_f = std::sqrt(deterministic_sum<1>(
+      na, [&](std::size_t a, std::array<double, 1>& acc) { acc[0] += _rhs[a] * _rhs[a]; })[0]);
+  const double stop = _tol * norm_f;
+
+  // Warm start: the last two solutions extrapolated linearly in time. (No
+  // clamping to [0, 1]: B-spline control values may lie outside it.)
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t a = 0; a < static_cast<std::ptrdiff_t>(na); ++a)
+  {
+    const std::size_t i = _position[a];
+    const double now = _c[i];
+    _c[i] = 2.0 * now - _c_previous[i];
+    _c_previous[i] = now;
+  }
+
+  // Residual of the warm start: r = F - K c (eq. 50).
+  multiply<P>(_c, _q);
+  auto rr = deterministic_sum<2>(
+      na,
+      [&](std::size_t a, std::array<double, 2>& acc)
+      {
+        _r[a] = _rhs[a] - _q[a];
+        _z[a] = _r[a] / _diagonal[a];
+        _search[_position[a]] = _z[a];
+        acc[0] += _r[a] * _r[a];
+        acc[1] += _r[a] * _z[a];
+      });
+  double residual = std::sqrt(rr[0]), rz = rr[1];
+  _stats.start_residual = norm_f > 0.0 ? residual / norm_f : 0.0;
+  int it = 0;
+  while (residual > stop && it < _max_iterations)
+  {
+    ++it;
+    multiply<P>(_search, _q);
+    const double pq = deterministic_sum<1>(
+        na, [&](std::size_t a, std::array<double, 1>& acc)
+        { acc[0] += _search[_position[a]] * _q[a]; })[0];
+    const double alpha = rz / pq;
+    rr = deterministic_sum<2>(
+        na,
+        [&](std::size_t a, std::array<double, 2>& acc)
+        {
+          _c[_position[a]] += alpha * _search[_position[a]];
+          _r[a] -= alpha * _q[a];
+          _z[a] = _r[a] / _diagonal[a];
+          acc[0] += _r[a] * _r[a];
+          acc[1] += _r[a] * _z[a];
+        });
+    residual = std::sqrt(rr[0]);
+    const double beta = rr[1] / rz;
+    rz = rr[1];
+#pragma omp parallel for schedule(static)
+    for (std::ptrdiff_t a = 0; a < static_cast<std::ptrdiff_t>(na); ++a)
+      _search[_position[a]] = _z[a] + beta * _search[_position[a]];
+  }
+  _stats.solves += 1;
+  _stats.iterations += it;
+  _stats.last_iterations = it;
+  _stats.last_residual = norm_f > 0.0 ? residual / norm_f : 0.0;
+  _stats.unknowns = static_cast<std::int32_t>(na);
+  return residual <= stop;
+}
+
+template <int P>
+void PhaseField::map_to_particles(Particles& particles, const std::vector<std::int32_t>& order,
+                                  const std::vector<std::int64_t>& cell_start)
+{
+  constexpr int K = (P + 1) * (P + 1);
+  const BSpline1D& bx = _grid.basis(0);
+  const BSpline1D& by = _grid.basis(1);
+  const int ncx = bx.cells(), ncy = by.cells();
+  const double* x = particles.x.data();
+  const double* volume = particles.volume.data();
+  const std::int32_t* material = particles.material.data();
+  double* c = particles.c.data();
+  _fracture_energy.assign(particles.size(), 0.0);
+
+#pragma omp parallel for schedule(static)
+  for (int cx = 0; cx < ncx; ++cx)
+    for (int cy = 0; cy < ncy; ++cy)
+    {
+      const std::size_t cell = static_cast<std::size_t>(cx) * ncy + cy;
+      const std::int64_t begin = cell_start[cell], end = cell_start[cell + 1];
+      if (begin == end)
+        continue;
+      double nodal[K];
+      for (int a = 0; a <= P; ++a)
+        for (int b = 0; b <= P; ++b)
+          nodal[a * (P + 1) + b] = _c[padded(cx + a, cy + b)];
+      for (std::int64_t k = begin; k < end; ++k)
+      {
+        const std::size_t p = order[k];
+        const Fracture* fr = fracture(material[p]);
+        if (!fr)
+          continue;
+        double Nx[P + 1], dNx[P + 1], Ny[P + 1], dNy[P + 1];
+        bx.evaluate<P>(cx, x[2 * p], Nx, dNx);
+        by.evaluate<P>(cy, x[2 * p + 1], Ny, dNy);
+        double cp = 0.0, gx = 0.0, gy = 0.0;
+        for (int a = 0; a <= P; ++a)
+          for (int b = 0; b <= P; ++b)
+          {
+            const double ci = nodal[a * (P + 1) + b];
+            cp += Nx[a] * Ny[b] * ci;  // eq. 53
+            gx += dNx[a] * Ny[b] * ci; // eq. 54
+            gy += Nx[a] * dNy[b] * ci;
+          }
+        c[p] = cp;
+        // G_c V Z, eq. 4 with gamma = 0.
+        const double one_minus = 1.0 - cp;
+        _fracture_energy[p] = fr->Gc * volume[p]
+                              * (one_minus * one_minus / (4.0 * fr->l0)
+                                 + fr->l0 * (gx * gx + gy * gy));
+      }
+    }
+}
+
+template bool PhaseField::solve<1>(Particles&, const std::vector<std::int32_t>&,
+                                   const std::vector<std::int64_t>&);
+template bool PhaseField::solve<2>(Particles&, const std::vector<std::int32_t>&,
+                                   const std::vector<std::int64_t>&);
+template bool PhaseField::solve<3>(Particles&, const std::vector<std::int32_t>&,
+                                   const std::vector<std::int64_t>&);
+
+} // namespace pfmpm

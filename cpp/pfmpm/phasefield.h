@@ -1,0 +1,116 @@
+/// @file phasefield.h
+/// @brief The second-order (gamma = 0) phase-field equation on the active grid
+/// nodes (Kakouris & Triantafyllou 2019, eqs. 47-57).
+#pragma once
+
+#include "grid.h"
+#include "particles.h"
+
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+namespace pfmpm
+{
+
+/// Fracture parameters of a material that can crack.
+struct Fracture
+{
+  double Gc;  ///< critical energy release rate G_c (> 0)
+  double l0;  ///< length scale l0 (> 0)
+  double k_f; ///< residual stiffness k_f in [0, 1) (eq. 15)
+
+  /// Degradation g(c) = (1 - k_f) c^2 + k_f (eq. 15).
+  double degradation(double c) const { return (1.0 - k_f) * c * c + k_f; }
+};
+
+/// Convergence record of the phase-field solves.
+struct PhaseFieldStats
+{
+  std::int64_t solves = 0;           ///< solves so far
+  std::int64_t iterations = 0;       ///< CG iterations over all solves
+  std::int32_t last_iterations = 0;  ///< CG iterations of the last solve
+  double start_residual = 0.0;       ///< ||R|| / ||F|| of the last solve's warm start
+  double last_residual = 0.0;        ///< ||R|| / ||F|| after the last solve
+  std::int32_t unknowns = 0;         ///< nodes in the last system
+};
+
+/// @brief Assembles and solves K c = F (eqs. 56, 57, 52) for the nodal phase
+/// field, and maps the result to the particles (eqs. 53, 54).
+///
+/// K is stored as a (2p+1)^2-point stencil per active node; only particles of
+/// materials that can crack contribute. Nodes that no such particle touches
+/// keep c = 1. The solve is Jacobi-preconditioned conjugate gradients,
+/// started from the last two steps' nodal values extrapolated in time, stopped when
+/// ||F - K c|| <= tol ||F||. Sums over particles and nodes are taken in an
+/// order that does not depend on the number of threads.
+class PhaseField
+{
+public:
+  /// @param grid The background grid (kept by reference).
+  /// @param fracture Per material: its fracture parameters, or none if it cannot crack.
+  /// @param tol Relative residual tolerance tol_c.
+  /// @param max_iterations CG iteration limit per solve.
+  PhaseField(const Grid& grid, std::vector<std::optional<Fracture>> fracture, double tol,
+             int max_iterations);
+
+  /// Whether any material can crack.
+  bool active() const { return _active; }
+  /// Fracture parameters of `material`, or nullptr when it cannot crack.
+  const Fracture* fracture(std::int32_t material) const
+  {
+    return _fracture[material] ? &*_fracture[material] : nullptr;
+  }
+
+  /// @brief Assemble with the current history, solve, and set c at the particles.
+  ///
+  /// Needs the particles sorted by cell (`order`, `cell_start`) and the grid's
+  /// active nodes for that sort.
+  /// @return false if CG did not reach tol within max_iterations.
+  template <int P>
+  bool solve(Particles& particles, const std::vector<std::int32_t>& order,
+             const std::vector<std::int64_t>& cell_start);
+
+  /// Per particle: G_c V_p Z(c_p) with Z of eq. 4 (gamma = 0), from the last solve.
+  const std::vector<double>& fracture_energy() const { return _fracture_energy; }
+  const PhaseFieldStats& stats() const { return _stats; }
+  double tol() const { return _tol; }
+  int max_iterations() const { return _max_iterations; }
+
+private:
+  template <int P>
+  void assemble(const Particles& particles, const std::vector<std::int32_t>& order,
+                const std::vector<std::int64_t>& cell_start);
+  template <int P>
+  bool conjugate_gradient();
+  template <int P>
+  void multiply(const std::vector<double>& padded, std::vector<double>& out) const;
+  template <int P>
+  void map_to_particles(Particles& particles, const std::vector<std::int32_t>& order,
+                        const std::vector<std::int64_t>& cell_start);
+  /// Index of node (ix, iy) in the padded node layout.
+  std::size_t padded(int ix, int iy) const
+  {
+    return static_cast<std::size_t>(ix + _pad) * _padded_ny + (iy + _pad);
+  }
+
+  const Grid& _grid;
+  std::vector<std::optional<Fracture>> _fracture;
+  bool _active;
+  double _tol;
+  int _max_iterations;
+  int _pad;                // padding of the node layout: the degree
+  std::size_t _padded_ny;  // nodes per padded column
+  std::vector<double> _c;  // nodal phase field, padded layout, kept between steps
+  std::vector<double> _c_previous; // the solution before, for the warm start
+  std::vector<double> _stencil;       // per active node: (2p+1)^2 coefficients of K
+  std::vector<double> _rhs;           // per active node: F (eq. 52)
+  std::vector<double> _diagonal;      // per active node: K_II, 1 where no crack can form
+  std::vector<std::size_t> _position; // per active node: its index in the padded layout
+  std::vector<double> _r, _z, _q;     // CG work vectors, per active node
+  std::vector<double> _search;        // CG search direction, padded layout
+  std::vector<double> _fracture_energy; // per particle
+  PhaseFieldStats _stats;
+};
+
+} // namespace pfmpm

@@ -1,0 +1,756 @@
+"""Phase-field finite-element reference (PF-FEM) on DOLFINx.
+
+The model and the step of the MPM path (:mod:`pfmpm.simulation`) on a fixed
+finite-element mesh, so the PF-MPM results can be checked against the method
+they claim to reproduce (K&T compare with PF-FEM the same way).
+
+Discretisation
+--------------
+Mesh
+    The body's rectangle in squares of side ``h = grid.h``, each cut into two
+    right triangles by DOLFINx's ``left/right`` pattern: diagonal ``/`` in
+    square ``(i, j)`` when ``i + j`` is even, ``\\`` when odd, counted from
+    the body's lower-left corner.  The pattern is mirror symmetric about
+    every second grid line, so a crack along such a line (the Borden plate's
+    y = 20 is 80 h for h = 0.25) has the same mesh on both sides and a
+    symmetric branching is not biased by it, as it is by the one-way
+    ``right`` pattern.  It also has the larger explicit step of the two
+    (0.80 against 0.69 h / c_p for nu = 0.2, lumped mass).
+Fields
+    Displacement ``u`` and phase field ``c`` are continuous P1.  Strain and
+    stress are constant per triangle, and so are the history ``H`` (DG0)
+    and the cell degradation, the exact cell mean of ``g(c)``.
+Elastodynamics
+    Row-sum lumped mass; internal force from the cell stresses (eq. 62 with
+    cells in place of particles); tractions as consistent edge forces
+    (half of ``t * length * thickness`` to each end of a loaded edge); body
+    forces as ``M_I * b``.  Volumes, masses and forces include the
+    thickness, as the MPM particle volumes do, so the energies compare.
+Phase field
+    Eq. (47) without the fourth-order term, Galerkin on P1: the matrix
+    ``K + M_F`` with ``K = 4 l0^2 (grad, grad)`` assembled once and
+    ``M_F = (F c, q)``, ``F`` of eq. (49) per cell, reassembled each step;
+    right-hand side ``(1, q)`` (eq. 52).
+
+One step
+--------
+Scene step ``m`` does what the MPM step does, in the same order:
+
+1. solve eq. (47) with the current ``H``, warm-started from the previous
+   ``c``, to ``||F - K c|| <= tol ||F||`` (``scene.phase_field.tol``);
+2. degradation ``g = (1 - k_f) c^2 + k_f`` (eq. 15) and the stress of
+   ``g psi+ + psi-`` (eqs. 14, 16) from ``pfmpm._core.LinearElastic``, the
+   same code as the MPM;
+3. ``v += dt M^-1 (f_ext - f_int)`` with walls, ``u += dt v`` (eq. 60);
+4. new strain, ``H = max(H, psi+)``.
+
+The MPM step ``scene.dt()`` (``cfl * h / c_p`` for quadratic B-splines) is
+above the P1 limit, so steps 2-4 run ``substeps`` times with
+``dt / substeps``: the least number that keeps each sub-step below ``cfl``
+times the element bound on the critical step (Irons & Treharne: no
+eigenvalue of ``M_L^-1 K`` exceeds the largest element eigenvalue).  The
+phase field is solved at the MPM times, once per scene step; ``H`` takes
+the maximum over the sub-steps.
+
+The phase-field system is solved by conjugate gradients with a Jacobi
+preconditioner.  The reaction term bounds its condition number by about
+``1 + 24 (l0 / h)^2`` whatever the mesh size, so the iteration count does not
+grow with the mesh; Jacobi does not depend on how the mesh is partitioned,
+so one and several MPI ranks take the same iterates up to round-off; and it
+was the fastest of Jacobi, GAMG and BoomerAMG on the Borden plate at
+h = 0.25, l0 = 0.5 (warm-started solves take 0 to 60 iterations).  PETSc
+options with the prefix ``pfmpm_pf_`` change it (e.g.
+``-pfmpm_pf_pc_type hypre``).
+
+Run ``mpirun -n 4 python -m pfmpm.fem SCENE.toml --out DIR`` for a parallel
+run; the energies match a serial run to round-off and the solver tolerance.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time as _time
+import warnings
+from contextlib import contextmanager
+from pathlib import Path
+
+import numpy as np
+import ufl
+from dolfinx import fem, io, la, mesh
+from dolfinx.fem import petsc as fem_petsc
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from . import _core
+from .crack import CrackTip, initial_history
+from .output import CsvLog
+from .scene import Body, BodyForce, Material, Rectangle, Scene, SceneError, Traction, rayleigh_speed
+from .simulation import CRACK_COLUMNS, ENERGY_COLUMNS, RunResult
+
+__all__ = ["FemSimulation", "MESH_DIAGONAL", "main"]
+
+#: DOLFINx diagonal pattern of the structured triangle mesh (see the module docstring).
+MESH_DIAGONAL = mesh.DiagonalType.left_right
+
+#: Reference-cell gradients of the three P1 basis functions.
+_REF_GRAD = np.array([[-1.0, -1.0], [1.0, 0.0], [0.0, 1.0]])
+_ON_LINE = 1e-6  # a vertex lies on a line within this fraction of h
+_WHOLE = 1e-9  # relative tolerance of "a whole number of cells"
+
+
+class FemSimulation:
+    """A one-body rectangular scene on a P1 triangle mesh, stepped like the MPM.
+
+    Parameters
+    ----------
+    scene : Scene
+        Exactly one body, a :class:`~pfmpm.scene.Rectangle` without holes
+        whose edges lie on grid lines (multiples of ``grid.h`` from the grid
+        origin).  Tractions, body forces, fixed and slip walls, initial
+        cracks and the energy splits are supported.  A wall acts on the
+        mesh vertices on its grid side; the body has to reach the side for
+        it to matter.
+    comm : mpi4py.MPI.Comm
+        Communicator the mesh is distributed over.
+
+    Attributes
+    ----------
+    scene : Scene
+    comm : mpi4py.MPI.Comm
+    mesh : dolfinx.mesh.Mesh
+        The triangle mesh (no ghost cells).
+    V : dolfinx.fem.FunctionSpace
+        Scalar P1 space: ``c`` lives in it and each displacement component
+        uses its dofs.
+    c : dolfinx.fem.Function
+        Phase field, 1 where intact.
+    dt : float
+        Scene time step ``scene.dt()``; one :meth:`advance` step is one dt.
+    substeps : int
+        Elastodynamic sub-steps per step.
+    history : ndarray (cells,)
+        History field ``H`` on the local cells.
+
+    Raises
+    ------
+    SceneError
+        If the scene is outside what the FEM path supports, naming the field.
+    """
+
+    def __init__(self, scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD):
+        self.scene = scene
+        self.comm = comm
+        self._body, material = _supported(scene)
+        self._fracture = material.fracture
+        self._thickness = scene.thickness
+        self.dt = scene.dt()
+        self._step = 0
+        self._work = 0.0  # external work of this rank's owned vertices
+        with _quiet_jit():
+            self._build_mesh()
+            self._build_dynamics(material)
+            self._build_phase_field()
+
+    # -- set-up ---------------------------------------------------------------
+
+    def _build_mesh(self) -> None:
+        """Mesh, P1 space, cell-to-vertex map, cell gradients and areas."""
+        h = self.scene.grid.h
+        (x0, y0), (x1, y1) = self._body.shape.min, self._body.shape.max
+        self._cells_xy = (round((x1 - x0) / h), round((y1 - y0) / h))
+        self.mesh = mesh.create_rectangle(
+            self.comm, [np.array([x0, y0]), np.array([x1, y1])], list(self._cells_xy),
+            mesh.CellType.triangle, ghost_mode=mesh.GhostMode.none, diagonal=MESH_DIAGONAL)
+        self.V = fem.FunctionSpace(self.mesh, ("Lagrange", 1))
+        imap = self.V.dofmap.index_map
+        self._owned = imap.size_local
+        self._local = imap.size_local + imap.num_ghosts
+        n_cells = self.mesh.topology.index_map(2).size_local
+        self._dofs = self.V.dofmap.list.array.reshape(-1, 3)[:n_cells]
+        self._flat_dofs = self._dofs.ravel()
+        # Vertex coordinates from the mesh geometry (P1 dofs sit on the vertices in
+        # the cell's vertex order): exact, where tabulated dof coordinates carry
+        # round-off that depends on the partition.
+        geometry = self.mesh.geometry
+        self._x = np.empty((self._local, 2))
+        self._x[self._flat_dofs] = geometry.x[geometry.dofmap.array.reshape(-1, 3)[:n_cells].ravel(), :2]
+        corners = self._x[self._dofs]  # (cells, 3, 2)
+        jac = np.stack([corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]], axis=2)
+        det = jac[:, 0, 0] * jac[:, 1, 1] - jac[:, 0, 1] * jac[:, 1, 0]
+        inv = np.stack([np.stack([jac[:, 1, 1], -jac[:, 0, 1]], axis=1),
+                        np.stack([-jac[:, 1, 0], jac[:, 0, 0]], axis=1)], axis=1) / det[:, None, None]
+        grad = np.einsum("ak,ckj->caj", _REF_GRAD, inv)  # grad N_a on each cell
+        self._gx, self._gy = grad[..., 0].copy(), grad[..., 1].copy()
+        self._area = 0.5 * np.abs(det)
+        self._volume = self._area * self._thickness
+        self._centroids = corners.mean(axis=1)
+
+    def _build_dynamics(self, material: Material) -> None:
+        """Material, lumped mass, external force, walls and the initial state."""
+        scene = self.scene
+        split = self._fracture.split if self._fracture is not None else "none"
+        self._elastic = _core.LinearElastic(material.E, material.nu, material.density,
+                                            _core.Plane.__members__[scene.plane],
+                                            _core.Split.__members__[split])
+        imap = self.V.dofmap.index_map
+        self._u = la.vector(imap, bs=2)  # displacement, ghosts kept current
+        self._scratch = la.vector(imap, bs=2)  # assembly buffer for nodal vectors
+        self._density = material.density
+        weights = np.repeat(material.density * self._volume / 3.0, 3)
+        self._mass = self._assemble(np.bincount(self._flat_dofs, weights, self._local), scalar=True)
+        self._fext = self._external_force()
+        self._walls = self._wall_masks()
+        self._v = np.tile(np.asarray(self._body.velocity, dtype=float), (self._owned, 1))
+        self._eps = np.zeros((len(self._dofs), 3))
+        self.substeps = self._substeps()
+
+    def _build_phase_field(self) -> None:
+        """Phase field, initial history and, if the material can crack, its solver."""
+        self.c = fem.Function(self.V, name="c")
+        self.c.x.array[:] = 1.0
+        self._g = np.ones(len(self._dofs))
+        self.history = np.zeros(len(self._dofs))
+        self._pf = None
+        self._tip = None
+        cfg = self.scene.output
+        if self._fracture is None:
+            return
+        for crack in self.scene.cracks:
+            if crack.body in (None, self._body.name):
+                np.maximum(self.history, initial_history(self._centroids, crack, self._fracture),
+                           out=self.history)
+        self._pf = _PhaseFieldSolver(self.c, self._fracture, self.scene.phase_field, self._dofs)
+        if self.scene.cracks:
+            self._tip = CrackTip.for_crack(self.scene.cracks[0], cfg.crack_threshold,
+                                           cfg.crack_speed_samples)
+        self._solve_phase_field()  # the phase field of the initial cracks, as the MPM
+
+    def _assemble(self, local: np.ndarray, scalar: bool = False) -> np.ndarray:
+        """Sum cell contributions across ranks; return the owned vertex values.
+
+        ``local`` holds this rank's contributions to its local vertices
+        (owned then ghost), shape (local,) or (local, 2).
+        """
+        vec = la.vector(self.V.dofmap.index_map, bs=1) if scalar else self._scratch
+        vec.array[:] = local.ravel()
+        vec.scatter_reverse(la.ScatterMode.add)
+        values = vec.array.reshape(-1) if scalar else vec.array.reshape(-1, 2)
+        return values[: self._owned].copy()
+
+    def _external_force(self) -> np.ndarray:
+        """Constant external force on the owned vertices (owned, 2).
+
+        Tractions: each cell edge on the loaded side of the rectangle gives
+        ``t * length * thickness / 2`` to both its ends, the consistent P1
+        load (eq. 17); an edge lies on the boundary of one cell only, so
+        every edge counts once over all ranks.  Body forces: ``M_I b``.
+        """
+        f = np.zeros((self._local, 2))
+        (x0, y0), (x1, y1) = self._body.shape.min, self._body.shape.max
+        line = {"left": (0, x0), "right": (0, x1), "bottom": (1, y0), "top": (1, y1)}
+        tol = _ON_LINE * self.scene.grid.h
+        for load in self.scene.loads:
+            if isinstance(load, Traction):
+                axis, value = line[load.edge]
+                on = np.abs(self._x[self._dofs, axis] - value) <= tol  # (cells, 3)
+                for a, b in ((0, 1), (1, 2), (2, 0)):
+                    edge = on[:, a] & on[:, b]
+                    ia, ib = self._dofs[edge, a], self._dofs[edge, b]
+                    length = np.hypot(*(self._x[ib] - self._x[ia]).T)
+                    share = 0.5 * length * self._thickness
+                    for k in range(2):
+                        f[:, k] += np.bincount(ia, share * load.traction[k], self._local)
+                        f[:, k] += np.bincount(ib, share * load.traction[k], self._local)
+        fext = self._assemble(f)
+        for load in self.scene.loads:
+            if isinstance(load, BodyForce) and load.body in (None, self._body.name):
+                fext += self._mass[:, None] * np.asarray(load.acceleration)
+        return fext
+
+    def _wall_masks(self) -> list[tuple[np.ndarray, tuple[int, ...]]]:
+        """Owned vertices on each walled grid side and the components the wall zeroes."""
+        (ox, oy), (sx, sy) = self.scene.grid.origin, self.scene.grid.size
+        side = {"left": (0, ox), "right": (0, ox + sx), "bottom": (1, oy), "top": (1, oy + sy)}
+        tol = _ON_LINE * self.scene.grid.h
+        masks = []
+        for wall in self.scene.walls:
+            axis, value = side[wall.side]
+            on = np.abs(self._x[: self._owned, axis] - value) <= tol
+            masks.append((on, (0, 1) if wall.type == "fixed" else (axis,)))
+        return masks
+
+    def _substeps(self) -> int:
+        """Sub-steps per scene step so each is below ``cfl`` times the critical step.
+
+        The critical step is ``2 / sqrt(lambda_max)`` with ``lambda_max``
+        the largest eigenvalue of ``M_e^-1 K_e`` over the elements, with the
+        undegraded material (degradation only softens, as ``psi+`` is
+        convex), an upper bound of that of the assembled ``M_L^-1 K``.
+        """
+        # Columns of the undegraded stiffness: stress of unit strains (xx, yy, xy).
+        unit = self._elastic.stresses(np.eye(3), np.ones(3))[:, :3].T  # (stress, strain)
+        weight = np.array([1.0, 1.0, 2.0])  # sigma : eps = s_xx e_xx + s_yy e_yy + 2 s_xy e_xy
+        b = np.zeros((len(self._dofs), 3, 6))  # strain (xx, yy, xy) from (ux, uy) of 3 vertices
+        b[:, 0, 0::2] = self._gx
+        b[:, 1, 1::2] = self._gy
+        b[:, 2, 0::2] = 0.5 * self._gy
+        b[:, 2, 1::2] = 0.5 * self._gx
+        stiff = np.einsum("cki,k,kl,clj->cij", b, weight, unit, b)  # K_e / area
+        lam = np.linalg.eigvalsh(stiff).max(axis=1).max(initial=0.0) * 3.0 / self._density
+        lam = self.comm.allreduce(lam, op=MPI.MAX)
+        dt_crit = 2.0 / math.sqrt(lam)
+        return max(1, math.ceil(self.dt / (self.scene.time.cfl * dt_crit) * (1 - _WHOLE)))
+
+    # -- state ----------------------------------------------------------------
+
+    @property
+    def columns(self) -> list[str]:
+        """Columns of ``energies.csv`` for this scene (crack-tip columns with a crack)."""
+        return ENERGY_COLUMNS + (CRACK_COLUMNS if self._tip is not None else [])
+
+    @property
+    def step(self) -> int:
+        """Scene steps taken."""
+        return self._step
+
+    @property
+    def time(self) -> float:
+        """Simulated time ``step * dt``."""
+        return self._step * self.dt
+
+    @property
+    def displacement(self) -> np.ndarray:
+        """Displacement of the local vertices (owned then ghost), (local, 2) view."""
+        return self._u.array.reshape(-1, 2)
+
+    @property
+    def velocity(self) -> np.ndarray:
+        """Velocity of the owned vertices, (owned, 2) view."""
+        return self._v
+
+    @property
+    def vertices(self) -> np.ndarray:
+        """Coordinates of the local vertices (owned then ghost), (local, 2)."""
+        return self._x
+
+    @property
+    def owned(self) -> int:
+        """Number of vertices this rank owns (the first ones of the local arrays)."""
+        return self._owned
+
+    @property
+    def lumped_mass(self) -> np.ndarray:
+        """Row-sum lumped mass of the owned vertices, (owned,)."""
+        return self._mass
+
+    @property
+    def external_force(self) -> np.ndarray:
+        """Constant external force on the owned vertices, (owned, 2) view."""
+        return self._fext
+
+    @property
+    def phase_field_stats(self) -> dict[str, int]:
+        """Phase-field solves and CG iterations so far."""
+        return dict(self._pf.stats) if self._pf is not None else {"solves": 0, "iterations": 0}
+
+    # -- stepping -------------------------------------------------------------
+
+    def advance(self, steps: int) -> None:
+        """Take ``steps`` scene steps (phase field, then the elastodynamic sub-steps)."""
+        h = self.dt / self.substeps
+        for _ in range(steps):
+            self._solve_phase_field()
+            for _ in range(self.substeps):
+                self._substep(h)
+            self._step += 1
+
+    def _solve_phase_field(self) -> None:
+        """Solve eq. (47) with the current history and update the cell degradation."""
+        if self._pf is not None:
+            self._pf.solve(self.history, self._step, self.time)
+            self._g = self._degradation()
+
+    def _degradation(self) -> np.ndarray:
+        """Cell mean of ``g = (1 - k_f) c^2 + k_f`` (eq. 15), exact for P1 ``c``."""
+        ce = self.c.x.array[self._dofs]
+        mean_sq = (ce.sum(axis=1) ** 2 + (ce * ce).sum(axis=1)) / 12.0
+        k_f = self._fracture.k_f
+        return (1.0 - k_f) * mean_sq + k_f
+
+    def _strain(self) -> np.ndarray:
+        """Cell strains (cells, 3): xx, yy and the tensor xy component (eq. 2)."""
+        ue = self._u.array.reshape(-1, 2)[self._dofs]  # (cells, 3, 2)
+        ux, uy = ue[..., 0], ue[..., 1]
+        exx = np.einsum("ca,ca->c", ux, self._gx)
+        eyy = np.einsum("ca,ca->c", uy, self._gy)
+        exy = 0.5 * (np.einsum("ca,ca->c", ux, self._gy) + np.einsum("ca,ca->c", uy, self._gx))
+        return np.column_stack((exx, eyy, exy))
+
+    def _internal_force(self) -> np.ndarray:
+        """Internal force on the owned vertices (owned, 2), eq. (62) over cells."""
+        sig = self._elastic.stresses(self._eps, self._g)  # eqs. (14)-(16)
+        w = self._volume[:, None]
+        fx = w * (sig[:, 0, None] * self._gx + sig[:, 2, None] * self._gy)
+        fy = w * (sig[:, 2, None] * self._gx + sig[:, 1, None] * self._gy)
+        f = np.empty((self._local, 2))
+        f[:, 0] = np.bincount(self._flat_dofs, fx.ravel(), self._local)
+        f[:, 1] = np.bincount(self._flat_dofs, fy.ravel(), self._local)
+        return self._assemble(f)
+
+    def _substep(self, dt: float) -> None:
+        """One explicit step: momentum (eq. 60), walls, position, strain, history."""
+        fint = self._internal_force()
+        v_old = self._v.copy()
+        self._v += dt * (self._fext - fint) / self._mass[:, None]
+        for on, components in self._walls:
+            for k in components:
+                self._v[on, k] = 0.0
+        self._work += 0.5 * dt * float(np.sum(self._fext * (v_old + self._v)))
+        u = self._u.array.reshape(-1, 2)
+        u[: self._owned] += dt * self._v
+        self._u.scatter_forward()
+        self._eps = self._strain()
+        if self._pf is not None:
+            psi_plus, _ = self._elastic.split_energies(self._eps)
+            np.maximum(self.history, psi_plus, out=self.history)
+
+    # -- diagnostics ----------------------------------------------------------
+
+    def energies(self) -> dict[str, float]:
+        """Energies and momentum now, with the keys of ``ENERGY_COLUMNS``.
+
+        Sums run over owned vertices and cells and are reduced over the
+        communicator, so every rank gets the same values.  ``elastic`` is
+        ``sum V (g psi+ + psi-)`` (eq. 14), ``fracture`` the crack density
+        functional ``G_c int (1 - c)^2 / (4 l0) + l0 |grad c|^2 dV``
+        (eqs. 3-4 with no anisotropy), exact for P1 ``c``.
+        """
+        psi_plus, psi_minus = self._elastic.split_energies(self._eps)
+        m, v = self._mass, self._v
+        local = np.array([
+            0.5 * float(np.sum(m * np.einsum("ij,ij->i", v, v))),
+            float(self._volume @ (self._g * psi_plus + psi_minus)),
+            self._fracture_energy(),
+            self._work,
+            float(m @ v[:, 0]),
+            float(m @ v[:, 1]),
+        ])
+        kinetic, elastic, fracture, work, px, py = self.comm.allreduce(local, op=MPI.SUM)
+        return {
+            "step": self._step,
+            "t": self.time,
+            "kinetic": kinetic,
+            "elastic": elastic,
+            "fracture": fracture,
+            "external_work": work,
+            "total": kinetic + elastic + fracture - work,
+            "momentum_x": px,
+            "momentum_y": py,
+        }
+
+    def _fracture_energy(self) -> float:
+        """This rank's ``G_c int (1 - c)^2 / (4 l0) + l0 |grad c|^2 dV`` (eq. 4, gamma = 0)."""
+        if self._fracture is None:
+            return 0.0
+        ce = self.c.x.array[self._dofs]
+        w = 1.0 - ce
+        mean_sq = (w.sum(axis=1) ** 2 + (w * w).sum(axis=1)) / 12.0  # cell mean of (1 - c)^2
+        cx = np.einsum("ca,ca->c", ce, self._gx)
+        cy = np.einsum("ca,ca->c", ce, self._gy)
+        l0 = self._fracture.l0
+        density = mean_sq / (4.0 * l0) + l0 * (cx * cx + cy * cy)
+        return self._fracture.Gc * float(self._volume @ density)
+
+    def crack_tip_record(self) -> dict[str, float]:
+        """Record the crack tip now: ``crack_tip_x``, ``crack_tip_y``, ``crack_tip_speed``.
+
+        Each rank finds its farthest cracked vertex ahead of the notch (see
+        :class:`~pfmpm.crack.CrackTip`); the tip is the farthest of those,
+        ties broken by the smaller ``(y, x)``, so it does not depend on how
+        the mesh is partitioned.  Every call is one record of the speed fit.
+        """
+        tip = self._tip
+        xy = self._x[: self._owned]
+        rel = xy - tip.origin
+        cracked = (self.c.x.array[: self._owned] < tip.threshold) & (rel @ tip.direction > 0)
+        best = None
+        if cracked.any():
+            dist = np.hypot(rel[cracked, 0], rel[cracked, 1])
+            far = xy[cracked][dist == dist.max()]
+            x, y = far[np.lexsort((far[:, 0], far[:, 1]))[0]]
+            best = (float(dist.max()), float(y), float(x))
+        found = [b for b in self.comm.allgather(best) if b is not None]
+        if found:
+            far = max(b[0] for b in found)
+            _, y, x = min(b for b in found if b[0] == far)
+            points, c = np.array([[x, y]]), np.zeros(1)
+        else:
+            points, c = np.zeros((0, 2)), np.zeros(0)
+        x, y, speed = tip.update(self.time, points, c)
+        return {"crack_tip_x": x, "crack_tip_y": y, "crack_tip_speed": speed}
+
+    # -- run with output ------------------------------------------------------
+
+    def run(self, out_dir: Path | str, progress: bool = True) -> RunResult:
+        """Run to ``scene.time.end``, writing output to ``out_dir``.
+
+        Rank 0 writes ``energies.csv`` every ``output.energies_every`` steps
+        and ``summary.json`` at the end; all ranks write the XDMF series
+        ``phase_field.xdmf`` of ``c`` every ``output.every`` steps (and at
+        the start and the end).  A non-finite energy stops the run with
+        status ``"failed"`` and an error naming the step and time; Ctrl-C
+        stops it with status ``"interrupted"``.  Output written so far stays.
+        """
+        from tqdm import tqdm
+
+        out = Path(out_dir)
+        root = self.comm.rank == 0
+        if root:
+            out.mkdir(parents=True, exist_ok=True)
+        self.comm.barrier()
+        cfg = self.scene.output
+        total = self.scene.steps()
+        log = CsvLog(out / "energies.csv", self.columns) if root else None
+        xdmf = io.XDMFFile(self.comm, str(out / "phase_field.xdmf"), "w")
+        xdmf.write_mesh(self.mesh)
+        result = RunResult(out_dir=out, steps_planned=total)
+        start = _time.perf_counter()
+        bar = tqdm(total=total, disable=not (progress and root), unit="step", desc=self.scene.name)
+        try:
+            self._record(log, xdmf, force=True)
+            while self.step < total:
+                nxt = min(_next_multiple(self.step, cfg.energies_every),
+                          _next_multiple(self.step, cfg.every), total)
+                before = self.step
+                self.advance(nxt - before)
+                bar.update(self.step - before)
+                self._record(log, xdmf, force=self.step == total)
+            result.status = "completed"
+        except KeyboardInterrupt:
+            result.status = "interrupted"
+        except _core.SimulationError as err:
+            result.status = "failed"
+            result.error = str(err)
+        finally:
+            bar.close()
+            xdmf.close()
+            if log is not None:
+                log.close()
+            result.wall_s = self.comm.allreduce(_time.perf_counter() - start, op=MPI.MAX)
+            result.steps = self.step
+            if root:
+                self._write_summary(out / "summary.json", result)
+        if root and result.status == "completed":
+            from . import plots
+
+            plots.energies(out / "energies.csv", out / "energies.png")
+            if self._tip is not None:
+                m = next(m for m in self.scene.materials if m.name == self._body.material)
+                plots.crack_tip(out / "energies.csv", out / "crack_tip.png",
+                                rayleigh_speed(m.E, m.nu, m.density))
+        return result
+
+    def _record(self, log: CsvLog | None, xdmf: io.XDMFFile, force: bool) -> None:
+        """Write the energies row and the phase-field snapshot due at this step."""
+        cfg = self.scene.output
+        e = self.energies()
+        bad = [k for k, v in e.items() if not math.isfinite(v)]
+        if bad:
+            raise _core.SimulationError(f"{', '.join(bad)} not finite at step {self.step}"
+                                        f" (t = {self.time:g})")
+        if force or self.step % cfg.energies_every == 0:
+            if self._tip is not None:
+                e.update(self.crack_tip_record())  # collective
+            if log is not None:
+                log.write(e)
+        if force or self.step % cfg.every == 0:
+            xdmf.write_function(self.c, self.time)
+
+    def summary(self) -> dict:
+        """Sizes and settings of the discretisation (global over ranks)."""
+        vertices = self.V.dofmap.index_map.size_global
+        return {
+            "method": "fem",
+            "ranks": self.comm.size,
+            "vertices": vertices,
+            "cells": self.mesh.topology.index_map(2).size_global,
+            "dofs": 3 * vertices if self._pf is not None else 2 * vertices,
+            "mesh": {"cells": list(self._cells_xy), "h": self.scene.grid.h,
+                     "diagonal": "left/right"},
+            "dt": self.dt,
+            "substeps": self.substeps,
+        }
+
+    def _write_summary(self, path: Path, result: RunResult) -> None:
+        summary = {
+            "scene": self.scene.name,
+            **self.summary(),
+            "status": result.status,
+            "error": result.error,
+            "steps": result.steps,
+            "steps_planned": result.steps_planned,
+            "t_end": self.time,
+            "wall_s": result.wall_s,
+            "phase_field": {**self.phase_field_stats,
+                            "solver": "cg + jacobi" if self._pf is not None else None},
+        }
+        tmp = path.with_suffix(".tmp")
+        tmp.write_text(json.dumps(summary, indent=2) + "\n")
+        tmp.replace(path)
+
+
+class _PhaseFieldSolver:
+    """Eq. (47) without the fourth-order term on P1, solved for ``c`` in place.
+
+    ``(K + M_F) c = F^c`` with ``K_IJ = 4 l0^2 (grad N_J, grad N_I)``,
+    ``M_F,IJ = (F N_J, N_I)`` and ``F^c_I = (1, N_I)`` (eqs. 52, 57 with
+    cells for particles), ``F = 4 l0 (1 - k_f) H / G_c + 1`` per cell
+    (eq. 49).  ``K`` and ``F^c`` are assembled once.
+
+    Parameters
+    ----------
+    c : dolfinx.fem.Function
+        P1 phase field; solved in place, warm-starting from its value.
+    fracture : pfmpm.scene.Fracture
+    settings : pfmpm.scene.PhaseField
+        Tolerance on ``||F^c - A c|| / ||F^c||`` and the iteration limit.
+    cell_dofs : ndarray (cells, 3)
+        P1 dofs of the local cells (to order the cells like the DG0 space).
+    """
+
+    def __init__(self, c: fem.Function, fracture, settings, cell_dofs: np.ndarray):
+        V = c.function_space
+        msh = V.mesh
+        self.c = c
+        self._fracture = fracture
+        self._tol = settings.tol
+        W = fem.FunctionSpace(msh, ("DG", 0))
+        n_cells = len(cell_dofs)
+        self._cell_dof = W.dofmap.list.array[:n_cells]
+        self._reaction = fem.Function(W)
+        p, q = ufl.TrialFunction(V), ufl.TestFunction(V)
+        ell2 = fem.Constant(msh, PETSc.ScalarType(4.0 * fracture.l0 ** 2))
+        self._K = fem_petsc.assemble_matrix(fem.form(ell2 * ufl.inner(ufl.grad(p), ufl.grad(q)) * ufl.dx))
+        self._K.assemble()
+        self._mass_form = fem.form(self._reaction * p * q * ufl.dx)
+        self._M = fem_petsc.create_matrix(self._mass_form)
+        self._A = self._K.duplicate(copy=True)
+        self._b = fem_petsc.assemble_vector(fem.form(q * ufl.dx))
+        self._b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        ksp = PETSc.KSP().create(msh.comm)
+        ksp.setOptionsPrefix("pfmpm_pf_")
+        ksp.setOperators(self._A)
+        ksp.setType(PETSc.KSP.Type.CG)
+        ksp.getPC().setType(PETSc.PC.Type.JACOBI)
+        ksp.setNormType(PETSc.KSP.NormType.UNPRECONDITIONED)
+        ksp.setTolerances(rtol=settings.tol, atol=0.0, max_it=settings.max_iterations)
+        ksp.setInitialGuessNonzero(True)
+        ksp.setFromOptions()
+        self._ksp = ksp
+        self.stats = {"solves": 0, "iterations": 0, "last_iterations": 0}
+
+    def solve(self, history: np.ndarray, step: int, t: float) -> None:
+        """Solve for ``c`` with the cell history ``H``; raise if CG fails."""
+        fr = self._fracture
+        self._reaction.x.array[self._cell_dof] = 4.0 * fr.l0 * (1.0 - fr.k_f) * history / fr.Gc + 1.0
+        self._M.zeroEntries()
+        fem_petsc.assemble_matrix(self._M, self._mass_form)
+        self._M.assemble()
+        self._K.copy(self._A, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+        self._A.axpy(1.0, self._M, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+        self._ksp.solve(self._b, self.c.vector)
+        self.c.x.scatter_forward()
+        its = self._ksp.getIterationNumber()
+        self.stats["solves"] += 1
+        self.stats["iterations"] += its
+        self.stats["last_iterations"] = its
+        reason = self._ksp.getConvergedReason()
+        if reason < 0:
+            raise _core.SimulationError(
+                f"phase field: CG stopped without reaching tol = {self._tol:g} after {its}"
+                f" iterations (PETSc reason {reason}) at step {step} (t = {t:g})")
+
+
+@contextmanager
+def _quiet_jit():
+    """Ignore the ResourceWarning of FFCx 0.5's JIT compiler.
+
+    When it compiles a new form or element, FFCx 0.5 creates the module's C
+    file as a lock with ``open(name, "x")`` and never closes it; under
+    ``-W error`` (the test suite) that warning would fail the first run on a
+    fresh cache.  Only that message is ignored.
+    """
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message=r"unclosed file <_io\.TextIOWrapper name='[^']*libffcx_",
+                                category=ResourceWarning)
+        yield
+
+
+def _supported(scene: Scene) -> tuple[Body, Material]:
+    """Check that the FEM path can run the scene; return its body and material."""
+    if len(scene.bodies) != 1:
+        raise SceneError("bodies", f"the FEM path needs exactly one body, not {len(scene.bodies)}")
+    body = scene.bodies[0]
+    if not isinstance(body.shape, Rectangle):
+        raise SceneError("bodies[0].shape", "the FEM path needs a rectangle", body.shape.kind)
+    if body.holes:
+        raise SceneError("bodies[0].holes", "the FEM path needs a rectangle without holes")
+    h, origin = scene.grid.h, scene.grid.origin
+    for corner in (body.shape.min, body.shape.max):
+        for x, o in zip(corner, origin):
+            n = (x - o) / h
+            if abs(n - round(n)) > _WHOLE * max(1.0, abs(n)):
+                raise SceneError("bodies[0].shape", "the FEM path needs a rectangle whose edges lie"
+                                 f" on grid lines (multiples of h = {h:g} from the grid origin"
+                                 f" {list(origin)})", [list(body.shape.min), list(body.shape.max)])
+    return body, next(m for m in scene.materials if m.name == body.material)
+
+
+def _next_multiple(step: int, every: int) -> int:
+    return (step // every + 1) * every
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m pfmpm.fem SCENE --out DIR``: run a scene with the FEM path (MPI-aware)."""
+    parser = argparse.ArgumentParser(prog="python -m pfmpm.fem",
+                                     description="Phase-field FEM reference run of a scene")
+    parser.add_argument("scene", help="scene TOML file")
+    parser.add_argument("--out", required=True, help="output directory")
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                        help="override a scene value, e.g. time.end=10")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    args = parser.parse_args(argv)
+    comm = MPI.COMM_WORLD
+    root = comm.rank == 0
+    try:
+        scene = Scene.from_toml(args.scene, overrides=args.set)
+        sim = FemSimulation(scene, comm)
+    except (SceneError, FileNotFoundError) as err:
+        if root:
+            print(f"error: {err}", file=sys.stderr)
+        return 2
+    if root:
+        s = sim.summary()
+        print(f"{scene.name}: FEM, {s['vertices']} vertices, {s['cells']} cells on {comm.size}"
+              f" rank(s), {scene.steps()} steps of dt = {sim.dt:.6g} ({sim.substeps} sub-steps)"
+              f" -> {args.out}")
+    result = sim.run(args.out, progress=not args.quiet)
+    if result.status == "failed":
+        if root:
+            print(f"error: {result.error}", file=sys.stderr)
+            print(f"output so far is in {args.out}", file=sys.stderr)
+        return 1
+    if result.status == "interrupted":
+        if root:
+            print(f"interrupted at step {result.steps}; output so far is in {args.out}", file=sys.stderr)
+        return 130
+    if root:
+        print(f"done: {result.steps} steps in {result.wall_s:.1f} s; output in {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

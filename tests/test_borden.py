@@ -1,0 +1,99 @@
+"""The Borden plate (Kakouris & Triantafyllou 2019, section 5.1): dynamic crack
+growth and branching, and stability on hard cases.
+
+Units: mm, us, N, MPa; energies in J/m (N mm per mm of thickness).
+"""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pfmpm import Scene, Simulation
+from pfmpm.scene import rayleigh_speed
+
+DEMO = Path(__file__).resolve().parents[1] / "demos" / "borden_plate.toml"
+NOTCH_TIP = np.array([50.0, 20.0])
+
+
+def drive(scene, every=10):
+    """Run ``scene``, checking the history field never decreases.
+
+    Returns the energies (with crack-tip columns) at every ``every`` steps
+    and the final simulation.
+    """
+    sim = Simulation(scene)
+    rows = []
+    history = sim.particles.history.copy()
+    while sim.step < scene.steps():
+        sim.advance(min(every, scene.steps() - sim.step))
+        e = sim.energies()
+        e.update(sim.crack_tip_record())
+        rows.append(e)
+        now = sim.particles.history
+        assert np.all(now >= history), f"history decreased by step {sim.step}"
+        history = now.copy()
+    return {k: np.array([r[k] for r in rows]) for k in rows[0]}, sim
+
+
+def balance(e):
+    """Energy balance error |K + E + F - W - (its value at t = 0)| relative to W."""
+    drift = np.abs(e["total"] - e["total"][0])
+    return drift, e["external_work"]
+
+
+def test_borden_plate_default_resolution():
+    # The demo's h = 0.25 mm and l0 = 0.5 mm; 2 x 2 particles per cell
+    # (the demo has 3 x 3) to keep the suite short.
+    scene = Scene.from_toml(DEMO, ["bodies.plate.particles_per_cell=2", "output.particles=false"])
+    e, sim = drive(scene)
+    t, tip_x, tip_y, speed = e["t"], e["crack_tip_x"], e["crack_tip_y"], e["crack_tip_speed"]
+
+    # The crack starts at the notch tip between 5 and 20 us: the tip first
+    # moves l0 beyond where the initial crack's phase field reaches.
+    start = t[np.argmax(tip_x > tip_x[0] + 0.5)]
+    assert 5.0 < start < 20.0, f"crack initiation at {start} us"
+
+    # It runs along y = 20 at first...
+    early = tip_x < 65.0
+    assert np.all(np.abs(tip_y[early] - 20.0) < 1.0)
+    # ... and has branched into two cracks, above and below y = 20, before the
+    # right edge: a column of the plate ahead of the branch cuts two cracks
+    # and not the line y = 20 between them.
+    x, c = sim.particles.x, sim.particles.c
+    assert tip_x[-1] < 100.0
+    col = (x[:, 0] > tip_x[-1] - 6.0) & (x[:, 0] < tip_x[-1] - 4.0) & (c < 0.2)
+    ys = x[col, 1]
+    assert ys.min() < 18.0 and ys.max() > 22.0, f"no branches at x = {tip_x[-1] - 5:.1f}"
+    assert not np.any(np.abs(ys - 20.0) < 0.5), "crack still on y = 20 ahead of the branch"
+
+    # The tip never runs faster than the Rayleigh wave.
+    m = scene.materials[0]
+    assert speed.max() < rayleigh_speed(m.E, m.nu, m.density)
+
+    # Energy balance: kinetic + elastic + fracture - work stays within 2 % of
+    # the work done (once the load has done work worth comparing against).
+    drift, work = balance(e)
+    loaded = t >= 2.0
+    assert np.all(drift[loaded] <= 0.02 * work[loaded]), f"balance {np.max(drift[loaded] / work[loaded]):.3g}"
+
+
+HARD = {
+    "branching-2.3MPa": ["loads.0.traction=[0,2.3]", "loads.1.traction=[0,-2.3]", "time.end=130"],
+    "cfl-0.98": ["time.cfl=0.98"],
+}
+
+
+@pytest.mark.parametrize("case", HARD, ids=list(HARD))
+def test_hard_cases_stay_bounded(case):
+    # Coarse (h = 0.5, l0 = 1) to keep the suite short: the point is
+    # stability, not resolution.
+    coarse = ["grid.h=0.5", "materials.concrete.fracture.l0=1.0",
+              "bodies.plate.particles_per_cell=2", "output.particles=false"]
+    scene = Scene.from_toml(DEMO, coarse + HARD[case])
+    e, sim = drive(scene, every=50)
+    assert sim.step == scene.steps()
+    assert all(np.all(np.isfinite(v)) for v in e.values())
+    drift, work = balance(e)
+    # No energy appears beyond the work put in.
+    assert np.all(e["total"] - e["total"][0] <= 0.02 * work + 1e-12)

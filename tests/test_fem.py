@@ -1,0 +1,251 @@
+"""The phase-field FEM reference (pfmpm.fem) against analytic solutions.
+
+Checks the phase-field solve on the 1D crack profile, the lumped mass and the
+load vectors, an elastic P-wave, the output of a failed run, the scene
+checks, and that two MPI ranks reproduce one.
+"""
+
+import json
+import math
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pfmpm import SceneError
+from pfmpm.fem import FemSimulation
+from pfmpm.output import read_csv
+from pfmpm.scene import (
+    Body,
+    BodyForce,
+    Crack,
+    Disk,
+    Fracture,
+    Grid,
+    Material,
+    Output,
+    PhaseField,
+    Rectangle,
+    Scene,
+    Time,
+    Traction,
+    Wall,
+    wave_speed,
+)
+
+DEMOS = Path(__file__).resolve().parents[1] / "demos"
+
+
+def plate(shape=Rectangle((0.0, 0.0), (3.0, 2.0)), h=0.25, **kwargs):
+    """A single-body scene on a grid with one cell of margin around the plate."""
+    material = kwargs.pop("material", Material(name="m", E=100.0, nu=0.25, density=7.0))
+    bodies = kwargs.pop("bodies", (Body(name="p", material=material.name, shape=shape),))
+    return Scene(grid=Grid(size=(5.0, 4.0), h=h, origin=(-1.0, -1.0)),
+                 time=kwargs.pop("time", Time(end=1.0)), materials=(material,),
+                 bodies=bodies, **kwargs)
+
+
+def test_crack_profile_and_density_match_the_1d_solution():
+    """A straight crack imposed at x = 0 across a strip |x| <= L, 4 cells high.
+
+    With c(0) = 0 and no flux at x = +-L the exact profile is
+    ``1 - c = cosh((L - |x|) / (2 l0)) / cosh(L / (2 l0))`` (on an infinite
+    strip ``exp(-|x| / (2 l0))``), and the crack density functional
+    integrates to ``tanh(L / (2 l0))`` per unit crack area (1 when infinite).
+    Here L = 6 l0, h = l0 / 40, and the history band is half a cell wide
+    with B = 1e5, so c(0) is nearly 0.  The error is the L2 norm of
+    ``c_h - c`` over the strip relative to that of ``1 - c`` (lumped-mass
+    quadrature); the crack density is the fracture energy over
+    ``G_c * crack length * thickness``.  G_c, l0 and the thickness are not
+    1, so that a misplaced factor shows.
+    """
+    l0, gc, thickness = 0.5, 0.003, 2.0
+    h, half_length = l0 / 40, 6 * l0
+    height = 4 * h
+    material = Material(name="m", E=1.0, nu=0.0, density=1.0, fracture=Fracture(Gc=gc, l0=l0))
+    scene = Scene(
+        grid=Grid(size=(2 * half_length + 2 * h, height + 2 * h), h=h, origin=(-half_length - h, -h)),
+        time=Time(end=1.0), materials=(material,), thickness=thickness,
+        bodies=(Body(name="strip", material="m", particles_per_cell=1,
+                     shape=Rectangle((-half_length, 0.0), (half_length, height))),),
+        cracks=(Crack(points=((0.0, -1.0), (0.0, height + 1.0)), B=1e5, half_width=0.5 * h),),
+        phase_field=PhaseField(tol=1e-10, max_iterations=5000),
+    )
+    sim = FemSimulation(scene)  # solves the phase field of the initial crack
+    x = sim.vertices[: sim.owned, 0]
+    c = sim.c.x.array[: sim.owned]
+    m = sim.lumped_mass
+    a = half_length / (2 * l0)
+    exact = 1.0 - np.cosh(a - np.abs(x) / (2 * l0)) / np.cosh(a)
+    error = math.sqrt((m @ (c - exact) ** 2) / (m @ (1 - exact) ** 2))
+    assert error < 0.01  # 0.0024
+    density = sim.energies()["fracture"] / (gc * height * thickness)
+    assert density == pytest.approx(math.tanh(a), rel=0.01)  # -0.3 %
+    # Away from the band the discrete profile follows the exact one closely.
+    far = np.abs(x) > 2 * l0
+    assert np.max(np.abs(c[far] - exact[far])) < 2e-3
+
+
+def test_lumped_mass_and_loads_add_up():
+    """Lumped mass = rho * area * thickness; tractions and body forces give the exact momentum.
+
+    With the ``left/right`` diagonals every interior vertex has 4 or 8
+    triangles, so its mass is 2/3 or 4/3 of rho h^2 thickness.  A free plate
+    under constant loads gains momentum (total force) * t whatever the
+    internal forces do, since they sum to zero.
+    """
+    rho, thickness, h = 7.0, 2.5, 0.25
+    traction, gravity = (0.3, -0.7), (0.0, -9.81)
+    scene = plate(h=h, thickness=thickness,
+                  loads=(Traction(body="p", edge="top", traction=traction), BodyForce(gravity)))
+    sim = FemSimulation(scene)
+    mass = sim.lumped_mass
+    total_mass = rho * 3.0 * 2.0 * thickness
+    assert mass.sum() == pytest.approx(total_mass, rel=1e-13)
+    x = sim.vertices[: sim.owned]
+    interior = (x[:, 0] > 1e-9) & (x[:, 0] < 3 - 1e-9) & (x[:, 1] > 1e-9) & (x[:, 1] < 2 - 1e-9)
+    ratios = np.unique(np.round(mass[interior] / (rho * h * h * thickness), 12))
+    np.testing.assert_allclose(ratios, [2 / 3, 4 / 3], rtol=1e-12)
+
+    force = np.array(traction) * 3.0 * thickness + total_mass * np.array(gravity)
+    sim.advance(20)
+    e = sim.energies()
+    assert e["momentum_x"] == pytest.approx(force[0] * sim.time, rel=1e-10)
+    assert e["momentum_y"] == pytest.approx(force[1] * sim.time, rel=1e-10)
+
+
+def test_p_wave_from_a_traction_step_arrives_on_time():
+    """A column between slip walls pulled on its top edge: a 1D P-wave.
+
+    Uniaxial strain, so the front moves at the plane-strain c_p and the
+    material behind it at sigma / (rho c_p).  Half the plateau velocity
+    must reach depth D within 2 h / c_p of D / c_p; the mean velocity there
+    until the bottom reflection returns must be the plateau within 3 %;
+    and kinetic + elastic energy must equal the work of the traction within
+    1 %.
+    """
+    h, width, height, depth, sigma = 0.1, 2.0, 20.0, 10.0, 1.0
+    material = Material(name="m", E=100.0, nu=0.25, density=1.0)
+    cp = wave_speed(100.0, 0.25, 1.0, "strain")
+    end = (2 * height - depth) / cp * 0.9  # before the reflection from the bottom is back
+    scene = Scene(
+        grid=Grid(size=(width, height + 1.0), h=h, origin=(0.0, -0.5)), time=Time(end=end),
+        materials=(material,), thickness=1.5,
+        bodies=(Body(name="col", material="m", particles_per_cell=1,
+                     shape=Rectangle((0.0, 0.0), (width, height))),),
+        loads=(Traction(body="col", edge="top", traction=(0.0, sigma)),),
+        walls=(Wall(side="left", type="slip"), Wall(side="right", type="slip")),
+    )
+    sim = FemSimulation(scene)
+    x = sim.vertices[: sim.owned]
+    line = np.abs(x[:, 1] - (height - depth)) < 1e-9
+    t, v, balance = [], [], []
+    while sim.step < scene.steps():
+        sim.advance(1)
+        e = sim.energies()
+        t.append(sim.time)
+        v.append(sim.velocity[line, 1].mean())
+        balance.append(abs(e["total"]) / e["external_work"])
+    t, v = np.array(t), np.array(v)
+    plateau = sigma / (1.0 * cp)
+    arrival = t[np.argmax(v >= 0.5 * plateau)]
+    assert abs(arrival - depth / cp) < 2 * h / cp
+    behind = t > depth / cp + 30 * h / cp
+    assert v[behind].mean() == pytest.approx(plateau, rel=0.03)
+    assert np.all(np.abs(sim.velocity[:, 0][np.abs(x[:, 0]) < 1e-9]) == 0.0)  # slip wall
+    assert max(balance[len(balance) // 2:]) < 0.01
+
+
+def test_non_finite_energy_stops_the_run_and_keeps_the_output(tmp_path):
+    """A NaN force: the run fails naming the step and time, with the output so far intact."""
+    scene = plate(output=Output(every=5, energies_every=1),
+                  loads=(Traction(body="p", edge="top", traction=(0.0, 1.0)),))
+    sim = FemSimulation(scene)
+    sim.external_force[0, 1] = np.nan
+    result = sim.run(tmp_path, progress=False)
+    assert result.status == "failed"
+    assert "not finite at step 1 (t = " in result.error
+    assert read_csv(tmp_path / "energies.csv")["step"].tolist() == [0.0]
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert (summary["method"], summary["status"], summary["steps"]) == ("fem", "failed", 1)
+    assert (tmp_path / "phase_field.xdmf").exists()
+
+
+@pytest.mark.parametrize("change, path", [
+    ({"shape": Disk((1.0, 1.0), 0.8)}, "bodies[0].shape"),
+    ({"shape": Rectangle((0.0, 0.0), (3.0, 1.9))}, "bodies[0].shape"),
+    ({"holes": (Disk((1.0, 1.0), 0.3),)}, "bodies[0].holes"),
+])
+def test_unsupported_scenes_are_named(change, path):
+    body = Body(**{"name": "p", "material": "m", "shape": Rectangle((0.0, 0.0), (3.0, 2.0)), **change})
+    with pytest.raises(SceneError) as err:
+        FemSimulation(plate(bodies=(body,)))
+    assert err.value.path == path
+    assert "FEM" in str(err.value)
+
+
+def test_two_bodies_are_refused():
+    bodies = (Body(name="a", material="m", shape=Rectangle((0.0, 0.0), (1.0, 1.0))),
+              Body(name="b", material="m", shape=Rectangle((2.0, 0.0), (3.0, 1.0))))
+    with pytest.raises(SceneError, match="^bodies: the FEM path needs exactly one body"):
+        FemSimulation(plate(bodies=bodies))
+
+
+def _mpirun() -> list[str]:
+    """``mpirun -n 2`` with the flags this MPI and this user need."""
+    exe = shutil.which("mpirun")
+    if exe is None:
+        pytest.fail("mpirun not found: tools/setup.sh installs openmpi-bin for the FEM path")
+    version = subprocess.run([exe, "--version"], capture_output=True, text=True).stdout
+    cmd = [exe, "-n", "2"]
+    if "Open MPI" in version or "OpenRTE" in version:
+        cmd.append("--oversubscribe")
+    return cmd
+
+
+def test_two_ranks_reproduce_one(tmp_path):
+    """``mpirun -n 2 python -m pfmpm.fem`` gives the serial energies to 1e-8.
+
+    The Borden plate at h = 0.5, l0 = 1 for 40 steps (the wave reaches the
+    notch and the history grows there).  Energies are compared relative to
+    the largest value of their column, momentum relative to sqrt(2 M K)
+    (it is zero up to round-off by symmetry), the tip to the plate size.
+    """
+    env = dict(os.environ, OMP_NUM_THREADS="1")
+    if os.geteuid() == 0:
+        env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
+    sets = ["grid.h=0.5", "materials.concrete.fracture.l0=1.0", "time.end=4.2",
+            "output.energies_every=1", "output.every=20"]
+    args = ["-P", "-m", "pfmpm.fem", str(DEMOS / "borden_plate.toml"), "--quiet"]
+    args += [item for s in sets for item in ("--set", s)]
+    runs = {"serial": [sys.executable], "mpi": _mpirun() + [sys.executable]}
+    energies = {}
+    for name, launcher in runs.items():
+        out = tmp_path / name
+        proc = subprocess.run(launcher + args + ["--out", str(out)], env=env, capture_output=True,
+                              text=True, timeout=300)
+        assert proc.returncode == 0, proc.stderr[-2000:]
+        summary = json.loads((out / "summary.json").read_text())
+        assert summary["status"] == "completed"
+        assert summary["ranks"] == (1 if name == "serial" else 2)
+        assert summary["substeps"] == 2  # the MPM step 0.8 h/c_p is above the P1 limit
+        assert (out / "phase_field.h5").exists()
+        energies[name] = read_csv(out / "energies.csv")
+    serial, mpi = energies["serial"], energies["mpi"]
+    assert len(serial["step"]) == 41
+    assert serial["fracture"][-1] > serial["fracture"][0]  # the history grew near the notch
+    for key in ("kinetic", "elastic", "fracture", "external_work", "total"):
+        scale = np.max(np.abs(serial[key]))
+        np.testing.assert_allclose(mpi[key], serial[key], rtol=0, atol=1e-8 * scale, err_msg=key)
+    scale = math.sqrt(2 * 2450.0 * 100.0 * 40.0 * np.max(serial["kinetic"]))
+    for key in ("momentum_x", "momentum_y"):
+        np.testing.assert_allclose(mpi[key], serial[key], rtol=0, atol=1e-8 * scale, err_msg=key)
+    for key in ("crack_tip_x", "crack_tip_y"):
+        np.testing.assert_allclose(mpi[key], serial[key], rtol=0, atol=1e-8 * 100.0, err_msg=key)
+    # Energy balance of the run: the work goes into kinetic, elastic and fracture energy.
+    growth = serial["total"] - serial["total"][0]
+    assert np.max(np.abs(growth)) < 0.02 * serial["external_work"][-1]

@@ -1,0 +1,197 @@
+"""Phase-field fracture (AT2) in the MPM core: energy split, crack profile,
+crack energy, irreversibility, and stability on hard cases."""
+
+import math
+
+import numpy as np
+import pytest
+
+from pfmpm import Scene, Simulation, _core
+from pfmpm.crack import CrackTip, distance_to_polyline, initial_history
+from pfmpm.scene import (
+    Body,
+    Crack,
+    Fracture,
+    Grid,
+    Material,
+    PhaseField,
+    Rectangle,
+    Time,
+    Traction,
+    rayleigh_speed,
+)
+
+PLANES = ("strain", "stress")
+SPLITS = ("spectral", "volumetric_deviatoric", "none")
+
+
+def elastic(plane, split):
+    return _core.LinearElastic(32000.0, 0.2, 2450.0, _core.Plane.__members__[plane],
+                               _core.Split.__members__[split])
+
+
+# -- energy split (eqs. 14-16) ------------------------------------------------
+
+
+@pytest.mark.parametrize("plane", PLANES)
+@pytest.mark.parametrize("split", SPLITS)
+def test_split_parts_add_up_to_the_energy(plane, split):
+    m = elastic(plane, split)
+    eps = np.random.default_rng(1).normal(scale=1e-3, size=(2000, 3))
+    plus, minus = m.split_energies(eps)
+    sig = m.stresses(eps, np.ones(len(eps)))
+    psi = 0.5 * (sig[:, 0] * eps[:, 0] + sig[:, 1] * eps[:, 1] + 2 * sig[:, 2] * eps[:, 2])
+    assert np.all(plus >= 0) and np.all(minus >= 0)
+    np.testing.assert_allclose(plus + minus, psi, rtol=1e-13, atol=1e-13 * psi.max())
+
+
+@pytest.mark.parametrize("plane", PLANES)
+def test_no_tensile_energy_in_pure_compression(plane):
+    m = elastic(plane, "spectral")
+    rng = np.random.default_rng(2)
+    # Principal strains both negative, at random orientations.
+    l1, l2 = -rng.uniform(1e-4, 1e-3, size=(2, 500))
+    a = rng.uniform(0, np.pi, 500)
+    c, s = np.cos(a), np.sin(a)
+    eps = np.column_stack((l1 * c * c + l2 * s * s, l1 * s * s + l2 * c * c, (l1 - l2) * c * s))
+    plus, minus = m.split_energies(eps)
+    assert np.all(plus == 0.0)
+    # A broken point (g = 0) still carries the full compressive stress.
+    np.testing.assert_allclose(m.stresses(eps, np.zeros(500)), m.stresses(eps, np.ones(500)),
+                               rtol=1e-12)
+
+
+def test_volumetric_deviatoric_split_keeps_only_volume_compression():
+    # Amor's split degrades shear even in compression; a pure (in-plane,
+    # plane stress) volume compression carries no tensile energy.
+    m = elastic("stress", "volumetric_deviatoric")
+    eps = np.array([[-1e-3, -1e-3, 0.0], [-1e-3, 1e-4, 0.0]])
+    plus, minus = m.split_energies(eps)
+    assert plus[0] == 0.0 and plus[1] > 0.0
+    mu = 32000.0 / 2.4
+    dev = (-1.1e-3 / 2) ** 2 * 2  # deviator of the second strain, squared
+    assert plus[1] == pytest.approx(mu * dev, rel=1e-12)
+
+
+@pytest.mark.parametrize("plane", PLANES)
+@pytest.mark.parametrize("split", SPLITS)
+def test_stress_is_the_derivative_of_the_degraded_energy(plane, split):
+    m = elastic(plane, split)
+    rng = np.random.default_rng(3)
+    eps = rng.normal(scale=1e-3, size=(500, 3))
+    g = rng.uniform(0, 1, 500)
+
+    def energy(e):
+        plus, minus = m.split_energies(e)
+        return g * plus + minus
+
+    step = 1e-8
+    sig = m.stresses(eps, g)
+    for k in range(3):
+        d = np.zeros(3)
+        d[k] = step
+        fd = (energy(eps + d) - energy(eps - d)) / (2 * step)
+        if k == 2:
+            fd /= 2  # psi depends on the tensor shear eps_xy through eps_xy and eps_yx
+        np.testing.assert_allclose(fd, sig[:, k], rtol=0, atol=1e-6 * np.abs(sig).max())
+
+
+# -- initial cracks and the crack tip -----------------------------------------
+
+
+def test_initial_history_is_bordens_formula():
+    crack = Crack(points=((0.0, 0.0), (2.0, 0.0), (2.0, 2.0)), B=1e3)
+    fr = Fracture(Gc=3.0, l0=0.4)
+    xy = np.array([[1.0, 0.0], [1.0, 0.1], [1.0, 0.25], [2.1, 1.0], [3.0, 3.0]])
+    np.testing.assert_allclose(distance_to_polyline(xy, crack.points), [0, 0.1, 0.25, 0.1, math.sqrt(2)])
+    peak = 1e3 * 3.0 / (4 * 0.4)
+    np.testing.assert_allclose(initial_history(xy, crack, fr), [peak, peak * 0.5, 0, peak * 0.5, 0])
+
+
+def test_crack_tip_position_and_speed():
+    tip = CrackTip(origin=(5.0, 0.0), direction=(1.0, 0.0), threshold=0.2, samples=4)
+    xs = np.linspace(0, 20, 201)
+    xy = np.column_stack((xs, np.zeros_like(xs)))
+    for k, t in enumerate(np.arange(6) * 0.5):
+        front = 5.0 + 2.0 * t  # speed 2
+        x, y, v = tip.update(t, xy, np.where(xs <= front, 0.0, 1.0))
+        assert x == pytest.approx(front, abs=0.051)
+        if k:
+            assert v == pytest.approx(2.0, rel=0.03)
+    # Cracked points behind the notch tip never count.
+    assert tip.locate(xy, np.where(xs < 5.0, 0.0, 1.0))[2] == 0.0
+
+
+# -- the phase field of an imposed crack (eqs. 47-57) -------------------------
+
+
+def crack_strip(h, l0, n, degree=2, thickness=1.0, across="x"):
+    """A strip cut by a straight crack through its whole width.
+
+    ``across="x"``: the strip lies along x and the crack is the line x = 0;
+    ``"y"``: the strip lies along y... its crack is the line y = 0. The
+    history band is one particle spacing wide, with a large B.
+    """
+    L, W, margin = 12 * l0, 4 * h, 3 * h
+    lo, hi = (-L, 0.0), (L, W)
+    size, origin = (2 * L + 2 * margin, W + 2 * margin), (-L - margin, -margin)
+    line = ((0.0, -1.0), (0.0, W + 1.0))
+    if across == "y":
+        lo, hi, size, origin = lo[::-1], hi[::-1], size[::-1], origin[::-1]
+        line = tuple(p[::-1] for p in line)
+    return Scene(
+        grid=Grid(size=size, h=h, origin=origin, degree=degree),
+        time=Time(end=1.0),
+        thickness=thickness,
+        materials=(Material("m", 1.0, 0.2, 1.0, fracture=Fracture(Gc=2.5, l0=l0)),),
+        bodies=(Body("strip", "m", Rectangle(min=lo, max=hi), particles_per_cell=n),),
+        cracks=(Crack(points=line, B=1e4, half_width=h / n),),
+        phase_field=PhaseField(tol=1e-10),
+    )
+
+
+def profile_error(sim, l0, axis=0):
+    """Relative L2 error of c against 1 - exp(-|x|/(2 l0)), measured on the crack part 1 - c."""
+    x, c, V = sim.particles.x[:, axis], sim.particles.c, sim.particles.volume
+    exact = 1 - np.exp(-np.abs(x) / (2 * l0))
+    return math.sqrt(np.sum(V * (c - exact) ** 2) / np.sum(V * (1 - exact) ** 2))
+
+
+def test_one_dimensional_profile_and_crack_density():
+    l0 = 1.0
+    sim = Simulation(crack_strip(h=l0 / 8, l0=l0, n=4))
+    assert profile_error(sim, l0) < 0.01
+    # The crack density integrates to one per unit crack length (eq. 4).
+    density = sim.energies()["fracture"] / (2.5 * 4 * l0 / 8)
+    assert density == pytest.approx(1.0, abs=0.01)
+
+
+def test_profile_error_falls_with_the_grid():
+    l0 = 1.0
+    coarse, fine = (profile_error(Simulation(crack_strip(h=h, l0=l0, n=4)), l0) for h in (l0 / 2, l0 / 4))
+    assert fine < 0.6 * coarse
+
+
+@pytest.mark.parametrize("degree", (2, 3))
+def test_straight_crack_energy_is_gc_times_area(degree):
+    l0, h, thickness = 1.0, 1.0 / 8, 2.0
+    sim = Simulation(crack_strip(h=h, l0=l0, n=3, degree=degree, thickness=thickness, across="y"))
+    length = 4 * h
+    assert sim.energies()["fracture"] == pytest.approx(2.5 * length * thickness, rel=0.02)
+
+
+def test_materials_that_cannot_crack_take_no_part():
+    scene = crack_strip(h=0.25, l0=1.0, n=2)
+    plain = Material("rigid", 1.0, 0.2, 1.0)
+    extra = Body("block", "rigid", Rectangle(min=(-3.0, 0.0), max=(-2.0, 1.0)), particles_per_cell=2)
+    scene = Scene(grid=scene.grid, time=scene.time, materials=scene.materials + (plain,),
+                  bodies=scene.bodies + (extra,), cracks=(Crack(scene.cracks[0].points, body="strip",
+                                                                  B=1e4, half_width=0.125),))
+    sim = Simulation(scene)
+    block = sim.particles.body == 1
+    assert np.all(sim.particles.c[block] == 1.0) and np.all(sim.particles.history[block] == 0.0)
+    assert "phase_field" in sim.modules()
+    elastic_only = Simulation(Scene(grid=scene.grid, time=scene.time, materials=(plain,),
+                                    bodies=(Body("block", "rigid", extra.shape),)))
+    assert "phase_field" not in elastic_only.modules()
+    assert elastic_only.solver.phase_field_stats()["solves"] == 0
