@@ -9,6 +9,9 @@ packages=(
   python3-venv python3-pip python3-setuptools python3-wheel
   python3-numpy python3-scipy python3-matplotlib python3-tqdm python3-h5py
   python3-meshio python3-pytest python3-pytest-xdist python3-hypothesis
+  # The phase-field FEM reference (pfmpm.fem): DOLFINx 0.5 and PETSc built on
+  # Open MPI, whose mpirun runs it in parallel; gcc compiles its JIT forms.
+  python3-dolfinx python3-petsc4py python3-mpi4py openmpi-bin gcc python3-dev
 )
 missing=()
 for p in "${packages[@]}"; do

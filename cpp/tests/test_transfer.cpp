@@ -87,12 +87,18 @@ TEST_P(TransferDegree, FreeMotionConservesMomentum)
 
 TEST_P(TransferDegree, ThreadCountDoesNotChangeBits)
 {
+  // With the phase field on: a notch of history along y = 2.5 makes the
+  // solve and the degraded stresses take part.
   auto run = [](int threads)
   {
     omp_set_num_threads(threads);
     Grid grid(GetParam(), {40, 40}, 0.25, {-1.0, -2.0});
     Particles P = make_disk(60);
-    Solver solver(grid, P, {LinearElastic(100.0, 0.3, 1.0, Plane::strain)}, 1e-3);
+    for (std::size_t i = 0; i < P.size(); ++i)
+      if (std::abs(P.x[2 * i + 1] - 2.5) < 0.1 && P.x[2 * i] < 3.0)
+        P.history[i] = 50.0;
+    Solver solver(grid, P, {LinearElastic(100.0, 0.3, 1.0, Plane::strain)}, 1e-3,
+                  {Fracture{0.5, 0.5, 0.0}});
     solver.advance(50);
     return std::make_pair(P, solver.energies());
   };
@@ -104,8 +110,12 @@ TEST_P(TransferDegree, ThreadCountDoesNotChangeBits)
   EXPECT_EQ(0, std::memcmp(p1.x.data(), p3.x.data(), p1.x.size() * sizeof(double)));
   EXPECT_EQ(0, std::memcmp(p1.v.data(), p3.v.data(), p1.v.size() * sizeof(double)));
   EXPECT_EQ(0, std::memcmp(p1.stress.data(), p3.stress.data(), p1.stress.size() * sizeof(double)));
+  EXPECT_EQ(0, std::memcmp(p1.c.data(), p3.c.data(), p1.c.size() * sizeof(double)));
+  EXPECT_EQ(0, std::memcmp(p1.history.data(), p3.history.data(), p1.history.size() * sizeof(double)));
   EXPECT_EQ(e1.kinetic, e3.kinetic);
   EXPECT_EQ(e1.elastic, e3.elastic);
+  EXPECT_EQ(e1.fracture, e3.fracture);
+  EXPECT_GT(e1.fracture, 0.0);
 }
 
 INSTANTIATE_TEST_SUITE_P(Degrees, TransferDegree, ::testing::Values(1, 2, 3));
