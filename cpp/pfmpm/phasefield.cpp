@@ -53,11 +53,12 @@ PhaseField::PhaseField(const Grid& grid, std::vector<std::optional<Fracture>> fr
 
 template <int P>
 bool PhaseField::solve(Particles& particles, const std::vector<std::int32_t>& order,
-                       const std::vector<std::int64_t>& cell_start)
+                       const std::vector<std::int64_t>& cell_start,
+                       const std::vector<LinearElastic>& materials)
 {
   assemble<P>(particles, order, cell_start);
   const bool converged = conjugate_gradient<P>();
-  map_to_particles<P>(particles, order, cell_start);
+  map_to_particles<P>(particles, order, cell_start, materials);
   return converged;
 }
 
@@ -66,8 +67,7 @@ void PhaseField::assemble(const Particles& particles, const std::vector<std::int
                           const std::vector<std::int64_t>& cell_start)
 {
   constexpr int K = (P + 1) * (P + 1); // nodes of one cell
-  constexpr int W = 2 * P + 1;         // stencil width
-  constexpr int S = W * W;             // stencil size
+  constexpr int H = Stencil<P>::size;  // stored entries per node
   const BSpline1D& bx = _grid.basis(0);
   const BSpline1D& by = _grid.basis(1);
   const int ncx = bx.cells(), ncy = by.cells(), nny = _grid.nodes()[1];
@@ -78,8 +78,8 @@ void PhaseField::assemble(const Particles& particles, const std::vector<std::int
   const double* history = particles.history.data();
   const std::int32_t* material = particles.material.data();
 
-  _stencil.assign(na * S, 0.0);
-  _rhs.assign(na, 0.0);
+  _stencil.resize(_c.size() * H);
+  _rhs.resize(na);
   _diagonal.resize(na);
   _position.resize(na);
   _r.resize(na);
@@ -88,7 +88,21 @@ void PhaseField::assemble(const Particles& particles, const std::vector<std::int
   const std::vector<std::int32_t>& nodes = _grid.active_nodes();
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t a = 0; a < static_cast<std::ptrdiff_t>(na); ++a)
+  {
     _position[a] = padded(nodes[a] / nny, nodes[a] % nny);
+    _rhs[a] = 0.0;
+  }
+  // All nodes, not only active ones: a product reads neighbours' rows.
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t k = 0; k < static_cast<std::ptrdiff_t>(_stencil.size()); ++k)
+    _stencil[k] = 0.0;
+
+  // Where each pair of a cell's nodes lands in the upper-half stencil (-1: the
+  // lower half, added through the symmetric pair).
+  int slot[K][K];
+  for (int i = 0; i < K; ++i)
+    for (int j = 0; j < K; ++j)
+      slot[i][j] = Stencil<P>::slot(j / (P + 1) - i / (P + 1), j % (P + 1) - i % (P + 1));
 
   // Per cell, a local K x K block of eq. 57 (gamma = 0) and K entries of
   // eq. 52, summed over the cell's particles in sorted order, then added to
@@ -101,7 +115,10 @@ void PhaseField::assemble(const Particles& particles, const std::vector<std::int
         for (int cy = 0; cy < ncy; ++cy)
         {
           const std::size_t cell = static_cast<std::size_t>(cx) * ncy + cy;
-          double block[K][K]{}, f[K]{};
+          // Rows padded to a multiple of 4 so the inner loop vectorises.
+          constexpr int R = (K + 3) / 4 * 4;
+          alignas(32) double block[K][R]{};
+          double f[K]{};
           bool touched = false;
           for (std::int64_t k = cell_start[cell]; k < cell_start[cell + 1]; ++k)
           {
@@ -117,7 +134,7 @@ void PhaseField::assemble(const Particles& particles, const std::vector<std::int
             // eq. 49: F_p = 4 l0 (1 - k_f) H / G_c + 1
             const double a = (4.0 * fr->l0 * (1.0 - fr->k_f) * history[p] / fr->Gc + 1.0) * V;
             const double b = 4.0 * fr->l0 * fr->l0 * V;
-            double w[K], gx[K], gy[K];
+            alignas(32) double w[R]{}, gx[R]{}, gy[R]{};
             for (int i = 0; i < P + 1; ++i)
               for (int j = 0; j < P + 1; ++j)
               {
@@ -129,7 +146,7 @@ void PhaseField::assemble(const Particles& particles, const std::vector<std::int
             {
               f[i] += V * w[i]; // eq. 52
               const double aw = a * w[i], bx_ = b * gx[i], by_ = b * gy[i];
-              for (int j = i; j < K; ++j) // K is symmetric: the upper triangle
+              for (int j = 0; j < R; ++j)
                 block[i][j] += aw * w[j] + bx_ * gx[j] + by_ * gy[j]; // eq. 57
             }
           }
@@ -138,24 +155,20 @@ void PhaseField::assemble(const Particles& particles, const std::vector<std::int
           for (int i = 0; i < K; ++i)
           {
             const int ia = i / (P + 1), ib = i % (P + 1);
-            const std::size_t row = _grid.active_index(cx + ia, cy + ib);
-            _rhs[row] += f[i];
-            double* stencil = &_stencil[row * S];
+            _rhs[_grid.active_index(cx + ia, cy + ib)] += f[i];
+            double* stencil = &_stencil[padded(cx + ia, cy + ib) * H];
             for (int j = 0; j < K; ++j)
-            {
-              const int ja = j / (P + 1), jb = j % (P + 1);
-              stencil[(ja - ia + P) * W + (jb - ib + P)] += i <= j ? block[i][j] : block[j][i];
-            }
+              if (slot[i][j] >= 0)
+                stencil[slot[i][j]] += block[i][j];
           }
         }
   }
 
   // Nodes that no crackable particle touches keep c = 1: an identity row.
-  constexpr int centre = P * W + P;
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t a = 0; a < static_cast<std::ptrdiff_t>(na); ++a)
   {
-    double& d = _stencil[a * S + centre];
+    double& d = _stencil[_position[a] * H]; // the centre entry
     if (d == 0.0)
     {
       d = 1.0;
@@ -168,22 +181,10 @@ void PhaseField::assemble(const Particles& particles, const std::vector<std::int
 template <int P>
 void PhaseField::multiply(const std::vector<double>& in, std::vector<double>& out) const
 {
-  constexpr int W = 2 * P + 1, S = W * W;
-  std::ptrdiff_t offset[S];
-  for (int dx = -P; dx <= P; ++dx)
-    for (int dy = -P; dy <= P; ++dy)
-      offset[(dx + P) * W + dy + P] = dx * static_cast<std::ptrdiff_t>(_padded_ny) + dy;
-  const double* v = in.data();
+  const Stencil<P> stencil(_padded_ny);
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t a = 0; a < static_cast<std::ptrdiff_t>(out.size()); ++a)
-  {
-    const double* row = &_stencil[a * S];
-    const double* centre = v + _position[a];
-    double sum = 0.0;
-    for (int s = 0; s < S; ++s)
-      sum += row[s] * centre[offset[s]];
-    out[a] = sum;
-  }
+    out[a] = row_product(stencil, a, in.data());
 }
 
 template <int P>
@@ -223,10 +224,15 @@ bool PhaseField::conjugate_gradient()
   while (residual > stop && it < _max_iterations)
   {
     ++it;
-    multiply<P>(_search, _q);
+    // q = K p and p . q in one pass.
+    const Stencil<P> stencil(_padded_ny);
     const double pq = deterministic_sum<1>(
-        na, [&](std::size_t a, std::array<double, 1>& acc)
-        { acc[0] += _search[_position[a]] * _q[a]; })[0];
+        na,
+        [&](std::size_t a, std::array<double, 1>& acc)
+        {
+          _q[a] = row_product(stencil, a, _search.data());
+          acc[0] += _search[_position[a]] * _q[a];
+        })[0];
     const double alpha = rz / pq;
     rr = deterministic_sum<2>(
         na,
@@ -255,7 +261,8 @@ bool PhaseField::conjugate_gradient()
 
 template <int P>
 void PhaseField::map_to_particles(Particles& particles, const std::vector<std::int32_t>& order,
-                                  const std::vector<std::int64_t>& cell_start)
+                                  const std::vector<std::int64_t>& cell_start,
+                                  const std::vector<LinearElastic>& materials)
 {
   constexpr int K = (P + 1) * (P + 1);
   const BSpline1D& bx = _grid.basis(0);
@@ -264,8 +271,11 @@ void PhaseField::map_to_particles(Particles& particles, const std::vector<std::i
   const double* x = particles.x.data();
   const double* volume = particles.volume.data();
   const std::int32_t* material = particles.material.data();
+  const double* strain = particles.strain.data();
+  double* stress = particles.stress.data();
   double* c = particles.c.data();
-  _fracture_energy.assign(particles.size(), 0.0);
+  // Every particle's entry is written below (zero where it cannot crack).
+  _fracture_energy.resize(particles.size());
 
 #pragma omp parallel for schedule(static)
   for (int cx = 0; cx < ncx; ++cx)
@@ -284,7 +294,10 @@ void PhaseField::map_to_particles(Particles& particles, const std::vector<std::i
         const std::size_t p = order[k];
         const Fracture* fr = fracture(material[p]);
         if (!fr)
+        {
+          _fracture_energy[p] = 0.0;
           continue;
+        }
         double Nx[P + 1], dNx[P + 1], Ny[P + 1], dNy[P + 1];
         bx.evaluate<P>(cx, x[2 * p], Nx, dNx);
         by.evaluate<P>(cy, x[2 * p + 1], Ny, dNy);
@@ -303,15 +316,21 @@ void PhaseField::map_to_particles(Particles& particles, const std::vector<std::i
         _fracture_energy[p] = fr->Gc * volume[p]
                               * (one_minus * one_minus / (4.0 * fr->l0)
                                  + fr->l0 * (gx * gx + gy * gy));
+        double plus, minus; // eqs. 14-16 with the new phase field
+        materials[material[p]].degraded(&strain[3 * p], fr->degradation(cp), &stress[4 * p],
+                                        plus, minus);
       }
     }
 }
 
 template bool PhaseField::solve<1>(Particles&, const std::vector<std::int32_t>&,
-                                   const std::vector<std::int64_t>&);
+                                   const std::vector<std::int64_t>&,
+                                   const std::vector<LinearElastic>&);
 template bool PhaseField::solve<2>(Particles&, const std::vector<std::int32_t>&,
-                                   const std::vector<std::int64_t>&);
+                                   const std::vector<std::int64_t>&,
+                                   const std::vector<LinearElastic>&);
 template bool PhaseField::solve<3>(Particles&, const std::vector<std::int32_t>&,
-                                   const std::vector<std::int64_t>&);
+                                   const std::vector<std::int64_t>&,
+                                   const std::vector<LinearElastic>&);
 
 } // namespace pfmpm

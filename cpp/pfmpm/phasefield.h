@@ -4,6 +4,7 @@
 #pragma once
 
 #include "grid.h"
+#include "material.h"
 #include "particles.h"
 
 #include <cstdint>
@@ -38,7 +39,8 @@ struct PhaseFieldStats
 /// @brief Assembles and solves K c = F (eqs. 56, 57, 52) for the nodal phase
 /// field, and maps the result to the particles (eqs. 53, 54).
 ///
-/// K is stored as a (2p+1)^2-point stencil per active node; only particles of
+/// K is stored as the upper half of a (2p+1)^2-point stencil per grid node
+/// (padded by p nodes on each side, zero away from active nodes); only particles of
 /// materials that can crack contribute. Nodes that no such particle touches
 /// keep c = 1. The solve is Jacobi-preconditioned conjugate gradients,
 /// started from the last two steps' nodal values extrapolated in time, stopped when
@@ -62,14 +64,17 @@ public:
     return _fracture[material] ? &*_fracture[material] : nullptr;
   }
 
-  /// @brief Assemble with the current history, solve, and set c at the particles.
+  /// @brief Assemble with the current history, solve, set c at the
+  /// particles and degrade their stresses (eqs. 14-16).
   ///
   /// Needs the particles sorted by cell (`order`, `cell_start`) and the grid's
   /// active nodes for that sort.
+  /// @param materials Elastic models indexed by Particles::material.
   /// @return false if CG did not reach tol within max_iterations.
   template <int P>
   bool solve(Particles& particles, const std::vector<std::int32_t>& order,
-             const std::vector<std::int64_t>& cell_start);
+             const std::vector<std::int64_t>& cell_start,
+             const std::vector<LinearElastic>& materials);
 
   /// Per particle: G_c V_p Z(c_p) with Z of eq. 4 (gamma = 0), from the last solve.
   const std::vector<double>& fracture_energy() const { return _fracture_energy; }
@@ -87,7 +92,46 @@ private:
   void multiply(const std::vector<double>& padded, std::vector<double>& out) const;
   template <int P>
   void map_to_particles(Particles& particles, const std::vector<std::int32_t>& order,
-                        const std::vector<std::int64_t>& cell_start);
+                        const std::vector<std::int64_t>& cell_start,
+                        const std::vector<LinearElastic>& materials);
+  /// @brief The upper half of K's (2p+1)^2-point stencil: the centre, then the
+  /// offsets (0, 1..p), then (1..p, -p..p). K is symmetric, so the entry for
+  /// (-dx, -dy) is the (dx, dy) entry of the neighbour's row.
+  template <int P>
+  struct Stencil
+  {
+    static constexpr int width = 2 * P + 1, size = (width * width + 1) / 2;
+    std::ptrdiff_t offset[size]; // in the padded node layout
+    explicit Stencil(std::size_t padded_ny)
+    {
+      for (int dx = 0; dx <= P; ++dx)
+        for (int dy = -P; dy <= P; ++dy)
+          if (const int k = slot(dx, dy); k >= 0)
+            offset[k] = dx * static_cast<std::ptrdiff_t>(padded_ny) + dy;
+    }
+    /// Index of offset (dx, dy) in the upper half, or -1 for the lower half.
+    static constexpr int slot(int dx, int dy)
+    {
+      if (dx < 0 || (dx == 0 && dy < 0))
+        return -1;
+      return dx == 0 ? dy : P + (dx - 1) * width + dy + P + 1;
+    }
+  };
+  /// Row `a` (an active node) of K times the padded vector `v`.
+  template <int P>
+  double row_product(const Stencil<P>& stencil, std::size_t a, const double* v) const
+  {
+    constexpr int H = Stencil<P>::size;
+    const std::size_t i = _position[a];
+    const double* row = &_stencil[i * H];
+    double sum = row[0] * v[i];
+    for (int k = 1; k < H; ++k)
+    {
+      const std::ptrdiff_t o = stencil.offset[k];
+      sum += row[k] * v[i + o] + _stencil[(i - o) * H + k] * v[i - o];
+    }
+    return sum;
+  }
   /// Index of node (ix, iy) in the padded node layout.
   std::size_t padded(int ix, int iy) const
   {
@@ -103,7 +147,7 @@ private:
   std::size_t _padded_ny;  // nodes per padded column
   std::vector<double> _c;  // nodal phase field, padded layout, kept between steps
   std::vector<double> _c_previous; // the solution before, for the warm start
-  std::vector<double> _stencil;       // per active node: (2p+1)^2 coefficients of K
+  std::vector<double> _stencil;       // per padded node: upper-half stencil of K
   std::vector<double> _rhs;           // per active node: F (eq. 52)
   std::vector<double> _diagonal;      // per active node: K_II, 1 where no crack can form
   std::vector<std::size_t> _position; // per active node: its index in the padded layout

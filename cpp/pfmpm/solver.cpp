@@ -94,7 +94,7 @@ void Solver::prepare()
   _grid.activate(_cell_start);
   if (!_phase_field.active())
     return;
-  if (!_phase_field.template solve<P>(_particles, _order, _cell_start))
+  if (!_phase_field.template solve<P>(_particles, _order, _cell_start, _materials))
   {
     const PhaseFieldStats& s = _phase_field.stats();
     std::ostringstream msg;
@@ -104,24 +104,6 @@ void Solver::prepare()
         << ")";
     throw SimulationError(msg.str());
   }
-  degrade_stresses();
-}
-
-void Solver::degrade_stresses()
-{
-  const auto n = static_cast<std::ptrdiff_t>(_particles.size());
-  const double* strain = _particles.strain.data();
-  const double* c = _particles.c.data();
-  const std::int32_t* material = _particles.material.data();
-  double* stress = _particles.stress.data();
-#pragma omp parallel for schedule(static)
-  for (std::ptrdiff_t p = 0; p < n; ++p)
-    if (const Fracture* f = _phase_field.fracture(material[p]))
-    {
-      double plus, minus;
-      _materials[material[p]].degraded(&strain[3 * p], f->degradation(c[p]), &stress[4 * p],
-                                       plus, minus); // eqs. 14-16
-    }
 }
 
 template <int P>

@@ -104,7 +104,6 @@ private:
   void grid_to_particle();
   std::string where(std::size_t particle) const;
   bool has_external_force() const;
-  void degrade_stresses();
 
   /// P2G accumulators of one active node.
   struct NodeSums
