@@ -91,7 +91,7 @@ from . import _core
 from .crack import CrackTip, initial_history
 from .output import CsvLog
 from .scene import Body, BodyForce, Material, Rectangle, Scene, SceneError, Traction, rayleigh_speed
-from .simulation import CRACK_COLUMNS, ENERGY_COLUMNS, RunResult, Snapshots
+from .simulation import CRACK_COLUMNS, ENERGY_COLUMNS, RunResult, Snapshots, step_to_end
 
 __all__ = ["FemSimulation", "MESH_DIAGONAL", "main"]
 
@@ -537,20 +537,9 @@ class FemSimulation:
         start = _time.perf_counter()
         bar = tqdm(total=total, disable=not (progress and root), unit="step", desc=self.scene.name)
         try:
-            self._record(log, xdmf, snapshots, force=True)
-            while self.step < total:
-                nxt = min(_next_multiple(self.step, cfg.energies_every),
-                          _next_multiple(self.step, cfg.every), total)
-                before = self.step
-                self.advance(nxt - before)
-                bar.update(self.step - before)
-                self._record(log, xdmf, snapshots, force=self.step == total)
-            result.status = "completed"
-        except KeyboardInterrupt:
-            result.status = "interrupted"
-        except _core.SimulationError as err:
-            result.status = "failed"
-            result.error = str(err)
+            result.status, result.error = step_to_end(
+                self, total, [cfg.energies_every, cfg.every],
+                lambda force: self._record(log, xdmf, snapshots, force), bar)
         finally:
             bar.close()
             xdmf.close()
@@ -762,9 +751,6 @@ def _supported(scene: Scene) -> tuple[Body, Material]:
                                  f" {list(origin)})", [list(body.shape.min), list(body.shape.max)])
     return body, next(m for m in scene.materials if m.name == body.material)
 
-
-def _next_multiple(step: int, every: int) -> int:
-    return (step // every + 1) * every
 
 
 def main(argv: list[str] | None = None) -> int:

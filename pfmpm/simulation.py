@@ -162,22 +162,10 @@ class Simulation:
         result = RunResult(out_dir=out, steps_planned=total)
         start = _time.perf_counter()
         bar = tqdm(total=total, disable=not progress, unit="step", desc=self.scene.name)
+        every = [cfg.energies_every] + ([cfg.every] if series is not None else [])
         try:
-            self._record(log, series, snapshots, force=True)
-            while self.step < total:
-                nxt = min(_next_multiple(self.step, cfg.energies_every), total)
-                if series is not None:
-                    nxt = min(nxt, _next_multiple(self.step, cfg.every))
-                before = self.step
-                self.advance(nxt - before)
-                bar.update(self.step - before)
-                self._record(log, series, snapshots, force=self.step == total)
-            result.status = "completed"
-        except KeyboardInterrupt:
-            result.status = "interrupted"
-        except _core.SimulationError as err:
-            result.status = "failed"
-            result.error = str(err)
+            result.status, result.error = step_to_end(
+                self, total, every, lambda force: self._record(log, series, snapshots, force), bar)
         finally:
             bar.close()
             log.close()
@@ -259,8 +247,29 @@ class RunResult:
     wall_s: float = 0.0
 
 
-def _next_multiple(step: int, every: int) -> int:
-    return (step // every + 1) * every
+def step_to_end(sim, total: int, every: list[int], record, bar) -> tuple[str, str | None]:
+    """Advance ``sim`` to step ``total``, calling ``record(force)`` on the way.
+
+    ``sim`` has ``step`` and ``advance(n)`` (a :class:`Simulation` or a
+    :class:`pfmpm.fem.FemSimulation`). It stops at every multiple of each
+    entry of ``every`` and calls ``record`` there, with ``force=True`` at the
+    start and the end. Returns ``(status, error)``: ``"completed"``,
+    ``"interrupted"`` (Ctrl-C, after the current chunk) or ``"failed"`` with
+    the :class:`~pfmpm._core.SimulationError` message.
+    """
+    try:
+        record(True)
+        while sim.step < total:
+            nxt = min([(sim.step // e + 1) * e for e in every] + [total])
+            before = sim.step
+            sim.advance(nxt - before)
+            bar.update(sim.step - before)
+            record(sim.step == total)
+        return "completed", None
+    except KeyboardInterrupt:
+        return "interrupted", None
+    except _core.SimulationError as err:
+        return "failed", str(err)
 
 
 class Snapshots:

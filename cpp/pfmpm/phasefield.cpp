@@ -1,5 +1,6 @@
 #include "phasefield.h"
 #include "reduce.h"
+#include "strips.h"
 
 #include <algorithm>
 #include <cmath>
@@ -11,10 +12,6 @@ namespace pfmpm
 
 namespace
 {
-/// Cell columns per assembly strip; see Solver's P2G for the scheme.
-constexpr int strip_width = 4;
-static_assert(strip_width >= max_degree);
-
 std::string text(double v) { return std::to_string(v); }
 } // namespace
 
@@ -71,7 +68,6 @@ void PhaseField::assemble(const Particles& particles, const std::vector<std::int
   const BSpline1D& bx = _grid.basis(0);
   const BSpline1D& by = _grid.basis(1);
   const int ncx = bx.cells(), ncy = by.cells(), nny = _grid.nodes()[1];
-  const int nstrips = (ncx + strip_width - 1) / strip_width;
   const auto na = static_cast<std::size_t>(_grid.num_active());
   const double* x = particles.x.data();
   const double* volume = particles.volume.data();
@@ -106,63 +102,57 @@ void PhaseField::assemble(const Particles& particles, const std::vector<std::int
 
   // Per cell, a local K x K block of eq. 57 (gamma = 0) and K entries of
   // eq. 52, summed over the cell's particles in sorted order, then added to
-  // the stencil rows; strips of one parity touch disjoint rows.
-  for (int parity = 0; parity < 2; ++parity)
+  // the stencil rows (see for_each_cell_by_strips).
+  auto scatter = [&](int cx, int cy, std::int64_t begin, std::int64_t end)
   {
-#pragma omp parallel for schedule(dynamic, 1)
-    for (int s = parity; s < nstrips; s += 2)
-      for (int cx = s * strip_width; cx < std::min((s + 1) * strip_width, ncx); ++cx)
-        for (int cy = 0; cy < ncy; ++cy)
+    // Rows padded to a multiple of 4 so the inner loop vectorises.
+    constexpr int R = (K + 3) / 4 * 4;
+    alignas(32) double block[K][R]{};
+    double f[K]{};
+    bool touched = false;
+    for (std::int64_t k = begin; k < end; ++k)
+    {
+      const std::size_t p = order[k];
+      const Fracture* fr = fracture(material[p]);
+      if (!fr)
+        continue;
+      touched = true;
+      double Nx[P + 1], dNx[P + 1], Ny[P + 1], dNy[P + 1];
+      bx.evaluate<P>(cx, x[2 * p], Nx, dNx);
+      by.evaluate<P>(cy, x[2 * p + 1], Ny, dNy);
+      const double V = volume[p];
+      // eq. 49: F_p = 4 l0 (1 - k_f) H / G_c + 1
+      const double a = (4.0 * fr->l0 * (1.0 - fr->k_f) * history[p] / fr->Gc + 1.0) * V;
+      const double b = 4.0 * fr->l0 * fr->l0 * V;
+      alignas(32) double w[R]{}, gx[R]{}, gy[R]{};
+      for (int i = 0; i < P + 1; ++i)
+        for (int j = 0; j < P + 1; ++j)
         {
-          const std::size_t cell = static_cast<std::size_t>(cx) * ncy + cy;
-          // Rows padded to a multiple of 4 so the inner loop vectorises.
-          constexpr int R = (K + 3) / 4 * 4;
-          alignas(32) double block[K][R]{};
-          double f[K]{};
-          bool touched = false;
-          for (std::int64_t k = cell_start[cell]; k < cell_start[cell + 1]; ++k)
-          {
-            const std::size_t p = order[k];
-            const Fracture* fr = fracture(material[p]);
-            if (!fr)
-              continue;
-            touched = true;
-            double Nx[P + 1], dNx[P + 1], Ny[P + 1], dNy[P + 1];
-            bx.evaluate<P>(cx, x[2 * p], Nx, dNx);
-            by.evaluate<P>(cy, x[2 * p + 1], Ny, dNy);
-            const double V = volume[p];
-            // eq. 49: F_p = 4 l0 (1 - k_f) H / G_c + 1
-            const double a = (4.0 * fr->l0 * (1.0 - fr->k_f) * history[p] / fr->Gc + 1.0) * V;
-            const double b = 4.0 * fr->l0 * fr->l0 * V;
-            alignas(32) double w[R]{}, gx[R]{}, gy[R]{};
-            for (int i = 0; i < P + 1; ++i)
-              for (int j = 0; j < P + 1; ++j)
-              {
-                w[i * (P + 1) + j] = Nx[i] * Ny[j];
-                gx[i * (P + 1) + j] = dNx[i] * Ny[j];
-                gy[i * (P + 1) + j] = Nx[i] * dNy[j];
-              }
-            for (int i = 0; i < K; ++i)
-            {
-              f[i] += V * w[i]; // eq. 52
-              const double aw = a * w[i], bx_ = b * gx[i], by_ = b * gy[i];
-              for (int j = 0; j < R; ++j)
-                block[i][j] += aw * w[j] + bx_ * gx[j] + by_ * gy[j]; // eq. 57
-            }
-          }
-          if (!touched)
-            continue;
-          for (int i = 0; i < K; ++i)
-          {
-            const int ia = i / (P + 1), ib = i % (P + 1);
-            _rhs[_grid.active_index(cx + ia, cy + ib)] += f[i];
-            double* stencil = &_stencil[padded(cx + ia, cy + ib) * H];
-            for (int j = 0; j < K; ++j)
-              if (slot[i][j] >= 0)
-                stencil[slot[i][j]] += block[i][j];
-          }
+          w[i * (P + 1) + j] = Nx[i] * Ny[j];
+          gx[i * (P + 1) + j] = dNx[i] * Ny[j];
+          gy[i * (P + 1) + j] = Nx[i] * dNy[j];
         }
-  }
+      for (int i = 0; i < K; ++i)
+      {
+        f[i] += V * w[i]; // eq. 52
+        const double aw = a * w[i], bx_ = b * gx[i], by_ = b * gy[i];
+        for (int j = 0; j < R; ++j)
+          block[i][j] += aw * w[j] + bx_ * gx[j] + by_ * gy[j]; // eq. 57
+      }
+    }
+    if (!touched)
+      return;
+    for (int i = 0; i < K; ++i)
+    {
+      const int ia = i / (P + 1), ib = i % (P + 1);
+      _rhs[_grid.active_index(cx + ia, cy + ib)] += f[i];
+      double* stencil = &_stencil[padded(cx + ia, cy + ib) * H];
+      for (int j = 0; j < K; ++j)
+        if (slot[i][j] >= 0)
+          stencil[slot[i][j]] += block[i][j];
+    }
+  };
+  for_each_cell_by_strips(ncx, ncy, cell_start, scatter);
 
   // Nodes that no crackable particle touches keep c = 1: an identity row.
 #pragma omp parallel for schedule(static)

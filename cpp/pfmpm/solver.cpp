@@ -1,5 +1,6 @@
 #include "solver.h"
 #include "reduce.h"
+#include "strips.h"
 
 #include <omp.h>
 
@@ -13,11 +14,6 @@ namespace pfmpm
 
 namespace
 {
-/// Cell columns per P2G strip. Strips of one parity share no grid node as long
-/// as this is at least the B-spline degree.
-constexpr int strip_width = 4;
-static_assert(strip_width >= max_degree);
-
 /// Call f(std::integral_constant<int, P>) for the run-time degree P.
 template <class F>
 void with_degree(int degree, F&& f)
@@ -201,7 +197,6 @@ void Solver::particle_to_grid()
   const BSpline1D& bx = _grid.basis(0);
   const BSpline1D& by = _grid.basis(1);
   const int ncx = bx.cells(), ncy = by.cells();
-  const int nstrips = (ncx + strip_width - 1) / strip_width;
   const double* x = _particles.x.data();
   const double* v = _particles.v.data();
   const double* mass = _particles.mass.data();
@@ -215,73 +210,58 @@ void Solver::particle_to_grid()
   for (std::ptrdiff_t a = 0; a < static_cast<std::ptrdiff_t>(_sums.size()); ++a)
     _sums[a] = NodeSums{};
 
-  // Strips of `strip_width` cell columns: first all even strips in parallel,
-  // then all odd ones. Strips of one parity touch disjoint nodes. Each cell's
-  // particles are summed in sorted order into a local K-node block, which is
-  // then added to the nodes; a node receives its cell blocks in a fixed order
-  // (even strip, then odd strip, cells in key order). No atomics, and the
-  // same bits for any thread count.
-  for (int parity = 0; parity < 2; ++parity)
+  // Each cell's particles are summed in sorted order into a local K-node
+  // block, which is then added to the nodes (see for_each_cell_by_strips).
+  auto scatter = [&](int cx, int cy, std::int64_t begin, std::int64_t end)
   {
-#pragma omp parallel for schedule(dynamic, 1)
-    for (int s = parity; s < nstrips; s += 2)
+    double m[K]{}, px[K]{}, py[K]{}, fx[K]{}, fy[K]{}, ex[K]{}, ey[K]{};
+    for (std::int64_t k = begin; k < end; ++k)
     {
-      for (int cx = s * strip_width; cx < std::min((s + 1) * strip_width, ncx); ++cx)
-        for (int cy = 0; cy < ncy; ++cy)
+      const std::size_t p = _order[k];
+      double Nx[P + 1], dNx[P + 1], Ny[P + 1], dNy[P + 1];
+      bx.evaluate<P>(cx, x[2 * p], Nx, dNx);
+      by.evaluate<P>(cy, x[2 * p + 1], Ny, dNy);
+      const double mp = mass[p];
+      const double mvx = mp * v[2 * p], mvy = mp * v[2 * p + 1];
+      const double V = volume[p];
+      const double sxx = V * stress[4 * p], syy = V * stress[4 * p + 1],
+                   sxy = V * stress[4 * p + 2];
+      for (int a = 0; a <= P; ++a)
+        for (int b = 0; b <= P; ++b)
         {
-          const std::size_t cell = static_cast<std::size_t>(cx) * ncy + cy;
-          const std::int64_t begin = _cell_start[cell], end = _cell_start[cell + 1];
-          if (begin == end)
-            continue;
-          double m[K]{}, px[K]{}, py[K]{}, fx[K]{}, fy[K]{}, ex[K]{}, ey[K]{};
-          for (std::int64_t k = begin; k < end; ++k)
+          const int i = a * (P + 1) + b;
+          const double w = Nx[a] * Ny[b];
+          const double gx = dNx[a] * Ny[b], gy = Nx[a] * dNy[b];
+          m[i] += w * mp;    // eq. 46
+          px[i] += w * mvx;  // eq. 61
+          py[i] += w * mvy;
+          fx[i] -= sxx * gx + sxy * gy; // eq. 62
+          fy[i] -= sxy * gx + syy * gy;
+          if constexpr (External)
           {
-            const std::size_t p = _order[k];
-            double Nx[P + 1], dNx[P + 1], Ny[P + 1], dNy[P + 1];
-            bx.evaluate<P>(cx, x[2 * p], Nx, dNx);
-            by.evaluate<P>(cy, x[2 * p + 1], Ny, dNy);
-            const double mp = mass[p];
-            const double mvx = mp * v[2 * p], mvy = mp * v[2 * p + 1];
-            const double V = volume[p];
-            const double sxx = V * stress[4 * p], syy = V * stress[4 * p + 1],
-                         sxy = V * stress[4 * p + 2];
-            for (int a = 0; a <= P; ++a)
-              for (int b = 0; b <= P; ++b)
-              {
-                const int i = a * (P + 1) + b;
-                const double w = Nx[a] * Ny[b];
-                const double gx = dNx[a] * Ny[b], gy = Nx[a] * dNy[b];
-                m[i] += w * mp;    // eq. 46
-                px[i] += w * mvx;  // eq. 61
-                py[i] += w * mvy;
-                fx[i] -= sxx * gx + sxy * gy; // eq. 62
-                fy[i] -= sxy * gx + syy * gy;
-                if constexpr (External)
-                {
-                  ex[i] += w * fext[2 * p]; // eq. 42
-                  ey[i] += w * fext[2 * p + 1];
-                }
-              }
-          }
-          for (int a = 0; a <= P; ++a)
-          {
-            NodeSums* node = &_sums[_grid.active_index(cx + a, cy)];
-            for (int b = 0; b <= P; ++b)
-            {
-              const int i = a * (P + 1) + b;
-              NodeSums& n = node[b];
-              n.m += m[i];
-              n.px += px[i];
-              n.py += py[i];
-              n.fx += fx[i] + ex[i];
-              n.fy += fy[i] + ey[i];
-              n.ex += ex[i];
-              n.ey += ey[i];
-            }
+            ex[i] += w * fext[2 * p]; // eq. 42
+            ey[i] += w * fext[2 * p + 1];
           }
         }
     }
-  }
+    for (int a = 0; a <= P; ++a)
+    {
+      NodeSums* node = &_sums[_grid.active_index(cx + a, cy)];
+      for (int b = 0; b <= P; ++b)
+      {
+        const int i = a * (P + 1) + b;
+        NodeSums& n = node[b];
+        n.m += m[i];
+        n.px += px[i];
+        n.py += py[i];
+        n.fx += fx[i] + ex[i];
+        n.fy += fy[i] + ey[i];
+        n.ex += ex[i];
+        n.ey += ey[i];
+      }
+    }
+  };
+  for_each_cell_by_strips(ncx, ncy, _cell_start, scatter);
 }
 
 void Solver::update_grid()
