@@ -71,7 +71,6 @@ run; the energies match a serial run to round-off and the solver tolerance.
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
 import time as _time
@@ -617,24 +616,13 @@ class FemSimulation:
         }
 
     def _write_summary(self, path: Path, result: RunResult) -> None:
-        summary = {
-            "scene": self.scene.name,
-            **self.summary(),
-            "status": result.status,
-            "error": result.error,
-            "steps": result.steps,
-            "steps_planned": result.steps_planned,
-            "t_end": self.time,
-            "wall_s": result.wall_s,
-        }
+        fields = {"scene": self.scene.name, **self.summary(), "t_end": self.time}
         if self._pf is not None:
             stats = self.phase_field_stats
             stats["mean_iterations"] = stats["iterations"] / max(stats["solves"], 1)
             stats["solver"] = self._pf.solver
-            summary["phase_field"] = stats
-        tmp = path.with_suffix(".tmp")
-        tmp.write_text(json.dumps(summary, indent=2) + "\n")
-        tmp.replace(path)
+            fields["phase_field"] = stats
+        result.write_summary(path, fields)
 
 
 class _PhaseFieldSolver:

@@ -211,15 +211,10 @@ class Simulation:
             series.write(self.step, self.time, self.particles.x, self.point_data())
 
     def _write_summary(self, path: Path, result: "RunResult") -> None:
-        summary = {
+        fields = {
             "scene": self.scene.name,
-            "status": result.status,
-            "error": result.error,
-            "steps": result.steps,
-            "steps_planned": result.steps_planned,
             "dt": self.solver.dt,
             "t_end": self.time,
-            "wall_s": result.wall_s,
             "particles": len(self.particles),
             "particle_steps_per_s": len(self.particles) * result.steps / max(result.wall_s, 1e-12),
             "threads": _core.num_threads(),
@@ -229,10 +224,8 @@ class Simulation:
         if self.cracks:
             stats = self.solver.phase_field_stats()
             stats["mean_iterations"] = stats["iterations"] / max(stats["solves"], 1)
-            summary["phase_field"] = stats
-        tmp = path.with_suffix(".tmp")
-        tmp.write_text(json.dumps(summary, indent=2) + "\n")
-        tmp.replace(path)
+            fields["phase_field"] = stats
+        result.write_summary(path, fields)
 
 
 @dataclass
@@ -245,6 +238,23 @@ class RunResult:
     status: str = "running"
     error: str | None = None
     wall_s: float = 0.0
+
+    def write_summary(self, path: Path, fields: dict) -> None:
+        """Write ``summary.json``: this result's status, steps and wall time, then ``fields``.
+
+        Written to a temporary file and renamed, so a reader never sees half of it.
+        """
+        summary = {
+            "status": self.status,
+            "error": self.error,
+            "steps": self.steps,
+            "steps_planned": self.steps_planned,
+            "wall_s": self.wall_s,
+            **fields,
+        }
+        tmp = path.with_suffix(".tmp")
+        tmp.write_text(json.dumps(summary, indent=2) + "\n")
+        tmp.replace(path)
 
 
 def step_to_end(sim, total: int, every: list[int], record, bar) -> tuple[str, str | None]:
