@@ -1,4 +1,4 @@
-"""The ``pfmpm`` command: ``pfmpm run`` and ``pfmpm bench``."""
+"""The ``pfmpm`` command: ``pfmpm run``, ``pfmpm bench`` and ``pfmpm compare``."""
 
 from __future__ import annotations
 
@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 from .bench import PHYSICS
+from .compare import BORDEN_SCENE, DEFAULT_END, DEFAULT_H, DEFAULT_L0
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -42,6 +43,36 @@ def _bench(args: argparse.Namespace) -> int:
     return 0
 
 
+def _compare(args: argparse.Namespace) -> int:
+    from ._core import SimulationError
+    from .compare import compare_borden
+
+    try:
+        hs = [float(h) for h in args.h.split(",")]
+    except ValueError:
+        print(f"error: --h {args.h}: must be a comma-separated list of numbers", file=sys.stderr)
+        return 2
+    out = Path(args.out)
+    try:
+        result = compare_borden(out, hs, args.l0, args.end, scene_path=args.scene, overrides=args.set,
+                                progress=not args.quiet)
+    except SimulationError as err:
+        print(f"error: {err}", file=sys.stderr)
+        print(f"output so far is in {out}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print(f"interrupted; output so far is in {out}", file=sys.stderr)
+        return 130
+    a = result.agreement
+    print(f"agreement at h = {result.h_common:g}: initiation {a['initiation_mpm_us']:.3f} (MPM)"
+          f" vs {a['initiation_fem_us']:.3f} us (FEM); elastic energy RMS difference"
+          f" {100 * a['elastic_rms_rel']:.2f} % of the peak; end fracture energy"
+          f" {100 * a['fracture_end_rel_diff']:+.2f} %")
+    for name, path in result.files.items():
+        print(f"{name}: {path}")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``pfmpm`` console command."""
     parser = argparse.ArgumentParser(prog="pfmpm", description="Phase-field material point method")
@@ -62,6 +93,21 @@ def main(argv: list[str] | None = None) -> int:
     bench.add_argument("--degree", type=int, default=2, choices=[1, 2, 3])
     bench.add_argument("--json", action="store_true", help="print one JSON object")
     bench.set_defaults(func=_bench)
+
+    compare = sub.add_parser("compare", help="run PF-MPM and PF-FEM on a benchmark and compare them")
+    compare.add_argument("problem", choices=["borden"], help="the benchmark (the Borden plate)")
+    compare.add_argument("--h", default=",".join(f"{h:g}" for h in DEFAULT_H),
+                         help="grid spacings, comma-separated (default %(default)s)")
+    compare.add_argument("--l0", type=float, default=DEFAULT_L0,
+                         help="phase-field length scale (default %(default)g)")
+    compare.add_argument("--end", type=float, default=DEFAULT_END, help="end time (default %(default)g)")
+    compare.add_argument("--out", default="out/compare_borden", help="output directory (default %(default)s)")
+    compare.add_argument("--scene", default=str(BORDEN_SCENE), help="the scene file (default %(default)s)")
+    compare.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                         help="override a scene value for both methods,"
+                              " e.g. bodies.plate.particles_per_cell=2")
+    compare.add_argument("--quiet", action="store_true", help="no progress bars")
+    compare.set_defaults(func=_compare)
 
     args = parser.parse_args(argv)
     from .scene import SceneError

@@ -9,6 +9,8 @@ packages=(
   python3-venv python3-pip python3-setuptools python3-wheel
   python3-numpy python3-scipy python3-matplotlib python3-tqdm python3-h5py
   python3-meshio python3-pytest python3-pytest-xdist python3-hypothesis
+  # The notebooks in docs/notebooks and the test that runs them.
+  python3-nbclient python3-nbformat python3-ipykernel
   # The phase-field FEM reference (pfmpm.fem): DOLFINx 0.5 and PETSc built on
   # Open MPI, whose mpirun runs it in parallel; gcc compiles its JIT forms.
   python3-dolfinx python3-petsc4py python3-mpi4py openmpi-bin gcc python3-dev
@@ -29,3 +31,6 @@ fi
 [ -x .venv/bin/python ] || /usr/bin/python3 -m venv --system-site-packages .venv
 echo "building pfmpm into .venv"
 .venv/bin/python -m pip install --quiet --no-build-isolation --no-deps --no-index .
+# A Jupyter kernel that runs this venv's Python, for docs/notebooks; found
+# before Debian's python3 kernel, which cannot import pfmpm.
+.venv/bin/python -m ipykernel install --sys-prefix --name python3 --display-name "pfmpm (.venv)" > /dev/null

@@ -1,0 +1,169 @@
+"""PF-MPM against PF-FEM (pfmpm.compare, ``pfmpm compare borden``).
+
+The measures on ``energies.csv`` on histories whose answers are known, the
+driver at a tiny size, and the agreement of the two methods on the Borden
+plate at the default h and l0 up to 25 us.
+"""
+
+import csv
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pfmpm.compare import COLUMNS, agreement, branch_time, compare_borden, initiation_time
+from pfmpm.output import read_csv
+from pfmpm.scene import Crack
+
+ROOT = Path(__file__).resolve().parents[1]
+DEMO = ROOT / "demos" / "borden_plate.toml"
+NOTCH = Crack(points=((0.0, 20.0), (50.0, 20.0)))
+
+
+def history(t0_init=10.0, t0_branch=20.0, scale=1.0):
+    """Synthetic Borden-like columns every 0.5 us.
+
+    The tip sits at x = 50 until ``t0_init``, then runs at 1 mm/us along
+    y = 20; from ``t0_branch`` it also drifts off the line at 0.5 mm/us.
+    Elastic energy rises linearly to 0.12 at 12 us and falls after;
+    fracture energy is 0.18 plus 0.01 per us of crack growth.  ``scale``
+    multiplies the elastic energy.
+    """
+    t = np.arange(0.0, 40.01, 0.5)
+    x = 50.0 + np.clip(t - t0_init, 0.0, None)
+    y = 20.0 + 0.5 * np.clip(t - t0_branch, 0.0, None)
+    elastic = scale * np.where(t <= 12.0, 0.01 * t, 0.12 - 0.002 * (t - 12.0))
+    fracture = 0.18 + 0.01 * (x - 50.0)
+    return {"t": t, "crack_tip_x": x, "crack_tip_y": y, "elastic": elastic, "fracture": fracture}
+
+
+def test_initiation_and_branch_times_of_known_histories():
+    e = history()
+    # x > 50.5 first at 11.0 (x = 51); 10.5 gives exactly 50.5, which does not count.
+    assert initiation_time(e) == 11.0
+    # |y - 20| > 1 first at 22.5 (y = 21.25, x = 62.5 > 55).
+    assert branch_time(e, NOTCH) == 22.5
+    # Off the line but not yet 5 mm ahead of the notch tip: not a branch.
+    assert branch_time(history(t0_init=10.0, t0_branch=0.0), NOTCH) == 15.5  # x = 55.5
+    # A notch pointing the other way sees the same tip as behind it: never.
+    assert math.isnan(branch_time(e, Crack(points=((100.0, 20.0), (50.0, 20.0)))))
+    quiet = history(t0_init=100.0, t0_branch=100.0)
+    assert math.isnan(initiation_time(quiet)) and math.isnan(branch_time(quiet, NOTCH))
+
+
+def test_agreement_of_known_histories():
+    # MPM: 3 % more elastic energy and initiation 2 us later than FEM.
+    fem, mpm = history(), history(t0_init=12.0, scale=1.03)
+    a = agreement(mpm, fem)
+    assert (a["initiation_mpm_us"], a["initiation_fem_us"]) == (13.0, 11.0)
+    assert a["initiation_diff_us"] == 2.0
+    # Window up to the earlier initiation (11 us): the FEM energy is 0.01 t there,
+    # so the RMS difference over t = 0, 0.5, ..., 11 is 0.03 * 0.01 * rms(t), over 0.11.
+    t = np.arange(0.0, 11.01, 0.5)
+    assert a["elastic_window_us"] == 11.0 and a["elastic_peak"] == pytest.approx(0.11)
+    assert a["elastic_rms_rel"] == pytest.approx(0.03 * 0.01 * np.sqrt(np.mean(t**2)) / 0.11, rel=1e-12)
+    # At 40 us the MPM crack is 2 mm shorter: 0.46 against 0.48, gains 0.28 against 0.30.
+    assert a["t_end"] == 40.0
+    assert a["fracture_end_rel_diff"] == pytest.approx(-0.02 / 0.48, rel=1e-12)
+    assert a["fracture_gain_rel_diff"] == pytest.approx(-0.02 / 0.30, rel=1e-12)
+
+
+def read_table(path):
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    return rows, list(rows[0].keys())
+
+
+def pfmpm(*args, **kw):
+    return subprocess.run([sys.executable, "-P", "-m", "pfmpm.cli", *map(str, args)],
+                          capture_output=True, text=True, **kw)
+
+
+def test_compare_driver_at_a_tiny_size(tmp_path):
+    out = tmp_path / "cmp"
+    r = pfmpm("compare", "borden", "--h", "1.0,0.5", "--l0", "1.0", "--end", "6", "--out", out,
+              "--scene", DEMO, "--quiet", timeout=300)
+    assert r.returncode == 0, r.stderr
+    names = ("speed_vs_error.csv", "energies_overlay.png", "crack_tip_speed_overlay.png",
+             "phase_field_side_by_side.png", "speed_vs_error.png", "comparison.md", "agreement.json")
+    for name in names:
+        assert (out / name).stat().st_size > 0, name
+        assert str(out / name) in r.stdout  # says where it is
+
+    rows, header = read_table(out / "speed_vs_error.csv")
+    assert header == COLUMNS
+    assert [(row["method"], float(row["h"])) for row in rows] == [
+        ("mpm", 1.0), ("mpm", 0.5), ("fem", 1.0), ("fem", 0.5)]
+    runs = {(row["method"], float(row["h"])): row for row in rows}
+    # Sizes of the 100 x 40 plate: 9 particles per cell; 3 dofs (u, c) per vertex.
+    assert int(runs["mpm", 1.0]["dofs_or_particles"]) == 100 * 40 * 9
+    assert int(runs["mpm", 0.5]["dofs_or_particles"]) == 200 * 80 * 9
+    assert int(runs["fem", 1.0]["dofs_or_particles"]) == 3 * 101 * 41
+    assert int(runs["fem", 0.5]["dofs_or_particles"]) == 3 * 201 * 81
+
+    end = {}
+    for (method, h), row in runs.items():
+        run = out / f"{method}_h{h:g}"
+        e = read_csv(run / "energies.csv")
+        summary = json.loads((run / "summary.json").read_text())
+        assert summary["status"] == "completed" and int(row["steps"]) == summary["steps"]
+        assert float(row["wall_s"]) == pytest.approx(summary["wall_s"], rel=1e-12)
+        assert 6.0 <= e["t"][-1] < 6.0 + summary["dt"]
+        assert float(row["fracture_energy_end"]) == e["fracture"][-1]
+        assert float(row["elastic_energy_peak"]) == e["elastic"].max()
+        assert float(row["crack_tip_x_end"]) == e["crack_tip_x"][-1]
+        assert math.isnan(float(row["branch_time_us"]))  # 6 us: the crack has not even started
+        end[method, h] = e["fracture"][-1]
+    for method, other in (("mpm", "fem"), ("fem", "mpm")):
+        assert float(runs[method, 0.5]["error"]) == 0.0
+        coarse = float(runs[method, 1.0]["error"])
+        assert coarse == pytest.approx(abs(end[method, 1.0] / end[method, 0.5] - 1), rel=1e-12)
+        assert 0 < coarse < 0.2
+        for h in (1.0, 0.5):
+            vs = float(runs[method, h]["error_vs_other"])
+            assert vs == pytest.approx(abs(end[method, h] / end[other, 0.5] - 1), rel=1e-12)
+            assert 0 < vs < 0.2
+
+    a = json.loads((out / "agreement.json").read_text())
+    assert a["h"] == 0.5 and a["l0"] == 1.0 and a["initiation_mpm_us"] is None
+    assert a["elastic_rms_rel"] < 0.05  # both are elastic up to 6 us
+    assert "| mpm | 0.5 | 144000 |" in (out / "comparison.md").read_text()
+
+
+def test_l0_below_h_is_refused_before_any_run(tmp_path):
+    out = tmp_path / "cmp"
+    r = pfmpm("compare", "borden", "--h", "1.0,0.5", "--l0", "0.75", "--out", out, "--scene", DEMO)
+    assert r.returncode == 2
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "materials[0].fracture.l0 = 0.75" in lines[0], r.stderr
+    assert "h = 1" in lines[0] and not out.exists()
+
+
+@pytest.mark.slow
+def test_mpm_and_fem_agree_on_the_borden_plate(tmp_path):
+    """Default h = 0.25 and l0 = 0.5, to 25 us (initiation is at about 13 us).
+
+    MPM with 2 x 2 particles per cell (the demo has 3 x 3) to keep it short.
+    Measured: initiation 13.1 us in both, elastic energy RMS difference
+    about 1 % of the peak, fracture energy at 25 us 2.7 % apart.
+    """
+    result = compare_borden(tmp_path, [0.25], 0.5, 25.0, scene_path=DEMO,
+                            overrides=["bodies.plate.particles_per_cell=2"], progress=False,
+                            log=lambda line: None)
+    a = result.agreement
+    print({k: round(v, 4) for k, v in a.items()})
+    assert 8.0 < a["initiation_fem_us"] < 18.0
+    assert abs(a["initiation_diff_us"]) <= 2.0
+    assert a["elastic_window_us"] == min(a["initiation_mpm_us"], a["initiation_fem_us"])
+    assert 0.10 < a["elastic_peak"] < 0.14
+    assert a["elastic_rms_rel"] < 0.10
+    assert abs(a["fracture_end_rel_diff"]) < 0.10
+    # The crack has grown: the fracture energy at 25 us is well above the notch's.
+    mpm, fem = (read_csv(tmp_path / f"{m}_h0.25" / "energies.csv") for m in ("mpm", "fem"))
+    for e in (mpm, fem):
+        assert e["fracture"][-1] > 1.15 * e["fracture"][0]
+    assert {row["method"]: row["error"] for row in result.rows} == {"mpm": 0.0, "fem": 0.0}

@@ -1,0 +1,74 @@
+"""The notebooks in docs/notebooks run in smoke mode (``PFMPM_SMOKE=1``) and
+print the numbers they show, which are checked here.
+
+They run in a Jupyter kernel of this interpreter (a ``python3`` kernel spec
+written for the test, found first through ``JUPYTER_PATH``), so the kernel
+imports the pfmpm this suite tests, DOLFINx included.
+"""
+
+import json
+import sys
+from pathlib import Path
+
+import nbformat
+import pytest
+from nbclient import NotebookClient
+
+ROOT = Path(__file__).resolve().parents[1]
+NOTEBOOKS = ROOT / "docs" / "notebooks"
+
+
+@pytest.fixture
+def kernel_env(tmp_path, monkeypatch):
+    """A ``python3`` kernel of ``sys.executable`` and the smoke-mode environment."""
+    spec = tmp_path / "jupyter" / "kernels" / "python3"
+    spec.mkdir(parents=True)
+    spec.joinpath("kernel.json").write_text(json.dumps({
+        "argv": [sys.executable, "-m", "ipykernel_launcher", "-f", "{connection_file}"],
+        "display_name": "pfmpm test kernel", "language": "python"}))
+    monkeypatch.setenv("JUPYTER_PATH", str(tmp_path / "jupyter"))
+    monkeypatch.setenv("PFMPM_SMOKE", "1")
+    monkeypatch.setenv("PFMPM_ROOT", str(ROOT))
+    monkeypatch.setenv("PFMPM_NOTEBOOK_OUT", str(tmp_path / "out"))
+    work = tmp_path / "work"
+    work.mkdir()
+    return work
+
+
+def execute(name: str, cwd: Path) -> dict:
+    """Run a notebook; return the JSON its ``RESULT`` line prints."""
+    nb = nbformat.read(NOTEBOOKS / f"{name}.ipynb", as_version=4)
+    assert all(not cell.get("outputs") for cell in nb.cells if cell.cell_type == "code"), \
+        f"{name}.ipynb is stored with outputs"
+    NotebookClient(nb, kernel_name="python3", timeout=120,
+                   resources={"metadata": {"path": str(cwd)}}).execute()
+    lines = [line for cell in nb.cells if cell.cell_type == "code" for out in cell.outputs
+             if out.output_type == "stream" for line in out.text.splitlines() if line.startswith("RESULT ")]
+    assert len(lines) == 1, f"{name}: no RESULT line"
+    return json.loads(lines[0].removeprefix("RESULT "))
+
+
+def test_borden_comparison_notebook(kernel_env):
+    r = execute("borden_comparison", kernel_env)
+    assert r["h"] == 0.5
+    a = r["agreement"]
+    # 6 us: both methods are still elastic and load the notch the same way.
+    assert a["elastic_rms_rel"] < 0.05
+    assert abs(a["fracture_end_rel_diff"]) < 0.1
+    runs = r["runs"]
+    assert set(runs) == {"mpm_h1", "mpm_h0.5", "fem_h1", "fem_h0.5"}
+    assert runs["mpm_h0.5"]["error"] == 0.0 and runs["fem_h0.5"]["error"] == 0.0
+    assert 0 < runs["mpm_h1"]["error"] < 0.2 and 0 < runs["fem_h1"]["error"] < 0.2
+
+
+def test_phase_field_profiles_notebook(kernel_env):
+    r = execute("phase_field_profiles", kernel_env)
+    assert r["divisions"] == [2, 4, 8]
+    for method, bound in (("mpm", 0.03), ("fem", 0.07)):  # at h = l0/8: 1.9 % and 5.0 %
+        error, density = r[method]["error"], r[method]["density"]
+        assert error[-1] < bound, (method, error)
+        # First order in h (the imposed band is O(h) wide): halving h halves the error.
+        for coarse, fine in zip(error, error[1:]):
+            assert 0.4 < fine / coarse < 0.6, (method, error)
+        # The crack density tends to 1 per unit crack length from above.
+        assert 1.0 < density[-1] < 1.06 and density[-1] < density[0], (method, density)
