@@ -375,9 +375,10 @@ def _write_outputs(out: Path, rows: list[dict], agree: dict, runs: dict, hs: lis
                              for v in (row[c] for c in COLUMNS)])
     body = next(b for b in scene.bodies if scene.fracture_of(b) is not None)
     material = next(m for m in scene.materials if m.name == body.material)
-    _plot_energies(runs, hs, files["energies_overlay.png"])
-    _plot_crack_tip(runs, hs, rayleigh_speed(material.E, material.nu, material.density),
-                    files["crack_tip_speed_overlay.png"])
+    v_r = rayleigh_speed(material.E, material.nu, material.density)
+    _plot_overlay(runs, hs, ("elastic", "fracture"), files["energies_overlay.png"])
+    _plot_overlay(runs, hs, ("crack_tip_x", "crack_tip_speed"), files["crack_tip_speed_overlay.png"],
+                  lines=((v_r, "-.", "v_R"), (0.6 * v_r, ":", "0.6 v_R")))
     fine = _run_name("mpm", hs[-1]), _run_name("fem", hs[-1])
     if not _plot_side_by_side([out / name / "phase_field.png" for name in fine],
                               [f"{LABELS[m]}, h = {hs[-1]:g}" for m in METHODS],
@@ -406,41 +407,26 @@ def _colours(hs: list[float]) -> dict[float, tuple]:
 _STYLE = {"mpm": "-", "fem": "--"}
 
 
-def _plot_energies(runs: dict, hs: list[float], png: Path) -> None:
+def _plot_overlay(runs: dict, hs: list[float], columns: tuple[str, str], png: Path,
+                  lines: tuple[tuple[float, str, str], ...] = ()) -> None:
+    """Two ``energies.csv`` columns against t, one panel each, every run overlaid.
+
+    ``lines`` are ``(value, style, label)`` horizontal lines on the lower panel.
+    """
     plt = _pyplot()
     colour = _colours(hs)
-    fig, (top, bottom) = plt.subplots(2, 1, figsize=(7, 6.5), sharex=True)
+    fig, axes = plt.subplots(2, 1, figsize=(7, 6.5), sharex=True)
     for (method, h), run in runs.items():
         e = run["energies"]
-        label = f"{LABELS[method]}, h = {h:g}"
-        top.plot(e["t"], e["elastic"], _STYLE[method], color=colour[h], label=label)
-        bottom.plot(e["t"], e["fracture"], _STYLE[method], color=colour[h], label=label)
-    top.set_ylabel("elastic energy")
-    bottom.set_ylabel("fracture energy")
-    bottom.set_xlabel("t")
-    top.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(png, dpi=120)
-    plt.close(fig)
-
-
-def _plot_crack_tip(runs: dict, hs: list[float], rayleigh: float, png: Path) -> None:
-    plt = _pyplot()
-    colour = _colours(hs)
-    fig, (top, bottom) = plt.subplots(2, 1, figsize=(7, 6.5), sharex=True)
-    for (method, h), run in runs.items():
-        e = run["energies"]
-        label = f"{LABELS[method]}, h = {h:g}"
-        top.plot(e["t"], e["crack_tip_x"], _STYLE[method], color=colour[h], label=label)
-        bottom.plot(e["t"], e["crack_tip_speed"], _STYLE[method], color=colour[h], label=label)
-    for factor, style in ((1.0, "-."), (0.6, ":")):
-        bottom.axhline(factor * rayleigh, color="k", linestyle=style,
-                       label="v_R" if factor == 1.0 else f"{factor:g} v_R")
-    top.set_ylabel("crack tip x")
-    bottom.set_ylabel("crack tip speed")
-    bottom.set_xlabel("t")
-    top.legend(fontsize=8)
-    bottom.legend(fontsize=8)
+        for ax, column in zip(axes, columns):
+            ax.plot(e["t"], e[column], _STYLE[method], color=colour[h],
+                    label=f"{LABELS[method]}, h = {h:g}")
+    for value, style, label in lines:
+        axes[1].axhline(value, color="k", linestyle=style, label=label)
+    for ax, column in zip(axes, columns):
+        ax.set_ylabel(column.replace("_", " "))
+        ax.legend(fontsize=8)
+    axes[1].set_xlabel("t")
     fig.tight_layout()
     fig.savefig(png, dpi=120)
     plt.close(fig)
