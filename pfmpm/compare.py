@@ -52,7 +52,7 @@ import numpy as np
 
 from . import _core
 from .output import read_csv
-from .scene import Crack, Scene, rayleigh_speed
+from .scene import Crack, Scene
 
 __all__ = ["COLUMNS", "Comparison", "agreement", "branch_time", "borden_overrides",
            "compare_borden", "initiation_time"]
@@ -373,9 +373,7 @@ def _write_outputs(out: Path, rows: list[dict], agree: dict, runs: dict, hs: lis
         for row in rows:
             writer.writerow([v if isinstance(v, (str, int)) else repr(float(v))
                              for v in (row[c] for c in COLUMNS)])
-    body = next(b for b in scene.bodies if scene.fracture_of(b) is not None)
-    material = next(m for m in scene.materials if m.name == body.material)
-    v_r = rayleigh_speed(material.E, material.nu, material.density)
+    v_r = scene.crack_rayleigh_speed()
     _plot_overlay(runs, hs, ("elastic", "fracture"), files["energies_overlay.png"])
     _plot_overlay(runs, hs, ("crack_tip_x", "crack_tip_speed"), files["crack_tip_speed_overlay.png"],
                   lines=((v_r, "-.", "v_R"), (0.6 * v_r, ":", "0.6 v_R")))

@@ -89,7 +89,7 @@ from petsc4py import PETSc
 from . import _core
 from .crack import CrackTip, initial_history
 from .output import CsvLog
-from .scene import Body, BodyForce, Material, Rectangle, Scene, SceneError, Traction, rayleigh_speed
+from .scene import Body, BodyForce, Material, Rectangle, Scene, SceneError, Traction
 from .simulation import CRACK_COLUMNS, ENERGY_COLUMNS, RunResult, Snapshots, step_to_end
 
 __all__ = ["FemSimulation", "MESH_DIAGONAL", "main"]
@@ -553,9 +553,8 @@ class FemSimulation:
 
             plots.energies(out / "energies.csv", out / "energies.png")
             if self._tip is not None:
-                m = next(m for m in self.scene.materials if m.name == self._body.material)
                 plots.crack_tip(out / "energies.csv", out / "crack_tip.png",
-                                rayleigh_speed(m.E, m.nu, m.density))
+                                self.scene.crack_rayleigh_speed())
         if snapshots is not None and snapshots.images:
             from . import plots
 
@@ -737,7 +736,7 @@ def _supported(scene: Scene) -> tuple[Body, Material]:
                 raise SceneError("bodies[0].shape", "the FEM path needs a rectangle whose edges lie"
                                  f" on grid lines (multiples of h = {h:g} from the grid origin"
                                  f" {list(origin)})", [list(body.shape.min), list(body.shape.max)])
-    return body, next(m for m in scene.materials if m.name == body.material)
+    return body, scene.material_of(body)
 
 
 

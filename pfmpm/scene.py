@@ -942,9 +942,19 @@ class Scene:
             elif not crackable:
                 raise SceneError(f"cracks[{i}]", "no body's material has a fracture table")
 
+    def material_of(self, body: Body) -> Material:
+        """A body's material."""
+        return next(m for m in self.materials if m.name == body.material)
+
     def fracture_of(self, body: Body) -> Fracture | None:
         """The fracture parameters of a body's material, or ``None``."""
-        return next(m.fracture for m in self.materials if m.name == body.material)
+        return self.material_of(body).fracture
+
+    def crack_rayleigh_speed(self) -> float:
+        """Rayleigh speed (:func:`rayleigh_speed`) of the first crackable body's material."""
+        body = next(b for b in self.bodies if self.fracture_of(b) is not None)
+        m = self.material_of(body)
+        return rayleigh_speed(m.E, m.nu, m.density)
 
     def _check_time(self) -> None:
         """Check the stability limit, a fixed dt against it, and the step count."""

@@ -178,20 +178,12 @@ class Simulation:
             plots.energies(out / "energies.csv", out / "energies.png")
             if self.crack_tip:
                 plots.crack_tip(out / "energies.csv", out / "crack_tip.png",
-                                self._rayleigh_speed())
+                                self.scene.crack_rayleigh_speed())
         if snapshots is not None and snapshots.images:
             from . import plots
 
             plots.phase_field(snapshots, out / "phase_field.png")
         return result
-
-    def _rayleigh_speed(self) -> float:
-        """Rayleigh speed of the material of the first crackable body."""
-        from .scene import rayleigh_speed
-
-        body = next(b for b in self.scene.bodies if self.scene.fracture_of(b))
-        m = next(m for m in self.scene.materials if m.name == body.material)
-        return rayleigh_speed(m.E, m.nu, m.density)
 
     def _record(self, log: CsvLog, series: ParticleSeries | None,
                 snapshots: "Snapshots | None", force: bool) -> None:
