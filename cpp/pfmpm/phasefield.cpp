@@ -185,14 +185,16 @@ bool PhaseField::conjugate_gradient()
       na, [&](std::size_t a, std::array<double, 1>& acc) { acc[0] += _rhs[a] * _rhs[a]; })[0]);
   const double stop = _tol * norm_f;
 
-  // Warm start: the last two solutions extrapolated linearly in time. (No
+  // Warm start: the last two solutions extrapolated linearly in time, or the
+  // last one while there is no earlier solution to extrapolate from. (No
   // clamping to [0, 1]: B-spline control values may lie outside it.)
+  const double trend = _stats.solves >= 2 ? 1.0 : 0.0;
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t a = 0; a < static_cast<std::ptrdiff_t>(na); ++a)
   {
     const std::size_t i = _position[a];
     const double now = _c[i];
-    _c[i] = 2.0 * now - _c_previous[i];
+    _c[i] = now + trend * (now - _c_previous[i]);
     _c_previous[i] = now;
   }
 
