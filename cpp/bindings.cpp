@@ -176,10 +176,13 @@ PYBIND11_MODULE(_core, m)
 
   py::class_<Solver>(m, "Solver", "Explicit MPM stepping with a staggered phase field (Algorithm 1)")
       .def(py::init<Grid&, Particles&, std::vector<LinearElastic>, double,
-                    std::vector<std::optional<Fracture>>, double, int>(),
+                    std::vector<std::optional<Fracture>>, double, int, std::vector<double>>(),
            py::arg("grid"), py::arg("particles"), py::arg("materials"), py::arg("dt"),
            py::arg("fracture") = std::vector<std::optional<Fracture>>{}, py::arg("tol") = 1e-6,
-           py::arg("max_iterations") = 1000, py::keep_alive<1, 2>(), py::keep_alive<1, 3>())
+           py::arg("max_iterations") = 1000, py::arg("friction") = std::vector<double>{},
+           py::keep_alive<1, 2>(), py::keep_alive<1, 3>(),
+           "friction: empty for one velocity field, else the n x n (row-major) Coulomb "
+           "coefficients between bodies, each body its own discrete field")
       .def("advance", &Solver::advance, py::arg("steps"),
            py::call_guard<py::gil_scoped_release>())
       .def("prepare", [](Solver& s) { s.prepare(); }, py::call_guard<py::gil_scoped_release>(),
@@ -187,7 +190,7 @@ PYBIND11_MODULE(_core, m)
       .def("phase_field_stats",
            [](const Solver& s)
            {
-             const PhaseFieldStats& st = s.phase_field().stats();
+             const PhaseFieldStats st = s.phase_field_stats();
              py::dict d;
              d["solves"] = st.solves;
              d["iterations"] = st.iterations;
@@ -209,11 +212,37 @@ PYBIND11_MODULE(_core, m)
              d["elastic"] = e.elastic;
              d["fracture"] = e.fracture;
              d["external_work"] = e.external_work;
+             d["contact_work"] = e.contact_work;
+             d["fracture_by_body"] = e.fracture_by_field;
              d["momentum_x"] = e.momentum[0];
              d["momentum_y"] = e.momentum[1];
              d["mass"] = e.mass;
              return d;
            })
+      .def(
+          "contact_stats",
+          [](const Solver& s) -> py::object
+          {
+            const DiscreteFields* f = s.fields();
+            if (!f)
+              return py::none();
+            const ContactStats& st = f->stats();
+            py::dict d;
+            d["nodes"] = st.nodes;
+            d["pairs"] = st.pairs;
+            d["active"] = st.active;
+            d["sliding"] = st.sliding;
+            d["C1"] = st.violations[0];
+            d["C2"] = st.violations[1];
+            d["C3"] = st.violations[2];
+            d["C4"] = st.violations[3];
+            d["normal_work"] = st.normal_work;
+            d["friction_work"] = st.friction_work;
+            return d;
+          },
+          "contact record (None with one field): contact nodes in the last step, node-pairs "
+          "examined, active (eq. 77) and sliding (eq. 75) ones, violations of C.1-C.4, work of "
+          "the normal and friction forces since t = 0")
       .def(
           "nodal_mass_momentum",
           [](Solver& s)

@@ -44,7 +44,8 @@ std::vector<std::optional<Fracture>> per_material(std::vector<std::optional<Frac
 } // namespace
 
 Solver::Solver(Grid& grid, Particles& particles, std::vector<LinearElastic> materials, double dt,
-               std::vector<std::optional<Fracture>> fracture, double tol, int max_iterations)
+               std::vector<std::optional<Fracture>> fracture, double tol, int max_iterations,
+               std::vector<double> friction)
     : _grid(grid), _particles(particles), _materials(std::move(materials)), _dt(dt),
       _phase_field(grid, per_material(std::move(fracture), _materials.size()), tol,
                    max_iterations),
@@ -67,6 +68,15 @@ Solver::Solver(Grid& grid, Particles& particles, std::vector<LinearElastic> mate
   // Nodes lighter than this carry no velocity: dividing by their mass would
   // amplify round-off (a particle at the edge of a node's support).
   _mass_tol = 1e-12 * max_mass;
+  if (!friction.empty())
+  {
+    std::vector<std::optional<Fracture>> per_mat(_materials.size());
+    for (std::size_t m = 0; m < per_mat.size(); ++m)
+      if (const Fracture* f = _phase_field.fracture(static_cast<std::int32_t>(m)))
+        per_mat[m] = *f;
+    _fields = std::make_unique<DiscreteFields>(grid, particles, std::move(friction), per_mat, tol,
+                                               max_iterations);
+  }
 }
 
 void Solver::advance(std::int64_t steps)
@@ -88,13 +98,21 @@ void Solver::prepare()
 {
   sort_particles();
   _grid.activate(_cell_start);
+  if (_fields)
+    _fields->detect(_particles, _order, _cell_start); // Remark 4
   if (!_phase_field.active())
     return;
-  if (!_phase_field.template solve<P>(_particles, _order, _cell_start, _materials))
+  int failed = -1; // the field whose solve failed; 0 for the single field
+  if (_fields)
+    failed = _fields->template solve_phase_fields<P>(_particles, _order, _cell_start, _materials);
+  else if (!_phase_field.template solve<P>(_particles, _order, _cell_start, _materials))
+    failed = 0;
+  if (failed >= 0)
   {
-    const PhaseFieldStats& s = _phase_field.stats();
+    const PhaseFieldStats s = phase_field_stats();
     std::ostringstream msg;
-    msg << "phase field: conjugate gradients stopped at relative residual " << s.last_residual
+    msg << "phase field" << (_fields ? " of body " + std::to_string(failed) : std::string())
+        << ": conjugate gradients stopped at relative residual " << s.last_residual
         << " > tol = " << _phase_field.tol() << " after " << s.last_iterations
         << " iterations, at the start of the step after step " << _step << " (t = " << _time
         << ")";
@@ -185,9 +203,17 @@ template <int P>
 void Solver::particle_to_grid()
 {
   if (_external)
+  {
     particle_to_grid<P, true>();
+    if (_fields)
+      _fields->template particle_to_grid<P, true>(_particles, _order, _cell_start);
+  }
   else
+  {
     particle_to_grid<P, false>();
+    if (_fields)
+      _fields->template particle_to_grid<P, false>(_particles, _order, _cell_start);
+  }
 }
 
 template <int P, bool External>
@@ -269,13 +295,15 @@ void Solver::update_grid()
   const std::vector<std::uint8_t>& constrained = _grid.constraints();
   const bool walls = !constrained.empty();
   const double dt = _dt;
+  // Contact nodes are updated per field by DiscreteFields::update.
+  const std::int32_t* contact = _fields ? _fields->contact_index().data() : nullptr;
   const auto work = deterministic_sum<1>(
       _sums.size(),
       [&](std::size_t i, std::array<double, 1>& acc)
       {
         const NodeSums& s = _sums[i];
         NodeKinematics& k = _kinematics[i];
-        if (s.m <= _mass_tol)
+        if (s.m <= _mass_tol || (contact && contact[i] >= 0))
         {
           k = NodeKinematics{};
           return;
@@ -296,6 +324,8 @@ void Solver::update_grid()
         acc[0] += 0.5 * dt * (s.ex * (vw[0] + vn[0]) + s.ey * (vw[1] + vn[1]));
       });
   _external_work += work[0];
+  if (_fields)
+    _external_work += _fields->update(_dt, _mass_tol); // eqs. 63-77 at contact nodes
 }
 
 template <int P>
@@ -315,6 +345,8 @@ void Solver::grid_to_particle()
   double* history = _particles.history.data();
   const double* c = _particles.c.data();
   const std::int32_t* material = _particles.material.data();
+  const std::int32_t* body = _particles.body.data();
+  const DiscreteFields* fields = _fields.get();
 
   // Cell by cell: the K nodes of a cell are read once for all its particles.
   std::ptrdiff_t bad = n;
@@ -339,9 +371,27 @@ void Solver::grid_to_particle()
           nay[i] = node[b].ay;
         }
       }
+      // Near a contact node each particle reads its own field's values there.
+      const bool contact = fields && fields->touches(cell);
+      double fvx[K], fvy[K], fax[K], fay[K];
+      const double *kvx = nvx, *kvy = nvy, *kax = nax, *kay = nay;
+      std::int32_t loaded = -1;
       for (std::int64_t k = begin; k < end; ++k)
       {
         const std::size_t p = _order[k];
+        if (contact && body[p] != loaded)
+        {
+          std::copy(nvx, nvx + K, fvx);
+          std::copy(nvy, nvy + K, fvy);
+          std::copy(nax, nax + K, fax);
+          std::copy(nay, nay + K, fay);
+          fields->template field_kinematics<P>(cx, cy, body[p], fvx, fvy, fax, fay);
+          kvx = fvx;
+          kvy = fvy;
+          kax = fax;
+          kay = fay;
+          loaded = body[p];
+        }
         double Nx[P + 1], dNx[P + 1], Ny[P + 1], dNy[P + 1];
         bx.evaluate<P>(cx, x[2 * p], Nx, dNx);
         by.evaluate<P>(cy, x[2 * p + 1], Ny, dNy);
@@ -352,14 +402,14 @@ void Solver::grid_to_particle()
             const int i = a * (P + 1) + b;
             const double w = Nx[a] * Ny[b];
             const double gx = dNx[a] * Ny[b], gy = Nx[a] * dNy[b];
-            vx += w * nvx[i];
-            vy += w * nvy[i];
-            ax += w * nax[i];
-            ay += w * nay[i];
-            Lxx += nvx[i] * gx; // velocity gradient, L_ij = dv_i/dx_j
-            Lxy += nvx[i] * gy;
-            Lyx += nvy[i] * gx;
-            Lyy += nvy[i] * gy;
+            vx += w * kvx[i];
+            vy += w * kvy[i];
+            ax += w * kax[i];
+            ay += w * kay[i];
+            Lxx += kvx[i] * gx; // velocity gradient, L_ij = dv_i/dx_j
+            Lxy += kvx[i] * gy;
+            Lyx += kvy[i] * gx;
+            Lyy += kvy[i] * gy;
           }
         v[2 * p] += dt * ax; // eq. 80
         v[2 * p + 1] += dt * ay;
@@ -425,7 +475,20 @@ Energies Solver::energies() const
   e.external_work = _external_work;
   e.momentum = {sums[2], sums[3]};
   e.mass = sums[4];
+  if (_fields)
+  {
+    e.contact_work = _fields->stats().normal_work + _fields->stats().friction_work;
+    e.fracture_by_field = _fields->fracture_energies();
+    e.fracture = 0.0;
+    for (double f : e.fracture_by_field)
+      e.fracture += f;
+  }
   return e;
+}
+
+PhaseFieldStats Solver::phase_field_stats() const
+{
+  return _fields ? _fields->phase_field_stats() : _phase_field.stats();
 }
 
 bool Solver::has_external_force() const

@@ -2,6 +2,7 @@
 /// @brief Explicit MPM time stepping (Kakouris & Triantafyllou 2019, Algorithm 1).
 #pragma once
 
+#include "contact.h"
 #include "grid.h"
 #include "material.h"
 #include "particles.h"
@@ -9,6 +10,7 @@
 
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -31,8 +33,10 @@ struct Energies
   double elastic = 0.0;        ///< sum of V_p (g(c_p) psi+ + psi-) (eq. 14)
   double fracture = 0.0;       ///< sum of G_c V_p Z(c_p) (eqs. 3-4)
   double external_work = 0.0;  ///< work of the external forces since t = 0
+  double contact_work = 0.0;   ///< work of the contact forces since t = 0 (<= 0: dissipated)
   std::array<double, 2> momentum{}; ///< sum of M_p v_p
   double mass = 0.0;           ///< sum of M_p
+  std::vector<double> fracture_by_field; ///< with discrete fields: fracture energy per field
 };
 
 /// @brief Explicit update-stress-last MPM in the momentum formulation, with
@@ -61,9 +65,13 @@ public:
   /// @param fracture Per material, its fracture parameters or none; empty: nothing cracks.
   /// @param tol Phase-field tolerance tol_c, relative to ||F|| (eq. 52).
   /// @param max_iterations Phase-field CG iteration limit per step.
+  /// @param friction Empty: all particles form one velocity field. Otherwise
+  ///        every body (Particles::body) is its own discrete field, coupled by
+  ///        frictional contact with coefficient friction[a * n + b] between
+  ///        bodies a and b (n x n, n >= 2; see DiscreteFields).
   Solver(Grid& grid, Particles& particles, std::vector<LinearElastic> materials, double dt,
          std::vector<std::optional<Fracture>> fracture = {}, double tol = 1e-6,
-         int max_iterations = 1000);
+         int max_iterations = 1000, std::vector<double> friction = {});
 
   /// @brief Take `steps` explicit steps.
   /// @throws SimulationError when a particle leaves the grid or turns non-finite.
@@ -84,6 +92,10 @@ public:
 
   /// Phase-field solver state (convergence statistics, per-particle fracture energy).
   const PhaseField& phase_field() const { return _phase_field; }
+  /// Phase-field convergence record: of the single field, or summed over the discrete fields.
+  PhaseFieldStats phase_field_stats() const;
+  /// The discrete fields and their contact record, or nullptr with one field.
+  const DiscreteFields* fields() const { return _fields.get(); }
 
   /// @brief Map the current particle state to the grid (P2G only) and return,
   /// per active node, (node index, mass, momentum x, momentum y). For checks.
@@ -128,6 +140,7 @@ private:
   double _mass_tol;
   bool _external = false; // some particle carries an external force
   PhaseField _phase_field;
+  std::unique_ptr<DiscreteFields> _fields; // with contact: per-field data at contact nodes
 
   std::vector<std::int32_t> _cell;        // per particle: cell key
   std::vector<std::int32_t> _order;       // particles sorted by cell, stable
