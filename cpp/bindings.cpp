@@ -212,7 +212,7 @@ PYBIND11_MODULE(_core, m)
              d["elastic"] = e.elastic;
              d["fracture"] = e.fracture;
              d["external_work"] = e.external_work;
-             d["contact_work"] = e.contact_work;
+             d["friction_work"] = e.friction_work;
              d["fracture_by_body"] = e.fracture_by_field;
              d["momentum_x"] = e.momentum[0];
              d["momentum_y"] = e.momentum[1];
@@ -236,13 +236,12 @@ PYBIND11_MODULE(_core, m)
             d["C2"] = st.violations[1];
             d["C3"] = st.violations[2];
             d["C4"] = st.violations[3];
-            d["normal_work"] = st.normal_work;
             d["friction_work"] = st.friction_work;
             return d;
           },
           "contact record (None with one field): contact nodes in the last step, node-pairs "
           "examined, active (eq. 77) and sliding (eq. 75) ones, violations of C.1-C.4, work of "
-          "the normal and friction forces since t = 0")
+          "the friction forces since t = 0")
       .def(
           "nodal_mass_momentum",
           [](Solver& s)

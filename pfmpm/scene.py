@@ -46,6 +46,8 @@ __all__ = [
     "Wall",
     "Crack",
     "PhaseField",
+    "ContactPair",
+    "Contact",
     "Scene",
     "apply_overrides",
     "wave_speed",
@@ -749,6 +751,70 @@ class PhaseField:
         _set(self, "max_iterations", _integer("max_iterations", self.max_iterations, ge=1))
 
 
+@dataclass(frozen=True)
+class ContactPair:
+    """The friction coefficient between two bodies, overriding ``contact.friction``.
+
+    Parameters
+    ----------
+    bodies : (str, str)
+        Names of two different bodies.
+    friction : float
+        Coulomb coefficient mu_f, >= 0.
+    """
+
+    bodies: tuple[str, str]
+    friction: float
+
+    def __post_init__(self):
+        bodies = _seq("bodies", self.bodies, "2 body names")
+        if len(bodies) != 2:
+            raise SceneError("bodies", "must be a list of 2 body names", self.bodies)
+        _set(self, "bodies", (_text("bodies[0]", bodies[0]), _text("bodies[1]", bodies[1])))
+        if bodies[0] == bodies[1]:
+            raise SceneError("bodies", "must name two different bodies", self.bodies)
+        _set(self, "friction", _real("friction", self.friction, ge=0))
+
+
+@dataclass(frozen=True)
+class Contact:
+    """Multi-body frictional contact: every body its own discrete field.
+
+    With a ``[contact]`` table each body has its own velocity field (and its
+    own phase field) on the shared grid, and bodies interact only through
+    Coulomb frictional contact at the grid nodes they share (Kakouris &
+    Triantafyllou 2019, eqs. 63-77). Without it, all bodies move as one
+    continuum.
+
+    Parameters
+    ----------
+    friction : float
+        Coulomb coefficient mu_f between any two bodies, >= 0.
+    pairs : sequence of ContactPair
+        Per-pair coefficients replacing ``friction``.
+    """
+
+    friction: float = 0.0
+    pairs: tuple[ContactPair, ...] = ()
+
+    def __post_init__(self):
+        _set(self, "friction", _real("friction", self.friction, ge=0))
+        pairs = _seq("pairs", self.pairs, "ContactPair")
+        for i, pair in enumerate(pairs):
+            if not isinstance(pair, ContactPair):
+                raise SceneError(f"pairs[{i}]", "must be a ContactPair", pair)
+        _set(self, "pairs", pairs)
+
+    def friction_matrix(self, bodies: tuple[str, ...]) -> np.ndarray:
+        """Coefficients between every two bodies, shape (n, n), in the order of ``bodies``."""
+        index = {name: i for i, name in enumerate(bodies)}
+        mu = np.full((len(bodies), len(bodies)), self.friction)
+        for pair in self.pairs:
+            a, b = index[pair.bodies[0]], index[pair.bodies[1]]
+            mu[a, b] = mu[b, a] = pair.friction
+        return mu
+
+
 def rayleigh_speed(E: float, nu: float, rho: float) -> float:
     """Rayleigh wave speed from Viktorov's approximation ``c_s (0.862 + 1.14 nu) / (1 + nu)``."""
     return math.sqrt(E / (2 * (1 + nu) * rho)) * (0.862 + 1.14 * nu) / (1 + nu)
@@ -810,6 +876,9 @@ class Scene:
         Initial cracks, on bodies whose material can crack.
     phase_field : PhaseField
         Phase-field solver settings (used when some material can crack).
+    contact : Contact or None
+        Frictional contact between the bodies, each its own discrete field;
+        ``None``: the bodies form one continuum.
 
     Raises
     ------
@@ -830,6 +899,7 @@ class Scene:
     output: Output = field(default_factory=Output)
     cracks: tuple[Crack, ...] = ()
     phase_field: PhaseField = field(default_factory=PhaseField)
+    contact: Contact | None = None
 
     def __post_init__(self):
         self.validate()
@@ -869,6 +939,7 @@ class Scene:
             with _at(f"bodies[{i}]"):
                 self._check_particles(body)
         self._check_fracture(bodies)
+        self._check_contact(bodies)
         self._check_time()
 
     def _items(self, key: str, classes: tuple[type, ...], required: bool = False) -> tuple:
@@ -941,6 +1012,40 @@ class Scene:
                                      crack.body)
             elif not crackable:
                 raise SceneError(f"cracks[{i}]", "no body's material has a fracture table")
+
+    def _check_contact(self, bodies: Mapping[str, int]) -> None:
+        """Check the contact table: known bodies, quadratic or cubic grid, no overlap at t = 0."""
+        contact = self.contact
+        if contact is None:
+            return
+        if not isinstance(contact, Contact):
+            raise SceneError("contact", "must be a Contact", contact)
+        if self.grid.degree < 2:
+            raise SceneError("grid.degree", "contact needs quadratic or cubic B-splines"
+                                            " (a one-field node of tiny mass on a linear cell"
+                                            " is unstable)", self.grid.degree)
+        seen: dict[frozenset, int] = {}
+        for i, pair in enumerate(contact.pairs):
+            for k, name in enumerate(pair.bodies):
+                _reference(f"contact.pairs[{i}].bodies[{k}]", name, bodies, "body")
+            key = frozenset(pair.bodies)
+            if key in seen:
+                raise SceneError(f"contact.pairs[{i}].bodies",
+                                 f"duplicate pair (also contact.pairs[{seen[key]}])", pair.bodies)
+            seen[key] = i
+        # Bodies in contact must start apart: no particle of one inside another.
+        lattices = [np.concatenate(list(_lattice(b, self.grid, *self._cell_range(b))))
+                    for b in self.bodies]
+        for a, body in enumerate(self.bodies):
+            for b, other in enumerate(self.bodies):
+                if a == b:
+                    continue
+                x = lattices[b]
+                inside = int(np.count_nonzero(body.contains(x[:, 0], x[:, 1])))
+                if inside:
+                    raise SceneError(f"bodies[{b}]", f"{inside} of its particles lie inside"
+                                     f" bodies[{a}] ({body.name!r}) at t = 0; bodies in contact"
+                                     " must not overlap", other.name)
 
     def material_of(self, body: Body) -> Material:
         """A body's material."""
@@ -1122,6 +1227,8 @@ class Scene:
             "walls": lambda v: _tables(v, lambda t: _build(Wall, t)),
             "cracks": lambda v: _tables(v, lambda t: _build(Crack, t)),
             "phase_field": lambda t: _build(PhaseField, t),
+            "contact": lambda t: _build(Contact, t, {
+                "pairs": lambda v: _tables(v, lambda p: _build(ContactPair, p))}),
         })
 
     @classmethod

@@ -17,7 +17,12 @@ from .scene import Scene
 
 ENERGY_COLUMNS = ["step", "t", "kinetic", "elastic", "fracture", "external_work", "total",
                   "momentum_x", "momentum_y"]
-"""Columns of ``energies.csv``; ``total = kinetic + elastic + fracture - external_work``."""
+"""Columns of ``energies.csv``;
+``total = kinetic + elastic + fracture + friction_dissipation - external_work``, where the
+friction dissipation is zero without a ``[contact]`` table."""
+CONTACT_COLUMNS = ["friction_dissipation"]
+"""Extra ``energies.csv`` columns of scenes with contact: the energy the friction forces took
+out since t = 0, then ``fracture_<body>`` per body."""
 CRACK_COLUMNS = ["crack_tip_x", "crack_tip_y", "crack_tip_speed"]
 """Extra ``energies.csv`` columns of scenes with an initial crack (see :class:`~pfmpm.crack.CrackTip`)."""
 
@@ -60,8 +65,11 @@ class Simulation:
                 self._crackable |= self.particles.body == b
         self._impose_cracks()
         pf = scene.phase_field
+        names = tuple(b.name for b in scene.bodies)
+        self.contact = scene.contact is not None and len(names) > 1
+        friction = scene.contact.friction_matrix(names).ravel() if self.contact else []
         self.solver = _core.Solver(self.grid, self.particles, materials, scene.dt(), fracture,
-                                   pf.tol, pf.max_iterations)
+                                   pf.tol, pf.max_iterations, friction)
         self.crack_tip = None
         if scene.cracks:
             out = scene.output
@@ -85,7 +93,10 @@ class Simulation:
     @property
     def columns(self) -> list[str]:
         """Columns of ``energies.csv`` for this scene."""
-        return ENERGY_COLUMNS + (CRACK_COLUMNS if self.crack_tip else [])
+        columns = ENERGY_COLUMNS + (CRACK_COLUMNS if self.crack_tip else [])
+        if self.contact:
+            columns += CONTACT_COLUMNS + [f"fracture_{b.name}" for b in self.scene.bodies]
+        return columns
 
     @property
     def time(self) -> float:
@@ -102,9 +113,15 @@ class Simulation:
     def energies(self) -> dict[str, float]:
         """Energies and momentum now, with the columns of ``energies.csv``."""
         e = self.solver.energies()
+        by_body = e.pop("fracture_by_body")
         e["step"] = self.step
         e["t"] = self.time
-        e["total"] = e["kinetic"] + e["elastic"] + e["fracture"] - e["external_work"]
+        friction = -e.pop("friction_work")
+        e["total"] = e["kinetic"] + e["elastic"] + e["fracture"] - e["external_work"] + friction
+        if self.contact:
+            e["friction_dissipation"] = friction
+            for body, value in zip(self.scene.bodies, by_body):
+                e[f"fracture_{body.name}"] = value
         return e
 
     def crack_tip_record(self) -> dict[str, float]:
@@ -140,6 +157,8 @@ class Simulation:
             active.append("phase_field")
         if self.scene.cracks:
             active.append("initial_cracks")
+        if self.contact:
+            active.append("contact")
         return active
 
     def run(self, out_dir: Path | str, progress: bool = True) -> "RunResult":
@@ -217,6 +236,17 @@ class Simulation:
             stats = self.solver.phase_field_stats()
             stats["mean_iterations"] = stats["iterations"] / max(stats["solves"], 1)
             fields["phase_field"] = stats
+        if self.contact:
+            # Checks C.1-C.4 of Algorithm 1, counted over the whole run.
+            stats = self.solver.contact_stats()
+            fields["contact"] = {
+                "contact_nodes_last_step": stats["nodes"],
+                "node_pairs": stats["pairs"],
+                "active_node_pairs": stats["active"],
+                "sliding_node_pairs": stats["sliding"],
+                "violations": {c: stats[c] for c in ("C1", "C2", "C3", "C4")},
+                "friction_dissipation": -stats["friction_work"],
+            }
         result.write_summary(path, fields)
 
 

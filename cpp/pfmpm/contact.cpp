@@ -345,10 +345,10 @@ double DiscreteFields::update(double dt, double mass_tol)
   const std::vector<std::uint8_t>& constrained = _grid.constraints();
   const bool walls = !constrained.empty();
   const int nf = _fields;
-  // acc: external work, normal work, friction work, pairs, active, sliding, C.1-C.4
-  const auto acc = deterministic_sum<10>(
+  // acc: external work, friction work, pairs, active, sliding, violations of C.1-C.4
+  const auto acc = deterministic_sum<9>(
       _contact_node.size(),
-      [&](std::size_t k, std::array<double, 10>& acc)
+      [&](std::size_t k, std::array<double, 9>& acc)
       {
         const std::int32_t s0 = _slot_start[k], n = _slot_start[k + 1] - s0;
         const std::int32_t node = _contact_node[k];
@@ -379,16 +379,20 @@ double DiscreteFields::update(double dt, double mass_tol)
           {
             if (!live[i] || !live[j])
               continue;
-            acc[3] += 1.0;
+            acc[2] += 1.0;
             const Sums& si = _sums[s0 + i];
             const Sums& sj = _sums[s0 + j];
-            // Outward unit normals from the mass gradients (eq. 70), made
-            // collinear (eq. 71); tangents complete right-handed bases.
-            const double li = std::hypot(si.gx, si.gy), lj = std::hypot(sj.gx, sj.gy);
-            const double hi[2] = {li > 0 ? si.gx / li : 0.0, li > 0 ? si.gy / li : 0.0};
-            const double hj[2] = {lj > 0 ? sj.gx / lj : 0.0, lj > 0 ? sj.gy / lj : 0.0};
-            const double di[2] = {hi[0] - hj[0], hi[1] - hj[1]};
-            const double dj[2] = {hj[0] - hi[0], hj[1] - hi[1]};
+            // Outward normals from the mass gradients (eq. 70), made
+            // collinear as in eq. 71 but from the gradients before they are
+            // normalised: n_i = (g_i - g_j) / |g_i - g_j|. Each field's
+            // surface then counts by its mass gradient, so where one field
+            // has little mass at the node (a block's corner over the ground)
+            // the other's surface sets the normal; with unit vectors first,
+            // such a corner would push along a tilted normal and brake a
+            // sliding block (docs/contact.md). Tangents complete
+            // right-handed bases.
+            const double di[2] = {si.gx - sj.gx, si.gy - sj.gy};
+            const double dj[2] = {sj.gx - si.gx, sj.gy - si.gy};
             const double ldi = std::hypot(di[0], di[1]), ldj = std::hypot(dj[0], dj[1]);
             if (!(ldi > 0.0))
               continue; // no normal to push along
@@ -397,7 +401,7 @@ double DiscreteFields::update(double dt, double mass_tol)
             // C.1: n_i = -n_j, s_i = -s_j.
             if (std::hypot(ni[0] + nj[0], ni[1] + nj[1]) > check_tol
                 || std::hypot(ti[0] + tj[0], ti[1] + tj[1]) > check_tol)
-              acc[6] += 1.0;
+              acc[5] += 1.0;
             // Centre-of-mass velocity of the pair (eq. 66). With it,
             // M_i (u_cm - u_i) = M_i M_j / (M_i + M_j) (u_j - u_i): eqs. 69
             // and 74 are evaluated in that form, which has no cancellation
@@ -409,7 +413,7 @@ double DiscreteFields::update(double dt, double mass_tol)
             // Approach condition (eq. 77): field i moves into field j.
             if (!(-dot(ri, ni) > 0.0))
               continue;
-            acc[4] += 1.0;
+            acc[3] += 1.0;
             const double mu = _friction[_slot_field[s0 + i] * nf + _slot_field[s0 + j]];
             // Each side: normal force (eq. 69) with the non-tension cut
             // (eq. 72), stick force (eq. 74) capped by Coulomb (eq. 75).
@@ -419,13 +423,13 @@ double DiscreteFields::update(double dt, double mass_tol)
             const double fti = std::copysign(std::min(mu * std::abs(fni), std::abs(ftsi)), ftsi);
             const double ftj = std::copysign(std::min(mu * std::abs(fnj), std::abs(ftsj)), ftsj);
             if (mu * std::abs(fni) < std::abs(ftsi))
-              acc[5] += 1.0;
+              acc[4] += 1.0;
             // eq. 76 on both sides; C.2: equal and opposite.
             const double Fi[2] = {fni * ni[0] + fti * ti[0], fni * ni[1] + fti * ti[1]};
             const double Fj[2] = {fnj * nj[0] + ftj * tj[0], fnj * nj[1] + ftj * tj[1]};
             if (std::hypot(Fi[0] + Fj[0], Fi[1] + Fj[1])
                 > check_tol * (std::hypot(Fi[0], Fi[1]) + std::hypot(Fj[0], Fj[1])))
-              acc[7] += 1.0;
+              acc[6] += 1.0;
             for (int d = 0; d < 2; ++d)
             {
               fn[i][d] += fni * ni[d];
@@ -458,10 +462,12 @@ double DiscreteFields::update(double dt, double mass_tol)
           }
           kin = Kinematics{vn[j][0], vn[j][1], (vn[j][0] - vo[j][0]) / dt,
                            (vn[j][1] - vo[j][1]) / dt};
+          // Work over the step with the trapezoidal velocity, as the
+          // external work in Solver::update_grid: of the external force and
+          // of the friction force (the tangential contact force).
           const double sum[2] = {vw[0] + vn[j][0], vw[1] + vn[j][1]};
           acc[0] += 0.5 * dt * (s.ex * sum[0] + s.ey * sum[1]);
-          acc[1] += 0.5 * dt * dot(fn[j], sum);
-          acc[2] += 0.5 * dt * dot(ft[j], sum);
+          acc[1] += 0.5 * dt * dot(ft[j], sum);
         }
         // C.3 and C.4 on the corrected velocities.
         for (int q = 0; q < active; ++q)
@@ -471,22 +477,21 @@ double DiscreteFields::update(double dt, double mass_tol)
           const double gn = dot(g, c.n), gs = dot(g, c.s), tol = check_tol * c.scale;
           // eqs. 22c-22e: no tension, no approach, and no gap rate where a force acts.
           if (c.fn > 0.0 || gn > tol || (c.fn < 0.0 && std::abs(gn) > tol))
-            acc[8] += 1.0;
+            acc[7] += 1.0;
           // eqs. 23c-23e: stick has no slip; slip has friction at the cap, against the slip.
           const bool stick = std::abs(c.fts) <= c.mu * std::abs(c.fn);
           const double cap = c.mu * std::abs(c.fn);
           if (stick ? std::abs(gs) > tol
                     : (std::abs(std::abs(c.ft) - cap) > check_tol * cap || c.ft * gs > tol * std::abs(c.ft)))
-            acc[9] += 1.0;
+            acc[8] += 1.0;
         }
       });
-  _stats.normal_work += acc[1];
-  _stats.friction_work += acc[2];
-  _stats.pairs += static_cast<std::int64_t>(acc[3]);
-  _stats.active += static_cast<std::int64_t>(acc[4]);
-  _stats.sliding += static_cast<std::int64_t>(acc[5]);
+  _stats.friction_work += acc[1];
+  _stats.pairs += static_cast<std::int64_t>(acc[2]);
+  _stats.active += static_cast<std::int64_t>(acc[3]);
+  _stats.sliding += static_cast<std::int64_t>(acc[4]);
   for (int c = 0; c < 4; ++c)
-    _stats.violations[c] += static_cast<std::int64_t>(acc[6 + c]);
+    _stats.violations[c] += static_cast<std::int64_t>(acc[5 + c]);
   return acc[0];
 }
 

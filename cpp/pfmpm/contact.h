@@ -29,8 +29,7 @@ struct ContactStats
   /// correction and non-tension, eqs. 22c-22e), C.4 (stick: no slip; slip:
   /// friction at the cap against the slip, eqs. 23c-23e).
   std::array<std::int64_t, 4> violations{};
-  double normal_work = 0.0;   ///< work of the normal contact forces since t = 0 (<= 0)
-  double friction_work = 0.0; ///< work of the tangential contact forces since t = 0 (<= 0)
+  double friction_work = 0.0; ///< work of the tangential (friction) contact forces since t = 0 (<= 0)
 };
 
 /// @brief Every body its own discrete field on the shared grid (eq. 28),
@@ -86,7 +85,7 @@ public:
                         const std::vector<std::int64_t>& cell_start);
 
   /// @brief Predictor-corrector at the contact nodes (eqs. 63-77), walls,
-  /// checks C.1-C.4, and the work of the contact and external forces.
+  /// checks C.1-C.4, and the work of the friction and external forces.
   /// @param dt Time step.
   /// @param mass_tol Nodes (per field) lighter than this carry no velocity.
   /// @return Work of the external forces at the contact nodes over the step.

@@ -477,7 +477,7 @@ Energies Solver::energies() const
   e.mass = sums[4];
   if (_fields)
   {
-    e.contact_work = _fields->stats().normal_work + _fields->stats().friction_work;
+    e.friction_work = _fields->stats().friction_work;
     e.fracture_by_field = _fields->fracture_energies();
     e.fracture = 0.0;
     for (double f : e.fracture_by_field)

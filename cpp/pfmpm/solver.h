@@ -33,7 +33,7 @@ struct Energies
   double elastic = 0.0;        ///< sum of V_p (g(c_p) psi+ + psi-) (eq. 14)
   double fracture = 0.0;       ///< sum of G_c V_p Z(c_p) (eqs. 3-4)
   double external_work = 0.0;  ///< work of the external forces since t = 0
-  double contact_work = 0.0;   ///< work of the contact forces since t = 0 (<= 0: dissipated)
+  double friction_work = 0.0;  ///< work of the friction (tangential contact) forces since t = 0 (<= 0)
   std::array<double, 2> momentum{}; ///< sum of M_p v_p
   double mass = 0.0;           ///< sum of M_p
   std::vector<double> fracture_by_field; ///< with discrete fields: fracture energy per field

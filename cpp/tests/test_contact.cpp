@@ -98,8 +98,7 @@ TEST_P(ContactDegree, CollisionConservesMomentumAndPassesChecks)
   const ContactStats& s = solver.fields()->stats();
   EXPECT_GT(max_nodes, 0);
   EXPECT_GT(s.active, 0);   // the disks did push on each other
-  EXPECT_LT(s.normal_work, 0.0); // and the normal forces dissipated
-  EXPECT_LE(s.friction_work, 0.0);
+  EXPECT_LT(s.friction_work, 0.0); // friction dissipated energy
   for (int c = 0; c < 4; ++c)
     EXPECT_EQ(s.violations[c], 0) << "C." << c + 1;
 }
@@ -116,7 +115,7 @@ TEST_P(ContactDegree, ThreadCountDoesNotChangeBits)
         P.history[i] = 50.0;
     Solver solver(grid, P, {LinearElastic(100.0, 0.3, 1.0, Plane::strain)}, 2e-3,
                   {Fracture{0.5, 0.5, 0.0}}, 1e-6, 1000, {0.0, 0.3, 0.3, 0.0});
-    solver.advance(700);
+    solver.advance(300);
     return std::make_pair(P, solver.energies());
   };
   const int max_threads = omp_get_max_threads();
@@ -126,9 +125,9 @@ TEST_P(ContactDegree, ThreadCountDoesNotChangeBits)
   EXPECT_EQ(0, std::memcmp(p1.x.data(), p3.x.data(), p1.x.size() * sizeof(double)));
   EXPECT_EQ(0, std::memcmp(p1.v.data(), p3.v.data(), p1.v.size() * sizeof(double)));
   EXPECT_EQ(0, std::memcmp(p1.c.data(), p3.c.data(), p1.c.size() * sizeof(double)));
-  EXPECT_EQ(e1.contact_work, e3.contact_work);
+  EXPECT_EQ(e1.friction_work, e3.friction_work);
   EXPECT_EQ(e1.fracture, e3.fracture);
-  EXPECT_LT(e1.contact_work, 0.0);
+  EXPECT_LT(e1.friction_work, 0.0);
 }
 
 TEST_P(ContactDegree, BodiesThatNeverMeetRunAsOneField)
