@@ -51,6 +51,11 @@ struct Energies
 /// over particles is taken in an order fixed by the particle positions alone,
 /// so results do not depend on the thread count.
 ///
+/// With discrete fields (a friction matrix given), the nodes two bodies share
+/// are contact nodes: DiscreteFields keeps each body's quantities there and
+/// applies frictional contact (eqs. 63-77); each crackable body has its own
+/// phase field. Elsewhere the single-field steps above are unchanged.
+///
 /// With explicit time integration the internal force of a step comes from
 /// the stresses fixed at its start, so the staggered loop of Algorithm 1
 /// converges in one pass: the phase field solved at the start of step m+1
