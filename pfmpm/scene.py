@@ -28,6 +28,8 @@ from typing import Any, Callable, ClassVar
 
 import numpy as np
 
+from .anisotropy import check_gamma
+
 __all__ = [
     "SceneError",
     "Grid",
@@ -56,6 +58,7 @@ PLANES = ("strain", "stress")
 DEGREES = (1, 2, 3)
 MODELS = ("linear_elastic",)
 SPLITS = ("spectral", "volumetric_deviatoric", "none")
+SYMMETRIES = ("isotropic2", "isotropic4", "cubic", "orthotropic", "general")
 EDGES = ("top", "bottom", "left", "right")
 SIDES = ("left", "right", "bottom", "top")
 WALL_TYPES = ("fixed", "slip")
@@ -343,13 +346,107 @@ class Output:
 
 
 @dataclass(frozen=True)
+class Anisotropy:
+    """Anisotropic surface energy: the tensor gamma of eq. 6 in the material frame.
+
+    gamma acts on the curvature ``kappa = (c_11, c_22, c_12)`` (the fourth-order
+    term of eq. 4 is ``l0^3 kappa^T gamma kappa``); the body's ``orientation``
+    turns the material axes. :mod:`pfmpm.anisotropy` gives the resulting
+    ``G_c(theta)``.
+
+    Parameters
+    ----------
+    symmetry : str
+        ``"isotropic2"``: gamma = 0, the second-order functional (no keys).
+        ``"isotropic4"``: ``g1111`` (default 1) with g2222 = g1111, g1122 = 0,
+        g1212 = 2 g1111, so that ``G_c = G-bar_c sqrt(1 + sqrt(g1111))`` in
+        every direction. ``"cubic"``: ``g1111`` (= g2222), ``g1212``,
+        optional ``g1122``. ``"orthotropic"``: ``g1111``, ``g2222``,
+        ``g1212``, optional ``g1122``. ``"general"``: ``gamma``, the full
+        symmetric 3 x 3 Voigt matrix.
+    g1111, g2222, g1122, g1212 : float
+        Components of gamma, >= 0 (g1122 may be negative as long as gamma
+        stays positive semi-definite).
+    gamma : 3 x 3 nested sequence
+        The whole matrix, for ``symmetry = "general"``.
+    """
+
+    symmetry: str
+    g1111: float | None = None
+    g2222: float | None = None
+    g1122: float | None = None
+    g1212: float | None = None
+    gamma: tuple[tuple[float, ...], ...] | None = None
+
+    _KEYS: ClassVar[dict[str, tuple[tuple[str, ...], tuple[str, ...]]]] = {
+        # symmetry: (required keys, optional keys)
+        "isotropic2": ((), ()),
+        "isotropic4": ((), ("g1111",)),
+        "cubic": (("g1111", "g1212"), ("g1122",)),
+        "orthotropic": (("g1111", "g2222", "g1212"), ("g1122",)),
+        "general": (("gamma",), ()),
+    }
+
+    def __post_init__(self):
+        _set(self, "symmetry", _choice("symmetry", self.symmetry, SYMMETRIES))
+        required, optional = self._KEYS[self.symmetry]
+        for key in ("g1111", "g2222", "g1122", "g1212", "gamma"):
+            value = getattr(self, key)
+            if value is None and key in required:
+                raise SceneError(key, f"required for symmetry {self.symmetry!r}")
+            if value is not None and key not in required + optional:
+                raise SceneError(key, f"not used by symmetry {self.symmetry!r} (it takes "
+                                 + (", ".join(required + optional) or "no components") + ")")
+        for key in ("g1111", "g2222", "g1212"):
+            if getattr(self, key) is not None:
+                _set(self, key, _real(key, getattr(self, key), ge=0))
+        if self.g1122 is not None:
+            _set(self, "g1122", _real("g1122", self.g1122))
+        if self.gamma is not None:
+            rows = _seq("gamma", self.gamma, "3 rows of 3 numbers")
+            if len(rows) != 3:
+                raise SceneError("gamma", "must have 3 rows of 3 numbers", self.gamma)
+            matrix = []
+            for i, row in enumerate(rows):
+                row = _seq(f"gamma[{i}]", row, "3 numbers")
+                if len(row) != 3:
+                    raise SceneError(f"gamma[{i}]", "must have 3 numbers", row)
+                matrix.append(tuple(_real(f"gamma[{i}][{j}]", v) for j, v in enumerate(row)))
+            _set(self, "gamma", tuple(matrix))
+        try:
+            check_gamma(self.matrix())
+        except ValueError as e:
+            raise SceneError("gamma" if self.symmetry == "general" else "symmetry",
+                             f"gamma {e}", self.matrix().tolist()) from None
+
+    def matrix(self) -> np.ndarray:
+        """gamma as a 3 x 3 array (material frame)."""
+        if self.symmetry == "general":
+            return np.array(self.gamma, dtype=float)
+        if self.symmetry == "isotropic2":
+            return np.zeros((3, 3))
+        if self.symmetry == "isotropic4":
+            g = 1.0 if self.g1111 is None else self.g1111
+            return np.diag([g, g, 2.0 * g])
+        g2222 = self.g1111 if self.symmetry == "cubic" else self.g2222
+        g1122 = self.g1122 or 0.0
+        return np.array([[self.g1111, g1122, 0.0], [g1122, g2222, 0.0], [0.0, 0.0, self.g1212]])
+
+    @property
+    def fourth_order(self) -> bool:
+        """Whether gamma != 0."""
+        return bool(np.any(self.matrix() != 0.0))
+
+
+@dataclass(frozen=True)
 class Fracture:
     """Phase-field fracture parameters (AT2, eqs. 4, 14-15).
 
     Parameters
     ----------
     Gc : float
-        Critical energy release rate, > 0.
+        Critical energy release rate, > 0; with a fourth-order ``anisotropy``
+        it is the reference value G-bar_c of eq. 8.
     l0 : float
         Length scale, > 0; the scene requires at least the grid spacing.
     k_f : float
@@ -357,18 +454,28 @@ class Fracture:
     split : str
         Which energy cracking degrades: ``"spectral"`` (Miehe, eq. 14),
         ``"volumetric_deviatoric"`` (Amor) or ``"none"``.
+    anisotropy : Anisotropy or None
+        The tensor gamma of the fourth-order functional (eqs. 4-6); ``None``:
+        the second-order isotropic functional.
     """
 
     Gc: float
     l0: float
     k_f: float = 0.0
     split: str = "spectral"
+    anisotropy: Anisotropy | None = None
 
     def __post_init__(self):
         _set(self, "Gc", _real("Gc", self.Gc, gt=0))
         _set(self, "l0", _real("l0", self.l0, gt=0))
         _set(self, "k_f", _real("k_f", self.k_f, ge=0, lt=1))
         _set(self, "split", _choice("split", self.split, SPLITS))
+        if self.anisotropy is not None and not isinstance(self.anisotropy, Anisotropy):
+            raise SceneError("anisotropy", "must be an anisotropy table", self.anisotropy)
+
+    def gamma(self) -> np.ndarray:
+        """gamma of eq. 6 in the material frame (zero without anisotropy)."""
+        return np.zeros((3, 3)) if self.anisotropy is None else self.anisotropy.matrix()
 
 
 @dataclass(frozen=True)
@@ -589,6 +696,11 @@ class Body:
         centres in every grid cell.
     velocity : (float, float)
         Initial velocity.
+    orientation : float
+        Material orientation phi in degrees, clockwise from x (the paper's
+        convention): turns the anisotropy tensor of the body's material.
+        Per-particle orientations can be set on ``Simulation.particles.phi``
+        (radians) before the first step.
     """
 
     name: str
@@ -597,6 +709,7 @@ class Body:
     holes: tuple[Shape, ...] = ()
     particles_per_cell: int = 2
     velocity: tuple[float, float] = (0.0, 0.0)
+    orientation: float = 0.0
 
     def __post_init__(self):
         _set(self, "name", _text("name", self.name))
@@ -610,6 +723,7 @@ class Body:
         _set(self, "holes", holes)
         _set(self, "particles_per_cell", _integer("particles_per_cell", self.particles_per_cell, ge=1))
         _set(self, "velocity", _vec2("velocity", self.velocity))
+        _set(self, "orientation", _real("orientation", self.orientation))
 
     def contains(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         """Return True where ``(x, y)`` lies in the shape and in no hole."""
@@ -932,6 +1046,12 @@ class Scene:
                                  f"smaller than the grid spacing h = {h:g}, which cannot resolve"
                                  " the phase-field profile (use l0 >= h; the paper uses l0 = 2 h)",
                                  material.fracture.l0)
+            anisotropy = material.fracture.anisotropy if material.fracture else None
+            if anisotropy is not None and anisotropy.fourth_order and self.grid.degree < 2:
+                raise SceneError(f"materials[{i}].fracture.anisotropy",
+                                 "the fourth-order term needs second derivatives of C1 splines:"
+                                 f" grid.degree must be 2 or 3, not {self.grid.degree}",
+                                 anisotropy.symmetry)
         crackable = [b.name for b in self.bodies if self.fracture_of(b) is not None]
         for i, crack in enumerate(self.cracks):
             if crack.body is not None:
@@ -1026,7 +1146,8 @@ class Scene:
         dict of str to ndarray
             ``x`` (N, 2) positions, ``v`` (N, 2) velocities, ``mass`` (N,),
             ``volume`` (N,) ``= (h/n)^2 * thickness``, ``body`` (N,) int32
-            body index, ``material`` (N,) int32 material index and ``fext``
+            body index, ``material`` (N,) int32 material index, ``phi`` (N,)
+            material orientation in radians (clockwise from x) and ``fext``
             (N, 2) constant external forces: ``traction * (h/n) * thickness``
             on the edge layer of each traction load plus
             ``mass * acceleration`` of each body force.  The edge layer is
@@ -1036,6 +1157,7 @@ class Scene:
         h = self.grid.h
         materials = {m.name: i for i, m in enumerate(self.materials)}
         xs, vs, masses, volumes, body_ids, material_ids, slices = [], [], [], [], [], [], {}
+        phis = []
         start = 0
         for b, body in enumerate(self.bodies):
             x = np.concatenate(list(_lattice(body, self.grid, *self._cell_range(body))))
@@ -1049,6 +1171,7 @@ class Scene:
             masses.append(np.full(count, self.materials[m].density * volume))
             body_ids.append(np.full(count, b, dtype=np.int32))
             material_ids.append(np.full(count, m, dtype=np.int32))
+            phis.append(np.full(count, math.radians(body.orientation)))
             slices[body.name] = (slice(start, start + count), spacing)
             start += count
         out = {
@@ -1058,6 +1181,7 @@ class Scene:
             "volume": np.concatenate(volumes),
             "body": np.concatenate(body_ids),
             "material": np.concatenate(material_ids),
+            "phi": np.concatenate(phis),
             "fext": np.zeros((start, 2)),
         }
         for load in self.loads:
@@ -1116,7 +1240,8 @@ class Scene:
             "time": lambda t: _build(Time, t),
             "output": lambda t: _build(Output, t),
             "materials": lambda v: _tables(v, lambda t: _build(
-                Material, t, {"fracture": lambda f: _build(Fracture, f)})),
+                Material, t, {"fracture": lambda f: _build(
+                    Fracture, f, {"anisotropy": lambda a: _build(Anisotropy, a)})})),
             "bodies": lambda v: _tables(v, _body_from_dict),
             "loads": lambda v: _tables(v, lambda t: _typed(t, LOADS)),
             "walls": lambda v: _tables(v, lambda t: _build(Wall, t)),
