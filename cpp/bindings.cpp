@@ -218,6 +218,7 @@ PYBIND11_MODULE(_core, m)
              d["start_residual"] = st.start_residual;
              d["last_residual"] = st.last_residual;
              d["unknowns"] = st.unknowns;
+             d["fourth_order"] = s.phase_field().fourth_order();
              return d;
            })
       .def_property_readonly("dt", &Solver::dt)

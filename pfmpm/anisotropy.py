@@ -39,7 +39,8 @@ from pathlib import Path
 import numpy as np
 
 __all__ = ["check_gamma", "normal_coefficient", "surface_energy", "surface_energy_ratio",
-           "profile", "polar_table", "write_polar_csv", "plot_polar", "parse_gamma"]
+           "profile", "weak_directions", "polar_table", "write_polar_csv", "plot_polar",
+           "parse_gamma"]
 
 
 def check_gamma(gamma) -> np.ndarray:
@@ -121,6 +122,20 @@ def profile(gamma_n: float, distance, l0: float) -> np.ndarray:
         return (1.0 + k * x) * np.exp(-k * x)
     d = (k2 * np.exp(-k1 * x) - k1 * np.exp(-k2 * x)) / (k2 - k1)
     return d.real
+
+
+def weak_directions(gamma, phi_deg: float = 0.0, samples: int = 3600) -> np.ndarray:
+    """Crack directions (degrees in [0, 360)) where ``1/G_c(theta)`` has a strict local maximum.
+
+    A crack prefers these directions. Sampled every ``360/samples`` degrees;
+    empty for a ``G_c`` independent of direction.
+    """
+    theta = np.arange(samples) * (360.0 / samples)
+    inv = 1.0 / surface_energy_ratio(normal_coefficient(gamma, theta, phi_deg))
+    if np.ptp(inv) <= 1e-12 * inv.max():
+        return np.empty(0)
+    peak = (inv > np.roll(inv, 1)) & (inv >= np.roll(inv, -1))
+    return theta[peak]
 
 
 def polar_table(gamma, gc_bar: float, phi_deg: float = 0.0, samples: int = 721) -> np.ndarray:

@@ -13,7 +13,7 @@ import numpy as np
 
 from .scene import Crack, Fracture
 
-__all__ = ["distance_to_polyline", "initial_history", "CrackTip"]
+__all__ = ["distance_to_polyline", "initial_history", "propagation_angle", "CrackTip"]
 
 
 def distance_to_polyline(xy: np.ndarray, points) -> np.ndarray:
@@ -26,6 +26,24 @@ def distance_to_polyline(xy: np.ndarray, points) -> np.ndarray:
         t = np.clip(((xy - a) @ ab) / max(ab @ ab, np.finfo(float).tiny), 0.0, 1.0)
         d = np.minimum(d, np.hypot(*(xy - a - t[:, None] * ab).T))
     return d
+
+
+def propagation_angle(xy: np.ndarray, c: np.ndarray, tip, direction, r_min: float,
+                      r_max: float, threshold: float = 0.2) -> float:
+    """Direction in which a crack left the tip of a notch, in degrees counter-clockwise from x.
+
+    The direction of the mean unit vector from ``tip`` to the cracked points
+    (``c < threshold``) ahead of it (positive projection on the notch
+    ``direction``) at distances ``r_min`` to ``r_max``; NaN when there are none.
+    """
+    d = np.asarray(xy, dtype=float) - np.asarray(tip, dtype=float)
+    r = np.hypot(d[:, 0], d[:, 1])
+    ahead = d @ np.asarray(direction, dtype=float) > 0.0
+    sel = (np.asarray(c) < threshold) & ahead & (r >= r_min) & (r <= r_max)
+    if not np.any(sel):
+        return math.nan
+    u = (d[sel] / r[sel, None]).mean(axis=0)
+    return math.degrees(math.atan2(u[1], u[0]))
 
 
 def initial_history(xy: np.ndarray, crack: Crack, fracture: Fracture) -> np.ndarray:

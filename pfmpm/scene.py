@@ -37,6 +37,7 @@ __all__ = [
     "Output",
     "Material",
     "Fracture",
+    "Anisotropy",
     "Shape",
     "Rectangle",
     "Disk",
@@ -696,6 +697,10 @@ class Body:
         centres in every grid cell.
     velocity : (float, float)
         Initial velocity.
+    velocity_gradient : ((float, float), (float, float))
+        Initial velocity gradient ``G``: a particle at ``x`` starts with
+        ``velocity + G x`` (``G[i][j] = d v_i / d x_j``), e.g. a uniform
+        stretching rate.
     orientation : float
         Material orientation phi in degrees, clockwise from x (the paper's
         convention): turns the anisotropy tensor of the body's material.
@@ -709,6 +714,7 @@ class Body:
     holes: tuple[Shape, ...] = ()
     particles_per_cell: int = 2
     velocity: tuple[float, float] = (0.0, 0.0)
+    velocity_gradient: tuple[tuple[float, float], tuple[float, float]] = ((0.0, 0.0), (0.0, 0.0))
     orientation: float = 0.0
 
     def __post_init__(self):
@@ -723,6 +729,11 @@ class Body:
         _set(self, "holes", holes)
         _set(self, "particles_per_cell", _integer("particles_per_cell", self.particles_per_cell, ge=1))
         _set(self, "velocity", _vec2("velocity", self.velocity))
+        rows = _seq("velocity_gradient", self.velocity_gradient, "2 rows of 2 numbers")
+        if len(rows) != 2:
+            raise SceneError("velocity_gradient", "must have 2 rows of 2 numbers", self.velocity_gradient)
+        _set(self, "velocity_gradient",
+             tuple(_vec2(f"velocity_gradient[{i}]", row) for i, row in enumerate(rows)))
         _set(self, "orientation", _real("orientation", self.orientation))
 
     def contains(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -731,6 +742,13 @@ class Body:
         for hole in self.holes:
             inside &= ~hole.contains(x, y)
         return inside
+
+    def max_speed(self) -> float:
+        """Largest initial particle speed: the velocity plus the gradient over the bounding box."""
+        x0, y0, x1, y1 = self.shape.bounds()
+        g = np.array(self.velocity_gradient)
+        return max(float(np.hypot(*(np.array(self.velocity) + g @ (x, y))))
+                   for x in (x0, x1) for y in (y0, y1))
 
 
 @dataclass(frozen=True)
@@ -1085,6 +1103,9 @@ class Scene:
         for i, body in enumerate(self.bodies):
             if not math.isfinite(math.hypot(*body.velocity)):
                 raise SceneError(f"bodies[{i}].velocity", "speed is not finite", body.velocity)
+            if not math.isfinite(body.max_speed()):
+                raise SceneError(f"bodies[{i}].velocity_gradient", "gives a speed that is not finite"
+                                 " over the body", body.velocity_gradient)
         limit = self.stable_dt()
         if not 0 < limit < math.inf:
             raise SceneError("time", f"the stability limit {limit:g} is not a positive finite step")
@@ -1103,7 +1124,7 @@ class Scene:
         """Stability limit ``cfl * kappa * h / (c_max + v_max)`` (eqs. 83-84).
 
         ``c_max`` is the largest P-wave speed (see :func:`wave_speed`) over the
-        materials used by bodies and ``v_max`` the largest initial body speed.
+        materials used by bodies and ``v_max`` the largest initial particle speed.
         ``kappa`` (see :data:`CRITICAL_FACTOR`) is 1 for quadratic and cubic
         B-splines with the bodies clear of the grid's end functions, as in the
         paper; it is smaller for degree 1, and for bodies that start within
@@ -1113,7 +1134,7 @@ class Scene:
         used = {body.material for body in self.bodies}
         c_max = max(wave_speed(m.E, m.nu, m.density, self.plane)
                     for m in self.materials if m.name in used)
-        v_max = max(math.hypot(*body.velocity) for body in self.bodies)
+        v_max = max(body.max_speed() for body in self.bodies)
         interior, boundary = CRITICAL_FACTOR[self.grid.degree]
         kappa = boundary if any(self._near_side(b) for b in self.bodies) else interior
         return self.time.cfl * kappa * self.grid.h / (c_max + v_max)
@@ -1166,7 +1187,7 @@ class Scene:
             spacing = h / body.particles_per_cell
             volume = spacing * spacing * self.thickness
             xs.append(x)
-            vs.append(np.broadcast_to(body.velocity, (count, 2)))
+            vs.append(np.asarray(body.velocity) + x @ np.asarray(body.velocity_gradient).T)
             volumes.append(np.full(count, volume))
             masses.append(np.full(count, self.materials[m].density * volume))
             body_ids.append(np.full(count, b, dtype=np.int32))

@@ -185,8 +185,26 @@ class Simulation:
         if snapshots is not None and snapshots.images:
             from . import plots
 
-            plots.phase_field(snapshots, out / "phase_field.png")
+            plots.phase_field(snapshots, out / "phase_field.png", self._polar_overlay())
         return result
+
+    def _polar_overlay(self):
+        """``1/G_c(theta)`` of the first anisotropic body, drawn at the initial
+        crack tips (or the body's centre) on the phase-field snapshots; or None."""
+        from .anisotropy import polar_table
+
+        for body in self.scene.bodies:
+            f = self.scene.fracture_of(body)
+            if f is not None and f.anisotropy is not None and f.anisotropy.fourth_order:
+                x0, y0, x1, y1 = body.shape.bounds()
+                h = self.scene.grid.h
+                tips = [p for crack in self.scene.cracks if crack.body in (None, body.name)
+                        for p in (crack.points[0], crack.points[-1])
+                        if x0 + h <= p[0] <= x1 - h and y0 + h <= p[1] <= y1 - h]
+                if not tips:
+                    tips = [(0.5 * (x0 + x1), 0.5 * (y0 + y1))]
+                return tips, polar_table(f.gamma(), f.Gc, body.orientation)
+        return None
 
     def _record(self, log: CsvLog, series: ParticleSeries | None,
                 snapshots: "Snapshots | None", force: bool) -> None:
