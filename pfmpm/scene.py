@@ -746,9 +746,11 @@ class Body:
     def max_speed(self) -> float:
         """Largest initial particle speed: the velocity plus the gradient over the bounding box."""
         x0, y0, x1, y1 = self.shape.bounds()
-        g = np.array(self.velocity_gradient)
-        return max(float(np.hypot(*(np.array(self.velocity) + g @ (x, y))))
-                   for x in (x0, x1) for y in (y0, y1))
+        (gxx, gxy), (gyx, gyy) = self.velocity_gradient
+        vx, vy = self.velocity
+        speeds = [math.hypot(vx + gxx * x + gxy * y, vy + gyx * x + gyy * y)
+                  for x in (x0, x1) for y in (y0, y1)]
+        return max(speeds) if all(map(math.isfinite, speeds)) else math.inf
 
 
 @dataclass(frozen=True)
