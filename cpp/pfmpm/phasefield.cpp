@@ -14,7 +14,7 @@ namespace
 {
 std::string text(double v) { return std::to_string(v); }
 
-/// l0^3 kappa^T G kappa for a symmetric Voigt G: the fourth-order part of eq. 4.
+/// kappa^T G kappa for a symmetric Voigt G; times l0^3, the fourth-order part of eq. 4.
 double curvature_energy(const Voigt& G, const double kappa[3])
 {
   double sum = 0.0;
