@@ -12,12 +12,17 @@ from .compare import BORDEN_SCENE, DEFAULT_END, DEFAULT_H, DEFAULT_L0
 
 
 def _run(args: argparse.Namespace) -> int:
+    from ._core import SimulationError
     from .scene import Scene
     from .simulation import Simulation
 
     scene = Scene.from_toml(args.scene, overrides=args.set)
     out = Path(args.out) if args.out else Path("out") / Path(args.scene).stem
-    sim = Simulation(scene)
+    try:
+        sim = Simulation(scene)
+    except SimulationError as err:  # the phase field of the initial cracks
+        print(f"error: {err}", file=sys.stderr)
+        return 1
     print(f"{scene.name}: {len(sim.particles)} particles, {scene.steps()} steps of dt = {scene.dt():.6g} -> {out}")
     result = sim.run(out, progress=not args.quiet)
     if result.status == "failed":
