@@ -262,3 +262,17 @@ def test_fem_path_refuses_the_fourth_order_term():
 
     with pytest.raises(SceneError, match=r"materials\[0\]\.fracture\.anisotropy.*second-order"):
         FemSimulation(crack_strip(0.25, 1.0, Anisotropy("cubic", g1111=1.0, g1212=2.0)))
+
+
+def test_run_reports_an_unconverged_initial_solve_without_a_traceback(tmp_path):
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    scene = Path(__file__).resolve().parents[1] / "demos" / "borden_cubic.toml"
+    r = subprocess.run([sys.executable, "-P", "-m", "pfmpm.cli", "run", str(scene), "--out", str(tmp_path),
+                        "--set", "grid.h=1.0", "--set", "materials.concrete.fracture.l0=2.0",
+                        "--set", "phase_field.max_iterations=5"], capture_output=True, text=True)
+    assert r.returncode == 1
+    assert r.stderr.startswith("error: phase field: conjugate gradients stopped") and "after 5 iterations" in r.stderr
+    assert "Traceback" not in r.stderr
