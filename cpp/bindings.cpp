@@ -15,6 +15,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <array>
 #include <optional>
 
 namespace py = pybind11;
@@ -167,12 +168,34 @@ PYBIND11_MODULE(_core, m)
       .def_property_readonly("lame", [](const LinearElastic& e)
                              { return std::make_pair(e.lambda(), e.mu()); });
 
+  using Matrix3 = std::array<std::array<double, 3>, 3>;
+  auto matrix = [](const Voigt& v)
+  {
+    Matrix3 out;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j)
+        out[i][j] = v[3 * i + j];
+    return out;
+  };
   py::class_<Fracture>(m, "Fracture", "Fracture parameters of a material that can crack")
-      .def(py::init([](double Gc, double l0, double k_f) { return Fracture{Gc, l0, k_f}; }),
-           py::arg("Gc"), py::arg("l0"), py::arg("k_f") = 0.0)
+      .def(py::init(
+               [](double Gc, double l0, double k_f, const Matrix3& gamma)
+               {
+                 Fracture f{Gc, l0, k_f};
+                 for (int i = 0; i < 3; ++i)
+                   for (int j = 0; j < 3; ++j)
+                     f.gamma[3 * i + j] = gamma[i][j];
+                 return f;
+               }),
+           py::arg("Gc"), py::arg("l0"), py::arg("k_f") = 0.0, py::arg("gamma") = Matrix3{},
+           "gamma: the 3 x 3 Voigt anisotropy tensor of eq. 6 in the material frame")
       .def_readonly("Gc", &Fracture::Gc)
       .def_readonly("l0", &Fracture::l0)
-      .def_readonly("k_f", &Fracture::k_f);
+      .def_readonly("k_f", &Fracture::k_f)
+      .def_property_readonly("gamma", [matrix](const Fracture& f) { return matrix(f.gamma); })
+      .def_property_readonly("fourth_order", &Fracture::fourth_order)
+      .def("rotated", [matrix](const Fracture& f, double phi) { return matrix(f.rotated(phi)); },
+           py::arg("phi"), "gamma in the global frame for axes turned phi radians clockwise");
 
   py::class_<Solver>(m, "Solver", "Explicit MPM stepping with a staggered phase field (Algorithm 1)")
       .def(py::init<Grid&, Particles&, std::vector<LinearElastic>, double,
@@ -198,6 +221,7 @@ PYBIND11_MODULE(_core, m)
              d["start_residual"] = st.start_residual;
              d["last_residual"] = st.last_residual;
              d["unknowns"] = st.unknowns;
+             d["fourth_order"] = s.phase_field().fourth_order();
              return d;
            })
       .def_property_readonly("dt", &Solver::dt)

@@ -9,10 +9,11 @@ import time
 import numpy as np
 
 from . import _core
-from .scene import Body, Contact, Crack, Fracture, Grid, Material, Rectangle, Scene, Time
+from .scene import (Anisotropy, Body, Contact, Crack, Fracture, Grid, Material, PhaseField, Rectangle,
+                    Scene, Time)
 from .simulation import Simulation
 
-PHYSICS = ("elastic", "phasefield", "contact")
+PHYSICS = ("elastic", "phasefield", "anisotropic", "contact")
 
 
 def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str = "elastic") -> Scene:
@@ -22,6 +23,8 @@ def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str
     split) with an initial crack from its left edge to its centre, and a
     toughness low enough that the bench's vibration raises the history field
     everywhere: the phase-field system changes at every node and step.
+    ``physics="anisotropic"`` adds the fourth-order term with the Borden
+    plate's cubic gamma (g1111 = 1, g1212 = 74) at 30 degrees.
     ``physics="contact"`` cuts the elastic block into two bodies along its
     vertical midline, each its own discrete field with frictional contact
     (mu = 0.3): the same particles as ``"elastic"``, with a line of contact
@@ -31,8 +34,9 @@ def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str
     margin = 4
     side = cells + 2 * margin
     fracture, cracks = None, ()
-    if physics == "phasefield":
-        fracture = Fracture(Gc=1e-5, l0=2.0)
+    if physics in ("phasefield", "anisotropic"):
+        cubic = Anisotropy("cubic", g1111=1.0, g1212=74.0) if physics == "anisotropic" else None
+        fracture = Fracture(Gc=1e-5, l0=2.0, anisotropy=cubic)
         mid = margin + cells / 2
         cracks = (Crack(points=((float(margin), mid), (mid, mid))),)
     lo, hi = float(margin), float(margin + cells)
@@ -47,8 +51,11 @@ def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str
         time=Time(end=1.0),
         cracks=cracks,
         materials=(Material(name="m", E=1.0, nu=0.3, density=1.0, fracture=fracture),),
-        bodies=tuple(Body(name=name, material="m", shape=shape, particles_per_cell=per_cell)
+        bodies=tuple(Body(name=name, material="m", shape=shape, particles_per_cell=per_cell,
+                          orientation=30.0)
                      for name, shape in shapes.items()),
+        # The first, cold fourth-order solve needs more than the default limit.
+        phase_field=PhaseField(max_iterations=100_000),
         contact=Contact(friction=0.3) if physics == "contact" else None,
     )
 

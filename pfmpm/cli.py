@@ -1,4 +1,4 @@
-"""The ``pfmpm`` command: ``pfmpm run``, ``pfmpm bench`` and ``pfmpm compare``."""
+"""The ``pfmpm`` command: ``pfmpm run``, ``bench``, ``compare`` and ``polar``."""
 
 from __future__ import annotations
 
@@ -12,12 +12,17 @@ from .compare import BORDEN_SCENE, DEFAULT_END, DEFAULT_H, DEFAULT_L0
 
 
 def _run(args: argparse.Namespace) -> int:
+    from ._core import SimulationError
     from .scene import Scene
     from .simulation import Simulation
 
     scene = Scene.from_toml(args.scene, overrides=args.set)
     out = Path(args.out) if args.out else Path("out") / Path(args.scene).stem
-    sim = Simulation(scene)
+    try:
+        sim = Simulation(scene)
+    except SimulationError as err:  # the phase field of the initial cracks
+        print(f"error: {err}", file=sys.stderr)
+        return 1
     print(f"{scene.name}: {len(sim.particles)} particles, {scene.steps()} steps of dt = {scene.dt():.6g} -> {out}")
     result = sim.run(out, progress=not args.quiet)
     if result.status == "failed":
@@ -73,6 +78,32 @@ def _compare(args: argparse.Namespace) -> int:
     return 0
 
 
+def _polar(args: argparse.Namespace) -> int:
+    from . import anisotropy
+
+    try:
+        gamma = anisotropy.check_gamma(anisotropy.parse_gamma(args.gamma))
+    except ValueError as err:
+        message = str(err) if str(err).startswith("--gamma") else f"--gamma {args.gamma!r}: {err}"
+        print(f"error: {message}", file=sys.stderr)
+        return 2
+    if not args.gc_bar > 0:
+        print(f"error: --gc-bar {args.gc_bar:g}: must be > 0", file=sys.stderr)
+        return 2
+    table = anisotropy.polar_table(gamma, args.gc_bar, args.phi, args.samples)
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    anisotropy.write_polar_csv(table, out)
+    png = out.with_suffix(".png")
+    anisotropy.plot_polar(table, png, f"gamma = {args.gamma}, G-bar_c = {args.gc_bar:g},"
+                                      f" phi = {args.phi:g} deg")
+    lo, hi = table[:, 1].argmin(), table[:, 1].argmax()
+    print(f"Gc_min = {table[lo, 1]:.6g} at theta = {table[lo, 0]:g} deg (weakest crack direction)")
+    print(f"Gc_max = {table[hi, 1]:.6g} at theta = {table[hi, 0]:g} deg")
+    print(f"table: {out}\nplots: {png}")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``pfmpm`` console command."""
     parser = argparse.ArgumentParser(prog="pfmpm", description="Phase-field material point method")
@@ -108,6 +139,19 @@ def main(argv: list[str] | None = None) -> int:
                               " e.g. bodies.plate.particles_per_cell=2")
     compare.add_argument("--quiet", action="store_true", help="no progress bars")
     compare.set_defaults(func=_compare)
+
+    polar = sub.add_parser("polar", help="anisotropic surface energy G_c(theta) of a gamma tensor (eq. 8)")
+    polar.add_argument("--gamma", required=True, metavar="G11,G12,G13;G21,G22,G23;G31,G32,G33",
+                       help="Voigt tensor of eq. 6 on (c_11, c_22, c_12), material frame")
+    polar.add_argument("--gc-bar", type=float, required=True, help="reference fracture energy G-bar_c")
+    polar.add_argument("--phi", type=float, default=0.0,
+                       help="material orientation, degrees clockwise from x (default %(default)g)")
+    polar.add_argument("--samples", type=int, default=721,
+                       help="directions over 0-360 degrees (default %(default)d: every 0.5 degree)")
+    polar.add_argument("--out", default="polar.csv",
+                       help="CSV file theta_deg,gc,inv_gc; the plots go next to it as .png"
+                            " (default %(default)s)")
+    polar.set_defaults(func=_polar)
 
     args = parser.parse_args(argv)
     from .scene import SceneError

@@ -13,7 +13,7 @@ import numpy as np
 
 from .scene import Crack, Fracture
 
-__all__ = ["distance_to_polyline", "initial_history", "CrackTip"]
+__all__ = ["distance_to_polyline", "initial_history", "propagation_angle", "crack_arms", "CrackTip"]
 
 
 def distance_to_polyline(xy: np.ndarray, points) -> np.ndarray:
@@ -26,6 +26,50 @@ def distance_to_polyline(xy: np.ndarray, points) -> np.ndarray:
         t = np.clip(((xy - a) @ ab) / max(ab @ ab, np.finfo(float).tiny), 0.0, 1.0)
         d = np.minimum(d, np.hypot(*(xy - a - t[:, None] * ab).T))
     return d
+
+
+def propagation_angle(xy: np.ndarray, c: np.ndarray, tip, direction, r_min: float,
+                      r_max: float, threshold: float = 0.2) -> float:
+    """Direction in which a crack left the tip of a notch, in degrees counter-clockwise from x.
+
+    The direction of the mean unit vector from ``tip`` to the cracked points
+    (``c < threshold``) ahead of it (positive projection on the notch
+    ``direction``) at distances ``r_min`` to ``r_max``; NaN when there are none.
+    """
+    d = np.asarray(xy, dtype=float) - np.asarray(tip, dtype=float)
+    r = np.hypot(d[:, 0], d[:, 1])
+    ahead = d @ np.asarray(direction, dtype=float) > 0.0
+    sel = (np.asarray(c) < threshold) & ahead & (r >= r_min) & (r <= r_max)
+    if not np.any(sel):
+        return math.nan
+    u = (d[sel] / r[sel, None]).mean(axis=0)
+    return math.degrees(math.atan2(u[1], u[0]))
+
+
+def crack_arms(xy: np.ndarray, c: np.ndarray, centre, radius: float, width: float,
+               threshold: float = 0.2, gap_deg: float = 10.0) -> list[float]:
+    """Directions (degrees in [0, 360)) of the crack arms crossing a circle.
+
+    The cracked points (``c < threshold``) within ``width / 2`` of the circle
+    of ``radius`` about ``centre`` are grouped by angle, a new group starting
+    wherever consecutive angles differ by more than ``gap_deg``; each arm's
+    direction is its group's mean. Two arms ahead of a notch tip mean the crack
+    has branched.
+    """
+    d = np.asarray(xy, dtype=float) - np.asarray(centre, dtype=float)
+    r = np.hypot(d[:, 0], d[:, 1])
+    sel = (np.asarray(c) < threshold) & (np.abs(r - radius) <= 0.5 * width)
+    if not np.any(sel):
+        return []
+    angles = np.sort(np.degrees(np.arctan2(d[sel, 1], d[sel, 0])) % 360.0)
+    gaps = np.diff(np.concatenate([angles, angles[:1] + 360.0]))
+    if gaps.max() <= gap_deg:
+        return []  # the whole circle is cracked: no arms to tell apart
+    start = int(np.argmax(gaps)) + 1  # begin after the widest gap, so no group wraps
+    angles = np.roll(angles, -start)
+    angles[angles < angles[0]] += 360.0
+    groups = np.split(angles, np.flatnonzero(np.diff(angles) > gap_deg) + 1)
+    return [float(g.mean() % 360.0) for g in groups]
 
 
 def initial_history(xy: np.ndarray, crack: Crack, fracture: Fracture) -> np.ndarray:

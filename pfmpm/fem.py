@@ -736,8 +736,14 @@ def _supported(scene: Scene) -> tuple[Body, Material]:
                 raise SceneError("bodies[0].shape", "the FEM path needs a rectangle whose edges lie"
                                  f" on grid lines (multiples of h = {h:g} from the grid origin"
                                  f" {list(origin)})", [list(body.shape.min), list(body.shape.max)])
-    return body, scene.material_of(body)
-
+    material = scene.material_of(body)
+    anisotropy = material.fracture.anisotropy if material.fracture else None
+    if anisotropy is not None and anisotropy.fourth_order:
+        index = scene.materials.index(material)
+        raise SceneError(f"materials[{index}].fracture.anisotropy", "the FEM path solves the"
+                         " second-order functional only (P1 elements have no second derivatives)",
+                         anisotropy.symmetry)
+    return body, material
 
 
 def main(argv: list[str] | None = None) -> int:

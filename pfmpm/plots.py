@@ -48,8 +48,13 @@ def crack_tip(csv_path: Path, png_path: Path, rayleigh: float) -> None:
     plt.close(fig)
 
 
-def phase_field(snapshots, png_path: Path) -> None:
-    """Phase-field images of a :class:`~pfmpm.simulation.Snapshots`, one panel each."""
+def phase_field(snapshots, png_path: Path, polar=None) -> None:
+    """Phase-field images of a :class:`~pfmpm.simulation.Snapshots`, one panel each.
+
+    ``polar``: optional ``(centres, table)``, a :func:`pfmpm.anisotropy.polar_table`
+    whose ``1/G_c(theta)`` curve is drawn around each centre, its largest
+    radius a tenth of the image width: the crack's preferred directions.
+    """
     n = len(snapshots.images)
     ny, nx = snapshots.images[0][1].shape
     width = 6.0
@@ -60,6 +65,11 @@ def phase_field(snapshots, png_path: Path) -> None:
         im = ax.imshow(image, origin="lower", extent=extent, vmin=0, vmax=1, cmap="inferno")
         ax.set_title(f"phase field c, t = {t:.4g}")
         ax.set_aspect("equal")
+        if polar is not None:
+            centres, table = polar
+            theta, r = np.radians(table[:, 0]), table[:, 2] / table[:, 2].max() * 0.1 * nx * size
+            for cx, cy in centres:
+                ax.plot(cx + r * np.cos(theta), cy + r * np.sin(theta), color="w", lw=1.0)
     fig.colorbar(im, ax=axes[:, 0].tolist(), shrink=0.8)
     fig.savefig(png_path, dpi=120)
     plt.close(fig)

@@ -28,6 +28,8 @@ from typing import Any, Callable, ClassVar
 
 import numpy as np
 
+from .anisotropy import check_gamma
+
 __all__ = [
     "SceneError",
     "Grid",
@@ -35,6 +37,7 @@ __all__ = [
     "Output",
     "Material",
     "Fracture",
+    "Anisotropy",
     "Shape",
     "Rectangle",
     "Disk",
@@ -58,6 +61,7 @@ PLANES = ("strain", "stress")
 DEGREES = (1, 2, 3)
 MODELS = ("linear_elastic",)
 SPLITS = ("spectral", "volumetric_deviatoric", "none")
+SYMMETRIES = ("isotropic2", "isotropic4", "cubic", "orthotropic", "general")
 EDGES = ("top", "bottom", "left", "right")
 SIDES = ("left", "right", "bottom", "top")
 WALL_TYPES = ("fixed", "slip")
@@ -345,13 +349,107 @@ class Output:
 
 
 @dataclass(frozen=True)
+class Anisotropy:
+    """Anisotropic surface energy: the tensor gamma of eq. 6 in the material frame.
+
+    gamma acts on the curvature ``kappa = (c_11, c_22, c_12)`` (the fourth-order
+    term of eq. 4 is ``l0^3 kappa^T gamma kappa``); the body's ``orientation``
+    turns the material axes. :mod:`pfmpm.anisotropy` gives the resulting
+    ``G_c(theta)``.
+
+    Parameters
+    ----------
+    symmetry : str
+        ``"isotropic2"``: gamma = 0, the second-order functional (no keys).
+        ``"isotropic4"``: ``g1111`` (default 1) with g2222 = g1111, g1122 = 0,
+        g1212 = 2 g1111, so that ``G_c = G-bar_c sqrt(1 + sqrt(g1111))`` in
+        every direction. ``"cubic"``: ``g1111`` (= g2222), ``g1212``,
+        optional ``g1122``. ``"orthotropic"``: ``g1111``, ``g2222``,
+        ``g1212``, optional ``g1122``. ``"general"``: ``gamma``, the full
+        symmetric 3 x 3 Voigt matrix.
+    g1111, g2222, g1122, g1212 : float
+        Components of gamma, >= 0 (g1122 may be negative as long as gamma
+        stays positive semi-definite).
+    gamma : 3 x 3 nested sequence
+        The whole matrix, for ``symmetry = "general"``.
+    """
+
+    symmetry: str
+    g1111: float | None = None
+    g2222: float | None = None
+    g1122: float | None = None
+    g1212: float | None = None
+    gamma: tuple[tuple[float, ...], ...] | None = None
+
+    _KEYS: ClassVar[dict[str, tuple[tuple[str, ...], tuple[str, ...]]]] = {
+        # symmetry: (required keys, optional keys)
+        "isotropic2": ((), ()),
+        "isotropic4": ((), ("g1111",)),
+        "cubic": (("g1111", "g1212"), ("g1122",)),
+        "orthotropic": (("g1111", "g2222", "g1212"), ("g1122",)),
+        "general": (("gamma",), ()),
+    }
+
+    def __post_init__(self):
+        _set(self, "symmetry", _choice("symmetry", self.symmetry, SYMMETRIES))
+        required, optional = self._KEYS[self.symmetry]
+        for key in ("g1111", "g2222", "g1122", "g1212", "gamma"):
+            value = getattr(self, key)
+            if value is None and key in required:
+                raise SceneError(key, f"required for symmetry {self.symmetry!r}")
+            if value is not None and key not in required + optional:
+                raise SceneError(key, f"not used by symmetry {self.symmetry!r} (it takes "
+                                 + (", ".join(required + optional) or "no components") + ")")
+        for key in ("g1111", "g2222", "g1212"):
+            if getattr(self, key) is not None:
+                _set(self, key, _real(key, getattr(self, key), ge=0))
+        if self.g1122 is not None:
+            _set(self, "g1122", _real("g1122", self.g1122))
+        if self.gamma is not None:
+            rows = _seq("gamma", self.gamma, "3 rows of 3 numbers")
+            if len(rows) != 3:
+                raise SceneError("gamma", "must have 3 rows of 3 numbers", self.gamma)
+            matrix = []
+            for i, row in enumerate(rows):
+                row = _seq(f"gamma[{i}]", row, "3 numbers")
+                if len(row) != 3:
+                    raise SceneError(f"gamma[{i}]", "must have 3 numbers", row)
+                matrix.append(tuple(_real(f"gamma[{i}][{j}]", v) for j, v in enumerate(row)))
+            _set(self, "gamma", tuple(matrix))
+        try:
+            check_gamma(self.matrix())
+        except ValueError as e:
+            raise SceneError("gamma" if self.symmetry == "general" else "symmetry",
+                             f"gamma {e}", self.matrix().tolist()) from None
+
+    def matrix(self) -> np.ndarray:
+        """gamma as a 3 x 3 array (material frame)."""
+        if self.symmetry == "general":
+            return np.array(self.gamma, dtype=float)
+        if self.symmetry == "isotropic2":
+            return np.zeros((3, 3))
+        if self.symmetry == "isotropic4":
+            g = 1.0 if self.g1111 is None else self.g1111
+            return np.diag([g, g, 2.0 * g])
+        g2222 = self.g1111 if self.symmetry == "cubic" else self.g2222
+        g1122 = self.g1122 or 0.0
+        return np.array([[self.g1111, g1122, 0.0], [g1122, g2222, 0.0], [0.0, 0.0, self.g1212]])
+
+    @property
+    def fourth_order(self) -> bool:
+        """Whether gamma != 0."""
+        return bool(np.any(self.matrix() != 0.0))
+
+
+@dataclass(frozen=True)
 class Fracture:
     """Phase-field fracture parameters (AT2, eqs. 4, 14-15).
 
     Parameters
     ----------
     Gc : float
-        Critical energy release rate, > 0.
+        Critical energy release rate, > 0; with a fourth-order ``anisotropy``
+        it is the reference value G-bar_c of eq. 8.
     l0 : float
         Length scale, > 0; the scene requires at least the grid spacing.
     k_f : float
@@ -359,18 +457,28 @@ class Fracture:
     split : str
         Which energy cracking degrades: ``"spectral"`` (Miehe, eq. 14),
         ``"volumetric_deviatoric"`` (Amor) or ``"none"``.
+    anisotropy : Anisotropy or None
+        The tensor gamma of the fourth-order functional (eqs. 4-6); ``None``:
+        the second-order isotropic functional.
     """
 
     Gc: float
     l0: float
     k_f: float = 0.0
     split: str = "spectral"
+    anisotropy: Anisotropy | None = None
 
     def __post_init__(self):
         _set(self, "Gc", _real("Gc", self.Gc, gt=0))
         _set(self, "l0", _real("l0", self.l0, gt=0))
         _set(self, "k_f", _real("k_f", self.k_f, ge=0, lt=1))
         _set(self, "split", _choice("split", self.split, SPLITS))
+        if self.anisotropy is not None and not isinstance(self.anisotropy, Anisotropy):
+            raise SceneError("anisotropy", "must be an anisotropy table", self.anisotropy)
+
+    def gamma(self) -> np.ndarray:
+        """gamma of eq. 6 in the material frame (zero without anisotropy)."""
+        return np.zeros((3, 3)) if self.anisotropy is None else self.anisotropy.matrix()
 
 
 @dataclass(frozen=True)
@@ -591,6 +699,15 @@ class Body:
         centres in every grid cell.
     velocity : (float, float)
         Initial velocity.
+    velocity_gradient : ((float, float), (float, float))
+        Initial velocity gradient ``G``: a particle at ``x`` starts with
+        ``velocity + G x`` (``G[i][j] = d v_i / d x_j``), e.g. a uniform
+        stretching rate.
+    orientation : float
+        Material orientation phi in degrees, clockwise from x (the paper's
+        convention): turns the anisotropy tensor of the body's material.
+        Per-particle orientations can be set on ``Simulation.particles.phi``
+        (radians) before the first step.
     """
 
     name: str
@@ -599,6 +716,8 @@ class Body:
     holes: tuple[Shape, ...] = ()
     particles_per_cell: int = 2
     velocity: tuple[float, float] = (0.0, 0.0)
+    velocity_gradient: tuple[tuple[float, float], tuple[float, float]] = ((0.0, 0.0), (0.0, 0.0))
+    orientation: float = 0.0
 
     def __post_init__(self):
         _set(self, "name", _text("name", self.name))
@@ -612,6 +731,12 @@ class Body:
         _set(self, "holes", holes)
         _set(self, "particles_per_cell", _integer("particles_per_cell", self.particles_per_cell, ge=1))
         _set(self, "velocity", _vec2("velocity", self.velocity))
+        rows = _seq("velocity_gradient", self.velocity_gradient, "2 rows of 2 numbers")
+        if len(rows) != 2:
+            raise SceneError("velocity_gradient", "must have 2 rows of 2 numbers", self.velocity_gradient)
+        _set(self, "velocity_gradient",
+             tuple(_vec2(f"velocity_gradient[{i}]", row) for i, row in enumerate(rows)))
+        _set(self, "orientation", _real("orientation", self.orientation))
 
     def contains(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         """Return True where ``(x, y)`` lies in the shape and in no hole."""
@@ -619,6 +744,15 @@ class Body:
         for hole in self.holes:
             inside &= ~hole.contains(x, y)
         return inside
+
+    def max_speed(self) -> float:
+        """Largest initial particle speed: the velocity plus the gradient over the bounding box."""
+        x0, y0, x1, y1 = self.shape.bounds()
+        (gxx, gxy), (gyx, gyy) = self.velocity_gradient
+        vx, vy = self.velocity
+        speeds = [math.hypot(vx + gxx * x + gxy * y, vy + gyx * x + gyy * y)
+                  for x in (x0, x1) for y in (y0, y1)]
+        return max(speeds) if all(map(math.isfinite, speeds)) else math.inf
 
 
 @dataclass(frozen=True)
@@ -1003,6 +1137,12 @@ class Scene:
                                  f"smaller than the grid spacing h = {h:g}, which cannot resolve"
                                  " the phase-field profile (use l0 >= h; the paper uses l0 = 2 h)",
                                  material.fracture.l0)
+            anisotropy = material.fracture.anisotropy if material.fracture else None
+            if anisotropy is not None and anisotropy.fourth_order and self.grid.degree < 2:
+                raise SceneError(f"materials[{i}].fracture.anisotropy",
+                                 "the fourth-order term needs second derivatives of C1 splines:"
+                                 f" grid.degree must be 2 or 3, not {self.grid.degree}",
+                                 anisotropy.symmetry)
         crackable = [b.name for b in self.bodies if self.fracture_of(b) is not None]
         for i, crack in enumerate(self.cracks):
             if crack.body is not None:
@@ -1070,6 +1210,9 @@ class Scene:
         for i, body in enumerate(self.bodies):
             if not math.isfinite(math.hypot(*body.velocity)):
                 raise SceneError(f"bodies[{i}].velocity", "speed is not finite", body.velocity)
+            if not math.isfinite(body.max_speed()):
+                raise SceneError(f"bodies[{i}].velocity_gradient", "gives a speed that is not finite"
+                                 " over the body", body.velocity_gradient)
         limit = self.stable_dt()
         if not 0 < limit < math.inf:
             raise SceneError("time", f"the stability limit {limit:g} is not a positive finite step")
@@ -1088,7 +1231,7 @@ class Scene:
         """Stability limit ``cfl * kappa * h / (c_max + v_max)`` (eqs. 83-84).
 
         ``c_max`` is the largest P-wave speed (see :func:`wave_speed`) over the
-        materials used by bodies and ``v_max`` the largest initial body speed.
+        materials used by bodies and ``v_max`` the largest initial particle speed.
         ``kappa`` (see :data:`CRITICAL_FACTOR`) is 1 for quadratic and cubic
         B-splines with the bodies clear of the grid's end functions, as in the
         paper; it is smaller for degree 1, and for bodies that start within
@@ -1098,7 +1241,7 @@ class Scene:
         used = {body.material for body in self.bodies}
         c_max = max(wave_speed(m.E, m.nu, m.density, self.plane)
                     for m in self.materials if m.name in used)
-        v_max = max(math.hypot(*body.velocity) for body in self.bodies)
+        v_max = max(body.max_speed() for body in self.bodies)
         interior, boundary = CRITICAL_FACTOR[self.grid.degree]
         kappa = boundary if any(self._near_side(b) for b in self.bodies) else interior
         return self.time.cfl * kappa * self.grid.h / (c_max + v_max)
@@ -1131,7 +1274,8 @@ class Scene:
         dict of str to ndarray
             ``x`` (N, 2) positions, ``v`` (N, 2) velocities, ``mass`` (N,),
             ``volume`` (N,) ``= (h/n)^2 * thickness``, ``body`` (N,) int32
-            body index, ``material`` (N,) int32 material index and ``fext``
+            body index, ``material`` (N,) int32 material index, ``phi`` (N,)
+            material orientation in radians (clockwise from x) and ``fext``
             (N, 2) constant external forces: ``traction * (h/n) * thickness``
             on the edge layer of each traction load plus
             ``mass * acceleration`` of each body force.  The edge layer is
@@ -1141,6 +1285,7 @@ class Scene:
         h = self.grid.h
         materials = {m.name: i for i, m in enumerate(self.materials)}
         xs, vs, masses, volumes, body_ids, material_ids, slices = [], [], [], [], [], [], {}
+        phis = []
         start = 0
         for b, body in enumerate(self.bodies):
             x = np.concatenate(list(_lattice(body, self.grid, *self._cell_range(body))))
@@ -1149,11 +1294,12 @@ class Scene:
             spacing = h / body.particles_per_cell
             volume = spacing * spacing * self.thickness
             xs.append(x)
-            vs.append(np.broadcast_to(body.velocity, (count, 2)))
+            vs.append(np.asarray(body.velocity) + x @ np.asarray(body.velocity_gradient).T)
             volumes.append(np.full(count, volume))
             masses.append(np.full(count, self.materials[m].density * volume))
             body_ids.append(np.full(count, b, dtype=np.int32))
             material_ids.append(np.full(count, m, dtype=np.int32))
+            phis.append(np.full(count, math.radians(body.orientation)))
             slices[body.name] = (slice(start, start + count), spacing)
             start += count
         out = {
@@ -1163,6 +1309,7 @@ class Scene:
             "volume": np.concatenate(volumes),
             "body": np.concatenate(body_ids),
             "material": np.concatenate(material_ids),
+            "phi": np.concatenate(phis),
             "fext": np.zeros((start, 2)),
         }
         for load in self.loads:
@@ -1221,7 +1368,8 @@ class Scene:
             "time": lambda t: _build(Time, t),
             "output": lambda t: _build(Output, t),
             "materials": lambda v: _tables(v, lambda t: _build(
-                Material, t, {"fracture": lambda f: _build(Fracture, f)})),
+                Material, t, {"fracture": lambda f: _build(
+                    Fracture, f, {"anisotropy": lambda a: _build(Anisotropy, a)})})),
             "bodies": lambda v: _tables(v, _body_from_dict),
             "loads": lambda v: _tables(v, lambda t: _typed(t, LOADS)),
             "walls": lambda v: _tables(v, lambda t: _build(Wall, t)),

@@ -57,7 +57,8 @@ class Simulation:
             f = m.fracture
             split = _core.Split.__members__[f.split if f else "none"]
             materials.append(_core.LinearElastic(m.E, m.nu, m.density, plane, split))
-            fracture.append(_core.Fracture(f.Gc, f.l0, f.k_f) if f else None)
+            fracture.append(_core.Fracture(f.Gc, f.l0, f.k_f, f.gamma().tolist()) if f else None)
+        self._fracture = fracture
         self.cracks = any(fracture)
         self._crackable = np.zeros(len(self.particles), dtype=bool)
         for b, body in enumerate(scene.bodies):
@@ -155,6 +156,8 @@ class Simulation:
             active.append("external_loads")
         if self.cracks:
             active.append("phase_field")
+        if any(f is not None and f.fourth_order for f in self._fracture):
+            active.append("fourth_order_phase_field")
         if self.scene.cracks:
             active.append("initial_cracks")
         if self.contact:
@@ -201,8 +204,26 @@ class Simulation:
         if snapshots is not None and snapshots.images:
             from . import plots
 
-            plots.phase_field(snapshots, out / "phase_field.png")
+            plots.phase_field(snapshots, out / "phase_field.png", self._polar_overlay())
         return result
+
+    def _polar_overlay(self):
+        """``1/G_c(theta)`` of the first anisotropic body, drawn at the initial
+        crack tips (or the body's centre) on the phase-field snapshots; or None."""
+        from .anisotropy import polar_table
+
+        for body in self.scene.bodies:
+            f = self.scene.fracture_of(body)
+            if f is not None and f.anisotropy is not None and f.anisotropy.fourth_order:
+                x0, y0, x1, y1 = body.shape.bounds()
+                h = self.scene.grid.h
+                tips = [p for crack in self.scene.cracks if crack.body in (None, body.name)
+                        for p in (crack.points[0], crack.points[-1])
+                        if x0 + h <= p[0] <= x1 - h and y0 + h <= p[1] <= y1 - h]
+                if not tips:
+                    tips = [(0.5 * (x0 + x1), 0.5 * (y0 + y1))]
+                return tips, polar_table(f.gamma(), f.Gc, body.orientation)
+        return None
 
     def _record(self, log: CsvLog, series: ParticleSeries | None,
                 snapshots: "Snapshots | None", force: bool) -> None:

@@ -72,3 +72,15 @@ def test_phase_field_profiles_notebook(kernel_env):
             assert 0.4 < fine / coarse < 0.6, (method, error)
         # The crack density tends to 1 per unit crack length from above.
         assert 1.0 < density[-1] < 1.06 and density[-1] < density[0], (method, density)
+
+
+def test_anisotropic_surface_energy_notebook(kernel_env):
+    r = execute("anisotropic_surface_energy", kernel_env)
+    assert len(r["pairs"]) == 4
+    for name, p in r["pairs"].items():
+        assert abs(p["min_rel"]) < 0.005 and abs(p["max_rel"]) < 0.005, name
+    assert r["divisions"] == [2, 4]
+    for name, p in r["profiles"].items():
+        coarse, fine = p["rows"]
+        assert fine["error"] < 0.01 and fine["error"] < 0.6 * coarse["error"], name
+        assert fine["energy"] == pytest.approx(p["exact_energy"], rel=0.02), name

@@ -157,6 +157,22 @@ def test_stable_dt_includes_body_speed():
     assert s.stable_dt() == pytest.approx(kappa * 0.5 * 0.5 / (wave_speed(32000.0, 0.2, 2450.0, "strain") + 5.0))
 
 
+def test_velocity_gradient_sets_the_initial_velocity_and_the_step():
+    s = Scene.from_dict(base(), ["bodies.plate.velocity=[1.0, 0.0]",
+                                 "bodies.plate.velocity_gradient=[[0.0, 0.5], [0.25, 0.0]]"])
+    p = s.particles()
+    np.testing.assert_allclose(p["v"][:, 0], 1.0 + 0.5 * p["x"][:, 1], rtol=0, atol=1e-15)
+    np.testing.assert_allclose(p["v"][:, 1], 0.25 * p["x"][:, 0], rtol=0, atol=1e-15)
+    # The fastest point is the corner (10, 4): v = (3, 2.5).
+    c = wave_speed(32000.0, 0.2, 2450.0, "strain")
+    assert s.stable_dt() == pytest.approx(CRITICAL_FACTOR[2][1] * 0.8 * 0.5 / (c + math.hypot(3.0, 2.5)))
+
+
+def test_orientation_is_stored_per_particle_in_radians():
+    s = Scene.from_dict(base(), ["bodies.plate.orientation=30"])
+    assert np.all(s.particles()["phi"] == math.radians(30.0))
+
+
 def test_summary():
     s = Scene.from_dict(base(), ["time.dt=0.01"])
     assert s.summary() == {"name": "plate", "plane": "strain", "cells": (20, 8), "h": 0.5,
@@ -362,6 +378,12 @@ BAD = [
     (_set(("cracks",), [{"points": [[0, 2]]}]), "cracks[0].points"),
     (_set(("cracks",), [{"points": [[0, 2], [5, 2]], "body": "ghost"}]),
      "cracks[0].body = 'ghost': no body with that name"),
+    ("bodies.plate.velocity_gradient=[[0.0, 1.0]]",
+     "bodies[0].velocity_gradient = [[0.0, 1.0]]: must have 2 rows of 2 numbers"),
+    ("bodies.plate.velocity_gradient=[[0.0, 1.0], [1.0]]", "bodies[0].velocity_gradient[1]"),
+    ("bodies.plate.velocity_gradient=[[0.0, 1e308], [0.0, 0.0]]",
+     "bodies[0].velocity_gradient = [[0.0, 1e+308], [0.0, 0.0]]: gives a speed that is not finite"),
+    ("bodies.plate.orientation=nan", "bodies[0].orientation = nan: must be finite"),
     ("phase_field.tol=0", "phase_field.tol = 0: must be > 0"),
     ("phase_field.max_iterations=0", "phase_field.max_iterations = 0: must be >= 1"),
     ("output.crack_threshold=1.5", "output.crack_threshold = 1.5: must be > 0 and < 1"),
@@ -418,6 +440,10 @@ def _rich():
     d["bodies"].append({"name": "ring", "material": "glass", "particles_per_cell": 1,
                         "shape": {"type": "ring", "center": [5, 2], "inner_radius": 0.2, "outer_radius": 0.8}})
     d["loads"] = [copy.deepcopy(TRACTION), {"type": "body_force", "body": "ring", "acceleration": [0, -1]}]
+    d["materials"][0]["fracture"] = {"Gc": 0.003, "l0": 1.0, "anisotropy": {
+        "symmetry": "orthotropic", "g1111": 1.0, "g2222": 80.0, "g1212": 74.0}}
+    d["bodies"][0]["orientation"] = 30.0
+    d["bodies"][1]["velocity_gradient"] = [[0.0, 0.01], [0.0, 0.0]]
     return d
 
 

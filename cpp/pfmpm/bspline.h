@@ -77,6 +77,27 @@ public:
     }
   }
 
+  /// @brief Fast values, first and second derivatives for a compile-time degree P.
+  template <int P>
+  void evaluate(int cell, double x, double* N, double* dN, double* d2N) const
+  {
+    const double xi = (x - _origin) * _inv_h - cell;
+    const double* a = &_coeffs[static_cast<std::size_t>(cell) * stride];
+    for (int k = 0; k <= P; ++k, a += max_degree + 1)
+    {
+      double v = a[P], d = 0.0, dd = 0.0;
+      for (int j = P - 1; j >= 0; --j)
+      {
+        dd = dd * xi + 2.0 * d;
+        d = d * xi + v;
+        v = v * xi + a[j];
+      }
+      N[k] = v;
+      dN[k] = d * _inv_h;
+      d2N[k] = dd * _inv_h * _inv_h;
+    }
+  }
+
 private:
   static constexpr int stride = (max_degree + 1) * (max_degree + 1);
 

@@ -13,7 +13,67 @@ namespace pfmpm
 namespace
 {
 std::string text(double v) { return std::to_string(v); }
+
+/// kappa^T G kappa for a symmetric Voigt G; times l0^3, the fourth-order part of eq. 4.
+double curvature_energy(const Voigt& G, const double kappa[3])
+{
+  double sum = 0.0;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      sum += kappa[i] * G[3 * i + j] * kappa[j];
+  return sum;
+}
+
+/// A material's gamma in the global frame (Fracture::rotated), recomputed only
+/// when the material or the orientation differs from the last call's.
+class RotatedGamma
+{
+public:
+  const Voigt& operator()(const Fracture& fracture, double phi)
+  {
+    if (&fracture != _fracture || phi != _phi)
+    {
+      _gamma = fracture.rotated(phi);
+      _fracture = &fracture;
+      _phi = phi;
+    }
+    return _gamma;
+  }
+
+private:
+  Voigt _gamma{};
+  const Fracture* _fracture = nullptr;
+  double _phi = 0.0;
+};
 } // namespace
+
+bool Fracture::fourth_order() const
+{
+  return std::any_of(gamma.begin(), gamma.end(), [](double g) { return g != 0.0; });
+}
+
+Voigt Fracture::rotated(double phi) const
+{
+  // Material axes e1 = (cos phi, -sin phi), e2 = (sin phi, cos phi) (phi
+  // clockwise from x). The material-frame curvature is kappa_m = T kappa with
+  // kappa_m = (e1.H.e1, e2.H.e2, e1.H.e2) for the Hessian H of c.
+  const double cs = std::cos(phi), sn = std::sin(phi);
+  const double e1x = cs, e1y = -sn, e2x = sn, e2y = cs;
+  const double T[3][3] = {{e1x * e1x, e1y * e1y, 2.0 * e1x * e1y},
+                          {e2x * e2x, e2y * e2y, 2.0 * e2x * e2y},
+                          {e1x * e2x, e1y * e2y, e1x * e2y + e1y * e2x}};
+  Voigt out{};
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b)
+    {
+      double sum = 0.0;
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j)
+          sum += T[i][a] * 0.5 * (gamma[3 * i + j] + gamma[3 * j + i]) * T[j][b];
+      out[3 * a + b] = sum;
+    }
+  return out;
+}
 
 PhaseField::PhaseField(const Grid& grid, std::vector<std::optional<Fracture>> fracture, double tol,
                        int max_iterations)
@@ -21,6 +81,8 @@ PhaseField::PhaseField(const Grid& grid, std::vector<std::optional<Fracture>> fr
       _pad(grid.degree()), _padded_ny(static_cast<std::size_t>(grid.nodes()[1] + 2 * grid.degree()))
 {
   _active = std::any_of(_fracture.begin(), _fracture.end(), [](const auto& f) { return f.has_value(); });
+  _fourth = std::any_of(_fracture.begin(), _fracture.end(),
+                        [](const auto& f) { return f && f->fourth_order(); });
   for (std::size_t m = 0; m < _fracture.size(); ++m)
   {
     if (!_fracture[m])
@@ -33,6 +95,12 @@ PhaseField::PhaseField(const Grid& grid, std::vector<std::optional<Fracture>> fr
       throw std::invalid_argument(at + "l0 = " + text(f.l0) + ": must be > 0");
     if (!(f.k_f >= 0.0 && f.k_f < 1.0))
       throw std::invalid_argument(at + "k_f = " + text(f.k_f) + ": must lie in [0, 1)");
+    for (double g : f.gamma)
+      if (!std::isfinite(g))
+        throw std::invalid_argument(at + "gamma = " + text(g) + ": must be finite");
+    if (f.fourth_order() && grid.degree() < 2)
+      throw std::invalid_argument(at + "gamma != 0 needs second derivatives of the basis: "
+                                  "the grid degree must be >= 2, not 1");
   }
   if (!(tol > 0.0 && tol < 1.0))
     throw std::invalid_argument("tol = " + text(tol) + ": must lie in (0, 1)");
@@ -53,13 +121,21 @@ bool PhaseField::solve(Particles& particles, const std::vector<std::int32_t>& or
                        const std::vector<std::int64_t>& cell_start,
                        const std::vector<LinearElastic>& materials)
 {
-  assemble<P>(particles, order, cell_start);
+  if constexpr (P >= 2)
+    if (_fourth)
+    {
+      assemble<P, true>(particles, order, cell_start);
+      const bool converged = conjugate_gradient<P>();
+      map_to_particles<P, true>(particles, order, cell_start, materials);
+      return converged;
+    }
+  assemble<P, false>(particles, order, cell_start);
   const bool converged = conjugate_gradient<P>();
-  map_to_particles<P>(particles, order, cell_start, materials);
+  map_to_particles<P, false>(particles, order, cell_start, materials);
   return converged;
 }
 
-template <int P>
+template <int P, bool Fourth>
 void PhaseField::assemble(const Particles& particles, const std::vector<std::int32_t>& order,
                           const std::vector<std::int64_t>& cell_start)
 {
@@ -72,6 +148,7 @@ void PhaseField::assemble(const Particles& particles, const std::vector<std::int
   const double* x = particles.x.data();
   const double* volume = particles.volume.data();
   const double* history = particles.history.data();
+  const double* phi = particles.phi.data();
   const std::int32_t* material = particles.material.data();
 
   _stencil.resize(_c.size() * H);
@@ -100,9 +177,9 @@ void PhaseField::assemble(const Particles& particles, const std::vector<std::int
     for (int j = 0; j < K; ++j)
       slot[i][j] = Stencil<P>::slot(j / (P + 1) - i / (P + 1), j % (P + 1) - i % (P + 1));
 
-  // Per cell, a local K x K block of eq. 57 (gamma = 0) and K entries of
-  // eq. 52, summed over the cell's particles in sorted order, then added to
-  // the stencil rows (see for_each_cell_by_strips).
+  // Per cell, a local K x K block of eq. 57 and K entries of eq. 52, summed
+  // over the cell's particles in sorted order, then added to the stencil rows
+  // (see for_each_cell_by_strips).
   auto scatter = [&](int cx, int cy, std::int64_t begin, std::int64_t end)
   {
     // Rows padded to a multiple of 4 so the inner loop vectorises.
@@ -110,6 +187,7 @@ void PhaseField::assemble(const Particles& particles, const std::vector<std::int
     alignas(32) double block[K][R]{};
     double f[K]{};
     bool touched = false;
+    [[maybe_unused]] RotatedGamma rotated;
     for (std::int64_t k = begin; k < end; ++k)
     {
       const std::size_t p = order[k];
@@ -118,8 +196,17 @@ void PhaseField::assemble(const Particles& particles, const std::vector<std::int
         continue;
       touched = true;
       double Nx[P + 1], dNx[P + 1], Ny[P + 1], dNy[P + 1];
-      bx.evaluate<P>(cx, x[2 * p], Nx, dNx);
-      by.evaluate<P>(cy, x[2 * p + 1], Ny, dNy);
+      [[maybe_unused]] double d2Nx[P + 1], d2Ny[P + 1];
+      if constexpr (Fourth)
+      {
+        bx.evaluate<P>(cx, x[2 * p], Nx, dNx, d2Nx);
+        by.evaluate<P>(cy, x[2 * p + 1], Ny, dNy, d2Ny);
+      }
+      else
+      {
+        bx.evaluate<P>(cx, x[2 * p], Nx, dNx);
+        by.evaluate<P>(cy, x[2 * p + 1], Ny, dNy);
+      }
       const double V = volume[p];
       // eq. 49: F_p = 4 l0 (1 - k_f) H / G_c + 1
       const double a = (4.0 * fr->l0 * (1.0 - fr->k_f) * history[p] / fr->Gc + 1.0) * V;
@@ -132,13 +219,40 @@ void PhaseField::assemble(const Particles& particles, const std::vector<std::int
           gx[i * (P + 1) + j] = dNx[i] * Ny[j];
           gy[i * (P + 1) + j] = Nx[i] * dNy[j];
         }
-      for (int i = 0; i < K; ++i)
+      if constexpr (Fourth)
       {
-        f[i] += V * w[i]; // eq. 52
-        const double aw = a * w[i], bx_ = b * gx[i], by_ = b * gy[i];
-        for (int j = 0; j < R; ++j)
-          block[i][j] += aw * w[j] + bx_ * gx[j] + by_ * gy[j]; // eq. 57
+        const Voigt& G = rotated(*fr, phi[p]);
+        // Curvatures of the basis, kappa = (N_,xx, N_,yy, N_,xy) (eq. 55).
+        alignas(32) double kxx[R]{}, kyy[R]{}, kxy[R]{};
+        for (int i = 0; i < P + 1; ++i)
+          for (int j = 0; j < P + 1; ++j)
+          {
+            kxx[i * (P + 1) + j] = d2Nx[i] * Ny[j];
+            kyy[i * (P + 1) + j] = Nx[i] * d2Ny[j];
+            kxy[i * (P + 1) + j] = dNx[i] * dNy[j];
+          }
+        const double e = 4.0 * fr->l0 * fr->l0 * fr->l0 * fr->l0 * V;
+        for (int i = 0; i < K; ++i)
+        {
+          f[i] += V * w[i]; // eq. 52
+          const double aw = a * w[i], bx_ = b * gx[i], by_ = b * gy[i];
+          // e G kappa_i, so that the fourth-order term is u . kappa_j
+          const double u0 = e * (G[0] * kxx[i] + G[1] * kyy[i] + G[2] * kxy[i]);
+          const double u1 = e * (G[3] * kxx[i] + G[4] * kyy[i] + G[5] * kxy[i]);
+          const double u2 = e * (G[6] * kxx[i] + G[7] * kyy[i] + G[8] * kxy[i]);
+          for (int j = 0; j < R; ++j) // eq. 57 with its fourth-order term
+            block[i][j] += aw * w[j] + bx_ * gx[j] + by_ * gy[j] + u0 * kxx[j] + u1 * kyy[j]
+                           + u2 * kxy[j];
+        }
       }
+      else
+        for (int i = 0; i < K; ++i)
+        {
+          f[i] += V * w[i]; // eq. 52
+          const double aw = a * w[i], bx_ = b * gx[i], by_ = b * gy[i];
+          for (int j = 0; j < R; ++j)
+            block[i][j] += aw * w[j] + bx_ * gx[j] + by_ * gy[j]; // eq. 57, gamma = 0
+        }
     }
     if (!touched)
       return;
@@ -251,7 +365,7 @@ bool PhaseField::conjugate_gradient()
   return residual <= stop;
 }
 
-template <int P>
+template <int P, bool Fourth>
 void PhaseField::map_to_particles(Particles& particles, const std::vector<std::int32_t>& order,
                                   const std::vector<std::int64_t>& cell_start,
                                   const std::vector<LinearElastic>& materials)
@@ -262,6 +376,7 @@ void PhaseField::map_to_particles(Particles& particles, const std::vector<std::i
   const int ncx = bx.cells(), ncy = by.cells();
   const double* x = particles.x.data();
   const double* volume = particles.volume.data();
+  const double* phi = particles.phi.data();
   const std::int32_t* material = particles.material.data();
   const double* strain = particles.strain.data();
   double* stress = particles.stress.data();
@@ -278,6 +393,7 @@ void PhaseField::map_to_particles(Particles& particles, const std::vector<std::i
       if (begin == end)
         continue;
       double nodal[K];
+      [[maybe_unused]] RotatedGamma rotated;
       for (int a = 0; a <= P; ++a)
         for (int b = 0; b <= P; ++b)
           nodal[a * (P + 1) + b] = _c[padded(cx + a, cy + b)];
@@ -291,9 +407,19 @@ void PhaseField::map_to_particles(Particles& particles, const std::vector<std::i
           continue;
         }
         double Nx[P + 1], dNx[P + 1], Ny[P + 1], dNy[P + 1];
-        bx.evaluate<P>(cx, x[2 * p], Nx, dNx);
-        by.evaluate<P>(cy, x[2 * p + 1], Ny, dNy);
+        [[maybe_unused]] double d2Nx[P + 1], d2Ny[P + 1];
+        if constexpr (Fourth)
+        {
+          bx.evaluate<P>(cx, x[2 * p], Nx, dNx, d2Nx);
+          by.evaluate<P>(cy, x[2 * p + 1], Ny, dNy, d2Ny);
+        }
+        else
+        {
+          bx.evaluate<P>(cx, x[2 * p], Nx, dNx);
+          by.evaluate<P>(cy, x[2 * p + 1], Ny, dNy);
+        }
         double cp = 0.0, gx = 0.0, gy = 0.0;
+        [[maybe_unused]] double kappa[3] = {0.0, 0.0, 0.0};
         for (int a = 0; a <= P; ++a)
           for (int b = 0; b <= P; ++b)
           {
@@ -301,13 +427,21 @@ void PhaseField::map_to_particles(Particles& particles, const std::vector<std::i
             cp += Nx[a] * Ny[b] * ci;  // eq. 53
             gx += dNx[a] * Ny[b] * ci; // eq. 54
             gy += Nx[a] * dNy[b] * ci;
+            if constexpr (Fourth)
+            {
+              kappa[0] += d2Nx[a] * Ny[b] * ci; // eq. 55, per component
+              kappa[1] += Nx[a] * d2Ny[b] * ci;
+              kappa[2] += dNx[a] * dNy[b] * ci;
+            }
           }
         c[p] = cp;
-        // G_c V Z, eq. 4 with gamma = 0.
+        // G_c V Z with Z of eq. 4.
         const double one_minus = 1.0 - cp;
-        _fracture_energy[p] = fr->Gc * volume[p]
-                              * (one_minus * one_minus / (4.0 * fr->l0)
-                                 + fr->l0 * (gx * gx + gy * gy));
+        double Z = one_minus * one_minus / (4.0 * fr->l0) + fr->l0 * (gx * gx + gy * gy);
+        if constexpr (Fourth)
+          if (fr->fourth_order())
+            Z += fr->l0 * fr->l0 * fr->l0 * curvature_energy(rotated(*fr, phi[p]), kappa);
+        _fracture_energy[p] = fr->Gc * volume[p] * Z;
         double plus, minus; // eqs. 14-16 with the new phase field
         materials[material[p]].degraded(&strain[3 * p], fr->degradation(cp), &stress[4 * p],
                                         plus, minus);

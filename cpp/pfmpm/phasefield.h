@@ -1,12 +1,14 @@
 /// @file phasefield.h
-/// @brief The second-order (gamma = 0) phase-field equation on the active grid
-/// nodes (Kakouris & Triantafyllou 2019, eqs. 47-57).
+/// @brief The phase-field equation on the active grid nodes, second order
+/// (gamma = 0) or fourth order with an anisotropy tensor gamma
+/// (Kakouris & Triantafyllou 2019, eqs. 4-6, 47-57).
 #pragma once
 
 #include "grid.h"
 #include "material.h"
 #include "particles.h"
 
+#include <array>
 #include <cstdint>
 #include <optional>
 #include <vector>
@@ -14,15 +16,28 @@
 namespace pfmpm
 {
 
+/// @brief A 2D anisotropy tensor in Voigt form (eq. 6), row-major 3 x 3. It
+/// acts on the curvature kappa = (c_,11, c_,22, c_,12): the fourth-order
+/// term of eq. 4 is l0^3 kappa^T gamma kappa.
+using Voigt = std::array<double, 9>;
+
 /// Fracture parameters of a material that can crack.
 struct Fracture
 {
-  double Gc;  ///< critical energy release rate G_c (> 0)
-  double l0;  ///< length scale l0 (> 0)
-  double k_f; ///< residual stiffness k_f in [0, 1) (eq. 15)
+  double Gc;     ///< G_c, or the reference value G-bar_c when gamma != 0 (> 0)
+  double l0;     ///< length scale l0 (> 0)
+  double k_f;    ///< residual stiffness k_f in [0, 1) (eq. 15)
+  Voigt gamma{}; ///< anisotropy in the material frame; zero: the second-order functional
 
   /// Degradation g(c) = (1 - k_f) c^2 + k_f (eq. 15).
   double degradation(double c) const { return (1.0 - k_f) * c * c + k_f; }
+  /// Whether eq. 4 has its fourth-order term.
+  bool fourth_order() const;
+  /// @brief gamma seen in the global frame by a point whose material axes are
+  /// turned by `phi` radians clockwise from x (section 4.3.4): T^T gamma_s T,
+  /// with gamma_s the symmetric part of gamma and T the map from global to
+  /// material-frame curvature.
+  Voigt rotated(double phi) const;
 };
 
 /// Convergence record of the phase-field solves.
@@ -37,7 +52,12 @@ struct PhaseFieldStats
 };
 
 /// @brief Assembles and solves K c = F (eqs. 56, 57, 52) for the nodal phase
-/// field, and maps the result to the particles (eqs. 53, 54).
+/// field, and maps the result to the particles (eqs. 53-55).
+///
+/// The fourth-order term of eq. 57 needs second derivatives of the basis, so
+/// C1 splines (degree >= 2); it is assembled only when some material has
+/// gamma != 0, with each particle's gamma turned to its orientation
+/// Particles::phi. Otherwise no second derivative is evaluated or stored.
 ///
 /// K is stored as the upper half of a (2p+1)^2-point stencil per grid node
 /// (padded by p nodes on each side, zero away from active nodes); only particles of
@@ -58,6 +78,8 @@ public:
 
   /// Whether any material can crack.
   bool active() const { return _active; }
+  /// Whether some material has the fourth-order term (gamma != 0).
+  bool fourth_order() const { return _fourth; }
   /// Fracture parameters of `material`, or nullptr when it cannot crack.
   const Fracture* fracture(std::int32_t material) const
   {
@@ -76,21 +98,21 @@ public:
              const std::vector<std::int64_t>& cell_start,
              const std::vector<LinearElastic>& materials);
 
-  /// Per particle: G_c V_p Z(c_p) with Z of eq. 4 (gamma = 0), from the last solve.
+  /// Per particle: G_c V_p Z(c_p) with Z of eq. 4, from the last solve.
   const std::vector<double>& fracture_energy() const { return _fracture_energy; }
   const PhaseFieldStats& stats() const { return _stats; }
   double tol() const { return _tol; }
   int max_iterations() const { return _max_iterations; }
 
 private:
-  template <int P>
+  template <int P, bool Fourth>
   void assemble(const Particles& particles, const std::vector<std::int32_t>& order,
                 const std::vector<std::int64_t>& cell_start);
   template <int P>
   bool conjugate_gradient();
   template <int P>
   void multiply(const std::vector<double>& padded, std::vector<double>& out) const;
-  template <int P>
+  template <int P, bool Fourth>
   void map_to_particles(Particles& particles, const std::vector<std::int32_t>& order,
                         const std::vector<std::int64_t>& cell_start,
                         const std::vector<LinearElastic>& materials);
@@ -141,6 +163,7 @@ private:
   const Grid& _grid;
   std::vector<std::optional<Fracture>> _fracture;
   bool _active;
+  bool _fourth; // some material has gamma != 0
   double _tol;
   int _max_iterations;
   int _pad;                // padding of the node layout: the degree

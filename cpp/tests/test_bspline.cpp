@@ -142,11 +142,11 @@ TEST_P(BSplineDegree, MatchesRecursiveCoxDeBoor)
   }
 }
 
-TEST_P(BSplineDegree, FastPathMatchesGeneralEvaluation)
+TEST_P(BSplineDegree, FastPathsMatchGeneralEvaluation)
 {
   const int p = GetParam();
   const BSpline1D b(p, 9, 0.25, 0.0);
-  double N[4], dN[4], d2N[4], Nf[4], dNf[4];
+  double N[4], dN[4], d2N[4], Nf[4], dNf[4], Ns[4], dNs[4], d2Ns[4];
   for (double x : samples(b))
   {
     const int c = b.cell(x);
@@ -155,17 +155,23 @@ TEST_P(BSplineDegree, FastPathMatchesGeneralEvaluation)
     {
     case 1:
       b.evaluate<1>(c, x, Nf, dNf);
+      b.evaluate<1>(c, x, Ns, dNs, d2Ns);
       break;
     case 2:
       b.evaluate<2>(c, x, Nf, dNf);
+      b.evaluate<2>(c, x, Ns, dNs, d2Ns);
       break;
     default:
       b.evaluate<3>(c, x, Nf, dNf);
+      b.evaluate<3>(c, x, Ns, dNs, d2Ns);
     }
     for (int k = 0; k <= p; ++k)
     {
       EXPECT_NEAR(Nf[k], N[k], tol);
       EXPECT_NEAR(dNf[k], dN[k], 1e-12);
+      EXPECT_NEAR(Ns[k], N[k], tol);
+      EXPECT_NEAR(dNs[k], dN[k], 1e-12);
+      EXPECT_NEAR(d2Ns[k], d2N[k], 1e-10);
     }
   }
 }
