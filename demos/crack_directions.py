@@ -2,8 +2,10 @@
 
     python demos/crack_directions.py SCENE RUN_DIR [--set KEY=VALUE ...]
 
-Reads the last particle snapshot of RUN_DIR (written by ``pfmpm run SCENE
---out RUN_DIR``) and prints, for each initial-crack tip inside a body: the
+Reads the first and last particle snapshots of RUN_DIR (written by ``pfmpm
+run SCENE --out RUN_DIR``), keeps the points that cracked during the run
+(c < 0.2 at the end, not at the start), and prints, for each initial-crack
+tip inside a body: the
 direction in which the crack left it (``pfmpm.crack.propagation_angle`` over
 2-10 l0 ahead of the tip), the crack arms crossing circles of growing radius
 about it (``pfmpm.crack.crack_arms``: two arms ahead mean a branch), and the
@@ -21,6 +23,8 @@ from pfmpm.anisotropy import weak_directions
 from pfmpm.crack import crack_arms, propagation_angle
 from pfmpm.scene import Scene
 
+THRESHOLD = 0.2
+
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -29,10 +33,14 @@ def main() -> None:
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     args = parser.parse_args()
     scene = Scene.from_toml(args.scene, overrides=args.set)
-    last = sorted(Path(args.run_dir).glob("particles_*.vtu"))[-1]
-    mesh = meshio.read(last)
-    xy, c = mesh.points[:, :2], mesh.point_data["c"]
-    print(f"{last.name}: {len(xy)} particles")
+    snapshots = sorted(Path(args.run_dir).glob("particles_*.vtu"))
+    first, last = meshio.read(snapshots[0]), meshio.read(snapshots[-1])
+    xy = last.points[:, :2]
+    # Only what cracked during the run: the initial cracks' bands are left out.
+    c0, c = first.point_data["c"].ravel(), last.point_data["c"].ravel()
+    c = np.where(c0 < THRESHOLD, 1.0, c)
+    print(f"{snapshots[-1].name}: {len(xy)} particles, {np.count_nonzero(c < THRESHOLD)} newly cracked"
+          f" (c < {THRESHOLD})")
     body = next(b for b in scene.bodies if scene.fracture_of(b) is not None)
     fracture = scene.fracture_of(body)
     l0 = fracture.l0

@@ -53,23 +53,30 @@ def phase_field(snapshots, png_path: Path, polar=None) -> None:
 
     ``polar``: optional ``(centres, table)``, a :func:`pfmpm.anisotropy.polar_table`
     whose ``1/G_c(theta)`` curve is drawn around each centre, its largest
-    radius a tenth of the image width: the crack's preferred directions.
+    radius a tenth of the image's shorter side: the crack's preferred directions.
     """
     n = len(snapshots.images)
     ny, nx = snapshots.images[0][1].shape
-    width = 6.0
-    fig, axes = plt.subplots(n, 1, figsize=(width, n * width * ny / nx + 0.6 * n), squeeze=False)
+    # Wide domains stack their panels, tall ones put them side by side.
+    if ny <= nx:
+        width = 6.0
+        fig, axes = plt.subplots(n, 1, figsize=(width, n * width * ny / nx + 0.6 * n), squeeze=False)
+    else:
+        height = 6.0
+        fig, axes = plt.subplots(1, n, figsize=(n * height * nx / ny + 1.5, height + 0.6), squeeze=False)
+    axes = axes.ravel()
     (x0, y0), size = snapshots.origin, snapshots.pixel
     extent = (x0, x0 + nx * size, y0, y0 + ny * size)
-    for ax, (t, image) in zip(axes[:, 0], snapshots.images):
+    for ax, (t, image) in zip(axes, snapshots.images):
         im = ax.imshow(image, origin="lower", extent=extent, vmin=0, vmax=1, cmap="inferno")
         ax.set_title(f"phase field c, t = {t:.4g}")
         ax.set_aspect("equal")
         if polar is not None:
             centres, table = polar
-            theta, r = np.radians(table[:, 0]), table[:, 2] / table[:, 2].max() * 0.1 * nx * size
+            scale = 0.1 * min(nx, ny) * size
+            theta, r = np.radians(table[:, 0]), table[:, 2] / table[:, 2].max() * scale
             for cx, cy in centres:
                 ax.plot(cx + r * np.cos(theta), cy + r * np.sin(theta), color="w", lw=1.0)
-    fig.colorbar(im, ax=axes[:, 0].tolist(), shrink=0.8)
+    fig.colorbar(im, ax=axes.tolist(), shrink=0.8)
     fig.savefig(png_path, dpi=120)
     plt.close(fig)
