@@ -994,9 +994,13 @@ class Scene:
         c_max = max(wave_speed(m.E, m.nu, m.density, self.plane)
                     for m in self.materials if m.name in used)
         v_max = max(math.hypot(*body.velocity) for body in self.bodies)
+        return self.time.cfl * self.critical_length() / (c_max + v_max)
+
+    def critical_length(self) -> float:
+        """``kappa * h`` of :meth:`stable_dt`: a step is stable while ``dt (c + |v|)`` stays below it."""
         interior, boundary = CRITICAL_FACTOR[self.grid.degree]
         kappa = boundary if any(self._near_side(b) for b in self.bodies) else interior
-        return self.time.cfl * kappa * self.grid.h / (c_max + v_max)
+        return kappa * self.grid.h
 
     def _near_side(self, body: Body) -> bool:
         """Whether the body's bounding box reaches the end functions of the grid."""

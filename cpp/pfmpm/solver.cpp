@@ -64,9 +64,40 @@ Solver::Solver(Grid& grid, Particles& particles, std::vector<LinearElastic> mate
   const double max_mass = particles.size() == 0
                               ? 0.0
                               : *std::max_element(particles.mass.begin(), particles.mass.end());
+  for (const LinearElastic& m : _materials)
+    _modulus.push_back(m.lambda() + 2.0 * m.mu());
   // Nodes lighter than this carry no velocity: dividing by their mass would
   // amplify round-off (a particle at the edge of a node's support).
   _mass_tol = 1e-12 * max_mass;
+}
+
+void Solver::set_stability_length(double length)
+{
+  if (!(length >= 0.0) || !std::isfinite(length))
+    throw std::invalid_argument("stability length = " + std::to_string(length)
+                                + ": must be >= 0 and finite");
+  _stability_length = length;
+}
+
+SolverState Solver::state() const
+{
+  return SolverState{_time, _step, _external_work, _light_nodes, _phase_field.state()};
+}
+
+void Solver::restore(SolverState state)
+{
+  const std::size_t n = state.phase_field.fracture_energy.size();
+  if (n != 0 && n != _particles.size())
+    throw std::invalid_argument("solver state: fracture energy of " + std::to_string(n)
+                                + " particles for " + std::to_string(_particles.size()));
+  if (!(state.time >= 0.0) || !std::isfinite(state.time) || state.step < 0)
+    throw std::invalid_argument("solver state: step " + std::to_string(state.step) + " at t = "
+                                + std::to_string(state.time));
+  _phase_field.restore(std::move(state.phase_field));
+  _time = state.time;
+  _step = state.step;
+  _external_work = state.external_work;
+  _light_nodes = state.light_nodes;
 }
 
 void Solver::advance(std::int64_t steps)
@@ -269,15 +300,17 @@ void Solver::update_grid()
   const std::vector<std::uint8_t>& constrained = _grid.constraints();
   const bool walls = !constrained.empty();
   const double dt = _dt;
-  const auto work = deterministic_sum<1>(
+  const auto sums = deterministic_sum<2>(
       _sums.size(),
-      [&](std::size_t i, std::array<double, 1>& acc)
+      [&](std::size_t i, std::array<double, 2>& acc)
       {
         const NodeSums& s = _sums[i];
         NodeKinematics& k = _kinematics[i];
         if (s.m <= _mass_tol)
         {
           k = NodeKinematics{};
+          if (s.m > 0.0)
+            acc[1] += 1.0; // a light node, counted
           return;
         }
         // Trial momentum (eq. 63) and velocity (eq. 64); with a single field
@@ -295,7 +328,8 @@ void Solver::update_grid()
         // Work of the nodal external force over the step (trapezoidal velocity).
         acc[0] += 0.5 * dt * (s.ex * (vw[0] + vn[0]) + s.ey * (vw[1] + vn[1]));
       });
-  _external_work += work[0];
+  _external_work += sums[0];
+  _light_nodes += static_cast<std::int64_t>(sums[1]);
 }
 
 template <int P>
@@ -316,9 +350,12 @@ void Solver::grid_to_particle()
   const double* c = _particles.c.data();
   const std::int32_t* material = _particles.material.data();
 
+  const bool check_stability = _stability_length > 0.0;
+
   // Cell by cell: the K nodes of a cell are read once for all its particles.
   std::ptrdiff_t bad = n;
-#pragma omp parallel for schedule(static) reduction(min : bad)
+  double fastest = 0.0; // largest c_p + |v_p|
+#pragma omp parallel for schedule(static) reduction(min : bad) reduction(max : fastest)
   for (int cx = 0; cx < ncx; ++cx)
     for (int cy = 0; cy < ncy; ++cy)
     {
@@ -382,12 +419,45 @@ void Solver::grid_to_particle()
         }
         else
           mat.stress(eps, &stress[4 * p]); // eq. 16, g = 1
-        if (!std::isfinite(x[2 * p] + x[2 * p + 1] + v[2 * p] + v[2 * p + 1]))
+        const double* sig = &stress[4 * p];
+        if (!std::isfinite(x[2 * p] + x[2 * p + 1] + v[2 * p] + v[2 * p + 1] + sig[0] + sig[1]
+                           + sig[2] + sig[3] + history[p]))
           bad = std::min(bad, static_cast<std::ptrdiff_t>(p));
+        if (check_stability)
+          fastest = std::max(fastest, signal_speed(p));
       }
     }
   if (bad < n)
-    throw SimulationError("velocity or position of " + where(bad) + " is not finite");
+    non_finite(bad);
+  if (check_stability && dt * fastest > _stability_length)
+    unstable(fastest);
+}
+
+void Solver::non_finite(std::size_t p) const
+{
+  auto finite = [](const std::vector<double>& a, std::size_t begin, std::size_t k)
+  { return std::all_of(&a[begin], &a[begin] + k, [](double u) { return std::isfinite(u); }); };
+  const Particles& s = _particles;
+  const char* what = !finite(s.v, 2 * p, 2)        ? "velocity"
+                     : !finite(s.x, 2 * p, 2)      ? "position"
+                     : !finite(s.stress, 4 * p, 4) ? "stress"
+                                                   : "history";
+  throw SimulationError(std::string(what) + " of " + where(p) + " is not finite");
+}
+
+void Solver::unstable(double fastest) const
+{
+  std::size_t p = 0;
+  while (p + 1 < _particles.size() && signal_speed(p) < fastest)
+    ++p;
+  const double vx = _particles.v[2 * p], vy = _particles.v[2 * p + 1];
+  const double speed = std::sqrt(vx * vx + vy * vy);
+  std::ostringstream msg;
+  msg << "time step dt = " << _dt << " became unstable: " << where(p)
+      << " has P-wave speed " << fastest - speed << " at its current volume and speed " << speed
+      << ", so dt (c + |v|) = " << _dt * fastest << " exceeds the stability limit "
+      << _stability_length << " (kappa h); lower time.cfl or time.dt";
+  throw SimulationError(msg.str());
 }
 
 Energies Solver::energies() const

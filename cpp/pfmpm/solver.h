@@ -8,6 +8,7 @@
 #include "phasefield.h"
 
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <stdexcept>
 #include <string>
@@ -33,6 +34,17 @@ struct Energies
   double external_work = 0.0;  ///< work of the external forces since t = 0
   std::array<double, 2> momentum{}; ///< sum of M_p v_p
   double mass = 0.0;           ///< sum of M_p
+};
+
+/// @brief Everything besides the particles that a run carries from one step
+/// to the next; with the particle arrays it is the complete state of a run.
+struct SolverState
+{
+  double time = 0.0;
+  std::int64_t step = 0;
+  double external_work = 0.0;    ///< work of the external forces since t = 0
+  std::int64_t light_nodes = 0;  ///< see Solver::light_nodes
+  PhaseFieldState phase_field;   ///< empty nodal arrays when nothing can crack
 };
 
 /// @brief Explicit update-stress-last MPM in the momentum formulation, with
@@ -79,6 +91,28 @@ public:
   /// initial state (an initial crack) before the first step.
   void prepare();
 
+  /// @brief Check the time step against the stability limit every step.
+  ///
+  /// After each step's particle update, the largest c_p + |v_p| over the
+  /// particles, with c_p the P-wave speed at the particle's current density
+  /// M_p / V_p, must satisfy dt (c_p + |v_p|) <= `length`; otherwise the
+  /// step throws SimulationError. `length` is the critical length kappa h of
+  /// the scene's step rule (eqs. 83-84); 0 switches the check off (the default).
+  void set_stability_length(double length);
+
+  /// @brief Nodes, summed over all steps so far, whose mass was positive but
+  /// too small to divide by (below 1e-12 of the heaviest particle): they get
+  /// zero velocity instead.
+  std::int64_t light_nodes() const { return _light_nodes; }
+
+  /// @brief A copy of the state besides the particles (time, step, external
+  /// work, counters, phase-field warm start), for a checkpoint.
+  SolverState state() const;
+  /// @brief Continue from `state`, saved by state() of a solver built on the
+  /// same scene, with the particle arrays restored beside it.
+  /// @throws std::invalid_argument if it does not fit this grid or particle count.
+  void restore(SolverState state);
+
   /// @brief Energies and momentum of the current particle state.
   Energies energies() const;
 
@@ -103,6 +137,16 @@ private:
   template <int P>
   void grid_to_particle();
   std::string where(std::size_t particle) const;
+  [[noreturn]] void non_finite(std::size_t particle) const;
+  [[noreturn]] void unstable(double fastest) const;
+  /// c_p + |v_p|: P-wave speed at the particle's current density plus its speed.
+  double signal_speed(std::size_t particle) const
+  {
+    const std::size_t p = particle;
+    const double vx = _particles.v[2 * p], vy = _particles.v[2 * p + 1];
+    return std::sqrt(_modulus[_particles.material[p]] * _particles.volume[p] / _particles.mass[p])
+           + std::sqrt(vx * vx + vy * vy);
+  }
   bool has_external_force() const;
 
   /// P2G accumulators of one active node.
@@ -121,11 +165,14 @@ private:
   Grid& _grid;
   Particles& _particles;
   std::vector<LinearElastic> _materials;
+  std::vector<double> _modulus; // per material: P-wave modulus lambda + 2 mu
   double _dt;
   double _time = 0.0;
   std::int64_t _step = 0;
   double _external_work = 0.0;
   double _mass_tol;
+  std::int64_t _light_nodes = 0;
+  double _stability_length = 0.0; // 0: no check
   bool _external = false; // some particle carries an external force
   PhaseField _phase_field;
 
