@@ -13,6 +13,7 @@ from .compare import BORDEN_SCENE, DEFAULT_END, DEFAULT_H, DEFAULT_L0
 
 def _run(args: argparse.Namespace) -> int:
     from . import checkpoint
+    from ._core import SimulationError
     from .scene import Scene
     from .simulation import Simulation
 
@@ -42,7 +43,11 @@ def _run(args: argparse.Namespace) -> int:
     if keep < 1:
         print(f"error: --keep {keep}: must be >= 1", file=sys.stderr)
         return 2
-    sim = Simulation(scene)
+    try:
+        sim = Simulation(scene)  # solves the phase field of initial cracks
+    except SimulationError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 1
     where = f" from step {resume.step} ({resume.path})" if resume else ""
     print(f"{scene.name}: {len(sim.particles)} particles, {scene.steps()} steps of dt = {scene.dt():.6g}{where} -> {out}")
     try:

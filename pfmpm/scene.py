@@ -259,6 +259,9 @@ class Grid:
             if abs(n - round(n)) > _WHOLE_TOL * n:
                 raise SceneError("size", f"not a whole number of cells of h = {self.h:g}", self.size)
         nx, ny = self.cells
+        if min(nx, ny) < self.degree:
+            raise SceneError("size", f"{nx} x {ny} cells of h = {self.h:g}: degree {self.degree}"
+                                     f" B-splines need at least {self.degree} cells a side", self.size)
         if nx * ny > _MAX_COUNT:
             raise SceneError("size", f"{nx} x {ny} cells exceed the limit of {_MAX_COUNT}", self.size)
         if not all(math.isfinite(o + s) for o, s in zip(self.origin, self.size)):
@@ -720,6 +723,11 @@ class Crack:
         if len(points) < 2:
             raise SceneError("points", "needs at least two points", self.points)
         _set(self, "points", tuple(_vec2(f"points[{i}]", p) for i, p in enumerate(points)))
+        for i in range(1, len(self.points)):
+            (ax, ay), (bx, by) = self.points[i - 1], self.points[i]
+            if not 0 < math.hypot(bx - ax, by - ay) < math.inf:
+                raise SceneError(f"points[{i}]", f"segment from points[{i - 1}] = {_fmt(self.points[i - 1])}"
+                                                 " must have a positive finite length", self.points[i])
         if self.body is not None:
             _set(self, "body", _text("body", self.body))
         _set(self, "B", _real("B", self.B, gt=0))
@@ -747,6 +755,8 @@ class PhaseField:
     def __post_init__(self):
         _set(self, "tol", _real("tol", self.tol, gt=0, lt=1))
         _set(self, "max_iterations", _integer("max_iterations", self.max_iterations, ge=1))
+        if self.max_iterations > _MAX_COUNT:
+            raise SceneError("max_iterations", f"must be <= {_MAX_COUNT}", self.max_iterations)
 
 
 def rayleigh_speed(E: float, nu: float, rho: float) -> float:
@@ -933,7 +943,12 @@ class Scene:
                                  " the phase-field profile (use l0 >= h; the paper uses l0 = 2 h)",
                                  material.fracture.l0)
         crackable = [b.name for b in self.bodies if self.fracture_of(b) is not None]
+        (x0, y0), (sx, sy) = self.grid.origin, self.grid.size
         for i, crack in enumerate(self.cracks):
+            for j, (x, y) in enumerate(crack.points):
+                if not (x0 - sx <= x <= x0 + 2 * sx and y0 - sy <= y <= y0 + 2 * sy):
+                    raise SceneError(f"cracks[{i}].points[{j}]", "lies more than the grid's size away"
+                                     f" from the grid {self.grid._box()}", (x, y))
             if crack.body is not None:
                 _reference(f"cracks[{i}].body", crack.body, bodies, "body")
                 if crack.body not in crackable:

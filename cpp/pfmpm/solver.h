@@ -95,7 +95,7 @@ public:
   ///
   /// After each step's particle update, the largest c_p + |v_p| over the
   /// particles, with c_p the P-wave speed at the particle's current density
-  /// M_p / V_p, must satisfy dt (c_p + |v_p|) <= `length`; otherwise the
+  /// M_p / V_p, must satisfy dt (c_p + |v_p|) <= `length` (up to round-off); otherwise the
   /// step throws SimulationError. `length` is the critical length kappa h of
   /// the scene's step rule (eqs. 83-84); 0 switches the check off (the default).
   void set_stability_length(double length);
