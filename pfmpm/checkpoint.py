@@ -107,7 +107,8 @@ def file_name(step: int, failed: bool = False) -> str:
 def list_checkpoints(directory: Path | str) -> list[Path]:
     """The resumable checkpoints (not the failed ones) in ``directory``, oldest first."""
     d = Path(directory)
-    return sorted(d.glob("step_*.h5")) if d.is_dir() else []
+    found = d.glob("step_*.h5") if d.is_dir() else []
+    return sorted(found, key=lambda p: int(p.stem.removeprefix("step_")))
 
 
 def _digest(attrs: dict, arrays: dict[str, np.ndarray]) -> str:
@@ -183,6 +184,11 @@ def write(directory: Path | str, sim, run, *, every: int, keep: int, status: str
         f.flush()
         os.fsync(f.id.get_vfd_handle())
     os.replace(tmp, path)
+    fd = os.open(directory, os.O_RDONLY)  # make the rename itself durable
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
     if status == "ok":
         for old in list_checkpoints(directory)[:-keep]:
             old.unlink()
