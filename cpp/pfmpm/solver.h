@@ -138,7 +138,11 @@ private:
   void grid_to_particle();
   std::string where(std::size_t particle) const;
   [[noreturn]] void non_finite(std::size_t particle) const;
-  [[noreturn]] void unstable(double fastest) const;
+  /// Throw SimulationError if some particle has dt (c_p + |v_p|) > the limit.
+  void check_stability_exactly() const;
+  /// The stability length with a relative slack that lets a run at the limit
+  /// itself (cfl = 1) through round-off.
+  double stability_limit() const { return (1.0 + 1e-9) * _stability_length; }
   /// c_p + |v_p|: P-wave speed at the particle's current density plus its speed.
   double signal_speed(std::size_t particle) const
   {
