@@ -174,6 +174,9 @@ def main(argv: list[str] | None = None) -> int:
     except (SceneError, FileNotFoundError) as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
+    except MemoryError:
+        print("error: out of memory: the scene is too large for this machine", file=sys.stderr)
+        return 1
 
 
 if __name__ == "__main__":

@@ -269,3 +269,55 @@ def test_the_generator_covers_valid_and_invalid_scenes():
 
     collect()
     assert seen["ran"] == {1, 2, 3} and seen["scene error"] >= 30
+
+
+TINY = {
+    "grid": {"size": [4.0, 4.0], "h": 1.0, "degree": 2},
+    "time": {"end": 0.05},
+    "output": {"particles": False},
+    "materials": [{"name": "m", "E": 100.0, "nu": 0.3, "density": 1.0,
+                   "fracture": {"Gc": 1.0, "l0": 1.0}}],
+    "bodies": [{"name": "b", "material": "m", "particles_per_cell": 2,
+                "shape": {"type": "rectangle", "min": [1.0, 1.0], "max": [3.0, 3.0]}}],
+}
+
+
+def tiny(**changes):
+    """TINY with entries replaced: ``grid__size=[...]`` sets ``grid.size``."""
+    d = json.loads(json.dumps(TINY))
+    for key, value in changes.items():
+        *parents, last = key.split("__")
+        node = d
+        for part in parents:
+            node = node[int(part)] if part.isdigit() else node[part]
+        node[last] = value
+    return d
+
+
+@pytest.mark.parametrize("d, message", [
+    # Each of these once reached the C++ core or numpy and raised there.
+    (tiny(grid__size=[1.0, 4.0]), "grid.size = [1.0, 4.0]: 1 x 4 cells of h = 1: degree 2 B-splines need at least 2 cells a side"),
+    ({**TINY, "cracks": [{"points": [[1.0, 2.0], [1.0, 2.0]]}]}, "cracks[0].points[1] = [1.0, 2.0]: segment from points[0]"),
+    ({**TINY, "cracks": [{"points": [[1e300, 2.0], [2.0, 2.0]]}]}, "cracks[0].points[0] = [1e+300, 2.0]: lies farther from the grid"),
+    ({**TINY, "phase_field": {"max_iterations": 2**62}}, "phase_field.max_iterations = 4611686018427387904: must be <= 2147483647"),
+    # Within the int32 cell limit, but over 300 GB of grid storage.
+    (tiny(grid__size=[2147483000.0, 1.0], grid__degree=1, bodies__0__shape__min=[0.0, 0.0],
+          bodies__0__shape__max=[1.0, 1.0]), "grid.size: 2147483000 x 1 cells and up to 4 particles need about"),
+], ids=["cells-below-degree", "zero-length-crack-segment", "crack-point-far-away", "max-iterations-overflow",
+        "grid-beyond-memory"])
+def test_holes_the_generator_found(tmp_path, d, message):
+    path = tmp_path / "scene.toml"
+    path.write_text(to_toml(d))
+    outcome, text = check_file(path.read_text())
+    assert outcome == "scene error" and text.startswith(message), text
+
+
+def test_failed_initial_phase_field_is_an_error_line(tmp_path, capsys):
+    # One CG iteration cannot solve the phase field of the initial crack:
+    # the run fails before its first step, with an error line, not a traceback.
+    d = {**TINY, "cracks": [{"points": [[0.0, 2.0], [2.0, 2.0]]}], "phase_field": {"max_iterations": 1}}
+    path = tmp_path / "scene.toml"
+    path.write_text(to_toml(d))
+    assert main(["run", str(path), "--out", str(tmp_path / "out"), "--quiet"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("error: phase field: conjugate gradients stopped"), err

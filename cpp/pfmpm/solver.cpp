@@ -65,7 +65,9 @@ Solver::Solver(Grid& grid, Particles& particles, std::vector<LinearElastic> mate
                               ? 0.0
                               : *std::max_element(particles.mass.begin(), particles.mass.end());
   for (const LinearElastic& m : _materials)
-    _modulus.push_back(m.lambda() + 2.0 * m.mu());
+    _wave_speed.push_back(m.wave_speed());
+  for (std::size_t i = 0; i < particles.size(); ++i)
+    _fastest_wave = std::max(_fastest_wave, _wave_speed[particles.material[i]]);
   // Nodes lighter than this carry no velocity: dividing by their mass would
   // amplify round-off (a particle at the edge of a node's support).
   _mass_tol = 1e-12 * max_mass;
@@ -351,13 +353,11 @@ void Solver::grid_to_particle()
   const std::int32_t* material = _particles.material.data();
 
   const bool check_stability = _stability_length > 0.0;
-  const double* mass = _particles.mass.data();
-  const double* modulus = _modulus.data();
 
   // Cell by cell: the K nodes of a cell are read once for all its particles.
   std::ptrdiff_t bad = n;
-  double wave2 = 0.0, speed2 = 0.0; // largest c_p^2 and |v_p|^2
-#pragma omp parallel for schedule(static) reduction(min : bad) reduction(max : wave2, speed2)
+  double speed2 = 0.0; // largest |v_p|^2
+#pragma omp parallel for schedule(static) reduction(min : bad) reduction(max : speed2)
   for (int cx = 0; cx < ncx; ++cx)
     for (int cy = 0; cy < ncy; ++cy)
     {
@@ -426,17 +426,14 @@ void Solver::grid_to_particle()
                            + sig[2] + sig[3] + history[p]))
           bad = std::min(bad, static_cast<std::ptrdiff_t>(p));
         if (check_stability)
-        {
-          wave2 = std::max(wave2, modulus[material[p]] * volume[p] / mass[p]);
           speed2 = std::max(speed2, v[2 * p] * v[2 * p] + v[2 * p + 1] * v[2 * p + 1]);
-        }
       }
     }
   if (bad < n)
     non_finite(bad);
   // max c_p + max |v_p| bounds max (c_p + |v_p|) without a square root per
   // particle; only a step whose bound exceeds the limit takes the exact maximum.
-  if (check_stability && dt * (std::sqrt(wave2) + std::sqrt(speed2)) > stability_limit())
+  if (check_stability && dt * (_fastest_wave + std::sqrt(speed2)) > stability_limit())
     check_stability_exactly();
 }
 
@@ -468,7 +465,7 @@ void Solver::check_stability_exactly() const
   const double speed = std::sqrt(vx * vx + vy * vy);
   std::ostringstream msg;
   msg << "time step dt = " << _dt << " became unstable: " << where(p)
-      << " has P-wave speed " << fastest - speed << " at its current volume and speed " << speed
+      << " has P-wave speed " << fastest - speed << " and speed " << speed
       << ", so dt (c + |v|) = " << _dt * fastest << " exceeds the stability limit "
       << _stability_length << " (kappa h); lower time.cfl or time.dt";
   throw SimulationError(msg.str());

@@ -94,10 +94,14 @@ public:
   /// @brief Check the time step against the stability limit every step.
   ///
   /// After each step's particle update, the largest c_p + |v_p| over the
-  /// particles, with c_p the P-wave speed at the particle's current density
-  /// M_p / V_p, must satisfy dt (c_p + |v_p|) <= `length` (up to round-off); otherwise the
+  /// particles, with c_p the P-wave speed of the particle's material, must
+  /// satisfy dt (c_p + |v_p|) <= `length` (up to round-off); otherwise the
   /// step throws SimulationError. `length` is the critical length kappa h of
-  /// the scene's step rule (eqs. 83-84); 0 switches the check off (the default).
+  /// the scene's step rule (eqs. 83-84), which takes the initial body speeds;
+  /// the check follows the speeds as they grow. (The small-strain model's
+  /// stiffness does not change with deformation, and where strains grow large,
+  /// in an opening crack, the phase field degrades it.) 0 switches the check
+  /// off (the default).
   void set_stability_length(double length);
 
   /// @brief Nodes, summed over all steps so far, whose mass was positive but
@@ -143,13 +147,12 @@ private:
   /// The stability length with a relative slack that lets a run at the limit
   /// itself (cfl = 1) through round-off.
   double stability_limit() const { return (1.0 + 1e-9) * _stability_length; }
-  /// c_p + |v_p|: P-wave speed at the particle's current density plus its speed.
+  /// c_p + |v_p|: P-wave speed of the particle's material plus its speed.
   double signal_speed(std::size_t particle) const
   {
     const std::size_t p = particle;
     const double vx = _particles.v[2 * p], vy = _particles.v[2 * p + 1];
-    return std::sqrt(_modulus[_particles.material[p]] * _particles.volume[p] / _particles.mass[p])
-           + std::sqrt(vx * vx + vy * vy);
+    return _wave_speed[_particles.material[p]] + std::sqrt(vx * vx + vy * vy);
   }
   bool has_external_force() const;
 
@@ -169,7 +172,8 @@ private:
   Grid& _grid;
   Particles& _particles;
   std::vector<LinearElastic> _materials;
-  std::vector<double> _modulus; // per material: P-wave modulus lambda + 2 mu
+  std::vector<double> _wave_speed; // per material: P-wave speed
+  double _fastest_wave = 0.0;      // the largest over the particles' materials
   double _dt;
   double _time = 0.0;
   std::int64_t _step = 0;
