@@ -7,17 +7,19 @@ as an uninterrupted one:
 - ``/particles/<name>``: every particle array (``x``, ``v``, ``mass``,
   ``volume``, ``strain``, ``stress``, ``fext``, ``body``, ``material``, ``c``,
   ``history``, ``phi``);
-- ``/solver``: time, step, external work and the light-node count as
-  attributes, the phase-field warm start (the nodal solutions of the last two
-  solves), its CG statistics and the per-particle fracture energy;
-- ``/output``: ``energies.csv`` so far (its bytes), the particle snapshots
-  listed in ``particles.pvd``, the crack-tip records behind the smoothed tip
-  speed, and the phase-field images taken so far with the times still due.
+- ``/solver``: the phase-field warm start (the nodal solutions of the last
+  two solves) and the per-particle fracture energy;
+- ``/output``: ``energies.csv`` so far (its bytes), the crack-tip records
+  behind the smoothed tip speed, and the phase-field images taken so far with
+  the times still due.
 
-The root attributes give the format and its version, the scene as JSON, the
-checkpoint cadence, a status (``"ok"``, or ``"failed"`` for the state left by
-a run that stopped on an error, kept for inspection and never resumed from)
-and a SHA-256 checksum over all of the above, checked on reading.
+The root attributes are ``format``, ``version``, ``sha256`` and ``meta``, a
+JSON object with the scene, the step and time, the rest of the solver state
+(external work, light-node count, CG statistics), the particle snapshots
+listed in ``particles.pvd``, the checkpoint cadence and a status (``"ok"``, or
+``"failed"`` for the state left by a run that stopped on an error, kept for
+inspection and never resumed from). The SHA-256 checksum covers ``meta`` and
+every dataset and is checked on reading.
 
 Files are written to a temporary name in the same directory, flushed to disk
 and renamed, so a checkpoint either exists complete or not at all.
