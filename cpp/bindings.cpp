@@ -47,6 +47,47 @@ void def_view(py::class_<Particles>& cls, const char* name, std::vector<T> Parti
 
 using Strains = py::array_t<double, py::array::c_style | py::array::forcecast>;
 
+/// A numpy array owning a copy of `data`.
+py::array_t<double> copy_of(const std::vector<double>& data)
+{
+  py::array_t<double> out(static_cast<py::ssize_t>(data.size()));
+  std::copy(data.begin(), data.end(), out.mutable_data());
+  return out;
+}
+
+/// A 1D float64 array as a vector (one copy, into the solver's storage).
+std::vector<double> vector_of(const py::dict& d, const char* key)
+{
+  const auto a = d[key].cast<py::array_t<double, py::array::c_style | py::array::forcecast>>();
+  if (a.ndim() != 1)
+    throw py::value_error(std::string(key) + " must be one-dimensional");
+  return std::vector<double>(a.data(), a.data() + a.size());
+}
+
+py::dict stats_dict(const PhaseFieldStats& st)
+{
+  py::dict d;
+  d["solves"] = st.solves;
+  d["iterations"] = st.iterations;
+  d["last_iterations"] = st.last_iterations;
+  d["start_residual"] = st.start_residual;
+  d["last_residual"] = st.last_residual;
+  d["unknowns"] = st.unknowns;
+  return d;
+}
+
+PhaseFieldStats stats_of(const py::dict& d)
+{
+  PhaseFieldStats st;
+  st.solves = d["solves"].cast<std::int64_t>();
+  st.iterations = d["iterations"].cast<std::int64_t>();
+  st.last_iterations = d["last_iterations"].cast<std::int32_t>();
+  st.start_residual = d["start_residual"].cast<double>();
+  st.last_residual = d["last_residual"].cast<double>();
+  st.unknowns = d["unknowns"].cast<std::int32_t>();
+  return st;
+}
+
 /// Number of rows of an (N, 3) strain array; throws on another shape.
 py::ssize_t strain_rows(const Strains& strain)
 {
@@ -213,17 +254,47 @@ PYBIND11_MODULE(_core, m)
       .def("phase_field_stats",
            [](const Solver& s)
            {
-             const PhaseFieldStats st = s.phase_field_stats();
-             py::dict d;
-             d["solves"] = st.solves;
-             d["iterations"] = st.iterations;
-             d["last_iterations"] = st.last_iterations;
-             d["start_residual"] = st.start_residual;
-             d["last_residual"] = st.last_residual;
-             d["unknowns"] = st.unknowns;
+             py::dict d = stats_dict(s.phase_field_stats());
              d["fourth_order"] = s.phase_field().fourth_order();
              return d;
            })
+      .def("set_stability_length", &Solver::set_stability_length, py::arg("length"),
+           "check dt (c_p + |v_p|) <= length after every step (0: no check)")
+      .def_property_readonly("light_nodes", &Solver::light_nodes,
+                             "nodes so far too light to divide by (given zero velocity)")
+      .def(
+          "state",
+          [](const Solver& s)
+          {
+            const SolverState st = s.state();
+            py::dict d;
+            d["time"] = st.time;
+            d["step"] = st.step;
+            d["external_work"] = st.external_work;
+            d["light_nodes"] = st.light_nodes;
+            d["phase_field_c"] = copy_of(st.phase_field.c);
+            d["phase_field_c_previous"] = copy_of(st.phase_field.c_previous);
+            d["fracture_energy"] = copy_of(st.phase_field.fracture_energy);
+            d["phase_field_stats"] = stats_dict(st.phase_field.stats);
+            return d;
+          },
+          "the state besides the particles, for a checkpoint (a dict of copies)")
+      .def(
+          "restore",
+          [](Solver& s, const py::dict& d)
+          {
+            SolverState st;
+            st.time = d["time"].cast<double>();
+            st.step = d["step"].cast<std::int64_t>();
+            st.external_work = d["external_work"].cast<double>();
+            st.light_nodes = d["light_nodes"].cast<std::int64_t>();
+            st.phase_field.c = vector_of(d, "phase_field_c");
+            st.phase_field.c_previous = vector_of(d, "phase_field_c_previous");
+            st.phase_field.fracture_energy = vector_of(d, "fracture_energy");
+            st.phase_field.stats = stats_of(d["phase_field_stats"].cast<py::dict>());
+            s.restore(std::move(st));
+          },
+          py::arg("state"), "continue from a state() dict; restore the particle arrays beside it")
       .def_property_readonly("dt", &Solver::dt)
       .def_property_readonly("time", &Solver::time)
       .def_property_readonly("step_count", &Solver::step_count)

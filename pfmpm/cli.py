@@ -12,28 +12,73 @@ from .compare import BORDEN_SCENE, DEFAULT_END, DEFAULT_H, DEFAULT_L0
 
 
 def _run(args: argparse.Namespace) -> int:
+    from . import checkpoint
     from ._core import SimulationError
     from .scene import Scene
     from .simulation import Simulation
 
-    scene = Scene.from_toml(args.scene, overrides=args.set)
-    out = Path(args.out) if args.out else Path("out") / Path(args.scene).stem
+    if (args.scene is None) == (args.resume is None):
+        print("error: pfmpm run: give a SCENE file or --resume DIR, not both", file=sys.stderr)
+        return 2
+    if args.resume is not None and args.set:
+        print("error: --set: cannot change the scene of a resumed run", file=sys.stderr)
+        return 2
+    resume = None
+    if args.resume is not None:
+        try:
+            resume = checkpoint.find(args.resume)
+        except checkpoint.CheckpointError as err:
+            print(f"error: {err}", file=sys.stderr)
+            return 2
+        scene = Scene.from_dict(resume.scene)
+        # The run directory holds checkpoints/; its output continues there.
+        out = Path(args.out) if args.out else resume.path.parent.parent
+        every = resume.checkpoint_every if args.checkpoint_every is None else args.checkpoint_every
+        keep = resume.keep if args.keep is None else args.keep
+    else:
+        scene = Scene.from_toml(args.scene, overrides=args.set)
+        out = Path(args.out) if args.out else Path("out") / Path(args.scene).stem
+        every = args.checkpoint_every or 0
+        keep = 3 if args.keep is None else args.keep
+    if keep < 1:
+        print(f"error: --keep {keep}: must be >= 1", file=sys.stderr)
+        return 2
     try:
-        sim = Simulation(scene)
-    except SimulationError as err:  # the phase field of the initial cracks
+        sim = Simulation(scene)  # solves the phase field of initial cracks
+    except SimulationError as err:
         print(f"error: {err}", file=sys.stderr)
         return 1
-    print(f"{scene.name}: {len(sim.particles)} particles, {scene.steps()} steps of dt = {scene.dt():.6g} -> {out}")
-    result = sim.run(out, progress=not args.quiet)
+    where = f" from step {resume.step} ({resume.path})" if resume else ""
+    print(f"{scene.name}: {len(sim.particles)} particles, {scene.steps()} steps of dt = {scene.dt():.6g}{where} -> {out}")
+    try:
+        result = sim.run(out, progress=not args.quiet, checkpoint_every=every, keep=keep, resume=resume)
+    except checkpoint.CheckpointError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+    if result.light_nodes:
+        print(f"note: {result.light_nodes} grid node-steps had a mass too small to divide by"
+              " (below 1e-12 of the heaviest particle) and were given zero velocity", file=sys.stderr)
     if result.status == "failed":
         print(f"error: {result.error}", file=sys.stderr)
-        print(f"output so far is in {out}", file=sys.stderr)
+        print(f"output so far is in {out}; the state at the failure is in {result.checkpoint}", file=sys.stderr)
         return 1
     if result.status == "interrupted":
-        print(f"interrupted at step {result.steps}; output so far is in {out}", file=sys.stderr)
-        return 130
+        print(f"interrupted at step {result.steps}; output so far is in {out};"
+              f" resume with: pfmpm run --resume {out}", file=sys.stderr)
+        return 128 + (result.signal or 2)
     print(f"done: {result.steps} steps in {result.wall_s:.1f} s; output in {out}")
     return 0
+
+
+def _count(text: str) -> int:
+    """A non-negative integer command-line value."""
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: must be an integer") from None
+    if n < 0:
+        raise argparse.ArgumentTypeError(f"{text!r}: must be >= 0")
+    return n
 
 
 def _bench(args: argparse.Namespace) -> int:
@@ -110,10 +155,17 @@ def main(argv: list[str] | None = None) -> int:
     sub = parser.add_subparsers(dest="command", required=True)
 
     run = sub.add_parser("run", help="run a scene file")
-    run.add_argument("scene", help="scene TOML file")
-    run.add_argument("--out", help="output directory (default out/<scene name>)")
+    run.add_argument("scene", nargs="?", help="scene TOML file (not with --resume)")
+    run.add_argument("--out", help="output directory (default out/<scene name>; with --resume, the run's own)")
     run.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override a scene value, e.g. time.end=10")
     run.add_argument("--quiet", action="store_true", help="no progress bar")
+    run.add_argument("--checkpoint-every", type=_count, metavar="N",
+                     help="write a checkpoint to OUT/checkpoints every N steps (default: none;"
+                          " with --resume, as before)")
+    run.add_argument("--keep", type=_count, metavar="K",
+                     help="keep the newest K checkpoints (default 3; with --resume, as before)")
+    run.add_argument("--resume", metavar="DIR",
+                     help="continue the run in DIR (its newest checkpoint) or from a checkpoint file")
     run.set_defaults(func=_run)
 
     bench = sub.add_parser("bench", help="time the core step on a synthetic block")
@@ -161,6 +213,9 @@ def main(argv: list[str] | None = None) -> int:
     except (SceneError, FileNotFoundError) as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
+    except MemoryError:
+        print("error: out of memory: the scene is too large for this machine", file=sys.stderr)
+        return 1
 
 
 if __name__ == "__main__":

@@ -142,6 +142,15 @@ class CrackTip:
         tip = xy[ahead][k]
         return float(tip[0]), float(tip[1]), float(dist[k])
 
+    def records(self) -> list[tuple[float, float]]:
+        """The (time, distance) records in the speed fit, oldest first."""
+        return list(self._history)
+
+    def set_records(self, records) -> None:
+        """Replace the records in the speed fit (from :meth:`records`, e.g. in a checkpoint)."""
+        self._history.clear()
+        self._history.extend((float(t), float(d)) for t, d in records)
+
     def update(self, t: float, xy: np.ndarray, c: np.ndarray) -> tuple[float, float, float]:
         """Record time ``t``; return the tip ``(x, y)`` and its smoothed speed."""
         x, y, dist = self.locate(xy, c)

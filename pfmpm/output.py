@@ -83,10 +83,15 @@ class ParticleSeries:
     a valid series of the snapshots written so far.
     """
 
-    def __init__(self, directory: Path):
+    def __init__(self, directory: Path, entries=()):
         self.directory = Path(directory)
         self.directory.mkdir(parents=True, exist_ok=True)
-        self._entries: list[tuple[float, str]] = []
+        self._entries: list[tuple[float, str]] = [(float(t), str(f)) for t, f in entries]
+
+    @property
+    def entries(self) -> list[tuple[float, str]]:
+        """(time, file name) of each snapshot so far; pass them back to continue the series."""
+        return list(self._entries)
 
     def write(self, step: int, time: float, points: np.ndarray, point_data: dict[str, np.ndarray]) -> Path:
         name = f"particles_{step:06d}.vtu"
@@ -103,13 +108,17 @@ class ParticleSeries:
 
 
 class CsvLog:
-    """A CSV file written row by row and flushed after each row."""
+    """A CSV file written row by row and flushed after each row.
 
-    def __init__(self, path: Path, columns: list[str]):
+    With ``append``, rows are added to an existing file that already has the header.
+    """
+
+    def __init__(self, path: Path, columns: list[str], append: bool = False):
         self.columns = list(columns)
-        self._file = open(path, "w", newline="")
+        self._file = open(path, "a" if append else "w", newline="")
         self._writer = csv.writer(self._file)
-        self._writer.writerow(self.columns)
+        if not append:
+            self._writer.writerow(self.columns)
         self._file.flush()
 
     def write(self, row: dict[str, float]) -> None:

@@ -19,6 +19,7 @@ import copy
 import dataclasses
 import math
 import numbers
+import os
 import re
 import tomllib
 from collections.abc import Iterator, Mapping
@@ -71,6 +72,8 @@ _MAX_STEPS = 2**53  # step counts beyond this are not representable exactly
 _CHUNK = 1 << 20  # candidate particles examined per vectorised batch
 _WHOLE_TOL = 1e-9  # relative tolerance of "size / h is a whole number"
 _EDGE_TOL = 0.51  # edge layer thickness in particle spacings
+_BYTES_PER_TABLE_CELL = 128  # B-spline polynomial table, per cell of each direction
+_BYTES_PER_PARTICLE = 320  # particle state, sort and phase-field arrays, setup temporaries
 _NO_VALUE = object()
 _BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")
 
@@ -265,6 +268,9 @@ class Grid:
             if abs(n - round(n)) > _WHOLE_TOL * n:
                 raise SceneError("size", f"not a whole number of cells of h = {self.h:g}", self.size)
         nx, ny = self.cells
+        if min(nx, ny) < self.degree:
+            raise SceneError("size", f"{nx} x {ny} cells of h = {self.h:g}: degree {self.degree}"
+                                     f" B-splines need at least {self.degree} cells a side", self.size)
         if nx * ny > _MAX_COUNT:
             raise SceneError("size", f"{nx} x {ny} cells exceed the limit of {_MAX_COUNT}", self.size)
         if not all(math.isfinite(o + s) for o, s in zip(self.origin, self.size)):
@@ -856,6 +862,11 @@ class Crack:
         if len(points) < 2:
             raise SceneError("points", "needs at least two points", self.points)
         _set(self, "points", tuple(_vec2(f"points[{i}]", p) for i, p in enumerate(points)))
+        for i in range(1, len(self.points)):
+            (ax, ay), (bx, by) = self.points[i - 1], self.points[i]
+            if not 0 < math.hypot(bx - ax, by - ay) < math.inf:
+                raise SceneError(f"points[{i}]", f"segment from points[{i - 1}] = {_fmt(self.points[i - 1])}"
+                                                 " must have a positive finite length", self.points[i])
         if self.body is not None:
             _set(self, "body", _text("body", self.body))
         _set(self, "B", _real("B", self.B, gt=0))
@@ -883,6 +894,8 @@ class PhaseField:
     def __post_init__(self):
         _set(self, "tol", _real("tol", self.tol, gt=0, lt=1))
         _set(self, "max_iterations", _integer("max_iterations", self.max_iterations, ge=1))
+        if self.max_iterations > _MAX_COUNT:
+            raise SceneError("max_iterations", f"must be <= {_MAX_COUNT}", self.max_iterations)
 
 
 @dataclass(frozen=True)
@@ -1072,6 +1085,7 @@ class Scene:
         for i, body in enumerate(self.bodies):
             with _at(f"bodies[{i}]"):
                 self._check_particles(body)
+        self._check_memory()
         self._check_fracture(bodies)
         self._check_contact(bodies)
         self._check_time()
@@ -1128,6 +1142,31 @@ class Scene:
             raise SceneError("", f"has no particles (no sub-cell centre of the {n} x {n}"
                                  f" lattice per cell of h = {h:g} lies in its shape minus holes)")
 
+    def _check_memory(self) -> None:
+        """Check that the core's storage for the grid and particles fits in this machine's memory.
+
+        A rough upper estimate (see the ``_BYTES_*`` constants), so that a
+        scene too large to run fails here, naming the key to change, rather
+        than in an allocation inside the C++ core.
+        """
+        (nx, ny), p = self.grid.cells, self.grid.degree
+        nodes = (nx + 2 * p) * (ny + 2 * p)  # the phase field's padded layout
+        stencil = ((2 * p + 1) ** 2 + 1) // 2
+        cracks = any(m.fracture is not None for m in self.materials)
+        grid = (_BYTES_PER_TABLE_CELL * (nx + ny) + (8 + 8 * (os.cpu_count() or 1)) * nx * ny
+                + nodes * (4 + (24 + 8 * stencil if cracks else 0)))
+        counts = []
+        for body in self.bodies:
+            (i0, i1), (j0, j1) = self._cell_range(body)
+            counts.append((i1 - i0) * (j1 - j0) * body.particles_per_cell ** 2)
+        need = grid + _BYTES_PER_PARTICLE * sum(counts)
+        have = os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+        if need > have:
+            i = int(np.argmax(counts))
+            key = "grid.size" if grid >= _BYTES_PER_PARTICLE * counts[i] else f"bodies[{i}].particles_per_cell"
+            raise SceneError(key, f"{nx} x {ny} cells and up to {sum(counts):.3g} particles need about"
+                                  f" {need / 1e9:.3g} GB, more than this machine's {have / 1e9:.3g} GB")
+
     def _check_fracture(self, bodies: Mapping[str, int]) -> None:
         """Check that l0 is resolved by the grid and cracks lie on crackable bodies."""
         h = self.grid.h
@@ -1144,7 +1183,13 @@ class Scene:
                                  f" grid.degree must be 2 or 3, not {self.grid.degree}",
                                  anisotropy.symmetry)
         crackable = [b.name for b in self.bodies if self.fracture_of(b) is not None]
+        (x0, y0), (sx, sy) = self.grid.origin, self.grid.size
+        reach = max(sx, sy)
         for i, crack in enumerate(self.cracks):
+            for j, (x, y) in enumerate(crack.points):
+                if not (x0 - reach <= x <= x0 + sx + reach and y0 - reach <= y <= y0 + sy + reach):
+                    raise SceneError(f"cracks[{i}].points[{j}]", "lies farther from the grid"
+                                     f" {self.grid._box()} than its longer side", (x, y))
             if crack.body is not None:
                 _reference(f"cracks[{i}].body", crack.body, bodies, "body")
                 if crack.body not in crackable:
@@ -1242,9 +1287,13 @@ class Scene:
         c_max = max(wave_speed(m.E, m.nu, m.density, self.plane)
                     for m in self.materials if m.name in used)
         v_max = max(body.max_speed() for body in self.bodies)
+        return self.time.cfl * self.critical_length() / (c_max + v_max)
+
+    def critical_length(self) -> float:
+        """``kappa * h`` of :meth:`stable_dt`: a step is stable while ``dt (c + |v|)`` stays below it."""
         interior, boundary = CRITICAL_FACTOR[self.grid.degree]
         kappa = boundary if any(self._near_side(b) for b in self.bodies) else interior
-        return self.time.cfl * kappa * self.grid.h / (c_max + v_max)
+        return kappa * self.grid.h
 
     def _near_side(self, body: Body) -> bool:
         """Whether the body's bounding box reaches the end functions of the grid."""

@@ -4,7 +4,10 @@ from __future__ import annotations
 
 import json
 import math
+import signal
+import threading
 import time as _time
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -71,6 +74,7 @@ class Simulation:
         friction = scene.contact.friction_matrix(names).ravel() if self.contact else []
         self.solver = _core.Solver(self.grid, self.particles, materials, scene.dt(), fracture,
                                    pf.tol, pf.max_iterations, friction)
+        self.solver.set_stability_length(scene.critical_length())
         self.crack_tip = None
         if scene.cracks:
             out = scene.output
@@ -164,35 +168,94 @@ class Simulation:
             active.append("contact")
         return active
 
-    def run(self, out_dir: Path | str, progress: bool = True) -> "RunResult":
+    def run(self, out_dir: Path | str, progress: bool = True, checkpoint_every: int = 0,
+            keep: int = 3, resume=None) -> "RunResult":
         """Run to ``scene.time.end``, writing output to ``out_dir``.
 
         Writes ``energies.csv`` every ``output.energies_every`` steps, particle
         snapshots every ``output.every`` steps (and at the start and end), and
-        ``summary.json``. Ctrl-C stops the run after the current chunk of steps
-        with everything written so far intact; the summary says so.
+        ``summary.json``.
+
+        Parameters
+        ----------
+        out_dir : path
+            Output directory; checkpoints go to its ``checkpoints/``.
+        progress : bool
+            Show a progress bar.
+        checkpoint_every : int
+            Write a checkpoint (:mod:`pfmpm.checkpoint`) every this many steps; 0: none.
+        keep : int
+            How many of the newest checkpoints to keep (>= 1).
+        resume : pfmpm.checkpoint.Checkpoint, optional
+            Continue from this checkpoint of a run of the same scene: its state
+            and its output so far (``energies.csv``, the particle series, the
+            crack-tip records, the phase-field images) are restored first.
+
+        Notes
+        -----
+        SIGINT (Ctrl-C) and SIGTERM stop the run after the current chunk of
+        steps, write a checkpoint and leave everything written so far intact;
+        the summary says "interrupted". A :class:`~pfmpm._core.SimulationError`
+        (a non-finite value, a particle off the grid, an unstable step) stops
+        it with status "failed" after writing the state as it was to
+        ``checkpoints/failed_step_*.h5`` for inspection.
         """
         from tqdm import tqdm
 
+        from . import checkpoint
+
+        if checkpoint_every < 0 or keep < 1:
+            raise ValueError(f"checkpoint_every = {checkpoint_every}, keep = {keep}: need >= 0 and >= 1")
+        if self.contact and (checkpoint_every or resume is not None):
+            raise checkpoint.CheckpointError(
+                "checkpoints of multi-body contact runs are not supported yet (the per-body phase"
+                " fields and contact statistics are not saved): run without --checkpoint-every")
         out = Path(out_dir)
         out.mkdir(parents=True, exist_ok=True)
         cfg = self.scene.output
         total = self.scene.steps()
-        series = ParticleSeries(out) if cfg.particles else None
-        log = CsvLog(out / "energies.csv", self.columns)
+        if resume is not None:
+            checkpoint.restore(self, resume)
+            tmp = out / "energies.csv.tmp"
+            tmp.write_bytes(resume.energies_csv)
+            tmp.replace(out / "energies.csv")
+        series = ParticleSeries(out, resume.series if resume else ()) if cfg.particles else None
+        log = CsvLog(out / "energies.csv", self.columns, append=resume is not None)
         snapshots = Snapshots(self.scene) if self.cracks and cfg.snapshots else None
+        if snapshots is not None and resume is not None:
+            snapshots.restore(resume.snapshot_times, resume.snapshot_images)
+        state = _OutputState(out, series, snapshots)
+
+        def save(status: str = "ok", error: str | None = None) -> None:
+            if self.contact:
+                return  # not supported yet (see above): the outputs so far stay
+            result.checkpoint = str(checkpoint.write(out / checkpoint.DIRECTORY, self, state,
+                                                     every=checkpoint_every, keep=keep,
+                                                     status=status, error=error))
+
         result = RunResult(out_dir=out, steps_planned=total)
+        if resume is not None:
+            result.resumed_from = str(resume.path)
         start = _time.perf_counter()
-        bar = tqdm(total=total, disable=not progress, unit="step", desc=self.scene.name)
+        bar = tqdm(total=total, initial=self.step, disable=not progress, unit="step", desc=self.scene.name)
         every = [cfg.energies_every] + ([cfg.every] if series is not None else [])
         try:
-            result.status, result.error = step_to_end(
-                self, total, every, lambda force: self._record(log, series, snapshots, force), bar)
+            with _stop_on_signals() as caught:
+                result.status, result.error = step_to_end(
+                    self, total, every, lambda force: self._record(log, series, snapshots, force), bar,
+                    checkpoint=save, checkpoint_every=checkpoint_every, stop=lambda: bool(caught),
+                    first_record=resume is None)
+                result.signal = caught[0] if caught else None
+                if result.status == "interrupted":
+                    save()
+                elif result.status == "failed":
+                    save("failed", result.error)
         finally:
             bar.close()
             log.close()
             result.wall_s = _time.perf_counter() - start
             result.steps = self.step
+            result.light_nodes = self.solver.light_nodes
             self._write_summary(out / "summary.json", result)
         if result.status == "completed":
             from . import plots
@@ -252,6 +315,7 @@ class Simulation:
             "threads": _core.num_threads(),
             "modules": self.modules(),
             "grid": {"cells": list(self.scene.grid.cells), "h": self.scene.grid.h, "degree": self.scene.grid.degree},
+            "light_nodes": self.solver.light_nodes,
         }
         if self.cracks:
             stats = self.solver.phase_field_stats()
@@ -281,6 +345,14 @@ class RunResult:
     status: str = "running"
     error: str | None = None
     wall_s: float = 0.0
+    signal: int | None = None
+    """The signal that interrupted the run, if one did."""
+    checkpoint: str | None = None
+    """The last checkpoint written."""
+    resumed_from: str | None = None
+    """The checkpoint the run continued from."""
+    light_nodes: int = 0
+    """Grid node-steps whose mass was too small to divide by (see ``Solver.light_nodes``)."""
 
     def write_summary(self, path: Path, fields: dict) -> None:
         """Write ``summary.json``: this result's status, steps and wall time, then ``fields``.
@@ -293,6 +365,8 @@ class RunResult:
             "steps": self.steps,
             "steps_planned": self.steps_planned,
             "wall_s": self.wall_s,
+            "checkpoint": self.checkpoint,
+            "resumed_from": self.resumed_from,
             **fields,
         }
         tmp = path.with_suffix(".tmp")
@@ -300,29 +374,87 @@ class RunResult:
         tmp.replace(path)
 
 
-def step_to_end(sim, total: int, every: list[int], record, bar) -> tuple[str, str | None]:
+def step_to_end(sim, total: int, every: list[int], record, bar, *, checkpoint=None,
+                checkpoint_every: int = 0, stop=None, first_record: bool = True) -> tuple[str, str | None]:
     """Advance ``sim`` to step ``total``, calling ``record(force)`` on the way.
 
     ``sim`` has ``step`` and ``advance(n)`` (a :class:`Simulation` or a
     :class:`pfmpm.fem.FemSimulation`). It stops at every multiple of each
     entry of ``every`` and calls ``record`` there, with ``force=True`` at the
-    start and the end. Returns ``(status, error)``: ``"completed"``,
-    ``"interrupted"`` (Ctrl-C, after the current chunk) or ``"failed"`` with
-    the :class:`~pfmpm._core.SimulationError` message.
+    start (unless not ``first_record``, for a resumed run whose first record
+    exists) and the end; with ``checkpoint_every``, it also stops at its
+    multiples and calls ``checkpoint()`` there. Those extra stops only split
+    the calls to ``advance``, so the results do not depend on them. Before
+    each chunk it asks ``stop()`` and ends the run if it says so. Returns
+    ``(status, error)``: ``"completed"``, ``"interrupted"`` (``stop()`` or
+    Ctrl-C, after the current chunk) or ``"failed"`` with the
+    :class:`~pfmpm._core.SimulationError` message.
     """
+    stops = every + ([checkpoint_every] if checkpoint_every else [])
     try:
-        record(True)
+        if first_record:
+            record(True)
         while sim.step < total:
-            nxt = min([(sim.step // e + 1) * e for e in every] + [total])
+            if stop is not None and stop():
+                return "interrupted", None
+            nxt = min([(sim.step // e + 1) * e for e in stops] + [total])
             before = sim.step
             sim.advance(nxt - before)
             bar.update(sim.step - before)
-            record(sim.step == total)
+            if sim.step == total or any(sim.step % e == 0 for e in every):
+                record(sim.step == total)
+            if checkpoint_every and sim.step % checkpoint_every == 0:
+                checkpoint()
         return "completed", None
     except KeyboardInterrupt:
         return "interrupted", None
     except _core.SimulationError as err:
         return "failed", str(err)
+
+
+@contextmanager
+def _stop_on_signals():
+    """Within the block, SIGINT and SIGTERM are noted in the yielded list
+    instead of stopping the program, so a run can end between steps; a
+    second SIGINT raises KeyboardInterrupt as usual. Outside the main thread
+    (where handlers cannot be set) the list stays empty."""
+    caught: list[int] = []
+    if threading.current_thread() is not threading.main_thread():
+        yield caught
+        return
+
+    def note(signum, frame):
+        if caught and signum == signal.SIGINT:
+            raise KeyboardInterrupt
+        caught.append(signum)
+
+    previous = {s: signal.signal(s, note) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield caught
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler)
+
+
+class _OutputState:
+    """What a checkpoint needs of a run's output: the CSV so far, the particle
+    series entries and the phase-field images."""
+
+    def __init__(self, out: Path, series: ParticleSeries | None, snapshots: "Snapshots | None"):
+        self._csv = out / "energies.csv"
+        self._series = series
+        self._snapshots = snapshots
+
+    def energies_csv(self) -> bytes:
+        return self._csv.read_bytes()
+
+    def series_entries(self) -> list[tuple[float, str]]:
+        return self._series.entries if self._series is not None else []
+
+    def snapshot_state(self) -> tuple[list[float], list[tuple[float, np.ndarray]]]:
+        if self._snapshots is None:
+            return [], []
+        return list(self._snapshots.times), list(self._snapshots.images)
 
 
 class Snapshots:
@@ -342,6 +474,11 @@ class Snapshots:
         self.images: list[tuple[float, np.ndarray]] = []
         self._last: tuple[float, np.ndarray, np.ndarray] | None = None
         self._end = scene.steps() * scene.dt()
+
+    def restore(self, times, images) -> None:
+        """Continue from a checkpoint: the times still due and the images taken."""
+        self.times = [float(t) for t in times]
+        self.images = [(float(t), np.asarray(image)) for t, image in images]
 
     def take(self, t: float, dt: float, xy: np.ndarray, c: np.ndarray) -> None:
         """Offer the state at time ``t``; keep an image if a snapshot time is due."""

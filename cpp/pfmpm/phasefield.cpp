@@ -116,6 +116,23 @@ PhaseField::PhaseField(const Grid& grid, std::vector<std::optional<Fracture>> fr
   }
 }
 
+PhaseFieldState PhaseField::state() const
+{
+  return PhaseFieldState{_c, _c_previous, _fracture_energy, _stats};
+}
+
+void PhaseField::restore(PhaseFieldState state)
+{
+  if (state.c.size() != _c.size() || state.c_previous.size() != _c.size())
+    throw std::invalid_argument("phase field state: " + std::to_string(state.c.size()) + " and "
+                                + std::to_string(state.c_previous.size())
+                                + " nodal values for a grid of " + std::to_string(_c.size()));
+  _c = std::move(state.c);
+  _c_previous = std::move(state.c_previous);
+  _fracture_energy = std::move(state.fracture_energy);
+  _stats = state.stats;
+}
+
 template <int P>
 bool PhaseField::solve(Particles& particles, const std::vector<std::int32_t>& order,
                        const std::vector<std::int64_t>& cell_start,

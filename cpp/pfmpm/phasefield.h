@@ -51,6 +51,18 @@ struct PhaseFieldStats
   std::int32_t unknowns = 0;         ///< nodes in the last system
 };
 
+/// @brief What one solve hands to the next: the nodal phase field of the last
+/// two solves (the warm start extrapolates from them), the statistics and the
+/// per-particle fracture energy. Saving and restoring it makes a resumed run
+/// take bitwise the same steps as an uninterrupted one.
+struct PhaseFieldState
+{
+  std::vector<double> c;               ///< nodal phase field, padded node layout
+  std::vector<double> c_previous;      ///< the solution before it, same layout
+  std::vector<double> fracture_energy; ///< per particle, from the last solve
+  PhaseFieldStats stats;
+};
+
 /// @brief Assembles and solves K c = F (eqs. 56, 57, 52) for the nodal phase
 /// field, and maps the result to the particles (eqs. 53-55).
 ///
@@ -101,6 +113,12 @@ public:
   /// Per particle: G_c V_p Z(c_p) with Z of eq. 4, from the last solve.
   const std::vector<double>& fracture_energy() const { return _fracture_energy; }
   const PhaseFieldStats& stats() const { return _stats; }
+
+  /// @brief A copy of the state carried between solves.
+  PhaseFieldState state() const;
+  /// @brief Replace the state carried between solves by `state`.
+  /// @throws std::invalid_argument if its nodal arrays do not fit this grid.
+  void restore(PhaseFieldState state);
   double tol() const { return _tol; }
   int max_iterations() const { return _max_iterations; }
 

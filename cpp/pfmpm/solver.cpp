@@ -65,6 +65,10 @@ Solver::Solver(Grid& grid, Particles& particles, std::vector<LinearElastic> mate
   const double max_mass = particles.size() == 0
                               ? 0.0
                               : *std::max_element(particles.mass.begin(), particles.mass.end());
+  for (const LinearElastic& m : _materials)
+    _wave_speed.push_back(m.wave_speed());
+  for (std::size_t i = 0; i < particles.size(); ++i)
+    _fastest_wave = std::max(_fastest_wave, _wave_speed[particles.material[i]]);
   // Nodes lighter than this carry no velocity: dividing by their mass would
   // amplify round-off (a particle at the edge of a node's support).
   _mass_tol = 1e-12 * max_mass;
@@ -77,6 +81,40 @@ Solver::Solver(Grid& grid, Particles& particles, std::vector<LinearElastic> mate
     _fields = std::make_unique<DiscreteFields>(grid, particles, std::move(friction), per_mat, tol,
                                                max_iterations);
   }
+}
+
+void Solver::set_stability_length(double length)
+{
+  if (!(length >= 0.0) || !std::isfinite(length))
+    throw std::invalid_argument("stability length = " + std::to_string(length)
+                                + ": must be >= 0 and finite");
+  _stability_length = length;
+}
+
+SolverState Solver::state() const
+{
+  if (_fields)
+    throw std::invalid_argument("solver state: multi-body contact runs cannot be saved yet"
+                                " (per-field phase fields and contact statistics)");
+  return SolverState{_time, _step, _external_work, _light_nodes, _phase_field.state()};
+}
+
+void Solver::restore(SolverState state)
+{
+  if (_fields)
+    throw std::invalid_argument("solver state: multi-body contact runs cannot be restored yet");
+  const std::size_t n = state.phase_field.fracture_energy.size();
+  if (n != 0 && n != _particles.size())
+    throw std::invalid_argument("solver state: fracture energy of " + std::to_string(n)
+                                + " particles for " + std::to_string(_particles.size()));
+  if (!(state.time >= 0.0) || !std::isfinite(state.time) || state.step < 0)
+    throw std::invalid_argument("solver state: step " + std::to_string(state.step) + " at t = "
+                                + std::to_string(state.time));
+  _phase_field.restore(std::move(state.phase_field));
+  _time = state.time;
+  _step = state.step;
+  _external_work = state.external_work;
+  _light_nodes = state.light_nodes;
 }
 
 void Solver::advance(std::int64_t steps)
@@ -297,15 +335,22 @@ void Solver::update_grid()
   const double dt = _dt;
   // Contact nodes are updated per field by DiscreteFields::update.
   const std::int32_t* contact = _fields ? _fields->contact_index().data() : nullptr;
-  const auto work = deterministic_sum<1>(
+  const auto sums = deterministic_sum<2>(
       _sums.size(),
-      [&](std::size_t i, std::array<double, 1>& acc)
+      [&](std::size_t i, std::array<double, 2>& acc)
       {
         const NodeSums& s = _sums[i];
         NodeKinematics& k = _kinematics[i];
-        if (s.m <= _mass_tol || (contact && contact[i] >= 0))
+        if (contact && contact[i] >= 0)
         {
           k = NodeKinematics{};
+          return;
+        }
+        if (s.m <= _mass_tol)
+        {
+          k = NodeKinematics{};
+          if (s.m > 0.0)
+            acc[1] += 1.0; // a light node, counted
           return;
         }
         // Trial momentum (eq. 63) and velocity (eq. 64); with a single field
@@ -323,7 +368,8 @@ void Solver::update_grid()
         // Work of the nodal external force over the step (trapezoidal velocity).
         acc[0] += 0.5 * dt * (s.ex * (vw[0] + vn[0]) + s.ey * (vw[1] + vn[1]));
       });
-  _external_work += work[0];
+  _external_work += sums[0];
+  _light_nodes += static_cast<std::int64_t>(sums[1]);
   if (_fields)
     _external_work += _fields->update(_dt, _mass_tol); // eqs. 63-77 at contact nodes
 }
@@ -348,9 +394,12 @@ void Solver::grid_to_particle()
   const std::int32_t* body = _particles.body.data();
   const DiscreteFields* fields = _fields.get();
 
+  const bool check_stability = _stability_length > 0.0;
+
   // Cell by cell: the K nodes of a cell are read once for all its particles.
   std::ptrdiff_t bad = n;
-#pragma omp parallel for schedule(static) reduction(min : bad)
+  double speed2 = 0.0; // largest |v_p|^2
+#pragma omp parallel for schedule(static) reduction(min : bad) reduction(max : speed2)
   for (int cx = 0; cx < ncx; ++cx)
     for (int cy = 0; cy < ncy; ++cy)
     {
@@ -432,12 +481,54 @@ void Solver::grid_to_particle()
         }
         else
           mat.stress(eps, &stress[4 * p]); // eq. 16, g = 1
-        if (!std::isfinite(x[2 * p] + x[2 * p + 1] + v[2 * p] + v[2 * p + 1]))
+        const double* sig = &stress[4 * p];
+        if (!std::isfinite(x[2 * p] + x[2 * p + 1] + v[2 * p] + v[2 * p + 1] + sig[0] + sig[1]
+                           + sig[2] + sig[3] + history[p]))
           bad = std::min(bad, static_cast<std::ptrdiff_t>(p));
+        if (check_stability)
+          speed2 = std::max(speed2, v[2 * p] * v[2 * p] + v[2 * p + 1] * v[2 * p + 1]);
       }
     }
   if (bad < n)
-    throw SimulationError("velocity or position of " + where(bad) + " is not finite");
+    non_finite(bad);
+  // max c_p + max |v_p| bounds max (c_p + |v_p|) without a square root per
+  // particle; only a step whose bound exceeds the limit takes the exact maximum.
+  if (check_stability && dt * (_fastest_wave + std::sqrt(speed2)) > stability_limit())
+    check_stability_exactly();
+}
+
+void Solver::non_finite(std::size_t p) const
+{
+  auto finite = [](const std::vector<double>& a, std::size_t begin, std::size_t k)
+  { return std::all_of(&a[begin], &a[begin] + k, [](double u) { return std::isfinite(u); }); };
+  const Particles& s = _particles;
+  const char* what = !finite(s.v, 2 * p, 2)        ? "velocity"
+                     : !finite(s.x, 2 * p, 2)      ? "position"
+                     : !finite(s.stress, 4 * p, 4) ? "stress"
+                                                   : "history";
+  throw SimulationError(std::string(what) + " of " + where(p) + " is not finite");
+}
+
+void Solver::check_stability_exactly() const
+{
+  const auto n = static_cast<std::ptrdiff_t>(_particles.size());
+  double fastest = 0.0;
+#pragma omp parallel for schedule(static) reduction(max : fastest)
+  for (std::ptrdiff_t p = 0; p < n; ++p)
+    fastest = std::max(fastest, signal_speed(p));
+  if (_dt * fastest <= stability_limit())
+    return;
+  std::size_t p = 0; // the first particle that fast
+  while (p + 1 < _particles.size() && signal_speed(p) < fastest)
+    ++p;
+  const double vx = _particles.v[2 * p], vy = _particles.v[2 * p + 1];
+  const double speed = std::sqrt(vx * vx + vy * vy);
+  std::ostringstream msg;
+  msg << "time step dt = " << _dt << " became unstable: " << where(p)
+      << " has P-wave speed " << fastest - speed << " and speed " << speed
+      << ", so dt (c + |v|) = " << _dt * fastest << " exceeds the stability limit "
+      << _stability_length << " (kappa h); lower time.cfl or time.dt";
+  throw SimulationError(msg.str());
 }
 
 Energies Solver::energies() const

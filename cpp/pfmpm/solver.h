@@ -9,6 +9,7 @@
 #include "phasefield.h"
 
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <memory>
 #include <stdexcept>
@@ -37,6 +38,17 @@ struct Energies
   std::array<double, 2> momentum{}; ///< sum of M_p v_p
   double mass = 0.0;           ///< sum of M_p
   std::vector<double> fracture_by_field; ///< with discrete fields: fracture energy per field
+};
+
+/// @brief Everything besides the particles that a run carries from one step
+/// to the next; with the particle arrays it is the complete state of a run.
+struct SolverState
+{
+  double time = 0.0;
+  std::int64_t step = 0;
+  double external_work = 0.0;    ///< work of the external forces since t = 0
+  std::int64_t light_nodes = 0;  ///< see Solver::light_nodes
+  PhaseFieldState phase_field;   ///< empty nodal arrays when nothing can crack
 };
 
 /// @brief Explicit update-stress-last MPM in the momentum formulation, with
@@ -92,6 +104,32 @@ public:
   /// initial state (an initial crack) before the first step.
   void prepare();
 
+  /// @brief Check the time step against the stability limit every step.
+  ///
+  /// After each step's particle update, the largest c_p + |v_p| over the
+  /// particles, with c_p the P-wave speed of the particle's material, must
+  /// satisfy dt (c_p + |v_p|) <= `length` (up to round-off); otherwise the
+  /// step throws SimulationError. `length` is the critical length kappa h of
+  /// the scene's step rule (eqs. 83-84), which takes the initial body speeds;
+  /// the check follows the speeds as they grow. (The small-strain model's
+  /// stiffness does not change with deformation, and where strains grow large,
+  /// in an opening crack, the phase field degrades it.) 0 switches the check
+  /// off (the default).
+  void set_stability_length(double length);
+
+  /// @brief Nodes, summed over all steps so far, whose mass was positive but
+  /// too small to divide by (below 1e-12 of the heaviest particle): they get
+  /// zero velocity instead.
+  std::int64_t light_nodes() const { return _light_nodes; }
+
+  /// @brief A copy of the state besides the particles (time, step, external
+  /// work, counters, phase-field warm start), for a checkpoint.
+  SolverState state() const;
+  /// @brief Continue from `state`, saved by state() of a solver built on the
+  /// same scene, with the particle arrays restored beside it.
+  /// @throws std::invalid_argument if it does not fit this grid or particle count.
+  void restore(SolverState state);
+
   /// @brief Energies and momentum of the current particle state.
   Energies energies() const;
 
@@ -120,6 +158,19 @@ private:
   template <int P>
   void grid_to_particle();
   std::string where(std::size_t particle) const;
+  [[noreturn]] void non_finite(std::size_t particle) const;
+  /// Throw SimulationError if some particle has dt (c_p + |v_p|) > the limit.
+  void check_stability_exactly() const;
+  /// The stability length with a relative slack that lets a run at the limit
+  /// itself (cfl = 1) through round-off.
+  double stability_limit() const { return (1.0 + 1e-9) * _stability_length; }
+  /// c_p + |v_p|: P-wave speed of the particle's material plus its speed.
+  double signal_speed(std::size_t particle) const
+  {
+    const std::size_t p = particle;
+    const double vx = _particles.v[2 * p], vy = _particles.v[2 * p + 1];
+    return _wave_speed[_particles.material[p]] + std::sqrt(vx * vx + vy * vy);
+  }
   bool has_external_force() const;
 
   /// P2G accumulators of one active node.
@@ -138,11 +189,15 @@ private:
   Grid& _grid;
   Particles& _particles;
   std::vector<LinearElastic> _materials;
+  std::vector<double> _wave_speed; // per material: P-wave speed
+  double _fastest_wave = 0.0;      // the largest over the particles' materials
   double _dt;
   double _time = 0.0;
   std::int64_t _step = 0;
   double _external_work = 0.0;
   double _mass_tol;
+  std::int64_t _light_nodes = 0;
+  double _stability_length = 0.0; // 0: no check
   bool _external = false; // some particle carries an external force
   PhaseField _phase_field;
   std::unique_ptr<DiscreteFields> _fields; // with contact: per-field data at contact nodes

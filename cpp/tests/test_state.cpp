@@ -1,0 +1,106 @@
+// The solver state: restored into a fresh solver, it continues bitwise as the
+// original; the stability check stops a step that outruns the grid.
+#include "pfmpm/grid.h"
+#include "pfmpm/material.h"
+#include "pfmpm/particles.h"
+#include "pfmpm/solver.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+
+using namespace pfmpm;
+
+namespace
+{
+/// A square block of n x n particles in [2, 4]^2 with a notch of history
+/// along y = 3 and a shearing velocity field.
+Particles make_block(int n)
+{
+  Particles P(static_cast<std::size_t>(n) * n);
+  const double d = 2.0 / n;
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j)
+    {
+      const std::size_t p = static_cast<std::size_t>(i) * n + j;
+      P.x[2 * p] = 2.0 + (i + 0.5) * d;
+      P.x[2 * p + 1] = 2.0 + (j + 0.5) * d;
+      P.v[2 * p] = 0.2 * (P.x[2 * p + 1] - 3.0);
+      P.v[2 * p + 1] = 0.05 * std::sin(P.x[2 * p]);
+      P.volume[p] = d * d;
+      P.mass[p] = d * d;
+      if (std::abs(P.x[2 * p + 1] - 3.0) < 0.1 && P.x[2 * p] < 3.0)
+        P.history[p] = 50.0;
+    }
+  return P;
+}
+
+bool same_bits(const std::vector<double>& a, const std::vector<double>& b)
+{
+  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0;
+}
+} // namespace
+
+TEST(SolverState, RestoredSolverContinuesBitwise)
+{
+  const std::vector<LinearElastic> mat{LinearElastic(100.0, 0.3, 1.0, Plane::strain)};
+  const std::vector<std::optional<Fracture>> fracture{Fracture{0.5, 0.5, 0.0}};
+  Grid grid(2, {24, 24}, 0.25, {0.0, 0.0});
+  Particles P = make_block(40);
+  Solver original(grid, P, mat, 1e-3, fracture);
+  original.advance(30);
+
+  // A copy of the particles and the solver state, in a solver that has
+  // solved nothing yet.
+  Grid grid2(2, {24, 24}, 0.25, {0.0, 0.0});
+  Particles Q = P;
+  Solver resumed(grid2, Q, mat, 1e-3, fracture);
+  resumed.restore(original.state());
+  EXPECT_EQ(resumed.step_count(), 30);
+  EXPECT_EQ(resumed.energies().fracture, original.energies().fracture);
+
+  original.advance(20);
+  resumed.advance(20);
+  EXPECT_TRUE(same_bits(P.x, Q.x));
+  EXPECT_TRUE(same_bits(P.v, Q.v));
+  EXPECT_TRUE(same_bits(P.c, Q.c));
+  EXPECT_TRUE(same_bits(P.stress, Q.stress));
+  EXPECT_EQ(original.phase_field().stats().iterations, resumed.phase_field().stats().iterations);
+  EXPECT_EQ(original.energies().external_work, resumed.energies().external_work);
+  EXPECT_EQ(original.time(), resumed.time());
+}
+
+TEST(SolverState, StateOfAnotherGridIsRefused)
+{
+  const std::vector<std::optional<Fracture>> fracture{Fracture{0.5, 0.5, 0.0}};
+  const std::vector<LinearElastic> mat{LinearElastic(100.0, 0.3, 1.0, Plane::strain)};
+  Grid small(2, {20, 20}, 0.25, {0.0, 0.0}), large(2, {24, 24}, 0.25, {0.0, 0.0});
+  Particles P = make_block(10), Q = make_block(10);
+  Solver a(small, P, mat, 1e-3, fracture), b(large, Q, mat, 1e-3, fracture);
+  EXPECT_THROW(b.restore(a.state()), std::invalid_argument);
+}
+
+TEST(SolverState, StepOutrunningTheGridIsUnstable)
+{
+  // c = sqrt((lambda + 2 mu) / rho) = 13.4 for E = 100, nu = 0.3: with
+  // dt = 0.01, dt c = 0.134 h-lengths of 0.25 / 0.5 = 0.27 of kappa h = 0.5;
+  // a speed of 40 adds 0.8.
+  Grid grid(2, {24, 24}, 0.25, {0.0, 0.0});
+  Particles P = make_block(10);
+  Solver solver(grid, P, {LinearElastic(100.0, 0.3, 1.0, Plane::strain)}, 0.01);
+  solver.set_stability_length(0.5);
+  solver.advance(2);
+  for (std::size_t p = 0; p < P.size(); ++p)
+    P.v[2 * p] += 40.0;
+  try
+  {
+    solver.advance(1);
+    FAIL() << "no error";
+  }
+  catch (const SimulationError& e)
+  {
+    EXPECT_NE(std::string(e.what()).find("became unstable"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("after step 2"), std::string::npos) << e.what();
+  }
+}

@@ -1,0 +1,293 @@
+"""Checkpoints: the complete state of a run in one HDF5 file, and resuming from it.
+
+A checkpoint holds everything a :class:`~pfmpm.simulation.Simulation` carries
+from one step to the next, so that a resumed run takes bitwise the same steps
+as an uninterrupted one:
+
+- ``/particles/<name>``: every particle array (``x``, ``v``, ``mass``,
+  ``volume``, ``strain``, ``stress``, ``fext``, ``body``, ``material``, ``c``,
+  ``history``, ``phi``);
+- ``/solver``: the phase-field warm start (the nodal solutions of the last
+  two solves) and the per-particle fracture energy;
+- ``/output``: ``energies.csv`` so far (its bytes), the crack-tip records
+  behind the smoothed tip speed, and the phase-field images taken so far with
+  the times still due.
+
+The root attributes are ``format``, ``version``, ``sha256`` and ``meta``, a
+JSON object with the scene, the step and time, the rest of the solver state
+(external work, light-node count, CG statistics), the particle snapshots
+listed in ``particles.pvd``, the checkpoint cadence and a status (``"ok"``, or
+``"failed"`` for the state left by a run that stopped on an error, kept for
+inspection and never resumed from). The SHA-256 checksum covers ``meta`` and
+every dataset and is checked on reading.
+
+Files are written to a temporary name in the same directory, flushed to disk
+and renamed, so a checkpoint either exists complete or not at all.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+FORMAT = "pfmpm-checkpoint"
+VERSION = 1
+DIRECTORY = "checkpoints"
+"""Subdirectory of a run's output directory that holds its checkpoints."""
+
+PARTICLE_ARRAYS = ("x", "v", "mass", "volume", "strain", "stress", "fext", "body", "material",
+                   "c", "history", "phi")
+_SOLVER_ARRAYS = ("phase_field_c", "phase_field_c_previous", "fracture_energy")
+_SOLVER_SCALARS = ("time", "step", "external_work", "light_nodes")
+
+
+class CheckpointError(Exception):
+    """A checkpoint that cannot be used; the message names the file and why."""
+
+
+@dataclass
+class Checkpoint:
+    """The contents of one checkpoint file.
+
+    Attributes
+    ----------
+    path : Path
+        Where it was read from.
+    scene : dict
+        The scene as :meth:`~pfmpm.scene.Scene.to_dict` gives it.
+    step, time : int, float
+        Where the run stood.
+    status : str
+        ``"ok"`` or ``"failed"``.
+    error : str or None
+        The error that stopped a failed run.
+    checkpoint_every, keep : int
+        The cadence the run was started with.
+    particles : dict of str to ndarray
+        Particle arrays, (N,) or (N, k).
+    solver : dict
+        The dict of :meth:`pfmpm._core.Solver.state`.
+    energies_csv : bytes
+        ``energies.csv`` as it was.
+    series : list of (float, str)
+        The particle snapshots so far: (time, file name).
+    crack_tip : (M, 2) ndarray
+        Crack-tip records (time, distance) behind the speed fit.
+    snapshot_times : (K,) ndarray
+        Phase-field image times still due.
+    snapshot_images : list of (float, ndarray)
+        Phase-field images taken so far.
+    """
+
+    path: Path
+    scene: dict
+    step: int
+    time: float
+    status: str
+    error: str | None
+    checkpoint_every: int
+    keep: int
+    particles: dict
+    solver: dict
+    energies_csv: bytes = b""
+    series: list = field(default_factory=list)
+    crack_tip: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    snapshot_times: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    snapshot_images: list = field(default_factory=list)
+
+
+def file_name(step: int, failed: bool = False) -> str:
+    """``step_NNNNNNNNN.h5``, or ``failed_step_NNNNNNNNN.h5`` for a failed run's last state."""
+    return f"{'failed_' if failed else ''}step_{step:09d}.h5"
+
+
+def list_checkpoints(directory: Path | str) -> list[Path]:
+    """The resumable checkpoints (not the failed ones) in ``directory``, oldest first."""
+    d = Path(directory)
+    found = d.glob("step_*.h5") if d.is_dir() else []
+    return sorted(found, key=lambda p: int(p.stem.removeprefix("step_")))
+
+
+def _digest(attrs: dict, arrays: dict[str, np.ndarray]) -> str:
+    """SHA-256 over the attributes (as sorted JSON) and every array's name, dtype, shape and bytes."""
+    h = hashlib.sha256(json.dumps(attrs, sort_keys=True).encode())
+    for name in sorted(arrays):
+        a = np.ascontiguousarray(arrays[name])
+        h.update(f"{name}:{a.dtype.str}:{a.shape}".encode())
+        h.update(a.tobytes())
+    return h.hexdigest()
+
+
+def _state_of(sim, run) -> tuple[dict, dict[str, np.ndarray]]:
+    """Split the state of ``sim`` and its output ``run`` into scalar attributes and arrays."""
+    state = sim.solver.state()
+    stats = state.pop("phase_field_stats")
+    arrays = {f"particles/{name}": np.asarray(getattr(sim.particles, name)) for name in PARTICLE_ARRAYS}
+    arrays.update({f"solver/{name}": state.pop(name) for name in _SOLVER_ARRAYS})
+    attrs = {"solver": {**state, "phase_field_stats": stats}}
+    arrays["output/energies_csv"] = np.frombuffer(run.energies_csv(), dtype=np.uint8)
+    attrs["series"] = [[t, name] for t, name in run.series_entries()]
+    tip = sim.crack_tip.records() if sim.crack_tip is not None else []
+    arrays["output/crack_tip"] = np.asarray(tip, dtype=float).reshape(-1, 2)
+    times, images = run.snapshot_state()
+    arrays["output/snapshot_times"] = np.asarray(times, dtype=float)
+    attrs["snapshot_image_times"] = [t for t, _ in images]
+    for k, (_, image) in enumerate(images):
+        arrays[f"output/snapshot_{k}"] = image
+    return attrs, arrays
+
+
+def write(directory: Path | str, sim, run, *, every: int, keep: int, status: str = "ok",
+          error: str | None = None) -> Path:
+    """Write a checkpoint of ``sim`` and its output state ``run`` to ``directory``.
+
+    Parameters
+    ----------
+    directory : path
+        The checkpoint directory (created if missing).
+    sim : Simulation
+    run : object
+        The run's output state, with ``energies_csv()``, ``series_entries()``
+        and ``snapshot_state()`` (see :meth:`pfmpm.simulation.Simulation.run`).
+    every, keep : int
+        The cadence and how many ``"ok"`` checkpoints to keep; older ones are
+        deleted after this one is in place (``keep`` is ignored for a failed state).
+    status, error : str
+        ``"ok"``, or ``"failed"`` with the error message.
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
+    import h5py
+
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    attrs, arrays = _state_of(sim, run)
+    attrs.update(format=FORMAT, version=VERSION, scene=sim.scene.to_dict(), step=int(sim.step),
+                 time=float(sim.time), status=status, error=error, checkpoint_every=int(every),
+                 keep=int(keep))
+    digest = _digest(attrs, arrays)
+    path = directory / file_name(sim.step, failed=status != "ok")
+    tmp = directory / f".{path.name}.tmp"
+    with h5py.File(tmp, "w") as f:
+        f.attrs["format"] = FORMAT
+        f.attrs["version"] = VERSION
+        f.attrs["meta"] = json.dumps(attrs, sort_keys=True)
+        f.attrs["sha256"] = digest
+        for name, a in arrays.items():
+            f.create_dataset(name, data=a)
+        f.flush()
+        os.fsync(f.id.get_vfd_handle())
+    os.replace(tmp, path)
+    fd = os.open(directory, os.O_RDONLY)  # make the rename itself durable
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+    if status == "ok":
+        for old in list_checkpoints(directory)[:-keep]:
+            old.unlink()
+    return path
+
+
+def read(path: Path | str) -> Checkpoint:
+    """Read and verify a checkpoint file.
+
+    Raises
+    ------
+    CheckpointError
+        If the file is missing, not HDF5 or truncated, of another format or
+        version, or its checksum does not match its contents.
+    """
+    import h5py
+
+    path = Path(path)
+    if not path.is_file():
+        raise CheckpointError(f"checkpoint {path}: no such file")
+    try:
+        with h5py.File(path, "r") as f:
+            fmt, version = f.attrs.get("format"), f.attrs.get("version")
+            if fmt != FORMAT:
+                raise CheckpointError(f"checkpoint {path}: not a pfmpm checkpoint (format {fmt!r})")
+            if version != VERSION:
+                raise CheckpointError(f"checkpoint {path}: format version {version}, this pfmpm reads {VERSION}")
+            meta = json.loads(f.attrs["meta"])
+            digest = f.attrs["sha256"]
+            arrays: dict[str, np.ndarray] = {}
+            f.visititems(lambda name, obj: arrays.__setitem__(name, obj[()])
+                         if isinstance(obj, h5py.Dataset) else None)
+    except CheckpointError:
+        raise
+    except (OSError, KeyError, ValueError, TypeError) as err:
+        # h5py raises OSError for a truncated or non-HDF5 file and KeyError or
+        # ValueError for missing or damaged objects inside one.
+        raise CheckpointError(f"checkpoint {path}: cannot be read ({err})") from None
+    if _digest(meta, arrays) != digest:
+        raise CheckpointError(f"checkpoint {path}: checksum mismatch, the file is corrupt")
+    solver = dict(meta["solver"])
+    solver.update({name: arrays[f"solver/{name}"] for name in _SOLVER_ARRAYS})
+    images = [(t, arrays[f"output/snapshot_{k}"]) for k, t in enumerate(meta["snapshot_image_times"])]
+    return Checkpoint(
+        path=path, scene=meta["scene"], step=meta["step"], time=meta["time"], status=meta["status"],
+        error=meta["error"], checkpoint_every=meta["checkpoint_every"], keep=meta["keep"],
+        particles={name: arrays[f"particles/{name}"] for name in PARTICLE_ARRAYS}, solver=solver,
+        energies_csv=arrays["output/energies_csv"].tobytes(),
+        series=[(t, name) for t, name in meta["series"]], crack_tip=arrays["output/crack_tip"],
+        snapshot_times=arrays["output/snapshot_times"], snapshot_images=images)
+
+
+def find(where: Path | str) -> Checkpoint:
+    """The checkpoint to resume from: ``where`` itself if it is a file, else
+    the newest checkpoint of the run directory ``where``.
+
+    Raises
+    ------
+    CheckpointError
+        If there is none, if it cannot be read (an older one may be passed
+        explicitly), or if it is the state of a failed run.
+    """
+    where = Path(where)
+    if where.is_dir():
+        found = list_checkpoints(where / DIRECTORY)
+        if not found:
+            raise CheckpointError(f"--resume {where}: no checkpoints in {where / DIRECTORY}")
+        try:
+            ckpt = read(found[-1])
+        except CheckpointError as err:
+            older = f"; older: {found[-2]}" if len(found) > 1 else ""
+            raise CheckpointError(f"{err}{older}") from None
+    else:
+        ckpt = read(where)
+    if ckpt.status != "ok":
+        raise CheckpointError(f"checkpoint {ckpt.path}: the state of a failed run ({ckpt.error}),"
+                              " kept for inspection; resume from an earlier checkpoint")
+    return ckpt
+
+
+def restore(sim, ckpt: Checkpoint) -> None:
+    """Put the particle and solver state of ``ckpt`` into ``sim``, built on the checkpoint's scene.
+
+    Raises
+    ------
+    CheckpointError
+        If an array does not fit the simulation.
+    """
+    for name in PARTICLE_ARRAYS:
+        target, value = getattr(sim.particles, name), ckpt.particles[name]
+        if target.shape != value.shape or target.dtype != value.dtype:
+            raise CheckpointError(f"checkpoint {ckpt.path}: particles/{name} has shape {value.shape},"
+                                  f" the scene gives {target.shape}")
+        target[...] = value
+    try:
+        sim.solver.restore(ckpt.solver)
+    except ValueError as err:
+        raise CheckpointError(f"checkpoint {ckpt.path}: {err}") from None
+    if sim.crack_tip is not None:
+        sim.crack_tip.set_records(ckpt.crack_tip)

@@ -1,0 +1,291 @@
+"""Checkpoint and resume, reproducibility across runs and thread counts, and
+the run-time guards (non-finite values, unstable steps, light nodes)."""
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+from pfmpm import Scene, Simulation
+from pfmpm import checkpoint
+from pfmpm.cli import main
+from pfmpm.output import read_csv
+from pfmpm.scene import wave_speed
+
+ROOT = Path(__file__).resolve().parents[1]
+BORDEN = ROOT / "demos" / "borden_plate.toml"
+BAR = ROOT / "demos" / "vibrating_bar.toml"
+# The Borden plate at h = 1 mm, l0 = 2 mm, one particle per cell (4,000
+# particles): the crack starts at about 15 us and runs to x ~ 77 mm by 40 us.
+COARSE = ["grid.h=1.0", "materials.concrete.fracture.l0=2.0", "bodies.plate.particles_per_cell=1",
+          "output.energies_every=5", "output.every=50"]
+
+
+def coarse_args(end):
+    args = [str(BORDEN), "--quiet"]
+    for s in COARSE + [f"time.end={end}"]:
+        args += ["--set", s]
+    return args
+
+
+def pfmpm(*args, env=None, **kw):
+    return subprocess.run([sys.executable, "-P", "-m", "pfmpm.cli", *map(str, args)], capture_output=True,
+                          text=True, env=env, **kw)
+
+
+def output_files(out):
+    """Every output file of a run but the plots, checkpoints and summary (which has wall times)."""
+    return {p.name: p.read_bytes() for p in sorted(out.iterdir())
+            if p.suffix in (".csv", ".vtu", ".pvd")}
+
+
+def test_resumed_run_is_bitwise_identical(tmp_path, capsys):
+    full = tmp_path / "full"
+    assert main(["run", *coarse_args(40), "--out", str(full), "--checkpoint-every", "100", "--keep", "5"]) == 0
+    names = [p.name for p in checkpoint.list_checkpoints(full / "checkpoints")]
+    assert names == ["step_000000100.h5", "step_000000200.h5", "step_000000300.h5"]
+
+    # A run stopped after step 100 (what it wrote later is left in place and
+    # must be replaced by the resumed run's own output).
+    part = tmp_path / "part"
+    shutil.copytree(full, part)
+    for name in names[1:]:
+        (part / "checkpoints" / name).unlink()
+    assert main(["run", "--resume", str(part), "--quiet"]) == 0
+    assert "from step 100" in capsys.readouterr().out
+
+    e = read_csv(full / "energies.csv")
+    assert e["crack_tip_x"][-1] > 65.0 and e["crack_tip_x"][e["step"] == 100][0] < 53.0, \
+        "the crack should run after the restart"
+    a, b = output_files(full), output_files(part)
+    assert a.keys() == b.keys() and len(a) >= 9
+    for name in a:
+        assert a[name] == b[name], f"{name} differs after resuming"
+    summary = json.loads((part / "summary.json").read_text())
+    assert summary["status"] == "completed" and summary["resumed_from"].endswith("step_000000100.h5")
+    # The cadence came from the checkpoint: the resumed run wrote 200 and 300.
+    assert [p.name for p in checkpoint.list_checkpoints(part / "checkpoints")] == names
+
+
+def test_checkpoint_holds_the_complete_state(tmp_path):
+    scene = Scene.from_toml(BORDEN, COARSE + ["time.end=20", "output.particles=false"])
+    sim = Simulation(scene)
+    sim.run(tmp_path, progress=False, checkpoint_every=60)
+    ckpt = checkpoint.read(tmp_path / "checkpoints" / "step_000000120.h5")
+    assert ckpt.step == 120 and ckpt.status == "ok" and Scene.from_dict(ckpt.scene) == scene
+
+    # Restored into a fresh simulation, the state gives the checkpointed
+    # energies row exactly (the fracture energy comes from the saved solve).
+    again = Simulation(scene)
+    checkpoint.restore(again, ckpt)
+    row = read_csv(tmp_path / "energies.csv")
+    k = np.flatnonzero(row["step"] == 120)[0]
+    e = again.energies()
+    for column in ("kinetic", "elastic", "fracture", "external_work"):
+        assert e[column] == row[column][k], column
+
+    # The warm start is part of the state: without the solution before the
+    # last, the same particles take different steps.
+    cold = Simulation(scene)
+    checkpoint.restore(cold, ckpt)
+    state = cold.solver.state()
+    state["phase_field_c_previous"] = state["phase_field_c"]
+    cold.solver.restore(state)
+    again.advance(5)
+    cold.advance(5)
+    assert not np.array_equal(again.particles.c, cold.particles.c)
+
+
+def run_threads(tmp_path, threads, name):
+    out = tmp_path / name
+    # Passive waiting: on a busy machine, spinning OpenMP threads only slow
+    # each other down (the results do not depend on it).
+    env = {**os.environ, "OMP_NUM_THREADS": str(threads), "OMP_WAIT_POLICY": "passive"}
+    r = pfmpm("run", *coarse_args(15), "--out", out, env=env, timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert json.loads((out / "summary.json").read_text())["threads"] == threads
+    return output_files(out)
+
+
+def test_runs_repeat_bitwise_with_one_or_two_threads(tmp_path):
+    one = run_threads(tmp_path, 1, "one")
+    two = run_threads(tmp_path, 2, "two")
+    again = run_threads(tmp_path, 2, "again")
+    assert one.keys() == two.keys() == again.keys()
+    for name in one:
+        assert one[name] == two[name], f"{name}: 1 and 2 threads differ"
+        assert two[name] == again[name], f"{name}: a repeated run differs"
+
+
+def start_bar(out, end):
+    args = ["run", BAR, "--out", out, "--quiet", "--set", f"time.end={end}", "--set", "output.every=500"]
+    return subprocess.Popen([sys.executable, "-P", "-m", "pfmpm.cli", *map(str, args)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+def interrupt(proc, out, sig):
+    csv = out / "energies.csv"
+    deadline = time.time() + 60
+    while time.time() < deadline and (not csv.exists() or len(csv.read_text().splitlines()) < 50):
+        time.sleep(0.02)
+    proc.send_signal(sig)
+    return proc.communicate(timeout=60)
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
+def test_signal_leaves_a_checkpoint_that_resumes(tmp_path, sig):
+    out = tmp_path / "bar"
+    _, err = interrupt(start_bar(out, 1000), out, sig)
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "interrupted" and 0 < summary["steps"] < summary["steps_planned"], err
+    assert f"resume with: pfmpm run --resume {out}" in err and "Traceback" not in err
+    ckpt = checkpoint.find(out)
+    assert ckpt.step == summary["steps"] and Path(summary["checkpoint"]) == ckpt.path
+    if sig == signal.SIGTERM:
+        return
+    r = pfmpm("run", "--resume", out, "--quiet")
+    assert r.returncode == 0, r.stderr
+    full = tmp_path / "full"
+    r = pfmpm("run", BAR, "--out", full, "--quiet", "--set", "time.end=1000", "--set", "output.every=500")
+    assert r.returncode == 0, r.stderr
+    assert output_files(full) == output_files(out)
+
+
+def test_signal_exit_codes(tmp_path):
+    for sig, code in ((signal.SIGINT, 130), (signal.SIGTERM, 143)):
+        out = tmp_path / sig.name
+        proc = start_bar(out, 1e5)
+        interrupt(proc, out, sig)
+        assert proc.returncode == code
+
+
+@pytest.fixture(scope="module")
+def saved(tmp_path_factory):
+    """A run directory with two checkpoints of a short bar run."""
+    out = tmp_path_factory.mktemp("saved")
+    assert main(["run", str(BAR), "--out", str(out), "--quiet", "--set", "time.end=5",
+                 "--checkpoint-every", "50"]) == 0
+    return out
+
+
+def damaged(saved, tmp_path, how):
+    run = tmp_path / "run"
+    shutil.copytree(saved, run)
+    path = checkpoint.list_checkpoints(run / "checkpoints")[-1]
+    if how == "truncated":
+        data = path.read_bytes()
+        path.write_bytes(data[: len(data) // 2])
+    elif how == "flipped":
+        with h5py.File(path, "r") as f:
+            offset = f["particles/v"].id.get_offset() + 100
+        with open(path, "r+b") as f:
+            f.seek(offset)
+            byte = f.read(1)
+            f.seek(offset)
+            f.write(bytes([byte[0] ^ 0x10]))
+    elif how == "foreign":
+        path.unlink()
+        with h5py.File(path, "w") as f:
+            f["x"] = np.zeros(3)
+    return run, path
+
+
+@pytest.mark.parametrize("how, reason", [
+    ("truncated", "cannot be read"),
+    ("flipped", "checksum mismatch, the file is corrupt"),
+    ("foreign", "not a pfmpm checkpoint"),
+])
+def test_damaged_checkpoint_is_refused(saved, tmp_path, capsys, how, reason):
+    run, path = damaged(saved, tmp_path, how)
+    for target in (path, run):
+        assert main(["run", "--resume", str(target), "--quiet"]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and str(path) in err[0] and reason in err[0], err
+    # Given the run directory, the error names the older checkpoint to use instead.
+    assert f"older: {run / 'checkpoints' / 'step_000000050.h5'}" in err[0]
+
+
+def test_resume_needs_a_scene_or_a_checkpoint_not_both(saved, tmp_path, capsys):
+    assert main(["run", str(BAR), "--resume", str(saved)]) == 2
+    assert main(["run", "--resume", str(saved), "--set", "time.end=9"]) == 2
+    assert main(["run", "--resume", str(tmp_path)]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert "not both" in err[0] and "--set" in err[1] and "no checkpoints" in err[2]
+
+
+def test_keep_prunes_old_checkpoints(tmp_path):
+    scene = Scene.from_toml(BAR, ["time.end=5", "output.particles=false"])
+    Simulation(scene).run(tmp_path, progress=False, checkpoint_every=10, keep=2)
+    steps = [checkpoint.read(p).step for p in checkpoint.list_checkpoints(tmp_path / "checkpoints")]
+    assert steps == [scene.steps() // 10 * 10 - 10, scene.steps() // 10 * 10]
+    assert not list((tmp_path / "checkpoints").glob(".*tmp"))
+
+
+def test_planted_nan_stops_the_run_at_its_step(tmp_path, capsys):
+    scene = Scene.from_toml(BORDEN, COARSE + ["time.end=5"])
+    sim = Simulation(scene)
+    sim.advance(7)
+    sim.particles.fext[1234] = (np.nan, 0.0)  # the force is in no energy: only the step sees it
+    result = sim.run(tmp_path, progress=False, checkpoint_every=5)
+    assert result.status == "failed"
+    assert "velocity of particle" in result.error and "during the step after step 7 (t = 0.895" in result.error
+    # The state as it was is kept for inspection, and never resumed from.
+    failed = checkpoint.read(Path(result.checkpoint))
+    assert failed.status == "failed" and failed.step == 7 and failed.error == result.error
+    assert Path(result.checkpoint).name == "failed_step_000000007.h5"
+    with pytest.raises(checkpoint.CheckpointError, match="the state of a failed run"):
+        checkpoint.find(failed.path)
+    # Outputs are flushed: the row at step 7 and the summary are there.
+    assert read_csv(tmp_path / "energies.csv")["step"][-1] == 7
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["status"] == "failed" and summary["error"] == result.error
+
+
+@pytest.mark.parametrize("quantity, plant", [
+    ("velocity", lambda p: p.v.__setitem__((3, 1), np.inf)),
+    ("stress", lambda p: p.strain.__setitem__((3, 0), np.nan)),
+])
+def test_non_finite_quantity_is_named(quantity, plant):
+    sim = Simulation(Scene.from_toml(BAR, ["time.end=1"]))
+    sim.advance(2)
+    plant(sim.particles)
+    with pytest.raises(RuntimeError, match=rf"^{quantity} of particle \d+ .* during the step after step 2 "):
+        sim.advance(3)
+
+
+def test_unstable_step_is_reported():
+    scene = Scene.from_toml(BAR, ["time.end=1", "walls=[]"])
+    sim = Simulation(scene)
+    m = scene.materials[0]
+    sim.advance(1)
+    # At cfl = 0.8, a speed of c on top of the wave speed c gives dt (c + |v|) = 1.6 kappa h.
+    sim.particles.v[:, 0] += wave_speed(m.E, m.nu, m.density, scene.plane)
+    with pytest.raises(RuntimeError, match=r"time step dt = .* became unstable: particle \d+ .*"
+                                           r"exceeds the stability limit .* lower time.cfl or time.dt"):
+        sim.advance(1)
+    # The demo itself stays below the limit to the end.
+    ok = Simulation(scene)
+    ok.advance(scene.steps())
+    assert ok.step == scene.steps()
+
+
+def test_light_nodes_are_counted(tmp_path):
+    scene = Scene.from_toml(BAR, ["time.end=0.2", "output.particles=false"])
+    sim = Simulation(scene)
+    sim.advance(1)
+    assert sim.solver.light_nodes == 0
+    # A lone particle below the bar (y = 2..4), 1e-8 h left of the cell edge
+    # x = 27: its weight at node column 26 is about 1e-16, and no other
+    # particle reaches nodes (26, 0) and (26, 1). Too light to divide by.
+    sim.particles.x[0] = (27.0 - 1e-8, 0.5)
+    result = sim.run(tmp_path, progress=False)
+    assert result.status == "completed" and result.light_nodes >= 1
+    assert json.loads((tmp_path / "summary.json").read_text())["light_nodes"] == result.light_nodes
