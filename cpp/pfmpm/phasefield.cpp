@@ -24,6 +24,29 @@ double curvature_energy(const Voigt& G, const double kappa[3])
   return sum;
 }
 
+/// The basis functions of a cell and their derivatives at a particle
+/// (eqs. 53-55); the second derivatives only for the fourth-order term.
+template <int P, bool Fourth>
+struct Basis
+{
+  double Nx[P + 1], dNx[P + 1], Ny[P + 1], dNy[P + 1];
+  double d2Nx[Fourth ? P + 1 : 1], d2Ny[Fourth ? P + 1 : 1];
+
+  Basis(const BSpline1D& bx, const BSpline1D& by, int cx, int cy, const double* xp)
+  {
+    if constexpr (Fourth)
+    {
+      bx.evaluate<P>(cx, xp[0], Nx, dNx, d2Nx);
+      by.evaluate<P>(cy, xp[1], Ny, dNy, d2Ny);
+    }
+    else
+    {
+      bx.evaluate<P>(cx, xp[0], Nx, dNx);
+      by.evaluate<P>(cy, xp[1], Ny, dNy);
+    }
+  }
+};
+
 /// A material's gamma in the global frame (Fracture::rotated), recomputed only
 /// when the material or the orientation differs from the last call's.
 class RotatedGamma
@@ -212,18 +235,8 @@ void PhaseField::assemble(const Particles& particles, const std::vector<std::int
       if (!fr)
         continue;
       touched = true;
-      double Nx[P + 1], dNx[P + 1], Ny[P + 1], dNy[P + 1];
-      [[maybe_unused]] double d2Nx[P + 1], d2Ny[P + 1];
-      if constexpr (Fourth)
-      {
-        bx.evaluate<P>(cx, x[2 * p], Nx, dNx, d2Nx);
-        by.evaluate<P>(cy, x[2 * p + 1], Ny, dNy, d2Ny);
-      }
-      else
-      {
-        bx.evaluate<P>(cx, x[2 * p], Nx, dNx);
-        by.evaluate<P>(cy, x[2 * p + 1], Ny, dNy);
-      }
+      const Basis<P, Fourth> at(bx, by, cx, cy, &x[2 * p]);
+      const auto &Nx = at.Nx, &dNx = at.dNx, &Ny = at.Ny, &dNy = at.dNy;
       const double V = volume[p];
       // eq. 49: F_p = 4 l0 (1 - k_f) H / G_c + 1
       const double a = (4.0 * fr->l0 * (1.0 - fr->k_f) * history[p] / fr->Gc + 1.0) * V;
@@ -244,8 +257,8 @@ void PhaseField::assemble(const Particles& particles, const std::vector<std::int
         for (int i = 0; i < P + 1; ++i)
           for (int j = 0; j < P + 1; ++j)
           {
-            kxx[i * (P + 1) + j] = d2Nx[i] * Ny[j];
-            kyy[i * (P + 1) + j] = Nx[i] * d2Ny[j];
+            kxx[i * (P + 1) + j] = at.d2Nx[i] * Ny[j];
+            kyy[i * (P + 1) + j] = Nx[i] * at.d2Ny[j];
             kxy[i * (P + 1) + j] = dNx[i] * dNy[j];
           }
         const double e = 4.0 * fr->l0 * fr->l0 * fr->l0 * fr->l0 * V;
@@ -423,18 +436,8 @@ void PhaseField::map_to_particles(Particles& particles, const std::vector<std::i
           _fracture_energy[p] = 0.0;
           continue;
         }
-        double Nx[P + 1], dNx[P + 1], Ny[P + 1], dNy[P + 1];
-        [[maybe_unused]] double d2Nx[P + 1], d2Ny[P + 1];
-        if constexpr (Fourth)
-        {
-          bx.evaluate<P>(cx, x[2 * p], Nx, dNx, d2Nx);
-          by.evaluate<P>(cy, x[2 * p + 1], Ny, dNy, d2Ny);
-        }
-        else
-        {
-          bx.evaluate<P>(cx, x[2 * p], Nx, dNx);
-          by.evaluate<P>(cy, x[2 * p + 1], Ny, dNy);
-        }
+        const Basis<P, Fourth> at(bx, by, cx, cy, &x[2 * p]);
+        const auto &Nx = at.Nx, &dNx = at.dNx, &Ny = at.Ny, &dNy = at.dNy;
         double cp = 0.0, gx = 0.0, gy = 0.0;
         [[maybe_unused]] double kappa[3] = {0.0, 0.0, 0.0};
         for (int a = 0; a <= P; ++a)
@@ -446,8 +449,8 @@ void PhaseField::map_to_particles(Particles& particles, const std::vector<std::i
             gy += Nx[a] * dNy[b] * ci;
             if constexpr (Fourth)
             {
-              kappa[0] += d2Nx[a] * Ny[b] * ci; // eq. 55, per component
-              kappa[1] += Nx[a] * d2Ny[b] * ci;
+              kappa[0] += at.d2Nx[a] * Ny[b] * ci; // eq. 55, per component
+              kappa[1] += Nx[a] * at.d2Ny[b] * ci;
               kappa[2] += dNx[a] * dNy[b] * ci;
             }
           }
