@@ -182,17 +182,17 @@ def parse_gamma(text: str) -> np.ndarray:
     ValueError
         Naming the malformed row or entry.
     """
-    rows = [r for r in text.split(";")]
+    rows = text.split(";")
     if len(rows) != 3:
-        raise ValueError(f"--gamma: expected 3 rows separated by ';', got {len(rows)} in {text!r}")
+        raise ValueError(f"expected 3 rows separated by ';', got {len(rows)}")
     out = np.zeros((3, 3))
     for i, row in enumerate(rows):
         entries = row.split(",")
         if len(entries) != 3:
-            raise ValueError(f"--gamma: row {i + 1} needs 3 comma-separated numbers, got {row!r}")
+            raise ValueError(f"row {i + 1} needs 3 comma-separated numbers, got {row!r}")
         for j, e in enumerate(entries):
             try:
                 out[i, j] = float(e)
             except ValueError:
-                raise ValueError(f"--gamma: entry ({i + 1},{j + 1}) = {e.strip()!r} is not a number") from None
+                raise ValueError(f"entry ({i + 1},{j + 1}) = {e.strip()!r} is not a number") from None
     return out

@@ -129,8 +129,7 @@ def _polar(args: argparse.Namespace) -> int:
     try:
         gamma = anisotropy.check_gamma(anisotropy.parse_gamma(args.gamma))
     except ValueError as err:
-        message = str(err) if str(err).startswith("--gamma") else f"--gamma {args.gamma!r}: {err}"
-        print(f"error: {message}", file=sys.stderr)
+        print(f"error: --gamma {args.gamma!r}: {err}", file=sys.stderr)
         return 2
     if not args.gc_bar > 0:
         print(f"error: --gc-bar {args.gc_bar:g}: must be > 0", file=sys.stderr)

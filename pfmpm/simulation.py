@@ -61,7 +61,6 @@ class Simulation:
             split = _core.Split.__members__[f.split if f else "none"]
             materials.append(_core.LinearElastic(m.E, m.nu, m.density, plane, split))
             fracture.append(_core.Fracture(f.Gc, f.l0, f.k_f, f.gamma().tolist()) if f else None)
-        self._fracture = fracture
         self.cracks = any(fracture)
         self._crackable = np.zeros(len(self.particles), dtype=bool)
         for b, body in enumerate(scene.bodies):
@@ -160,7 +159,7 @@ class Simulation:
             active.append("external_loads")
         if self.cracks:
             active.append("phase_field")
-        if any(f is not None and f.fourth_order for f in self._fracture):
+        if self.cracks and self.solver.phase_field_stats()["fourth_order"]:
             active.append("fourth_order_phase_field")
         if self.scene.cracks:
             active.append("initial_cracks")

@@ -4,6 +4,9 @@ surface energy against the paper's values and a numerical minimisation, the
 errors."""
 
 import math
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -265,10 +268,6 @@ def test_fem_path_refuses_the_fourth_order_term():
 
 
 def test_run_reports_an_unconverged_initial_solve_without_a_traceback(tmp_path):
-    import subprocess
-    import sys
-    from pathlib import Path
-
     scene = Path(__file__).resolve().parents[1] / "demos" / "borden_cubic.toml"
     r = subprocess.run([sys.executable, "-P", "-m", "pfmpm.cli", "run", str(scene), "--out", str(tmp_path),
                         "--set", "grid.h=1.0", "--set", "materials.concrete.fracture.l0=2.0",

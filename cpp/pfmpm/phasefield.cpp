@@ -6,6 +6,7 @@
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 
 namespace pfmpm
 {
@@ -161,18 +162,18 @@ bool PhaseField::solve(Particles& particles, const std::vector<std::int32_t>& or
                        const std::vector<std::int64_t>& cell_start,
                        const std::vector<LinearElastic>& materials)
 {
-  if constexpr (P >= 2)
+  auto run = [&](auto fourth)
+  {
+    constexpr bool Fourth = decltype(fourth)::value;
+    assemble<P, Fourth>(particles, order, cell_start);
+    const bool converged = conjugate_gradient<P>();
+    map_to_particles<P, Fourth>(particles, order, cell_start, materials);
+    return converged;
+  };
+  if constexpr (P >= 2) // degree 1 with gamma != 0 is refused by the constructor
     if (_fourth)
-    {
-      assemble<P, true>(particles, order, cell_start);
-      const bool converged = conjugate_gradient<P>();
-      map_to_particles<P, true>(particles, order, cell_start, materials);
-      return converged;
-    }
-  assemble<P, false>(particles, order, cell_start);
-  const bool converged = conjugate_gradient<P>();
-  map_to_particles<P, false>(particles, order, cell_start, materials);
-  return converged;
+      return run(std::true_type{});
+  return run(std::false_type{});
 }
 
 template <int P, bool Fourth>
@@ -458,9 +459,8 @@ void PhaseField::map_to_particles(Particles& particles, const std::vector<std::i
         // G_c V Z with Z of eq. 4.
         const double one_minus = 1.0 - cp;
         double Z = one_minus * one_minus / (4.0 * fr->l0) + fr->l0 * (gx * gx + gy * gy);
-        if constexpr (Fourth)
-          if (fr->fourth_order())
-            Z += fr->l0 * fr->l0 * fr->l0 * curvature_energy(rotated(*fr, phi[p]), kappa);
+        if constexpr (Fourth) // zero for a material with gamma = 0
+          Z += fr->l0 * fr->l0 * fr->l0 * curvature_energy(rotated(*fr, phi[p]), kappa);
         _fracture_energy[p] = fr->Gc * volume[p] * Z;
         double plus, minus; // eqs. 14-16 with the new phase field
         materials[material[p]].degraded(&strain[3 * p], fr->degradation(cp), &stress[4 * p],
