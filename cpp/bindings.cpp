@@ -16,7 +16,10 @@
 #include <pybind11/stl.h>
 
 #include <array>
+#include <memory>
 #include <optional>
+#include <string>
+#include <utility>
 
 namespace py = pybind11;
 using namespace pfmpm;
@@ -47,12 +50,13 @@ void def_view(py::class_<Particles>& cls, const char* name, std::vector<T> Parti
 
 using Strains = py::array_t<double, py::array::c_style | py::array::forcecast>;
 
-/// A numpy array owning a copy of `data`.
-py::array_t<double> copy_of(const std::vector<double>& data)
+/// A 1D numpy array that takes `data` over (no copy); it frees it when collected.
+py::array_t<double> array_of(std::vector<double>&& data)
 {
-  py::array_t<double> out(static_cast<py::ssize_t>(data.size()));
-  std::copy(data.begin(), data.end(), out.mutable_data());
-  return out;
+  auto owned = std::make_unique<std::vector<double>>(std::move(data));
+  py::capsule owner(owned.get(), [](void* p) { delete static_cast<std::vector<double>*>(p); });
+  const std::vector<double>* v = owned.release();
+  return py::array_t<double>(static_cast<py::ssize_t>(v->size()), v->data(), owner);
 }
 
 /// A 1D float64 array as a vector (one copy, into the solver's storage).
@@ -85,6 +89,56 @@ PhaseFieldStats stats_of(const py::dict& d)
   st.start_residual = d["start_residual"].cast<double>();
   st.last_residual = d["last_residual"].cast<double>();
   st.unknowns = d["unknowns"].cast<std::int32_t>();
+  return st;
+}
+
+/// One phase field's state as a dict: nodal arrays `c`, `c_previous`, the
+/// per-particle `fracture_energy` (taken over, no copies) and `stats`.
+py::dict phase_field_dict(PhaseFieldState&& st)
+{
+  py::dict d;
+  d["c"] = array_of(std::move(st.c));
+  d["c_previous"] = array_of(std::move(st.c_previous));
+  d["fracture_energy"] = array_of(std::move(st.fracture_energy));
+  d["stats"] = stats_dict(st.stats);
+  return d;
+}
+
+/// The inverse of phase_field_dict (one copy of each array, into the solver's storage).
+PhaseFieldState phase_field_of(const py::dict& d)
+{
+  return PhaseFieldState{vector_of(d, "c"), vector_of(d, "c_previous"),
+                         vector_of(d, "fracture_energy"),
+                         stats_of(d["stats"].cast<py::dict>())};
+}
+
+/// The contact record as a dict (the keys of Solver.contact_stats()).
+py::dict contact_dict(const ContactStats& st)
+{
+  py::dict d;
+  d["nodes"] = st.nodes;
+  d["pairs"] = st.pairs;
+  d["active"] = st.active;
+  d["sliding"] = st.sliding;
+  d["C1"] = st.violations[0];
+  d["C2"] = st.violations[1];
+  d["C3"] = st.violations[2];
+  d["C4"] = st.violations[3];
+  d["friction_work"] = st.friction_work;
+  return d;
+}
+
+/// The inverse of contact_dict.
+ContactStats contact_of(const py::dict& d)
+{
+  ContactStats st;
+  st.nodes = d["nodes"].cast<std::int32_t>();
+  st.pairs = d["pairs"].cast<std::int64_t>();
+  st.active = d["active"].cast<std::int64_t>();
+  st.sliding = d["sliding"].cast<std::int64_t>();
+  for (int c = 0; c < 4; ++c)
+    st.violations[c] = d[("C" + std::to_string(c + 1)).c_str()].cast<std::int64_t>();
+  st.friction_work = d["friction_work"].cast<double>();
   return st;
 }
 
@@ -266,19 +320,33 @@ PYBIND11_MODULE(_core, m)
           "state",
           [](const Solver& s)
           {
-            const SolverState st = s.state();
+            SolverState st = s.state();
             py::dict d;
             d["time"] = st.time;
             d["step"] = st.step;
             d["external_work"] = st.external_work;
             d["light_nodes"] = st.light_nodes;
-            d["phase_field_c"] = copy_of(st.phase_field.c);
-            d["phase_field_c_previous"] = copy_of(st.phase_field.c_previous);
-            d["fracture_energy"] = copy_of(st.phase_field.fracture_energy);
+            d["phase_field_c"] = array_of(std::move(st.phase_field.c));
+            d["phase_field_c_previous"] = array_of(std::move(st.phase_field.c_previous));
+            d["fracture_energy"] = array_of(std::move(st.phase_field.fracture_energy));
             d["phase_field_stats"] = stats_dict(st.phase_field.stats);
+            py::object fields = py::none();
+            if (st.fields)
+            {
+              py::list phase_fields;
+              for (PhaseFieldState& pf : st.fields->phase_fields)
+                phase_fields.append(phase_field_dict(std::move(pf)));
+              py::dict f;
+              f["phase_fields"] = phase_fields;
+              f["contact"] = contact_dict(st.fields->stats);
+              fields = f;
+            }
+            d["fields"] = fields;
             return d;
           },
-          "the state besides the particles, for a checkpoint (a dict of copies)")
+          "the state besides the particles, for a checkpoint (a dict owning one copy); "
+          "`fields`: None, or with discrete fields `phase_fields` (per crackable body: dicts of "
+          "`c`, `c_previous`, `fracture_energy`, `stats`) and `contact` (as contact_stats())")
       .def(
           "restore",
           [](Solver& s, const py::dict& d)
@@ -292,6 +360,14 @@ PYBIND11_MODULE(_core, m)
             st.phase_field.c_previous = vector_of(d, "phase_field_c_previous");
             st.phase_field.fracture_energy = vector_of(d, "fracture_energy");
             st.phase_field.stats = stats_of(d["phase_field_stats"].cast<py::dict>());
+            if (const py::object fields = d["fields"]; !fields.is_none())
+            {
+              DiscreteFieldsState f;
+              for (const py::handle pf : fields["phase_fields"])
+                f.phase_fields.push_back(phase_field_of(pf.cast<py::dict>()));
+              f.stats = contact_of(fields["contact"].cast<py::dict>());
+              st.fields = std::move(f);
+            }
             s.restore(std::move(st));
           },
           py::arg("state"), "continue from a state() dict; restore the particle arrays beside it")
@@ -321,18 +397,7 @@ PYBIND11_MODULE(_core, m)
             const DiscreteFields* f = s.fields();
             if (!f)
               return py::none();
-            const ContactStats& st = f->stats();
-            py::dict d;
-            d["nodes"] = st.nodes;
-            d["pairs"] = st.pairs;
-            d["active"] = st.active;
-            d["sliding"] = st.sliding;
-            d["C1"] = st.violations[0];
-            d["C2"] = st.violations[1];
-            d["C3"] = st.violations[2];
-            d["C4"] = st.violations[3];
-            d["friction_work"] = st.friction_work;
-            return d;
+            return contact_dict(f->stats());
           },
           "contact record (None with one field): contact nodes in the last step, node-pairs "
           "examined, active (eq. 77) and sliding (eq. 75) ones, violations of C.1-C.4, work of "

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 namespace pfmpm
 {
@@ -541,6 +542,28 @@ PhaseFieldStats DiscreteFields::phase_field_stats() const
     total.unknowns += s.unknowns;
   }
   return total;
+}
+
+DiscreteFieldsState DiscreteFields::state() const
+{
+  DiscreteFieldsState out{{}, _stats};
+  out.phase_fields.reserve(_phase.size());
+  for (const PhaseField& pf : _phase)
+    out.phase_fields.push_back(pf.state());
+  return out;
+}
+
+void DiscreteFields::restore(DiscreteFieldsState state)
+{
+  if (state.phase_fields.size() != _phase.size())
+    throw std::invalid_argument("discrete fields state: "
+                                + std::to_string(state.phase_fields.size()) + " phase fields for "
+                                + std::to_string(_phase.size()) + " crackable fields");
+  for (std::size_t q = 0; q < _phase.size(); ++q)
+    _phase[q].check(state.phase_fields[q]);
+  for (std::size_t q = 0; q < _phase.size(); ++q)
+    _phase[q].restore(std::move(state.phase_fields[q]));
+  _stats = state.stats;
 }
 
 #define PFMPM_INSTANTIATE(P)                                                                    \

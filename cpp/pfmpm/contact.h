@@ -32,6 +32,16 @@ struct ContactStats
   double friction_work = 0.0; ///< work of the tangential (friction) contact forces since t = 0 (<= 0)
 };
 
+/// @brief What discrete fields carry from one step to the next: each
+/// crackable field's phase-field state (its CG warm start, statistics and
+/// per-particle fracture energy) and the contact record. The contact nodes,
+/// their per-field sums and the per-field particle order are rebuilt every step.
+struct DiscreteFieldsState
+{
+  std::vector<PhaseFieldState> phase_fields; ///< per crackable field, in field order
+  ContactStats stats;
+};
+
 /// @brief Every body its own discrete field on the shared grid (eq. 28),
 /// coupled only by frictional contact at the nodes two fields share.
 ///
@@ -110,6 +120,13 @@ public:
   /// Phase-field statistics summed over the fields' solves.
   PhaseFieldStats phase_field_stats() const;
   const ContactStats& stats() const { return _stats; }
+
+  /// @brief A copy of the state carried between steps, for a checkpoint.
+  DiscreteFieldsState state() const;
+  /// @brief Replace the state carried between steps by `state`.
+  /// @throws std::invalid_argument, with nothing replaced, if it does not
+  ///         hold one phase field per crackable field, each fitting the grid.
+  void restore(DiscreteFieldsState state);
 
 private:
   /// Per-field sums at one contact node.

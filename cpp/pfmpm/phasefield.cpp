@@ -145,12 +145,17 @@ PhaseFieldState PhaseField::state() const
   return PhaseFieldState{_c, _c_previous, _fracture_energy, _stats};
 }
 
-void PhaseField::restore(PhaseFieldState state)
+void PhaseField::check(const PhaseFieldState& state) const
 {
   if (state.c.size() != _c.size() || state.c_previous.size() != _c.size())
     throw std::invalid_argument("phase field state: " + std::to_string(state.c.size()) + " and "
                                 + std::to_string(state.c_previous.size())
                                 + " nodal values for a grid of " + std::to_string(_c.size()));
+}
+
+void PhaseField::restore(PhaseFieldState state)
+{
+  check(state);
   _c = std::move(state.c);
   _c_previous = std::move(state.c_previous);
   _fracture_energy = std::move(state.fracture_energy);

@@ -119,6 +119,9 @@ public:
   /// @brief Replace the state carried between solves by `state`.
   /// @throws std::invalid_argument if its nodal arrays do not fit this grid.
   void restore(PhaseFieldState state);
+  /// @brief Check that `state` could be restored.
+  /// @throws std::invalid_argument if its nodal arrays do not fit this grid.
+  void check(const PhaseFieldState& state) const;
   double tol() const { return _tol; }
   int max_iterations() const { return _max_iterations; }
 

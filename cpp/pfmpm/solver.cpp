@@ -94,23 +94,34 @@ void Solver::set_stability_length(double length)
 SolverState Solver::state() const
 {
   if (_fields)
-    throw std::invalid_argument("solver state: multi-body contact runs cannot be saved yet"
-                                " (per-field phase fields and contact statistics)");
-  return SolverState{_time, _step, _external_work, _light_nodes, _phase_field.state()};
+    return SolverState{_time, _step, _external_work, _light_nodes, {}, _fields->state()};
+  return SolverState{_time, _step, _external_work, _light_nodes, _phase_field.state(), {}};
 }
 
 void Solver::restore(SolverState state)
 {
-  if (_fields)
-    throw std::invalid_argument("solver state: multi-body contact runs cannot be restored yet");
-  const std::size_t n = state.phase_field.fracture_energy.size();
-  if (n != 0 && n != _particles.size())
-    throw std::invalid_argument("solver state: fracture energy of " + std::to_string(n)
-                                + " particles for " + std::to_string(_particles.size()));
+  if (state.fields.has_value() != static_cast<bool>(_fields))
+    throw std::invalid_argument(std::string("solver state: ") + (_fields ? "without" : "with")
+                                + " discrete fields, for a solver " + (_fields ? "with" : "without")
+                                + " them (a scene with another [contact] table or bodies)");
+  auto check_particles = [this](const PhaseFieldState& pf)
+  {
+    const std::size_t n = pf.fracture_energy.size();
+    if (n != 0 && n != _particles.size())
+      throw std::invalid_argument("solver state: fracture energy of " + std::to_string(n)
+                                  + " particles for " + std::to_string(_particles.size()));
+  };
+  check_particles(state.phase_field);
+  if (state.fields)
+    for (const PhaseFieldState& pf : state.fields->phase_fields)
+      check_particles(pf);
   if (!(state.time >= 0.0) || !std::isfinite(state.time) || state.step < 0)
     throw std::invalid_argument("solver state: step " + std::to_string(state.step) + " at t = "
                                 + std::to_string(state.time));
-  _phase_field.restore(std::move(state.phase_field));
+  if (_fields)
+    _fields->restore(std::move(*state.fields));
+  else
+    _phase_field.restore(std::move(state.phase_field));
   _time = state.time;
   _step = state.step;
   _external_work = state.external_work;

@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -48,7 +49,11 @@ struct SolverState
   std::int64_t step = 0;
   double external_work = 0.0;    ///< work of the external forces since t = 0
   std::int64_t light_nodes = 0;  ///< see Solver::light_nodes
-  PhaseFieldState phase_field;   ///< empty nodal arrays when nothing can crack
+  /// The single field's phase field; empty nodal arrays when nothing can
+  /// crack or with discrete fields (which have their own, in `fields`).
+  PhaseFieldState phase_field;
+  /// With discrete fields: their phase fields and contact record; else none.
+  std::optional<DiscreteFieldsState> fields;
 };
 
 /// @brief Explicit update-stress-last MPM in the momentum formulation, with
@@ -123,11 +128,14 @@ public:
   std::int64_t light_nodes() const { return _light_nodes; }
 
   /// @brief A copy of the state besides the particles (time, step, external
-  /// work, counters, phase-field warm start), for a checkpoint.
+  /// work, counters, phase-field warm start; with discrete fields, each
+  /// field's phase field and the contact record), for a checkpoint.
   SolverState state() const;
   /// @brief Continue from `state`, saved by state() of a solver built on the
   /// same scene, with the particle arrays restored beside it.
-  /// @throws std::invalid_argument if it does not fit this grid or particle count.
+  /// @throws std::invalid_argument if it does not fit this grid, particle
+  ///         count or fields (a state with discrete fields for a solver
+  ///         without, or the other way round).
   void restore(SolverState state);
 
   /// @brief Energies and momentum of the current particle state.

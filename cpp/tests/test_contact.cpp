@@ -2,6 +2,7 @@
 // to round-off through a collision, the checks C.1-C.4 hold at every contact
 // node, results do not depend on the thread count, and bodies that never
 // meet run with the same bits as one field.
+#include "disks.h"
 #include "pfmpm/contact.h"
 #include "pfmpm/grid.h"
 #include "pfmpm/material.h"
@@ -16,51 +17,10 @@
 #include <vector>
 
 using namespace pfmpm;
+using namespace pfmpm::test;
 
 namespace
 {
-struct Disk
-{
-  double cx, cy, r, vx, vy;
-};
-
-/// Disks of particles on a lattice of spacing d, body i for disk i.
-Particles make_disks(const std::vector<Disk>& disks, double d)
-{
-  std::vector<double> xs, ys, vx, vy;
-  std::vector<std::int32_t> body;
-  for (std::size_t b = 0; b < disks.size(); ++b)
-  {
-    const Disk& k = disks[b];
-    const int n = static_cast<int>(std::ceil(2 * k.r / d));
-    for (int i = 0; i < n; ++i)
-      for (int j = 0; j < n; ++j)
-      {
-        const double x = -k.r + (i + 0.5) * d, y = -k.r + (j + 0.5) * d;
-        if (x * x + y * y < k.r * k.r)
-        {
-          xs.push_back(k.cx + x);
-          ys.push_back(k.cy + y);
-          vx.push_back(k.vx);
-          vy.push_back(k.vy);
-          body.push_back(static_cast<std::int32_t>(b));
-        }
-      }
-  }
-  Particles P(xs.size());
-  for (std::size_t i = 0; i < xs.size(); ++i)
-  {
-    P.x[2 * i] = xs[i];
-    P.x[2 * i + 1] = ys[i];
-    P.v[2 * i] = vx[i];
-    P.v[2 * i + 1] = vy[i];
-    P.volume[i] = d * d;
-    P.mass[i] = d * d;
-    P.body[i] = body[i];
-  }
-  return P;
-}
-
 /// Sum of M_p |v_p|: the scale of the momentum error.
 double momentum_scale(const Particles& P)
 {

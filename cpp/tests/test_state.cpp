@@ -1,5 +1,7 @@
 // The solver state: restored into a fresh solver, it continues bitwise as the
-// original; the stability check stops a step that outruns the grid.
+// original, with one field or with discrete fields in contact; the stability
+// check stops a step that outruns the grid.
+#include "disks.h"
 #include "pfmpm/grid.h"
 #include "pfmpm/material.h"
 #include "pfmpm/particles.h"
@@ -11,6 +13,7 @@
 #include <cstring>
 
 using namespace pfmpm;
+using namespace pfmpm::test;
 
 namespace
 {
@@ -79,6 +82,87 @@ TEST(SolverState, StateOfAnotherGridIsRefused)
   Particles P = make_block(10), Q = make_block(10);
   Solver a(small, P, mat, 1e-3, fracture), b(large, Q, mat, 1e-3, fracture);
   EXPECT_THROW(b.restore(a.state()), std::invalid_argument);
+}
+
+TEST(SolverState, RestoredContactRunContinuesBitwise)
+{
+  // Disk 0 hits disk 1 obliquely; only disk 1 (material 1) can crack, from a
+  // notch of history across its middle. Each field keeps its own phase field.
+  const std::vector<LinearElastic> mat{LinearElastic(100.0, 0.3, 1.0, Plane::strain),
+                                       LinearElastic(100.0, 0.3, 1.0, Plane::strain)};
+  const std::vector<std::optional<Fracture>> fracture{std::nullopt, Fracture{0.5, 0.5, 0.0}};
+  const std::vector<double> friction{0.0, 0.3, 0.3, 0.0};
+  auto disks = []
+  {
+    Particles P = make_disks({{2.0, 2.0, 1.0, 0.5, 0.1}, {4.1, 2.6, 1.0, 0.0, 0.0}}, 0.125);
+    for (std::size_t p = 0; p < P.size(); ++p)
+      if (P.body[p] == 1)
+      {
+        P.material[p] = 1;
+        if (std::abs(P.x[2 * p + 1] - 2.6) < 0.1)
+          P.history[p] = 50.0;
+      }
+    return P;
+  };
+  Grid grid(2, {32, 24}, 0.25, {0.0, 0.0});
+  Particles P = disks();
+  Solver original(grid, P, mat, 2e-3, fracture, 1e-6, 1000, friction);
+  original.advance(100);
+  ASSERT_GT(original.fields()->stats().nodes, 0) << "the disks should be in contact";
+  ASSERT_GT(original.fields()->stats().active, 0);
+
+  // The particles and the solver state, in a solver that has solved nothing.
+  Grid grid2(2, {32, 24}, 0.25, {0.0, 0.0});
+  Particles Q = P;
+  Solver resumed(grid2, Q, mat, 2e-3, fracture, 1e-6, 1000, friction);
+  SolverState state = original.state();
+  ASSERT_TRUE(state.fields.has_value());
+  EXPECT_EQ(state.fields->phase_fields.size(), 1u);
+  EXPECT_TRUE(state.phase_field.c.empty());
+  resumed.restore(std::move(state));
+  EXPECT_EQ(resumed.energies().fracture_by_field, original.energies().fracture_by_field);
+  EXPECT_EQ(resumed.energies().friction_work, original.energies().friction_work);
+
+  original.advance(150);
+  resumed.advance(150);
+  EXPECT_TRUE(same_bits(P.x, Q.x));
+  EXPECT_TRUE(same_bits(P.v, Q.v));
+  EXPECT_TRUE(same_bits(P.c, Q.c));
+  EXPECT_TRUE(same_bits(P.stress, Q.stress));
+  const Energies a = original.energies(), b = resumed.energies();
+  EXPECT_LT(a.friction_work, 0.0);
+  EXPECT_GT(a.fracture_by_field[1], 0.0);
+  EXPECT_EQ(a.fracture_by_field, b.fracture_by_field);
+  EXPECT_EQ(a.friction_work, b.friction_work);
+  EXPECT_EQ(a.external_work, b.external_work);
+  const ContactStats &s = original.fields()->stats(), &t = resumed.fields()->stats();
+  EXPECT_EQ(s.nodes, t.nodes);
+  EXPECT_EQ(s.pairs, t.pairs);
+  EXPECT_EQ(s.active, t.active);
+  EXPECT_EQ(s.sliding, t.sliding);
+  EXPECT_EQ(s.violations, t.violations);
+  EXPECT_EQ(s.friction_work, t.friction_work);
+  const PhaseFieldStats p = original.phase_field_stats(), q = resumed.phase_field_stats();
+  EXPECT_EQ(p.solves, q.solves);
+  EXPECT_EQ(p.iterations, q.iterations);
+  EXPECT_EQ(original.time(), resumed.time());
+}
+
+TEST(SolverState, StateWithOtherFieldsIsRefused)
+{
+  const std::vector<LinearElastic> mat{LinearElastic(100.0, 0.3, 1.0, Plane::strain)};
+  const std::vector<std::optional<Fracture>> fracture{Fracture{0.5, 0.5, 0.0}};
+  Grid grid(2, {32, 24}, 0.25, {0.0, 0.0});
+  Particles P = make_disks({{2.0, 2.0, 1.0, 0.0, 0.0}, {5.0, 2.0, 1.0, 0.0, 0.0}}, 0.25);
+  Particles Q = P;
+  Solver one(grid, P, mat, 1e-3, fracture);
+  Solver two(grid, Q, mat, 1e-3, fracture, 1e-6, 1000, {0.0, 0.3, 0.3, 0.0});
+  EXPECT_THROW(one.restore(two.state()), std::invalid_argument);
+  EXPECT_THROW(two.restore(one.state()), std::invalid_argument);
+  // Both disks crack: two phase fields, not one.
+  SolverState short_one = two.state();
+  short_one.fields->phase_fields.pop_back();
+  EXPECT_THROW(two.restore(std::move(short_one)), std::invalid_argument);
 }
 
 TEST(SolverState, StepOutrunningTheGridIsUnstable)
