@@ -8,14 +8,19 @@ as an uninterrupted one:
   ``volume``, ``strain``, ``stress``, ``fext``, ``body``, ``material``, ``c``,
   ``history``, ``phi``);
 - ``/solver``: the phase-field warm start (the nodal solutions of the last
-  two solves) and the per-particle fracture energy;
+  two solves) and the per-particle fracture energy; with multi-body contact,
+  where each crackable body has its own phase field, these per crackable body
+  ``k`` (in body order) under ``/solver/fields/<k>/`` (``c``, ``c_previous``,
+  ``fracture_energy``);
 - ``/output``: ``energies.csv`` so far (its bytes), the crack-tip records
   behind the smoothed tip speed, and the phase-field images taken so far with
   the times still due.
 
 The root attributes are ``format``, ``version``, ``sha256`` and ``meta``, a
 JSON object with the scene, the step and time, the rest of the solver state
-(external work, light-node count, CG statistics), the particle snapshots
+(external work, light-node count, CG statistics; with contact, each body's CG
+statistics and the contact record: contact nodes, node-pairs, violations of
+C.1-C.4 and the friction work so far), the particle snapshots
 listed in ``particles.pvd``, the checkpoint cadence and a status (``"ok"``, or
 ``"failed"`` for the state left by a run that stopped on an error, kept for
 inspection and never resumed from). The SHA-256 checksum covers ``meta`` and
@@ -36,13 +41,14 @@ from pathlib import Path
 import numpy as np
 
 FORMAT = "pfmpm-checkpoint"
-VERSION = 1
+VERSION = 2
 DIRECTORY = "checkpoints"
 """Subdirectory of a run's output directory that holds its checkpoints."""
 
 PARTICLE_ARRAYS = ("x", "v", "mass", "volume", "strain", "stress", "fext", "body", "material",
                    "c", "history", "phi")
 _SOLVER_ARRAYS = ("phase_field_c", "phase_field_c_previous", "fracture_energy")
+_FIELD_ARRAYS = ("c", "c_previous", "fracture_energy")
 _SOLVER_SCALARS = ("time", "step", "external_work", "light_nodes")
 
 
@@ -127,9 +133,15 @@ def _state_of(sim, run) -> tuple[dict, dict[str, np.ndarray]]:
     """Split the state of ``sim`` and its output ``run`` into scalar attributes and arrays."""
     state = sim.solver.state()
     stats = state.pop("phase_field_stats")
+    fields = state.pop("fields")
     arrays = {f"particles/{name}": np.asarray(getattr(sim.particles, name)) for name in PARTICLE_ARRAYS}
     arrays.update({f"solver/{name}": state.pop(name) for name in _SOLVER_ARRAYS})
-    attrs = {"solver": {**state, "phase_field_stats": stats}}
+    if fields is not None:
+        for k, pf in enumerate(fields["phase_fields"]):
+            arrays.update({f"solver/fields/{k}/{name}": pf[name] for name in _FIELD_ARRAYS})
+        fields = {"contact": fields["contact"],
+                  "phase_field_stats": [pf["stats"] for pf in fields["phase_fields"]]}
+    attrs = {"solver": {**state, "phase_field_stats": stats, "fields": fields}}
     arrays["output/energies_csv"] = np.frombuffer(run.energies_csv(), dtype=np.uint8)
     attrs["series"] = [[t, name] for t, name in run.series_entries()]
     tip = sim.crack_tip.records() if sim.crack_tip is not None else []
@@ -233,6 +245,10 @@ def read(path: Path | str) -> Checkpoint:
         raise CheckpointError(f"checkpoint {path}: checksum mismatch, the file is corrupt")
     solver = dict(meta["solver"])
     solver.update({name: arrays[f"solver/{name}"] for name in _SOLVER_ARRAYS})
+    if (fields := solver["fields"]) is not None:
+        solver["fields"] = {"contact": fields["contact"], "phase_fields": [
+            {"stats": stats, **{f: arrays[f"solver/fields/{k}/{f}"] for f in _FIELD_ARRAYS}}
+            for k, stats in enumerate(fields["phase_field_stats"])]}
     images = [(t, arrays[f"output/snapshot_{k}"]) for k, t in enumerate(meta["snapshot_image_times"])]
     return Checkpoint(
         path=path, scene=meta["scene"], step=meta["step"], time=meta["time"], status=meta["status"],

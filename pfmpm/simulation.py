@@ -205,10 +205,6 @@ class Simulation:
 
         if checkpoint_every < 0 or keep < 1:
             raise ValueError(f"checkpoint_every = {checkpoint_every}, keep = {keep}: need >= 0 and >= 1")
-        if self.contact and (checkpoint_every or resume is not None):
-            raise checkpoint.CheckpointError(
-                "checkpoints of multi-body contact runs are not supported yet (the per-body phase"
-                " fields and contact statistics are not saved): run without --checkpoint-every")
         out = Path(out_dir)
         out.mkdir(parents=True, exist_ok=True)
         cfg = self.scene.output
@@ -226,8 +222,6 @@ class Simulation:
         state = _OutputState(out, series, snapshots)
 
         def save(status: str = "ok", error: str | None = None) -> None:
-            if self.contact:
-                return  # not supported yet (see above): the outputs so far stay
             result.checkpoint = str(checkpoint.write(out / checkpoint.DIRECTORY, self, state,
                                                      every=checkpoint_every, keep=keep,
                                                      status=status, error=error))

@@ -1,5 +1,6 @@
-"""Checkpoint and resume, reproducibility across runs and thread counts, and
-the run-time guards (non-finite values, unstable steps, light nodes)."""
+"""Checkpoint and resume (of one body and of bodies in contact), reproducibility
+across runs and thread counts, and the run-time guards (non-finite values,
+unstable steps, light nodes)."""
 
 import json
 import os
@@ -27,6 +28,14 @@ BAR = ROOT / "demos" / "vibrating_bar.toml"
 # particles): the crack starts at about 15 us and runs to x ~ 77 mm by 40 us.
 COARSE = ["grid.h=1.0", "materials.concrete.fracture.l0=2.0", "bodies.plate.particles_per_cell=1",
           "output.energies_every=5", "output.every=50"]
+DISK_BEAM = ROOT / "demos" / "disk_beam.toml"
+# The disk-beam impact at h = 1 mm, l0 = 2 mm, one particle per cell (934
+# particles, 281 steps to 20 us): the disk and the beam share grid nodes from
+# the first step, and the beam cracks while they touch. Both bodies can crack,
+# each with its own phase field.
+CONTACT_COARSE = ["grid.h=1.0", "materials.beam.fracture.l0=2.0", "materials.disk.fracture.l0=2.0",
+                  "bodies.beam.particles_per_cell=1", "bodies.disk.particles_per_cell=1",
+                  "output.energies_every=5", "output.every=100", "time.end=20"]
 
 
 def coarse_args(end):
@@ -102,6 +111,54 @@ def test_checkpoint_holds_the_complete_state(tmp_path):
     again.advance(5)
     cold.advance(5)
     assert not np.array_equal(again.particles.c, cold.particles.c)
+
+
+def test_resumed_contact_run_is_bitwise_identical(tmp_path):
+    full = tmp_path / "full"
+    args = ["run", str(DISK_BEAM), "--quiet", "--out", str(full), "--checkpoint-every", "100"]
+    for s in CONTACT_COARSE:
+        args += ["--set", s]
+    assert main(args) == 0
+    names = [p.name for p in checkpoint.list_checkpoints(full / "checkpoints")]
+    assert names == ["step_000000100.h5", "step_000000200.h5"]
+    ckpt = checkpoint.read(full / "checkpoints" / names[0])
+    fields = ckpt.solver["fields"]
+    assert fields["contact"]["nodes"] > 0 and fields["contact"]["active"] > 0, \
+        "the bodies should be in contact at the checkpoint"
+    assert [len(pf["c"]) > 0 for pf in fields["phase_fields"]] == [True, True]
+
+    # Restored into a fresh simulation, the state gives the checkpointed
+    # energies row exactly: the friction work and each body's fracture
+    # energy come from the saved state, not from a new solve.
+    again = Simulation(Scene.from_dict(ckpt.scene))
+    checkpoint.restore(again, ckpt)
+    e = read_csv(full / "energies.csv")
+    k = np.flatnonzero(e["step"] == 100)[0]
+    now = again.energies()
+    for column in ("kinetic", "elastic", "fracture", "friction_dissipation", "fracture_beam",
+                   "fracture_disk", "total"):
+        assert now[column] == e[column][k], column
+    assert again.solver.contact_stats() == fields["contact"]
+
+    # A run stopped after step 100, resumed.
+    part = tmp_path / "part"
+    shutil.copytree(full, part)
+    (part / "checkpoints" / names[1]).unlink()
+    assert main(["run", "--resume", str(part), "--quiet"]) == 0
+    # Friction and the beam's crack keep growing after the restart.
+    assert e["friction_dissipation"][-1] > 2.0 * e["friction_dissipation"][k] > 0.0
+    assert e["fracture_beam"][-1] > 2.0 * e["fracture_beam"][k] > 0.0
+    a, b = output_files(full), output_files(part)
+    assert a.keys() == b.keys() and len(a) == 6
+    for name in a:
+        assert a[name] == b[name], f"{name} differs after resuming"
+    header = (part / "energies.csv").read_text().splitlines()[0].split(",")
+    assert header[-3:] == ["friction_dissipation", "fracture_beam", "fracture_disk"]
+    s, t = (json.loads((d / "summary.json").read_text()) for d in (full, part))
+    assert t["status"] == "completed" and t["resumed_from"].endswith(names[0])
+    assert t["contact"] == s["contact"] and t["phase_field"] == s["phase_field"]
+    assert s["contact"]["active_node_pairs"] > fields["contact"]["active"]
+    assert s["contact"]["violations"] == {"C1": 0, "C2": 0, "C3": 0, "C4": 0}
 
 
 def run_threads(tmp_path, threads, name):
@@ -191,6 +248,9 @@ def damaged(saved, tmp_path, how):
             byte = f.read(1)
             f.seek(offset)
             f.write(bytes([byte[0] ^ 0x10]))
+    elif how == "old":
+        with h5py.File(path, "r+") as f:
+            f.attrs["version"] = checkpoint.VERSION - 1
     elif how == "foreign":
         path.unlink()
         with h5py.File(path, "w") as f:
@@ -202,6 +262,7 @@ def damaged(saved, tmp_path, how):
     ("truncated", "cannot be read"),
     ("flipped", "checksum mismatch, the file is corrupt"),
     ("foreign", "not a pfmpm checkpoint"),
+    ("old", f"format version {checkpoint.VERSION - 1}, this pfmpm reads {checkpoint.VERSION}"),
 ])
 def test_damaged_checkpoint_is_refused(saved, tmp_path, capsys, how, reason):
     run, path = damaged(saved, tmp_path, how)

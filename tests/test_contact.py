@@ -166,12 +166,3 @@ def test_duplicate_pair_is_refused():
     with pytest.raises(SceneError, match=r"^contact\.pairs\[1\]\.bodies = \['b', 'a'\]: duplicate pair"):
         Scene.from_dict(d)
 
-
-def test_contact_runs_refuse_checkpoints(tmp_path):
-    from pfmpm.checkpoint import CheckpointError
-
-    sim = Simulation(Scene.from_dict(scene_dict()))
-    with pytest.raises(CheckpointError, match="multi-body contact runs are not supported yet"):
-        sim.run(tmp_path, progress=False, checkpoint_every=5)
-    with pytest.raises(ValueError, match="multi-body contact runs cannot be saved yet"):
-        sim.solver.state()
