@@ -145,8 +145,9 @@ def test_resumed_contact_run_is_bitwise_identical(tmp_path):
     shutil.copytree(full, part)
     (part / "checkpoints" / names[1]).unlink()
     assert main(["run", "--resume", str(part), "--quiet"]) == 0
-    # Friction and the beam's crack keep growing after the restart.
-    assert e["friction_dissipation"][-1] > 2.0 * e["friction_dissipation"][k] > 0.0
+    # Friction and the beam's crack act mostly after the restart (the
+    # friction work of a sticking contact fluctuates about zero before).
+    assert e["friction_dissipation"][-1] > 10.0 * abs(e["friction_dissipation"][k])
     assert e["fracture_beam"][-1] > 2.0 * e["fracture_beam"][k] > 0.0
     a, b = output_files(full), output_files(part)
     assert a.keys() == b.keys() and len(a) == 6

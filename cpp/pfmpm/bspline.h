@@ -12,6 +12,7 @@
 /// the same on boundary and interior cells.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <vector>
 
@@ -38,6 +39,11 @@ public:
   double h() const { return _h; }
   double origin() const { return _origin; }
   double length() const { return _cells * _h; }
+  /// Integral of basis function i over the line: h (t_{i+p+1} - t_i) / (p + 1).
+  double integral(int i) const
+  {
+    return _h * (std::clamp(i + 1, 0, _cells) - std::clamp(i - _degree, 0, _cells)) / (_degree + 1);
+  }
 
   /// @brief The cell holding x, or -1 if x is outside [origin, origin + length).
   int cell(double x) const

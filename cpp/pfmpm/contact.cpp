@@ -331,6 +331,7 @@ void DiscreteFields::particle_to_grid(const Particles& particles,
             s.ex += ex;
             s.ey += ey;
           }
+          s.V += w * V;                      // volume, for the touch check
           s.gx += gx * mp; // eq. 70, before normalisation
           s.gy += gy * mp;
         }
@@ -353,6 +354,9 @@ double DiscreteFields::update(double dt, double mass_tol)
       {
         const std::int32_t s0 = _slot_start[k], n = _slot_start[k + 1] - s0;
         const std::int32_t node = _contact_node[k];
+        // The node's volume, the integral of its basis function.
+        const std::int32_t id = _grid.active_nodes()[node], ny = _grid.nodes()[1];
+        const double full = _grid.basis(0).integral(id / ny) * _grid.basis(1).integral(id % ny);
         double vo[F][2], pt[F][2], vt[F][2], fn[F][2]{}, ft[F][2]{};
         bool live[F];
         for (int j = 0; j < n; ++j)
@@ -383,6 +387,10 @@ double DiscreteFields::update(double dt, double mass_tol)
             acc[2] += 1.0;
             const Sums& si = _sums[s0 + i];
             const Sums& sj = _sums[s0 + j];
+            // Only bodies that touch: their volumes must fill the node's
+            // support (docs/contact.md, "Touching").
+            if (si.V + sj.V < touch_fill * full)
+              continue;
             // Outward normals from the mass gradients (eq. 70), made
             // collinear as in eq. 71 but from the gradients before they are
             // normalised: n_i = (g_i - g_j) / |g_i - g_j|. Each field's

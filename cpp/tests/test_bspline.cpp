@@ -142,6 +142,27 @@ TEST_P(BSplineDegree, MatchesRecursiveCoxDeBoor)
   }
 }
 
+TEST_P(BSplineDegree, IntegralsMatchGaussQuadrature)
+{
+  // Each basis function is a polynomial of degree p on a cell: 3-point Gauss
+  // integrates it exactly.
+  const int p = GetParam();
+  const BSpline1D b(p, 6, 1.7, 0.4);
+  const double gx[3] = {-std::sqrt(0.6), 0.0, std::sqrt(0.6)}, gw[3] = {5.0 / 9, 8.0 / 9, 5.0 / 9};
+  std::vector<double> integral(b.size(), 0.0);
+  double N[4], dN[4], d2N[4];
+  for (int c = 0; c < b.cells(); ++c)
+    for (int q = 0; q < 3; ++q)
+    {
+      b.evaluate(c, b.origin() + b.h() * (c + 0.5 + 0.5 * gx[q]), N, dN, d2N);
+      for (int a = 0; a <= p; ++a)
+        integral[c + a] += 0.5 * b.h() * gw[q] * N[a];
+    }
+  for (int i = 0; i < b.size(); ++i)
+    EXPECT_NEAR(b.integral(i), integral[i], tol) << "function " << i;
+  EXPECT_NEAR(b.integral(p + 1), b.h(), tol); // an interior function when cells > 2p
+}
+
 TEST_P(BSplineDegree, FastPathsMatchGeneralEvaluation)
 {
   const int p = GetParam();
