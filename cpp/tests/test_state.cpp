@@ -43,6 +43,15 @@ bool same_bits(const std::vector<double>& a, const std::vector<double>& b)
 {
   return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0;
 }
+
+/// Positions, velocities, phase field and stresses bit for bit.
+void expect_same_particles(const Particles& P, const Particles& Q)
+{
+  EXPECT_TRUE(same_bits(P.x, Q.x));
+  EXPECT_TRUE(same_bits(P.v, Q.v));
+  EXPECT_TRUE(same_bits(P.c, Q.c));
+  EXPECT_TRUE(same_bits(P.stress, Q.stress));
+}
 } // namespace
 
 TEST(SolverState, RestoredSolverContinuesBitwise)
@@ -65,10 +74,7 @@ TEST(SolverState, RestoredSolverContinuesBitwise)
 
   original.advance(20);
   resumed.advance(20);
-  EXPECT_TRUE(same_bits(P.x, Q.x));
-  EXPECT_TRUE(same_bits(P.v, Q.v));
-  EXPECT_TRUE(same_bits(P.c, Q.c));
-  EXPECT_TRUE(same_bits(P.stress, Q.stress));
+  expect_same_particles(P, Q);
   EXPECT_EQ(original.phase_field().stats().iterations, resumed.phase_field().stats().iterations);
   EXPECT_EQ(original.energies().external_work, resumed.energies().external_work);
   EXPECT_EQ(original.time(), resumed.time());
@@ -125,10 +131,7 @@ TEST(SolverState, RestoredContactRunContinuesBitwise)
 
   original.advance(150);
   resumed.advance(150);
-  EXPECT_TRUE(same_bits(P.x, Q.x));
-  EXPECT_TRUE(same_bits(P.v, Q.v));
-  EXPECT_TRUE(same_bits(P.c, Q.c));
-  EXPECT_TRUE(same_bits(P.stress, Q.stress));
+  expect_same_particles(P, Q);
   const Energies a = original.energies(), b = resumed.energies();
   EXPECT_LT(a.friction_work, 0.0);
   EXPECT_GT(a.fracture_by_field[1], 0.0);
