@@ -6,10 +6,11 @@ steps of 0.005, snapshots at t = 16 us; a cone forms above about 0.10 mm/us.
 Each run is ``demos/disk_beam.toml`` at the disk speed ``v``, to ``--end`` us,
 at the resolution given by ``--h`` (l0 = 2 h), on a grid reaching 5 mm below
 the beam (fast impacts drive the broken halves down). The cone index beta is 1 when the
-beam has crack (c < 0.2) in its upper half more than ``2 l0`` to the side of the
-impact line, i.e. crack that neither the flexural crack rising from the bottom
-centre nor the damage right under the contact explains: the inclined flanks of a
-Hertzian cone. Writes ``sweep.csv`` (v, beta, beam fracture energy, cone crack
+beam has crack (c < 0.2) in the middle half of its depth farther than a fifth of the
+depth from the impact line: crack that neither the flexural crack rising from the
+bottom centre (or its widening) nor the damage right under the contact explains, the
+inclined flanks of a Hertzian cone running from the contact edges towards the bottom.
+Writes ``sweep.csv`` (v, beta, beam fracture energy, cone crack
 area, wall time) and ``cone_index.png`` to ``--out``.
 
     .venv/bin/python demos/disk_beam_sweep.py --out out/sweep            # h = 0.5 mm
@@ -32,8 +33,8 @@ SCENE = Path(__file__).with_name("disk_beam.toml")
 THRESHOLD = 0.2
 
 
-def cone_index(sim: Simulation, l0: float) -> tuple[int, float]:
-    """(beta, area of off-axis crack in the beam's upper half) for the current state."""
+def cone_index(sim: Simulation) -> tuple[int, float]:
+    """(beta, area of off-axis crack at mid-depth of the beam) for the current state."""
     scene = sim.scene
     beam = next(b for b in scene.bodies if b.name == "beam")
     disk = next(b for b in scene.bodies if b.name == "disk")
@@ -41,7 +42,9 @@ def cone_index(sim: Simulation, l0: float) -> tuple[int, float]:
     p = sim.particles
     mine = p.body == scene.bodies.index(beam)
     x, y, c, v = p.x[mine, 0], p.x[mine, 1], p.c[mine], p.volume[mine]
-    flank = (c < THRESHOLD) & (y > 0.5 * (y0 + y1)) & (np.abs(x - disk.shape.center[0]) > 2 * l0)
+    depth = y1 - y0
+    middle = (y > y0 + 0.25 * depth) & (y < y1 - 0.25 * depth)
+    flank = (c < THRESHOLD) & middle & (np.abs(x - disk.shape.center[0]) > 0.2 * depth)
     area = float(v[flank].sum()) / scene.thickness
     return int(area > 0.0), area
 
@@ -69,7 +72,7 @@ def main() -> None:
         start = time.perf_counter()
         sim.advance(scene.steps())
         wall = time.perf_counter() - start
-        beta, area = cone_index(sim, l0)
+        beta, area = cone_index(sim)
         fracture = sim.energies()["fracture_beam"]
         rows.append({"v": v, "beta": beta, "fracture_beam": fracture, "cone_area": area, "wall_s": wall})
         print(f"v = {v:.3f} mm/us: beta = {beta}, off-axis crack {area:.3g} mm^2, "
