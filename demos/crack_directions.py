@@ -1,6 +1,6 @@
 """Where the cracks of a finished run went, against the weak directions of 1/G_c.
 
-    python demos/crack_directions.py SCENE RUN_DIR [--set KEY=VALUE ...]
+    python demos/crack_directions.py SCENE RUN_DIR [--set KEY=VALUE ...] [--history]
 
 Reads the first and last particle snapshots of RUN_DIR (written by ``pfmpm
 run SCENE --out RUN_DIR``), keeps the points that cracked during the run
@@ -10,10 +10,14 @@ direction in which the crack left it (``pfmpm.crack.propagation_angle`` over
 2-10 l0 ahead of the tip), the crack arms crossing circles of growing radius
 about it (``pfmpm.crack.crack_arms``: two arms ahead mean a branch), and the
 weak directions of the body's G_c(theta) (``pfmpm.anisotropy.weak_directions``).
+With ``--history``, also how the leaving direction develops: for every snapshot,
+the direction of the new crack in rings of 1-4, 4-8, 8-16 and 16-28 l0 about the
+tip (write snapshots often, e.g. ``--set output.every=160``).
 """
 
 import argparse
 import math
+import xml.etree.ElementTree as ElementTree
 from pathlib import Path
 
 import meshio
@@ -31,6 +35,7 @@ def main() -> None:
     parser.add_argument("scene")
     parser.add_argument("run_dir")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
+    parser.add_argument("--history", action="store_true", help="the direction at every snapshot")
     args = parser.parse_args()
     scene = Scene.from_toml(args.scene, overrides=args.set)
     snapshots = sorted(Path(args.run_dir).glob("particles_*.vtu"))
@@ -62,6 +67,20 @@ def main() -> None:
                         if math.cos(math.radians(a)) * direction[0]
                         + math.sin(math.radians(a)) * direction[1] > 0]
                 print(f"  arms ahead at r = {radius:g}: " + (", ".join(f"{a:.1f}" for a in arms) or "none"))
+            if args.history:
+                history(Path(args.run_dir), c0, tip, direction, l0)
+
+
+def history(run_dir: Path, c0: np.ndarray, tip, direction, l0: float) -> None:
+    """Direction of the new crack about ``tip`` in rings of l0 units, snapshot by snapshot."""
+    rings = ((1, 4), (4, 8), (8, 16), (16, 28))
+    print("  t (us) | new crack direction (deg) at " + ", ".join(f"{a}-{b}" for a, b in rings) + " l0")
+    for entry in ElementTree.parse(run_dir / "particles.pvd").iter("DataSet"):
+        snap = meshio.read(run_dir / entry.get("file"))
+        c = np.where(c0 < THRESHOLD, 1.0, snap.point_data["c"].ravel())
+        angles = [propagation_angle(snap.points[:, :2], c, tip, direction, a * l0, b * l0)
+                  for a, b in rings]
+        print(f"  {float(entry.get('timestep')):6.1f} | " + ", ".join(f"{a:5.1f}" for a in angles))
 
 
 if __name__ == "__main__":
