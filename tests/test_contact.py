@@ -67,6 +67,29 @@ def test_disks_collide_conserving_momentum_without_interpenetration(offset, mu, 
     assert vx[0] < 0 < vx[1]
 
 
+def test_bodies_a_gap_apart_do_not_touch():
+    """Two blocks a cell apart share grid nodes (Remark 4) but do not touch:
+    closing slowly, they exert no force on each other while the gap stays open
+    (docs/contact.md, "Touching")."""
+    h, speed = 0.25, 0.01
+    m = Material("m", 100.0, 0.3, 1.0)
+    a = Body("a", "m", Rectangle((1.0, 1.0), (3.0, 2.0)), velocity=(speed, 0.0))
+    b = Body("b", "m", Rectangle((3.0 + h, 1.0), (5.0 + h, 2.0)), velocity=(-speed, 0.0))
+    # The gap closes by 2 speed t = 0.004 h.
+    scene = Scene(grid=Grid(size=(6.5, 3.0), h=h, degree=2), time=Time(end=0.05, cfl=0.5),
+                  materials=(m,), bodies=(a, b), plane="strain", contact=Contact(friction=0.5))
+    sim = Simulation(scene)
+    p = sim.particles
+    mine = p.body == 0
+    start = float(np.sum(p.mass[mine] * p.v[mine, 0]))
+    sim.advance(scene.steps())
+    stats = sim.solver.contact_stats()
+    assert stats["nodes"] > 0 and stats["pairs"] > 0  # they share nodes ...
+    assert stats["active"] == 0  # ... but no force acts
+    assert float(np.sum(p.mass[mine] * p.v[mine, 0])) == pytest.approx(start, rel=1e-12)
+    assert np.allclose(p.v[mine, 0], speed, rtol=1e-10) and np.allclose(p.v[~mine, 0], -speed, rtol=1e-10)
+
+
 def block(mu: float, end: float) -> Scene:
     """A 2 x 1 block at speed 1 on a 100x heavier and stiffer slab on a fixed wall, g = 0.25."""
     soft, hard = Material("block", 1000.0, 0.3, 1.0), Material("slab", 1e5, 0.3, 100.0)
