@@ -26,8 +26,11 @@ This is eq. 8 in closed form (the paper integrates numerically over
 (G_c,min, G_c,max) pairs of the paper come out within 0.2 %.
 
 Angles: ``theta`` is the crack direction, counter-clockwise from x; the
-material orientation ``phi`` turns the material axes clockwise from x (the
-paper's convention), so material axis 1 is ``(cos phi, -sin phi)``.
+material orientation ``phi`` is the principal material direction (the fibres of
+the paper's section 5.4), clockwise from x (the paper's convention):
+``p = (cos phi, -sin phi)``. A crack running along ``p`` has
+``gamma_n = gamma_1111``, so gamma's axis 1 lies across ``p``:
+``e1 = (sin phi, cos phi)``, ``e2 = -p`` (docs/method.md says why).
 """
 
 from __future__ import annotations
@@ -80,16 +83,17 @@ def normal_coefficient(gamma, theta_deg, phi_deg: float = 0.0) -> np.ndarray:
     theta_deg : float or array_like
         Crack direction(s), degrees counter-clockwise from x.
     phi_deg : float
-        Material orientation, degrees clockwise from x.
+        Principal material direction, degrees clockwise from x.
     """
     g = np.asarray(gamma, dtype=float)
     g = 0.5 * (g + g.T)
-    # Crack normal in the global frame, then its material-frame components.
+    # Crack normal in the global frame, then its components on gamma's axes
+    # e1 = (sin phi, cos phi) and e2 = (-cos phi, sin phi).
     a = np.radians(np.asarray(theta_deg, dtype=float))
     nx, ny = -np.sin(a), np.cos(a)
     p = math.radians(phi_deg)
-    n1 = nx * math.cos(p) - ny * math.sin(p)
-    n2 = nx * math.sin(p) + ny * math.cos(p)
+    n1 = nx * math.sin(p) + ny * math.cos(p)
+    n2 = -nx * math.cos(p) + ny * math.sin(p)
     m = np.stack([n1 * n1, n2 * n2, n1 * n2])
     return np.einsum("i...,ij,j...->...", m, g, m)
 

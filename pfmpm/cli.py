@@ -196,7 +196,7 @@ def main(argv: list[str] | None = None) -> int:
                        help="Voigt tensor of eq. 6 on (c_11, c_22, c_12), material frame")
     polar.add_argument("--gc-bar", type=float, required=True, help="reference fracture energy G-bar_c")
     polar.add_argument("--phi", type=float, default=0.0,
-                       help="material orientation, degrees clockwise from x (default %(default)g)")
+                       help="principal material direction, degrees clockwise from x (default %(default)g)")
     polar.add_argument("--samples", type=int, default=721,
                        help="directions over 0-360 degrees (default %(default)d: every 0.5 degree)")
     polar.add_argument("--out", default="polar.csv",

@@ -360,7 +360,7 @@ class Anisotropy:
 
     gamma acts on the curvature ``kappa = (c_11, c_22, c_12)`` (the fourth-order
     term of eq. 4 is ``l0^3 kappa^T gamma kappa``); the body's ``orientation``
-    turns the material axes. :mod:`pfmpm.anisotropy` gives the resulting
+    turns the material axes (``gamma_1111`` is the coefficient of a crack along it). :mod:`pfmpm.anisotropy` gives the resulting
     ``G_c(theta)``.
 
     Parameters
@@ -710,8 +710,9 @@ class Body:
         ``velocity + G x`` (``G[i][j] = d v_i / d x_j``), e.g. a uniform
         stretching rate.
     orientation : float
-        Material orientation phi in degrees, clockwise from x (the paper's
-        convention): turns the anisotropy tensor of the body's material.
+        Principal material direction phi (the fibres) in degrees, clockwise
+        from x (the paper's convention): turns the anisotropy tensor of the
+        body's material, so that a crack along phi has ``gamma_n = gamma_1111``.
         Per-particle orientations can be set on ``Simulation.particles.phi``
         (radians) before the first step.
     """

@@ -89,6 +89,20 @@ def test_closed_form_is_the_minimum_of_the_1d_functional(gamma_n):
     np.testing.assert_allclose(d[near], anisotropy.profile(gamma_n, x[near], 1.0), atol=2e-3)
 
 
+@pytest.mark.parametrize("phi", (45.0, 30.0, 0.0, -20.0))
+def test_the_fibres_carry_the_least_surface_energy(phi):
+    """Section 5.4: fibres at phi (clockwise from x) with gamma_1111 = 1 and
+    gamma_2222 = 2900 have G_c,min = 5.9067 along the fibres and G_c,max =
+    30.9044 across them; the one weak direction is the fibre line."""
+    gamma = anisotropy.parse_gamma(PUBLISHED["composite"][1])
+    along, across = anisotropy.surface_energy(gamma, 4.175, [-phi, 90.0 - phi], phi)
+    assert along == pytest.approx(5.9067, rel=0.005)
+    assert across == pytest.approx(30.9044, rel=0.005)
+    weak = anisotropy.weak_directions(gamma, phi)
+    off = (weak + phi) % 180.0
+    assert weak.size == 2 and np.all(np.minimum(off, 180.0 - off) < 0.1)
+
+
 def test_core_rotation_uses_the_polar_convention():
     gamma = [[1.0, 0.3, 0.1], [0.3, 80.0, 0.2], [0.1, 0.2, 74.0]]
     f = _core.Fracture(1.0, 1.0, 0.0, gamma)
@@ -123,8 +137,8 @@ def crack_strip(h, l0, anisotropy_table, orientation=0.0, n=4):
 
 @pytest.mark.parametrize("table, orientation", [
     (Anisotropy("isotropic4"), 0.0),                                     # gamma_n = 1
-    (Anisotropy("orthotropic", g1111=0.3, g2222=5.0, g1212=1.0), 0.0),   # gamma_n = 0.3
-    (Anisotropy("orthotropic", g1111=0.3, g2222=5.0, g1212=1.0), 90.0),  # gamma_n = 5
+    (Anisotropy("orthotropic", g1111=0.3, g2222=5.0, g1212=1.0), 0.0),   # gamma_n = 5
+    (Anisotropy("orthotropic", g1111=0.3, g2222=5.0, g1212=1.0), 90.0),  # gamma_n = 0.3
 ])
 def test_one_dimensional_fourth_order_profile(table, orientation):
     l0, h = 1.0, 0.25

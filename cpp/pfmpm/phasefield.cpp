@@ -78,11 +78,14 @@ bool Fracture::fourth_order() const
 
 Voigt Fracture::rotated(double phi) const
 {
-  // Material axes e1 = (cos phi, -sin phi), e2 = (sin phi, cos phi) (phi
-  // clockwise from x). The material-frame curvature is kappa_m = T kappa with
-  // kappa_m = (e1.H.e1, e2.H.e2, e1.H.e2) for the Hessian H of c.
+  // The principal direction p = (cos phi, -sin phi) (phi clockwise from x)
+  // is where a crack has gamma_n = gamma_1111 (section 5.4: the fibres carry
+  // G_c,min when gamma_1111 << gamma_2222), so gamma's axis 1 lies across p:
+  // e1 = (sin phi, cos phi), e2 = -p. The material-frame curvature is
+  // kappa_m = T kappa with kappa_m = (e1.H.e1, e2.H.e2, e1.H.e2) for the
+  // Hessian H of c.
   const double cs = std::cos(phi), sn = std::sin(phi);
-  const double e1x = cs, e1y = -sn, e2x = sn, e2y = cs;
+  const double e1x = sn, e1y = cs, e2x = -cs, e2y = sn;
   const double T[3][3] = {{e1x * e1x, e1y * e1y, 2.0 * e1x * e1y},
                           {e2x * e2x, e2y * e2y, 2.0 * e2x * e2y},
                           {e1x * e2x, e1y * e2y, e1x * e2y + e1y * e2x}};

@@ -33,10 +33,11 @@ struct Fracture
   double degradation(double c) const { return (1.0 - k_f) * c * c + k_f; }
   /// Whether eq. 4 has its fourth-order term.
   bool fourth_order() const;
-  /// @brief gamma seen in the global frame by a point whose material axes are
-  /// turned by `phi` radians clockwise from x (section 4.3.4): T^T gamma_s T,
-  /// with gamma_s the symmetric part of gamma and T the map from global to
-  /// material-frame curvature.
+  /// @brief gamma seen in the global frame by a point whose principal material
+  /// direction is turned by `phi` radians clockwise from x (section 4.3.4):
+  /// T^T gamma_s T, with gamma_s the symmetric part of gamma and T the map from
+  /// global to material-frame curvature. A crack along the principal direction
+  /// has the coefficient gamma_1111 (docs/method.md).
   Voigt rotated(double phi) const;
 };
 

@@ -23,17 +23,22 @@ double energy(const Voigt& G, const double k[3])
 }
 } // namespace
 
-TEST(Anisotropy, QuarterTurnSwapsTheMaterialAxes)
+TEST(Anisotropy, AxisOneLiesAcrossThePrincipalDirection)
 {
   const Fracture f{1.0, 1.0, 0.0, {2.0, 0.5, 0.0, 0.5, 80.0, 0.0, 0.0, 0.0, 74.0}};
-  const Voigt G = f.rotated(std::acos(0.0));
-  // Material axis 1 now points along -y and axis 2 along +x.
-  EXPECT_NEAR(G[0], 80.0, tol * 80);
+  // phi = 0: principal direction +x, so gamma's axis 1 is +y and axis 2 is -x,
+  // and a crack along x (c varying in y only) sees gamma_1111 = 2.
+  const Voigt G = f.rotated(0.0);
   EXPECT_NEAR(G[4], 2.0, tol * 80);
+  EXPECT_NEAR(G[0], 80.0, tol * 80);
   EXPECT_NEAR(G[1], 0.5, tol * 80);
   EXPECT_NEAR(G[8], 74.0, tol * 80);
   EXPECT_NEAR(G[2], 0.0, tol * 80);
   EXPECT_NEAR(G[5], 0.0, tol * 80);
+  // A quarter turn clockwise: principal direction -y, axis 1 along +x.
+  const Voigt Q = f.rotated(std::acos(0.0));
+  for (int i = 0; i < 9; ++i)
+    EXPECT_NEAR(Q[i], f.gamma[i], tol * 80) << "entry " << i;
 }
 
 TEST(Anisotropy, HessianNormIsInvariant)
@@ -56,7 +61,7 @@ TEST(Anisotropy, EnergyOfAHessianIsFrameIndependent)
   const double hxx = 0.7, hyy = -1.3, hxy = 0.4;
   for (double phi : {0.0, 0.4, 1.9, -0.8})
   {
-    const double e1x = std::cos(phi), e1y = -std::sin(phi), e2x = std::sin(phi), e2y = std::cos(phi);
+    const double e1x = std::sin(phi), e1y = std::cos(phi), e2x = -std::cos(phi), e2y = std::sin(phi);
     const double global[3] = {hxx, hyy, hxy};
     const double material[3] = {
         e1x * e1x * hxx + e1y * e1y * hyy + 2 * e1x * e1y * hxy,
