@@ -360,8 +360,8 @@ class Anisotropy:
 
     gamma acts on the curvature ``kappa = (c_11, c_22, c_12)`` (the fourth-order
     term of eq. 4 is ``l0^3 kappa^T gamma kappa``); the body's ``orientation``
-    turns the material axes (``gamma_1111`` is the coefficient of a crack along it). :mod:`pfmpm.anisotropy` gives the resulting
-    ``G_c(theta)``.
+    turns the material axes, and ``gamma_1111`` is the coefficient of a crack
+    running along it. :mod:`pfmpm.anisotropy` gives the resulting ``G_c(theta)``.
 
     Parameters
     ----------
