@@ -40,16 +40,15 @@ SCENE = Path(__file__).with_name("disk_beam.toml")
 THRESHOLD = 0.2
 
 
-def crack_rise(sim: Simulation) -> float:
-    """Height (mm) to which the crack has risen from the beam's bottom face
-    along the vertical line through the disk's centre."""
+def crack_rise(sim: Simulation, index: int, line_x: float) -> float:
+    """Height (mm) to which the crack of body ``index`` (the beam) has risen
+    from its bottom face along the vertical line ``x = line_x``."""
     scene = sim.scene
-    index = next(i for i, b in enumerate(scene.bodies) if b.name == "beam")
-    beam, disk = scene.bodies[index], next(b for b in scene.bodies if b.name == "disk")
+    beam = scene.bodies[index]
     (_, y0), (_, y1) = beam.shape.min, beam.shape.max
     l0, h = scene.fracture_of(beam).l0, scene.grid.h
     p = sim.particles
-    near = (p.body == index) & (np.abs(p.x[:, 0] - disk.shape.center[0]) < 2.0 * l0)
+    near = (p.body == index) & (np.abs(p.x[:, 0] - line_x) < 2.0 * l0)
     y, c = p.x[near, 1], p.c[near]
     bins = np.floor((y - y0) / h).astype(int)
     cracked = np.zeros(int(round((y1 - y0) / h)) + 1, dtype=bool)
@@ -67,15 +66,18 @@ def main() -> None:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     scene = Scene.from_toml(SCENE, args.set)
-    beam = next(b for b in scene.bodies if b.name == "beam")
+    index = next(i for i, b in enumerate(scene.bodies) if b.name == "beam")
+    beam = scene.bodies[index]
+    line_x = next(b for b in scene.bodies if b.name == "disk").shape.center[0]  # the impact line
     (_, y0), (_, y1) = beam.shape.min, beam.shape.max
-    depth, gc = y1 - y0, scene.fracture_of(beam).Gc
-    per_area = gc * scene.thickness  # mJ per mm of crack rise
+    depth, fracture = y1 - y0, scene.fracture_of(beam)
+    per_area = fracture.Gc * scene.thickness  # mJ per mm of crack rise
     sim = Simulation(scene)
     rows = []
     total = scene.steps()
     while True:
-        rows.append({"t": sim.time, "rise": crack_rise(sim), "fracture_beam": sim.energies()["fracture_beam"]})
+        rows.append({"t": sim.time, "rise": crack_rise(sim, index, line_x),
+                     "fracture_beam": sim.energies()["fracture_beam"]})
         print(f"t = {rows[-1]['t']:6.2f} us  crack rise {rows[-1]['rise']:5.2f} mm  "
               f"beam fracture energy {rows[-1]['fracture_beam']:7.2f} mJ", flush=True)
         if sim.step >= total:
@@ -104,12 +106,10 @@ def main() -> None:
     if np.count_nonzero(running) >= 3:
         slope = np.polyfit(rise[running], energy[running], 1)[0]
         print(f"while running (20-80 % of the depth): {slope:.2f} mJ/mm = {slope / per_area:.3f} x G_c t")
-    index = next(i for i, b in enumerate(scene.bodies) if b.name == "beam")
+    # Each crackable body's field keeps its own per-particle fracture energy.
     field = sum(scene.fracture_of(b) is not None for b in scene.bodies[:index])
     per_particle = sim.solver.state()["fields"]["phase_fields"][field]["fracture_energy"]
-    disk = next(b for b in scene.bodies if b.name == "disk")
-    l0 = scene.fracture_of(beam).l0
-    band = (sim.particles.body == index) & (np.abs(sim.particles.x[:, 0] - disk.shape.center[0]) < 5 * l0)
+    band = (sim.particles.body == index) & (np.abs(sim.particles.x[:, 0] - line_x) < 5 * fracture.l0)
     held = float(per_particle[band].sum())
     print(f"at {t[-1]:.2f} us: {held:.2f} of {energy[-1]:.2f} mJ within 5 l0 of the impact line, "
           f"{held / (per_area * rise.max()):.3f} x G_c t rise")

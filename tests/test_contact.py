@@ -8,7 +8,9 @@ contact node; a scene whose bodies never meet runs bit for bit as one field; and
 bad contact input is refused with the key and value named.
 """
 
+import importlib.util
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -189,3 +191,26 @@ def test_duplicate_pair_is_refused():
     with pytest.raises(SceneError, match=r"^contact\.pairs\[1\]\.bodies = \['b', 'a'\]: duplicate pair"):
         Scene.from_dict(d)
 
+
+
+def test_disk_beam_crack_rise_counts_cracked_bins_from_the_bottom():
+    """demos/disk_beam_energy.py finds where the paper's running-crack measure
+    starts and ends from the crack's rise up the impact line: the cracked
+    cells counted from the bottom face until the first uncracked one."""
+    root = Path(__file__).resolve().parents[1] / "demos"
+    spec = importlib.util.spec_from_file_location("disk_beam_energy", root / "disk_beam_energy.py")
+    demo = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(demo)
+    scene = Scene.from_toml(root / "disk_beam.toml", [
+        "grid.h=1.0", "materials.beam.fracture.l0=2.0", "materials.disk.fracture.l0=2.0",
+        "bodies.beam.particles_per_cell=1", "bodies.disk.particles_per_cell=1"])
+    sim = Simulation(scene)
+    p = sim.particles
+    line = (p.body == 0) & (np.abs(p.x[:, 0] - 24.0) < 1.0)
+    assert demo.crack_rise(sim, 0, 24.0) == 0.0
+    p.c[line & (p.x[:, 1] < 4.0)] = 0.0
+    assert demo.crack_rise(sim, 0, 24.0) == 4.0
+    p.c[line & (p.x[:, 1] > 2.0) & (p.x[:, 1] < 3.0)] = 1.0  # a gap in the third cell
+    assert demo.crack_rise(sim, 0, 24.0) == 2.0
+    p.c[line] = 0.0
+    assert demo.crack_rise(sim, 0, 24.0) == 10.0  # through the whole depth
