@@ -4,8 +4,9 @@ Two elastic disks colliding head-on and obliquely conserve momentum to round-off
 never interpenetrate and separate with their energy; a block sliding on a heavy
 body stops after v0^2 / (2 mu g) and keeps its speed without friction, with the
 friction dissipation closing the energy balance; the checks C.1-C.4 hold at every
-contact node; a scene whose bodies never meet runs bit for bit as one field; and
-bad contact input is refused with the key and value named.
+contact node; a scene whose bodies never meet runs bit for bit as one field;
+bad contact input is refused with the key and value named; and the disk-beam
+demo's crack-rise measure counts cracked cells from the beam's bottom face.
 """
 
 import importlib.util
