@@ -41,7 +41,10 @@ from pathlib import Path
 import numpy as np
 
 FORMAT = "pfmpm-checkpoint"
-VERSION = 2
+VERSION = 3
+# Version 3 turned the frame in which an anisotropic material's gamma is read
+# (docs/method.md); its arrays are those of version 2. A version-2 file is
+# therefore read unless one of its materials has the fourth-order term.
 DIRECTORY = "checkpoints"
 """Subdirectory of a run's output directory that holds its checkpoints."""
 
@@ -209,6 +212,13 @@ def write(directory: Path | str, sim, run, *, every: int, keep: int, status: str
     return path
 
 
+def _anisotropic(scene: dict) -> bool:
+    """Whether a saved scene has a material with the fourth-order term."""
+    from .scene import Scene
+
+    return any(m.fracture is not None and m.fracture.gamma().any() for m in Scene.from_dict(scene).materials)
+
+
 def read(path: Path | str) -> Checkpoint:
     """Read and verify a checkpoint file.
 
@@ -228,9 +238,13 @@ def read(path: Path | str) -> Checkpoint:
             fmt, version = f.attrs.get("format"), f.attrs.get("version")
             if fmt != FORMAT:
                 raise CheckpointError(f"checkpoint {path}: not a pfmpm checkpoint (format {fmt!r})")
-            if version != VERSION:
+            if version not in (VERSION, VERSION - 1):
                 raise CheckpointError(f"checkpoint {path}: format version {version}, this pfmpm reads {VERSION}")
             meta = json.loads(f.attrs["meta"])
+            if version != VERSION and _anisotropic(meta["scene"]):
+                raise CheckpointError(
+                    f"checkpoint {path}: format version {version} holds an anisotropic run from before "
+                    f"the orientation frame of version {VERSION} (docs/method.md); start the run again")
             digest = f.attrs["sha256"]
             arrays: dict[str, np.ndarray] = {}
             f.visititems(lambda name, obj: arrays.__setitem__(name, obj[()])

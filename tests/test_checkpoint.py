@@ -253,7 +253,7 @@ def damaged(saved, tmp_path, how):
             f.write(bytes([byte[0] ^ 0x10]))
     elif how == "old":
         with h5py.File(path, "r+") as f:
-            f.attrs["version"] = checkpoint.VERSION - 1
+            f.attrs["version"] = checkpoint.VERSION - 2
     elif how == "foreign":
         path.unlink()
         with h5py.File(path, "w") as f:
@@ -265,7 +265,7 @@ def damaged(saved, tmp_path, how):
     ("truncated", "cannot be read"),
     ("flipped", "checksum mismatch, the file is corrupt"),
     ("foreign", "not a pfmpm checkpoint"),
-    ("old", f"format version {checkpoint.VERSION - 1}, this pfmpm reads {checkpoint.VERSION}"),
+    ("old", f"format version {checkpoint.VERSION - 2}, this pfmpm reads {checkpoint.VERSION}"),
 ])
 def test_damaged_checkpoint_is_refused(saved, tmp_path, capsys, how, reason):
     run, path = damaged(saved, tmp_path, how)
@@ -275,6 +275,29 @@ def test_damaged_checkpoint_is_refused(saved, tmp_path, capsys, how, reason):
         assert len(err) == 1 and str(path) in err[0] and reason in err[0], err
     # Given the run directory, the error names the older checkpoint to use instead.
     assert f"older: {run / 'checkpoints' / 'step_000000050.h5'}" in err[0]
+
+
+def test_version_2_is_read_unless_the_run_is_anisotropic(saved, tmp_path, capsys):
+    """Version 3 changed only how gamma is turned (docs/method.md)."""
+    run = tmp_path / "bar"
+    shutil.copytree(saved, run)
+    path = checkpoint.list_checkpoints(run / "checkpoints")[-1]
+    with h5py.File(path, "r+") as f:
+        f.attrs["version"] = 2
+    assert main(["run", "--resume", str(path), "--quiet"]) == 0
+    cubic = tmp_path / "cubic"
+    args = ["run", str(ROOT / "demos" / "borden_cubic.toml"), "--out", str(cubic), "--quiet",
+            "--checkpoint-every", "2"]
+    for s in COARSE[:3] + ["time.end=1.0"]:
+        args += ["--set", s]
+    assert main(args) == 0
+    path = checkpoint.list_checkpoints(cubic / "checkpoints")[-1]
+    with h5py.File(path, "r+") as f:
+        f.attrs["version"] = 2
+    capsys.readouterr()
+    assert main(["run", "--resume", str(path), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "format version 2 holds an anisotropic run" in err[0], err
 
 
 def test_resume_needs_a_scene_or_a_checkpoint_not_both(saved, tmp_path, capsys):
