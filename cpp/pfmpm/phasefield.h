@@ -75,10 +75,12 @@ struct PhaseFieldState
 /// K is stored as the upper half of a (2p+1)^2-point stencil per grid node
 /// (padded by p nodes on each side, zero away from active nodes); only particles of
 /// materials that can crack contribute. Nodes that no such particle touches
-/// keep c = 1. The solve is Jacobi-preconditioned conjugate gradients,
+/// keep c = 1. The solve is preconditioned conjugate gradients (Jacobi for
+/// the second-order model, symmetric Gauss-Seidel for the fourth-order one),
 /// started from the last two steps' nodal values extrapolated in time, stopped when
-/// ||F - K c|| <= tol ||F||. Sums over particles and nodes are taken in an
-/// order that does not depend on the number of threads.
+/// ||F - K c|| <= tol ||F||. Sums over particles and nodes, and the
+/// Gauss-Seidel sweeps, are taken in an order that does not depend on the
+/// number of threads.
 class PhaseField
 {
 public:
@@ -130,8 +132,16 @@ private:
   template <int P, bool Fourth>
   void assemble(const Particles& particles, const std::vector<std::int32_t>& order,
                 const std::vector<std::int64_t>& cell_start);
-  template <int P>
+  template <int P, bool Fourth>
   bool conjugate_gradient();
+  /// @brief The iterations of conjugate_gradient from r = F - K c with
+  /// q = K c given: Jacobi-preconditioned (second order) or preconditioned by
+  /// symmetric Gauss-Seidel with Eisenstat's trick (fourth order). Set
+  /// `residual` = ||r|| and count iterations in `it`.
+  template <int P>
+  void jacobi_iterations(double norm_f, double stop, double& residual, int& it);
+  template <int P>
+  void ssor_iterations(double norm_f, double stop, double& residual, int& it);
   template <int P>
   void multiply(const std::vector<double>& padded, std::vector<double>& out) const;
   template <int P, bool Fourth>
@@ -146,12 +156,16 @@ private:
   {
     static constexpr int width = 2 * P + 1, size = (width * width + 1) / 2;
     std::ptrdiff_t offset[size]; // in the padded node layout
+    int dx[size];                // the column offset
     explicit Stencil(std::size_t padded_ny)
     {
-      for (int dx = 0; dx <= P; ++dx)
-        for (int dy = -P; dy <= P; ++dy)
-          if (const int k = slot(dx, dy); k >= 0)
-            offset[k] = dx * static_cast<std::ptrdiff_t>(padded_ny) + dy;
+      for (int x = 0; x <= P; ++x)
+        for (int y = -P; y <= P; ++y)
+          if (const int k = slot(x, y); k >= 0)
+          {
+            offset[k] = x * static_cast<std::ptrdiff_t>(padded_ny) + y;
+            dx[k] = x;
+          }
     }
     /// Index of offset (dx, dy) in the upper half, or -1 for the lower half.
     static constexpr int slot(int dx, int dy)
@@ -198,6 +212,14 @@ private:
   std::vector<std::size_t> _position; // per active node: its index in the padded layout
   std::vector<double> _r, _z, _q;     // CG work vectors, per active node
   std::vector<double> _search;        // CG search direction, padded layout
+  // Fourth order only (SSOR-preconditioned CG): strip s of the Gauss-Seidel
+  // order is the grid columns [_strip_column[s], _strip_column[s + 1]), column
+  // ix the active nodes [_column_start[ix], _column_start[ix + 1]); 1 / K_II per
+  // active node; work vectors _forward (padded layout), _v and _g (per active node).
+  std::vector<int> _strip_column;
+  std::vector<std::size_t> _column_start;
+  std::vector<double> _inverse;
+  std::vector<double> _forward, _v, _g;
   std::vector<double> _fracture_energy; // per particle
   PhaseFieldStats _stats;
 };
