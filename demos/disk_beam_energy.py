@@ -94,7 +94,7 @@ def main() -> None:
     if rise.max() == 0.0:
         print("the crack did not reach the bottom face")
         return
-    start = int(np.argmax(rise > 0.0)) - 1
+    start = max(int(np.argmax(rise > 0.0)) - 1, 0)  # the first sample if the crack is there from the start
     end = int(np.argmax(rise >= rise.max()))
     expected = per_area * rise[end]
     print(f"start {t[start]:.2f} us ({energy[start]:.2f} mJ), end {t[end]:.2f} us "

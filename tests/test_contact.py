@@ -193,7 +193,6 @@ def test_duplicate_pair_is_refused():
         Scene.from_dict(d)
 
 
-
 def test_disk_beam_crack_rise_counts_cracked_bins_from_the_bottom():
     """demos/disk_beam_energy.py finds where the paper's running-crack measure
     starts and ends from the crack's rise up the impact line: the cracked
