@@ -4,14 +4,16 @@ A checkpoint holds everything a :class:`~pfmpm.simulation.Simulation` carries
 from one step to the next, so that a resumed run takes bitwise the same steps
 as an uninterrupted one:
 
-- ``/particles/<name>``: every particle array (``x``, ``v``, ``mass``,
-  ``volume``, ``strain``, ``stress``, ``fext``, ``body``, ``material``, ``c``,
-  ``history``, ``phi``);
-- ``/solver``: the phase-field warm start (the nodal solutions of the last
-  two solves) and the per-particle fracture energy; with multi-body contact,
-  where each crackable body has its own phase field, these per crackable body
-  ``k`` (in body order) under ``/solver/fields/<k>/`` (``c``, ``c_previous``,
-  ``fracture_energy``);
+- ``/particles/<name>``: every particle column, as
+  ``pfmpm._core.Particles.columns()`` lists them (the core arrays ``x``, ``v``,
+  ``mass``, ``volume``, ``stress``, ``fext``, ``body``, ``material``, then what
+  the scene's models keep: ``strain``, and with a phase field ``c``,
+  ``history``, ``phi``, ``fracture_energy``);
+- ``/solver/<name>``: every array of the solver state
+  (``pfmpm._core.Solver.state()``): each phase field's warm start, the nodal
+  solutions of its last two solves (``phase_field/<k>/c``,
+  ``phase_field/<k>/c_previous``; one phase field, ``k = 0``, or with
+  multi-body contact one per crackable body in body order);
 - ``/output``: ``energies.csv`` so far (its bytes), the crack-tip records
   behind the smoothed tip speed, and the phase-field images taken so far with
   the times still due.
@@ -41,18 +43,14 @@ from pathlib import Path
 import numpy as np
 
 FORMAT = "pfmpm-checkpoint"
-VERSION = 3
-# Version 3 turned the frame in which an anisotropic material's gamma is read
-# (docs/method.md); its arrays are those of version 2. A version-2 file is
-# therefore read unless one of its materials has the fourth-order term.
+VERSION = 4
+# Version 4 stores the particle columns and the solver state by the names the
+# core gives them. Versions 2 and 3 had fixed lists of both (_from_version_3);
+# version 3 turned the frame in which an anisotropic material's gamma is read
+# (docs/method.md), so a version-2 file is read unless one of its materials
+# has the fourth-order term.
 DIRECTORY = "checkpoints"
 """Subdirectory of a run's output directory that holds its checkpoints."""
-
-PARTICLE_ARRAYS = ("x", "v", "mass", "volume", "strain", "stress", "fext", "body", "material",
-                   "c", "history", "phi")
-_SOLVER_ARRAYS = ("phase_field_c", "phase_field_c_previous", "fracture_energy")
-_FIELD_ARRAYS = ("c", "c_previous", "fracture_energy")
-_SOLVER_SCALARS = ("time", "step", "external_work", "light_nodes")
 
 
 class CheckpointError(Exception):
@@ -135,16 +133,10 @@ def _digest(attrs: dict, arrays: dict[str, np.ndarray]) -> str:
 def _state_of(sim, run) -> tuple[dict, dict[str, np.ndarray]]:
     """Split the state of ``sim`` and its output ``run`` into scalar attributes and arrays."""
     state = sim.solver.state()
-    stats = state.pop("phase_field_stats")
-    fields = state.pop("fields")
-    arrays = {f"particles/{name}": np.asarray(getattr(sim.particles, name)) for name in PARTICLE_ARRAYS}
-    arrays.update({f"solver/{name}": state.pop(name) for name in _SOLVER_ARRAYS})
-    if fields is not None:
-        for k, pf in enumerate(fields["phase_fields"]):
-            arrays.update({f"solver/fields/{k}/{name}": pf[name] for name in _FIELD_ARRAYS})
-        fields = {"contact": fields["contact"],
-                  "phase_field_stats": [pf["stats"] for pf in fields["phase_fields"]]}
-    attrs = {"solver": {**state, "phase_field_stats": stats, "fields": fields}}
+    arrays = {f"particles/{c['name']}": np.asarray(getattr(sim.particles, c["name"]))
+              for c in sim.particles.columns()}
+    arrays.update({f"solver/{name}": a for name, a in state["arrays"].items()})
+    attrs = {"solver": state["scalars"]}
     arrays["output/energies_csv"] = np.frombuffer(run.energies_csv(), dtype=np.uint8)
     attrs["series"] = [[t, name] for t, name in run.series_entries()]
     tip = sim.crack_tip.records() if sim.crack_tip is not None else []
@@ -238,13 +230,13 @@ def read(path: Path | str) -> Checkpoint:
             fmt, version = f.attrs.get("format"), f.attrs.get("version")
             if fmt != FORMAT:
                 raise CheckpointError(f"checkpoint {path}: not a pfmpm checkpoint (format {fmt!r})")
-            if version not in (VERSION, VERSION - 1):
+            if version not in (VERSION, 3, 2):
                 raise CheckpointError(f"checkpoint {path}: format version {version}, this pfmpm reads {VERSION}")
             meta = json.loads(f.attrs["meta"])
-            if version != VERSION and _anisotropic(meta["scene"]):
+            if version == 2 and _anisotropic(meta["scene"]):
                 raise CheckpointError(
                     f"checkpoint {path}: format version {version} holds an anisotropic run from before "
-                    f"the orientation frame of version {VERSION} (docs/method.md); start the run again")
+                    f"the orientation frame of version 3 (docs/method.md); start the run again")
             digest = f.attrs["sha256"]
             arrays: dict[str, np.ndarray] = {}
             f.visititems(lambda name, obj: arrays.__setitem__(name, obj[()])
@@ -257,20 +249,61 @@ def read(path: Path | str) -> Checkpoint:
         raise CheckpointError(f"checkpoint {path}: cannot be read ({err})") from None
     if _digest(meta, arrays) != digest:
         raise CheckpointError(f"checkpoint {path}: checksum mismatch, the file is corrupt")
-    solver = dict(meta["solver"])
-    solver.update({name: arrays[f"solver/{name}"] for name in _SOLVER_ARRAYS})
-    if (fields := solver["fields"]) is not None:
-        solver["fields"] = {"contact": fields["contact"], "phase_fields": [
-            {"stats": stats, **{f: arrays[f"solver/fields/{k}/{f}"] for f in _FIELD_ARRAYS}}
-            for k, stats in enumerate(fields["phase_field_stats"])]}
+    if version == VERSION:
+        particles = {name.removeprefix("particles/"): a for name, a in arrays.items()
+                     if name.startswith("particles/")}
+        solver = {"scalars": meta["solver"],
+                  "arrays": {name.removeprefix("solver/"): a for name, a in arrays.items()
+                             if name.startswith("solver/")}}
+    else:
+        particles, solver = _from_version_3(meta, arrays)
     images = [(t, arrays[f"output/snapshot_{k}"]) for k, t in enumerate(meta["snapshot_image_times"])]
     return Checkpoint(
         path=path, scene=meta["scene"], step=meta["step"], time=meta["time"], status=meta["status"],
         error=meta["error"], checkpoint_every=meta["checkpoint_every"], keep=meta["keep"],
-        particles={name: arrays[f"particles/{name}"] for name in PARTICLE_ARRAYS}, solver=solver,
+        particles=particles, solver=solver,
         energies_csv=arrays["output/energies_csv"].tobytes(),
         series=[(t, name) for t, name in meta["series"]], crack_tip=arrays["output/crack_tip"],
         snapshot_times=arrays["output/snapshot_times"], snapshot_images=images)
+
+
+def _from_version_3(meta: dict, arrays: dict[str, np.ndarray]) -> tuple[dict, dict]:
+    """The particle columns and solver state of a version-2 or -3 file, by the
+    names of version 4.
+
+    Those versions kept the particle arrays x, v, mass, volume, strain,
+    stress, fext, body, material, c, history, phi (the last three also where
+    nothing cracks), and the fracture energy and the phase-field warm start
+    with the solver (one, or per crackable body under ``solver/fields/<k>``).
+    """
+    old = meta["solver"]
+    stats_keys = ("solves", "iterations", "last_iterations", "start_residual", "last_residual",
+                  "unknowns")
+    scalars = {key: old[key] for key in ("time", "step", "external_work", "light_nodes")}
+    solver_arrays: dict[str, np.ndarray] = {}
+    energies = []
+
+    def phase_field(k: int, c, c_previous, stats) -> None:
+        solver_arrays[f"phase_field/{k}/c"] = c
+        solver_arrays[f"phase_field/{k}/c_previous"] = c_previous
+        scalars.update({f"phase_field/{k}/{key}": stats[key] for key in stats_keys})
+
+    if (fields := old["fields"]) is not None:
+        for k, stats in enumerate(fields["phase_field_stats"]):
+            phase_field(k, arrays[f"solver/fields/{k}/c"], arrays[f"solver/fields/{k}/c_previous"], stats)
+            energies.append(arrays[f"solver/fields/{k}/fracture_energy"])
+        scalars.update({f"contact/{key}": value for key, value in fields["contact"].items()})
+    elif len(arrays["solver/phase_field_c"]):
+        phase_field(0, arrays["solver/phase_field_c"], arrays["solver/phase_field_c_previous"],
+                    old["phase_field_stats"])
+        energies.append(arrays["solver/fracture_energy"])
+    names = ["x", "v", "mass", "volume", "strain", "stress", "fext", "body", "material"]
+    particles = {name: arrays[f"particles/{name}"] for name in names}
+    if solver_arrays:  # only a run with a phase field has its columns
+        particles.update({name: arrays[f"particles/{name}"] for name in ("c", "history", "phi")})
+        # Each crackable body's solve wrote its own particles' entries, zero elsewhere.
+        particles["fracture_energy"] = np.sum(energies, axis=0)
+    return particles, {"scalars": scalars, "arrays": solver_arrays}
 
 
 def find(where: Path | str) -> Checkpoint:
@@ -309,7 +342,12 @@ def restore(sim, ckpt: Checkpoint) -> None:
     CheckpointError
         If an array does not fit the simulation.
     """
-    for name in PARTICLE_ARRAYS:
+    columns = [c["name"] for c in sim.particles.columns()]
+    if extra := sorted(ckpt.particles.keys() - set(columns)):
+        raise CheckpointError(f"checkpoint {ckpt.path}: particles/{extra[0]} is not a column of this scene")
+    for name in columns:
+        if name not in ckpt.particles:
+            raise CheckpointError(f"checkpoint {ckpt.path}: particles/{name} is missing")
         target, value = getattr(sim.particles, name), ckpt.particles[name]
         if target.shape != value.shape or target.dtype != value.dtype:
             raise CheckpointError(f"checkpoint {ckpt.path}: particles/{name} has shape {value.shape},"

@@ -26,6 +26,17 @@ def _data_array(name: str, values: np.ndarray) -> str:
     )
 
 
+def vtk_values(values: np.ndarray, layout: str) -> np.ndarray:
+    """A particle column as VTK point data: a plane tensor with its out-of-plane
+    entry (layout ``xx,yy,xy,zz``) becomes the symmetric tensor (xx, yy, zz,
+    xy, yz, xz) ParaView reads; every other column is written as it is."""
+    if layout == "xx,yy,xy,zz":
+        tensor = np.zeros((len(values), 6))
+        tensor[:, [0, 1, 2, 3]] = values[:, [0, 1, 3, 2]]
+        return tensor
+    return values
+
+
 def write_vtu(path: Path, points: np.ndarray, point_data: dict[str, np.ndarray]) -> None:
     """Write 2D points as VTK vertices with point data.
 

@@ -15,7 +15,7 @@ import numpy as np
 
 from . import _core
 from .crack import CrackTip, initial_history
-from .output import CsvLog, ParticleSeries
+from .output import CsvLog, ParticleSeries, vtk_values
 from .scene import Scene
 
 ENERGY_COLUMNS = ["step", "t", "kinetic", "elastic", "fracture", "external_work", "total",
@@ -52,27 +52,28 @@ class Simulation:
             self.grid.set_wall(_core.Side.__members__[wall.side], _core.Wall.__members__[wall.type])
         arrays = scene.particles()
         self.particles = _core.Particles(len(arrays["mass"]))
-        for name, values in arrays.items():
-            getattr(self.particles, name)[...] = values
-        plane = _core.Plane.__members__[scene.plane]
-        materials, fracture = [], []
-        for m in scene.materials:
-            f = m.fracture
-            split = _core.Split.__members__[f.split if f else "none"]
-            materials.append(_core.LinearElastic(m.E, m.nu, m.density, plane, split))
-            fracture.append(_core.Fracture(f.Gc, f.l0, f.k_f, f.gamma().tolist()) if f else None)
+        core = {c["name"] for c in self.particles.columns()}
+        for name in core & arrays.keys():
+            getattr(self.particles, name)[...] = arrays[name]
+        materials = [_core_material(m, scene.plane) for m in scene.materials]
+        fracture = [_core.Fracture(f.Gc, f.l0, f.k_f, f.gamma().tolist()) if (f := m.fracture) else None
+                    for m in scene.materials]
         self.cracks = any(fracture)
+        pf = scene.phase_field
+        names = tuple(b.name for b in scene.bodies)
+        self.contact = scene.contact is not None and len(names) > 1
+        friction = scene.contact.friction_matrix(names).ravel() if self.contact else []
+        # The solver adds the models' columns; then their initial values.
+        self.solver = _core.Solver(self.grid, self.particles, materials, scene.dt(), fracture,
+                                   pf.tol, pf.max_iterations, friction)
+        columns = {c["name"] for c in self.particles.columns()}
+        for name in (columns - core) & arrays.keys():
+            getattr(self.particles, name)[...] = arrays[name]
         self._crackable = np.zeros(len(self.particles), dtype=bool)
         for b, body in enumerate(scene.bodies):
             if scene.fracture_of(body) is not None:
                 self._crackable |= self.particles.body == b
         self._impose_cracks()
-        pf = scene.phase_field
-        names = tuple(b.name for b in scene.bodies)
-        self.contact = scene.contact is not None and len(names) > 1
-        friction = scene.contact.friction_matrix(names).ravel() if self.contact else []
-        self.solver = _core.Solver(self.grid, self.particles, materials, scene.dt(), fracture,
-                                   pf.tol, pf.max_iterations, friction)
         self.solver.set_stability_length(scene.critical_length())
         self.crack_tip = None
         if scene.cracks:
@@ -135,20 +136,10 @@ class Simulation:
         return {"crack_tip_x": x, "crack_tip_y": y, "crack_tip_speed": speed}
 
     def point_data(self) -> dict[str, np.ndarray]:
-        """Particle fields for output; stress as a symmetric tensor (xx, yy, zz, xy, yz, xz)."""
-        s = self.particles.stress
-        stress = np.zeros((len(s), 6))
-        stress[:, [0, 1, 2, 3]] = s[:, [0, 1, 3, 2]]
-        data = {
-            "velocity": self.particles.v,
-            "stress": stress,
-            "body": self.particles.body,
-            "material": self.particles.material,
-        }
-        if self.cracks:
-            data["c"] = self.particles.c
-            data["history"] = self.particles.history
-        return data
+        """The particle columns that declare an output name, under that name
+        (see :func:`pfmpm.output.vtk_values` for how tensors are written)."""
+        return {c["output"]: vtk_values(getattr(self.particles, c["name"]), c["layout"])
+                for c in self.particles.columns() if c["output"]}
 
     def modules(self) -> list[str]:
         """The parts of the method this scene switches on."""
@@ -326,6 +317,14 @@ class Simulation:
                 "friction_dissipation": -stats["friction_work"],
             }
         result.write_summary(path, fields)
+
+
+def _core_material(material, plane: str):
+    """The C++ model of a scene material (``pfmpm._core.material``)."""
+    f = material.fracture
+    return _core.material("linear_elastic", {"E": material.E, "nu": material.nu,
+                                             "density": material.density, "plane": plane,
+                                             "split": f.split if f else "none"})
 
 
 @dataclass

@@ -108,7 +108,7 @@ def test_checkpoint_holds_the_complete_state(tmp_path):
     cold = Simulation(scene)
     checkpoint.restore(cold, ckpt)
     state = cold.solver.state()
-    state["phase_field_c_previous"] = state["phase_field_c"]
+    state["arrays"]["phase_field/0/c_previous"] = state["arrays"]["phase_field/0/c"]
     cold.solver.restore(state)
     again.advance(5)
     cold.advance(5)
@@ -124,10 +124,10 @@ def test_resumed_contact_run_is_bitwise_identical(tmp_path):
     names = [p.name for p in checkpoint.list_checkpoints(full / "checkpoints")]
     assert names == ["step_000000100.h5", "step_000000200.h5"]
     ckpt = checkpoint.read(full / "checkpoints" / names[0])
-    fields = ckpt.solver["fields"]
-    assert fields["contact"]["nodes"] > 0 and fields["contact"]["active"] > 0, \
+    scalars, arrays = ckpt.solver["scalars"], ckpt.solver["arrays"]
+    assert scalars["contact/nodes"] > 0 and scalars["contact/active"] > 0, \
         "the bodies should be in contact at the checkpoint"
-    assert [len(pf["c"]) > 0 for pf in fields["phase_fields"]] == [True, True]
+    assert sorted(arrays) == [f"phase_field/{k}/{name}" for k in (0, 1) for name in ("c", "c_previous")]
 
     # Restored into a fresh simulation, the state gives the checkpointed
     # energies row exactly: the friction work and each body's fracture
@@ -140,7 +140,8 @@ def test_resumed_contact_run_is_bitwise_identical(tmp_path):
     for column in ("kinetic", "elastic", "fracture", "friction_dissipation", "fracture_beam",
                    "fracture_disk", "total"):
         assert now[column] == e[column][k], column
-    assert again.solver.contact_stats() == fields["contact"]
+    assert again.solver.contact_stats() == {key.removeprefix("contact/"): value
+                                            for key, value in scalars.items() if key.startswith("contact/")}
 
     # A run stopped after step 100, resumed.
     part = tmp_path / "part"
@@ -160,7 +161,7 @@ def test_resumed_contact_run_is_bitwise_identical(tmp_path):
     s, t = (json.loads((d / "summary.json").read_text()) for d in (full, part))
     assert t["status"] == "completed" and t["resumed_from"].endswith(names[0])
     assert t["contact"] == s["contact"] and t["phase_field"] == s["phase_field"]
-    assert s["contact"]["active_node_pairs"] > fields["contact"]["active"]
+    assert s["contact"]["active_node_pairs"] > scalars["contact/active"]
     assert s["contact"]["violations"] == {"C1": 0, "C2": 0, "C3": 0, "C4": 0}
 
 
@@ -253,7 +254,7 @@ def damaged(saved, tmp_path, how):
             f.write(bytes([byte[0] ^ 0x10]))
     elif how == "old":
         with h5py.File(path, "r+") as f:
-            f.attrs["version"] = checkpoint.VERSION - 2
+            f.attrs["version"] = 1
     elif how == "foreign":
         path.unlink()
         with h5py.File(path, "w") as f:
@@ -265,7 +266,7 @@ def damaged(saved, tmp_path, how):
     ("truncated", "cannot be read"),
     ("flipped", "checksum mismatch, the file is corrupt"),
     ("foreign", "not a pfmpm checkpoint"),
-    ("old", f"format version {checkpoint.VERSION - 2}, this pfmpm reads {checkpoint.VERSION}"),
+    ("old", f"format version 1, this pfmpm reads {checkpoint.VERSION}"),
 ])
 def test_damaged_checkpoint_is_refused(saved, tmp_path, capsys, how, reason):
     run, path = damaged(saved, tmp_path, how)
@@ -277,11 +278,50 @@ def test_damaged_checkpoint_is_refused(saved, tmp_path, capsys, how, reason):
     assert f"older: {run / 'checkpoints' / 'step_000000050.h5'}" in err[0]
 
 
+DATA = Path(__file__).resolve().parent / "data"
+
+
+def test_version_3_borden_resumes_bitwise(tmp_path):
+    """A version-3 checkpoint (written by 55831d5, format of particle arrays
+    and solver state by fixed lists) resumes into the named columns and
+    state of version 4 and continues with the same bits as that commit's
+    uninterrupted run: the coarse Borden plate, phase field included."""
+    run = tmp_path / "borden"
+    (run / "checkpoints").mkdir(parents=True)
+    shutil.copy(DATA / "borden_v3_step120.h5", run / "checkpoints" / "step_000000120.h5")
+    ckpt = checkpoint.read(run / "checkpoints" / "step_000000120.h5")
+    assert ckpt.particles["fracture_energy"].shape == ckpt.particles["mass"].shape
+    assert sorted(ckpt.solver["arrays"]) == ["phase_field/0/c", "phase_field/0/c_previous"]
+    assert main(["run", "--resume", str(run), "--quiet"]) == 0
+    assert (run / "energies.csv").read_bytes() == (DATA / "borden_v3_energies.csv").read_bytes()
+
+
+def test_version_3_contact_state_is_restored(tmp_path):
+    """A version-3 checkpoint of the disk-beam (two crackable bodies in
+    contact, each with its phase field) restores the energies of its step
+    exactly, friction and per-body fracture included, and resumes."""
+    path = DATA / "disk_beam_v3_step100.h5"
+    ckpt = checkpoint.read(path)
+    assert ckpt.solver["scalars"]["contact/active"] > 0
+    sim = Simulation(Scene.from_dict(ckpt.scene))
+    checkpoint.restore(sim, ckpt)
+    e = read_csv(DATA / "disk_beam_v3_energies.csv")
+    k = np.flatnonzero(e["step"] == 100)[0]
+    now = sim.energies()
+    for column in ("kinetic", "elastic", "fracture", "friction_dissipation", "fracture_beam",
+                   "fracture_disk", "external_work"):
+        assert now[column] == e[column][k], column
+    sim.advance(10)
+    assert sim.step == 110
+
+
 def test_version_2_is_read_unless_the_run_is_anisotropic(saved, tmp_path, capsys):
-    """Version 3 changed only how gamma is turned (docs/method.md)."""
-    run = tmp_path / "bar"
-    shutil.copytree(saved, run)
-    path = checkpoint.list_checkpoints(run / "checkpoints")[-1]
+    """Version 3 changed only how gamma is turned (docs/method.md): a version-2
+    file is read as version 3, unless one of its materials has the fourth-order term."""
+    run = tmp_path / "borden"
+    (run / "checkpoints").mkdir(parents=True)
+    path = run / "checkpoints" / "step_000000120.h5"
+    shutil.copy(DATA / "borden_v3_step120.h5", path)
     with h5py.File(path, "r+") as f:
         f.attrs["version"] = 2
     assert main(["run", "--resume", str(path), "--quiet"]) == 0

@@ -1,7 +1,7 @@
 // Disks of particles for the contact tests: test_contact.cpp, test_state.cpp.
 #pragma once
 
-#include "pfmpm/particles.h"
+#include "pfmpm/particles/particles.h"
 
 #include <cmath>
 #include <cstdint>

@@ -1,8 +1,8 @@
 // B-spline basis on open knot vectors: partition of unity, zero-sum
 // derivatives, exact reproduction of linear fields (Greville abscissae), and
 // agreement with a direct Cox-de Boor evaluation, on boundary and interior cells.
-#include "pfmpm/bspline.h"
-#include "pfmpm/grid.h"
+#include "pfmpm/grid/bspline.h"
+#include "pfmpm/grid/grid.h"
 
 #include <gtest/gtest.h>
 

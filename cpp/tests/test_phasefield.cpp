@@ -1,6 +1,6 @@
 // The anisotropy tensor of the fourth-order phase field in a turned material
 // frame (Fracture::rotated, section 4.3.4 of the paper).
-#include "pfmpm/phasefield.h"
+#include "pfmpm/fracture/phasefield.h"
 
 #include <gtest/gtest.h>
 

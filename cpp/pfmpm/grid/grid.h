@@ -2,7 +2,7 @@
 /// @brief The background grid: a tensor product of two open-knot B-spline bases.
 #pragma once
 
-#include "bspline.h"
+#include "pfmpm/grid/bspline.h"
 
 #include <array>
 #include <cstdint>

@@ -1,4 +1,6 @@
-#include "grid.h"
+/// @file grid.cpp
+/// @brief Active grid nodes and wall constraints.
+#include "pfmpm/grid/grid.h"
 
 #include <algorithm>
 

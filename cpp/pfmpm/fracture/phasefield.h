@@ -4,9 +4,9 @@
 /// (Kakouris & Triantafyllou 2019, eqs. 4-6, 47-57).
 #pragma once
 
-#include "grid.h"
-#include "material.h"
-#include "particles.h"
+#include "pfmpm/grid/grid.h"
+#include "pfmpm/particles/cell_sort.h"
+#include "pfmpm/particles/particles.h"
 
 #include <array>
 #include <cstdint>
@@ -53,19 +53,20 @@ struct PhaseFieldStats
 };
 
 /// @brief What one solve hands to the next: the nodal phase field of the last
-/// two solves (the warm start extrapolates from them), the statistics and the
-/// per-particle fracture energy. Saving and restoring it makes a resumed run
+/// two solves (the warm start extrapolates from them) and the statistics.
+/// With the particle columns, saving and restoring it makes a resumed run
 /// take bitwise the same steps as an uninterrupted one.
 struct PhaseFieldState
 {
-  std::vector<double> c;               ///< nodal phase field, padded node layout
-  std::vector<double> c_previous;      ///< the solution before it, same layout
-  std::vector<double> fracture_energy; ///< per particle, from the last solve
+  std::vector<double> c;          ///< nodal phase field, padded node layout
+  std::vector<double> c_previous; ///< the solution before it, same layout
   PhaseFieldStats stats;
 };
 
 /// @brief Assembles and solves K c = F (eqs. 56, 57, 52) for the nodal phase
-/// field, and maps the result to the particles (eqs. 53-55).
+/// field, and maps the result to the particles (eqs. 53-55). It writes the
+/// particles' c and fracture energy only: the stresses that c degrades are
+/// the materials' business (Material::stress).
 ///
 /// The fourth-order term of eq. 57 needs second derivatives of the basis, so
 /// C1 splines (degree >= 2); it is assembled only when some material has
@@ -91,6 +92,10 @@ public:
   PhaseField(const Grid& grid, std::vector<std::optional<Fracture>> fracture, double tol,
              int max_iterations);
 
+  /// The particle columns of the phase field: c, history H, orientation phi
+  /// and fracture energy G_c V_p Z(c_p).
+  static std::vector<ColumnSpec> columns();
+
   /// Whether any material can crack.
   bool active() const { return _active; }
   /// Whether some material has the fourth-order term (gamma != 0).
@@ -101,20 +106,15 @@ public:
     return _fracture[material] ? &*_fracture[material] : nullptr;
   }
 
-  /// @brief Assemble with the current history, solve, set c at the
-  /// particles and degrade their stresses (eqs. 14-16).
+  /// @brief Assemble with the current history, solve, and set c and the
+  /// fracture energy at the particles of `sort`.
   ///
-  /// Needs the particles sorted by cell (`order`, `cell_start`) and the grid's
-  /// active nodes for that sort.
-  /// @param materials Elastic models indexed by Particles::material.
+  /// `sort` holds the particles that take part, all of crackable materials,
+  /// sorted by cell; the grid's active nodes must be those of this step.
   /// @return false if CG did not reach tol within max_iterations.
   template <int P>
-  bool solve(Particles& particles, const std::vector<std::int32_t>& order,
-             const std::vector<std::int64_t>& cell_start,
-             const std::vector<LinearElastic>& materials);
+  bool solve(Particles& particles, const CellSort& sort);
 
-  /// Per particle: G_c V_p Z(c_p) with Z of eq. 4, from the last solve.
-  const std::vector<double>& fracture_energy() const { return _fracture_energy; }
   const PhaseFieldStats& stats() const { return _stats; }
 
   /// @brief A copy of the state carried between solves.
@@ -130,8 +130,7 @@ public:
 
 private:
   template <int P, bool Fourth>
-  void assemble(const Particles& particles, const std::vector<std::int32_t>& order,
-                const std::vector<std::int64_t>& cell_start);
+  void assemble(const Particles& particles, const CellSort& sort);
   template <int P, bool Fourth>
   bool conjugate_gradient();
   /// @brief The iterations of conjugate_gradient from r = F - K c with
@@ -145,9 +144,7 @@ private:
   template <int P>
   void multiply(const std::vector<double>& padded, std::vector<double>& out) const;
   template <int P, bool Fourth>
-  void map_to_particles(Particles& particles, const std::vector<std::int32_t>& order,
-                        const std::vector<std::int64_t>& cell_start,
-                        const std::vector<LinearElastic>& materials);
+  void map_to_particles(Particles& particles, const CellSort& sort);
   /// @brief The upper half of K's (2p+1)^2-point stencil: the centre, then the
   /// offsets (0, 1..p), then (1..p, -p..p). K is symmetric, so the entry for
   /// (-dx, -dy) is the (dx, dy) entry of the neighbour's row.
@@ -220,7 +217,6 @@ private:
   std::vector<std::size_t> _column_start;
   std::vector<double> _inverse;
   std::vector<double> _forward, _v, _g;
-  std::vector<double> _fracture_energy; // per particle
   PhaseFieldStats _stats;
 };
 

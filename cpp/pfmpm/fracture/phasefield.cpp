@@ -1,6 +1,10 @@
-#include "phasefield.h"
-#include "reduce.h"
-#include "strips.h"
+/// @file phasefield.cpp
+/// @brief Phase-field assembly (K&T eqs. 49, 52, 56-57), preconditioned CG
+/// and map-back to the particles (eqs. 53-55, 4).
+#include "pfmpm/fracture/phasefield.h"
+#include "pfmpm/common/reduce.h"
+#include "pfmpm/shape/stencil.h"
+#include "pfmpm/transfer/transfer.h"
 
 #include <algorithm>
 #include <cmath>
@@ -24,29 +28,6 @@ double curvature_energy(const Voigt& G, const double kappa[3])
       sum += kappa[i] * G[3 * i + j] * kappa[j];
   return sum;
 }
-
-/// The basis functions of a cell and their derivatives at a particle
-/// (eqs. 53-55); the second derivatives only for the fourth-order term.
-template <int P, bool Fourth>
-struct Basis
-{
-  double Nx[P + 1], dNx[P + 1], Ny[P + 1], dNy[P + 1];
-  double d2Nx[Fourth ? P + 1 : 1], d2Ny[Fourth ? P + 1 : 1];
-
-  Basis(const BSpline1D& bx, const BSpline1D& by, int cx, int cy, const double* xp)
-  {
-    if constexpr (Fourth)
-    {
-      bx.evaluate<P>(cx, xp[0], Nx, dNx, d2Nx);
-      by.evaluate<P>(cy, xp[1], Ny, dNy, d2Ny);
-    }
-    else
-    {
-      bx.evaluate<P>(cx, xp[0], Nx, dNx);
-      by.evaluate<P>(cy, xp[1], Ny, dNy);
-    }
-  }
-};
 
 /// A material's gamma in the global frame (Fracture::rotated), recomputed only
 /// when the material or the orientation differs from the last call's.
@@ -147,7 +128,7 @@ PhaseField::PhaseField(const Grid& grid, std::vector<std::optional<Fracture>> fr
 
 PhaseFieldState PhaseField::state() const
 {
-  return PhaseFieldState{_c, _c_previous, _fracture_energy, _stats};
+  return PhaseFieldState{_c, _c_previous, _stats};
 }
 
 void PhaseField::check(const PhaseFieldState& state) const
@@ -163,21 +144,27 @@ void PhaseField::restore(PhaseFieldState state)
   check(state);
   _c = std::move(state.c);
   _c_previous = std::move(state.c_previous);
-  _fracture_energy = std::move(state.fracture_energy);
   _stats = state.stats;
 }
 
+std::vector<ColumnSpec> PhaseField::columns()
+{
+  return {{"c", 1, DType::f64, {1.0}, "phase field: 1 intact, 0 broken (K&T eq. 53)", "", "c"},
+          {"history", 1, DType::f64, {0.0}, "history field H (K&T eq. 20)", "", "history"},
+          {"phi", 1, DType::f64, {0.0}, "principal material direction, radians clockwise from x",
+           "", ""},
+          {"fracture_energy", 1, DType::f64, {0.0}, "G_c V_p Z(c_p) (K&T eqs. 3-4)", "", ""}};
+}
+
 template <int P>
-bool PhaseField::solve(Particles& particles, const std::vector<std::int32_t>& order,
-                       const std::vector<std::int64_t>& cell_start,
-                       const std::vector<LinearElastic>& materials)
+bool PhaseField::solve(Particles& particles, const CellSort& sort)
 {
   auto run = [&](auto fourth)
   {
     constexpr bool Fourth = decltype(fourth)::value;
-    assemble<P, Fourth>(particles, order, cell_start);
+    assemble<P, Fourth>(particles, sort);
     const bool converged = conjugate_gradient<P, Fourth>();
-    map_to_particles<P, Fourth>(particles, order, cell_start, materials);
+    map_to_particles<P, Fourth>(particles, sort);
     return converged;
   };
   if constexpr (P >= 2) // degree 1 with gamma != 0 is refused by the constructor
@@ -187,19 +174,16 @@ bool PhaseField::solve(Particles& particles, const std::vector<std::int32_t>& or
 }
 
 template <int P, bool Fourth>
-void PhaseField::assemble(const Particles& particles, const std::vector<std::int32_t>& order,
-                          const std::vector<std::int64_t>& cell_start)
+void PhaseField::assemble(const Particles& particles, const CellSort& sort)
 {
-  constexpr int K = (P + 1) * (P + 1); // nodes of one cell
-  constexpr int H = Stencil<P>::size;  // stored entries per node
-  const BSpline1D& bx = _grid.basis(0);
-  const BSpline1D& by = _grid.basis(1);
-  const int ncx = bx.cells(), ncy = by.cells(), nny = _grid.nodes()[1];
+  using Shape = BSplineStencil<2, P, Fourth ? 2 : 1>;
+  constexpr int K = Shape::size;      // nodes of one cell
+  constexpr int H = Stencil<P>::size; // stored entries per node
+  const int nny = _grid.nodes()[1];
   const auto na = static_cast<std::size_t>(_grid.num_active());
-  const double* x = particles.x.data();
   const double* volume = particles.volume.data();
-  const double* history = particles.history.data();
-  const double* phi = particles.phi.data();
+  const double* history = particles.f64("history").data();
+  const double* phi = particles.f64("phi").data();
   const std::int32_t* material = particles.material.data();
 
   _stencil.resize(_c.size() * H);
@@ -226,88 +210,79 @@ void PhaseField::assemble(const Particles& particles, const std::vector<std::int
   int slot[K][K];
   for (int i = 0; i < K; ++i)
     for (int j = 0; j < K; ++j)
-      slot[i][j] = Stencil<P>::slot(j / (P + 1) - i / (P + 1), j % (P + 1) - i % (P + 1));
+      slot[i][j] = Stencil<P>::slot(Shape::offset(j, 0) - Shape::offset(i, 0),
+                                    Shape::offset(j, 1) - Shape::offset(i, 1));
 
   // Per cell, a local K x K block of eq. 57 and K entries of eq. 52, summed
-  // over the cell's particles in sorted order, then added to the stencil rows
-  // (see for_each_cell_by_strips).
-  auto scatter = [&](int cx, int cy, std::int64_t begin, std::int64_t end)
-  {
-    // Rows padded to a multiple of 4 so the inner loop vectorises.
-    constexpr int R = (K + 3) / 4 * 4;
-    alignas(32) double block[K][R]{};
-    double f[K]{};
-    bool touched = false;
-    [[maybe_unused]] RotatedGamma rotated;
-    for (std::int64_t k = begin; k < end; ++k)
-    {
-      const std::size_t p = order[k];
-      const Fracture* fr = fracture(material[p]);
-      if (!fr)
-        continue;
-      touched = true;
-      const Basis<P, Fourth> at(bx, by, cx, cy, &x[2 * p]);
-      const auto &Nx = at.Nx, &dNx = at.dNx, &Ny = at.Ny, &dNy = at.dNy;
-      const double V = volume[p];
-      // eq. 49: F_p = 4 l0 (1 - k_f) H / G_c + 1
-      const double a = (4.0 * fr->l0 * (1.0 - fr->k_f) * history[p] / fr->Gc + 1.0) * V;
-      const double b = 4.0 * fr->l0 * fr->l0 * V;
-      alignas(32) double w[R]{}, gx[R]{}, gy[R]{};
-      for (int i = 0; i < P + 1; ++i)
-        for (int j = 0; j < P + 1; ++j)
-        {
-          w[i * (P + 1) + j] = Nx[i] * Ny[j];
-          gx[i * (P + 1) + j] = dNx[i] * Ny[j];
-          gy[i * (P + 1) + j] = Nx[i] * dNy[j];
-        }
-      if constexpr (Fourth)
+  // over the cell's particles in sorted order, then added to the stencil rows.
+  particle_to_grid<Shape>(
+      _grid, sort, particles.x.data(),
+      [&](const Cell& cell, const auto& each)
       {
-        const Voigt& G = rotated(*fr, phi[p]);
-        // Curvatures of the basis, kappa = (N_,xx, N_,yy, N_,xy) (eq. 55).
-        alignas(32) double kxx[R]{}, kyy[R]{}, kxy[R]{};
-        for (int i = 0; i < P + 1; ++i)
-          for (int j = 0; j < P + 1; ++j)
-          {
-            kxx[i * (P + 1) + j] = at.d2Nx[i] * Ny[j];
-            kyy[i * (P + 1) + j] = Nx[i] * at.d2Ny[j];
-            kxy[i * (P + 1) + j] = dNx[i] * dNy[j];
-          }
-        const double e = 4.0 * fr->l0 * fr->l0 * fr->l0 * fr->l0 * V;
+        // Rows padded to a multiple of 4 so the inner loop vectorises.
+        constexpr int R = (K + 3) / 4 * 4;
+        alignas(32) double block[K][R]{};
+        double f[K]{};
+        [[maybe_unused]] RotatedGamma rotated;
+        each(
+            [&](std::size_t p, const Shape& s)
+            {
+              const Fracture& fr = *fracture(material[p]);
+              const double V = volume[p];
+              // eq. 49: F_p = 4 l0 (1 - k_f) H / G_c + 1
+              const double a = (4.0 * fr.l0 * (1.0 - fr.k_f) * history[p] / fr.Gc + 1.0) * V;
+              const double b = 4.0 * fr.l0 * fr.l0 * V;
+              alignas(32) double w[R]{}, gx[R]{}, gy[R]{};
+              for (int i = 0; i < K; ++i)
+              {
+                w[i] = s.N(i);
+                gx[i] = s.dN(0, i);
+                gy[i] = s.dN(1, i);
+              }
+              if constexpr (Fourth)
+              {
+                const Voigt& G = rotated(fr, phi[p]);
+                // Curvatures of the basis, kappa = (N_,xx, N_,yy, N_,xy) (eq. 55).
+                alignas(32) double kxx[R]{}, kyy[R]{}, kxy[R]{};
+                for (int i = 0; i < K; ++i)
+                {
+                  kxx[i] = s.d2N(0, i);
+                  kyy[i] = s.d2N(1, i);
+                  kxy[i] = s.d2N(2, i);
+                }
+                const double e = 4.0 * fr.l0 * fr.l0 * fr.l0 * fr.l0 * V;
+                for (int i = 0; i < K; ++i)
+                {
+                  f[i] += V * w[i]; // eq. 52
+                  const double aw = a * w[i], bx_ = b * gx[i], by_ = b * gy[i];
+                  // e G kappa_i, so that the fourth-order term is u . kappa_j
+                  const double u0 = e * (G[0] * kxx[i] + G[1] * kyy[i] + G[2] * kxy[i]);
+                  const double u1 = e * (G[3] * kxx[i] + G[4] * kyy[i] + G[5] * kxy[i]);
+                  const double u2 = e * (G[6] * kxx[i] + G[7] * kyy[i] + G[8] * kxy[i]);
+                  for (int j = 0; j < R; ++j) // eq. 57 with its fourth-order term
+                    block[i][j] += aw * w[j] + bx_ * gx[j] + by_ * gy[j] + u0 * kxx[j]
+                                   + u1 * kyy[j] + u2 * kxy[j];
+                }
+              }
+              else
+                for (int i = 0; i < K; ++i)
+                {
+                  f[i] += V * w[i]; // eq. 52
+                  const double aw = a * w[i], bx_ = b * gx[i], by_ = b * gy[i];
+                  for (int j = 0; j < R; ++j)
+                    block[i][j] += aw * w[j] + bx_ * gx[j] + by_ * gy[j]; // eq. 57, gamma = 0
+                }
+            });
         for (int i = 0; i < K; ++i)
         {
-          f[i] += V * w[i]; // eq. 52
-          const double aw = a * w[i], bx_ = b * gx[i], by_ = b * gy[i];
-          // e G kappa_i, so that the fourth-order term is u . kappa_j
-          const double u0 = e * (G[0] * kxx[i] + G[1] * kyy[i] + G[2] * kxy[i]);
-          const double u1 = e * (G[3] * kxx[i] + G[4] * kyy[i] + G[5] * kxy[i]);
-          const double u2 = e * (G[6] * kxx[i] + G[7] * kyy[i] + G[8] * kxy[i]);
-          for (int j = 0; j < R; ++j) // eq. 57 with its fourth-order term
-            block[i][j] += aw * w[j] + bx_ * gx[j] + by_ * gy[j] + u0 * kxx[j] + u1 * kyy[j]
-                           + u2 * kxy[j];
+          const int ix = cell.cx + Shape::offset(i, 0), iy = cell.cy + Shape::offset(i, 1);
+          _rhs[_grid.active_index(ix, iy)] += f[i];
+          double* row = &_stencil[padded(ix, iy) * H];
+          for (int j = 0; j < K; ++j)
+            if (slot[i][j] >= 0)
+              row[slot[i][j]] += block[i][j];
         }
-      }
-      else
-        for (int i = 0; i < K; ++i)
-        {
-          f[i] += V * w[i]; // eq. 52
-          const double aw = a * w[i], bx_ = b * gx[i], by_ = b * gy[i];
-          for (int j = 0; j < R; ++j)
-            block[i][j] += aw * w[j] + bx_ * gx[j] + by_ * gy[j]; // eq. 57, gamma = 0
-        }
-    }
-    if (!touched)
-      return;
-    for (int i = 0; i < K; ++i)
-    {
-      const int ia = i / (P + 1), ib = i % (P + 1);
-      _rhs[_grid.active_index(cx + ia, cy + ib)] += f[i];
-      double* stencil = &_stencil[padded(cx + ia, cy + ib) * H];
-      for (int j = 0; j < K; ++j)
-        if (slot[i][j] >= 0)
-          stencil[slot[i][j]] += block[i][j];
-    }
-  };
-  for_each_cell_by_strips(ncx, ncy, cell_start, scatter);
+      });
 
   // Nodes that no crackable particle touches keep c = 1: an identity row.
 #pragma omp parallel for schedule(static)
@@ -612,86 +587,53 @@ bool PhaseField::conjugate_gradient()
 }
 
 template <int P, bool Fourth>
-void PhaseField::map_to_particles(Particles& particles, const std::vector<std::int32_t>& order,
-                                  const std::vector<std::int64_t>& cell_start,
-                                  const std::vector<LinearElastic>& materials)
+void PhaseField::map_to_particles(Particles& particles, const CellSort& sort)
 {
-  constexpr int K = (P + 1) * (P + 1);
-  const BSpline1D& bx = _grid.basis(0);
-  const BSpline1D& by = _grid.basis(1);
-  const int ncx = bx.cells(), ncy = by.cells();
-  const double* x = particles.x.data();
+  using Shape = BSplineStencil<2, P, Fourth ? 2 : 1>;
+  constexpr int K = Shape::size;
   const double* volume = particles.volume.data();
-  const double* phi = particles.phi.data();
+  const double* phi = particles.f64("phi").data();
   const std::int32_t* material = particles.material.data();
-  const double* strain = particles.strain.data();
-  double* stress = particles.stress.data();
-  double* c = particles.c.data();
-  // Every particle's entry is written below (zero where it cannot crack).
-  _fracture_energy.resize(particles.size());
+  double* c = particles.f64("c").data();
+  double* energy = particles.f64("fracture_energy").data();
 
-#pragma omp parallel for schedule(static)
-  for (int cx = 0; cx < ncx; ++cx)
-    for (int cy = 0; cy < ncy; ++cy)
-    {
-      const std::size_t cell = static_cast<std::size_t>(cx) * ncy + cy;
-      const std::int64_t begin = cell_start[cell], end = cell_start[cell + 1];
-      if (begin == end)
-        continue;
-      double nodal[K];
-      [[maybe_unused]] RotatedGamma rotated;
-      for (int a = 0; a <= P; ++a)
-        for (int b = 0; b <= P; ++b)
-          nodal[a * (P + 1) + b] = _c[padded(cx + a, cy + b)];
-      for (std::int64_t k = begin; k < end; ++k)
-      {
-        const std::size_t p = order[k];
-        const Fracture* fr = fracture(material[p]);
-        if (!fr)
-        {
-          _fracture_energy[p] = 0.0;
-          continue;
-        }
-        const Basis<P, Fourth> at(bx, by, cx, cy, &x[2 * p]);
-        const auto &Nx = at.Nx, &dNx = at.dNx, &Ny = at.Ny, &dNy = at.dNy;
-        double cp = 0.0, gx = 0.0, gy = 0.0;
-        [[maybe_unused]] double kappa[3] = {0.0, 0.0, 0.0};
-        for (int a = 0; a <= P; ++a)
-          for (int b = 0; b <= P; ++b)
+  grid_to_particle<Shape>(
+      _grid, sort, particles.x.data(),
+      unreduced(
+          [&](const Cell& cell, const auto& each)
           {
-            const double ci = nodal[a * (P + 1) + b];
-            cp += Nx[a] * Ny[b] * ci;  // eq. 53
-            gx += dNx[a] * Ny[b] * ci; // eq. 54
-            gy += Nx[a] * dNy[b] * ci;
-            if constexpr (Fourth)
-            {
-              kappa[0] += at.d2Nx[a] * Ny[b] * ci; // eq. 55, per component
-              kappa[1] += Nx[a] * at.d2Ny[b] * ci;
-              kappa[2] += dNx[a] * dNy[b] * ci;
-            }
-          }
-        c[p] = cp;
-        // G_c V Z with Z of eq. 4.
-        const double one_minus = 1.0 - cp;
-        double Z = one_minus * one_minus / (4.0 * fr->l0) + fr->l0 * (gx * gx + gy * gy);
-        if constexpr (Fourth) // zero for a material with gamma = 0
-          Z += fr->l0 * fr->l0 * fr->l0 * curvature_energy(rotated(*fr, phi[p]), kappa);
-        _fracture_energy[p] = fr->Gc * volume[p] * Z;
-        double plus, minus; // eqs. 14-16 with the new phase field
-        materials[material[p]].degraded(&strain[3 * p], fr->degradation(cp), &stress[4 * p],
-                                        plus, minus);
-      }
-    }
+            double nodal[K];
+            [[maybe_unused]] RotatedGamma rotated;
+            for (int i = 0; i < K; ++i)
+              nodal[i] = _c[padded(cell.cx + Shape::offset(i, 0), cell.cy + Shape::offset(i, 1))];
+            each(
+                [&](std::size_t p, const Shape& s)
+                {
+                  const Fracture& fr = *fracture(material[p]);
+                  double cp = 0.0, gx = 0.0, gy = 0.0;
+                  [[maybe_unused]] double kappa[3] = {0.0, 0.0, 0.0};
+                  for (int i = 0; i < K; ++i)
+                  {
+                    cp += s.N(i) * nodal[i];     // eq. 53
+                    gx += s.dN(0, i) * nodal[i]; // eq. 54
+                    gy += s.dN(1, i) * nodal[i];
+                    if constexpr (Fourth)
+                      for (int h = 0; h < 3; ++h)
+                        kappa[h] += s.d2N(h, i) * nodal[i]; // eq. 55, per component
+                  }
+                  c[p] = cp;
+                  // G_c V Z with Z of eq. 4.
+                  const double one_minus = 1.0 - cp;
+                  double Z = one_minus * one_minus / (4.0 * fr.l0) + fr.l0 * (gx * gx + gy * gy);
+                  if constexpr (Fourth) // zero for a material with gamma = 0
+                    Z += fr.l0 * fr.l0 * fr.l0 * curvature_energy(rotated(fr, phi[p]), kappa);
+                  energy[p] = fr.Gc * volume[p] * Z;
+                });
+          }));
 }
 
-template bool PhaseField::solve<1>(Particles&, const std::vector<std::int32_t>&,
-                                   const std::vector<std::int64_t>&,
-                                   const std::vector<LinearElastic>&);
-template bool PhaseField::solve<2>(Particles&, const std::vector<std::int32_t>&,
-                                   const std::vector<std::int64_t>&,
-                                   const std::vector<LinearElastic>&);
-template bool PhaseField::solve<3>(Particles&, const std::vector<std::int32_t>&,
-                                   const std::vector<std::int64_t>&,
-                                   const std::vector<LinearElastic>&);
+template bool PhaseField::solve<1>(Particles&, const CellSort&);
+template bool PhaseField::solve<2>(Particles&, const CellSort&);
+template bool PhaseField::solve<3>(Particles&, const CellSort&);
 
 } // namespace pfmpm

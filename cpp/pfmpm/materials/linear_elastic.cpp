@@ -1,4 +1,6 @@
-#include "material.h"
+/// @file linear_elastic.cpp
+/// @brief Linear elasticity: moduli, parameters and its registration.
+#include "pfmpm/materials/linear_elastic.h"
 
 #include <cmath>
 #include <sstream>
@@ -44,6 +46,43 @@ LinearElastic::LinearElastic(double E, double nu, double density, Plane plane, S
   }
 }
 
+namespace
+{
+Plane plane_of(const std::string& word)
+{
+  if (word == "strain")
+    return Plane::strain;
+  if (word == "stress")
+    return Plane::stress;
+  throw std::invalid_argument("plane = " + word + ": must be strain or stress");
+}
+
+Split split_of(const std::string& word)
+{
+  if (word == "none")
+    return Split::none;
+  if (word == "spectral")
+    return Split::spectral;
+  if (word == "volumetric_deviatoric")
+    return Split::volumetric_deviatoric;
+  throw std::invalid_argument("split = " + word
+                              + ": must be none, spectral or volumetric_deviatoric");
+}
+} // namespace
+
+LinearElastic::LinearElastic(const Parameters& p)
+    : LinearElastic(p.number("E"), p.number("nu"), p.number("density"),
+                    plane_of(p.word("plane", "strain")), split_of(p.word("split", "spectral")))
+{
+}
+
 double LinearElastic::wave_speed() const { return std::sqrt((_lambda + 2.0 * _mu) / _density); }
+
+std::vector<ColumnSpec> LinearElastic::columns() const
+{
+  return {{"strain", 3, DType::f64, {0.0}, "small strain (K&T eq. 78)", "xx,yy,xy", ""}};
+}
+
+PFMPM_REGISTER_MATERIAL(LinearElastic, "linear_elastic")
 
 } // namespace pfmpm

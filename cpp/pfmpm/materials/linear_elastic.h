@@ -1,6 +1,9 @@
-/// @file material.h
-/// @brief Constitutive models.
+/// @file linear_elastic.h
+/// @brief Small-strain isotropic linear elasticity with the energy splits of
+/// the phase field (Kakouris & Triantafyllou 2019, eqs. 14-16, 78).
 #pragma once
+
+#include "pfmpm/materials/material.h"
 
 #include <algorithm>
 #include <cmath>
@@ -31,7 +34,12 @@ enum class Split : int
 /// plane strain and 2 mu lambda / (lambda + 2 mu) in plane stress. In plane
 /// strain the split uses the 3D strain (eps_zz = 0); in plane stress it acts
 /// on the in-plane strain with lambda*, the usual 2D treatment.
-class LinearElastic
+///
+/// Registered as "linear_elastic" with the parameters E, nu, density, plane
+/// ("strain" or "stress", default strain) and split ("none", "spectral",
+/// "volumetric_deviatoric"; default spectral). Its state is the small strain
+/// (column `strain`: xx, yy, xy), advanced by eq. 78.
+class LinearElastic final : public MaterialModel<LinearElastic>
 {
 public:
   /// @param E Young's modulus (> 0).
@@ -40,22 +48,62 @@ public:
   /// @param plane Plane strain or plane stress.
   /// @param split Energy split used when the material can crack.
   LinearElastic(double E, double nu, double density, Plane plane, Split split = Split::spectral);
+  /// @brief From a scene's parameters (see the class description).
+  explicit LinearElastic(const Parameters& p);
 
   double E() const { return _E; }
   double nu() const { return _nu; }
-  double density() const { return _density; }
+  double density() const override { return _density; }
   Plane plane() const { return _plane; }
   Split split() const { return _split; }
   double lambda() const { return _lambda; } ///< in-plane lambda*
   double mu() const { return _mu; }
 
   /// Dilatational (P) wave speed sqrt((lambda* + 2 mu) / rho).
-  double wave_speed() const;
+  double wave_speed() const override;
+
+  std::string model() const override { return "linear_elastic"; }
+  std::vector<ColumnSpec> columns() const override;
+
+  /// @name Per-particle functions of MaterialModel
+  /// @{
+  struct View
+  {
+    double* strain;
+    double* stress;
+  };
+  View view(Particles& P) const { return {P.f64("strain").data(), P.stress.data()}; }
+  static constexpr bool constant_wave_speed = true;
+  /// Strain increment, eq. 78: eps += dt sym(L).
+  void advance(const View& v, std::size_t p, const double* L, double dt) const
+  {
+    double* eps = &v.strain[3 * p];
+    eps[0] += dt * L[0];
+    eps[1] += dt * L[3];
+    eps[2] += 0.5 * dt * (L[1] + L[2]);
+  }
+  void undegraded(const View& v, std::size_t p) const
+  {
+    undegraded(&v.strain[3 * p], &v.stress[4 * p]); // eq. 16, g = 1
+  }
+  double degraded(const View& v, std::size_t p, double g) const
+  {
+    double plus, minus;
+    degraded(&v.strain[3 * p], g, &v.stress[4 * p], plus, minus);
+    return plus;
+  }
+  double energy(const View& v, std::size_t p) const { return energy_density(&v.strain[3 * p]); }
+  void split(const View& v, std::size_t p, double& plus, double& minus) const
+  {
+    double sig[4];
+    degraded(&v.strain[3 * p], 1.0, sig, plus, minus);
+  }
+  /// @}
 
   /// @brief Undegraded stress from strain (eq. 16 with g = 1).
   /// @param eps Strain (xx, yy, xy).
   /// @param[out] sig Stress (xx, yy, xy, zz).
-  void stress(const double* eps, double* sig) const
+  void undegraded(const double* eps, double* sig) const
   {
     const double tr = eps[0] + eps[1];
     sig[0] = _lambda * tr + 2.0 * _mu * eps[0];
@@ -87,7 +135,7 @@ public:
       volumetric_deviatoric(eps, g, sig, psi_plus, psi_minus);
     else
     {
-      stress(eps, sig);
+      undegraded(eps, sig);
       for (int k = 0; k < 4; ++k)
         sig[k] *= g;
       psi_plus = energy_density(eps);

@@ -2,7 +2,7 @@
 /// @brief Cell-to-node scatters without races and with a fixed summation order.
 #pragma once
 
-#include "bspline.h"
+#include "pfmpm/grid/bspline.h"
 
 #include <algorithm>
 #include <cstdint>

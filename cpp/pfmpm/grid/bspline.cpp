@@ -1,4 +1,6 @@
-#include "bspline.h"
+/// @file bspline.cpp
+/// @brief Cox-de Boor polynomial tables of the open-knot B-spline basis.
+#include "pfmpm/grid/bspline.h"
 
 #include <algorithm>
 #include <stdexcept>

@@ -1,0 +1,119 @@
+/// @file materials.cpp
+/// @brief Materials in Python: the registry by name, and the vectorised
+/// stress and energy of linear elasticity (used by the finite-element reference).
+#include "bindings.h"
+
+#include "pfmpm/materials/linear_elastic.h"
+#include "pfmpm/materials/material.h"
+
+#include <pybind11/numpy.h>
+#include <pybind11/stl.h>
+
+#include <map>
+#include <string>
+
+namespace py = pybind11;
+using namespace pfmpm;
+
+namespace pfmpm::bindings
+{
+
+namespace
+{
+using Strains = py::array_t<double, py::array::c_style | py::array::forcecast>;
+
+/// Number of rows of an (N, 3) strain array; throws on another shape.
+py::ssize_t strain_rows(const Strains& strain)
+{
+  if (strain.ndim() != 2 || strain.shape(1) != 3)
+    throw py::value_error("strain must have shape (N, 3)");
+  return strain.shape(0);
+}
+} // namespace
+
+void bind_materials(py::module_& m)
+{
+  py::enum_<Plane>(m, "Plane").value("strain", Plane::strain).value("stress", Plane::stress);
+  py::enum_<Split>(m, "Split")
+      .value("none", Split::none)
+      .value("spectral", Split::spectral)
+      .value("volumetric_deviatoric", Split::volumetric_deviatoric);
+
+  py::class_<Material, std::shared_ptr<Material>>(m, "Material", "A constitutive model")
+      .def_property_readonly("model", &Material::model)
+      .def_property_readonly("density", &Material::density)
+      .def_property_readonly("wave_speed", py::overload_cast<>(&Material::wave_speed, py::const_),
+                             "P-wave speed of the undeformed material")
+      .def_property_readonly(
+          "columns",
+          [](const Material& mat)
+          {
+            py::list out;
+            for (const ColumnSpec& c : mat.columns())
+              out.append(c.name);
+            return out;
+          },
+          "names of the particle columns the model keeps");
+
+  m.def(
+      "material",
+      [](const std::string& model, const py::dict& parameters)
+      {
+        std::map<std::string, double> numbers;
+        std::map<std::string, std::string> words;
+        for (const auto& [key, value] : parameters)
+        {
+          if (py::isinstance<py::str>(value))
+            words[key.cast<std::string>()] = value.cast<std::string>();
+          else
+            numbers[key.cast<std::string>()] = value.cast<double>();
+        }
+        return MaterialRegistry::make(model, Parameters(numbers, words));
+      },
+      py::arg("model"), py::arg("parameters"),
+      "build the registered model `model` from a dict of numbers and words; a bad, missing or "
+      "unknown key raises ValueError naming it");
+  m.def("material_models", &MaterialRegistry::models, "the registered material models");
+
+  py::class_<LinearElastic, Material, std::shared_ptr<LinearElastic>>(
+      m, "LinearElastic", "Isotropic linear elasticity (registered as linear_elastic)")
+      .def(py::init<double, double, double, Plane, Split>(), py::arg("E"), py::arg("nu"),
+           py::arg("density"), py::arg("plane"), py::arg("split") = Split::spectral)
+      .def(
+          "split_energies",
+          [](const LinearElastic& e, const Strains& strain)
+          {
+            const py::ssize_t n = strain_rows(strain);
+            py::array_t<double> plus(n), minus(n);
+            for (py::ssize_t i = 0; i < n; ++i)
+            {
+              double sig[4];
+              e.degraded(strain.data(i, 0), 1.0, sig, plus.mutable_data()[i],
+                         minus.mutable_data()[i]);
+            }
+            return py::make_tuple(plus, minus);
+          },
+          py::arg("strain"), "(psi+, psi-) of eq. 14 for strains (N, 3): xx, yy, xy")
+      .def(
+          "stresses",
+          [](const LinearElastic& e, const Strains& strain,
+             py::array_t<double, py::array::c_style | py::array::forcecast> g)
+          {
+            const py::ssize_t n = strain_rows(strain);
+            if (g.ndim() != 1 || g.shape(0) != n)
+              throw py::value_error("g must have shape (N,) matching strain");
+            py::array_t<double> sig({n, py::ssize_t(4)});
+            for (py::ssize_t i = 0; i < n; ++i)
+            {
+              double plus, minus;
+              e.degraded(strain.data(i, 0), g.data()[i], sig.mutable_data(i, 0), plus, minus);
+            }
+            return sig;
+          },
+          py::arg("strain"), py::arg("g"),
+          "stresses (N, 4): xx, yy, xy, zz of g psi+ + psi- (eqs. 14, 16)")
+      .def_property_readonly("lame", [](const LinearElastic& e)
+                             { return std::make_pair(e.lambda(), e.mu()); });
+}
+
+} // namespace pfmpm::bindings

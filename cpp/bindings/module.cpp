@@ -1,0 +1,83 @@
+/// @file module.cpp
+/// @brief The pfmpm._core Python module: a thin layer over the C++ library.
+///
+/// Particle columns are numpy views of the C++ storage (no copies); each
+/// view keeps its Particles object alive.
+#include "bindings.h"
+
+#include "pfmpm/common/error.h"
+#include "pfmpm/grid/bspline.h"
+#include "pfmpm/grid/grid.h"
+
+#include <omp.h>
+#include <pybind11/numpy.h>
+#include <pybind11/stl.h>
+
+#include <string>
+
+namespace py = pybind11;
+using namespace pfmpm;
+
+namespace pfmpm::bindings
+{
+
+void bind_grid(py::module_& m)
+{
+  py::class_<BSpline1D>(m, "BSpline1D", "B-spline basis on a uniform open knot vector")
+      .def(py::init<int, int, double, double>(), py::arg("degree"), py::arg("cells"),
+           py::arg("h"), py::arg("origin") = 0.0)
+      .def_property_readonly("degree", &BSpline1D::degree)
+      .def_property_readonly("size", &BSpline1D::size)
+      .def(
+          "evaluate",
+          [](const BSpline1D& b, py::array_t<double, py::array::c_style | py::array::forcecast> xs)
+          {
+            const auto n = xs.size();
+            const int k = b.degree() + 1;
+            py::array_t<int> cells(n);
+            py::array_t<double> N({n, py::ssize_t(k)}), dN({n, py::ssize_t(k)}),
+                d2N({n, py::ssize_t(k)});
+            const double* x = xs.data();
+            for (py::ssize_t i = 0; i < n; ++i)
+            {
+              const int c = b.cell(x[i]);
+              if (c < 0)
+                throw py::value_error("x = " + std::to_string(x[i]) + " is outside the basis");
+              cells.mutable_data()[i] = c;
+              b.evaluate(c, x[i], N.mutable_data(i, 0), dN.mutable_data(i, 0),
+                         d2N.mutable_data(i, 0));
+            }
+            return py::make_tuple(cells, N, dN, d2N);
+          },
+          py::arg("x"),
+          "(cell, N, dN, d2N) at each x: N[i, k] is function cell[i] + k at x[i]");
+
+  py::enum_<Side>(m, "Side")
+      .value("left", Side::left)
+      .value("right", Side::right)
+      .value("bottom", Side::bottom)
+      .value("top", Side::top);
+  py::enum_<Wall>(m, "Wall").value("free", Wall::free).value("fixed", Wall::fixed).value("slip", Wall::slip);
+
+  py::class_<Grid>(m, "Grid", "Uniform grid with a tensor-product B-spline basis")
+      .def(py::init<int, std::array<int, 2>, double, std::array<double, 2>>(), py::arg("degree"),
+           py::arg("cells"), py::arg("h"), py::arg("origin"))
+      .def_property_readonly("degree", &Grid::degree)
+      .def_property_readonly("cells", &Grid::cells)
+      .def_property_readonly("nodes", &Grid::nodes)
+      .def_property_readonly("num_active", &Grid::num_active, "active nodes in the last step")
+      .def("set_wall", &Grid::set_wall, py::arg("side"), py::arg("wall"));
+}
+
+} // namespace pfmpm::bindings
+
+PYBIND11_MODULE(_core, m)
+{
+  m.doc() = "pfmpm C++ core: B-spline grid, particles, materials and explicit MPM stepping";
+  py::register_exception<SimulationError>(m, "SimulationError", PyExc_RuntimeError);
+  m.def("num_threads", &omp_get_max_threads, "OpenMP threads the kernels use");
+  pfmpm::bindings::bind_grid(m);
+  pfmpm::bindings::bind_particles(m);
+  pfmpm::bindings::bind_materials(m);
+  pfmpm::bindings::bind_solver(m);
+}

@@ -1,0 +1,74 @@
+/// @file particles.cpp
+/// @brief Particles in Python: every array by name, as a zero-copy numpy view.
+#include "bindings.h"
+
+#include "pfmpm/particles/particles.h"
+
+#include <pybind11/numpy.h>
+#include <pybind11/stl.h>
+
+#include <string>
+
+namespace py = pybind11;
+using namespace pfmpm;
+
+namespace pfmpm::bindings
+{
+
+namespace
+{
+/// Zero-copy (rows,) or (rows, cols) view of a column, owned by `owner`.
+py::array view(const Particles::Entry& e, py::handle owner)
+{
+  const auto cols = static_cast<py::ssize_t>(e.spec->components);
+  const auto rows = static_cast<py::ssize_t>(e.values) / cols;
+  const py::dtype dtype = e.spec->dtype == DType::f64 ? py::dtype::of<double>()
+                                                       : py::dtype::of<std::int32_t>();
+  const auto item = static_cast<py::ssize_t>(dtype.itemsize());
+  if (cols == 1)
+    return py::array(dtype, {rows}, {item}, e.data, owner);
+  return py::array(dtype, {rows, cols}, {cols * item, item}, e.data, owner);
+}
+
+/// The entry of column `name`, or a Python AttributeError naming it.
+Particles::Entry entry(Particles& P, const std::string& name)
+{
+  for (const Particles::Entry& e : P.columns())
+    if (e.spec->name == name)
+      return e;
+  throw py::attribute_error("particles have no column " + name);
+}
+} // namespace
+
+void bind_particles(py::module_& m)
+{
+  py::class_<Particles>(m, "Particles",
+                        "Material points: core arrays and the named columns of a scene's models. "
+                        "Every column is an attribute, a zero-copy numpy view (N,) or (N, k).")
+      .def(py::init<std::size_t>(), py::arg("n"))
+      .def("__len__", &Particles::size)
+      .def("__getattr__", [](py::object self, const std::string& name)
+           { return view(entry(self.cast<Particles&>(), name), self); })
+      .def(
+          "columns",
+          [](Particles& P)
+          {
+            py::list out;
+            for (const Particles::Entry& e : P.columns())
+            {
+              py::dict d;
+              d["name"] = e.spec->name;
+              d["components"] = e.spec->components;
+              d["dtype"] = e.spec->dtype == DType::f64 ? "float64" : "int32";
+              d["doc"] = e.spec->doc;
+              d["layout"] = e.spec->layout;
+              d["output"] = e.spec->output;
+              out.append(d);
+            }
+            return out;
+          },
+          "every column in order (core arrays first): dicts of name, components, dtype, doc, "
+          "layout (component names) and output (its name in the VTU files, or empty)");
+}
+
+} // namespace pfmpm::bindings

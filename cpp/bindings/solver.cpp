@@ -1,0 +1,209 @@
+/// @file solver.cpp
+/// @brief Fracture parameters and the solver in Python; the solver's state
+/// as named arrays and scalars.
+#include "bindings.h"
+
+#include "pfmpm/fracture/phasefield.h"
+#include "pfmpm/solver/solver.h"
+
+#include <pybind11/numpy.h>
+#include <pybind11/stl.h>
+
+#include <array>
+#include <memory>
+#include <optional>
+#include <string>
+#include <utility>
+
+namespace py = pybind11;
+using namespace pfmpm;
+
+namespace pfmpm::bindings
+{
+
+namespace
+{
+/// A 1D numpy array that takes `data` over (no copy); it frees it when collected.
+py::array_t<double> array_of(std::vector<double>&& data)
+{
+  auto owned = std::make_unique<std::vector<double>>(std::move(data));
+  py::capsule owner(owned.get(), [](void* p) { delete static_cast<std::vector<double>*>(p); });
+  const std::vector<double>* v = owned.release();
+  return py::array_t<double>(static_cast<py::ssize_t>(v->size()), v->data(), owner);
+}
+
+py::dict stats_dict(const PhaseFieldStats& st)
+{
+  py::dict d;
+  d["solves"] = st.solves;
+  d["iterations"] = st.iterations;
+  d["last_iterations"] = st.last_iterations;
+  d["start_residual"] = st.start_residual;
+  d["last_residual"] = st.last_residual;
+  d["unknowns"] = st.unknowns;
+  return d;
+}
+
+/// The contact record as a dict.
+py::dict contact_dict(const ContactStats& st)
+{
+  py::dict d;
+  d["nodes"] = st.nodes;
+  d["pairs"] = st.pairs;
+  d["active"] = st.active;
+  d["sliding"] = st.sliding;
+  d["C1"] = st.violations[0];
+  d["C2"] = st.violations[1];
+  d["C3"] = st.violations[2];
+  d["C4"] = st.violations[3];
+  d["friction_work"] = st.friction_work;
+  return d;
+}
+} // namespace
+
+void bind_solver(py::module_& m)
+{
+  using Matrix3 = std::array<std::array<double, 3>, 3>;
+  auto matrix = [](const Voigt& v)
+  {
+    Matrix3 out;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j)
+        out[i][j] = v[3 * i + j];
+    return out;
+  };
+  py::class_<Fracture>(m, "Fracture", "Fracture parameters of a material that can crack")
+      .def(py::init(
+               [](double Gc, double l0, double k_f, const Matrix3& gamma)
+               {
+                 Fracture f{Gc, l0, k_f};
+                 for (int i = 0; i < 3; ++i)
+                   for (int j = 0; j < 3; ++j)
+                     f.gamma[3 * i + j] = gamma[i][j];
+                 return f;
+               }),
+           py::arg("Gc"), py::arg("l0"), py::arg("k_f") = 0.0, py::arg("gamma") = Matrix3{},
+           "gamma: the 3 x 3 Voigt anisotropy tensor of eq. 6 in the material frame")
+      .def_readonly("Gc", &Fracture::Gc)
+      .def_readonly("l0", &Fracture::l0)
+      .def_readonly("k_f", &Fracture::k_f)
+      .def_property_readonly("gamma", [matrix](const Fracture& f) { return matrix(f.gamma); })
+      .def_property_readonly("fourth_order", &Fracture::fourth_order)
+      .def("rotated", [matrix](const Fracture& f, double phi) { return matrix(f.rotated(phi)); },
+           py::arg("phi"), "gamma in the global frame for axes turned phi radians clockwise");
+
+  py::class_<Solver>(m, "Solver", "Explicit MPM stepping with a staggered phase field (Algorithm 1)")
+      .def(py::init(
+               [](Grid& grid, Particles& particles,
+                  const std::vector<std::shared_ptr<Material>>& materials, double dt,
+                  std::vector<std::optional<Fracture>> fracture, double tol, int max_iterations,
+                  std::vector<double> friction)
+               {
+                 return std::make_unique<Solver>(
+                     grid, particles,
+                     std::vector<std::shared_ptr<const Material>>(materials.begin(), materials.end()),
+                     dt, std::move(fracture), tol, max_iterations, std::move(friction));
+               }),
+           py::arg("grid"), py::arg("particles"), py::arg("materials"), py::arg("dt"),
+           py::arg("fracture") = std::vector<std::optional<Fracture>>{}, py::arg("tol") = 1e-6,
+           py::arg("max_iterations") = 1000, py::arg("friction") = std::vector<double>{},
+           py::keep_alive<1, 2>(), py::keep_alive<1, 3>(),
+           "materials: pfmpm._core.Material per material index (see pfmpm._core.material); "
+           "friction: empty for one velocity field, else the n x n (row-major) Coulomb "
+           "coefficients between bodies, each body its own discrete field. Adds the models' "
+           "particle columns.")
+      .def("advance", &Solver::advance, py::arg("steps"),
+           py::call_guard<py::gil_scoped_release>())
+      .def("prepare", [](Solver& s) { s.prepare(); }, py::call_guard<py::gil_scoped_release>(),
+           "sort, activate and solve the phase field for the current state")
+      .def("phase_field_stats",
+           [](const Solver& s)
+           {
+             py::dict d = stats_dict(s.phase_field_stats());
+             d["fourth_order"] = s.fourth_order();
+             return d;
+           })
+      .def("set_stability_length", &Solver::set_stability_length, py::arg("length"),
+           "check dt (c_p + |v_p|) <= length after every step (0: no check)")
+      .def_property_readonly("light_nodes", &Solver::light_nodes,
+                             "slot-steps so far too light to divide by (given zero velocity)")
+      .def(
+          "state",
+          [](const Solver& s)
+          {
+            SolverState st = s.state();
+            py::dict scalars, arrays;
+            for (const auto& [key, value] : st.scalars)
+              scalars[py::str(key)] = value;
+            for (auto& [key, value] : st.arrays)
+              arrays[py::str(key)] = array_of(std::move(value));
+            py::dict d;
+            d["scalars"] = scalars;
+            d["arrays"] = arrays;
+            return d;
+          },
+          "the state besides the particle columns, for a checkpoint: a dict of `scalars` "
+          "(name: float) and `arrays` (name: 1D array, a copy)")
+      .def(
+          "restore",
+          [](Solver& s, const py::dict& d)
+          {
+            SolverState st;
+            for (const auto& [key, value] : d["scalars"].cast<py::dict>())
+              st.scalars[key.cast<std::string>()] = value.cast<double>();
+            for (const auto& [key, value] : d["arrays"].cast<py::dict>())
+            {
+              const auto a = value.cast<py::array_t<double, py::array::c_style | py::array::forcecast>>();
+              if (a.ndim() != 1)
+                throw py::value_error("solver state: " + key.cast<std::string>()
+                                      + " must be one-dimensional");
+              st.arrays[key.cast<std::string>()] = std::vector<double>(a.data(), a.data() + a.size());
+            }
+            s.restore(st);
+          },
+          py::arg("state"), "continue from a state() dict; restore the particle columns beside it")
+      .def_property_readonly("dt", &Solver::dt)
+      .def_property_readonly("time", &Solver::time)
+      .def_property_readonly("step_count", &Solver::step_count)
+      .def("energies",
+           [](const Solver& s)
+           {
+             const Energies e = s.energies();
+             py::dict d;
+             d["kinetic"] = e.kinetic;
+             d["elastic"] = e.elastic;
+             d["fracture"] = e.fracture;
+             d["external_work"] = e.external_work;
+             d["friction_work"] = e.friction_work;
+             d["fracture_by_body"] = e.fracture_by_field;
+             d["momentum_x"] = e.momentum[0];
+             d["momentum_y"] = e.momentum[1];
+             d["mass"] = e.mass;
+             return d;
+           })
+      .def(
+          "contact_stats",
+          [](const Solver& s) -> py::object
+          {
+            const ContactStats* c = s.contact_stats();
+            if (!c)
+              return py::none();
+            return contact_dict(*c);
+          },
+          "contact record (None with one field): contact nodes in the last step, node-pairs "
+          "examined, active (eq. 77) and sliding (eq. 75) ones, violations of C.1-C.4, work of "
+          "the friction forces since t = 0")
+      .def(
+          "nodal_mass_momentum",
+          [](Solver& s)
+          {
+            const auto rows = s.nodal_mass_momentum();
+            py::array_t<double> out({py::ssize_t(rows.size()), py::ssize_t(4)});
+            const auto* flat = reinterpret_cast<const double*>(rows.data());
+            std::copy(flat, flat + 4 * rows.size(), out.mutable_data());
+            return out;
+          },
+          "P2G of the current state: (node, mass, px, py) per active node (a copy)");
+}
+
+} // namespace pfmpm::bindings

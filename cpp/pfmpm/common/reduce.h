@@ -1,0 +1,57 @@
+/// @file reduce.h
+/// @brief Sums whose rounding does not depend on the number of threads.
+#pragma once
+
+#include <algorithm>
+#include <array>
+#include <cstddef>
+#include <vector>
+
+namespace pfmpm
+{
+
+/// Terms per block of deterministic_sum.
+inline constexpr std::size_t deterministic_block = 4096;
+
+/// @brief Sum K quantities over the blocks of [0, n), `deterministic_block`
+/// indices each: f(begin, end, acc) adds the terms of [begin, end) into acc,
+/// which starts at zero for every block, and the block sums are added in
+/// block order, so the result has the same bits for any thread count and
+/// schedule.
+template <std::size_t K, class F>
+std::array<double, K> deterministic_block_sum(std::size_t n, F&& f)
+{
+  const auto block = static_cast<std::ptrdiff_t>(deterministic_block);
+  const std::ptrdiff_t nblocks = (static_cast<std::ptrdiff_t>(n) + block - 1) / block;
+  std::vector<std::array<double, K>> partial(nblocks);
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t b = 0; b < nblocks; ++b)
+  {
+    std::array<double, K> acc{};
+    const std::ptrdiff_t end = std::min<std::ptrdiff_t>((b + 1) * block, n);
+    f(static_cast<std::size_t>(b * block), static_cast<std::size_t>(end), acc);
+    partial[b] = acc;
+  }
+  std::array<double, K> total{};
+  for (const auto& acc : partial)
+    for (std::size_t k = 0; k < K; ++k)
+      total[k] += acc[k];
+  return total;
+}
+
+/// @brief Sum K quantities over i in [0, n) in fixed blocks, each in index
+/// order (deterministic_block_sum).
+/// @param n Number of terms.
+/// @param f Callable f(i, acc) adding term i into acc (std::array<double, K>&).
+template <std::size_t K, class F>
+std::array<double, K> deterministic_sum(std::size_t n, F&& f)
+{
+  return deterministic_block_sum<K>(n,
+                                    [&](std::size_t begin, std::size_t end, std::array<double, K>& acc)
+                                    {
+                                      for (std::size_t i = begin; i < end; ++i)
+                                        f(i, acc);
+                                    });
+}
+
+} // namespace pfmpm

@@ -1,0 +1,89 @@
+/// @file coulomb.h
+/// @brief Coulomb frictional contact between the velocity fields at a grid
+/// node (Kakouris & Triantafyllou 2019, sections 4.3.1-4.3.2, eqs. 66-77) and
+/// the checks C.1-C.4 of Algorithm 1.
+#pragma once
+
+#include <array>
+#include <cstdint>
+
+namespace pfmpm
+{
+
+/// Record of the contact nodes, forces and the checks C.1-C.4 since t = 0.
+struct ContactStats
+{
+  std::int32_t nodes = 0;      ///< contact nodes in the last step (Remark 4)
+  std::int64_t pairs = 0;      ///< (node, pair of fields) examined, all steps
+  std::int64_t active = 0;     ///< of them, approaching (eq. 77): a force acted
+  std::int64_t sliding = 0;    ///< of the active ones, friction at the Coulomb cap (eq. 75)
+  /// Violations of C.1 (normals and tangents collinear, eqs. 22a/23a), C.2
+  /// (forces equal and opposite, eqs. 22b/23b), C.3 (no approach after the
+  /// correction and non-tension, eqs. 22c-22e), C.4 (stick: no slip; slip:
+  /// friction at the cap against the slip, eqs. 23c-23e).
+  std::array<std::int64_t, 4> violations{};
+  double friction_work = 0.0; ///< work of the tangential (friction) contact forces since t = 0 (<= 0)
+};
+
+/// A field at a contact node after its trial update, as the contact law sees it.
+struct TrialField
+{
+  double m;     ///< mass at the node (eq. 46)
+  double pt[2]; ///< trial momentum p + dt (F^ext - F^int) (eq. 63)
+  double vt[2]; ///< trial velocity (eq. 64)
+  double g[2];  ///< mass gradient (eq. 70)
+  double V;     ///< volume sum_p N_I V_p
+};
+
+/// A pair of fields a contact force acted on, kept for the checks C.3 and C.4.
+struct ContactPair
+{
+  int i, j;
+  double n[2], s[2]; ///< normal and tangent of field i
+  double fn, ft;     ///< normal force (eq. 72) and friction (eq. 75) on field i
+  double fts;        ///< the stick force (eq. 74) on field i
+  double mu;         ///< friction coefficient
+  double scale;      ///< velocity scale of the round-off tolerance
+};
+
+/// Counters of the contact at one node, summed over the nodes in a fixed order.
+enum ContactCount : int
+{
+  count_pairs = 0, ///< pairs of live fields examined
+  count_active,    ///< of them, approaching: a force acted
+  count_sliding,   ///< of those, friction at the Coulomb cap
+  count_c1,        ///< violations of C.1
+  count_c2,        ///< violations of C.2
+  count_c3,        ///< violations of C.3
+  count_c4,        ///< violations of C.4
+  contact_counts
+};
+
+/// @brief Contact forces among the n fields at one node (eqs. 66-77).
+///
+/// Fields meet in pairs (eq. 66 with the pair's centre of mass); for two
+/// fields this is the paper's algorithm. A pair acts only where the two
+/// touch (their volumes fill `touch_fill` of the node's volume `full`) and
+/// approach (eq. 77). Each side's force is computed and the two are checked
+/// to be equal and opposite (C.2), so momentum is conserved to round-off.
+/// @param n Fields at the node; live[i] false for one too light to act.
+/// @param field Field index of each, into `friction` (nfields x nfields).
+/// @param[out] fn, ft Normal and friction force on each field (added to).
+/// @param[out] pairs The pairs that acted; returns how many.
+/// @param[in,out] count Counters, indexed by ContactCount.
+int coulomb_forces(int n, const TrialField* f, const bool* live, const std::int32_t* field,
+                   const double* friction, int nfields, double full, double dt, double (*fn)[2],
+                   double (*ft)[2], ContactPair* pairs, double* count);
+
+/// @brief C.3 and C.4 on the corrected velocities vn of the fields.
+void check_contact(int active, const ContactPair* pairs, const double (*vn)[2], double* count);
+
+/// Two fields touch at a node when their volumes there, sum_p N_I V_p, add up
+/// to at least this fraction of the node's volume (the integral of N_I);
+/// bodies with a gap between them fill less. Without this check the
+/// approach condition (eq. 77) alone acts between bodies up to three cells
+/// apart. Of 0.9, 0.95 and 0.97, 0.9 is the largest that kept colliding
+/// disks apart by half a particle spacing (docs/contact.md, "Touching").
+inline constexpr double touch_fill = 0.9;
+
+} // namespace pfmpm

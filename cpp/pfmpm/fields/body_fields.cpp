@@ -1,0 +1,187 @@
+/// @file body_fields.cpp
+/// @brief Discrete fields, one per body: cell tags and node slots (K&T Remark 4).
+#include "pfmpm/fields/fields.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace pfmpm
+{
+
+namespace
+{
+/// Insert `f` into the sorted list out[0, n); false when it is full.
+bool insert_sorted(std::int32_t f, std::int32_t* out, int& n, int capacity)
+{
+  int i = 0;
+  while (i < n && out[i] < f)
+    ++i;
+  if (i < n && out[i] == f)
+    return true;
+  if (n == capacity)
+    return false;
+  for (int j = n; j > i; --j)
+    out[j] = out[j - 1];
+  out[i] = f;
+  ++n;
+  return true;
+}
+} // namespace
+
+BodyFields::BodyFields(const Grid& grid, const Particles& particles, std::vector<double> friction)
+    : _grid(grid), _friction(std::move(friction))
+{
+  _fields = static_cast<int>(std::lround(std::sqrt(static_cast<double>(_friction.size()))));
+  if (_fields < 2 || static_cast<std::size_t>(_fields) * _fields != _friction.size())
+    throw std::invalid_argument("friction: " + std::to_string(_friction.size())
+                                + " entries; need fields x fields with at least 2 fields");
+  for (int a = 0; a < _fields; ++a)
+    for (int b = 0; b < _fields; ++b)
+    {
+      const double mu = _friction[a * _fields + b];
+      if (!(mu >= 0.0) || !std::isfinite(mu) || mu != _friction[b * _fields + a])
+        throw std::invalid_argument("friction[" + std::to_string(a) + "][" + std::to_string(b)
+                                    + "] = " + std::to_string(mu)
+                                    + ": must be finite, >= 0 and symmetric");
+    }
+  for (std::size_t p = 0; p < particles.size(); ++p)
+    if (const std::int32_t f = particles.body[p]; f < 0 || f >= _fields)
+      throw std::invalid_argument("particle " + std::to_string(p) + ": body index "
+                                  + std::to_string(f) + " is not a field in [0, "
+                                  + std::to_string(_fields) + ")");
+}
+
+int BodyFields::cell_fields(std::size_t key, std::int32_t* out) const
+{
+  const std::int32_t tag = _cell_field[key];
+  if (tag >= 0)
+  {
+    out[0] = tag;
+    return 1;
+  }
+  const std::int32_t m = -2 - tag;
+  std::copy(&_mixed_fields[_mixed_start[m]], &_mixed_fields[_mixed_start[m + 1]], out);
+  return _mixed_start[m + 1] - _mixed_start[m];
+}
+
+int BodyFields::node_fields(int ix, int iy, std::int32_t* out) const
+{
+  const int p = _grid.degree();
+  const int ncx = _grid.cells()[0], ncy = _grid.cells()[1];
+  int n = 0;
+  for (int cx = std::max(ix - p, 0); cx <= std::min(ix, ncx - 1); ++cx)
+    for (int cy = std::max(iy - p, 0); cy <= std::min(iy, ncy - 1); ++cy)
+    {
+      const std::size_t key = static_cast<std::size_t>(cx) * ncy + cy;
+      if (_cell_field[key] == -1)
+        continue;
+      std::int32_t list[max_fields];
+      const int k = cell_fields(key, list);
+      for (int i = 0; i < k; ++i)
+        if (!insert_sorted(list[i], out, n, max_fields))
+          return -1;
+    }
+  return n;
+}
+
+void BodyFields::build(const Particles& particles, const CellSort& sort)
+{
+  const int p = _grid.degree();
+  const int ncx = _grid.cells()[0], ncy = _grid.cells()[1];
+  const int nny = _grid.nodes()[1];
+  const auto ncells = static_cast<std::ptrdiff_t>(_grid.num_cells());
+  const std::int32_t* body = particles.body.data();
+  const std::int32_t* order = sort.order().data();
+  const std::int64_t* start = sort.cell_start().data();
+
+  // Cells: empty, one field, or mixed.
+  _cell_field.resize(ncells);
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t c = 0; c < ncells; ++c)
+  {
+    std::int32_t tag = -1;
+    if (start[c] < start[c + 1])
+    {
+      tag = body[order[start[c]]];
+      for (std::int64_t k = start[c] + 1; k < start[c + 1]; ++k)
+        if (body[order[k]] != tag)
+        {
+          tag = -2;
+          break;
+        }
+    }
+    _cell_field[c] = tag;
+  }
+  // The fields of each mixed cell (a thin layer where bodies touch).
+  _mixed_start.assign(1, 0);
+  _mixed_fields.clear();
+  for (std::ptrdiff_t c = 0; c < ncells; ++c)
+    if (_cell_field[c] == -2)
+    {
+      std::int32_t list[max_fields];
+      int n = 0;
+      for (std::int64_t k = start[c]; k < start[c + 1]; ++k)
+        if (!insert_sorted(body[order[k]], list, n, max_fields))
+          throw std::runtime_error("contact: more than " + std::to_string(max_fields)
+                                   + " bodies share one grid cell");
+      _cell_field[c] = -2 - static_cast<std::int32_t>(_mixed_start.size() - 1);
+      _mixed_fields.insert(_mixed_fields.end(), list, list + n);
+      _mixed_start.push_back(static_cast<std::int32_t>(_mixed_fields.size()));
+    }
+
+  // Remark 4: one slot per field in a node's support; a node with two or more
+  // is a contact node.
+  const auto na = static_cast<std::ptrdiff_t>(_grid.num_active());
+  const std::vector<std::int32_t>& nodes = _grid.active_nodes();
+  _slot_start.resize(na + 1);
+  _slot_start[0] = 0;
+  std::ptrdiff_t overflow = na;
+#pragma omp parallel for schedule(static) reduction(min : overflow)
+  for (std::ptrdiff_t a = 0; a < na; ++a)
+  {
+    std::int32_t list[max_fields];
+    const int n = node_fields(nodes[a] / nny, nodes[a] % nny, list);
+    _slot_start[a + 1] = n;
+    if (n < 0)
+      overflow = std::min(overflow, a);
+  }
+  if (overflow < na)
+    throw std::runtime_error("contact: more than " + std::to_string(max_fields)
+                             + " bodies meet at grid node " + std::to_string(nodes[overflow]));
+  std::int32_t contact = 0;
+  for (std::ptrdiff_t a = 0; a < na; ++a)
+  {
+    contact += _slot_start[a + 1] >= 2 ? 1 : 0;
+    _slot_start[a + 1] += _slot_start[a];
+  }
+  _contact_nodes = contact;
+  _stats.nodes = contact;
+  _slot_field.resize(_slot_start[na]);
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t a = 0; a < na; ++a)
+    node_fields(nodes[a] / nny, nodes[a] % nny, &_slot_field[_slot_start[a]]);
+
+  _touches.assign(ncells, 0);
+  if (contact == 0)
+    return;
+#pragma omp parallel for schedule(static)
+  for (int cx = 0; cx < ncx; ++cx)
+    for (int cy = 0; cy < ncy; ++cy)
+    {
+      const std::size_t cell = static_cast<std::size_t>(cx) * ncy + cy;
+      if (start[cell + 1] == start[cell])
+        continue;
+      bool any = false;
+      for (int a = 0; a <= p && !any; ++a)
+        for (int b = 0; b <= p && !any; ++b)
+        {
+          const std::int32_t n = _grid.active_index(cx + a, cy + b);
+          any = _slot_start[n + 1] - _slot_start[n] >= 2;
+        }
+      _touches[cell] = any;
+    }
+}
+
+} // namespace pfmpm

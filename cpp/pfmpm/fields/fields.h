@@ -1,0 +1,125 @@
+/// @file fields.h
+/// @brief Velocity-field partitions: the grid slot that each (particle, node)
+/// pair maps to, chosen once per run.
+///
+/// Every P2G sum and every G2P read goes to a slot. With one velocity field
+/// (SingleField) a node has one slot and every particle maps to it. With
+/// discrete fields (BodyFields, K&T section 3.1.1, eq. 28) every body is its
+/// own field: a node has one slot per body in its support, and a particle maps
+/// to its body's slot; nodes with two or more are contact nodes (Remark 4),
+/// where the contact law couples the slots. A partition that chooses the slot
+/// per (particle, node) pair (the damage-field gradient of Homel & Herbold
+/// 2017, Algorithm 2) takes the same place: its `select` depends on the node.
+#pragma once
+
+#include "pfmpm/contact/coulomb.h"
+#include "pfmpm/grid/grid.h"
+#include "pfmpm/particles/cell_sort.h"
+#include "pfmpm/particles/particles.h"
+
+#include <cstdint>
+#include <vector>
+
+namespace pfmpm
+{
+
+/// P2G sums of one slot.
+struct NodeSums
+{
+  double m, px, py; ///< mass (K&T eq. 46) and momentum (eq. 61)
+  double fx, fy;    ///< net force F^ext - F^int (eqs. 42, 62)
+  double ex, ey;    ///< external force alone, for the work it does
+};
+
+/// Surface sums of one slot at a contact node.
+struct SurfaceSums
+{
+  double gx, gy; ///< mass gradient sum_p grad N_I M_p (eq. 70, before normalisation)
+  double V;      ///< volume sum_p N_I V_p (the touch check, docs/contact.md)
+};
+
+/// Velocity and acceleration of one slot after the grid update (eqs. 63-65).
+struct NodeKinematics
+{
+  double vx, vy, ax, ay;
+};
+
+/// @brief One velocity field: node a's only slot is a.
+struct SingleField
+{
+  static constexpr bool discrete = false;
+};
+
+/// @brief Every body its own velocity field on the shared grid (eq. 28),
+/// coupled by frictional contact where two meet.
+///
+/// build() tags each occupied cell with the bodies of its particles and gives
+/// each active node one slot per body in its support, in body order; a node
+/// with two or more is a contact node. A cell touches contact when one of its
+/// nodes is one: only there does P2G sum the surface quantities.
+class BodyFields
+{
+public:
+  static constexpr bool discrete = true;
+  /// The most bodies that may meet in one cell or at one node.
+  static constexpr int max_fields = 16;
+
+  /// @param grid The background grid (kept by reference).
+  /// @param particles Particles; Particles::body is the field index, in [0, fields).
+  /// @param friction Coulomb coefficient mu_f per pair of fields, row-major
+  ///        fields x fields, symmetric, >= 0, at least 2 x 2.
+  BodyFields(const Grid& grid, const Particles& particles, std::vector<double> friction);
+
+  /// Number of fields.
+  int size() const { return _fields; }
+  /// Friction coefficient between fields f and g.
+  double friction(std::int32_t f, std::int32_t g) const { return _friction[f * _fields + g]; }
+  const std::vector<double>& friction() const { return _friction; }
+
+  /// @brief Tag the cells and lay out the slots for this step's sort and
+  /// active nodes (Remark 4).
+  void build(const Particles& particles, const CellSort& sort);
+
+  /// Slots of active node a: [slot_start()[a], slot_start()[a + 1]).
+  const std::vector<std::int32_t>& slot_start() const { return _slot_start; }
+  std::int32_t num_slots() const { return _slot_start.back(); }
+  /// The field of slot s.
+  std::int32_t field(std::int32_t s) const { return _slot_field[s]; }
+  const std::vector<std::int32_t>& slot_field() const { return _slot_field; }
+  /// Slot of `field` at active node a (the field is in the node's support).
+  std::int32_t slot(std::int32_t a, std::int32_t field) const
+  {
+    std::int32_t s = _slot_start[a];
+    while (_slot_field[s] != field)
+      ++s;
+    return s;
+  }
+  /// @brief The bodies of occupied cell `key`, sorted, into out[0, n); returns n.
+  int cell_fields(std::size_t key, std::int32_t* out) const;
+  /// Whether cell `key` has a contact node among its nodes.
+  bool touches(std::size_t key) const { return _touches[key] != 0; }
+  /// Contact nodes of the last build.
+  std::int32_t contact_nodes() const { return _contact_nodes; }
+
+  ContactStats& stats() { return _stats; }
+  const ContactStats& stats() const { return _stats; }
+
+private:
+  /// Distinct fields of the cells in node (ix, iy)'s support, sorted, into
+  /// `out` (capacity max_fields); returns how many, or -1 past capacity.
+  int node_fields(int ix, int iy, std::int32_t* out) const;
+
+  const Grid& _grid;
+  int _fields;
+  std::vector<double> _friction;          // fields x fields
+  std::vector<std::int32_t> _cell_field;  // per cell: -1 empty, field, or -2 - mixed index
+  std::vector<std::int32_t> _mixed_start; // CSR of the fields of mixed cells
+  std::vector<std::int32_t> _mixed_fields;
+  std::vector<std::uint8_t> _touches;     // per cell
+  std::vector<std::int32_t> _slot_start;  // per active node + 1
+  std::vector<std::int32_t> _slot_field;  // per slot
+  std::int32_t _contact_nodes = 0;
+  ContactStats _stats;
+};
+
+} // namespace pfmpm

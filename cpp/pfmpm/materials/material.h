@@ -1,0 +1,297 @@
+/// @file material.h
+/// @brief Constitutive models behind one interface, found by name in a registry.
+///
+/// A model is one class deriving from MaterialModel<Self> plus one line,
+/// PFMPM_REGISTER_MATERIAL(Self, "name"), in its own .cpp file. The class
+/// declares the particle columns it keeps (its state, Material::columns) and
+/// per-particle functions; MaterialModel writes the loops over a batch of
+/// particles once for every model. The step calls a model once per batch (a
+/// cell's run of particles of one material), never per particle.
+#pragma once
+
+#include "pfmpm/particles/particles.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace pfmpm
+{
+
+/// @brief The phase field's hold on a material (K&T eqs. 14-16, 20): its
+/// tensile energy psi+ is degraded by g(c) = (1 - k_f) c^2 + k_f (eq. 15), and
+/// the history H = max(H, psi+) drives the phase field.
+struct Degradation
+{
+  double k_f;             ///< residual stiffness
+  const double* c;        ///< phase field per particle
+  double* history;        ///< history field H per particle
+  /// g(c) of eq. 15.
+  double g(double c_p) const { return (1.0 - k_f) * c_p * c_p + k_f; }
+};
+
+/// @brief Particles a model acts on at once: index[0, n), or, when index is
+/// null, the contiguous range [first, first + n).
+struct Batch
+{
+  const std::int32_t* index;
+  std::size_t first;
+  std::size_t n;
+};
+
+/// @brief Named numbers and words that build a material (a scene's material
+/// table). Each key a model reads is marked used; finish() refuses the rest.
+class Parameters
+{
+public:
+  Parameters() = default;
+  Parameters(std::map<std::string, double> numbers, std::map<std::string, std::string> words)
+      : _numbers(std::move(numbers)), _words(std::move(words))
+  {
+  }
+  /// @brief The number `key`; `fallback` when absent, or an error when
+  /// absent and no fallback is given.
+  double number(const std::string& key) const;
+  double number(const std::string& key, double fallback) const;
+  /// @brief The word `key`, or `fallback` when absent.
+  std::string word(const std::string& key, const std::string& fallback) const;
+  /// @throws std::invalid_argument naming the first key no model read.
+  void finish(const std::string& model) const;
+
+private:
+  std::map<std::string, double> _numbers;
+  std::map<std::string, std::string> _words;
+  mutable std::vector<std::string> _used;
+};
+
+/// What a batch update reports for the checks of the step.
+struct UpdateResult
+{
+  double wave = 0.0;        ///< largest P-wave speed in the batch after the update
+  std::size_t bad = SIZE_MAX; ///< smallest particle with a non-finite stress, or SIZE_MAX
+};
+
+/// @brief A constitutive model: its particle state and the stress it gives.
+///
+/// Kinematics: G2P hands each batch the velocity gradient L_p = sum_I v_I (x)
+/// grad N_I (K&T eq. 78, H&H eq. 7), row-major 2 x 2 per particle; the model
+/// advances its own kinematic measure with it (the small strain, or the
+/// deformation gradient F <- (I + dt L) F) and computes the Cauchy stress.
+/// A Material holds parameters only; bind() attaches it to a particle set,
+/// finding its columns once, and the step works through that.
+class Material
+{
+public:
+  virtual ~Material() = default;
+  /// The name the model is registered under.
+  virtual std::string model() const = 0;
+  /// The particle columns the model keeps, beyond the core arrays.
+  virtual std::vector<ColumnSpec> columns() const = 0;
+  /// Mass density.
+  virtual double density() const = 0;
+  /// P-wave speed of the undeformed material, sqrt((K + 4G/3) / rho).
+  virtual double wave_speed() const = 0;
+
+  /// @brief The model attached to a particle set (whose columns it has).
+  class Bound
+  {
+  public:
+    virtual ~Bound() = default;
+    /// @brief Advance the batch's kinematic measure by dt with L (2 x 2 per
+    /// particle, in batch order) and set its stress; with `degradation`, the
+    /// stress of eq. 16 with g(c) and the history raised to psi+ (eq. 20).
+    virtual UpdateResult update(const Batch& b, const double* L, double dt,
+                                const Degradation* degradation) const = 0;
+    /// @brief Set the stress of the batch from its current state and phase
+    /// field (after the phase-field solve changed c; eqs. 14-16).
+    virtual void stress(const Batch& b, const Degradation& degradation) const = 0;
+    /// @brief Add V_p psi_p (eq. 14: g psi+ + psi- with a degradation) of
+    /// each particle of the batch to `sum`, in batch order.
+    virtual void add_energy(const Batch& b, const Degradation* degradation, double& sum) const = 0;
+    /// P-wave speed of particle p in its current state.
+    virtual double wave_speed(std::size_t p) const = 0;
+  };
+  /// @brief Attach the model to `P`, which has its columns.
+  virtual std::unique_ptr<Bound> bind(Particles& P) const = 0;
+};
+
+/// @brief The registry of constitutive models by name.
+class MaterialRegistry
+{
+public:
+  using Factory = std::function<std::shared_ptr<Material>(const Parameters&)>;
+  /// @brief Register `factory` under `model` (at static initialisation).
+  static bool add(const std::string& model, Factory factory);
+  /// @brief Build the model `model` from `parameters`.
+  /// @throws std::invalid_argument for an unknown model, a missing or
+  ///         unknown key, or a bad value.
+  static std::shared_ptr<Material> make(const std::string& model, const Parameters& parameters);
+  /// The registered names, sorted.
+  static std::vector<std::string> models();
+
+private:
+  static std::map<std::string, Factory>& table();
+};
+
+/// Register `Class` (constructible from Parameters) under the name `name`.
+#define PFMPM_REGISTER_MATERIAL(Class, name)                                                      \
+  namespace                                                                                     \
+  {                                                                                             \
+  const bool registered_##Class = ::pfmpm::MaterialRegistry::add(                               \
+      name, [](const ::pfmpm::Parameters& p) { return std::make_shared<Class>(p); });            \
+  }
+
+/// @brief The batch loops of Material, written once for every model.
+///
+/// `Model` provides:
+/// - `struct View` with the pointers it needs and `View view(Particles&) const`;
+/// - `void advance(const View&, std::size_t p, const double* L, double dt) const`;
+/// - `void undegraded(const View&, std::size_t p) const`, the stress without
+///   a phase field;
+/// - `double degraded(const View&, std::size_t p, double g) const`, the stress
+///   of eq. 16 with g(c), returning psi+;
+/// - `double energy(const View&, std::size_t p) const` and
+///   `void split(const View&, std::size_t p, double& plus, double& minus) const`
+///   (energy densities per unit current volume);
+/// - `static constexpr bool constant_wave_speed` and, if false,
+///   `double state_wave_speed(const View&, std::size_t p) const`.
+template <class Model>
+class MaterialModel : public Material
+{
+public:
+  std::unique_ptr<Bound> bind(Particles& P) const final
+  {
+    return std::make_unique<Attached>(static_cast<const Model&>(*this), P);
+  }
+
+private:
+  class Attached final : public Bound
+  {
+  public:
+    Attached(const Model& model, Particles& P)
+        : _model(model), _view(model.view(P)), _volume(P.volume.data()), _stress(P.stress.data())
+    {
+    }
+
+    UpdateResult update(const Batch& b, const double* L, double dt,
+                        const Degradation* degradation) const override
+    {
+      UpdateResult r;
+      if constexpr (Model::constant_wave_speed)
+        r.wave = _model.wave_speed();
+      each(b, [&](auto at)
+           {
+             if (degradation)
+               for (std::size_t k = 0; k < b.n; ++k)
+               {
+                 const std::size_t p = at(k);
+                 _model.advance(_view, p, &L[4 * k], dt);
+                 // eqs. 14-16 with this step's phase field; the history takes
+                 // the largest tensile energy so far (eq. 20, Kuhn-Tucker conditions).
+                 const double plus = _model.degraded(_view, p, degradation->g(degradation->c[p]));
+                 degradation->history[p] = std::max(degradation->history[p], plus);
+                 note(r, p, degradation->history[p]);
+               }
+             else
+               for (std::size_t k = 0; k < b.n; ++k)
+               {
+                 const std::size_t p = at(k);
+                 _model.advance(_view, p, &L[4 * k], dt);
+                 _model.undegraded(_view, p);
+                 note(r, p, 0.0);
+               }
+           });
+      return r;
+    }
+
+    void stress(const Batch& b, const Degradation& degradation) const override
+    {
+      each(b, [&](auto at)
+           {
+             for (std::size_t k = 0; k < b.n; ++k)
+             {
+               const std::size_t p = at(k);
+               _model.degraded(_view, p, degradation.g(degradation.c[p]));
+             }
+           });
+    }
+
+    void add_energy(const Batch& b, const Degradation* degradation, double& sum) const override
+    {
+      each(b, [&](auto at)
+           {
+             for (std::size_t k = 0; k < b.n; ++k)
+             {
+               const std::size_t p = at(k);
+               if (degradation)
+               {
+                 double plus, minus;
+                 _model.split(_view, p, plus, minus);
+                 sum += _volume[p] * (degradation->g(degradation->c[p]) * plus + minus); // eq. 14
+               }
+               else
+                 sum += _volume[p] * _model.energy(_view, p);
+             }
+           });
+    }
+
+    double wave_speed(std::size_t p) const override
+    {
+      if constexpr (Model::constant_wave_speed)
+        return _model.wave_speed();
+      else
+        return _model.state_wave_speed(_view, p);
+    }
+
+  private:
+    /// The checks of particle p after its update: a finite stress (and
+    /// history), and its wave speed when that follows the state.
+    void note(UpdateResult& r, std::size_t p, double history) const
+    {
+      const double* sig = &_stress[4 * p];
+      if (!std::isfinite(sig[0] + sig[1] + sig[2] + sig[3] + history))
+        r.bad = std::min(r.bad, p);
+      if constexpr (!Model::constant_wave_speed)
+        r.wave = std::max(r.wave, _model.state_wave_speed(_view, p));
+    }
+    /// f(at) with at(k) the k-th particle of the batch, listed or contiguous.
+    template <class F>
+    static void each(const Batch& b, F&& f)
+    {
+      if (b.index)
+        f([idx = b.index](std::size_t k) { return static_cast<std::size_t>(idx[k]); });
+      else
+        f([first = b.first](std::size_t k) { return first + k; });
+    }
+
+    const Model& _model;
+    typename Model::View _view;
+    const double* _volume;
+    const double* _stress;
+  };
+};
+
+/// @brief Call f(material, batch) for each run of consecutive entries of
+/// order[begin, end) that share a material.
+template <class F>
+void for_each_material_run(const std::int32_t* material, const std::int32_t* order,
+                           std::int64_t begin, std::int64_t end, F&& f)
+{
+  while (begin < end)
+  {
+    const std::int32_t m = material[order[begin]];
+    std::int64_t stop = begin + 1;
+    while (stop < end && material[order[stop]] == m)
+      ++stop;
+    f(m, Batch{order + begin, 0, static_cast<std::size_t>(stop - begin)});
+    begin = stop;
+  }
+}
+
+} // namespace pfmpm

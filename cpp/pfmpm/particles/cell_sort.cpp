@@ -1,0 +1,74 @@
+/// @file cell_sort.cpp
+/// @brief The stable counting sort of particles by cell.
+#include "pfmpm/particles/cell_sort.h"
+
+#include <omp.h>
+
+#include <algorithm>
+
+namespace pfmpm
+{
+
+std::size_t CellSort::sort(const Grid& grid, const std::vector<double>& x)
+{
+  const auto n = static_cast<std::ptrdiff_t>(x.size() / 2);
+  const BSpline1D& bx = grid.basis(0);
+  const BSpline1D& by = grid.basis(1);
+  const int ncy = by.cells();
+  const auto ncells = static_cast<std::size_t>(grid.num_cells());
+  _cell.resize(n);
+  _order.resize(n);
+  _cell_start.resize(ncells + 1);
+
+  std::ptrdiff_t outside = n;
+#pragma omp parallel for schedule(static) reduction(min : outside)
+  for (std::ptrdiff_t i = 0; i < n; ++i)
+  {
+    const int cx = bx.cell(x[2 * i]), cy = by.cell(x[2 * i + 1]);
+    if (cx < 0 || cy < 0)
+    {
+      outside = std::min(outside, i);
+      _cell[i] = 0;
+    }
+    else
+      _cell[i] = cx * ncy + cy;
+  }
+  if (outside < n)
+    return static_cast<std::size_t>(outside);
+
+  // Each thread counts a contiguous slice; the offsets put slice t before
+  // slice t+1 inside every cell, which is the order a serial stable sort
+  // gives, whatever the number of threads.
+  _histogram.resize(static_cast<std::size_t>(omp_get_max_threads()) * ncells);
+#pragma omp parallel
+  {
+    const std::ptrdiff_t nt = omp_get_num_threads(), t = omp_get_thread_num();
+    const std::ptrdiff_t begin = n * t / nt, end = n * (t + 1) / nt;
+    std::int64_t* count = &_histogram[t * ncells];
+    std::fill(count, count + ncells, 0);
+    for (std::ptrdiff_t i = begin; i < end; ++i)
+      ++count[_cell[i]];
+#pragma omp barrier
+#pragma omp single
+    {
+      std::int64_t running = 0;
+      for (std::size_t c = 0; c < ncells; ++c)
+      {
+        _cell_start[c] = running;
+        for (std::ptrdiff_t s = 0; s < nt; ++s)
+        {
+          std::int64_t& slot = _histogram[s * ncells + c];
+          const std::int64_t k = slot;
+          slot = running;
+          running += k;
+        }
+      }
+      _cell_start[ncells] = running;
+    }
+    for (std::ptrdiff_t i = begin; i < end; ++i)
+      _order[count[_cell[i]]++] = static_cast<std::int32_t>(i);
+  }
+  return static_cast<std::size_t>(n);
+}
+
+} // namespace pfmpm

@@ -1,0 +1,70 @@
+/// @file cell_sort.h
+/// @brief Particles sorted by grid cell: the order every particle-grid loop takes.
+#pragma once
+
+#include "pfmpm/grid/grid.h"
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+namespace pfmpm
+{
+
+/// @brief A stable counting sort of particles by the grid cell holding them.
+///
+/// Cells are keyed as the grid keys them (`cell = cx * cells_y + cy`); the
+/// particles of cell c are order()[cell_start()[c] .. cell_start()[c + 1]).
+/// Within a cell they keep their index order, whatever the thread count, so
+/// every sum taken in this order has the same bits on any number of threads.
+class CellSort
+{
+public:
+  /// @brief Sort the particles at positions `x` (N x 2) into the cells of `grid`.
+  /// @return N when all lie on the grid, else the first particle that does not
+  ///         (the sort is then incomplete).
+  std::size_t sort(const Grid& grid, const std::vector<double>& x);
+
+  /// @brief The particles of `all` for which keep(p) holds, in the same order.
+  template <class Keep>
+  void select(const CellSort& all, Keep&& keep);
+
+  const std::vector<std::int32_t>& order() const { return _order; }
+  const std::vector<std::int64_t>& cell_start() const { return _cell_start; }
+  /// Particles in the sort.
+  std::size_t size() const { return _order.size(); }
+
+private:
+  std::vector<std::int32_t> _cell;       // per particle: cell key (sort only)
+  std::vector<std::int32_t> _order;      // particles sorted by cell, stable
+  std::vector<std::int64_t> _cell_start; // offsets into _order, per cell + 1
+  std::vector<std::int64_t> _histogram;  // threads x cells, scratch
+};
+
+template <class Keep>
+void CellSort::select(const CellSort& all, Keep&& keep)
+{
+  const auto ncells = static_cast<std::ptrdiff_t>(all._cell_start.size()) - 1;
+  _cell_start.assign(ncells + 1, 0);
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t c = 0; c < ncells; ++c)
+  {
+    std::int64_t count = 0;
+    for (std::int64_t k = all._cell_start[c]; k < all._cell_start[c + 1]; ++k)
+      count += keep(static_cast<std::size_t>(all._order[k])) ? 1 : 0;
+    _cell_start[c + 1] = count;
+  }
+  for (std::ptrdiff_t c = 0; c < ncells; ++c)
+    _cell_start[c + 1] += _cell_start[c];
+  _order.resize(static_cast<std::size_t>(_cell_start[ncells]));
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t c = 0; c < ncells; ++c)
+  {
+    std::int64_t next = _cell_start[c];
+    for (std::int64_t k = all._cell_start[c]; k < all._cell_start[c + 1]; ++k)
+      if (keep(static_cast<std::size_t>(all._order[k])))
+        _order[next++] = all._order[k];
+  }
+}
+
+} // namespace pfmpm

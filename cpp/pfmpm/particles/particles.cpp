@@ -1,0 +1,118 @@
+/// @file particles.cpp
+/// @brief Core particle arrays and named columns.
+#include "pfmpm/particles/particles.h"
+
+#include <array>
+#include <stdexcept>
+
+namespace pfmpm
+{
+
+namespace
+{
+/// The core arrays, in the order of Particles::columns().
+const std::array<ColumnSpec, 8>& core_specs()
+{
+  static const std::array<ColumnSpec, 8> specs{{
+      {"x", 2, DType::f64, {0.0}, "position", "x,y", ""},
+      {"v", 2, DType::f64, {0.0}, "velocity (K&T eq. 80)", "x,y", "velocity"},
+      {"mass", 1, DType::f64, {0.0}, "mass M_p", "", ""},
+      {"volume", 1, DType::f64, {0.0}, "current volume V_p", "", ""},
+      {"stress", 4, DType::f64, {0.0}, "Cauchy stress", "xx,yy,xy,zz", "stress"},
+      {"fext", 2, DType::f64, {0.0}, "external force (K&T eq. 42)", "x,y", ""},
+      {"body", 1, DType::i32, {0.0}, "body index", "", "body"},
+      {"material", 1, DType::i32, {0.0}, "material index", "", "material"},
+  }};
+  return specs;
+}
+} // namespace
+
+Particles::Particles(std::size_t n)
+    : x(2 * n, 0.0), v(2 * n, 0.0), mass(n, 0.0), volume(n, 0.0), stress(4 * n, 0.0),
+      fext(2 * n, 0.0), body(n, 0), material(n, 0)
+{
+}
+
+Column& Particles::add(const ColumnSpec& spec)
+{
+  for (const ColumnSpec& core : core_specs())
+    if (core.name == spec.name)
+      throw std::invalid_argument("particle column " + spec.name + ": a core array has that name");
+  const auto k = static_cast<std::size_t>(spec.components);
+  if (spec.components < 1 || (spec.fill.size() != 1 && spec.fill.size() != k))
+    throw std::invalid_argument("particle column " + spec.name + ": "
+                                + std::to_string(spec.components) + " components, "
+                                + std::to_string(spec.fill.size()) + " fill values");
+  if (Column* c = find(spec.name))
+  {
+    if (c->spec.components != spec.components || c->spec.dtype != spec.dtype)
+      throw std::invalid_argument("particle column " + spec.name + ": declared with "
+                                  + std::to_string(c->spec.components) + " and "
+                                  + std::to_string(spec.components) + " components");
+    return *c;
+  }
+  Column& c = _columns.emplace_back(Column{spec, {}, {}});
+  std::vector<double> row(k);
+  for (std::size_t j = 0; j < k; ++j)
+    row[j] = spec.fill[spec.fill.size() == 1 ? 0 : j];
+  if (spec.dtype == DType::f64)
+    c.f64.resize(size() * k);
+  else
+    c.i32.resize(size() * k);
+  for (std::size_t p = 0; p < size(); ++p)
+    for (std::size_t j = 0; j < k; ++j)
+      if (spec.dtype == DType::f64)
+        c.f64[p * k + j] = row[j];
+      else
+        c.i32[p * k + j] = static_cast<std::int32_t>(row[j]);
+  return c;
+}
+
+Column* Particles::find(std::string_view name)
+{
+  for (Column& c : _columns)
+    if (c.spec.name == name)
+      return &c;
+  return nullptr;
+}
+
+const Column* Particles::find(std::string_view name) const
+{
+  return const_cast<Particles*>(this)->find(name);
+}
+
+std::vector<double>& Particles::f64(std::string_view name)
+{
+  Column* c = find(name);
+  if (!c || c->spec.dtype != DType::f64)
+    throw std::out_of_range("no float64 particle column " + std::string(name));
+  return c->f64;
+}
+
+const std::vector<double>& Particles::f64(std::string_view name) const
+{
+  return const_cast<Particles*>(this)->f64(name);
+}
+
+std::vector<std::int32_t>& Particles::i32(std::string_view name)
+{
+  Column* c = find(name);
+  if (!c || c->spec.dtype != DType::i32)
+    throw std::out_of_range("no int32 particle column " + std::string(name));
+  return c->i32;
+}
+
+std::vector<Particles::Entry> Particles::columns()
+{
+  const auto& core = core_specs();
+  std::vector<Entry> out{
+      {&core[0], x.data(), x.size()},           {&core[1], v.data(), v.size()},
+      {&core[2], mass.data(), mass.size()},     {&core[3], volume.data(), volume.size()},
+      {&core[4], stress.data(), stress.size()}, {&core[5], fext.data(), fext.size()},
+      {&core[6], body.data(), body.size()},     {&core[7], material.data(), material.size()}};
+  for (Column& c : _columns)
+    out.push_back({&c.spec, c.data(), c.values()});
+  return out;
+}
+
+} // namespace pfmpm

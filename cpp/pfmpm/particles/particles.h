@@ -1,0 +1,110 @@
+/// @file particles.h
+/// @brief Material point storage: the core arrays every run has, and named
+/// columns for the state that the models of a scene add.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <deque>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace pfmpm
+{
+
+/// Element type of a particle column.
+enum class DType : int
+{
+  f64 = 0, ///< double
+  i32 = 1  ///< std::int32_t
+};
+
+/// @brief Declaration of a particle column: N rows of `components` values.
+struct ColumnSpec
+{
+  std::string name;    ///< the key by which the column is found (bindings, checkpoints)
+  int components = 1;  ///< values per particle
+  DType dtype = DType::f64;
+  /// Initial value of a row: one value for every component, or one per
+  /// component (the identity (1, 0, 0, 1) of a deformation gradient).
+  std::vector<double> fill{0.0};
+  std::string doc;     ///< one line: what it holds, with its paper equation
+  /// Names of the components, comma-separated ("x,y"; "xx,yy,xy,zz" for a
+  /// plane tensor with its out-of-plane entry); empty for one component.
+  std::string layout;
+  /// Name of the field in the particle output (VTU), or empty when the column
+  /// is not written there.
+  std::string output;
+};
+
+/// @brief A column's declaration and its storage (row-major N x components).
+struct Column
+{
+  ColumnSpec spec;
+  std::vector<double> f64;       ///< storage when spec.dtype is f64
+  std::vector<std::int32_t> i32; ///< storage when spec.dtype is i32
+
+  void* data() { return spec.dtype == DType::f64 ? static_cast<void*>(f64.data()) : i32.data(); }
+  std::size_t values() const { return spec.dtype == DType::f64 ? f64.size() : i32.size(); }
+};
+
+/// @brief Material points as contiguous arrays, row-major (N x k) where a
+/// quantity has k components.
+///
+/// The core arrays are members: x, v, fext (N x 2); stress (N x 4: xx, yy,
+/// xy, zz, the Cauchy stress); mass, volume (N); body and material indices
+/// (N, int32). Everything else a scene's models keep per particle (the
+/// small strain of a linear elastic material, the phase field c and history H,
+/// ...) is a named column, added by the model that needs it
+/// (Material::columns, PhaseField::columns) and found by name. columns()
+/// lists both kinds in one order, which is what the bindings, checkpoints and
+/// particle output iterate over.
+class Particles
+{
+public:
+  /// @brief n particles at rest, zero mass, volume, stress and force.
+  explicit Particles(std::size_t n);
+
+  std::size_t size() const { return mass.size(); }
+
+  std::vector<double> x;      ///< position
+  std::vector<double> v;      ///< velocity
+  std::vector<double> mass;   ///< mass M_p
+  std::vector<double> volume; ///< current volume V_p
+  std::vector<double> stress; ///< Cauchy stress (xx, yy, xy, zz)
+  std::vector<double> fext;   ///< external force: body force and traction (K&T eq. 42)
+  std::vector<std::int32_t> body;     ///< body (velocity field or contact group) index
+  std::vector<std::int32_t> material; ///< material index
+
+  /// @brief Add a column, every row `spec.fill`; if one of that name exists
+  /// with the same shape and type, keep it (its values included).
+  /// @throws std::invalid_argument if the name is a core array's or is taken
+  ///         by a column of another shape or type.
+  Column& add(const ColumnSpec& spec);
+  /// The column `name`, or nullptr.
+  Column* find(std::string_view name);
+  const Column* find(std::string_view name) const;
+  /// @brief The values of the f64 column `name`.
+  /// @throws std::out_of_range naming the column if there is none of that type.
+  std::vector<double>& f64(std::string_view name);
+  const std::vector<double>& f64(std::string_view name) const;
+  /// @brief The values of the int32 column `name`.
+  std::vector<std::int32_t>& i32(std::string_view name);
+
+  /// One entry of columns(): a core array or a named column.
+  struct Entry
+  {
+    const ColumnSpec* spec;
+    void* data;
+    std::size_t values;
+  };
+  /// @brief Every array, core ones first (x, v, mass, volume, stress, fext,
+  /// body, material), then the named columns in the order they were added.
+  std::vector<Entry> columns();
+
+private:
+  std::deque<Column> _columns; // a deque: adding one moves no other
+};
+
+} // namespace pfmpm

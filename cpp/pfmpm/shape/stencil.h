@@ -1,0 +1,135 @@
+/// @file stencil.h
+/// @brief A particle's grid nodes with the values and derivatives of their
+/// shape functions: what every particle-grid transfer reads.
+#pragma once
+
+#include "pfmpm/grid/grid.h"
+
+#include <array>
+
+namespace pfmpm
+{
+
+/// Number of second derivatives of a function of `dim` variables (xx, yy, xy in 2D).
+constexpr int hessian_size(int dim) { return dim * (dim + 1) / 2; }
+
+/// @brief Tensor-product B-spline stencil of degree P in `Dim` dimensions.
+///
+/// A particle in cell (c_0, .., c_{Dim-1}) sees the width^Dim nodes
+/// (c_d + lower + a_d) with a_d in [0, width). Node i of the stencil has
+/// a_0 = i / width^(Dim-1) (slowest) ... a_{Dim-1} = i % width (fastest), the
+/// order in which the grid numbers its nodes, so a row of the stencil is a run
+/// of consecutive active nodes. At a point x it holds the univariate values
+/// and derivatives, and gives the shape function N_i(x) = prod_d N_{a_d}(x_d)
+/// (K&T eq. 40), its gradient (eq. 54) and, when Order is 2, its second
+/// derivatives (eq. 55), each a product in direction order, so every
+/// transfer multiplies the same factors the same way; the products are formed
+/// where a transfer reads them, in registers.
+///
+/// CPDI (a second stencil type) provides the same members: `dim`, `width`,
+/// `lower`, `size`, `offset`, `N`, `dN` and `evaluate`.
+template <int Dim, int P, int Order = 1>
+struct BSplineStencil
+{
+  static_assert(Order == 1 || Order == 2, "first or second derivatives");
+  static constexpr int dim = Dim;
+  static constexpr int degree = P;
+  static constexpr int width = P + 1; ///< nodes per direction
+  static constexpr int lower = 0;     ///< first node relative to the cell
+  static constexpr int size = Dim == 1 ? width : Dim == 2 ? width * width : width * width * width;
+
+  /// Offset a_d of stencil node i in direction d.
+  static constexpr int offset(int i, int d)
+  {
+    int stride = 1;
+    for (int e = Dim - 1; e > d; --e)
+      stride *= width;
+    return (i / stride) % width;
+  }
+
+  double n[Dim][width];                  ///< N_a(x_d) per direction
+  double dn[Dim][width];                 ///< dN_a/dx_d
+  double ddn[Order == 2 ? Dim : 1][width]; ///< d2N_a/dx_d^2, only for Order 2
+
+  /// N_i(x).
+  double N(int i) const
+  {
+    double value = n[0][offset(i, 0)];
+    for (int d = 1; d < Dim; ++d)
+      value *= n[d][offset(i, d)];
+    return value;
+  }
+  /// dN_i/dx_k.
+  double dN(int k, int i) const
+  {
+    double g = k == 0 ? dn[0][offset(i, 0)] : n[0][offset(i, 0)];
+    for (int d = 1; d < Dim; ++d)
+      g *= d == k ? dn[d][offset(i, d)] : n[d][offset(i, d)];
+    return g;
+  }
+  /// Second derivative h of N_i: the pure ones first (xx, yy, ..), then the
+  /// mixed ones (xy, ..); only for Order 2.
+  double d2N(int h, int i) const
+  {
+    static_assert(Order == 2, "second derivatives need Order 2");
+    if (h < Dim)
+    {
+      double g = h == 0 ? ddn[0][offset(i, 0)] : n[0][offset(i, 0)];
+      for (int d = 1; d < Dim; ++d)
+        g *= d == h ? ddn[d][offset(i, d)] : n[d][offset(i, d)];
+      return g;
+    }
+    int k = 0, l = 1; // the h-th mixed pair (k < l)
+    for (int m = Dim; m < h; ++m)
+      if (++l == Dim)
+        l = ++k + 1;
+    double g = k == 0 ? dn[0][offset(i, 0)] : n[0][offset(i, 0)];
+    for (int d = 1; d < Dim; ++d)
+      g *= (d == k || d == l) ? dn[d][offset(i, d)] : n[d][offset(i, d)];
+    return g;
+  }
+
+  /// @brief f(i, N_i, grad N_i) for every node i in order, the products
+  /// formed in the loops over the directions (for transfers that need no
+  /// second derivatives).
+  template <class F>
+  void each_node(F&& f) const
+  {
+    if constexpr (Dim == 2)
+      for (int a = 0; a < width; ++a)
+        for (int b = 0; b < width; ++b)
+        {
+          const double g[2] = {dn[0][a] * n[1][b], n[0][a] * dn[1][b]};
+          f(a * width + b, n[0][a] * n[1][b], g);
+        }
+    else
+      for (int i = 0; i < size; ++i)
+      {
+        double g[Dim];
+        for (int k = 0; k < Dim; ++k)
+          g[k] = dN(k, i);
+        f(i, N(i), g);
+      }
+  }
+
+  /// @brief Evaluate at x, a point of cell `cell` (per direction).
+  void evaluate(const std::array<const BSpline1D*, Dim>& basis, const int* cell, const double* x)
+  {
+    direction<0>(basis, cell, x);
+  }
+
+private:
+  /// The values of direction D, then of the next ones (unrolled at compile time).
+  template <int D>
+  void direction(const std::array<const BSpline1D*, Dim>& basis, const int* cell, const double* x)
+  {
+    if constexpr (Order == 2)
+      basis[D]->template evaluate<P>(cell[D], x[D], n[D], dn[D], ddn[D]);
+    else
+      basis[D]->template evaluate<P>(cell[D], x[D], n[D], dn[D]);
+    if constexpr (D + 1 < Dim)
+      direction<D + 1>(basis, cell, x);
+  }
+};
+
+} // namespace pfmpm

@@ -1,0 +1,475 @@
+/// @file momentum.h
+/// @brief The momentum stages of the explicit step on a velocity-field
+/// partition (Kakouris & Triantafyllou 2019, Algorithm 1): P2G of mass,
+/// momentum and forces, the grid update with walls and contact, and G2P of
+/// velocity, position and velocity gradient followed by the materials' update.
+#pragma once
+
+#include "pfmpm/common/reduce.h"
+#include "pfmpm/contact/coulomb.h"
+#include "pfmpm/fields/fields.h"
+#include "pfmpm/materials/material.h"
+#include "pfmpm/transfer/transfer.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <memory>
+#include <vector>
+
+namespace pfmpm
+{
+
+/// @brief The active indices of a cell's stencil nodes.
+///
+/// A stencil row (the nodes with the same offsets but the last) is a run of
+/// consecutive active nodes (Grid::activate), so one look-up per row gives them.
+template <class Shape>
+class CellNodes
+{
+public:
+  static_assert(Shape::dim == 2, "the grid is two-dimensional");
+  CellNodes(const Grid& grid, const Cell& cell)
+  {
+    for (int a = 0; a < Shape::width; ++a)
+      _row[a] = grid.active_index(cell.cx + Shape::lower + a, cell.cy + Shape::lower);
+  }
+  /// Active index of stencil node i.
+  std::int32_t operator[](int i) const
+  {
+    return _row[Shape::offset(i, 0)] + Shape::offset(i, 1);
+  }
+
+private:
+  std::int32_t _row[Shape::width];
+};
+
+/// The fields of a cell: the local field f of the block is `field[f]`.
+struct CellFields
+{
+  int n = 1;                                      ///< local fields
+  std::int32_t field[BodyFields::max_fields] = {}; ///< their field indices
+  /// Local field of a particle of field `body`.
+  int local(std::int32_t body) const
+  {
+    int f = 0;
+    while (field[f] != body)
+      ++f;
+    return f;
+  }
+};
+
+/// The particle arrays that P2G reads.
+struct P2GArrays
+{
+  const double *v, *mass, *volume, *stress, *fext;
+  const std::int32_t* body;
+};
+
+/// @brief The P2G sums of one cell: per local field and stencil node, the
+/// sums of NodeSums (internal and external force apart) and, with Surface,
+/// of SurfaceSums.
+template <int F, int K, bool Surface>
+struct P2GBlock
+{
+  double m[F][K], px[F][K], py[F][K], fx[F][K], fy[F][K], ex[F][K], ey[F][K];
+  double gx[Surface ? F : 1][K], gy[Surface ? F : 1][K], V[Surface ? F : 1][K];
+};
+
+/// @brief Sum a cell's particles, in sorted order, into its block: mass
+/// (K&T eq. 46), momentum (eq. 61), internal and external force (eqs. 62,
+/// 42) and, with Surface, mass gradient (eq. 70) and volume.
+///
+/// Not inlined, on purpose: every partition runs this same compiled
+/// arithmetic (the compiler may fuse multiply-adds differently where it
+/// inlines), so a body alone in its cells gets the bits one field gets.
+template <class Shape, bool External, int F, bool Surface>
+[[gnu::noinline]] void sum_cell(const detail::EachParticle<Shape>& each, const P2GArrays& a,
+                                const CellFields& local, P2GBlock<F, Shape::size, Surface>& block)
+{
+  constexpr int K = Shape::size;
+  constexpr int S = Surface ? F : 1;
+  const double *v = a.v, *mass = a.mass, *volume = a.volume, *stress = a.stress, *fext = a.fext;
+  // Local arrays, which the compiler keeps apart from the particle arrays.
+  double m[F][K]{}, px[F][K]{}, py[F][K]{}, fx[F][K]{}, fy[F][K]{}, ex[F][K]{}, ey[F][K]{};
+  [[maybe_unused]] double gx[S][K]{}, gy[S][K]{}, V[S][K]{};
+  each(
+      [&](std::size_t p, const Shape& s)
+      {
+        const int f = F == 1 ? 0 : local.local(a.body[p]);
+        const double mp = mass[p];
+        const double mvx = mp * v[2 * p], mvy = mp * v[2 * p + 1];
+        const double Vp = volume[p];
+        const double sxx = Vp * stress[4 * p], syy = Vp * stress[4 * p + 1],
+                     sxy = Vp * stress[4 * p + 2];
+        s.each_node(
+            [&](int i, double w, const double* g)
+            {
+              m[f][i] += w * mp;   // eq. 46
+              px[f][i] += w * mvx; // eq. 61
+              py[f][i] += w * mvy;
+              fx[f][i] -= sxx * g[0] + sxy * g[1]; // eq. 62
+              fy[f][i] -= sxy * g[0] + syy * g[1];
+              if constexpr (External)
+              {
+                ex[f][i] += w * fext[2 * p]; // eq. 42
+                ey[f][i] += w * fext[2 * p + 1];
+              }
+              if constexpr (Surface)
+              {
+                gx[f][i] += g[0] * mp; // eq. 70, before normalisation
+                gy[f][i] += g[1] * mp;
+                V[f][i] += w * Vp; // for the touch check
+              }
+            });
+      });
+  std::memcpy(block.m, m, sizeof m);
+  std::memcpy(block.px, px, sizeof px);
+  std::memcpy(block.py, py, sizeof py);
+  std::memcpy(block.fx, fx, sizeof fx);
+  std::memcpy(block.fy, fy, sizeof fy);
+  std::memcpy(block.ex, ex, sizeof ex);
+  std::memcpy(block.ey, ey, sizeof ey);
+  if constexpr (Surface)
+  {
+    std::memcpy(block.gx, gx, sizeof gx);
+    std::memcpy(block.gy, gy, sizeof gy);
+    std::memcpy(block.V, V, sizeof V);
+  }
+}
+
+/// @brief P2G of mass, momentum, internal and external force into the slots
+/// of a partition; at cells next to a contact node also the mass gradient
+/// and volume of each field (sum_cell).
+///
+/// Each cell's particles are summed into a local block per field of the
+/// cell, which is then added to the slots once. The internal and external
+/// forces are summed apart in the block and added together.
+template <class Shape, bool External, class Fields>
+struct MomentumP2G
+{
+  const Grid& grid;
+  const Fields& fields;
+  P2GArrays arrays;
+  NodeSums* sums;
+  SurfaceSums* surface;
+
+  void operator()(const Cell& cell, const detail::EachParticle<Shape>& each) const
+  {
+    CellFields local;
+    if constexpr (!Fields::discrete)
+      scatter<1, false>(cell, each, local);
+    else
+    {
+      local.n = fields.cell_fields(cell.key, local.field);
+      if (local.n > 1)
+        scatter<BodyFields::max_fields, true>(cell, each, local);
+      else if (fields.touches(cell.key))
+        scatter<1, true>(cell, each, local);
+      else
+        scatter<1, false>(cell, each, local);
+    }
+  }
+
+  template <int F, bool Surface>
+  void scatter(const Cell& cell, const detail::EachParticle<Shape>& each,
+               const CellFields& local) const
+  {
+    constexpr int K = Shape::size;
+    P2GBlock<F, K, Surface> b;
+    sum_cell<Shape, External, F, Surface>(each, arrays, local, b);
+    const int nf = F == 1 ? 1 : local.n;
+    const CellNodes<Shape> nodes(grid, cell);
+    for (int f = 0; f < nf; ++f)
+      for (int i = 0; i < K; ++i)
+      {
+        std::int32_t slot = nodes[i];
+        if constexpr (Fields::discrete)
+          slot = fields.slot(slot, local.field[f]);
+        NodeSums& n = sums[slot];
+        n.m += b.m[f][i];
+        n.px += b.px[f][i];
+        n.py += b.py[f][i];
+        n.fx += b.fx[f][i] + b.ex[f][i];
+        n.fy += b.fy[f][i] + b.ey[f][i];
+        n.ex += b.ex[f][i];
+        n.ey += b.ey[f][i];
+        if constexpr (Surface)
+        {
+          SurfaceSums& u = surface[slot];
+          u.gx += b.gx[f][i];
+          u.gy += b.gy[f][i];
+          u.V += b.V[f][i];
+        }
+      }
+  }
+};
+
+/// What the grid update sums over the nodes, in a fixed order.
+enum GridUpdateSum : int
+{
+  sum_external_work = 0, ///< work of the external forces over the step
+  sum_friction_work,     ///< work of the friction forces over the step
+  sum_light,             ///< slots with mass too small to divide by
+  sum_contact,           ///< first of the contact_counts counters
+  grid_update_sums = sum_contact + contact_counts
+};
+
+/// @brief The update of a field alone at its node (K&T eqs. 63-65): with no
+/// contact force the trial velocity is final; walls, its kinematics, and the
+/// work of the external force over the step. Slots lighter than `mass_tol`
+/// get zero velocity and are counted. Out of line, so that every partition
+/// runs the same arithmetic.
+void update_free_slot(const NodeSums& s, std::uint8_t walls, double dt, double mass_tol,
+                      NodeKinematics& k, double* acc);
+
+/// @brief New velocity vn of a slot with old velocity vo (after contact):
+/// walls (a wall sets the new velocity; the acceleration keeps the
+/// unconstrained old velocity so that the particle update, eq. 80, feels the
+/// reaction), its kinematics and the work of the external and friction forces
+/// over the step (trapezoidal velocity).
+void finish_slot(const NodeSums& s, const double* vo, double* vn, std::uint8_t walls,
+                 const double* friction, double dt, NodeKinematics& k, double* acc);
+
+/// @brief The grid update (K&T eqs. 63-65): trial momentum and velocity of
+/// every slot, frictional contact among the slots of a contact node
+/// (eqs. 66-77), walls, and the nodal accelerations that G2P reads.
+/// @return The sums of GridUpdateSum.
+template <class Fields>
+std::array<double, grid_update_sums> update_grid(const Grid& grid, Fields& fields,
+                                                 const std::vector<NodeSums>& sums,
+                                                 const std::vector<SurfaceSums>& surface,
+                                                 std::vector<NodeKinematics>& kinematics, double dt,
+                                                 double mass_tol)
+{
+  const std::vector<std::uint8_t>& constrained = grid.constraints();
+  const bool walls = !constrained.empty();
+  const auto na = static_cast<std::size_t>(grid.num_active());
+  kinematics.resize(sums.size());
+  return deterministic_sum<grid_update_sums>(
+      na,
+      [&](std::size_t a, std::array<double, grid_update_sums>& acc)
+      {
+        const std::uint8_t wall = walls ? constrained[a] : 0;
+        std::int32_t s0 = static_cast<std::int32_t>(a), n = 1;
+        if constexpr (Fields::discrete)
+        {
+          s0 = fields.slot_start()[a];
+          n = fields.slot_start()[a + 1] - s0;
+        }
+        if (n == 1)
+          return update_free_slot(sums[s0], wall, dt, mass_tol, kinematics[s0], acc.data());
+        if constexpr (Fields::discrete)
+        {
+          constexpr int F = BodyFields::max_fields;
+          TrialField trial[F];
+          bool live[F];
+          double vo[F][2], fn[F][2]{}, ft[F][2]{};
+          for (int j = 0; j < n; ++j)
+          {
+            const NodeSums& s = sums[s0 + j];
+            const SurfaceSums& u = surface[s0 + j];
+            live[j] = s.m > mass_tol;
+            if (!live[j])
+            {
+              if (s.m > 0.0)
+                acc[sum_light] += 1.0;
+              continue;
+            }
+            vo[j][0] = s.px / s.m;
+            vo[j][1] = s.py / s.m;
+            trial[j] = TrialField{s.m,
+                                  {s.px + dt * s.fx, s.py + dt * s.fy}, // eq. 63
+                                  {vo[j][0] + dt * s.fx / s.m, vo[j][1] + dt * s.fy / s.m}, // eq. 64
+                                  {u.gx, u.gy},
+                                  u.V};
+          }
+          // The node's volume, the integral of its basis function.
+          const std::int32_t id = grid.active_nodes()[a], ny = grid.nodes()[1];
+          const double full = grid.basis(0).integral(id / ny) * grid.basis(1).integral(id % ny);
+          ContactPair pairs[F * (F - 1) / 2];
+          const int active = coulomb_forces(n, trial, live, &fields.slot_field()[s0],
+                                            fields.friction().data(), fields.size(), full, dt, fn,
+                                            ft, pairs, &acc[sum_contact]);
+          // Corrected velocities (eq. 65), walls, and the work done.
+          double vn[F][2];
+          for (int j = 0; j < n; ++j)
+          {
+            NodeKinematics& k = kinematics[s0 + j];
+            if (!live[j])
+            {
+              k = NodeKinematics{};
+              vn[j][0] = vn[j][1] = 0.0;
+              continue;
+            }
+            const NodeSums& s = sums[s0 + j];
+            for (int d = 0; d < 2; ++d)
+              vn[j][d] = trial[j].vt[d] + dt * (fn[j][d] + ft[j][d]) / s.m;
+            finish_slot(s, vo[j], vn[j], wall, ft[j], dt, k, acc.data());
+          }
+          check_contact(active, pairs, vn, &acc[sum_contact]);
+        }
+      });
+}
+
+/// The nodal velocities and accelerations of a cell, per local field.
+template <int F, int K>
+struct G2PBlock
+{
+  double vx[F][K], vy[F][K], ax[F][K], ay[F][K];
+};
+
+/// The particle arrays that G2P moves.
+struct G2PArrays
+{
+  double *x, *v, *volume;
+  const std::int32_t* body;
+};
+
+/// @brief Move a cell's particles (K&T eqs. 80, 82): velocity from the nodal
+/// accelerations (FLIP), position from the nodal velocities, each reading its
+/// own field's values; the velocity gradient L_ij = dv_i/dx_j into `L` (4 per
+/// particle, in sorted order) and the volume from det(I + dt L). Notes the
+/// smallest particle with a non-finite position or velocity in `bad` and the
+/// largest |v_p|^2 in `speed2`.
+///
+/// Not inlined, on purpose: every partition runs this same compiled
+/// arithmetic (see sum_cell).
+template <class Shape, int F>
+[[gnu::noinline]] void move_cell(const detail::EachParticle<Shape>& each, const G2PArrays& a,
+                                 const CellFields& local, const G2PBlock<F, Shape::size>& block,
+                                 double dt, double* L, std::size_t& bad, double& speed2)
+{
+  constexpr int K = Shape::size;
+  // Local copies, which the compiler keeps apart from the particle arrays.
+  double nvx[F][K], nvy[F][K], nax[F][K], nay[F][K];
+  std::memcpy(nvx, block.vx, sizeof nvx);
+  std::memcpy(nvy, block.vy, sizeof nvy);
+  std::memcpy(nax, block.ax, sizeof nax);
+  std::memcpy(nay, block.ay, sizeof nay);
+  double *x = a.x, *v = a.v, *volume = a.volume;
+  each(
+      [&](std::size_t p, const Shape& s)
+      {
+        const int f = F == 1 ? 0 : local.local(a.body[p]);
+        const double *kvx = nvx[f], *kvy = nvy[f], *kax = nax[f], *kay = nay[f];
+        double vx = 0, vy = 0, ax = 0, ay = 0, Lxx = 0, Lxy = 0, Lyx = 0, Lyy = 0;
+        s.each_node([&](int i, double w, const double* g)
+        {
+          const double gx = g[0], gy = g[1];
+          vx += w * kvx[i];
+          vy += w * kvy[i];
+          ax += w * kax[i];
+          ay += w * kay[i];
+          Lxx += kvx[i] * gx; // velocity gradient, L_ij = dv_i/dx_j
+          Lxy += kvx[i] * gy;
+          Lyx += kvy[i] * gx;
+          Lyy += kvy[i] * gy;
+        });
+        v[2 * p] += dt * ax; // eq. 80
+        v[2 * p + 1] += dt * ay;
+        x[2 * p] += dt * vx; // eq. 82
+        x[2 * p + 1] += dt * vy;
+        volume[p] *= (1.0 + dt * Lxx) * (1.0 + dt * Lyy) - dt * dt * Lxy * Lyx;
+        if (!std::isfinite(x[2 * p] + x[2 * p + 1] + v[2 * p] + v[2 * p + 1]))
+          bad = std::min(bad, p);
+        speed2 = std::max(speed2, v[2 * p] * v[2 * p] + v[2 * p + 1] * v[2 * p + 1]);
+        L[0] = Lxx;
+        L[1] = Lxy;
+        L[2] = Lyx;
+        L[3] = Lyy;
+        L += 4;
+      });
+}
+
+/// @brief G2P (K&T eqs. 80, 82, 78): move each cell's particles (move_cell),
+/// each (particle, node) pair reading its slot; then each run of the cell's
+/// particles of one material advances its state with the velocity gradient
+/// and sets its stress (Material::update). Non-finite values and the largest
+/// speed are noted for the checks of the step.
+template <class Shape, class Fields>
+struct KinematicsG2P
+{
+  const Grid& grid;
+  const Fields& fields;
+  const NodeKinematics* kinematics;
+  Particles& particles;
+  const std::vector<std::unique_ptr<Material::Bound>>& materials;
+  const std::vector<const Degradation*>& degradation;
+  double dt;
+
+  struct Local
+  {
+    std::vector<double> L; // the cell's velocity gradients, 4 per particle
+    std::size_t bad;       // first particle with a non-finite value
+    double speed2 = 0.0;   // largest |v_p|^2
+    double wave = 0.0;     // largest P-wave speed
+  };
+  std::size_t bad;
+  double speed2 = 0.0, wave = 0.0;
+
+  Local local() const { return Local{{}, particles.size()}; }
+  void merge(const Local& l)
+  {
+    bad = std::min(bad, l.bad);
+    speed2 = std::max(speed2, l.speed2);
+    wave = std::max(wave, l.wave);
+  }
+
+  void operator()(Local& local, const Cell& cell, const detail::EachParticle<Shape>& each) const
+  {
+    CellFields fields_of;
+    if constexpr (Fields::discrete)
+    {
+      fields_of.n = fields.cell_fields(cell.key, fields_of.field);
+      if (fields_of.n > 1)
+        return gather<BodyFields::max_fields>(local, cell, each, fields_of);
+    }
+    gather<1>(local, cell, each, fields_of);
+  }
+
+  template <int F>
+  void gather(Local& local, const Cell& cell, const detail::EachParticle<Shape>& each,
+              const CellFields& fields_of) const
+  {
+    constexpr int K = Shape::size;
+    const int nf = F == 1 ? 1 : fields_of.n;
+    // The cell's nodes are read once for all its particles.
+    const CellNodes<Shape> active(grid, cell);
+    G2PBlock<F, K> nodes;
+    for (int f = 0; f < nf; ++f)
+      for (int i = 0; i < K; ++i)
+      {
+        std::int32_t slot = active[i];
+        if constexpr (Fields::discrete)
+          slot = fields.slot(slot, fields_of.field[f]);
+        const NodeKinematics& k = kinematics[slot];
+        nodes.vx[f][i] = k.vx;
+        nodes.vy[f][i] = k.vy;
+        nodes.ax[f][i] = k.ax;
+        nodes.ay[f][i] = k.ay;
+      }
+    local.L.resize(4 * static_cast<std::size_t>(cell.end - cell.begin));
+    const G2PArrays arrays{particles.x.data(), particles.v.data(), particles.volume.data(),
+                           particles.body.data()};
+    move_cell<Shape, F>(each, arrays, fields_of, nodes, dt, local.L.data(), local.bad,
+                        local.speed2);
+    // The materials: each run of the cell's particles of one material (with
+    // one material, the whole cell).
+    auto update = [&](std::int32_t m, const Batch& b)
+    {
+      const double* L = &local.L[4 * static_cast<std::size_t>(b.index - (each.order + cell.begin))];
+      const UpdateResult r = materials[m]->update(b, L, dt, degradation[m]);
+      local.wave = std::max(local.wave, r.wave);
+      local.bad = std::min(local.bad, r.bad);
+    };
+    if (materials.size() == 1)
+      update(0, Batch{each.order + cell.begin, 0, static_cast<std::size_t>(cell.end - cell.begin)});
+    else
+      for_each_material_run(particles.material.data(), each.order, cell.begin, cell.end, update);
+  }
+};
+
+} // namespace pfmpm

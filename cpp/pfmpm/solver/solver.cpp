@@ -1,0 +1,555 @@
+/// @file solver.cpp
+/// @brief The explicit step: orchestration of sort, phase fields, P2G, grid
+/// update and G2P (Kakouris & Triantafyllou 2019, Algorithm 1).
+#include "pfmpm/solver/solver.h"
+#include "pfmpm/common/reduce.h"
+#include "pfmpm/shape/stencil.h"
+#include "pfmpm/solver/momentum.h"
+#include "pfmpm/transfer/transfer.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <type_traits>
+
+namespace pfmpm
+{
+
+namespace
+{
+/// Fracture parameters per material: `fracture` itself, or all none when empty.
+std::vector<std::optional<Fracture>> per_material(std::vector<std::optional<Fracture>> fracture,
+                                                  std::size_t materials)
+{
+  if (fracture.empty())
+    fracture.resize(materials);
+  if (fracture.size() != materials)
+    throw std::invalid_argument("fracture: " + std::to_string(fracture.size())
+                                + " entries for " + std::to_string(materials) + " materials");
+  return fracture;
+}
+
+std::string phase_key(std::size_t k, const char* name)
+{
+  return "phase_field/" + std::to_string(k) + "/" + name;
+}
+} // namespace
+
+Solver::Solver(Grid& grid, Particles& particles,
+               std::vector<std::shared_ptr<const Material>> materials, double dt,
+               std::vector<std::optional<Fracture>> fracture, double tol, int max_iterations,
+               std::vector<double> friction)
+    : _grid(grid), _particles(particles), _materials(std::move(materials)), _dt(dt)
+{
+  if (!(dt > 0.0) || !std::isfinite(dt))
+    throw std::invalid_argument("dt = " + std::to_string(dt) + ": must be > 0");
+  if (_materials.empty())
+    throw std::invalid_argument("materials: at least one material is needed");
+  for (const auto& m : _materials)
+    if (!m)
+      throw std::invalid_argument("materials: a material is missing");
+  _fracture = per_material(std::move(fracture), _materials.size());
+
+  const auto nmat = static_cast<std::int32_t>(_materials.size());
+  for (std::size_t i = 0; i < particles.size(); ++i)
+    if (particles.material[i] < 0 || particles.material[i] >= nmat)
+      throw std::invalid_argument("particle " + std::to_string(i) + ": material index "
+                                  + std::to_string(particles.material[i]) + " out of range");
+  // The models' state, then the phase field's (only where something cracks).
+  for (const auto& m : _materials)
+    for (const ColumnSpec& c : m->columns())
+      particles.add(c);
+  const bool cracks = std::any_of(_fracture.begin(), _fracture.end(),
+                                  [](const auto& f) { return f.has_value(); });
+  if (cracks)
+    for (const ColumnSpec& c : PhaseField::columns())
+      particles.add(c);
+
+  const double max_mass = particles.size() == 0
+                              ? 0.0
+                              : *std::max_element(particles.mass.begin(), particles.mass.end());
+  // Nodes lighter than this carry no velocity: dividing by their mass would
+  // amplify round-off (a particle at the edge of a node's support).
+  _mass_tol = 1e-12 * max_mass;
+
+  if (!friction.empty())
+    _fields.emplace<BodyFields>(grid, particles, std::move(friction));
+  if (!cracks)
+    return;
+  // The phase fields: one over all crackable particles, or with discrete
+  // fields one per crackable body (eq. 28), each from its own particles.
+  std::vector<char> crackable_body;
+  bool all_crackable = true;
+  for (std::size_t p = 0; p < particles.size(); ++p)
+  {
+    const bool c = _fracture[particles.material[p]].has_value();
+    all_crackable = all_crackable && c;
+    const std::size_t b = static_cast<std::size_t>(particles.body[p]);
+    if (c && b >= crackable_body.size())
+      crackable_body.resize(b + 1, 0);
+    if (c)
+      crackable_body[b] = 1;
+  }
+  if (std::holds_alternative<SingleField>(_fields))
+    _phase.push_back(PhaseFieldGroup{PhaseField(grid, _fracture, tol, max_iterations), -1,
+                                     !all_crackable, {}});
+  else
+    for (std::size_t b = 0; b < crackable_body.size(); ++b)
+      if (crackable_body[b])
+        _phase.push_back(PhaseFieldGroup{PhaseField(grid, _fracture, tol, max_iterations),
+                                         static_cast<std::int32_t>(b), true, {}});
+}
+
+void Solver::set_stability_length(double length)
+{
+  if (!(length >= 0.0) || !std::isfinite(length))
+    throw std::invalid_argument("stability length = " + std::to_string(length)
+                                + ": must be >= 0 and finite");
+  _stability_length = length;
+}
+
+SolverState Solver::state() const
+{
+  SolverState s;
+  s.scalars["time"] = _time;
+  s.scalars["step"] = static_cast<double>(_step);
+  s.scalars["external_work"] = _external_work;
+  s.scalars["light_nodes"] = static_cast<double>(_light_nodes);
+  for (std::size_t k = 0; k < _phase.size(); ++k)
+  {
+    PhaseFieldState pf = _phase[k].field.state();
+    s.arrays[phase_key(k, "c")] = std::move(pf.c);
+    s.arrays[phase_key(k, "c_previous")] = std::move(pf.c_previous);
+    s.scalars[phase_key(k, "solves")] = static_cast<double>(pf.stats.solves);
+    s.scalars[phase_key(k, "iterations")] = static_cast<double>(pf.stats.iterations);
+    s.scalars[phase_key(k, "last_iterations")] = pf.stats.last_iterations;
+    s.scalars[phase_key(k, "start_residual")] = pf.stats.start_residual;
+    s.scalars[phase_key(k, "last_residual")] = pf.stats.last_residual;
+    s.scalars[phase_key(k, "unknowns")] = pf.stats.unknowns;
+  }
+  if (const ContactStats* c = contact_stats())
+  {
+    s.scalars["contact/nodes"] = c->nodes;
+    s.scalars["contact/pairs"] = static_cast<double>(c->pairs);
+    s.scalars["contact/active"] = static_cast<double>(c->active);
+    s.scalars["contact/sliding"] = static_cast<double>(c->sliding);
+    for (int i = 0; i < 4; ++i)
+      s.scalars["contact/C" + std::to_string(i + 1)] = static_cast<double>(c->violations[i]);
+    s.scalars["contact/friction_work"] = c->friction_work;
+  }
+  return s;
+}
+
+void Solver::restore(const SolverState& state)
+{
+  // What this solver's state has: the same keys, arrays of the same sizes.
+  const SolverState mine = this->state();
+  for (const auto& [key, value] : state.scalars)
+    if (!mine.scalars.count(key))
+      throw std::invalid_argument("solver state: " + key + " is not part of this run's state"
+                                  " (a scene with another [contact] table, bodies or fracture)");
+  for (const auto& [key, value] : state.arrays)
+    if (!mine.arrays.count(key))
+      throw std::invalid_argument("solver state: " + key + " is not part of this run's state"
+                                  " (a scene with another [contact] table, bodies or fracture)");
+  for (const auto& [key, value] : mine.scalars)
+    if (!state.scalars.count(key))
+      throw std::invalid_argument("solver state: " + key + " is missing");
+  for (const auto& [key, value] : mine.arrays)
+  {
+    const auto it = state.arrays.find(key);
+    if (it == state.arrays.end())
+      throw std::invalid_argument("solver state: " + key + " is missing");
+    if (it->second.size() != value.size())
+      throw std::invalid_argument("solver state: " + key + " has " + std::to_string(it->second.size())
+                                  + " values for a grid of " + std::to_string(value.size()));
+  }
+  const double time = state.scalars.at("time"), step = state.scalars.at("step");
+  if (!(time >= 0.0) || !std::isfinite(time) || !(step >= 0.0))
+    throw std::invalid_argument("solver state: step " + std::to_string(step) + " at t = "
+                                + std::to_string(time));
+  for (std::size_t k = 0; k < _phase.size(); ++k)
+  {
+    auto at = [&](const char* name) { return state.scalars.at(phase_key(k, name)); };
+    PhaseFieldStats stats;
+    stats.solves = static_cast<std::int64_t>(at("solves"));
+    stats.iterations = static_cast<std::int64_t>(at("iterations"));
+    stats.last_iterations = static_cast<std::int32_t>(at("last_iterations"));
+    stats.start_residual = at("start_residual");
+    stats.last_residual = at("last_residual");
+    stats.unknowns = static_cast<std::int32_t>(at("unknowns"));
+    _phase[k].field.restore(PhaseFieldState{state.arrays.at(phase_key(k, "c")),
+                                            state.arrays.at(phase_key(k, "c_previous")), stats});
+  }
+  if (auto* fields = std::get_if<BodyFields>(&_fields))
+  {
+    ContactStats& c = fields->stats();
+    c.nodes = static_cast<std::int32_t>(state.scalars.at("contact/nodes"));
+    c.pairs = static_cast<std::int64_t>(state.scalars.at("contact/pairs"));
+    c.active = static_cast<std::int64_t>(state.scalars.at("contact/active"));
+    c.sliding = static_cast<std::int64_t>(state.scalars.at("contact/sliding"));
+    for (int i = 0; i < 4; ++i)
+      c.violations[i] = static_cast<std::int64_t>(state.scalars.at("contact/C" + std::to_string(i + 1)));
+    c.friction_work = state.scalars.at("contact/friction_work");
+  }
+  _time = time;
+  _step = static_cast<std::int64_t>(step);
+  _external_work = state.scalars.at("external_work");
+  _light_nodes = static_cast<std::int64_t>(state.scalars.at("light_nodes"));
+}
+
+template <class F>
+void Solver::dispatch(F&& f)
+{
+  std::visit(
+      [&](auto& fields)
+      {
+        switch (_grid.degree())
+        {
+        case 1:
+          f(std::integral_constant<int, 1>{}, fields);
+          break;
+        case 2:
+          f(std::integral_constant<int, 2>{}, fields);
+          break;
+        default:
+          f(std::integral_constant<int, 3>{}, fields);
+        }
+      },
+      _fields);
+}
+
+void Solver::advance(std::int64_t steps)
+{
+  // P2G skips the external force when there is none (fext only changes
+  // between calls).
+  _external = has_external_force();
+  bind();
+  dispatch(
+      [&](auto P, auto& fields)
+      {
+        for (std::int64_t k = 0; k < steps; ++k)
+          step<decltype(P)::value>(fields);
+      });
+}
+
+void Solver::prepare()
+{
+  bind();
+  dispatch([&](auto P, auto& fields) { prepare<decltype(P)::value>(fields); });
+}
+
+void Solver::bind()
+{
+  _bound.clear();
+  for (const auto& m : _materials)
+    _bound.push_back(m->bind(_particles));
+  _degradation_of.assign(_materials.size(), Degradation{});
+  _degradation.assign(_materials.size(), nullptr);
+  if (_phase.empty())
+    return;
+  const double* c = _particles.f64("c").data();
+  double* history = _particles.f64("history").data();
+  for (std::size_t m = 0; m < _materials.size(); ++m)
+    if (_fracture[m])
+    {
+      _degradation_of[m] = Degradation{_fracture[m]->k_f, c, history};
+      _degradation[m] = &_degradation_of[m];
+    }
+}
+
+template <int P, class Fields>
+void Solver::prepare(Fields& fields)
+{
+  if (const std::size_t outside = _sort.sort(_grid, _particles.x); outside < _particles.size())
+    throw SimulationError(where(outside) + " is outside the grid");
+  _grid.activate(_sort.cell_start());
+  if constexpr (Fields::discrete)
+    fields.build(_particles, _sort); // Remark 4
+  for (std::size_t k = 0; k < _phase.size(); ++k)
+  {
+    PhaseFieldGroup& g = _phase[k];
+    if (g.select)
+    {
+      const std::int32_t* body = _particles.body.data();
+      const std::int32_t* material = _particles.material.data();
+      g.sort.select(_sort, [&](std::size_t p)
+                    { return _fracture[material[p]] && (g.body < 0 || body[p] == g.body); });
+    }
+    const CellSort& sort = g.select ? g.sort : _sort;
+    const bool converged = g.field.template solve<P>(_particles, sort);
+    // The materials degrade their stresses with the new phase field (eqs. 14-16).
+    const std::int32_t* order = sort.order().data();
+    const std::int64_t* start = sort.cell_start().data();
+    const auto ncells = static_cast<std::ptrdiff_t>(sort.cell_start().size()) - 1;
+#pragma omp parallel for schedule(static)
+    for (std::ptrdiff_t c = 0; c < ncells; ++c)
+      for_each_material_run(_particles.material.data(), order, start[c], start[c + 1],
+                            [&](std::int32_t m, const Batch& b)
+                            { _bound[m]->stress(b, *_degradation[m]); });
+    if (!converged)
+    {
+      const PhaseFieldStats& s = g.field.stats();
+      std::ostringstream msg;
+      msg << "phase field" << (g.body >= 0 ? " of body " + std::to_string(g.body) : std::string())
+          << ": conjugate gradients stopped at relative residual " << s.last_residual
+          << " > tol = " << g.field.tol() << " after " << s.last_iterations
+          << " iterations, at the start of the step after step " << _step << " (t = " << _time
+          << ")";
+      throw SimulationError(msg.str());
+    }
+  }
+}
+
+template <int P, class Fields>
+void Solver::step(Fields& fields)
+{
+  prepare<P>(fields);
+  particle_to_grid<P>(fields);
+  const auto sums = update_grid(_grid, fields, _sums, _surface, _kinematics, _dt, _mass_tol);
+  _external_work += sums[sum_external_work];
+  _light_nodes += static_cast<std::int64_t>(sums[sum_light]);
+  if constexpr (Fields::discrete)
+  {
+    ContactStats& c = fields.stats();
+    c.friction_work += sums[sum_friction_work];
+    c.pairs += static_cast<std::int64_t>(sums[sum_contact + count_pairs]);
+    c.active += static_cast<std::int64_t>(sums[sum_contact + count_active]);
+    c.sliding += static_cast<std::int64_t>(sums[sum_contact + count_sliding]);
+    for (int i = 0; i < 4; ++i)
+      c.violations[i] += static_cast<std::int64_t>(sums[sum_contact + count_c1 + i]);
+  }
+  grid_to_particle<P>(fields);
+  _time += _dt;
+  ++_step;
+}
+
+template <int P, class Fields>
+void Solver::particle_to_grid(Fields& fields)
+{
+  using Shape = BSplineStencil<2, P>;
+  std::size_t slots = static_cast<std::size_t>(_grid.num_active());
+  if constexpr (Fields::discrete)
+    slots = static_cast<std::size_t>(fields.num_slots());
+  _sums.resize(slots);
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t a = 0; a < static_cast<std::ptrdiff_t>(slots); ++a)
+    _sums[a] = NodeSums{};
+  if constexpr (Fields::discrete)
+    _surface.assign(slots, SurfaceSums{});
+  auto run = [&](auto external)
+  {
+    constexpr bool External = decltype(external)::value;
+    const Particles& P_ = _particles;
+    pfmpm::particle_to_grid<Shape>(
+        _grid, _sort, P_.x.data(),
+        MomentumP2G<Shape, External, Fields>{_grid, fields, P_.v.data(), P_.mass.data(),
+                                             P_.volume.data(), P_.stress.data(), P_.fext.data(),
+                                             P_.body.data(), _sums.data(), _surface.data()});
+  };
+  if (_external)
+    run(std::true_type{});
+  else
+    run(std::false_type{});
+}
+
+template <int P, class Fields>
+void Solver::grid_to_particle(Fields& fields)
+{
+  using Shape = BSplineStencil<2, P>;
+  const bool check_stability = _stability_length > 0.0;
+  KinematicsG2P<Shape, Fields> kernel{_grid,        fields, _kinematics.data(), _particles,
+                                      _bound,       _degradation, _dt,     _particles.size()};
+  pfmpm::grid_to_particle<Shape>(_grid, _sort, _particles.x.data(), kernel);
+  if (kernel.bad < _particles.size())
+    non_finite(kernel.bad);
+  // max c_p + max |v_p| bounds max (c_p + |v_p|) without a square root per
+  // particle; only a step whose bound exceeds the limit takes the exact maximum.
+  if (check_stability && _dt * (kernel.wave + std::sqrt(kernel.speed2)) > stability_limit())
+    check_stability_exactly();
+}
+
+std::string Solver::where(std::size_t i) const
+{
+  std::ostringstream s;
+  s << "particle " << i << " (body " << _particles.body[i] << ") at x = (" << _particles.x[2 * i]
+    << ", " << _particles.x[2 * i + 1] << ") during the step after step " << _step
+    << " (t = " << _time << ")";
+  return s.str();
+}
+
+void Solver::non_finite(std::size_t p) const
+{
+  auto finite = [](const std::vector<double>& a, std::size_t begin, std::size_t k)
+  { return std::all_of(&a[begin], &a[begin] + k, [](double u) { return std::isfinite(u); }); };
+  const Particles& s = _particles;
+  const char* what = !finite(s.v, 2 * p, 2)        ? "velocity"
+                     : !finite(s.x, 2 * p, 2)      ? "position"
+                     : !finite(s.stress, 4 * p, 4) ? "stress"
+                                                   : "history";
+  throw SimulationError(std::string(what) + " of " + where(p) + " is not finite");
+}
+
+double Solver::signal_speed(std::size_t p) const
+{
+  const double vx = _particles.v[2 * p], vy = _particles.v[2 * p + 1];
+  return _bound[_particles.material[p]]->wave_speed(p) + std::sqrt(vx * vx + vy * vy);
+}
+
+void Solver::check_stability_exactly() const
+{
+  const auto n = static_cast<std::ptrdiff_t>(_particles.size());
+  double fastest = 0.0;
+#pragma omp parallel for schedule(static) reduction(max : fastest)
+  for (std::ptrdiff_t p = 0; p < n; ++p)
+    fastest = std::max(fastest, signal_speed(p));
+  if (_dt * fastest <= stability_limit())
+    return;
+  std::size_t p = 0; // the first particle that fast
+  while (p + 1 < _particles.size() && signal_speed(p) < fastest)
+    ++p;
+  const double vx = _particles.v[2 * p], vy = _particles.v[2 * p + 1];
+  const double speed = std::sqrt(vx * vx + vy * vy);
+  std::ostringstream msg;
+  msg << "time step dt = " << _dt << " became unstable: " << where(p)
+      << " has P-wave speed " << fastest - speed << " and speed " << speed
+      << ", so dt (c + |v|) = " << _dt * fastest << " exceeds the stability limit "
+      << _stability_length << " (kappa h); lower time.cfl or time.dt";
+  throw SimulationError(msg.str());
+}
+
+Energies Solver::energies() const
+{
+  const auto n = _particles.size();
+  const Particles& P = _particles;
+  const Column* fracture = P.find("fracture_energy");
+  const double* fe = fracture ? fracture->f64.data() : nullptr;
+  std::vector<std::unique_ptr<Material::Bound>> bound;
+  for (const auto& m : _materials)
+    bound.push_back(m->bind(const_cast<Particles&>(P))); // read only
+  std::vector<Degradation> degradation(_materials.size());
+  std::vector<const Degradation*> by_material(_materials.size(), nullptr);
+  if (!_phase.empty())
+    for (std::size_t m = 0; m < _materials.size(); ++m)
+      if (_fracture[m])
+      {
+        degradation[m] = Degradation{_fracture[m]->k_f, P.f64("c").data(), nullptr};
+        by_material[m] = &degradation[m];
+      }
+  const auto sums = deterministic_block_sum<6>(
+      n,
+      [&](std::size_t begin, std::size_t end, std::array<double, 6>& acc)
+      {
+        for (std::size_t p = begin; p < end; ++p)
+        {
+          const double m = P.mass[p], vx = P.v[2 * p], vy = P.v[2 * p + 1];
+          acc[0] += 0.5 * m * (vx * vx + vy * vy);
+          acc[2] += m * vx;
+          acc[3] += m * vy;
+          acc[4] += m;
+          if (fe)
+            acc[5] += fe[p];
+        }
+        // The elastic energy of each run of one material, in index order.
+        for (std::size_t p = begin; p < end;)
+        {
+          const std::int32_t mat = P.material[p];
+          std::size_t stop = p + 1;
+          while (stop < end && P.material[stop] == mat)
+            ++stop;
+          bound[mat]->add_energy(Batch{nullptr, p, stop - p}, by_material[mat], acc[1]);
+          p = stop;
+        }
+      });
+  Energies e;
+  e.kinetic = sums[0];
+  e.elastic = sums[1];
+  e.fracture = sums[5];
+  e.external_work = _external_work;
+  e.momentum = {sums[2], sums[3]};
+  e.mass = sums[4];
+  if (const auto* fields = std::get_if<BodyFields>(&_fields))
+  {
+    e.friction_work = fields->stats().friction_work;
+    e.fracture_by_field.assign(fields->size(), 0.0);
+    if (fe)
+    {
+      const std::int32_t* body = P.body.data();
+      for (int f = 0; f < fields->size(); ++f)
+        e.fracture_by_field[f] = deterministic_sum<1>(
+            n, [&](std::size_t p, std::array<double, 1>& acc)
+            { acc[0] += body[p] == f ? fe[p] : 0.0; })[0];
+    }
+    e.fracture = 0.0;
+    for (double f : e.fracture_by_field)
+      e.fracture += f;
+  }
+  return e;
+}
+
+bool Solver::fourth_order() const
+{
+  return !_phase.empty() && _phase.front().field.fourth_order();
+}
+
+PhaseFieldStats Solver::phase_field_stats() const
+{
+  PhaseFieldStats total;
+  for (const PhaseFieldGroup& g : _phase)
+  {
+    const PhaseFieldStats& s = g.field.stats();
+    total.solves += s.solves;
+    total.iterations += s.iterations;
+    total.last_iterations = std::max(total.last_iterations, s.last_iterations);
+    total.start_residual = std::max(total.start_residual, s.start_residual);
+    total.last_residual = std::max(total.last_residual, s.last_residual);
+    total.unknowns += s.unknowns;
+  }
+  return total;
+}
+
+const ContactStats* Solver::contact_stats() const
+{
+  const auto* fields = std::get_if<BodyFields>(&_fields);
+  return fields ? &fields->stats() : nullptr;
+}
+
+bool Solver::has_external_force() const
+{
+  return std::any_of(_particles.fext.begin(), _particles.fext.end(),
+                     [](double f) { return f != 0.0; });
+}
+
+std::vector<std::array<double, 4>> Solver::nodal_mass_momentum()
+{
+  _external = has_external_force();
+  std::vector<std::array<double, 4>> out;
+  dispatch(
+      [&](auto P, auto& fields)
+      {
+        using Fields = std::decay_t<decltype(fields)>;
+        prepare<decltype(P)::value>(fields);
+        particle_to_grid<decltype(P)::value>(fields);
+        const auto na = static_cast<std::size_t>(_grid.num_active());
+        out.assign(na, {});
+        for (std::size_t a = 0; a < na; ++a)
+        {
+          std::int32_t s0 = static_cast<std::int32_t>(a), s1 = s0 + 1;
+          if constexpr (Fields::discrete)
+          {
+            s0 = fields.slot_start()[a];
+            s1 = fields.slot_start()[a + 1];
+          }
+          out[a][0] = static_cast<double>(_grid.active_nodes()[a]);
+          for (std::int32_t s = s0; s < s1; ++s)
+          {
+            out[a][1] += _sums[s].m;
+            out[a][2] += _sums[s].px;
+            out[a][3] += _sums[s].py;
+          }
+        }
+      });
+  return out;
+}
+
+} // namespace pfmpm

@@ -1,0 +1,212 @@
+/// @file solver.h
+/// @brief Explicit MPM time stepping (Kakouris & Triantafyllou 2019, Algorithm 1).
+#pragma once
+
+#include "pfmpm/common/error.h"
+#include "pfmpm/fields/fields.h"
+#include "pfmpm/fracture/phasefield.h"
+#include "pfmpm/grid/grid.h"
+#include "pfmpm/materials/material.h"
+#include "pfmpm/particles/cell_sort.h"
+#include "pfmpm/particles/particles.h"
+
+#include <array>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <variant>
+#include <vector>
+
+namespace pfmpm
+{
+
+/// Global quantities of the particle state.
+struct Energies
+{
+  double kinetic = 0.0;        ///< sum of M_p |v_p|^2 / 2
+  double elastic = 0.0;        ///< sum of V_p psi_p (with a phase field, g(c_p) psi+ + psi-, eq. 14)
+  double fracture = 0.0;       ///< sum of G_c V_p Z(c_p) (eqs. 3-4)
+  double external_work = 0.0;  ///< work of the external forces since t = 0
+  double friction_work = 0.0;  ///< work of the friction (tangential contact) forces since t = 0 (<= 0)
+  std::array<double, 2> momentum{}; ///< sum of M_p v_p
+  double mass = 0.0;           ///< sum of M_p
+  std::vector<double> fracture_by_field; ///< with discrete fields: fracture energy per field
+};
+
+/// @brief Everything besides the particle columns that a run carries from
+/// one step to the next, by name: with the columns it is the complete state
+/// of a run.
+///
+/// Scalars: `time`, `step`, `external_work`, `light_nodes`; per phase field k
+/// (the single field's is 0; with discrete fields, one per crackable body in
+/// body order) `phase_field/k/solves`, `.../iterations`,
+/// `.../last_iterations`, `.../start_residual`, `.../last_residual`,
+/// `.../unknowns`; with discrete fields `contact/nodes`, `contact/pairs`,
+/// `contact/active`, `contact/sliding`, `contact/C1` .. `contact/C4`,
+/// `contact/friction_work`. Arrays: `phase_field/k/c` and
+/// `phase_field/k/c_previous`, the nodal warm start.
+struct SolverState
+{
+  std::map<std::string, double> scalars;
+  std::map<std::string, std::vector<double>> arrays;
+};
+
+/// @brief Explicit update-stress-last MPM in the momentum formulation, with
+/// a staggered phase-field solve for materials that can crack.
+///
+/// One step (step()): sort the particles by cell and activate the grid nodes
+/// they touch; lay out the velocity fields' slots; if some material can crack,
+/// solve each phase field with the current history and let the materials
+/// degrade their stresses (eqs. 56, 14-16); P2G of mass, momentum and forces;
+/// the grid update with walls and contact; G2P of velocity, position and
+/// velocity gradient, and the materials' update of their state and stress,
+/// which raises the history field (eq. 20). Every sum over particles is
+/// taken in an order fixed by the particle positions alone, so results do
+/// not depend on the thread count.
+///
+/// The velocity-field partition is chosen once, at construction: one field,
+/// or (with a friction matrix) every body its own discrete field coupled by
+/// frictional contact (eqs. 63-77), each crackable body with its own phase
+/// field.
+///
+/// With explicit time integration the internal force of a step comes from
+/// the stresses fixed at its start, so the staggered loop of Algorithm 1
+/// converges in one pass: the phase field solved at the start of step m+1
+/// uses the history left by step m.
+class Solver
+{
+public:
+  /// @param grid Background grid (kept by reference; must outlive the solver).
+  /// @param particles Particle state (kept by reference; must outlive the
+  ///        solver). The materials' and the phase field's columns are added.
+  /// @param materials Materials indexed by Particles::material.
+  /// @param dt Time step (> 0); the caller checks it against the CFL limit.
+  /// @param fracture Per material, its fracture parameters or none; empty: nothing cracks.
+  /// @param tol Phase-field tolerance tol_c, relative to ||F|| (eq. 52).
+  /// @param max_iterations Phase-field CG iteration limit per step.
+  /// @param friction Empty: all particles form one velocity field. Otherwise
+  ///        every body (Particles::body) is its own discrete field, coupled by
+  ///        frictional contact with coefficient friction[a * n + b] between
+  ///        bodies a and b (n x n, n >= 2; see BodyFields).
+  Solver(Grid& grid, Particles& particles, std::vector<std::shared_ptr<const Material>> materials,
+         double dt, std::vector<std::optional<Fracture>> fracture = {}, double tol = 1e-6,
+         int max_iterations = 1000, std::vector<double> friction = {});
+
+  /// @brief Take `steps` explicit steps.
+  /// @throws SimulationError when a particle leaves the grid, a value turns
+  ///         non-finite or the step becomes unstable.
+  void advance(std::int64_t steps);
+
+  double dt() const { return _dt; }
+  double time() const { return _time; }
+  std::int64_t step_count() const { return _step; }
+
+  /// @brief Sort the particles, activate the grid and, if something can
+  /// crack, solve the phase field and degrade the stresses: the start of a
+  /// step. Each step does this itself; call it to see the phase field of the
+  /// initial state (an initial crack) before the first step.
+  void prepare();
+
+  /// @brief Check the time step against the stability limit every step.
+  ///
+  /// After each step's particle update, the largest c_p + |v_p| over the
+  /// particles, with c_p the P-wave speed of the particle's material in its
+  /// state, must satisfy dt (c_p + |v_p|) <= `length` (up to round-off);
+  /// otherwise the step throws SimulationError. `length` is the critical
+  /// length kappa h of the scene's step rule (eqs. 83-84), which takes the
+  /// initial body speeds; the check follows the speeds as they grow. 0
+  /// switches the check off (the default).
+  void set_stability_length(double length);
+
+  /// @brief Slot-steps, summed over all steps so far, whose mass was positive
+  /// but too small to divide by (below 1e-12 of the heaviest particle): they
+  /// get zero velocity instead.
+  std::int64_t light_nodes() const { return _light_nodes; }
+
+  /// @brief The state besides the particle columns, for a checkpoint.
+  SolverState state() const;
+  /// @brief Continue from `state`, saved by state() of a solver built on the
+  /// same scene, with the particle columns restored beside it.
+  /// @throws std::invalid_argument naming the entry if a key is missing or
+  ///         unknown, or an array does not fit this grid.
+  void restore(const SolverState& state);
+
+  /// @brief Energies and momentum of the current particle state.
+  Energies energies() const;
+
+  /// Whether some material can crack.
+  bool cracks() const { return !_phase.empty(); }
+  /// Whether some material has the fourth-order phase-field term.
+  bool fourth_order() const;
+  /// Phase-field convergence record, summed over the phase fields.
+  PhaseFieldStats phase_field_stats() const;
+  /// The contact record, or nullptr with one velocity field.
+  const ContactStats* contact_stats() const;
+
+  /// @brief Map the current particle state to the grid (P2G only) and return,
+  /// per active node, (node index, mass, momentum x, momentum y), summed over
+  /// the node's fields. For checks.
+  std::vector<std::array<double, 4>> nodal_mass_momentum();
+
+private:
+  template <int P, class Fields>
+  void step(Fields& fields);
+  template <int P, class Fields>
+  void prepare(Fields& fields);
+  template <int P, class Fields>
+  void particle_to_grid(Fields& fields);
+  template <int P, class Fields>
+  void grid_to_particle(Fields& fields);
+  /// f(P, fields) with the degree as a compile-time constant and the partition's type.
+  template <class F>
+  void dispatch(F&& f);
+  /// Attach the materials to the particles, and the degradation of each
+  /// crackable material to the phase field's columns (once per advance()).
+  void bind();
+  std::string where(std::size_t particle) const;
+  [[noreturn]] void non_finite(std::size_t particle) const;
+  /// Throw SimulationError if some particle has dt (c_p + |v_p|) > the limit.
+  void check_stability_exactly() const;
+  /// The stability length with a relative slack that lets a run at the limit
+  /// itself (cfl = 1) through round-off.
+  double stability_limit() const { return (1.0 + 1e-9) * _stability_length; }
+  /// c_p + |v_p|: P-wave speed of the particle plus its speed.
+  double signal_speed(std::size_t particle) const;
+  bool has_external_force() const;
+
+  /// A phase field and the particles that assemble it.
+  struct PhaseFieldGroup
+  {
+    PhaseField field;
+    std::int32_t body; ///< its body, or -1 for all crackable particles of the single field
+    bool select;       ///< whether its particles are a selection of the sort
+    CellSort sort;     ///< the selection, when select
+  };
+
+  Grid& _grid;
+  Particles& _particles;
+  std::vector<std::shared_ptr<const Material>> _materials;
+  std::vector<std::unique_ptr<Material::Bound>> _bound; // per material, on _particles
+  std::vector<std::optional<Fracture>> _fracture; // per material
+  std::vector<Degradation> _degradation_of;      // per material, with a phase field
+  std::vector<const Degradation*> _degradation;  // per material: of _degradation_of, or null
+  double _dt;
+  double _time = 0.0;
+  std::int64_t _step = 0;
+  double _external_work = 0.0;
+  double _mass_tol;
+  std::int64_t _light_nodes = 0;
+  double _stability_length = 0.0; // 0: no check
+  bool _external = false; // some particle carries an external force
+  std::variant<SingleField, BodyFields> _fields;
+  std::vector<PhaseFieldGroup> _phase;
+
+  CellSort _sort;
+  std::vector<NodeSums> _sums;             // per slot
+  std::vector<SurfaceSums> _surface;       // per slot, at contact cells
+  std::vector<NodeKinematics> _kinematics; // per slot
+};
+
+} // namespace pfmpm

@@ -1,0 +1,144 @@
+/// @file transfer.h
+/// @brief The particle-grid loop, written once: particle-to-grid (P2G) and
+/// grid-to-particle (G2P) drivers that every transfer of the step goes through.
+///
+/// A transfer is a kernel called once per occupied cell with a `Cell` and an
+/// `each` function; `each(f)` evaluates the stencil at every particle of the
+/// cell, in sorted order, and calls f(p, stencil). So the kernel holds the
+/// physics (what a particle adds to its nodes, or reads from them, with the
+/// paper's equations) and chooses its own per-cell storage, while the loop
+/// over cells and particles and the evaluation of the shape functions are
+/// here. The kernels of pfmpm: momentum P2G and kinematics G2P
+/// (solver/momentum.h), phase-field assembly and map-back (fracture/phasefield.cpp).
+#pragma once
+
+#include "pfmpm/common/strips.h"
+#include "pfmpm/grid/grid.h"
+#include "pfmpm/particles/cell_sort.h"
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <utility>
+
+namespace pfmpm
+{
+
+/// An occupied cell and the range of its particles in the sort.
+struct Cell
+{
+  int cx, cy;             ///< cell indices
+  std::size_t key;        ///< cx * cells_y + cy
+  std::int64_t begin, end; ///< its particles: order[begin, end)
+};
+
+namespace detail
+{
+/// `each` of a cell: evaluate the stencil at each of its particles and call f.
+template <class Stencil>
+struct EachParticle
+{
+  const std::array<const BSpline1D*, 2>& basis;
+  const std::int32_t* order;
+  const double* x;
+  const Cell& cell;
+
+  template <class F>
+  void operator()(F&& f) const
+  {
+    const int index[2] = {cell.cx, cell.cy};
+    const std::array<const BSpline1D*, 2> local = basis;
+    const double* const xs = x;
+    const std::int32_t* const sorted = order;
+    for (std::int64_t k = cell.begin; k < cell.end; ++k)
+    {
+      const std::size_t p = sorted[k];
+      Stencil s;
+      s.evaluate(local, index, &xs[2 * p]);
+      f(p, s);
+    }
+  }
+};
+} // namespace detail
+
+/// @brief P2G: call kernel(cell, each) for every occupied cell, cells of one
+/// strip parity in parallel (for_each_cell_by_strips).
+///
+/// A kernel adds only into the nodes of its cell's stencil block. Strips of
+/// one parity share no node, so it may add without atomics, and every node
+/// receives its cells' contributions in an order fixed by the sort: the same
+/// bits on any number of threads.
+template <class Stencil, class Kernel>
+void particle_to_grid(const Grid& grid, const CellSort& sort, const double* x, Kernel&& kernel)
+{
+  static_assert(Stencil::lower >= 0 && Stencil::lower + Stencil::width - 1 <= strip_width,
+                "strips of one parity must not share a node");
+  const std::array<const BSpline1D*, 2> basis{&grid.basis(0), &grid.basis(1)};
+  const int ncy = grid.cells()[1];
+  const std::int32_t* order = sort.order().data();
+  for_each_cell_by_strips(grid.cells()[0], ncy, sort.cell_start(),
+                          [&](int cx, int cy, std::int64_t begin, std::int64_t end)
+                          {
+                            const Cell cell{cx, cy, static_cast<std::size_t>(cx) * ncy + cy,
+                                            begin, end};
+                            kernel(cell, detail::EachParticle<Stencil>{basis, order, x, cell});
+                          });
+}
+
+/// @brief G2P: call kernel(local, cell, each) for every occupied cell, the
+/// columns of cells statically shared among the threads.
+///
+/// `local` is the thread's own `Kernel::Local`, made by kernel.local() at the
+/// start and handed to kernel.merge(local) at the end, one thread at a time:
+/// for reductions (a minimum or maximum, whose result does not depend on the
+/// order) and per-thread scratch. A kernel writes only to its cell's particles.
+template <class Stencil, class Kernel>
+void grid_to_particle(const Grid& grid, const CellSort& sort, const double* x, Kernel&& kernel)
+{
+  const std::array<const BSpline1D*, 2> basis{&grid.basis(0), &grid.basis(1)};
+  const int ncx = grid.cells()[0], ncy = grid.cells()[1];
+  const std::int32_t* order = sort.order().data();
+  const std::int64_t* start = sort.cell_start().data();
+#pragma omp parallel
+  {
+    auto local = kernel.local();
+#pragma omp for schedule(static)
+    for (int cx = 0; cx < ncx; ++cx)
+      for (int cy = 0; cy < ncy; ++cy)
+      {
+        const std::size_t key = static_cast<std::size_t>(cx) * ncy + cy;
+        if (start[key] == start[key + 1])
+          continue;
+        const Cell cell{cx, cy, key, start[key], start[key + 1]};
+        kernel(local, cell, detail::EachParticle<Stencil>{basis, order, x, cell});
+      }
+#pragma omp critical
+    kernel.merge(local);
+  }
+}
+
+/// @brief A G2P kernel from f(cell, each), for a transfer with nothing to
+/// reduce over the threads.
+template <class F>
+struct Unreduced
+{
+  F f;
+  struct Local
+  {
+  };
+  Local local() const { return {}; }
+  void merge(Local&) const {}
+  template <class Each>
+  void operator()(Local&, const Cell& cell, const Each& each) const
+  {
+    f(cell, each);
+  }
+};
+
+template <class F>
+Unreduced<F> unreduced(F f)
+{
+  return {std::move(f)};
+}
+
+} // namespace pfmpm
