@@ -194,7 +194,7 @@ def test_ssor_cg_is_bitwise_the_same_with_one_or_two_threads():
               "sim = Simulation(notched_plate(False)); sim.advance(5); "
               "print(hashlib.sha256(sim.particles.c.tobytes()).hexdigest(), "
               "sim.solver.phase_field_stats()['iterations'])")
-    runs = [subprocess.run([sys.executable, "-P", "-c", script, str(Path(__file__).parent)],
+    runs = [subprocess.run([sys.executable, "-c", script, str(Path(__file__).parent)],
                            env={**os.environ, "OMP_NUM_THREADS": str(n), "OMP_WAIT_POLICY": "passive"},
                            capture_output=True, text=True, timeout=300) for n in (1, 2)]
     assert all(r.returncode == 0 for r in runs), runs[0].stderr + runs[1].stderr
@@ -321,7 +321,7 @@ def test_fem_path_refuses_the_fourth_order_term():
 
 def test_run_reports_an_unconverged_initial_solve_without_a_traceback(tmp_path):
     scene = Path(__file__).resolve().parents[1] / "demos" / "borden_cubic.toml"
-    r = subprocess.run([sys.executable, "-P", "-m", "pfmpm.cli", "run", str(scene), "--out", str(tmp_path),
+    r = subprocess.run([sys.executable, "-m", "pfmpm.cli", "run", str(scene), "--out", str(tmp_path),
                         "--set", "grid.h=1.0", "--set", "materials.concrete.fracture.l0=2.0",
                         "--set", "phase_field.max_iterations=5"], capture_output=True, text=True)
     assert r.returncode == 1

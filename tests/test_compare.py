@@ -79,7 +79,7 @@ def read_table(path):
 
 
 def pfmpm(*args, **kw):
-    return subprocess.run([sys.executable, "-P", "-m", "pfmpm.cli", *map(str, args)],
+    return subprocess.run([sys.executable, "-m", "pfmpm.cli", *map(str, args)],
                           capture_output=True, text=True, **kw)
 
 
