@@ -11,6 +11,7 @@ import pfmpm.scene
 from pfmpm.scene import (MATERIALS, FractureSpec, GridSpec, LinearElasticSpec, MaterialSpec,
                          PhaseFieldSpec, Scene, SceneError, WallSpec, register_material)
 from pfmpm.scene import materials as materials_module
+from pfmpm.simulation import Simulation
 
 
 def plate(material: dict) -> dict:
@@ -72,6 +73,14 @@ def test_a_registered_model_is_read_checked_and_written_by_name(acoustic):
         Scene.from_dict(d, ["materials.air.speed=-1.0"])
     with pytest.raises(SceneError, match=r"^materials\[0\]\.E: unknown key \(allowed: model, name, speed,"):
         Scene.from_dict(d, ["materials.air.E=1.0"])
+
+
+def test_the_core_refuses_a_model_it_does_not_have_naming_the_key(acoustic):
+    scene = Scene.from_dict(plate({"name": "air", "model": "acoustic", "speed": 2.0, "density": 1.0}))
+    with pytest.raises(SceneError) as err:
+        Simulation(scene)
+    assert str(err.value) == ("materials[0].model = 'acoustic': the core has no such model yet"
+                              " (it has linear_elastic)")
 
 
 def test_an_unknown_model_names_the_registered_ones(acoustic):

@@ -90,7 +90,7 @@ from .crack import initial_history
 from .post.tip import CrackTip
 from .run import CRACK_COLUMNS, ENERGY_COLUMNS, RunResult, Snapshots, run_to_end
 from .scene import Body, BodyForce, MaterialSpec, Rectangle, Scene, SceneError, Traction
-from .simulation import core_material
+from .simulation import core_materials
 
 __all__ = ["FemSimulation", "MESH_DIAGONAL", "main"]
 
@@ -205,7 +205,7 @@ class FemSimulation:
     def _build_dynamics(self, material: MaterialSpec) -> None:
         """Material, lumped mass, external force, walls and the initial state."""
         scene = self.scene
-        self._elastic, _ = core_material(material, scene.plane)
+        self._elastic = core_materials(scene)[0][scene.materials.index(material)]
         imap = self.V.dofmap.index_map
         self._u = la.vector(imap, bs=2)  # displacement, ghosts kept current
         self._scratch = la.vector(imap, bs=2)  # assembly buffer for nodal vectors

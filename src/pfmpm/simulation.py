@@ -11,24 +11,35 @@ from .crack import initial_history
 from .output import ParticleSeries
 from .post.tip import CrackTip
 from .run import CRACK_COLUMNS, ENERGY_COLUMNS, RunResult, Snapshots, run_to_end
-from .scene import MaterialSpec, Scene
+from .scene import LinearElasticSpec, Scene, SceneError
 
 CONTACT_COLUMNS = ["friction_dissipation"]
 """Extra ``energies.csv`` columns of scenes with contact: the energy the friction forces took
 out since t = 0, then ``fracture_<body>`` per body."""
 
 
-def core_material(m: MaterialSpec, plane: str):
-    """The core objects of a scene material: its constitutive model and, if
-    it can crack, its fracture parameters (else ``None``).
+def core_materials(scene: Scene) -> tuple[list, list]:
+    """The core objects of a scene's materials: each one's constitutive model
+    and, if it can crack, its fracture parameters (else ``None``).
 
-    The one place where a material entry of the scene becomes a C++ object.
+    The one place where the material entries of a scene become C++ objects.
+
+    Raises
+    ------
+    SceneError
+        For a material model of the scene registry that the core does not have.
     """
-    f = m.fracture
-    split = _core.Split.__members__[f.split if f else "none"]
-    material = _core.LinearElastic(m.E, m.nu, m.density, _core.Plane.__members__[plane], split)
-    fracture = _core.Fracture(f.Gc, f.l0, f.k_f, f.gamma().tolist()) if f else None
-    return material, fracture
+    plane = _core.Plane.__members__[scene.plane]
+    materials, fracture = [], []
+    for i, m in enumerate(scene.materials):
+        if not isinstance(m, LinearElasticSpec):
+            raise SceneError(f"materials[{i}].model", "the core has no such model yet (it has"
+                             " linear_elastic)", m.model)
+        f = m.fracture
+        split = _core.Split.__members__[f.split if f else "none"]
+        materials.append(_core.LinearElastic(m.E, m.nu, m.density, plane, split))
+        fracture.append(_core.Fracture(f.Gc, f.l0, f.k_f, f.gamma().tolist()) if f else None)
+    return materials, fracture
 
 
 class Simulation:
@@ -60,7 +71,7 @@ class Simulation:
         self.particles = _core.Particles(len(arrays["mass"]))
         for name, values in arrays.items():
             getattr(self.particles, name)[...] = values
-        materials, fracture = zip(*(core_material(m, scene.plane) for m in scene.materials))
+        materials, fracture = core_materials(scene)
         self.cracks = any(fracture)
         self._crackable = np.zeros(len(self.particles), dtype=bool)
         for b, body in enumerate(scene.bodies):

@@ -16,7 +16,7 @@ table's keys.  A new constitutive model is one more class::
 It needs ``name``, ``density`` and ``fracture`` fields and the wave speeds the
 stability check and the crack-tip plots use; scene files then accept
 ``model = "neo_hookean"``.  The core object of a material is built from its
-entry in one place, :func:`pfmpm.simulation.core_material`.
+entry in one place, :func:`pfmpm.simulation.core_materials`.
 """
 
 from __future__ import annotations
