@@ -75,9 +75,11 @@ def main(argv: list[str] | None = None) -> None:
     print(f"start {r['t_start']:.2f} us ({r['energy_start']:.2f} mJ), end {r['t_end']:.2f} us "
           f"({r['energy_end']:.2f} mJ, crack {r['rise_end']:.2f} of {r['depth']:g} mm)")
     print(f"running crack: {r['running']:.2f} mJ = {r['per_rise']:.3f} x G_c t rise "
-          f"({per_length * r['rise_end']:.2f} mJ); {r['per_area']:.3f} x A_f G_c ({per_length * r['depth']:.2f} mJ)")
+          f"({per_length * r['rise_end']:.2f} mJ); {r['per_area']:.3f} x A_f G_c"
+          f" ({per_length * r['depth']:.2f} mJ)")
     if np.isfinite(r["slope"]):
-        print(f"while running (20-80 % of the depth): {r['slope'] * per_length:.2f} mJ/mm = {r['slope']:.3f} x G_c t")
+        print(f"while running (20-80 % of the depth): {r['slope'] * per_length:.2f} mJ/mm"
+              f" = {r['slope']:.3f} x G_c t")
     # Each crackable body's field keeps its own per-particle fracture energy.
     field = sum(scene.fracture_of(b) is not None for b in scene.bodies[:index])
     per_particle = sim.solver.state()["fields"]["phase_fields"][field]["fracture_energy"]

@@ -119,9 +119,9 @@ def crack_directions(scene: Scene, xy: np.ndarray, c: np.ndarray) -> dict:
         off = min(abs((w - angle + 180.0) % 360.0 - 180.0) for w in weak) if weak else math.nan
         arms = {}
         for k in ARM_RADII:
-            ahead = [a for a in crack_arms(xy, c, tip, k * l0, scene.grid.h, threshold)
-                     if math.cos(math.radians(a)) * direction[0] + math.sin(math.radians(a)) * direction[1] > 0]
-            arms[k * l0] = ahead
+            crossing = crack_arms(xy, c, tip, k * l0, scene.grid.h, threshold)
+            arms[k * l0] = [a for a in crossing
+                            if np.dot([math.cos(math.radians(a)), math.sin(math.radians(a))], direction) > 0]
         tips.append({"tip": (float(tip[0]), float(tip[1])), "angle": angle, "off_weak": off, "arms": arms})
     return {"weak_directions": weak, "tips": tips}
 

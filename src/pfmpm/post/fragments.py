@@ -57,7 +57,8 @@ def closest_approach(scene: Scene, x: np.ndarray, body: np.ndarray) -> float:
 
 
 def run_fragments(scene: Scene, run_dir) -> list[dict]:
-    """:func:`fragments` and :func:`closest_approach` at every particle snapshot of a run.
+    """:func:`fragments` and :func:`closest_approach` at every particle snapshot of a run
+    (with no phase field in the snapshots, every particle is intact).
 
     Returns
     -------
@@ -69,7 +70,8 @@ def run_fragments(scene: Scene, run_dir) -> list[dict]:
     rows = []
     for t, path in series(run_dir):
         frame = read_frame(t, path)
-        body, c = frame.data["body"], frame.data["c"]
+        body = frame.data["body"]
+        c = frame.data.get("c", np.ones(len(body)))  # no phase field: nothing can crack
         rows.append({"t": t, "fragments": fragments(scene, frame.x, body, c),
                      "closest": closest_approach(scene, frame.x, body)})
     return rows
