@@ -48,7 +48,7 @@ def coarse_args(end):
 
 
 def pfmpm(*args, env=None, **kw):
-    return subprocess.run([sys.executable, "-P", "-m", "pfmpm.cli", *map(str, args)], capture_output=True,
+    return subprocess.run([sys.executable, "-m", "pfmpm.cli", *map(str, args)], capture_output=True,
                           text=True, env=env, **kw)
 
 
@@ -188,7 +188,7 @@ def test_runs_repeat_bitwise_with_one_or_two_threads(tmp_path):
 
 def start_bar(out, end):
     args = ["run", BAR, "--out", out, "--quiet", "--set", f"time.end={end}", "--set", "output.every=500"]
-    return subprocess.Popen([sys.executable, "-P", "-m", "pfmpm.cli", *map(str, args)],
+    return subprocess.Popen([sys.executable, "-m", "pfmpm.cli", *map(str, args)],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
 

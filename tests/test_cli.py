@@ -20,7 +20,7 @@ BAR = ROOT / "demos" / "vibrating_bar.toml"
 
 
 def pfmpm(*args, **kw):
-    return subprocess.run([sys.executable, "-P", "-m", "pfmpm.cli", *map(str, args)], capture_output=True, text=True, **kw)
+    return subprocess.run([sys.executable, "-m", "pfmpm.cli", *map(str, args)], capture_output=True, text=True, **kw)
 
 
 def test_run_writes_energies_particles_and_summary(tmp_path):
@@ -71,7 +71,7 @@ def test_missing_scene_file(tmp_path):
 def test_ctrl_c_stops_cleanly_with_output_intact(tmp_path):
     out = tmp_path / "long"
     args = ["run", BAR, "--out", out, "--quiet", "--set", "time.end=1e5", "--set", "output.every=500"]
-    proc = subprocess.Popen([sys.executable, "-P", "-m", "pfmpm.cli", *map(str, args)], stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen([sys.executable, "-m", "pfmpm.cli", *map(str, args)], stderr=subprocess.PIPE, text=True)
     csv = out / "energies.csv"
     deadline = time.time() + 60
     while time.time() < deadline and (not csv.exists() or len(csv.read_text().splitlines()) < 50):

@@ -15,9 +15,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pfmpm.compare import COLUMNS, agreement, branch_time, compare_borden, initiation_time
+from pfmpm import scenes
+from pfmpm.compare import (BORDEN_SCENE, COLUMNS, agreement, branch_time, compare_borden,
+                           comparison_overrides, initiation_time)
 from pfmpm.output import read_csv
-from pfmpm.scene import Crack
+from pfmpm.scene import Crack, Scene
+from pfmpm.scene.toml import read_toml
 
 ROOT = Path(__file__).resolve().parents[1]
 DEMO = ROOT / "demos" / "borden_plate.toml"
@@ -79,7 +82,7 @@ def read_table(path):
 
 
 def pfmpm(*args, **kw):
-    return subprocess.run([sys.executable, "-P", "-m", "pfmpm.cli", *map(str, args)],
+    return subprocess.run([sys.executable, "-m", "pfmpm.cli", *map(str, args)],
                           capture_output=True, text=True, **kw)
 
 
@@ -141,6 +144,27 @@ def test_l0_below_h_is_refused_before_any_run(tmp_path):
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and "materials[0].fracture.l0 = 0.75" in lines[0], r.stderr
     assert "h = 1" in lines[0] and not out.exists()
+
+
+def test_the_comparison_finds_the_crackable_materials_by_their_tables():
+    """Not by the Borden material's name: renamed, it still gets the run's l0,
+    and every crackable material of a scene does."""
+    tables = read_toml(DEMO)
+    tables["materials"][0]["name"] = "glass"
+    tables["bodies"][0]["material"] = "glass"
+    sets = comparison_overrides(tables, 1.0, 2.0, 5.0)
+    assert sets == ["grid.h=1.0", "materials.0.fracture.l0=2.0", "time.end=5.0", "output.particles=false"]
+    scene = Scene.from_dict(tables, sets)
+    assert scene.materials[0].name == "glass" and scene.materials[0].fracture.l0 == 2.0
+    beam_and_disk = read_toml(ROOT / "demos" / "disk_beam.toml")
+    assert comparison_overrides(beam_and_disk, 1.0, 2.0, 5.0)[1:3] == [
+        "materials.0.fracture.l0=2.0", "materials.1.fracture.l0=2.0"]
+
+
+def test_the_default_scene_ships_with_the_package():
+    """``pfmpm compare borden`` runs from any directory: its scene is the package's."""
+    assert BORDEN_SCENE == scenes.path("borden_plate") and BORDEN_SCENE.is_absolute()
+    assert BORDEN_SCENE.read_bytes() == DEMO.read_bytes()
 
 
 @pytest.mark.slow

@@ -6,10 +6,9 @@ body stops after v0^2 / (2 mu g) and keeps its speed without friction, with the
 friction dissipation closing the energy balance; the checks C.1-C.4 hold at every
 contact node; a scene whose bodies never meet runs bit for bit as one field;
 bad contact input is refused with the key and value named; and the disk-beam
-demo's crack-rise measure counts cracked cells from the beam's bottom face.
+crack-rise measure (pfmpm.post.disk_beam) counts cracked cells from the beam's bottom face.
 """
 
-import importlib.util
 import json
 from pathlib import Path
 
@@ -17,6 +16,7 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
+from pfmpm.post.disk_beam import crack_rise
 from pfmpm.scene import (Body, BodyForce, Contact, ContactPair, Disk, Grid, Material, Rectangle,
                          Scene, SceneError, Time, Wall)
 from pfmpm.simulation import Simulation
@@ -194,23 +194,24 @@ def test_duplicate_pair_is_refused():
 
 
 def test_disk_beam_crack_rise_counts_cracked_bins_from_the_bottom():
-    """demos/disk_beam_energy.py finds where the paper's running-crack measure
+    """pfmpm.post.disk_beam.crack_rise finds where the paper's running-crack measure
     starts and ends from the crack's rise up the impact line: the cracked
     cells counted from the bottom face until the first uncracked one."""
     root = Path(__file__).resolve().parents[1] / "demos"
-    spec = importlib.util.spec_from_file_location("disk_beam_energy", root / "disk_beam_energy.py")
-    demo = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(demo)
     scene = Scene.from_toml(root / "disk_beam.toml", [
         "grid.h=1.0", "materials.beam.fracture.l0=2.0", "materials.disk.fracture.l0=2.0",
         "bodies.beam.particles_per_cell=1", "bodies.disk.particles_per_cell=1"])
     sim = Simulation(scene)
     p = sim.particles
+
+    def rise():
+        return crack_rise(scene, p.x, p.body, p.c, "beam", 24.0)
+
     line = (p.body == 0) & (np.abs(p.x[:, 0] - 24.0) < 1.0)
-    assert demo.crack_rise(sim, 0, 24.0) == 0.0
+    assert rise() == 0.0
     p.c[line & (p.x[:, 1] < 4.0)] = 0.0
-    assert demo.crack_rise(sim, 0, 24.0) == 4.0
+    assert rise() == 4.0
     p.c[line & (p.x[:, 1] > 2.0) & (p.x[:, 1] < 3.0)] = 1.0  # a gap in the third cell
-    assert demo.crack_rise(sim, 0, 24.0) == 2.0
+    assert rise() == 2.0
     p.c[line] = 0.0
-    assert demo.crack_rise(sim, 0, 24.0) == 10.0  # through the whole depth
+    assert rise() == 10.0  # through the whole depth

@@ -250,7 +250,7 @@ def test_two_ranks_reproduce_one(tmp_path):
         env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
     sets = ["grid.h=0.5", "materials.concrete.fracture.l0=1.0", "time.end=4.2",
             "output.energies_every=1", "output.every=20", "output.snapshots=[]"]
-    args = ["-P", "-m", "pfmpm.fem", str(DEMOS / "borden_plate.toml"), "--quiet"]
+    args = ["-m", "pfmpm.fem", str(DEMOS / "borden_plate.toml"), "--quiet"]
     args += [item for s in sets for item in ("--set", s)]
     runs = {"serial": [sys.executable], "mpi": _mpirun() + [sys.executable]}
     energies = {}

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from pfmpm import Scene, Simulation, _core
-from pfmpm.crack import CrackTip, distance_to_polyline, initial_history
+from pfmpm.crack import distance_to_polyline, initial_history
+from pfmpm.post.tip import CrackTip
 from pfmpm.scene import (
     Body,
     Crack,

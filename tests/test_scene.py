@@ -355,6 +355,8 @@ BAD = [
     (_set(("loads",), [{"type": "body_force", "body": "ghost", "acceleration": [0, 1]}]),
      "loads[0].body = 'ghost': no body with that name (have: 'plate')"),
     ("bodies=[]", "bodies: at least one entry is required"),
+    (_set(("loads",), [{"type": "body_force", "acceleration": [0, 1e308]}]),
+     "loads[0].acceleration = [0.0, 1e+308]: gives the particles of body 'plate' a force that is not finite"),
     # particles
     (_set(SHAPE, {"type": "disk", "center": [0.5, 0.5], "radius": 0.01}), "bodies[0]: has no particles"),
     (_set(("bodies", 0, "holes"), [{"type": "rectangle", "min": [-1, -1], "max": [11, 5]}]),

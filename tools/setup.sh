@@ -30,6 +30,9 @@ fi
 # Debian's interpreter has DOLFINx and the numeric stack; the venv sees them.
 [ -x .venv/bin/python ] || /usr/bin/python3 -m venv --system-site-packages .venv
 echo "building pfmpm into .venv"
+# setuptools copies the package through build/lib.*: clear it, or a module
+# moved or deleted since the last build would be installed again.
+rm -rf build/lib.*
 .venv/bin/python -m pip install --quiet --no-build-isolation --no-deps --no-index .
 # A Jupyter kernel that runs this venv's Python, for docs/notebooks; found
 # before Debian's python3 kernel, which cannot import pfmpm.

@@ -9,6 +9,5 @@ cmake -S . -B build/tests -DPFMPM_TESTS=ON -DPFMPM_PYTHON=OFF -DCMAKE_BUILD_TYPE
 cmake --build build/tests -j 2 >> build-tests.log
 (cd build/tests && OMP_NUM_THREADS=2 ctest --output-on-failure)
 
-# -P: import the installed pfmpm (with its compiled core), not ./pfmpm.
 # One OpenMP thread per pytest worker: 2 workers fill the 2 cores.
-OMP_NUM_THREADS=1 .venv/bin/python -P -m pytest -n 2 tests "$@"
+OMP_NUM_THREADS=1 .venv/bin/python -m pytest -n 2 tests "$@"

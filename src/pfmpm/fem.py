@@ -73,7 +73,6 @@ from __future__ import annotations
 import argparse
 import math
 import sys
-import time as _time
 import warnings
 from contextlib import contextmanager
 from pathlib import Path
@@ -87,10 +86,11 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from . import _core
-from .crack import CrackTip, initial_history
-from .output import CsvLog
-from .scene import Body, BodyForce, Material, Rectangle, Scene, SceneError, Traction
-from .simulation import CRACK_COLUMNS, ENERGY_COLUMNS, RunResult, Snapshots, step_to_end
+from .crack import initial_history
+from .post.tip import CrackTip
+from .run import CRACK_COLUMNS, ENERGY_COLUMNS, RunResult, Snapshots, run_to_end
+from .scene import Body, BodyForce, MaterialSpec, Rectangle, Scene, SceneError, Traction
+from .simulation import core_materials
 
 __all__ = ["FemSimulation", "MESH_DIAGONAL", "main"]
 
@@ -135,12 +135,17 @@ class FemSimulation:
         Elastodynamic sub-steps per step.
     history : ndarray (cells,)
         History field ``H`` on the local cells.
+    crack_tip : CrackTip or None
+        Tracks the tip of the first initial crack, if any.
 
     Raises
     ------
     SceneError
         If the scene is outside what the FEM path supports, naming the field.
     """
+
+    checkpoints = False
+    """The FEM path writes no checkpoints."""
 
     def __init__(self, scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD):
         self.scene = scene
@@ -197,13 +202,10 @@ class FemSimulation:
         self._dy = sparse.csr_matrix((self._gy.ravel(), (rows, self._flat_dofs)), shape=shape)
         self._dx_t, self._dy_t = self._dx.T.tocsr(), self._dy.T.tocsr()
 
-    def _build_dynamics(self, material: Material) -> None:
+    def _build_dynamics(self, material: MaterialSpec) -> None:
         """Material, lumped mass, external force, walls and the initial state."""
         scene = self.scene
-        split = self._fracture.split if self._fracture is not None else "none"
-        self._elastic = _core.LinearElastic(material.E, material.nu, material.density,
-                                            _core.Plane.__members__[scene.plane],
-                                            _core.Split.__members__[split])
+        self._elastic = core_materials(scene)[0][scene.materials.index(material)]
         imap = self.V.dofmap.index_map
         self._u = la.vector(imap, bs=2)  # displacement, ghosts kept current
         self._scratch = la.vector(imap, bs=2)  # assembly buffer for nodal vectors
@@ -223,8 +225,7 @@ class FemSimulation:
         self._g = np.ones(len(self._dofs))
         self.history = np.zeros(len(self._dofs))
         self._pf = None
-        self._tip = None
-        cfg = self.scene.output
+        self.crack_tip = None
         if self._fracture is None:
             return
         for crack in self.scene.cracks:
@@ -233,8 +234,7 @@ class FemSimulation:
                            out=self.history)
         self._pf = _PhaseFieldSolver(self.c, self._fracture, self.scene.phase_field, len(self._dofs))
         if self.scene.cracks:
-            self._tip = CrackTip.for_crack(self.scene.cracks[0], cfg.crack_threshold,
-                                           cfg.crack_speed_samples)
+            self.crack_tip = CrackTip.for_scene(self.scene)
         self._solve_phase_field()  # the phase field of the initial cracks, as the MPM
 
     def _assemble(self, local: np.ndarray, scalar: bool = False) -> np.ndarray:
@@ -323,7 +323,7 @@ class FemSimulation:
     @property
     def columns(self) -> list[str]:
         """Columns of ``energies.csv`` for this scene (crack-tip columns with a crack)."""
-        return ENERGY_COLUMNS + (CRACK_COLUMNS if self._tip is not None else [])
+        return ENERGY_COLUMNS + (CRACK_COLUMNS if self.crack_tip is not None else [])
 
     @property
     def step(self) -> int:
@@ -485,7 +485,7 @@ class FemSimulation:
         the mesh is partitioned.  Every call is one record of the speed fit;
         collective.  Only for scenes with an initial crack (see :attr:`columns`).
         """
-        tip = self._tip
+        tip = self.crack_tip
         if tip is None:
             raise ValueError("the scene has no initial crack whose tip could be tracked")
         xy = self._x[: self._owned]
@@ -510,87 +510,37 @@ class FemSimulation:
     # -- run with output ------------------------------------------------------
 
     def run(self, out_dir: Path | str, progress: bool = True) -> RunResult:
-        """Run to ``scene.time.end``, writing output to ``out_dir``.
+        """Run to ``scene.time.end``, writing output to ``out_dir`` (collective).
 
-        Rank 0 writes ``energies.csv`` every ``output.energies_every`` steps
-        and ``summary.json`` at the end; all ranks write the XDMF series
-        ``phase_field.xdmf`` of ``c`` every ``output.every`` steps (and at
-        the start and the end).  A non-finite energy stops the run with
-        status ``"failed"`` and an error naming the step and time; Ctrl-C
-        stops it with status ``"interrupted"``.  Output written so far stays.
+        The run loop of :func:`pfmpm.run.run_to_end`: rank 0 writes
+        ``energies.csv``, ``summary.json`` and the plots; all ranks write the
+        XDMF series ``phase_field.xdmf`` of ``c`` every ``output.every``
+        steps (and at the start and the end).  A non-finite energy stops the
+        run with status ``"failed"`` and an error naming the step and time;
+        Ctrl-C or SIGTERM stops every rank at the same step with status
+        ``"interrupted"``.  Output written so far stays.
         """
-        from tqdm import tqdm
+        return run_to_end(self, out_dir, progress)
 
-        out = Path(out_dir)
-        root = self.comm.rank == 0
-        if root:
-            out.mkdir(parents=True, exist_ok=True)
-        self.comm.barrier()
-        cfg = self.scene.output
-        total = self.scene.steps()
-        log = CsvLog(out / "energies.csv", self.columns) if root else None
-        xdmf = io.XDMFFile(self.comm, str(out / "phase_field.xdmf"), "w")
-        xdmf.write_mesh(self.mesh)
-        snapshots = self._snapshots() if root and self._pf is not None and cfg.snapshots else None
-        result = RunResult(out_dir=out, steps_planned=total)
-        start = _time.perf_counter()
-        bar = tqdm(total=total, disable=not (progress and root), unit="step", desc=self.scene.name)
-        try:
-            result.status, result.error = step_to_end(
-                self, total, [cfg.energies_every, cfg.every],
-                lambda force: self._record(log, xdmf, snapshots, force), bar)
-        finally:
-            bar.close()
-            xdmf.close()
-            if log is not None:
-                log.close()
-            result.wall_s = self.comm.allreduce(_time.perf_counter() - start, op=MPI.MAX)
-            result.steps = self.step
-            if root:
-                self._write_summary(out / "summary.json", result)
-        if root and result.status == "completed":
-            from . import plots
+    # -- what the run loop of pfmpm.run asks of a simulation -----------------
 
-            plots.energies(out / "energies.csv", out / "energies.png")
-            if self._tip is not None:
-                plots.crack_tip(out / "energies.csv", out / "crack_tip.png",
-                                self.scene.crack_rayleigh_speed())
-        if snapshots is not None and snapshots.images:
-            from . import plots
+    def open_frames(self, out: Path, resume=None) -> "_XdmfFrames":
+        """The XDMF series ``phase_field.xdmf`` of ``c`` on the mesh (collective)."""
+        return _XdmfFrames(self, out / "phase_field.xdmf")
 
-            plots.phase_field(snapshots, out / "phase_field.png")
-        return result
-
-    def _record(self, log: CsvLog | None, xdmf: io.XDMFFile, snapshots: Snapshots | None,
-                force: bool) -> None:
-        """Write the energies row, the XDMF frame and the images due at this step (collective)."""
-        cfg = self.scene.output
-        e = self.energies()
-        bad = [k for k, v in e.items() if not math.isfinite(v)]
-        if bad:
-            raise _core.SimulationError(f"{', '.join(bad)} not finite at step {self.step}"
-                                        f" (t = {self.time:g})")
-        if force or self.step % cfg.energies_every == 0:
-            if self._tip is not None:
-                e.update(self.crack_tip_record())  # collective
-            if log is not None:
-                log.write(e)
-        if force or self.step % cfg.every == 0:
-            xdmf.write_function(self.c, self.time)
-        if self._pf is not None and cfg.snapshots:
-            self._offer_snapshot(snapshots)
-
-    def _snapshots(self) -> Snapshots:
-        """Phase-field images like the MPM's (``output.snapshots``), one pixel per vertex."""
-        snapshots = Snapshots(self.scene)
+    def new_snapshots(self) -> Snapshots | None:
+        """Phase-field images like the MPM's (``output.snapshots``), one pixel per
+        vertex, on rank 0; ``None`` on the others, or if nothing can crack."""
+        if self.comm.rank != 0 or self._pf is None or not self.scene.output.snapshots:
+            return None
         h, (nx, ny) = self.scene.grid.h, self.scene.grid.cells
-        snapshots.pixel = h
-        snapshots.origin = np.asarray(self.scene.grid.origin, dtype=float) - 0.5 * h
-        snapshots.shape = (nx + 1, ny + 1)
-        return snapshots
+        return Snapshots(self.scene, h, np.asarray(self.scene.grid.origin, dtype=float) - 0.5 * h,
+                         (nx + 1, ny + 1))
 
-    def _offer_snapshot(self, snapshots: Snapshots | None) -> None:
+    def offer_snapshot(self, snapshots: Snapshots | None) -> None:
         """Gather the vertex phase field to rank 0 while images are pending (collective)."""
+        if self._pf is None or not self.scene.output.snapshots:
+            return
         root = self.comm.rank == 0
         if not self.comm.bcast(bool(snapshots.times) if root else None):
             return
@@ -614,14 +564,31 @@ class FemSimulation:
             "substeps": self.substeps,
         }
 
-    def _write_summary(self, path: Path, result: RunResult) -> None:
-        fields = {"scene": self.scene.name, **self.summary(), "t_end": self.time}
+    def summary_fields(self, result: RunResult) -> dict:
+        """The FEM entries of ``summary.json``: :meth:`summary`, the end time and
+        the phase-field solver's statistics."""
+        fields = {**self.summary(), "t_end": self.time}
         if self._pf is not None:
             stats = self.phase_field_stats
             stats["mean_iterations"] = stats["iterations"] / max(stats["solves"], 1)
             stats["solver"] = self._pf.solver
             fields["phase_field"] = stats
-        result.write_summary(path, fields)
+        return fields
+
+
+class _XdmfFrames:
+    """The XDMF series of a FEM run's phase field: ``write()`` adds ``c`` now (collective)."""
+
+    def __init__(self, sim: FemSimulation, path: Path):
+        self._sim = sim
+        self._file = io.XDMFFile(sim.comm, str(path), "w")
+        self._file.write_mesh(sim.mesh)
+
+    def write(self) -> None:
+        self._file.write_function(self._sim.c, self._sim.time)
+
+    def close(self) -> None:
+        self._file.close()
 
 
 class _PhaseFieldSolver:
@@ -719,7 +686,7 @@ def _quiet_jit():
         yield
 
 
-def _supported(scene: Scene) -> tuple[Body, Material]:
+def _supported(scene: Scene) -> tuple[Body, MaterialSpec]:
     """Check that the FEM path can run the scene; return its body and material."""
     if len(scene.bodies) != 1:
         raise SceneError("bodies", f"the FEM path needs exactly one body, not {len(scene.bodies)}")

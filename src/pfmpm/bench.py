@@ -9,8 +9,8 @@ import time
 import numpy as np
 
 from . import _core
-from .scene import (Anisotropy, Body, Contact, Crack, Fracture, Grid, Material, PhaseField, Rectangle,
-                    Scene, Time)
+from .scene import (Anisotropy, Body, Contact, Crack, FractureSpec, GridSpec, LinearElasticSpec,
+                    PhaseFieldSpec, Rectangle, Scene, Time)
 from .simulation import Simulation
 
 PHYSICS = ("elastic", "phasefield", "anisotropic", "contact")
@@ -36,7 +36,7 @@ def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str
     fracture, cracks = None, ()
     if physics in ("phasefield", "anisotropic"):
         cubic = Anisotropy("cubic", g1111=1.0, g1212=74.0) if physics == "anisotropic" else None
-        fracture = Fracture(Gc=1e-5, l0=2.0, anisotropy=cubic)
+        fracture = FractureSpec(Gc=1e-5, l0=2.0, anisotropy=cubic)
         mid = margin + cells / 2
         cracks = (Crack(points=((float(margin), mid), (mid, mid))),)
     lo, hi = float(margin), float(margin + cells)
@@ -47,15 +47,15 @@ def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str
         shapes = {"block": Rectangle(min=(lo, lo), max=(hi, hi))}
     return Scene(
         name="bench-block",
-        grid=Grid(size=(float(side), float(side)), h=1.0, degree=degree),
+        grid=GridSpec(size=(float(side), float(side)), h=1.0, degree=degree),
         time=Time(end=1.0),
         cracks=cracks,
-        materials=(Material(name="m", E=1.0, nu=0.3, density=1.0, fracture=fracture),),
+        materials=(LinearElasticSpec(name="m", E=1.0, nu=0.3, density=1.0, fracture=fracture),),
         bodies=tuple(Body(name=name, material="m", shape=shape, particles_per_cell=per_cell,
                           orientation=30.0)
                      for name, shape in shapes.items()),
         # The first, cold fourth-order solve needs more than the default limit.
-        phase_field=PhaseField(max_iterations=100_000),
+        phase_field=PhaseFieldSpec(max_iterations=100_000),
         contact=Contact(friction=0.3) if physics == "contact" else None,
     )
 

@@ -3,17 +3,14 @@
 Kakouris & Triantafyllou (2019), section 5.3: 33 runs from 0.02 to 0.18 mm/us in
 steps of 0.005, snapshots at t = 16 us; a cone forms above about 0.10 mm/us.
 
-Each run is ``demos/disk_beam.toml`` at the disk speed ``v``, to ``--end`` us,
-at the resolution given by ``--h`` (l0 = 2 h). The cone index beta is 1 when the
-beam has crack (c < 0.2) in the middle half of its depth farther than a fifth of the
-depth from the impact line: crack that neither the flexural crack rising from the
-bottom centre (or its widening) nor the damage right under the contact explains, the
-inclined flanks of a Hertzian cone running from the contact edges towards the bottom.
-Writes ``sweep.csv`` (v, beta, beam fracture energy, cone crack
-area, wall time) and ``cone_index.png`` to ``--out``.
+Each run is the disk-beam scene at the disk speed ``v``, to ``--end`` us, at
+the resolution given by ``--h`` (l0 = 2 h); its cone index is
+:func:`pfmpm.post.disk_beam.cone_index` at the end.  Writes ``sweep.csv`` (v, beta,
+beam fracture energy, cone crack area, wall time) and ``cone_index.png`` to
+``--out``.
 
-    .venv/bin/python demos/disk_beam_sweep.py --out out/sweep            # h = 0.5 mm
-    .venv/bin/python demos/disk_beam_sweep.py --h 0.25 --out out/sweep   # finer, slower
+    .venv/bin/python benchmarks/disk_beam/cone_sweep.py --out out/sweep            # h = 0.5 mm
+    .venv/bin/python benchmarks/disk_beam/cone_sweep.py --h 0.25 --out out/sweep   # finer, slower
 """
 
 from __future__ import annotations
@@ -25,52 +22,38 @@ from pathlib import Path
 
 import numpy as np
 
+from pfmpm import plots, scenes
+from pfmpm.post.disk_beam import cone_index
 from pfmpm.scene import Scene
 from pfmpm.simulation import Simulation
 
-SCENE = Path(__file__).with_name("disk_beam.toml")
-THRESHOLD = 0.2
 
-
-def cone_index(sim: Simulation) -> tuple[int, float]:
-    """(beta, area of off-axis crack at mid-depth of the beam) for the current state."""
-    scene = sim.scene
-    beam = next(b for b in scene.bodies if b.name == "beam")
-    disk = next(b for b in scene.bodies if b.name == "disk")
-    (x0, y0), (x1, y1) = beam.shape.min, beam.shape.max
-    p = sim.particles
-    mine = p.body == scene.bodies.index(beam)
-    x, y, c, v = p.x[mine, 0], p.x[mine, 1], p.c[mine], p.volume[mine]
-    depth = y1 - y0
-    middle = (y > y0 + 0.25 * depth) & (y < y1 - 0.25 * depth)
-    flank = (c < THRESHOLD) & middle & (np.abs(x - disk.shape.center[0]) > 0.2 * depth)
-    area = float(v[flank].sum()) / scene.thickness
-    return int(area > 0.0), area
-
-
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--h", type=float, default=0.5, help="cell size, mm (l0 = 2 h)")
     parser.add_argument("--end", type=float, default=16.0, help="end time, us")
     parser.add_argument("--vmin", type=float, default=0.02)
     parser.add_argument("--vmax", type=float, default=0.18)
     parser.add_argument("--dv", type=float, default=0.005)
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                        help="more overrides of every run's scene")
     parser.add_argument("--out", default="out/disk_beam_sweep")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     l0 = 2 * args.h
     speeds = np.round(np.arange(args.vmin, args.vmax + 0.5 * args.dv, args.dv), 6)
     rows = []
     for v in speeds:
-        scene = Scene.from_toml(SCENE, [f"grid.h={args.h}", f"materials.beam.fracture.l0={l0}",
-                                        f"materials.disk.fracture.l0={l0}", f"time.end={args.end}",
-                                        f"bodies.disk.velocity=[0.0, {-v}]"])
+        scene = Scene.from_toml(scenes.path("disk_beam"), [
+            f"grid.h={args.h}", f"materials.beam.fracture.l0={l0}", f"materials.disk.fracture.l0={l0}",
+            f"time.end={args.end}", f"bodies.disk.velocity=[0.0, {-v}]", *args.set])
         sim = Simulation(scene)
         start = time.perf_counter()
         sim.advance(scene.steps())
         wall = time.perf_counter() - start
-        beta, area = cone_index(sim)
+        p = sim.particles
+        beta, area = cone_index(scene, p.x, p.body, p.c, p.volume, "beam", scene.body("disk").shape.center[0])
         fracture = sim.energies()["fracture_beam"]
         rows.append({"v": v, "beta": beta, "fracture_beam": fracture, "cone_area": area, "wall_s": wall})
         print(f"v = {v:.3f} mm/us: beta = {beta}, off-axis crack {area:.3g} mm^2, "
@@ -80,11 +63,7 @@ def main() -> None:
         writer.writeheader()
         writer.writerows(rows)
 
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = plots.plt
     fig, ax = plt.subplots(figsize=(6, 3))
     ax.step([r["v"] for r in rows], [r["beta"] for r in rows], where="mid", marker="o")
     ax.set_xlabel("disk speed (mm/us)")
@@ -93,6 +72,7 @@ def main() -> None:
     ax.set_title(f"Hertzian cone at t = {args.end:g} us, h = {args.h:g} mm")
     fig.tight_layout()
     fig.savefig(out / "cone_index.png", dpi=120)
+    plt.close(fig)
 
 
 if __name__ == "__main__":

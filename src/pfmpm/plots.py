@@ -49,7 +49,7 @@ def crack_tip(csv_path: Path, png_path: Path, rayleigh: float) -> None:
 
 
 def phase_field(snapshots, png_path: Path, polar=None) -> None:
-    """Phase-field images of a :class:`~pfmpm.simulation.Snapshots`, one panel each.
+    """Phase-field images of a :class:`~pfmpm.run.Snapshots`, one panel each.
 
     ``polar``: optional ``(centres, table)``, a :func:`pfmpm.anisotropy.polar_table`
     whose ``1/G_c(theta)`` curve is drawn around each centre, its largest

@@ -1,4 +1,4 @@
-"""The ``pfmpm`` command: ``pfmpm run``, ``bench``, ``compare`` and ``polar``."""
+"""The ``pfmpm`` command: ``pfmpm run``, ``bench``, ``compare``, ``polar`` and ``post``."""
 
 from __future__ import annotations
 
@@ -148,6 +148,64 @@ def _polar(args: argparse.Namespace) -> int:
     return 0
 
 
+def _post(args: argparse.Namespace) -> int:
+    from . import post
+    from .scene import Scene
+
+    scene = Scene.from_toml(args.scene, overrides=args.set)
+    run_dir = Path(args.run_dir)
+    if args.measure in ("crack-tip", "crack-directions") and not scene.cracks:
+        print(f"error: {args.scene}: {args.measure} needs an initial crack ([[cracks]])", file=sys.stderr)
+        return 2
+    if args.measure == "crack-tip":
+        report = post.tip_report(scene, run_dir / "energies.csv")
+    elif args.measure == "crack-directions":
+        report = post.run_directions(scene, run_dir, args.history)
+    else:
+        report = post.run_fragments(scene, run_dir)
+    if args.json:
+        print(json.dumps(report, default=str))
+    elif args.measure == "crack-tip":
+        _print_tip(report)
+    elif args.measure == "crack-directions":
+        _print_directions(report)
+    else:
+        for row in report:
+            counts = ", ".join(f"{name}: {k}" for name, k in row["fragments"].items())
+            print(f"t = {row['t']:8.2f}  fragments {counts}  closest {row['closest']:.2f} spacings")
+    return 0
+
+
+def _print_tip(r: dict) -> None:
+    from .post.tip import BRANCH_AFTER, BRANCH_OFFSET, INITIATION_ADVANCE
+
+    print(f"crack initiation: t = {r['initiation_us']:.4g} (the tip {INITIATION_ADVANCE:g} past its start)")
+    print(f"branching: t = {r['branch_us']:.4g} (the tip {BRANCH_OFFSET:g} off the notch line,"
+          f" {BRANCH_AFTER:g} ahead of the notch tip)")
+    print(f"tip at the end: ({r['tip_x_end']:.4g}, {r['tip_y_end']:.4g})")
+    print(f"largest tip speed: {r['max_speed']:.4g} = {r['max_speed_over_rayleigh']:.3f} v_R")
+
+
+def _print_directions(r: dict) -> None:
+    print(f"{r['snapshot']}: {r['particles']} particles, {r['newly_cracked']} newly cracked"
+          f" (c < {r['threshold']:g})")
+    print("weak directions of 1/G_c:", ", ".join(f"{w:.1f}" for w in r["weak_directions"])
+          or "none (isotropic)")
+    for k, tip in enumerate(r["tips"]):
+        (x, y) = tip["tip"]
+        print(f"tip ({x:g}, {y:g}): crack left at {tip['angle']:.1f} deg"
+              f" ({tip['off_weak']:.1f} deg from the nearest weak direction)")
+        for radius, arms in tip["arms"].items():
+            print(f"  arms ahead at r = {radius:g}: " + (", ".join(f"{a:.1f}" for a in arms) or "none"))
+        if "history" in r:
+            from .post.arms import HISTORY_RINGS
+
+            print("  t | new crack direction (deg) at " + ", ".join(f"{a}-{b}" for a, b in HISTORY_RINGS)
+                  + " l0")
+            for row in r["history"]:
+                print(f"  {row['t']:6.1f} | " + ", ".join(f"{a:5.1f}" for a in row["rings"][k]))
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``pfmpm`` console command."""
     parser = argparse.ArgumentParser(prog="pfmpm", description="Phase-field material point method")
@@ -203,6 +261,21 @@ def main(argv: list[str] | None = None) -> int:
                        help="CSV file theta_deg,gc,inv_gc; the plots go next to it as .png"
                             " (default %(default)s)")
     polar.set_defaults(func=_polar)
+
+    measure = sub.add_parser("post", help="measure a finished run: crack tip, crack directions, fragments")
+    measure.add_argument("measure", choices=["crack-tip", "crack-directions", "fragments"],
+                         help="crack-tip: initiation and branching times and the tip speed (energies.csv);"
+                              " crack-directions: where the new crack left each notch tip, against the"
+                              " weak directions of G_c(theta); fragments: fragments per body and the"
+                              " closest approach of two bodies at every particle snapshot")
+    measure.add_argument("scene", help="the run's scene file")
+    measure.add_argument("run_dir", help="the run's output directory")
+    measure.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                         help="the --set overrides the run was given")
+    measure.add_argument("--history", action="store_true",
+                         help="crack-directions: also the direction near each tip at every snapshot")
+    measure.add_argument("--json", action="store_true", help="print one JSON object")
+    measure.set_defaults(func=_post)
 
     args = parser.parse_args(argv)
     from .scene import SceneError

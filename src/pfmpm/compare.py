@@ -1,6 +1,7 @@
 """PF-MPM against PF-FEM on the Borden plate: agreement, and speed against error.
 
-:func:`compare_borden` runs the Borden plate scene (``demos/borden_plate.toml``)
+:func:`compare_borden` runs the Borden plate scene (shipped as
+``pfmpm/scenes/borden_plate.toml``; ``demos/borden_plate.toml`` links to it)
 with both methods at a list of grid spacings ``h`` and one length scale
 ``l0``, then writes, into its output directory:
 
@@ -26,13 +27,15 @@ Each run keeps its own output in ``mpm_h<h>/`` and ``fem_h<h>/``.  The MPM
 runs use the OpenMP threads the core is given (``OMP_NUM_THREADS``); the
 FEM runs are serial, in this process.
 
-Definitions used on the ``energies.csv`` columns (see :func:`initiation_time`,
-:func:`branch_time` and :func:`agreement`):
+Definitions used on the ``energies.csv`` columns (see
+:func:`~pfmpm.post.tip.initiation_time`, :func:`~pfmpm.post.tip.branch_time`
+and :func:`agreement`):
 
 - crack initiation: the first time ``crack_tip_x`` exceeds its value at
-  t = 0 by :data:`INITIATION_ADVANCE` (0.5 mm);
-- branching: the first time the tip lies more than :data:`BRANCH_OFFSET`
-  (1 mm) off the line of the notch while more than :data:`BRANCH_AFTER`
+  t = 0 by :data:`~pfmpm.post.tip.INITIATION_ADVANCE` (0.5 mm);
+- branching: the first time the tip lies more than
+  :data:`~pfmpm.post.tip.BRANCH_OFFSET` (1 mm) off the line of the notch while
+  more than :data:`~pfmpm.post.tip.BRANCH_AFTER`
   (5 mm) ahead of the notch tip.  Until the crack branches, the tip (the
   cracked point farthest from the notch tip) runs on the notch line; once
   two branches diverge, it lies on one of them.
@@ -50,15 +53,17 @@ from pathlib import Path
 
 import numpy as np
 
-from . import _core
+from . import _core, scenes
 from .output import read_csv
+from .post.tip import branch_time, initiation_time, read_columns
 from .scene import Crack, Scene
+from .scene.toml import read_toml
 
-__all__ = ["COLUMNS", "Comparison", "agreement", "branch_time", "borden_overrides",
+__all__ = ["COLUMNS", "Comparison", "agreement", "branch_time", "comparison_overrides",
            "compare_borden", "initiation_time"]
 
-BORDEN_SCENE = Path("demos") / "borden_plate.toml"
-"""The Borden plate scene, relative to the repository root."""
+BORDEN_SCENE = scenes.path("borden_plate")
+"""The Borden plate scene shipped with the package."""
 DEFAULT_H = (0.5, 0.25)
 DEFAULT_L0 = 0.5
 DEFAULT_END = 80.0
@@ -68,14 +73,6 @@ LABELS = {"mpm": "PF-MPM", "fem": "PF-FEM"}
 COLUMNS = ["method", "h", "dofs_or_particles", "steps", "wall_s", "fracture_energy_end",
            "elastic_energy_peak", "crack_tip_x_end", "branch_time_us", "error", "error_vs_other"]
 """Columns of ``speed_vs_error.csv``."""
-
-INITIATION_ADVANCE = 0.5
-"""Crack initiation: the tip has moved this far (mm) past its position at t = 0."""
-BRANCH_OFFSET = 1.0
-"""Branching: the tip lies this far (mm) off the notch line ..."""
-BRANCH_AFTER = 5.0
-"""... while this far (mm) ahead of the notch tip."""
-
 
 @dataclass
 class Comparison:
@@ -102,69 +99,6 @@ class Comparison:
 
 
 # -- measures on energies.csv -------------------------------------------------
-
-
-def _columns(csv_or_columns) -> Mapping[str, np.ndarray]:
-    """Columns of an ``energies.csv`` given as a path or already read."""
-    if isinstance(csv_or_columns, Mapping):
-        return csv_or_columns
-    return read_csv(Path(csv_or_columns))
-
-
-def initiation_time(e, advance: float = INITIATION_ADVANCE) -> float:
-    """First time ``crack_tip_x`` exceeds its value at t = 0 by ``advance``.
-
-    Parameters
-    ----------
-    e : path or mapping of str -> ndarray
-        An ``energies.csv`` with crack-tip columns, or its columns.
-    advance : float
-        Distance the tip has to move, in the units of the scene (mm).
-
-    Returns
-    -------
-    float
-        The time, or NaN if the tip never gets that far.
-    """
-    e = _columns(e)
-    moved = e["crack_tip_x"] > e["crack_tip_x"][0] + advance
-    return float(e["t"][np.argmax(moved)]) if moved.any() else math.nan
-
-
-def branch_time(e, crack: Crack, offset: float = BRANCH_OFFSET, after: float = BRANCH_AFTER) -> float:
-    """First time the crack tip leaves the notch line: when the crack branches.
-
-    The notch line is the continuation of the last segment of ``crack``.
-    The tip counts as off the line when it is more than ``offset`` from it
-    and more than ``after`` ahead of the notch tip (along the line).  The
-    tip of ``energies.csv`` is the cracked point farthest from the notch tip
-    (:class:`~pfmpm.crack.CrackTip`): it stays on the line while a single
-    crack runs along it, and jumps onto one of the branches once two
-    diverge.  For the Borden plate (notch from (0, 20) to (50, 20)) with the
-    defaults: the first time ``|crack_tip_y - 20| > 1`` while
-    ``crack_tip_x > 55``.
-
-    Parameters
-    ----------
-    e : path or mapping of str -> ndarray
-        An ``energies.csv`` with crack-tip columns, or its columns.
-    crack : Crack
-        The initial crack whose tip is tracked (the scene's first).
-    offset, after : float
-        Distances in the units of the scene (mm).
-
-    Returns
-    -------
-    float
-        The time, or NaN if the tip never leaves the line.
-    """
-    e = _columns(e)
-    (ax, ay), (bx, by) = crack.points[-2], crack.points[-1]
-    d = np.array([bx - ax, by - ay]) / math.hypot(bx - ax, by - ay)
-    rx, ry = e["crack_tip_x"] - bx, e["crack_tip_y"] - by
-    along, across = rx * d[0] + ry * d[1], np.abs(rx * d[1] - ry * d[0])
-    off = (along > after) & (across > offset)
-    return float(e["t"][np.argmax(off)]) if off.any() else math.nan
 
 
 def agreement(mpm_csv, fem_csv) -> dict:
@@ -205,7 +139,7 @@ def agreement(mpm_csv, fem_csv) -> dict:
             The same for the fracture energy gained since t = 0 (NaN when the
             FEM run gained none).
     """
-    m, f = _columns(mpm_csv), _columns(fem_csv)
+    m, f = read_columns(mpm_csv), read_columns(fem_csv)
     t_mpm, t_fem = initiation_time(m), initiation_time(f)
     t_end = min(m["t"][-1], f["t"][-1])
     started = [t for t in (t_mpm, t_fem) if math.isfinite(t)]
@@ -235,10 +169,21 @@ def agreement(mpm_csv, fem_csv) -> dict:
 # -- the runs -----------------------------------------------------------------
 
 
-def borden_overrides(h: float, l0: float, end: float) -> list[str]:
-    """Scene overrides of one comparison run of the Borden plate."""
-    return [f"grid.h={h!r}", f"materials.concrete.fracture.l0={l0!r}", f"time.end={end!r}",
-            "output.particles=false"]
+def comparison_overrides(scene: dict, h: float, l0: float, end: float) -> list[str]:
+    """Scene overrides of one comparison run: grid spacing ``h``, the length
+    scale ``l0`` of every material that can crack, end time ``end``, and no
+    particle output.
+
+    Parameters
+    ----------
+    scene : dict
+        The scene's tables (as read from its TOML file), which say which
+        materials have a fracture table.
+    """
+    materials = scene.get("materials", [])
+    crackable = [i for i, m in enumerate(materials) if isinstance(m, Mapping) and "fracture" in m]
+    return ([f"grid.h={h!r}"] + [f"materials.{i}.fracture.l0={l0!r}" for i in crackable]
+            + [f"time.end={end!r}", "output.particles=false"])
 
 
 def _with_snapshots(scene: Scene) -> Scene:
@@ -272,7 +217,7 @@ def compare_borden(out_dir: Path | str, hs: Sequence[float] = DEFAULT_H, l0: flo
         The Borden plate scene file.
     overrides : sequence of str
         More ``key=value`` overrides for both methods' scenes, applied after
-        those of :func:`borden_overrides` (the FEM path ignores particle
+        those of :func:`comparison_overrides` (the FEM path ignores particle
         counts).
     progress : bool
         Show progress bars.
@@ -302,19 +247,21 @@ def compare_borden(out_dir: Path | str, hs: Sequence[float] = DEFAULT_H, l0: flo
         raise ValueError("hs: give at least one grid spacing")
     hs = sorted({float(h) for h in hs}, reverse=True)  # coarse to fine
     out = Path(out_dir)
-    scenes = {h: _with_snapshots(Scene.from_toml(scene_path, borden_overrides(h, l0, end) + list(overrides)))
-              for h in hs}
+    tables = read_toml(scene_path)
+    by_h = {h: _with_snapshots(Scene.from_dict(tables, comparison_overrides(tables, h, l0, end)
+                                               + list(overrides)))
+            for h in hs}
     # The FEM set-up is cheap and checks that its path supports the scene.
-    fems = {h: FemSimulation(scenes[h], MPI.COMM_SELF) for h in hs}
+    fems = {h: FemSimulation(by_h[h], MPI.COMM_SELF) for h in hs}
     out.mkdir(parents=True, exist_ok=True)
     runs = {}
     for h in hs:
         for method in METHODS:
             name = _run_name(method, h)
-            sim = Simulation(scenes[h]) if method == "mpm" else fems.pop(h)
+            sim = Simulation(by_h[h]) if method == "mpm" else fems.pop(h)
             size = len(sim.particles) if method == "mpm" else sim.summary()["dofs"]
             what = "particles" if method == "mpm" else "dofs"
-            log(f"{LABELS[method]} h = {h:g}: {size} {what}, {scenes[h].steps()} steps -> {out / name}")
+            log(f"{LABELS[method]} h = {h:g}: {size} {what}, {by_h[h].steps()} steps -> {out / name}")
             result = sim.run(out / name, progress=progress)
             if result.status == "interrupted":
                 raise KeyboardInterrupt
@@ -323,7 +270,7 @@ def compare_borden(out_dir: Path | str, hs: Sequence[float] = DEFAULT_H, l0: flo
             log(f"  done in {result.wall_s:.1f} s")
             runs[method, h] = {"size": size, "steps": result.steps, "wall_s": result.wall_s,
                                "energies": read_csv(out / name / "energies.csv")}
-    scene = scenes[hs[-1]]
+    scene = by_h[hs[-1]]
     rows = _table(runs, hs, scene.cracks[0])
     fine = hs[-1]
     agree = agreement(runs["mpm", fine]["energies"], runs["fem", fine]["energies"])

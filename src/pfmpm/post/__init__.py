@@ -1,0 +1,33 @@
+"""Measures of runs: what the papers report, computed from a run's state or output.
+
+Each measure reads cracks with the scene's ``output.crack_threshold``.
+
+``tip``
+    :class:`~pfmpm.post.tip.CrackTip` (tracked during a run), crack initiation
+    and branching times and the tip speed (:func:`~pfmpm.post.tip.tip_report`).
+``arms``
+    The direction in which a crack leaves a notch tip and the arms crossing
+    circles about it, against the weak directions of ``G_c(theta)``
+    (:func:`~pfmpm.post.arms.crack_directions`).
+``fragments``
+    Fragments per body and the closest approach of different bodies
+    (:func:`~pfmpm.post.fragments.fragments`).
+``disk_beam``
+    The disk-beam crack's rise through the beam, its fracture energy counted
+    as the paper counts it (:func:`~pfmpm.post.disk_beam.running_crack`) and
+    the Hertzian cone index (:func:`~pfmpm.post.disk_beam.cone_index`).
+``frames``
+    The particle snapshots of a finished run.
+
+``pfmpm post crack-tip|crack-directions|fragments SCENE RUN_DIR`` prints the
+measures that read a finished run's output directory.
+"""
+
+from .arms import crack_arms, crack_directions, propagation_angle, run_directions
+from .disk_beam import cone_index, crack_rise, running_crack
+from .fragments import closest_approach, count_fragments, fragments, run_fragments
+from .tip import CrackTip, branch_time, initiation_time, tip_report
+
+__all__ = ["CrackTip", "initiation_time", "branch_time", "tip_report", "propagation_angle",
+           "crack_arms", "crack_directions", "run_directions", "count_fragments", "fragments",
+           "closest_approach", "run_fragments", "crack_rise", "running_crack", "cone_index"]

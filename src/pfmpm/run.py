@@ -1,0 +1,395 @@
+"""The run loop shared by the MPM and FEM paths: stepping, output, signals,
+checkpoints and the summary.
+
+:func:`run_to_end` drives a *simulation*, a
+:class:`~pfmpm.simulation.Simulation` or a :class:`~pfmpm.fem.FemSimulation`,
+which provides:
+
+``scene``, ``step``, ``time``, ``dt``, ``advance(n)``
+    The scene and the stepping.
+``comm``
+    The MPI communicator of a distributed run, or ``None`` (serial).  With
+    one, every call below is collective and rank 0 writes the files.
+``columns``, ``energies()``
+    The columns of ``energies.csv`` and a row of them now.
+``crack_tip``, ``crack_tip_record()``
+    The :class:`~pfmpm.post.tip.CrackTip` of the first initial crack (or
+    ``None``) and the crack-tip columns of a row.
+``open_frames(out, resume)``
+    The field series written every ``output.every`` steps (an object with
+    ``write()`` and ``close()``), or ``None``.
+``new_snapshots()``, ``offer_snapshot(snapshots)``
+    The :class:`Snapshots` of the phase field (or ``None``) and handing it
+    the state at a record.
+``summary_fields(result)``
+    The method's own entries of ``summary.json``.
+``checkpoints``
+    Whether it can write and resume from checkpoints (:mod:`pfmpm.checkpoint`).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import signal
+import threading
+import time as _time
+from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from . import _core
+from .output import CsvLog
+from .scene import Scene
+
+__all__ = ["ENERGY_COLUMNS", "CRACK_COLUMNS", "RunResult", "Snapshots", "run_to_end", "step_to_end"]
+
+ENERGY_COLUMNS = ["step", "t", "kinetic", "elastic", "fracture", "external_work", "total",
+                  "momentum_x", "momentum_y"]
+"""Columns of ``energies.csv``;
+``total = kinetic + elastic + fracture + friction_dissipation - external_work``, where the
+friction dissipation is zero without a ``[contact]`` table."""
+CRACK_COLUMNS = ["crack_tip_x", "crack_tip_y", "crack_tip_speed"]
+"""Extra ``energies.csv`` columns of scenes with an initial crack (see :class:`~pfmpm.post.tip.CrackTip`)."""
+
+
+@dataclass
+class RunResult:
+    """What a run (:func:`run_to_end`) did."""
+
+    out_dir: Path
+    steps_planned: int
+    steps: int = 0
+    status: str = "running"
+    error: str | None = None
+    wall_s: float = 0.0
+    signal: int | None = None
+    """The signal that interrupted the run, if one did."""
+    checkpoint: str | None = None
+    """The last checkpoint written."""
+    resumed_from: str | None = None
+    """The checkpoint the run continued from."""
+    light_nodes: int = 0
+    """Grid node-steps whose mass was too small to divide by (see ``Solver.light_nodes``)."""
+
+    def write_summary(self, path: Path, fields: dict) -> None:
+        """Write ``summary.json``: this result's status, steps and wall time, then ``fields``.
+
+        Written to a temporary file and renamed, so a reader never sees half of it.
+        """
+        summary = {
+            "status": self.status,
+            "error": self.error,
+            "steps": self.steps,
+            "steps_planned": self.steps_planned,
+            "wall_s": self.wall_s,
+            "checkpoint": self.checkpoint,
+            "resumed_from": self.resumed_from,
+            **fields,
+        }
+        tmp = path.with_suffix(".tmp")
+        tmp.write_text(json.dumps(summary, indent=2) + "\n")
+        tmp.replace(path)
+
+
+def run_to_end(sim, out_dir: Path | str, progress: bool = True, checkpoint_every: int = 0,
+               keep: int = 3, resume=None) -> RunResult:
+    """Run ``sim`` to ``scene.time.end``, writing its output to ``out_dir``.
+
+    Writes ``energies.csv`` every ``output.energies_every`` steps, the field
+    series (:meth:`open_frames`) every ``output.every`` steps (and at the
+    start and the end), ``summary.json``, and, once the run completes,
+    ``energies.png``, ``crack_tip.png`` (with an initial crack) and
+    ``phase_field.png`` (with ``output.snapshots``).
+
+    Parameters
+    ----------
+    sim : Simulation or FemSimulation
+        See the module docstring.
+    out_dir : path
+        Output directory; checkpoints go to its ``checkpoints/``.
+    progress : bool
+        Show a progress bar.
+    checkpoint_every : int
+        Write a checkpoint (:mod:`pfmpm.checkpoint`) every this many steps; 0: none.
+    keep : int
+        How many of the newest checkpoints to keep (>= 1).
+    resume : pfmpm.checkpoint.Checkpoint, optional
+        Continue from this checkpoint of a run of the same scene: its state
+        and its output so far (``energies.csv``, the particle series, the
+        crack-tip records, the phase-field images) are restored first.
+
+    Returns
+    -------
+    RunResult
+
+    Notes
+    -----
+    SIGINT (Ctrl-C) and SIGTERM stop the run after the current chunk of
+    steps (on every rank at the same step), write a checkpoint where the
+    simulation has them and leave everything written so far intact; the
+    summary says "interrupted". A :class:`~pfmpm._core.SimulationError` (a
+    non-finite value, a particle off the grid, an unstable step) stops it
+    with status "failed", after writing the state as it was to
+    ``checkpoints/failed_step_*.h5`` for inspection where it can.
+    """
+    from tqdm import tqdm
+
+    from . import checkpoint
+
+    if checkpoint_every < 0 or keep < 1:
+        raise ValueError(f"checkpoint_every = {checkpoint_every}, keep = {keep}: need >= 0 and >= 1")
+    if (checkpoint_every or resume is not None) and not sim.checkpoints:
+        raise ValueError(f"{type(sim).__name__} writes no checkpoints")
+    comm = sim.comm
+    root = comm is None or comm.rank == 0
+    out = Path(out_dir)
+    if root:
+        out.mkdir(parents=True, exist_ok=True)
+    if comm is not None:
+        comm.barrier()
+    cfg = sim.scene.output
+    total = sim.scene.steps()
+    if resume is not None:
+        checkpoint.restore(sim, resume)
+        tmp = out / "energies.csv.tmp"
+        tmp.write_bytes(resume.energies_csv)
+        tmp.replace(out / "energies.csv")
+    log = CsvLog(out / "energies.csv", sim.columns, append=resume is not None) if root else None
+    frames = sim.open_frames(out, resume)
+    snapshots = sim.new_snapshots()
+    if snapshots is not None and resume is not None:
+        snapshots.restore(resume.snapshot_times, resume.snapshot_images)
+    state = _OutputState(out, frames, snapshots)
+
+    def record(force: bool) -> None:
+        e = sim.energies()
+        bad = [k for k, v in e.items() if not math.isfinite(v)]
+        if bad:
+            raise _core.SimulationError(f"{', '.join(bad)} not finite at step {sim.step} (t = {sim.time:g})")
+        if force or sim.step % cfg.energies_every == 0:
+            if sim.crack_tip is not None:
+                e.update(sim.crack_tip_record())
+            if log is not None:
+                log.write(e)
+        sim.offer_snapshot(snapshots)
+        if frames is not None and (force or sim.step % cfg.every == 0):
+            frames.write()
+
+    def save(status: str = "ok", error: str | None = None) -> None:
+        result.checkpoint = str(checkpoint.write(out / checkpoint.DIRECTORY, sim, state,
+                                                 every=checkpoint_every, keep=keep,
+                                                 status=status, error=error))
+
+    result = RunResult(out_dir=out, steps_planned=total)
+    if resume is not None:
+        result.resumed_from = str(resume.path)
+    start = _time.perf_counter()
+    bar = tqdm(total=total, initial=sim.step, disable=not (progress and root), unit="step",
+               desc=sim.scene.name)
+    every = [cfg.energies_every] + ([cfg.every] if frames is not None else [])
+    try:
+        with _stop_on_signals() as caught:
+            result.status, result.error = step_to_end(
+                sim, total, every, record, bar, checkpoint=save if checkpoint_every else None,
+                checkpoint_every=checkpoint_every, stop=lambda: _agree(comm, bool(caught)),
+                first_record=resume is None)
+            result.signal = caught[0] if caught else None
+            if sim.checkpoints and result.status == "interrupted":
+                save()
+            elif sim.checkpoints and result.status == "failed":
+                save("failed", result.error)
+    finally:
+        bar.close()
+        if frames is not None:
+            frames.close()
+        if log is not None:
+            log.close()
+        result.wall_s = _longest(comm, _time.perf_counter() - start)
+        result.steps = sim.step
+        fields = sim.summary_fields(result)
+        result.light_nodes = fields.get("light_nodes", 0)
+        if root:
+            result.write_summary(out / "summary.json", {"scene": sim.scene.name, **fields})
+    if root and result.status == "completed":
+        from . import plots
+
+        plots.energies(out / "energies.csv", out / "energies.png")
+        if sim.crack_tip is not None:
+            plots.crack_tip(out / "energies.csv", out / "crack_tip.png", sim.scene.crack_rayleigh_speed())
+    if snapshots is not None and snapshots.images:
+        from . import plots
+
+        plots.phase_field(snapshots, out / "phase_field.png", _polar_overlay(sim.scene))
+    return result
+
+
+def step_to_end(sim, total: int, every: list[int], record, bar, *, checkpoint=None,
+                checkpoint_every: int = 0, stop=None, first_record: bool = True) -> tuple[str, str | None]:
+    """Advance ``sim`` to step ``total``, calling ``record(force)`` on the way.
+
+    ``sim`` has ``step`` and ``advance(n)``. It stops at every multiple of
+    each entry of ``every`` and calls ``record`` there, with ``force=True``
+    at the start (unless not ``first_record``, for a resumed run whose first
+    record exists) and the end; with ``checkpoint_every``, it also stops at
+    its multiples and calls ``checkpoint()`` there. Those extra stops only
+    split the calls to ``advance``, so the results do not depend on them.
+    Before each chunk it asks ``stop()`` and ends the run if it says so.
+    Returns ``(status, error)``: ``"completed"``, ``"interrupted"``
+    (``stop()`` or Ctrl-C, after the current chunk) or ``"failed"`` with the
+    :class:`~pfmpm._core.SimulationError` message.
+    """
+    stops = every + ([checkpoint_every] if checkpoint_every else [])
+    try:
+        if first_record:
+            record(True)
+        while sim.step < total:
+            if stop is not None and stop():
+                return "interrupted", None
+            nxt = min([(sim.step // e + 1) * e for e in stops] + [total])
+            before = sim.step
+            sim.advance(nxt - before)
+            bar.update(sim.step - before)
+            if sim.step == total or any(sim.step % e == 0 for e in every):
+                record(sim.step == total)
+            if checkpoint_every and sim.step % checkpoint_every == 0:
+                checkpoint()
+        return "completed", None
+    except KeyboardInterrupt:
+        return "interrupted", None
+    except _core.SimulationError as err:
+        return "failed", str(err)
+
+
+def _agree(comm, flag: bool) -> bool:
+    """Whether ``flag`` holds on any rank (collective); ``flag`` itself in a serial run."""
+    if comm is None:
+        return flag
+    from mpi4py import MPI
+
+    return comm.allreduce(flag, op=MPI.LOR)
+
+
+def _longest(comm, seconds: float) -> float:
+    """The largest of ``seconds`` over the ranks (collective); ``seconds`` in a serial run."""
+    if comm is None:
+        return seconds
+    from mpi4py import MPI
+
+    return comm.allreduce(seconds, op=MPI.MAX)
+
+
+@contextmanager
+def _stop_on_signals():
+    """Within the block, SIGINT and SIGTERM are noted in the yielded list
+    instead of stopping the program, so a run can end between steps; a
+    second SIGINT raises KeyboardInterrupt as usual. Outside the main thread
+    (where handlers cannot be set) the list stays empty."""
+    caught: list[int] = []
+    if threading.current_thread() is not threading.main_thread():
+        yield caught
+        return
+
+    def note(signum, frame):
+        if caught and signum == signal.SIGINT:
+            raise KeyboardInterrupt
+        caught.append(signum)
+
+    previous = {s: signal.signal(s, note) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield caught
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler)
+
+
+def _polar_overlay(scene: Scene):
+    """``1/G_c(theta)`` of the first anisotropic body, drawn at the initial
+    crack tips (or the body's centre) on the phase-field snapshots; or None."""
+    from .anisotropy import polar_table
+
+    for body in scene.bodies:
+        f = scene.fracture_of(body)
+        if f is not None and f.anisotropy is not None and f.anisotropy.fourth_order:
+            x0, y0, x1, y1 = body.shape.bounds()
+            h = scene.grid.h
+            tips = [p for crack in scene.cracks if crack.body in (None, body.name)
+                    for p in (crack.points[0], crack.points[-1])
+                    if x0 + h <= p[0] <= x1 - h and y0 + h <= p[1] <= y1 - h]
+            if not tips:
+                tips = [(0.5 * (x0 + x1), 0.5 * (y0 + y1))]
+            return tips, polar_table(f.gamma(), f.Gc, body.orientation)
+    return None
+
+
+class _OutputState:
+    """What a checkpoint needs of a run's output: the CSV so far, the particle
+    series entries and the phase-field images."""
+
+    def __init__(self, out: Path, frames, snapshots: "Snapshots | None"):
+        self._csv = out / "energies.csv"
+        self._frames = frames
+        self._snapshots = snapshots
+
+    def energies_csv(self) -> bytes:
+        return self._csv.read_bytes()
+
+    def series_entries(self) -> list[tuple[float, str]]:
+        return self._frames.entries if self._frames is not None else []
+
+    def snapshot_state(self) -> tuple[list[float], list[tuple[float, np.ndarray]]]:
+        if self._snapshots is None:
+            return [], []
+        return list(self._snapshots.times), list(self._snapshots.images)
+
+
+class Snapshots:
+    """Phase-field images at the scene's ``output.snapshots`` times.
+
+    Each image is the mean phase field per pixel of the points offered,
+    taken at the first record at or after the requested time (the last
+    record for times past the end).
+
+    Parameters
+    ----------
+    scene : Scene
+    pixel : float
+        Pixel side.
+    origin : (float, float)
+        Lower-left corner of the image.
+    shape : (int, int)
+        Pixels in x and y.
+    """
+
+    def __init__(self, scene: Scene, pixel: float, origin, shape: tuple[int, int]):
+        self.times = sorted(scene.output.snapshots)
+        self.pixel = pixel
+        self.origin = np.asarray(origin, dtype=float)
+        self.shape = shape
+        self.images: list[tuple[float, np.ndarray]] = []
+        self._end = scene.steps() * scene.dt()
+
+    def restore(self, times, images) -> None:
+        """Continue from a checkpoint: the times still due and the images taken."""
+        self.times = [float(t) for t in times]
+        self.images = [(float(t), np.asarray(image)) for t, image in images]
+
+    def take(self, t: float, dt: float, xy: np.ndarray, c: np.ndarray) -> None:
+        """Offer the state at time ``t``; keep an image if a snapshot time is due."""
+        while self.times and (t >= self.times[0] - 0.5 * dt or t >= self._end - 0.5 * dt):
+            self.times.pop(0)
+            self.images.append((t, self.rasterize(xy, c)))
+
+    def rasterize(self, xy: np.ndarray, c: np.ndarray) -> np.ndarray:
+        """Mean of ``c`` per pixel, NaN where no point lies; shape (ny, nx)."""
+        ij = np.floor((xy - self.origin) / self.pixel).astype(np.int64)
+        nx, ny = self.shape
+        ij[:, 0] = np.clip(ij[:, 0], 0, nx - 1)
+        ij[:, 1] = np.clip(ij[:, 1], 0, ny - 1)
+        key = ij[:, 1] * nx + ij[:, 0]
+        total = np.bincount(key, weights=c, minlength=nx * ny)
+        count = np.bincount(key, minlength=nx * ny)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return (total / count).reshape(ny, nx)

@@ -1,0 +1,111 @@
+"""Scene declaration for pfmpm: what a run is made of, validated.
+
+A scene describes one 2D explicit MPM run: the background grid, the time
+interval, the output cadence, the materials, the bodies (shapes filled with
+particles), the loads and the grid walls.  Scenes are written in TOML (see
+``docs/scenes.md``) or built directly from the classes below; both routes run
+the same validation and report the first problem as a :class:`SceneError`
+whose one-line message names the offending key path, e.g.::
+
+    materials[0].E = -5.0: must be > 0
+    grid.hx: unknown key (allowed: size, h, origin, degree)
+
+Units are any consistent set (typically mm, µs, µg, N, MPa).
+
+The modules, one concern each:
+
+``scene``
+    :class:`Scene`: the parts put together and the checks across them.
+``components``
+    The settings tables: :class:`GridSpec`, :class:`Time`, :class:`Output`,
+    :class:`PhaseFieldSpec`.
+``shapes``, ``bodies``
+    :class:`Rectangle`, :class:`Disk`, :class:`Ring`, :class:`Polygon`;
+    :class:`Body`.
+``loads``
+    :class:`Traction`, :class:`BodyForce`, :class:`WallSpec`, :class:`Crack`.
+``contact``
+    :class:`Contact`, :class:`ContactPair`.
+``materials``
+    The registry :data:`MATERIALS` of constitutive models by name
+    (:func:`register_material`), :class:`LinearElasticSpec`, and the
+    fracture table :class:`FractureSpec` with its :class:`Anisotropy`.
+``validation``
+    :class:`SceneError` and the value checkers.
+``seeding``, ``stability``
+    The particle lattices; wave speeds, the stable step and the critical length.
+``toml``
+    Dicts and TOML files, and ``--set`` overrides (:func:`apply_overrides`).
+
+Classes that declare something the C++ core also has a class for end in
+``Spec`` (``GridSpec`` for ``pfmpm._core.Grid``, ...); the TOML keys are the
+same as before.  The names they had before (``Grid``, ``Wall``, ``Fracture``,
+``PhaseField``, and ``Material`` for the linear elastic model) still work.
+"""
+
+from .bodies import Body
+from .components import DEGREES, GridSpec, Output, PhaseFieldSpec, Time
+from .contact import Contact, ContactPair
+from .loads import EDGES, LOADS, SIDES, WALL_TYPES, BodyForce, Crack, Traction, WallSpec
+from .materials import (DEFAULT_MODEL, MATERIALS, PLANES, SPLITS, SYMMETRIES, Anisotropy,
+                        FractureSpec, LinearElasticSpec, MaterialSpec, material_class,
+                        rayleigh_speed, register_material, wave_speed)
+from .scene import Scene
+from .shapes import SHAPES, Disk, Polygon, Rectangle, Ring, Shape
+from .stability import CRITICAL_FACTOR
+from .toml import apply_overrides
+from .validation import SceneError
+
+# The names before the split into Spec classes, for scripts written against them.
+Grid = GridSpec
+Wall = WallSpec
+Fracture = FractureSpec
+PhaseField = PhaseFieldSpec
+Material = LinearElasticSpec
+
+__all__ = [
+    "SceneError",
+    "Scene",
+    "GridSpec",
+    "Time",
+    "Output",
+    "PhaseFieldSpec",
+    "MATERIALS",
+    "DEFAULT_MODEL",
+    "register_material",
+    "material_class",
+    "MaterialSpec",
+    "LinearElasticSpec",
+    "FractureSpec",
+    "Anisotropy",
+    "Shape",
+    "Rectangle",
+    "Disk",
+    "Ring",
+    "Polygon",
+    "SHAPES",
+    "Body",
+    "Traction",
+    "BodyForce",
+    "LOADS",
+    "WallSpec",
+    "Crack",
+    "ContactPair",
+    "Contact",
+    "apply_overrides",
+    "wave_speed",
+    "rayleigh_speed",
+    "CRITICAL_FACTOR",
+    "PLANES",
+    "DEGREES",
+    "SPLITS",
+    "SYMMETRIES",
+    "EDGES",
+    "SIDES",
+    "WALL_TYPES",
+    "Grid",
+    "Wall",
+    "Fracture",
+    "PhaseField",
+    "Material",
+]

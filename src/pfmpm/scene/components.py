@@ -1,0 +1,164 @@
+"""The scene's settings tables: the background grid, the time interval, the
+output cadence and the phase-field solver (TOML ``[grid]``, ``[time]``,
+``[output]`` and ``[phase_field]``)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from .validation import (MAX_COUNT, WHOLE_TOL, SceneError, choice, integer, real, seq, store,
+                         vec2)
+
+__all__ = ["DEGREES", "GridSpec", "Time", "Output", "PhaseFieldSpec"]
+
+DEGREES = (1, 2, 3)
+
+
+@dataclass(frozen=True)
+class GridSpec:
+    """Uniform background grid of square cells (``[grid]``); the core builds its
+    ``pfmpm._core.Grid`` from it.
+
+    Parameters
+    ----------
+    size : (float, float)
+        Extent in x and y; each must be a whole number of cells of ``h``.
+    h : float
+        Cell side.
+    origin : (float, float)
+        Lower-left corner.
+    degree : int
+        B-spline degree of the shape functions, 1, 2 or 3.
+    """
+
+    size: tuple[float, float]
+    h: float
+    origin: tuple[float, float] = (0.0, 0.0)
+    degree: int = 2
+
+    def __post_init__(self):
+        store(self, "size", vec2("size", self.size, gt=0))
+        store(self, "h", real("h", self.h, gt=0))
+        store(self, "origin", vec2("origin", self.origin))
+        store(self, "degree", choice("degree", integer("degree", self.degree), DEGREES))
+        for s in self.size:
+            n = s / self.h
+            if n > MAX_COUNT:
+                raise SceneError("size", f"{n:.3g} cells of h = {self.h:g} exceed the limit"
+                                         f" of {MAX_COUNT}", self.size)
+            if round(n) < 1:
+                raise SceneError("size", f"smaller than one cell of h = {self.h:g}", self.size)
+            if abs(n - round(n)) > WHOLE_TOL * n:
+                raise SceneError("size", f"not a whole number of cells of h = {self.h:g}", self.size)
+        nx, ny = self.cells
+        if min(nx, ny) < self.degree:
+            raise SceneError("size", f"{nx} x {ny} cells of h = {self.h:g}: degree {self.degree}"
+                                     f" B-splines need at least {self.degree} cells a side", self.size)
+        if nx * ny > MAX_COUNT:
+            raise SceneError("size", f"{nx} x {ny} cells exceed the limit of {MAX_COUNT}", self.size)
+        if not all(math.isfinite(o + s) for o, s in zip(self.origin, self.size)):
+            raise SceneError("origin", "origin + size is not finite", self.origin)
+
+    @property
+    def cells(self) -> tuple[int, int]:
+        """Number of cells ``(nx, ny)``."""
+        return (round(self.size[0] / self.h), round(self.size[1] / self.h))
+
+    def box(self) -> str:
+        """The grid rectangle as text, ``[x0, x1] x [y0, y1]``."""
+        (x0, y0), (sx, sy) = self.origin, self.size
+        return f"[{x0:g}, {x0 + sx:g}] x [{y0:g}, {y0 + sy:g}]"
+
+
+@dataclass(frozen=True)
+class Time:
+    """Simulated time interval and step control (``[time]``).
+
+    Parameters
+    ----------
+    end : float
+        End time.
+    dt : float or None
+        Fixed time step; ``None`` uses the stable step.  Must not exceed the
+        stability limit (checked by :class:`~pfmpm.scene.Scene`).
+    cfl : float
+        Courant factor ``alpha_c`` in ``(0, 1]``.
+    """
+
+    end: float
+    dt: float | None = None
+    cfl: float = 0.8
+
+    def __post_init__(self):
+        store(self, "end", real("end", self.end, gt=0))
+        if self.dt is not None:
+            store(self, "dt", real("dt", self.dt, gt=0))
+        store(self, "cfl", real("cfl", self.cfl, gt=0, le=1))
+
+
+@dataclass(frozen=True)
+class Output:
+    """Output cadence (``[output]``).
+
+    Parameters
+    ----------
+    every : int
+        Write the particles every ``every`` steps.
+    energies_every : int
+        Write an ``energies.csv`` row every ``energies_every`` steps.
+    particles : bool
+        Whether to write the particle time series at all.
+    snapshots : sequence of float
+        Times at which to draw the phase field (``phase_field.png``); the
+        nearest output step is used.
+    crack_threshold : float
+        A point belongs to a crack when its phase field is below this, in
+        ``(0, 1)``: it sets where the crack tip is, and every measure of
+        :mod:`pfmpm.post` reads its cracks with it.
+    crack_speed_samples : int
+        ``energies.csv`` rows in the least-squares fit that smooths the
+        crack-tip speed, at least 2.
+    """
+
+    every: int = 100
+    energies_every: int = 10
+    particles: bool = True
+    snapshots: tuple[float, ...] = ()
+    crack_threshold: float = 0.2
+    crack_speed_samples: int = 9
+
+    def __post_init__(self):
+        store(self, "every", integer("every", self.every, ge=1))
+        store(self, "energies_every", integer("energies_every", self.energies_every, ge=1))
+        if not isinstance(self.particles, bool):
+            raise SceneError("particles", "must be true or false", self.particles)
+        times = seq("snapshots", self.snapshots, "times")
+        store(self, "snapshots", tuple(real(f"snapshots[{i}]", t, ge=0) for i, t in enumerate(times)))
+        store(self, "crack_threshold", real("crack_threshold", self.crack_threshold, gt=0, lt=1))
+        store(self, "crack_speed_samples", integer("crack_speed_samples", self.crack_speed_samples, ge=2))
+
+
+@dataclass(frozen=True)
+class PhaseFieldSpec:
+    """Phase-field solver settings (``[phase_field]``), handed to the core's
+    phase-field solve.
+
+    Parameters
+    ----------
+    tol : float
+        Tolerance tol_c of the phase-field solve, relative to ``||F||``
+        (eq. 52), in ``(0, 1)``.
+    max_iterations : int
+        Conjugate-gradient iterations allowed per step; the run stops with
+        an error when they do not reach ``tol``.
+    """
+
+    tol: float = 1e-6
+    max_iterations: int = 1000
+
+    def __post_init__(self):
+        store(self, "tol", real("tol", self.tol, gt=0, lt=1))
+        store(self, "max_iterations", integer("max_iterations", self.max_iterations, ge=1))
+        if self.max_iterations > MAX_COUNT:
+            raise SceneError("max_iterations", f"must be <= {MAX_COUNT}", self.max_iterations)

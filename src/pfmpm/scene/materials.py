@@ -1,0 +1,319 @@
+"""Materials (``[[materials]]``): a registry of constitutive models by name,
+each with an optional phase-field fracture table.
+
+A material table's ``model`` key names its class in :data:`MATERIALS`
+(default ``"linear_elastic"``); the class declares and validates the
+table's keys.  A new constitutive model is one more class::
+
+    @register_material
+    @dataclass(frozen=True)
+    class NeoHookeanSpec(MaterialSpec):
+        model: ClassVar[str] = "neo_hookean"
+        name: str
+        mu: float
+        ...
+
+It needs ``name``, ``density`` and ``fracture`` fields and the wave speeds the
+stability check and the crack-tip plots use; scene files then accept
+``model = "neo_hookean"``.  The core object of a material is built from its
+entry in one place, :func:`pfmpm.simulation.core_materials`.
+"""
+
+from __future__ import annotations
+
+import abc
+import math
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+
+from ..anisotropy import check_gamma
+from .validation import SceneError, choice, real, seq, store, text
+
+__all__ = ["PLANES", "SPLITS", "SYMMETRIES", "MATERIALS", "DEFAULT_MODEL", "register_material",
+           "material_class", "MaterialSpec", "LinearElasticSpec", "FractureSpec", "Anisotropy",
+           "wave_speed", "rayleigh_speed"]
+
+PLANES = ("strain", "stress")
+SPLITS = ("spectral", "volumetric_deviatoric", "none")
+SYMMETRIES = ("isotropic2", "isotropic4", "cubic", "orthotropic", "general")
+
+MATERIALS: dict[str, type["MaterialSpec"]] = {}
+"""Material classes by the ``model`` name scene files give them."""
+DEFAULT_MODEL = "linear_elastic"
+"""The model of a material table without a ``model`` key."""
+
+
+def register_material(cls: type["MaterialSpec"]) -> type["MaterialSpec"]:
+    """Class decorator: make ``cls`` the material model ``cls.model`` of scene files."""
+    MATERIALS[cls.model] = cls
+    return cls
+
+
+def material_class(model: Any) -> type["MaterialSpec"]:
+    """The registered class of a ``model`` name.
+
+    Raises
+    ------
+    SceneError
+        Naming the key ``model`` and the registered names, if none has that name.
+    """
+    cls = MATERIALS.get(model) if isinstance(model, str) else None
+    if cls is None:
+        raise SceneError("model", "must be one of " + ", ".join(map(repr, MATERIALS)), model)
+    return cls
+
+
+@dataclass(frozen=True)
+class Anisotropy:
+    """Anisotropic surface energy: the tensor gamma of eq. 6 in the material frame.
+
+    gamma acts on the curvature ``kappa = (c_11, c_22, c_12)`` (the fourth-order
+    term of eq. 4 is ``l0^3 kappa^T gamma kappa``); the body's ``orientation``
+    turns the material axes, and ``gamma_1111`` is the coefficient of a crack
+    running along it. :mod:`pfmpm.anisotropy` gives the resulting ``G_c(theta)``.
+
+    Parameters
+    ----------
+    symmetry : str
+        ``"isotropic2"``: gamma = 0, the second-order functional (no keys).
+        ``"isotropic4"``: ``g1111`` (default 1) with g2222 = g1111, g1122 = 0,
+        g1212 = 2 g1111, so that ``G_c = G-bar_c sqrt(1 + sqrt(g1111))`` in
+        every direction. ``"cubic"``: ``g1111`` (= g2222), ``g1212``,
+        optional ``g1122``. ``"orthotropic"``: ``g1111``, ``g2222``,
+        ``g1212``, optional ``g1122``. ``"general"``: ``gamma``, the full
+        symmetric 3 x 3 Voigt matrix.
+    g1111, g2222, g1122, g1212 : float
+        Components of gamma, >= 0 (g1122 may be negative as long as gamma
+        stays positive semi-definite).
+    gamma : 3 x 3 nested sequence
+        The whole matrix, for ``symmetry = "general"``.
+    """
+
+    symmetry: str
+    g1111: float | None = None
+    g2222: float | None = None
+    g1122: float | None = None
+    g1212: float | None = None
+    gamma: tuple[tuple[float, ...], ...] | None = None
+
+    _KEYS: ClassVar[dict[str, tuple[tuple[str, ...], tuple[str, ...]]]] = {
+        # symmetry: (required keys, optional keys)
+        "isotropic2": ((), ()),
+        "isotropic4": ((), ("g1111",)),
+        "cubic": (("g1111", "g1212"), ("g1122",)),
+        "orthotropic": (("g1111", "g2222", "g1212"), ("g1122",)),
+        "general": (("gamma",), ()),
+    }
+
+    def __post_init__(self):
+        store(self, "symmetry", choice("symmetry", self.symmetry, SYMMETRIES))
+        required, optional = self._KEYS[self.symmetry]
+        for key in ("g1111", "g2222", "g1122", "g1212", "gamma"):
+            value = getattr(self, key)
+            if value is None and key in required:
+                raise SceneError(key, f"required for symmetry {self.symmetry!r}")
+            if value is not None and key not in required + optional:
+                raise SceneError(key, f"not used by symmetry {self.symmetry!r} (it takes "
+                                 + (", ".join(required + optional) or "no components") + ")")
+        for key in ("g1111", "g2222", "g1212"):
+            if getattr(self, key) is not None:
+                store(self, key, real(key, getattr(self, key), ge=0))
+        if self.g1122 is not None:
+            store(self, "g1122", real("g1122", self.g1122))
+        if self.gamma is not None:
+            rows = seq("gamma", self.gamma, "3 rows of 3 numbers")
+            if len(rows) != 3:
+                raise SceneError("gamma", "must have 3 rows of 3 numbers", self.gamma)
+            matrix = []
+            for i, row in enumerate(rows):
+                row = seq(f"gamma[{i}]", row, "3 numbers")
+                if len(row) != 3:
+                    raise SceneError(f"gamma[{i}]", "must have 3 numbers", row)
+                matrix.append(tuple(real(f"gamma[{i}][{j}]", v) for j, v in enumerate(row)))
+            store(self, "gamma", tuple(matrix))
+        try:
+            check_gamma(self.matrix())
+        except ValueError as e:
+            raise SceneError("gamma" if self.symmetry == "general" else "symmetry",
+                             f"gamma {e}", self.matrix().tolist()) from None
+
+    def matrix(self) -> np.ndarray:
+        """gamma as a 3 x 3 array (material frame)."""
+        if self.symmetry == "general":
+            return np.array(self.gamma, dtype=float)
+        if self.symmetry == "isotropic2":
+            return np.zeros((3, 3))
+        if self.symmetry == "isotropic4":
+            g = 1.0 if self.g1111 is None else self.g1111
+            return np.diag([g, g, 2.0 * g])
+        g2222 = self.g1111 if self.symmetry == "cubic" else self.g2222
+        g1122 = self.g1122 or 0.0
+        return np.array([[self.g1111, g1122, 0.0], [g1122, g2222, 0.0], [0.0, 0.0, self.g1212]])
+
+    @property
+    def fourth_order(self) -> bool:
+        """Whether gamma != 0."""
+        return bool(np.any(self.matrix() != 0.0))
+
+
+@dataclass(frozen=True)
+class FractureSpec:
+    """Phase-field fracture parameters of a material (its ``fracture`` table;
+    AT2, eqs. 4, 14-15); the core's ``Fracture`` is built from it.
+
+    Parameters
+    ----------
+    Gc : float
+        Critical energy release rate, > 0; with a fourth-order ``anisotropy``
+        it is the reference value G-bar_c of eq. 8.
+    l0 : float
+        Length scale, > 0; the scene requires at least the grid spacing.
+    k_f : float
+        Residual stiffness in ``[0, 1)``: ``g(c) = (1 - k_f) c^2 + k_f``.
+    split : str
+        Which energy cracking degrades: ``"spectral"`` (Miehe, eq. 14),
+        ``"volumetric_deviatoric"`` (Amor) or ``"none"``.
+    anisotropy : Anisotropy or None
+        The tensor gamma of the fourth-order functional (eqs. 4-6); ``None``:
+        the second-order isotropic functional.
+    """
+
+    Gc: float
+    l0: float
+    k_f: float = 0.0
+    split: str = "spectral"
+    anisotropy: Anisotropy | None = None
+
+    def __post_init__(self):
+        store(self, "Gc", real("Gc", self.Gc, gt=0))
+        store(self, "l0", real("l0", self.l0, gt=0))
+        store(self, "k_f", real("k_f", self.k_f, ge=0, lt=1))
+        store(self, "split", choice("split", self.split, SPLITS))
+        if self.anisotropy is not None and not isinstance(self.anisotropy, Anisotropy):
+            raise SceneError("anisotropy", "must be an anisotropy table", self.anisotropy)
+
+    def gamma(self) -> np.ndarray:
+        """gamma of eq. 6 in the material frame (zero without anisotropy)."""
+        return np.zeros((3, 3)) if self.anisotropy is None else self.anisotropy.matrix()
+
+
+class MaterialSpec(abc.ABC):
+    """What every material model of :data:`MATERIALS` declares.
+
+    A model is a frozen dataclass deriving from this class, registered with
+    :func:`register_material`, with at least these fields; the rest are its
+    own parameters.
+
+    Attributes
+    ----------
+    model : str
+        The model's name in scene files (a class attribute).
+    name : str
+        Unique name, referenced by bodies.
+    density : float
+        Mass density, > 0.
+    fracture : FractureSpec or None
+        Phase-field parameters; ``None``: the material cannot crack, and its
+        particles take no part in the phase-field solve.
+    """
+
+    model: ClassVar[str]
+    name: str
+    density: float
+    fracture: FractureSpec | None
+
+    @abc.abstractmethod
+    def wave_speed(self, plane: str) -> float:
+        """Largest (P-)wave speed in 2D, for the stable time step."""
+
+    @abc.abstractmethod
+    def rayleigh_speed(self) -> float:
+        """Rayleigh wave speed, the limit of a running crack's speed."""
+
+    @abc.abstractmethod
+    def core_parameters(self, plane: str) -> dict[str, float | str]:
+        """The parameters of the core's model ``model`` (:func:`pfmpm._core.material`)."""
+
+    def _check_fracture(self) -> None:
+        """Check the ``fracture`` field (for ``__post_init__``)."""
+        if self.fracture is not None and not isinstance(self.fracture, FractureSpec):
+            raise SceneError("fracture", "must be a fracture table", self.fracture)
+
+
+@register_material
+@dataclass(frozen=True)
+class LinearElasticSpec(MaterialSpec):
+    """Isotropic linear elasticity, small strain (``model = "linear_elastic"``).
+
+    Parameters
+    ----------
+    name : str
+        Unique name, referenced by bodies.
+    E : float
+        Young's modulus, > 0.
+    nu : float
+        Poisson's ratio, in ``(-1, 0.5)``.
+    density : float
+        Mass density, > 0.
+    fracture : FractureSpec or None
+        Phase-field parameters; ``None``: the material cannot crack.
+    """
+
+    model: ClassVar[str] = "linear_elastic"
+    name: str
+    E: float
+    nu: float
+    density: float
+    fracture: FractureSpec | None = None
+
+    def __post_init__(self):
+        store(self, "name", text("name", self.name))
+        store(self, "E", real("E", self.E, gt=0))
+        store(self, "nu", real("nu", self.nu, gt=-1, lt=0.5))
+        store(self, "density", real("density", self.density, gt=0))
+        self._check_fracture()
+
+    def wave_speed(self, plane: str) -> float:
+        """P-wave speed, see :func:`wave_speed`."""
+        return wave_speed(self.E, self.nu, self.density, plane)
+
+    def rayleigh_speed(self) -> float:
+        """Rayleigh wave speed, see :func:`rayleigh_speed`."""
+        return rayleigh_speed(self.E, self.nu, self.density)
+
+    def core_parameters(self, plane: str) -> dict[str, float | str]:
+        """E, nu, density, the plane and the energy split of the fracture table."""
+        return {"E": self.E, "nu": self.nu, "density": self.density, "plane": plane,
+                "split": self.fracture.split if self.fracture else "none"}
+
+
+def rayleigh_speed(E: float, nu: float, rho: float) -> float:
+    """Rayleigh wave speed from Viktorov's approximation ``c_s (0.862 + 1.14 nu) / (1 + nu)``."""
+    return math.sqrt(E / (2 * (1 + nu) * rho)) * (0.862 + 1.14 * nu) / (1 + nu)
+
+
+def wave_speed(E: float, nu: float, rho: float, plane: str) -> float:
+    """P-wave speed of a linear elastic material in 2D.
+
+    Parameters
+    ----------
+    E, nu, rho : float
+        Young's modulus, Poisson's ratio and density.
+    plane : str
+        ``"strain"``: ``sqrt(E (1 - nu) / (rho (1 + nu) (1 - 2 nu)))``;
+        ``"stress"``: ``sqrt(E / (rho (1 - nu^2)))``.
+
+    Returns
+    -------
+    float
+        The wave speed.
+    """
+    if plane == "strain":
+        modulus, inertia = E * (1 - nu), rho * (1 + nu) * (1 - 2 * nu)
+    elif plane == "stress":
+        modulus, inertia = E, rho * (1 - nu * nu)
+    else:
+        raise SceneError("plane", "must be one of " + ", ".join(map(repr, PLANES)), plane)
+    return math.sqrt(modulus / inertia) if inertia > 0 else math.inf

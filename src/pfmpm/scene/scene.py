@@ -1,0 +1,389 @@
+"""The scene: its parts put together, and the checks that need more than one part."""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from . import seeding, stability
+from .bodies import Body
+from .components import GridSpec, Output, PhaseFieldSpec, Time
+from .contact import Contact
+from .loads import BodyForce, Crack, Traction, WallSpec
+from .materials import PLANES, FractureSpec, MaterialSpec
+from .toml import build_scene, plain, read_toml
+from .validation import (MAX_COUNT, SceneError, at, choice, fmt, real, reference, seq, store,
+                         text)
+
+__all__ = ["Scene"]
+
+_MAX_STEPS = 2**53  # step counts beyond this are not representable exactly
+_BYTES_PER_TABLE_CELL = 128  # B-spline polynomial table, per cell of each direction
+_BYTES_PER_PARTICLE = 320  # particle state, sort and phase-field arrays, setup temporaries
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A complete, validated scene.
+
+    Parameters
+    ----------
+    grid : GridSpec
+    time : Time
+    materials : sequence of MaterialSpec
+        At least one; names unique.
+    bodies : sequence of Body
+        At least one; names unique; each names a material, holds at least
+        one particle and has none outside the grid.
+    name, description : str
+    plane : str
+        ``"strain"`` or ``"stress"``.
+    thickness : float
+        Out-of-plane thickness, > 0.
+    loads : sequence of Traction or BodyForce
+    walls : sequence of WallSpec
+        At most one per grid side.
+    output : Output
+    cracks : sequence of Crack
+        Initial cracks, on bodies whose material can crack.
+    phase_field : PhaseFieldSpec
+        Phase-field solver settings (used when some material can crack).
+    contact : Contact or None
+        Frictional contact between the bodies, each its own discrete field;
+        ``None``: the bodies form one continuum.
+
+    Raises
+    ------
+    SceneError
+        On the first invalid entry.
+    """
+
+    grid: GridSpec
+    time: Time
+    materials: tuple[MaterialSpec, ...]
+    bodies: tuple[Body, ...]
+    name: str = "scene"
+    description: str = ""
+    plane: str = "strain"
+    thickness: float = 1.0
+    loads: tuple[Traction | BodyForce, ...] = ()
+    walls: tuple[WallSpec, ...] = ()
+    output: Output = field(default_factory=Output)
+    cracks: tuple[Crack, ...] = ()
+    phase_field: PhaseFieldSpec = field(default_factory=PhaseFieldSpec)
+    contact: Contact | None = None
+
+    def __post_init__(self):
+        self.validate()
+
+    # -- validation ---------------------------------------------------------
+
+    def validate(self) -> None:
+        """Check the whole scene, normalising sequences to tuples.
+
+        Raises
+        ------
+        SceneError
+            On the first invalid entry, naming its key path.
+        """
+        store(self, "name", text("name", self.name))
+        store(self, "description", text("description", self.description, empty=True))
+        store(self, "plane", choice("plane", self.plane, PLANES))
+        store(self, "thickness", real("thickness", self.thickness, gt=0))
+        for key, cls in (("grid", GridSpec), ("time", Time), ("output", Output),
+                         ("phase_field", PhaseFieldSpec)):
+            if not isinstance(getattr(self, key), cls):
+                raise SceneError(key, f"must be a {cls.__name__}", getattr(self, key))
+        store(self, "materials", self._items("materials", (MaterialSpec,), required=True))
+        store(self, "bodies", self._items("bodies", (Body,), required=True))
+        store(self, "loads", self._items("loads", (Traction, BodyForce)))
+        store(self, "walls", self._items("walls", (WallSpec,)))
+        store(self, "cracks", self._items("cracks", (Crack,)))
+        materials = self._unique("materials", "name", "duplicate name")
+        bodies = self._unique("bodies", "name", "duplicate name")
+        self._unique("walls", "side", "duplicate wall on this side")
+        for i, body in enumerate(self.bodies):
+            reference(f"bodies[{i}].material", body.material, materials, "material")
+        for i, load in enumerate(self.loads):
+            if load.body is not None:
+                reference(f"loads[{i}].body", load.body, bodies, "body")
+        for i, body in enumerate(self.bodies):
+            with at(f"bodies[{i}]"):
+                self._check_particles(body)
+        self._check_loads()
+        self._check_memory()
+        self._check_fracture(bodies)
+        self._check_contact(bodies)
+        self._check_time()
+
+    def _items(self, key: str, classes: tuple[type, ...], required: bool = False) -> tuple:
+        """Check that field ``key`` is a sequence of ``classes`` instances."""
+        items = seq(key, getattr(self, key), " or ".join(c.__name__ for c in classes))
+        if required and not items:
+            raise SceneError(key, "at least one entry is required")
+        for i, item in enumerate(items):
+            if not isinstance(item, classes):
+                raise SceneError(f"{key}[{i}]", "must be a " + " or ".join(c.__name__ for c in classes), item)
+        return items
+
+    def _unique(self, key: str, attr: str, reason: str) -> dict[str, int]:
+        """Check that ``attr`` is unique over field ``key``; map value -> index."""
+        seen: dict[str, int] = {}
+        for i, item in enumerate(getattr(self, key)):
+            value = getattr(item, attr)
+            if value in seen:
+                raise SceneError(f"{key}[{i}].{attr}", f"{reason} (also {key}[{seen[value]}])", value)
+            seen[value] = i
+        return seen
+
+    def _check_particles(self, body: Body) -> None:
+        """Check that the body has particles, all inside the grid, and not too many."""
+        grid = self.grid
+        (ox, oy), h, (nx, ny) = grid.origin, grid.h, grid.cells
+        xmin, ymin, xmax, ymax = body.shape.bounds()
+        if xmin < ox - h or ymin < oy - h or xmax > ox + (nx + 1) * h or ymax > oy + (ny + 1) * h:
+            raise SceneError("shape", f"bounds {fmt(body.shape.bounds())} extend more than"
+                                      f" one cell beyond the grid {grid.box()}")
+        (i0, i1), (j0, j1) = seeding.cell_range(body, grid, margin=1)
+        n = body.particles_per_cell
+        candidates = (i1 - i0) * (j1 - j0) * n * n
+        if candidates > MAX_COUNT:
+            raise SceneError("", f"would need {candidates:.3g} candidate particles"
+                                 f" (limit {MAX_COUNT}); coarsen the grid or particles_per_cell")
+        inner_i, inner_j = (max(i0, 0), min(i1, nx)), (max(j0, 0), min(j1, ny))
+        strips = [((i0, i1), (j0, min(j1, 0))), ((i0, i1), (max(j0, ny), j1)),
+                  ((i0, min(i1, 0)), inner_j), ((max(i0, nx), i1), inner_j)]
+        outside = sum(len(p) for cells in strips for p in seeding.lattice(body, grid, *cells))
+        if outside:
+            raise SceneError("", f"{outside} particles lie outside the grid {grid.box()}")
+        if not any(len(p) for p in seeding.lattice(body, grid, inner_i, inner_j)):
+            raise SceneError("", f"has no particles (no sub-cell centre of the {n} x {n}"
+                                 f" lattice per cell of h = {h:g} lies in its shape minus holes)")
+
+    def _check_loads(self) -> None:
+        """Check that every load gives its particles a finite force."""
+        h, thickness = self.grid.h, self.thickness
+        for i, load in enumerate(self.loads):
+            bodies = self.bodies if load.body is None else [self.body(load.body)]
+            for body in bodies:
+                spacing = body.spacing(h)
+                if isinstance(load, Traction):
+                    key, vector, scale = "traction", load.traction, spacing * thickness
+                else:
+                    key, vector = "acceleration", load.acceleration
+                    scale = self.material_of(body).density * spacing * spacing * thickness
+                with np.errstate(over="ignore"):
+                    finite = np.isfinite(np.multiply(vector, scale)).all()
+                if not finite:
+                    raise SceneError(f"loads[{i}].{key}", f"gives the particles of body {body.name!r}"
+                                     " a force that is not finite", vector)
+
+    def _check_memory(self) -> None:
+        """Check that the core's storage for the grid and particles fits in this machine's memory.
+
+        A rough upper estimate (see the ``_BYTES_*`` constants), so that a
+        scene too large to run fails here, naming the key to change, rather
+        than in an allocation inside the C++ core.
+        """
+        (nx, ny), p = self.grid.cells, self.grid.degree
+        nodes = (nx + 2 * p) * (ny + 2 * p)  # the phase field's padded layout
+        stencil = ((2 * p + 1) ** 2 + 1) // 2
+        cracks = any(m.fracture is not None for m in self.materials)
+        grid = (_BYTES_PER_TABLE_CELL * (nx + ny) + (8 + 8 * (os.cpu_count() or 1)) * nx * ny
+                + nodes * (4 + (24 + 8 * stencil if cracks else 0)))
+        counts = []
+        for body in self.bodies:
+            (i0, i1), (j0, j1) = seeding.cell_range(body, self.grid)
+            counts.append((i1 - i0) * (j1 - j0) * body.particles_per_cell ** 2)
+        need = grid + _BYTES_PER_PARTICLE * sum(counts)
+        have = os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+        if need > have:
+            i = int(np.argmax(counts))
+            key = "grid.size" if grid >= _BYTES_PER_PARTICLE * counts[i] else f"bodies[{i}].particles_per_cell"
+            raise SceneError(key, f"{nx} x {ny} cells and up to {sum(counts):.3g} particles need about"
+                                  f" {need / 1e9:.3g} GB, more than this machine's {have / 1e9:.3g} GB")
+
+    def _check_fracture(self, bodies: Mapping[str, int]) -> None:
+        """Check that l0 is resolved by the grid and cracks lie on crackable bodies."""
+        h = self.grid.h
+        for i, material in enumerate(self.materials):
+            if material.fracture is not None and material.fracture.l0 < h:
+                raise SceneError(f"materials[{i}].fracture.l0",
+                                 f"smaller than the grid spacing h = {h:g}, which cannot resolve"
+                                 " the phase-field profile (use l0 >= h; the paper uses l0 = 2 h)",
+                                 material.fracture.l0)
+            anisotropy = material.fracture.anisotropy if material.fracture else None
+            if anisotropy is not None and anisotropy.fourth_order and self.grid.degree < 2:
+                raise SceneError(f"materials[{i}].fracture.anisotropy",
+                                 "the fourth-order term needs second derivatives of C1 splines:"
+                                 f" grid.degree must be 2 or 3, not {self.grid.degree}",
+                                 anisotropy.symmetry)
+        crackable = [b.name for b in self.bodies if self.fracture_of(b) is not None]
+        (x0, y0), (sx, sy) = self.grid.origin, self.grid.size
+        reach = max(sx, sy)
+        for i, crack in enumerate(self.cracks):
+            for j, (x, y) in enumerate(crack.points):
+                if not (x0 - reach <= x <= x0 + sx + reach and y0 - reach <= y <= y0 + sy + reach):
+                    raise SceneError(f"cracks[{i}].points[{j}]", "lies farther from the grid"
+                                     f" {self.grid.box()} than its longer side", (x, y))
+            if crack.body is not None:
+                reference(f"cracks[{i}].body", crack.body, bodies, "body")
+                if crack.body not in crackable:
+                    raise SceneError(f"cracks[{i}].body", "its material has no fracture table",
+                                     crack.body)
+            elif not crackable:
+                raise SceneError(f"cracks[{i}]", "no body's material has a fracture table")
+
+    def _check_contact(self, bodies: Mapping[str, int]) -> None:
+        """Check the contact table: known bodies, quadratic or cubic grid, no overlap at t = 0."""
+        contact = self.contact
+        if contact is None:
+            return
+        if not isinstance(contact, Contact):
+            raise SceneError("contact", "must be a Contact", contact)
+        if self.grid.degree < 2:
+            raise SceneError("grid.degree", "contact needs quadratic or cubic B-splines"
+                                            " (a one-field node of tiny mass on a linear cell"
+                                            " is unstable)", self.grid.degree)
+        seen: dict[frozenset, int] = {}
+        for i, pair in enumerate(contact.pairs):
+            for k, name in enumerate(pair.bodies):
+                reference(f"contact.pairs[{i}].bodies[{k}]", name, bodies, "body")
+            key = frozenset(pair.bodies)
+            if key in seen:
+                raise SceneError(f"contact.pairs[{i}].bodies",
+                                 f"duplicate pair (also contact.pairs[{seen[key]}])", pair.bodies)
+            seen[key] = i
+        # Bodies in contact must start apart: no particle of one inside another.
+        lattices = [np.concatenate(list(seeding.lattice(b, self.grid, *seeding.cell_range(b, self.grid))))
+                    for b in self.bodies]
+        for a, body in enumerate(self.bodies):
+            for b, other in enumerate(self.bodies):
+                if a == b:
+                    continue
+                x = lattices[b]
+                inside = int(np.count_nonzero(body.contains(x[:, 0], x[:, 1])))
+                if inside:
+                    raise SceneError(f"bodies[{b}]", f"{inside} of its particles lie inside"
+                                     f" bodies[{a}] ({body.name!r}) at t = 0; bodies in contact"
+                                     " must not overlap", other.name)
+
+    def _check_time(self) -> None:
+        """Check the stability limit, a fixed dt against it, and the step count."""
+        for i, material in enumerate(self.materials):
+            c = material.wave_speed(self.plane)
+            if not 0 < c < math.inf:
+                raise SceneError(f"materials[{i}]", f"P-wave speed {c:g} is not a positive finite number")
+        for i, body in enumerate(self.bodies):
+            if not math.isfinite(math.hypot(*body.velocity)):
+                raise SceneError(f"bodies[{i}].velocity", "speed is not finite", body.velocity)
+            if not math.isfinite(body.max_speed()):
+                raise SceneError(f"bodies[{i}].velocity_gradient", "gives a speed that is not finite"
+                                 " over the body", body.velocity_gradient)
+        limit = self.stable_dt()
+        if not 0 < limit < math.inf:
+            raise SceneError("time", f"the stability limit {limit:g} is not a positive finite step")
+        dt = self.time.dt
+        if dt is not None and dt > limit:
+            raise SceneError("time.dt", f"exceeds the stability limit {limit:.4g}"
+                                        " (cfl * kappa * h / (max wave speed + max body speed))", dt)
+        steps = self.time.end / self.dt()
+        if not steps <= _MAX_STEPS:
+            raise SceneError("time.end", f"needs {steps:.3g} steps of dt = {self.dt():.4g}"
+                                         f" (limit {_MAX_STEPS})", self.time.end)
+
+    # -- parts and derived quantities ----------------------------------------
+
+    def material_of(self, body: Body) -> MaterialSpec:
+        """A body's material."""
+        return next(m for m in self.materials if m.name == body.material)
+
+    def fracture_of(self, body: Body) -> FractureSpec | None:
+        """The fracture parameters of a body's material, or ``None``."""
+        return self.material_of(body).fracture
+
+    def body(self, name: str) -> Body:
+        """The body called ``name``."""
+        return next(b for b in self.bodies if b.name == name)
+
+    def crack_rayleigh_speed(self) -> float:
+        """Rayleigh speed of the first crackable body's material."""
+        body = next(b for b in self.bodies if self.fracture_of(b) is not None)
+        return self.material_of(body).rayleigh_speed()
+
+    def stable_dt(self) -> float:
+        """The stability limit, see :func:`pfmpm.scene.stability.stable_dt`."""
+        return stability.stable_dt(self)
+
+    def critical_length(self) -> float:
+        """``kappa * h``, see :func:`pfmpm.scene.stability.critical_length`."""
+        return stability.critical_length(self)
+
+    def dt(self) -> float:
+        """Time step: the fixed ``time.dt`` if given, else :meth:`stable_dt`."""
+        return self.time.dt if self.time.dt is not None else self.stable_dt()
+
+    def steps(self) -> int:
+        """Number of steps of :meth:`dt` to reach ``time.end`` (round-off tolerant)."""
+        return stability.steps(self.time.end, self.dt())
+
+    def particles(self) -> dict[str, np.ndarray]:
+        """The particles of all bodies, see :func:`pfmpm.scene.seeding.particles`."""
+        return seeding.particles(self)
+
+    def summary(self) -> dict[str, Any]:
+        """Small dict for logging: name, plane, cells, h, degree, particles, dt, steps."""
+        return {
+            "name": self.name,
+            "plane": self.plane,
+            "cells": self.grid.cells,
+            "h": self.grid.h,
+            "degree": self.grid.degree,
+            "particles": seeding.count(self),
+            "dt": self.dt(),
+            "steps": self.steps(),
+        }
+
+    # -- dict / TOML --------------------------------------------------------
+
+    @classmethod
+    def from_dict(cls, d: Mapping, overrides: list[str] | tuple[str, ...] = ()) -> "Scene":
+        """Build a scene from a nested dict (as parsed from TOML).
+
+        Parameters
+        ----------
+        d : Mapping
+            The scene tables.
+        overrides : sequence of str
+            ``"dotted.path=value"`` overrides applied first, see
+            :func:`~pfmpm.scene.apply_overrides`.
+
+        Raises
+        ------
+        SceneError
+            On unknown or missing keys and any invalid value.
+        """
+        return build_scene(cls, d, overrides)
+
+    @classmethod
+    def from_toml(cls, path: Path | str, overrides: list[str] | tuple[str, ...] = ()) -> "Scene":
+        """Load a scene from a TOML file; see :meth:`from_dict`.
+
+        Raises
+        ------
+        SceneError
+            On a TOML syntax error (path = the file) or an invalid scene.
+        OSError
+            If the file cannot be read.
+        """
+        return cls.from_dict(read_toml(path), overrides)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Return the scene as a TOML-ready nested dict; ``from_dict`` inverts it."""
+        return plain(self)

@@ -1,0 +1,62 @@
+"""The explicit step's stability limit: wave speeds, the stable ``dt`` and the
+critical length the core checks after every step (docs/method.md, "Time step")."""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+from .bodies import Body
+from .seeding import cell_range
+from .validation import WHOLE_TOL
+
+if TYPE_CHECKING:
+    from .scene import Scene
+
+__all__ = ["CRITICAL_FACTOR", "stable_dt", "critical_length", "steps"]
+
+#: Critical time step of the lumped-mass B-spline grid in units of h / c, per
+#: degree, as (bodies clear of the grid sides, bodies on a side). Each is the
+#: 1D limit 2 / sqrt(max eig(M_L^-1 K)) of interior functions only, or of all
+#: functions including the open-knot end ones (degree 2: 1.634 and 0.862;
+#: degree 3: 1.929 and 0.653; degree 1: 1 and 1), over sqrt(2) for two
+#: directions and capped at 1, the CFL limit the paper uses (eq. 84).
+#: tests/test_elastic.py recomputes these from the basis.
+CRITICAL_FACTOR = {1: (0.707, 0.707), 2: (1.0, 0.609), 3: (1.0, 0.461)}
+
+
+def stable_dt(scene: "Scene") -> float:
+    """Stability limit ``cfl * kappa * h / (c_max + v_max)`` (eqs. 83-84).
+
+    ``c_max`` is the largest wave speed (``MaterialSpec.wave_speed``) over
+    the materials used by bodies and ``v_max`` the largest initial particle
+    speed.  ``kappa`` (see :data:`CRITICAL_FACTOR`) is 1 for quadratic and
+    cubic B-splines with the bodies clear of the grid's end functions, as in
+    the paper; it is smaller for degree 1, and for bodies that start within
+    ``degree`` cells of a grid side, where the open knot vector's end
+    functions carry little lumped mass.
+    """
+    used = {body.material for body in scene.bodies}
+    c_max = max(m.wave_speed(scene.plane) for m in scene.materials if m.name in used)
+    v_max = max(body.max_speed() for body in scene.bodies)
+    return scene.time.cfl * critical_length(scene) / (c_max + v_max)
+
+
+def critical_length(scene: "Scene") -> float:
+    """``kappa * h`` of :func:`stable_dt`: a step is stable while ``dt (c + |v|)`` stays below it."""
+    interior, boundary = CRITICAL_FACTOR[scene.grid.degree]
+    kappa = boundary if any(_near_side(scene, b) for b in scene.bodies) else interior
+    return kappa * scene.grid.h
+
+
+def _near_side(scene: "Scene", body: Body) -> bool:
+    """Whether the body's bounding box reaches the end functions of the grid."""
+    (i0, i1), (j0, j1) = cell_range(body, scene.grid)
+    p, (nx, ny) = scene.grid.degree, scene.grid.cells
+    return i0 < p or j0 < p or i1 > nx - p or j1 > ny - p
+
+
+def steps(end: float, dt: float) -> int:
+    """Number of steps of ``dt`` to reach ``end`` (round-off tolerant)."""
+    n = end / dt
+    return max(1, math.ceil(n - WHOLE_TOL * n))

@@ -1,0 +1,171 @@
+"""Validation helpers of the scene classes: :class:`SceneError` and the field checkers.
+
+Each checker takes the key path of one value and the value, and returns the
+value normalised (tuples for sequences, floats for reals) or raises a
+:class:`SceneError` whose one-line message names the path.  The scene classes
+call them from ``__post_init__``, so a scene built in Python and one read from
+TOML are checked by the same code.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+import re
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
+from typing import Any
+
+import numpy as np
+
+__all__ = ["SceneError", "MAX_COUNT", "WHOLE_TOL", "at", "fmt", "key_text", "real", "integer",
+           "vec2", "text", "choice", "seq", "store", "reference"]
+
+MAX_COUNT = 2**31 - 1
+"""Cells, particles and iteration limits are indexed with int32 in the core."""
+WHOLE_TOL = 1e-9
+"""Relative tolerance of "a whole number" (of cells, of steps)."""
+
+_NO_VALUE = object()
+_BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")
+
+
+class SceneError(ValueError):
+    """Invalid scene input, reported as one line naming the key path.
+
+    Parameters
+    ----------
+    path : str
+        Dotted key path of the offending entry (``""`` for the scene itself).
+    reason : str
+        What is wrong.
+    value : object, optional
+        The offending value, shown in the message when given.
+
+    Notes
+    -----
+    The message reads ``"<path> = <value>: <reason>"``, or
+    ``"<path>: <reason>"`` when there is no value.
+    """
+
+    def __init__(self, path: str, reason: str, value: Any = _NO_VALUE):
+        self.path = path
+        self.reason = reason
+        self.value = value
+        where = path or "scene"
+        if value is _NO_VALUE:
+            message = f"{where}: {reason}"
+        else:
+            message = f"{where} = {fmt(value)}: {reason}"
+        super().__init__(message)
+
+    def within(self, prefix: str) -> "SceneError":
+        """Return the same error with its path nested under ``prefix``."""
+        if not self.path:
+            path = prefix
+        elif self.path.startswith("["):
+            path = prefix + self.path
+        else:
+            path = f"{prefix}.{self.path}"
+        return SceneError(path, self.reason, self.value)
+
+
+@contextmanager
+def at(prefix: str) -> Iterator[None]:
+    """Prefix the path of any :class:`SceneError` raised in the block."""
+    try:
+        yield
+    except SceneError as err:
+        raise err.within(prefix) from None
+
+
+def key_text(key: Any) -> str:
+    """A table key as a path segment: bare if TOML allows it bare, else quoted."""
+    name = str(key)
+    return name if _BARE_KEY.fullmatch(name) else fmt(name)
+
+
+def fmt(value: Any, limit: int = 80) -> str:
+    """Format a value TOML-like on one line, shortened to ``limit`` characters."""
+    if isinstance(value, bool):
+        out = "true" if value else "false"
+    elif isinstance(value, (list, tuple)):
+        out = "[" + ", ".join(fmt(v, limit) for v in value) + "]"
+    else:
+        out = repr(value)
+    return out if len(out) <= limit else out[: limit - 3] + "..."
+
+
+def real(path: str, value: Any, *, gt=None, ge=None, lt=None, le=None) -> float:
+    """Check a finite real number (ints accepted, bools rejected) within bounds."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise SceneError(path, "must be a number", value)
+    try:
+        x = float(value)
+    except OverflowError:
+        raise SceneError(path, "must be finite", value) from None
+    if not math.isfinite(x):
+        raise SceneError(path, "must be finite", value)
+    bounds = [(gt, ">", x > gt if gt is not None else True),
+              (ge, ">=", x >= ge if ge is not None else True),
+              (lt, "<", x < lt if lt is not None else True),
+              (le, "<=", x <= le if le is not None else True)]
+    if not all(ok for _, _, ok in bounds):
+        rule = " and ".join(f"{op} {b:g}" for b, op, _ in bounds if b is not None)
+        raise SceneError(path, f"must be {rule}", value)
+    return x
+
+
+def integer(path: str, value: Any, *, ge: int | None = None) -> int:
+    """Check an integer (bools rejected), optionally ``>= ge``."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        raise SceneError(path, "must be an integer", value)
+    if ge is not None and value < ge:
+        raise SceneError(path, f"must be >= {ge}", value)
+    return int(value)
+
+
+def vec2(path: str, value: Any, **bounds: float) -> tuple[float, float]:
+    """Check a 2-vector of finite numbers, each within ``bounds``."""
+    if isinstance(value, np.ndarray):
+        value = value.tolist()
+    if not isinstance(value, (list, tuple)) or len(value) != 2:
+        raise SceneError(path, "must be a list of 2 numbers", value)
+    return (real(f"{path}[0]", value[0], **bounds), real(f"{path}[1]", value[1], **bounds))
+
+
+def text(path: str, value: Any, *, empty: bool = False) -> str:
+    """Check a string, non-empty unless ``empty``."""
+    if not isinstance(value, str):
+        raise SceneError(path, "must be a string", value)
+    if not empty and not value:
+        raise SceneError(path, "must not be empty", value)
+    return value
+
+
+def choice(path: str, value: Any, choices: tuple) -> Any:
+    """Check that a value is one of ``choices`` (and of the same type)."""
+    if not any(type(value) is type(c) and value == c for c in choices):
+        raise SceneError(path, "must be one of " + ", ".join(fmt(c) for c in choices), value)
+    return value
+
+
+def seq(path: str, value: Any, what: str) -> tuple:
+    """Check a list, tuple or array and return it as a tuple."""
+    if isinstance(value, np.ndarray):
+        value = value.tolist()
+    if not isinstance(value, (list, tuple)):
+        raise SceneError(path, f"must be a list of {what}", value)
+    return tuple(value)
+
+
+def store(obj: Any, name: str, value: Any) -> None:
+    """Store a normalised field value on a frozen dataclass."""
+    object.__setattr__(obj, name, value)
+
+
+def reference(path: str, name: str, names: Mapping[str, int], what: str) -> None:
+    """Check that ``name`` is one of ``names``."""
+    if name not in names:
+        have = ", ".join(map(repr, names)) or "none"
+        raise SceneError(path, f"no {what} with that name (have: {have})", name)

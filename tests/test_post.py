@@ -1,0 +1,145 @@
+"""The measures of pfmpm.post on manufactured data: each gives the number it
+must, and reads cracks with the scene's ``output.crack_threshold``."""
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pfmpm.post.arms import crack_directions, new_crack
+from pfmpm.post.disk_beam import cone_index, running_crack
+from pfmpm.post.fragments import closest_approach, count_fragments, fragments
+from pfmpm.post.tip import CrackTip, tip_report
+from pfmpm.scene import Scene
+
+DEMOS = Path(__file__).resolve().parents[1] / "demos"
+DISK_BEAM = ["grid.h=1.0", "materials.beam.fracture.l0=2.0", "materials.disk.fracture.l0=2.0",
+             "bodies.beam.particles_per_cell=1", "bodies.disk.particles_per_cell=1"]
+RINGS = ["grid.h=2.5", "materials.steel.fracture.l0=2.5", "bodies.A.particles_per_cell=1",
+         "bodies.B.particles_per_cell=1"]
+BORDEN = ["grid.h=1.0", "materials.concrete.fracture.l0=2.0", "bodies.plate.particles_per_cell=1"]
+
+
+def lattice(x0, x1, y0, y1, step):
+    """Points of a square lattice of ``step`` over [x0, x1) x [y0, y1)."""
+    x, y = np.meshgrid(np.arange(x0, x1, step), np.arange(y0, y1, step))
+    return np.column_stack([x.ravel(), y.ravel()])
+
+
+# -- the running crack of the disk-beam impact ------------------------------------
+
+
+def test_running_crack_reads_the_energy_between_start_and_end():
+    # G_c t = 10.6066 x 2 = 21.2132 mJ per mm of rise; the beam is 10 mm deep.
+    scene = Scene.from_toml(DEMOS / "disk_beam.toml", DISK_BEAM)
+    per_length = 10.6066 * 2.0
+    t = np.arange(10.0)
+    rise = np.array([0, 0, 0, 2, 4, 6, 8, 9, 9, 9], dtype=float)
+    energy = 50.0 + 1.5 * per_length * rise + 3.0 * (t >= 8)  # the band widens after the end
+    r = running_crack(scene, "beam", t, rise, energy)
+    assert (r["start"], r["end"]) == (2, 7)  # the last sample before the crack, the first at 9 mm
+    assert (r["t_start"], r["t_end"], r["rise_end"], r["depth"]) == (2.0, 7.0, 9.0, 10.0)
+    assert r["running"] == pytest.approx(1.5 * per_length * 9.0, rel=1e-12)
+    assert r["per_rise"] == pytest.approx(1.5, rel=1e-12)
+    assert r["per_area"] == pytest.approx(1.35, rel=1e-12)  # 9 of 10 mm risen
+    assert r["slope"] == pytest.approx(1.5, rel=1e-12)  # rises 2, 4, 6, 8 mm: 20-80 % of the depth
+    # A crack there from the first sample starts the count there.
+    assert running_crack(scene, "beam", t, rise + 1.0, energy)["start"] == 0
+    assert running_crack(scene, "beam", t, np.zeros(10), energy) == {}
+    assert math.isnan(running_crack(scene, "beam", t[:3], [0, 10, 10], energy[:3])["slope"])
+
+
+# -- the cone index -----------------------------------------------------------------
+
+
+def test_cone_index_counts_crack_at_mid_depth_off_the_impact_line():
+    scene = Scene.from_toml(DEMOS / "disk_beam.toml", DISK_BEAM)  # beam 48 x 10 mm, thickness 2
+    x = lattice(0.25, 48.0, 0.25, 10.0, 0.5)
+    body, volume = np.zeros(len(x), dtype=np.int32), np.full(len(x), 0.5)
+    c = np.ones(len(x))
+    c[np.abs(x[:, 0] - 24.0) < 1.9] = 0.0  # the flexural crack under the impact
+    c[(x[:, 1] < 2.5) | (x[:, 1] > 7.5)] = 0.0  # crack in the top and bottom quarters
+    assert cone_index(scene, x, body, c, volume, "beam", 24.0) == (0, 0.0)
+    flank = (np.abs(x[:, 0] - 14.25) < 0.1) & (np.abs(x[:, 1] - 5.25) < 1.6)  # 7 points at x = 14.25
+    c[flank] = 0.15
+    assert cone_index(scene, x, body, c, volume, "beam", 24.0) == (1, pytest.approx(7 * 0.5 / 2.0))
+    stricter = Scene.from_toml(DEMOS / "disk_beam.toml", DISK_BEAM + ["output.crack_threshold=0.1"])
+    assert cone_index(stricter, x, body, c, volume, "beam", 24.0) == (0, 0.0)
+    # The disk's particles do not count.
+    assert cone_index(scene, x, np.ones(len(x), dtype=np.int32), c, volume, "beam", 24.0) == (0, 0.0)
+
+
+# -- fragments ----------------------------------------------------------------------
+
+
+def test_fragments_are_linked_sets_of_intact_particles():
+    a, b = lattice(0.0, 5.0, 0.0, 5.0, 1.0), lattice(10.0, 15.0, 0.0, 5.0, 1.0)
+    debris, small = np.array([[30.0, 0.0], [31.0, 0.0], [32.0, 0.0]]), lattice(40.0, 42.0, 0.0, 2.0, 1.0)
+    assert count_fragments(np.vstack([a, b, debris, small]), 1.0) == 3  # 3 points are debris; 4 are not
+    assert count_fragments(np.vstack([a, b]), 5.0) == 1  # links up to 1.5 spacings: 6 apart < 7.5
+    assert count_fragments(np.zeros((0, 2)), 1.0) == 0
+
+
+def test_fragments_per_body_cut_at_the_scene_threshold_and_closest_approach():
+    scene = Scene.from_toml(DEMOS / "two_rings.toml", RINGS)  # particle spacing 2.5 mm
+    ring_a = lattice(0.0, 50.0, 0.0, 25.0, 2.5)
+    ring_b = ring_a + [60.0, 0.0]  # 12.5 mm = 5 spacings from ring A
+    x = np.vstack([ring_a, ring_b])
+    body = np.repeat(np.array([0, 1], dtype=np.int32), len(ring_a))
+    c = np.ones(len(x))
+    assert fragments(scene, x, body, c) == {"A": 1, "B": 1}
+    c[(body == 0) & (np.abs(x[:, 0] - 25.0) < 2.0)] = 0.19  # a crack across ring A at x = 25
+    assert fragments(scene, x, body, c) == {"A": 2, "B": 1}
+    looser = Scene.from_toml(DEMOS / "two_rings.toml", RINGS + ["output.crack_threshold=0.1"])
+    assert fragments(looser, x, body, c) == {"A": 1, "B": 1}
+    assert closest_approach(scene, x, body) == pytest.approx(5.0)
+
+
+# -- crack directions ---------------------------------------------------------------
+
+
+def test_crack_directions_of_an_arm_along_a_weak_direction():
+    scene = Scene.from_toml(DEMOS / "borden_cubic.toml", BORDEN)  # notch tip (50, 20), l0 = 2
+    x = lattice(0.125, 100.0, 0.125, 40.0, 0.25)
+    c = np.ones(len(x))
+    tip = np.array([50.0, 20.0])
+    u = np.array([math.cos(math.radians(-30.0)), math.sin(math.radians(-30.0))])
+    rel = x - tip
+    c[(rel @ u > 0) & (np.abs(rel @ [-u[1], u[0]]) < 0.3)] = 0.0  # one arm at -30 degrees
+    c0 = np.where((x[:, 0] < 50.0) & (np.abs(x[:, 1] - 20.0) < 0.5), 0.0, 1.0)  # the notch band
+    r = crack_directions(scene, x, new_crack(c0, np.minimum(c, c0), 0.2))
+    assert r["weak_directions"] == pytest.approx([60.0, 150.0, 240.0, 330.0], abs=0.1)
+    (only,) = r["tips"]
+    assert only["tip"] == (50.0, 20.0)
+    assert only["angle"] == pytest.approx(330.0, abs=0.5) and only["off_weak"] < 0.5
+    assert list(only["arms"]) == [10.0, 20.0, 40.0, 80.0]  # 5, 10, 20, 40 l0
+    assert only["arms"][10.0] == pytest.approx([330.0], abs=1.0)
+    assert only["arms"][20.0] == pytest.approx([330.0], abs=1.0)
+    assert only["arms"][80.0] == []  # beyond the plate
+
+
+# -- the crack tip -------------------------------------------------------------------
+
+
+def test_tip_report_of_a_running_and_branching_tip():
+    scene = Scene.from_toml(DEMOS / "borden_plate.toml", BORDEN)  # notch tip (50, 20)
+    t = np.arange(0.0, 40.0, 0.5)
+    x = 50.0 + np.clip(t - 10.0, 0.0, None)  # starts at 10 us, 1 mm/us
+    y = 20.0 + 0.5 * np.clip(t - 25.0, 0.0, None)  # leaves the line at 25 us
+    e = {"t": t, "crack_tip_x": x, "crack_tip_y": y, "crack_tip_speed": np.gradient(x, t)}
+    r = tip_report(scene, e)
+    assert r["initiation_us"] == 11.0  # first past 50.5 mm
+    assert r["branch_us"] == 27.5  # first more than 1 mm off y = 20 (and 5 mm ahead)
+    assert (r["tip_x_end"], r["tip_y_end"]) == (79.5, 27.25)
+    assert r["max_speed"] == pytest.approx(1.0)
+    assert r["max_speed_over_rayleigh"] == pytest.approx(1.0 / scene.crack_rayleigh_speed())
+
+
+def test_crack_tip_takes_the_scene_threshold():
+    scene = Scene.from_toml(DEMOS / "borden_plate.toml", BORDEN + ["output.crack_threshold=0.35"])
+    tip = CrackTip.for_scene(scene)
+    assert tip.threshold == 0.35
+    assert tuple(tip.origin) == (50.0, 20.0) and tuple(tip.direction) == (1.0, 0.0)
+    xy, c = np.array([[60.0, 20.0], [55.0, 20.0]]), np.array([0.3, 0.1])
+    assert tip.locate(xy, c) == (60.0, 20.0, 10.0)  # 0.3 is cracked at 0.35

@@ -1,0 +1,119 @@
+"""The README's commands, run as written from a copy of the repository root.
+
+Each command of README.md's shell blocks runs in a directory that mirrors
+the repository root (every top-level entry linked, ``out/`` its own), so a
+source folder at the root that hid the installed package would break them as
+it would for a user.  Long commands get smoke arguments appended (the
+benchmark's smoke ``--set``s for a scene, fewer particles for the bench); a
+command with no rule here fails the test, so the README cannot drift from
+what is tested.  ``bash tools/main.sh`` and ``bash tools/test.sh`` are not
+run from inside the suite.
+"""
+
+import os
+import re
+import shlex
+import subprocess
+import sys
+import tomllib
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def smoke(benchmark: str) -> list[str]:
+    """``--set`` arguments of a benchmark's smoke overrides."""
+    manifest = tomllib.loads((ROOT / "benchmarks" / benchmark / "benchmark.toml").read_text())
+    return [arg for s in manifest["smoke"] for arg in ("--set", s)]
+
+
+# (pattern of a command, arguments appended to it); None: not run here.
+RULES = [
+    (r"^bash tools/(main|test)\.sh$", None),
+    (r"pfmpm compare borden ", ["--h", "1.0", "--end", "0.5", "--set", "bodies.plate.particles_per_cell=1",
+                                "--quiet"]),
+    (r"pfmpm run demos/borden_plate\.toml --out out/borden$", smoke("borden_plate") + ["--quiet"]),
+    # More than 500 steps, so that the checkpoint the next command resumes from is written.
+    (r"pfmpm run demos/borden_plate\.toml --out out/borden --checkpoint-every 500$",
+     smoke("borden_plate") + ["--set", "time.dt=0.04", "--set", "time.end=21", "--quiet"]),
+    (r"pfmpm run --resume out/borden$", ["--quiet"]),
+    (r"mpirun -n 2 \.venv/bin/python -m pfmpm\.fem demos/borden_plate\.toml --out out/borden_fem$",
+     ["--set", "grid.h=1.0", "--set", "materials.concrete.fracture.l0=2.0", "--set", "time.end=1",
+      "--quiet"]),
+    (r"pfmpm post crack-tip demos/borden_plate\.toml out/borden$", []),
+    (r"pfmpm run demos/vibrating_bar\.toml --out out/bar --set time\.end=20$", ["--quiet"]),
+    (r"pfmpm bench ", ["--particles", "2000", "--steps", "2", "--repeats", "1"]),
+    (r"pfmpm polar ", []),
+    (r"pfmpm run demos/borden_cubic\.toml --out out/borden_cubic$",
+     smoke("borden_cubic") + ["--set", "time.end=5", "--quiet"]),
+]
+
+
+def readme_commands() -> list[list[str]]:
+    """The commands of README.md's ``bash`` blocks, as argument lists (comments dropped)."""
+    blocks = re.findall(r"```bash\n(.*?)```", (ROOT / "README.md").read_text(), flags=re.S)
+    commands = []
+    for block in blocks:
+        for line in block.replace("\\\n", " ").splitlines():
+            words = shlex.split(line, comments=True)
+            if words:
+                commands.append(words)
+    return commands
+
+
+def rule(words: list[str]):
+    """The smoke arguments of a README command; fails for a command without a rule."""
+    program = next(i for i, w in enumerate(words) if not re.match(r"[A-Z_][A-Z0-9_]*=", w))
+    text = " ".join(words[program:])  # without the environment assignments
+    found = [extra for pattern, extra in RULES if re.search(pattern, text)]
+    assert len(found) == 1, f"README command without one rule in tests/test_readme.py: {text}"
+    return found[0]
+
+
+@pytest.fixture
+def mirror(tmp_path):
+    """A directory whose top-level entries are links to the repository root's, but ``out``."""
+    root = tmp_path / "root"
+    root.mkdir()
+    for entry in ROOT.iterdir():
+        if entry.name not in ("out", ".pytest_cache"):
+            (root / entry.name).symlink_to(entry)
+    return root
+
+
+def run(words: list[str], cwd: Path) -> subprocess.CompletedProcess:
+    env = dict(os.environ, OMP_NUM_THREADS="1")
+    return subprocess.run(shlex.join(words), shell=True, executable="/bin/bash", cwd=cwd, env=env,
+                          capture_output=True, text=True, timeout=600)
+
+
+def test_every_readme_command_runs_as_written(mirror):
+    if not (ROOT / ".venv" / "bin" / "pfmpm").exists():
+        pytest.skip("the README's commands use .venv, which tools/setup.sh makes")
+    commands = readme_commands()
+    assert len(commands) >= 10
+    for words in commands:
+        extra = rule(words)
+        if extra is None:
+            continue
+        r = run(words + extra, mirror)
+        assert r.returncode == 0, f"{shlex.join(words + extra)}\n{r.stderr[-3000:]}"
+        assert "Traceback" not in r.stderr, r.stderr
+    summary = (mirror / "out" / "borden" / "summary.json").read_text()
+    assert '"resumed_from"' in summary and "step_000000500.h5" in summary
+    assert (mirror / "out" / "borden_fem" / "summary.json").exists()
+    assert (mirror / "out" / "polar.png").exists()
+
+
+def test_the_package_imported_at_the_root_is_the_installed_one(mirror):
+    """``import pfmpm`` and ``python -m pytest`` in the repository root find the
+    installed package with its compiled core, not a source folder there."""
+    python = str(Path(sys.executable))
+    r = run([python, "-c", "import pfmpm, pfmpm._core; print(pfmpm.__file__)"], mirror)
+    assert r.returncode == 0, r.stderr
+    assert Path(r.stdout.strip()).parent.parent != mirror, r.stdout
+    r = run([python, "-m", "pytest", "-p", "no:cacheprovider", "--collect-only", "-q",
+             "tests/test_post.py"], mirror)
+    assert r.returncode == 0, r.stdout + r.stderr
