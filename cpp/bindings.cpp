@@ -77,6 +77,9 @@ py::dict stats_dict(const PhaseFieldStats& st)
   d["start_residual"] = st.start_residual;
   d["last_residual"] = st.last_residual;
   d["unknowns"] = st.unknowns;
+  d["passes"] = st.passes;
+  d["last_passes"] = st.last_passes;
+  d["at_bound"] = st.at_bound;
   return d;
 }
 
@@ -89,6 +92,10 @@ PhaseFieldStats stats_of(const py::dict& d)
   st.start_residual = d["start_residual"].cast<double>();
   st.last_residual = d["last_residual"].cast<double>();
   st.unknowns = d["unknowns"].cast<std::int32_t>();
+  // Absent from the checkpoints of runs before the bounded solve (none bounded).
+  st.passes = d.contains("passes") ? d["passes"].cast<std::int64_t>() : 0;
+  st.last_passes = d.contains("last_passes") ? d["last_passes"].cast<std::int32_t>() : 0;
+  st.at_bound = d.contains("at_bound") ? d["at_bound"].cast<std::int32_t>() : 0;
   return st;
 }
 
@@ -197,6 +204,9 @@ PYBIND11_MODULE(_core, m)
       .value("none", Split::none)
       .value("spectral", Split::spectral)
       .value("volumetric_deviatoric", Split::volumetric_deviatoric);
+  py::enum_<Model>(m, "Model", "the phase-field model: w(d) = d^2 (AT2) or d (AT1)")
+      .value("AT2", Model::AT2)
+      .value("AT1", Model::AT1);
 
   py::class_<Grid>(m, "Grid", "Uniform grid with a tensor-product B-spline basis")
       .def(py::init<int, std::array<int, 2>, double, std::array<double, 2>>(), py::arg("degree"),
@@ -274,19 +284,27 @@ PYBIND11_MODULE(_core, m)
   };
   py::class_<Fracture>(m, "Fracture", "Fracture parameters of a material that can crack")
       .def(py::init(
-               [](double Gc, double l0, double k_f, const Matrix3& gamma)
+               [](double Gc, double l0, double k_f, const Matrix3& gamma, Model model)
                {
                  Fracture f{Gc, l0, k_f};
                  for (int i = 0; i < 3; ++i)
                    for (int j = 0; j < 3; ++j)
                      f.gamma[3 * i + j] = gamma[i][j];
+                 f.model = model;
                  return f;
                }),
            py::arg("Gc"), py::arg("l0"), py::arg("k_f") = 0.0, py::arg("gamma") = Matrix3{},
+           py::arg("model") = Model::AT2,
            "gamma: the 3 x 3 Voigt anisotropy tensor of eq. 6 in the material frame")
       .def_readonly("Gc", &Fracture::Gc)
       .def_readonly("l0", &Fracture::l0)
       .def_readonly("k_f", &Fracture::k_f)
+      .def_readonly("model", &Fracture::model)
+      .def("reaction", &Fracture::reaction, py::arg("H"),
+           "coefficient of N_I N_J V_p in K at history H (eq. 49; AT1: 16 l0 (1 - k_f) H / (3 G_c))")
+      .def("source", &Fracture::source, "coefficient of N_I V_p in F (eq. 52): 1 (AT2), 1/2 (AT1)")
+      .def("crack_density", &Fracture::crack_density, py::arg("c"), py::arg("grad2"),
+           "crack density Z at c with |grad c|^2 = grad2 (eq. 4, gamma = 0)")
       .def_property_readonly("gamma", [matrix](const Fracture& f) { return matrix(f.gamma); })
       .def_property_readonly("fourth_order", &Fracture::fourth_order)
       .def("rotated", [matrix](const Fracture& f, double phi) { return matrix(f.rotated(phi)); },
@@ -310,6 +328,7 @@ PYBIND11_MODULE(_core, m)
            {
              py::dict d = stats_dict(s.phase_field_stats());
              d["fourth_order"] = s.phase_field().fourth_order();
+             d["bounded"] = s.phase_field().bounded();
              return d;
            })
       .def("set_stability_length", &Solver::set_stability_length, py::arg("length"),

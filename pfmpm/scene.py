@@ -62,6 +62,7 @@ PLANES = ("strain", "stress")
 DEGREES = (1, 2, 3)
 MODELS = ("linear_elastic",)
 SPLITS = ("spectral", "volumetric_deviatoric", "none")
+FRACTURE_MODELS = ("AT2", "AT1")
 SYMMETRIES = ("isotropic2", "isotropic4", "cubic", "orthotropic", "general")
 EDGES = ("top", "bottom", "left", "right")
 SIDES = ("left", "right", "bottom", "top")
@@ -449,10 +450,16 @@ class Anisotropy:
 
 @dataclass(frozen=True)
 class Fracture:
-    """Phase-field fracture parameters (AT2, eqs. 4, 14-15).
+    """Phase-field fracture parameters (eqs. 4, 14-15).
 
     Parameters
     ----------
+    model : str
+        ``"AT2"`` (the paper's eq. 4, the default) or ``"AT1"``: the local term
+        of the crack density is ``w(d) = d^2`` or ``d`` with ``d = 1 - c``.  In
+        the standard form ``(G_c / c_w) (w(d) / l + l |grad d|^2)`` both use
+        ``l = 2 l0`` (docs/method.md); AT1 has an elastic threshold and a
+        damage band of finite width, and needs the bound ``0 <= c <= 1``.
     Gc : float
         Critical energy release rate, > 0; with a fourth-order ``anisotropy``
         it is the reference value G-bar_c of eq. 8.
@@ -465,7 +472,7 @@ class Fracture:
         ``"volumetric_deviatoric"`` (Amor) or ``"none"``.
     anisotropy : Anisotropy or None
         The tensor gamma of the fourth-order functional (eqs. 4-6); ``None``:
-        the second-order isotropic functional.
+        the second-order isotropic functional.  AT2 only.
     """
 
     Gc: float
@@ -473,14 +480,19 @@ class Fracture:
     k_f: float = 0.0
     split: str = "spectral"
     anisotropy: Anisotropy | None = None
+    model: str = "AT2"
 
     def __post_init__(self):
         _set(self, "Gc", _real("Gc", self.Gc, gt=0))
         _set(self, "l0", _real("l0", self.l0, gt=0))
         _set(self, "k_f", _real("k_f", self.k_f, ge=0, lt=1))
         _set(self, "split", _choice("split", self.split, SPLITS))
+        _set(self, "model", _choice("model", self.model, FRACTURE_MODELS))
         if self.anisotropy is not None and not isinstance(self.anisotropy, Anisotropy):
             raise SceneError("anisotropy", "must be an anisotropy table", self.anisotropy)
+        if self.model == "AT1" and self.anisotropy is not None and self.anisotropy.fourth_order:
+            raise SceneError("model", "AT1 is second order only: it cannot take a fourth-order"
+                             f" anisotropy (symmetry {self.anisotropy.symmetry!r})", self.model)
 
     def gamma(self) -> np.ndarray:
         """gamma of eq. 6 in the material frame (zero without anisotropy)."""
