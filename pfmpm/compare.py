@@ -235,10 +235,10 @@ def agreement(mpm_csv, fem_csv) -> dict:
 # -- the runs -----------------------------------------------------------------
 
 
-def borden_overrides(h: float, l0: float, end: float) -> list[str]:
+def borden_overrides(h: float, l0: float, end: float, model: str = "AT2") -> list[str]:
     """Scene overrides of one comparison run of the Borden plate."""
     return [f"grid.h={h!r}", f"materials.concrete.fracture.l0={l0!r}", f"time.end={end!r}",
-            "output.particles=false"]
+            f"materials.concrete.fracture.model={model}", "output.particles=false"]
 
 
 def _with_snapshots(scene: Scene) -> Scene:
@@ -254,7 +254,8 @@ def _run_name(method: str, h: float) -> str:
 
 def compare_borden(out_dir: Path | str, hs: Sequence[float] = DEFAULT_H, l0: float = DEFAULT_L0,
                    end: float = DEFAULT_END, scene_path: Path | str = BORDEN_SCENE,
-                   overrides: Sequence[str] = (), progress: bool = True, log=print) -> Comparison:
+                   overrides: Sequence[str] = (), progress: bool = True, log=print,
+                   model: str = "AT2") -> Comparison:
     """Run the Borden plate with PF-MPM and PF-FEM at each ``h`` and compare.
 
     Parameters
@@ -278,6 +279,9 @@ def compare_borden(out_dir: Path | str, hs: Sequence[float] = DEFAULT_H, l0: flo
         Show progress bars.
     log : callable
         Called with one line of text per run started and finished.
+    model : str
+        The phase-field model of both methods, ``"AT2"`` (the paper's) or
+        ``"AT1"`` (:class:`~pfmpm.scene.Fracture`).
 
     Returns
     -------
@@ -302,7 +306,8 @@ def compare_borden(out_dir: Path | str, hs: Sequence[float] = DEFAULT_H, l0: flo
         raise ValueError("hs: give at least one grid spacing")
     hs = sorted({float(h) for h in hs}, reverse=True)  # coarse to fine
     out = Path(out_dir)
-    scenes = {h: _with_snapshots(Scene.from_toml(scene_path, borden_overrides(h, l0, end) + list(overrides)))
+    scenes = {h: _with_snapshots(Scene.from_toml(scene_path, borden_overrides(h, l0, end, model)
+                                                 + list(overrides)))
               for h in hs}
     # The FEM set-up is cheap and checks that its path supports the scene.
     fems = {h: FemSimulation(scenes[h], MPI.COMM_SELF) for h in hs}
@@ -327,7 +332,7 @@ def compare_borden(out_dir: Path | str, hs: Sequence[float] = DEFAULT_H, l0: flo
     rows = _table(runs, hs, scene.cracks[0])
     fine = hs[-1]
     agree = agreement(runs["mpm", fine]["energies"], runs["fem", fine]["energies"])
-    files = _write_outputs(out, rows, agree, runs, hs, scene, l0, end)
+    files = _write_outputs(out, rows, agree, runs, hs, scene, l0, end, model)
     return Comparison(out_dir=out, rows=rows, agreement=agree, h_common=fine, files=files)
 
 
@@ -362,7 +367,7 @@ def _table(runs: dict, hs: list[float], crack: Crack) -> list[dict]:
 
 
 def _write_outputs(out: Path, rows: list[dict], agree: dict, runs: dict, hs: list[float],
-                   scene: Scene, l0: float, end: float) -> dict[str, Path]:
+                   scene: Scene, l0: float, end: float, model: str) -> dict[str, Path]:
     """Write the CSV, the plots and ``comparison.md``; return their paths by name."""
     files = {name: out / name for name in (
         "speed_vs_error.csv", "energies_overlay.png", "crack_tip_speed_overlay.png",
@@ -383,8 +388,9 @@ def _write_outputs(out: Path, rows: list[dict], agree: dict, runs: dict, hs: lis
                               files["phase_field_side_by_side.png"]):
         del files["phase_field_side_by_side.png"]
     _plot_speed_vs_error(rows, files["speed_vs_error.png"])
-    files["comparison.md"].write_text(_markdown(rows, agree, hs[-1], l0, end))
+    files["comparison.md"].write_text(_markdown(rows, agree, hs[-1], l0, end, model))
     plain = {k: v if math.isfinite(v) else None for k, v in {"h": hs[-1], "l0": l0, **agree}.items()}
+    plain["model"] = model
     (out / "agreement.json").write_text(json.dumps(plain, indent=2) + "\n")  # NaN as null
     files["agreement.json"] = out / "agreement.json"
     return files
@@ -495,12 +501,12 @@ def _fmt(value, spec: str = ".4g") -> str:
     return "NaN" if not math.isfinite(value) else format(value, spec)
 
 
-def _markdown(rows: list[dict], agree: dict, h: float, l0: float, end: float) -> str:
+def _markdown(rows: list[dict], agree: dict, h: float, l0: float, end: float, model: str) -> str:
     """``comparison.md``: the table of runs and the agreement at the finest common h."""
     lines = [
         "# PF-MPM against PF-FEM: Borden plate",
         "",
-        f"l0 = {l0:g} mm, end time {end:g} us. Errors: relative difference of the end fracture"
+        f"{model} phase field, l0 = {l0:g} mm, end time {end:g} us. Errors: relative difference of the end fracture"
         " energy from the finest run of the same method (`error`) and of the other method"
         " (`error_vs_other`). Branch time: the tip first more than 1 mm off the notch line"
         " while more than 5 mm ahead of the notch tip.",

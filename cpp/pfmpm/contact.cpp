@@ -548,6 +548,9 @@ PhaseFieldStats DiscreteFields::phase_field_stats() const
     total.start_residual = std::max(total.start_residual, s.start_residual);
     total.last_residual = std::max(total.last_residual, s.last_residual);
     total.unknowns += s.unknowns;
+    total.passes += s.passes;
+    total.last_passes = std::max(total.last_passes, s.last_passes);
+    total.at_bound += s.at_bound;
   }
   return total;
 }

@@ -84,7 +84,7 @@ struct PhaseFieldStats
 {
   std::int64_t solves = 0;           ///< solves so far
   std::int64_t iterations = 0;       ///< CG iterations over all solves
-  std::int32_t last_iterations = 0;  ///< CG iterations of the last solve
+  std::int32_t last_iterations = 0;  ///< CG iterations of the last solve (all its passes)
   double start_residual = 0.0;       ///< ||R|| / ||F|| of the last solve's warm start
   double last_residual = 0.0;        ///< ||R|| / ||F|| after the last solve
   std::int32_t unknowns = 0;         ///< nodes in the last system
@@ -195,7 +195,7 @@ private:
   /// node, by a primal-dual active-set method around Jacobi-preconditioned
   /// CG (see the definition).
   /// @return false if a CG pass did not reach tol within max_iterations or
-  /// the active set did not settle.
+  /// the active set did not settle within max_iterations passes.
   template <int P>
   bool bounded_solve();
   /// @brief One active-set update from c and r = F - K c (in _q as K c):
@@ -207,7 +207,7 @@ private:
   /// @brief Jacobi-preconditioned CG on the free nodes (`_free`), the others
   /// held at their values: the rows of the held nodes are identity rows.
   /// Sets `start` and `residual` to ||r|| over the free nodes before and
-  /// after; adds the iterations to `it` and stops at `stop` or max_iterations.
+  /// after and `it` to the iterations; stops at `stop` or max_iterations.
   template <int P>
   void free_set_iterations(double stop, double& start, double& residual, int& it);
   template <int P, bool Fourth>

@@ -160,11 +160,14 @@ void Solver::prepare()
   {
     const PhaseFieldStats s = phase_field_stats();
     std::ostringstream msg;
-    msg << "phase field" << (_fields ? " of body " + std::to_string(failed) : std::string())
-        << ": conjugate gradients stopped at relative residual " << s.last_residual
-        << " > tol = " << _phase_field.tol() << " after " << s.last_iterations
-        << " iterations, at the start of the step after step " << _step << " (t = " << _time
-        << ")";
+    msg << "phase field" << (_fields ? " of body " + std::to_string(failed) : std::string());
+    if (s.last_residual <= _phase_field.tol()) // only the bounded solve fails this way
+      msg << ": the active set of the bounded solve did not settle in " << s.last_passes
+          << " passes";
+    else
+      msg << ": conjugate gradients stopped at relative residual " << s.last_residual
+          << " > tol = " << _phase_field.tol() << " after " << s.last_iterations << " iterations";
+    msg << ", at the start of the step after step " << _step << " (t = " << _time << ")";
     throw SimulationError(msg.str());
   }
 }
