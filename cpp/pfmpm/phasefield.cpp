@@ -635,7 +635,10 @@ bool PhaseField::conjugate_gradient()
 /// (Hintermüller, Ito & Kunisch 2002; for phase-field fracture Heister,
 /// Wheeler & Wick 2015) solves them by passes:
 /// 1. warm start as conjugate_gradient, projected onto [0, 1]; nodes on a
-///    bound are held there;
+///    bound are held there, unless their multiplier is zero or has the wrong
+///    sign (update_active_set with no margin: a node that no history
+///    reaches, where r = 0, starts free, so a cold start does not have to
+///    release the nodes one layer per pass);
 /// 2. update_active_set with r at the current c;
 /// 3. CG on the free nodes, the held ones as identity rows with their bound
 ///    as right-hand side (free_set_iterations), to ||r_free|| <= tol ||F||;
@@ -671,7 +674,7 @@ bool PhaseField::bounded_solve()
     _bound[a] = c == 1.0 ? 1 : c == 0.0 ? -1 : 0;
   }
   multiply<P>(_c, _q);
-  update_active_set();
+  update_active_set(0.0);
 
   double residual = 0.0;
   int it = 0, passes = 0;
@@ -688,7 +691,7 @@ bool PhaseField::bounded_solve()
     if (residual > stop)
       break; // CG ran out of iterations
     multiply<P>(_c, _q);
-    if (update_active_set() == 0)
+    if (update_active_set(_tol) == 0)
     {
       settled = true;
       break;
@@ -705,7 +708,7 @@ bool PhaseField::bounded_solve()
   return settled;
 }
 
-std::int64_t PhaseField::update_active_set()
+std::int64_t PhaseField::update_active_set(double margin)
 {
   const auto na = static_cast<std::ptrdiff_t>(_rhs.size());
   std::int64_t changed = 0;
@@ -716,8 +719,9 @@ std::int64_t PhaseField::update_active_set()
     // The multiplier r_a over K_aa: how far a Jacobi step would move c_a.
     const double step = (_rhs[a] - _q[a]) / _diagonal[a];
     std::int8_t b = _bound[a];
-    if ((b == 1 && step < -_tol) || (b == -1 && step > _tol))
-      b = 0; // the bound pulls the node the wrong way: release it
+    // Released unless the bound holds the node against a pull beyond the margin.
+    if ((b == 1 && step <= -margin) || (b == -1 && step >= margin))
+      b = 0;
     else if (b == 0 && (_c[i] > 1.0 || _c[i] < 0.0))
       b = _c[i] > 1.0 ? 1 : -1; // hold it on the bound it crossed
     if (b != _bound[a])

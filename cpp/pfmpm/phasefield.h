@@ -199,11 +199,11 @@ private:
   template <int P>
   bool bounded_solve();
   /// @brief One active-set update from c and r = F - K c (in _q as K c):
-  /// a node at a bound is released when its multiplier has the wrong sign
-  /// by more than tol K_II, a free node outside [0, 1] is put on the bound
-  /// it crossed (and c set to it). Rebuilds the free list `_free`.
+  /// a node at a bound is released unless its multiplier pushes it outwards
+  /// by more than `margin` K_II, a free node outside [0, 1] is put on the
+  /// bound it crossed (and c set to it). Rebuilds the free list `_free`.
   /// @return how many nodes changed their state.
-  std::int64_t update_active_set();
+  std::int64_t update_active_set(double margin);
   /// @brief Jacobi-preconditioned CG on the free nodes (`_free`), the others
   /// held at their values: the rows of the held nodes are identity rows.
   /// Sets `start` and `residual` to ||r|| over the free nodes before and
