@@ -32,7 +32,9 @@ Phase field
     assembled once and ``M_F = (F c, q)``, ``F`` of eq. (49) per cell,
     reassembled each step (about 25 % cheaper than reassembling the whole
     form: 16 against 21 ms for 128,000 cells); right-hand side
-    ``F^c = (1, q)`` (eq. 52).
+    ``F^c = (1, q)`` (eq. 52).  AT1 (``fracture.model``, docs/method.md)
+    changes ``F`` and ``F^c`` (:func:`_reaction`) and is solved with the
+    bound ``0 <= c <= 1``.
 
 One step
 --------
@@ -55,7 +57,8 @@ phase field is solved at the MPM times, once per scene step; ``H`` takes
 the maximum over the sub-steps.
 
 The phase-field system is solved by conjugate gradients with a Jacobi
-preconditioner.  The reaction term keeps its condition number of order
+preconditioner (for AT1 inside PETSc's ``vinewtonrsls``, see
+``_PhaseFieldSolver``).  The reaction term keeps its condition number of order
 ``1 + (l0 / h)^2`` whatever the size of the mesh, so the iteration count
 does not grow with it; Jacobi does not depend on how the mesh is
 partitioned, so one and several MPI ranks take the same iterates up to
