@@ -284,22 +284,24 @@ PYBIND11_MODULE(_core, m)
   };
   py::class_<Fracture>(m, "Fracture", "Fracture parameters of a material that can crack")
       .def(py::init(
-               [](double Gc, double l0, double k_f, const Matrix3& gamma, Model model)
+               [](double Gc, double l0, double k_f, const Matrix3& gamma, Model model, bool bound)
                {
                  Fracture f{Gc, l0, k_f};
                  for (int i = 0; i < 3; ++i)
                    for (int j = 0; j < 3; ++j)
                      f.gamma[3 * i + j] = gamma[i][j];
                  f.model = model;
+                 f.bound = bound;
                  return f;
                }),
            py::arg("Gc"), py::arg("l0"), py::arg("k_f") = 0.0, py::arg("gamma") = Matrix3{},
-           py::arg("model") = Model::AT2,
+           py::arg("model") = Model::AT2, py::arg("bound") = true,
            "gamma: the 3 x 3 Voigt anisotropy tensor of eq. 6 in the material frame")
       .def_readonly("Gc", &Fracture::Gc)
       .def_readonly("l0", &Fracture::l0)
       .def_readonly("k_f", &Fracture::k_f)
       .def_readonly("model", &Fracture::model)
+      .def_readonly("bound", &Fracture::bound)
       .def("reaction", &Fracture::reaction, py::arg("H"),
            "coefficient of N_I N_J V_p in K at history H (eq. 49; AT1: 16 l0 (1 - k_f) H / (3 G_c))")
       .def("source", &Fracture::source, "coefficient of N_I V_p in F (eq. 52): 1 (AT2), 1/2 (AT1)")

@@ -33,8 +33,8 @@ Phase field
     reassembled each step (about 25 % cheaper than reassembling the whole
     form: 16 against 21 ms for 128,000 cells); right-hand side
     ``F^c = (1, q)`` (eq. 52).  AT1 (``fracture.model``, docs/method.md)
-    changes ``F`` and ``F^c`` (:func:`_reaction`) and is solved with the
-    bound ``0 <= c <= 1``.
+    changes ``F`` and ``F^c`` (:func:`_reaction`).  Both models are solved
+    with the bound ``0 <= c <= 1`` unless ``fracture.bound = false``.
 
 One step
 --------
@@ -57,7 +57,7 @@ phase field is solved at the MPM times, once per scene step; ``H`` takes
 the maximum over the sub-steps.
 
 The phase-field system is solved by conjugate gradients with a Jacobi
-preconditioner (for AT1 inside PETSc's ``vinewtonrsls``, see
+preconditioner, inside PETSc's ``vinewtonrsls`` for the bound (see
 ``_PhaseFieldSolver``).  The reaction term keeps its condition number of order
 ``1 + (l0 / h)^2`` whatever the size of the mesh, so the iteration count
 does not grow with it; Jacobi does not depend on how the mesh is
@@ -645,13 +645,15 @@ class _PhaseFieldSolver:
     (AT2) or ``1/2`` (AT1).  ``L`` and ``F^c`` are assembled once; each solve
     reassembles ``M_F`` into the same sparsity pattern and adds ``L``.
 
-    AT2 is solved by PETSc's CG (:attr:`solver`).  AT1 is solved with the
-    bound ``0 <= c <= 1`` by PETSc's variational-inequality Newton method
-    ``vinewtonrsls`` (reduced-space active set): its residual ``K^c c - F^c``
-    is linear, so each Newton step is one CG solve on the free vertices with
-    the held ones fixed, and the steps stop when the active set settles and
-    ``||F^c - K^c c||`` over the free vertices is at most ``tol ||F^c||``,
-    the criterion of the MPM's bounded solve.
+    With ``fracture.bound`` (the default, and always for AT1) it is solved
+    with the bound ``0 <= c <= 1`` by PETSc's variational-inequality Newton
+    method ``vinewtonrsls`` (reduced-space active set): the residual
+    ``K^c c - F^c`` is linear, so each Newton step is one CG solve on the free
+    vertices with the held ones fixed, and the steps stop when the active set
+    settles and ``||F^c - K^c c||`` over the free vertices is at most
+    ``tol ||F^c||``, the criterion of the MPM's bounded solve.  AT2's first
+    solve starts from the unbounded CG solution.  Without the bound (AT2 with
+    ``bound = false``), by PETSc's CG alone.
 
     Parameters
     ----------
@@ -684,32 +686,31 @@ class _PhaseFieldSolver:
         self._A = self._L.duplicate(copy=True)
         self._b = fem_petsc.assemble_vector(fem.form(q * ufl.dx))
         self._b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        self.bounded = fracture.model == "AT1"
-        if self.bounded:
+        if fracture.model == "AT1":
             self._b.scale(0.5)  # AT1's source (Fracture::source), exact in binary
-            self._snes = self._bounded_solver(msh.comm, settings)
-            ksp = self._snes.getKSP()
-        else:
-            ksp = PETSc.KSP().create(msh.comm)
-            ksp.setOptionsPrefix("pfmpm_pf_")
-            ksp.setOperators(self._A)
-        ksp.setType(PETSc.KSP.Type.CG)
-        ksp.getPC().setType(PETSc.PC.Type.JACOBI)
-        ksp.setNormType(PETSc.KSP.NormType.UNPRECONDITIONED)
+        # CG on K^c c = F^c: AT2's solver without the bound, and with it the
+        # first guess of the first solve (below).
+        self._plain = self._cg(msh.comm, settings) if fracture.model == "AT2" else None
+        self.bounded = fracture.bound  # always for AT1 (the scene checks)
         if self.bounded:
-            # Each Newton step solves for an update from zero: stop on the
-            # absolute residual that the SNES test asks for.
-            ksp.setTolerances(rtol=1e-50, atol=0.5 * settings.tol * self._b.norm(),
-                              max_it=settings.max_iterations)
-            self._snes.setFromOptions()
-        else:
-            ksp.setTolerances(rtol=settings.tol, atol=0.0, max_it=settings.max_iterations)
-            ksp.setInitialGuessNonzero(True)
-            ksp.setFromOptions()
-        self._ksp = ksp
+            self._snes = self._bounded_solver(msh.comm, settings)
+        self._ksp = self._snes.getKSP() if self.bounded else self._plain
         self.stats = {"solves": 0, "iterations": 0, "last_iterations": 0}
         if self.bounded:
             self.stats.update({"passes": 0, "last_passes": 0})
+
+    def _cg(self, comm, settings) -> PETSc.KSP:
+        """Jacobi-preconditioned CG for ``K^c c = F^c``, warm-started from ``c``."""
+        ksp = PETSc.KSP().create(comm)
+        ksp.setOptionsPrefix("pfmpm_pf_")
+        ksp.setOperators(self._A)
+        ksp.setType(PETSc.KSP.Type.CG)
+        ksp.getPC().setType(PETSc.PC.Type.JACOBI)
+        ksp.setNormType(PETSc.KSP.NormType.UNPRECONDITIONED)
+        ksp.setTolerances(rtol=settings.tol, atol=0.0, max_it=settings.max_iterations)
+        ksp.setInitialGuessNonzero(True)
+        ksp.setFromOptions()
+        return ksp
 
     def _bounded_solver(self, comm, settings) -> PETSc.SNES:
         """PETSc's ``vinewtonrsls`` for ``K^c c = F^c`` with ``0 <= c <= 1``."""
@@ -728,12 +729,25 @@ class _PhaseFieldSolver:
         self._lower.set(0.0)
         self._upper.set(1.0)
         snes.setVariableBounds(self._lower, self._upper)
-        # Full steps, as K^c c - F^c is linear (unless the options say otherwise).
+        # Unless the options say otherwise: full steps, as K^c c - F^c is
+        # linear; and a vertex is on a bound only when it is exactly there
+        # (PETSc's default, within 1e-8, holds the tail of an AT2 profile at
+        # c = 1 and frees it one layer of vertices per Newton step).
         options = PETSc.Options("pfmpm_pf_")
-        if not options.hasName("snes_linesearch_type"):
-            options["snes_linesearch_type"] = "basic"
+        for key, value in (("snes_linesearch_type", "basic"), ("snes_vi_zero_tolerance", 0.0)):
+            if not options.hasName(key):
+                options[key] = value
         snes.setTolerances(atol=settings.tol * self._b.norm(), rtol=0.0, stol=0.0,
                            max_it=settings.max_iterations)
+        # Each Newton step solves for an update from zero: its CG stops on the
+        # absolute residual that the SNES test asks for.
+        ksp = snes.getKSP()
+        ksp.setType(PETSc.KSP.Type.CG)
+        ksp.getPC().setType(PETSc.PC.Type.JACOBI)
+        ksp.setNormType(PETSc.KSP.NormType.UNPRECONDITIONED)
+        ksp.setTolerances(rtol=1e-50, atol=0.5 * settings.tol * self._b.norm(),
+                          max_it=settings.max_iterations)
+        snes.setFromOptions()
         return snes
 
     @property
@@ -751,8 +765,16 @@ class _PhaseFieldSolver:
         self._L.copy(self._A, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
         self._A.axpy(1.0, self._M, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
         if self.bounded:
+            cold = 0
+            if self._plain is not None and self.stats["solves"] == 0:
+                # AT2's first solve starts from the unbounded solution: from
+                # c = 1, where K^c c - F^c is zero up to round-off of either
+                # sign, PETSc would hold a random half of the vertices on the
+                # bound and free them one layer per Newton step.
+                self._plain.solve(self._b, self.c.vector)
+                cold = self._plain.getIterationNumber()
             self._snes.solve(None, self.c.vector)
-            its = self._snes.getLinearSolveIterations()
+            its = cold + self._snes.getLinearSolveIterations()
             passes = self._snes.getIterationNumber()
             self.stats["passes"] += passes
             self.stats["last_passes"] = passes

@@ -460,6 +460,12 @@ class Fracture:
         the standard form ``(G_c / c_w) (w(d) / l + l |grad d|^2)`` both use
         ``l = 2 l0`` (docs/method.md); AT1 has an elastic threshold and a
         damage band of finite width, and needs the bound ``0 <= c <= 1``.
+    bound : bool
+        Solve the phase field with the bound ``0 <= c <= 1`` on its nodal
+        values (the default, and AT1's only choice).  ``False`` gives AT2's
+        unbounded solve of before, whose values undershoot below 0 next to a
+        band of huge history.  The fourth-order functional is solved without
+        it either way (docs/method.md).
     Gc : float
         Critical energy release rate, > 0; with a fourth-order ``anisotropy``
         it is the reference value G-bar_c of eq. 8.
@@ -481,6 +487,7 @@ class Fracture:
     split: str = "spectral"
     anisotropy: Anisotropy | None = None
     model: str = "AT2"
+    bound: bool = True
 
     def __post_init__(self):
         _set(self, "Gc", _real("Gc", self.Gc, gt=0))
@@ -490,6 +497,10 @@ class Fracture:
         _set(self, "model", _choice("model", self.model, FRACTURE_MODELS))
         if self.anisotropy is not None and not isinstance(self.anisotropy, Anisotropy):
             raise SceneError("anisotropy", "must be an anisotropy table", self.anisotropy)
+        if not isinstance(self.bound, bool):
+            raise SceneError("bound", "must be true or false", self.bound)
+        if self.model == "AT1" and not self.bound:
+            raise SceneError("bound", "AT1 needs the bound 0 <= c <= 1", self.bound)
         if self.model == "AT1" and self.anisotropy is not None and self.anisotropy.fourth_order:
             raise SceneError("model", "AT1 is second order only: it cannot take a fourth-order"
                              f" anisotropy (symmetry {self.anisotropy.symmetry!r})", self.model)

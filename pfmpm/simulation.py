@@ -61,7 +61,7 @@ class Simulation:
             split = _core.Split.__members__[f.split if f else "none"]
             materials.append(_core.LinearElastic(m.E, m.nu, m.density, plane, split))
             fracture.append(_core.Fracture(f.Gc, f.l0, f.k_f, f.gamma().tolist(),
-                                           _core.Model.__members__[f.model]) if f else None)
+                                           _core.Model.__members__[f.model], f.bound) if f else None)
         self.cracks = any(fracture)
         self._crackable = np.zeros(len(self.particles), dtype=bool)
         for b, body in enumerate(scene.bodies):

@@ -88,6 +88,7 @@ def test_crack_profile_and_density_match_the_1d_solution():
     # Away from the band the discrete profile follows the exact one closely.
     far = np.abs(x) > 2 * l0
     assert np.max(np.abs(c[far] - exact[far])) < 2e-3
+    assert c.min() >= 0.0 and c.max() <= 1.0  # the bound
 
 
 def test_lumped_mass_and_loads_add_up():

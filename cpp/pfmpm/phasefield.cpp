@@ -110,8 +110,8 @@ PhaseField::PhaseField(const Grid& grid, std::vector<std::optional<Fracture>> fr
   _active = std::any_of(_fracture.begin(), _fracture.end(), [](const auto& f) { return f.has_value(); });
   _fourth = std::any_of(_fracture.begin(), _fracture.end(),
                         [](const auto& f) { return f && f->fourth_order(); });
-  _bounded = std::any_of(_fracture.begin(), _fracture.end(),
-                         [](const auto& f) { return f && f->model == Model::AT1; });
+  _bounded = !_fourth && std::any_of(_fracture.begin(), _fracture.end(),
+                                     [](const auto& f) { return f && f->bound; });
   for (std::size_t m = 0; m < _fracture.size(); ++m)
   {
     if (!_fracture[m])
@@ -133,8 +133,12 @@ PhaseField::PhaseField(const Grid& grid, std::vector<std::optional<Fracture>> fr
     if (f.model != Model::AT1 && f.model != Model::AT2)
       throw std::invalid_argument(at + "model = " + std::to_string(static_cast<int>(f.model))
                                   + ": must be AT1 or AT2");
+    if (f.model == Model::AT1 && !f.bound)
+      throw std::invalid_argument(at + "AT1 needs the bound 0 <= c <= 1");
   }
-  if (_bounded && _fourth)
+  const bool at1 = std::any_of(_fracture.begin(), _fracture.end(),
+                               [](const auto& f) { return f && f->model == Model::AT1; });
+  if (at1 && _fourth)
     throw std::invalid_argument("AT1 is solved with the second-order functional only: no "
                                 "material of its phase field may have gamma != 0");
   if (!(tol > 0.0 && tol < 1.0))
@@ -568,10 +572,11 @@ void PhaseField::ssor_iterations(double norm_f, double stop, double& residual, i
 /// Preconditioned conjugate gradients for K c = F (eq. 50), from the warm
 /// start until ||F - K c|| <= tol ||F||.
 ///
-/// The second-order model keeps the Jacobi preconditioner z = D^-1 r
-/// (jacobi_iterations): its CG needs only 12-28 iterations per step, too few
-/// for Gauss-Seidel sweeps to pay back their cost, and its results stay those
-/// of before bit for bit.
+/// The second-order model without the bound (Fracture::bound false; by
+/// default it is solved by bounded_solve) keeps the Jacobi preconditioner
+/// z = D^-1 r (jacobi_iterations): its CG needs only 12-28 iterations per
+/// step, too few for Gauss-Seidel sweeps to pay back their cost, and its
+/// results stay those of before bit for bit.
 ///
 /// The fourth-order model, whose condition number grows like
 /// gamma_n (l0/h)^4, takes symmetric Gauss-Seidel (SSOR with omega = 1,
@@ -625,8 +630,10 @@ bool PhaseField::conjugate_gradient()
 
 /// K c = F (eq. 50) with the bound 0 <= c <= 1 at every active node: AT1
 /// needs it (without it its equation has no solution where H = 0, and c
-/// would exceed 1 where H is small), and it keeps c_p = sum N_I c_I, a
-/// convex combination of nodal values, in [0, 1].
+/// would exceed 1 where H is small), and for both models it keeps
+/// c_p = sum N_I c_I, a convex combination of nodal values, in [0, 1]
+/// (unbounded, AT2's nodal values undershoot below 0 next to a band of huge
+/// history).
 ///
 /// K is symmetric positive semi-definite, so this is the minimisation of
 /// c.K c / 2 - F.c over the box, whose optimality conditions are, with the
@@ -635,10 +642,10 @@ bool PhaseField::conjugate_gradient()
 /// (Hintermüller, Ito & Kunisch 2002; for phase-field fracture Heister,
 /// Wheeler & Wick 2015) solves them by passes:
 /// 1. warm start as conjugate_gradient, projected onto [0, 1]; nodes on a
-///    bound are held there, unless their multiplier is zero or has the wrong
-///    sign (update_active_set with no margin: a node that no history
-///    reaches, where r = 0, starts free, so a cold start does not have to
-///    release the nodes one layer per pass);
+///    bound are held there only if their multiplier pushes them outwards by
+///    more than tol K_II (update_active_set with the margin -tol): a node that
+///    no history reaches, where r = 0 up to round-off of either sign, starts
+///    free, so a cold start does not release the nodes one layer per pass;
 /// 2. update_active_set with r at the current c;
 /// 3. CG on the free nodes, the held ones as identity rows with their bound
 ///    as right-hand side (free_set_iterations), to ||r_free|| <= tol ||F||;
@@ -674,7 +681,7 @@ bool PhaseField::bounded_solve()
     _bound[a] = c == 1.0 ? 1 : c == 0.0 ? -1 : 0;
   }
   multiply<P>(_c, _q);
-  update_active_set(0.0);
+  update_active_set(-_tol);
 
   double residual = 0.0;
   int it = 0, passes = 0;
@@ -719,7 +726,7 @@ std::int64_t PhaseField::update_active_set(double margin)
     // The multiplier r_a over K_aa: how far a Jacobi step would move c_a.
     const double step = (_rhs[a] - _q[a]) / _diagonal[a];
     std::int8_t b = _bound[a];
-    // Released unless the bound holds the node against a pull beyond the margin.
+    // Released when the multiplier pulls the node into the box by at least the margin.
     if ((b == 1 && step <= -margin) || (b == -1 && step >= margin))
       b = 0;
     else if (b == 0 && (_c[i] > 1.0 || _c[i] < 0.0))

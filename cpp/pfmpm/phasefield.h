@@ -38,6 +38,9 @@ struct Fracture
   double k_f;    ///< residual stiffness k_f in [0, 1) (eq. 15)
   Voigt gamma{}; ///< anisotropy in the material frame; zero: the second-order functional
   Model model = Model::AT2; ///< AT1 only with gamma = 0
+  /// Solve with the bound 0 <= c <= 1 (PhaseField::bounded_solve); AT1 needs
+  /// it, the fourth-order functional (gamma != 0) is solved without it.
+  bool bound = true;
 
   /// Degradation g(c) = (1 - k_f) c^2 + k_f (eq. 15).
   double degradation(double c) const { return (1.0 - k_f) * c * c + k_f; }
@@ -123,9 +126,11 @@ struct PhaseFieldState
 /// Gauss-Seidel sweeps, are taken in an order that does not depend on the
 /// number of threads.
 ///
-/// When some material is AT1, the second-order system is solved with the
-/// bound 0 <= c <= 1 on every node instead (bounded_solve): AT1 has no
-/// solution without it.
+/// The second-order system is solved with the bound 0 <= c <= 1 on every
+/// node instead (bounded_solve) unless every material asks for no bound
+/// (Fracture::bound, AT2 only): AT1 has no solution without it, and it keeps
+/// AT2's nodal values, which undershoot next to a band of huge history, in
+/// [0, 1].
 class PhaseField
 {
 public:
@@ -199,9 +204,10 @@ private:
   template <int P>
   bool bounded_solve();
   /// @brief One active-set update from c and r = F - K c (in _q as K c):
-  /// a node at a bound is released unless its multiplier pushes it outwards
-  /// by more than `margin` K_II, a free node outside [0, 1] is put on the
-  /// bound it crossed (and c set to it). Rebuilds the free list `_free`.
+  /// a node at a bound is released when its multiplier pulls it into the box
+  /// by at least `margin` K_II (a negative margin: unless it pushes it
+  /// outwards by more than -margin K_II), a free node outside [0, 1] is put
+  /// on the bound it crossed (and c set to it). Rebuilds the free list `_free`.
   /// @return how many nodes changed their state.
   std::int64_t update_active_set(double margin);
   /// @brief Jacobi-preconditioned CG on the free nodes (`_free`), the others
@@ -266,7 +272,7 @@ private:
   std::vector<std::optional<Fracture>> _fracture;
   bool _active;
   bool _fourth; // some material has gamma != 0
-  bool _bounded; // some material is AT1: 0 <= c <= 1 is imposed
+  bool _bounded; // second order and some material bounded: 0 <= c <= 1 is imposed
   double _tol;
   int _max_iterations;
   int _pad;                // padding of the node layout: the degree

@@ -160,8 +160,23 @@ TEST(Models, AT1IsSecondOrderOnly)
                           {Fracture{1.0, 2.0, 0.0, {}, Model::AT1}, Fracture{1.0, 2.0, 0.0, gamma}},
                           1e-6, 100),
                std::invalid_argument);
+  EXPECT_THROW(PhaseField(quadratic, {Fracture{1.0, 2.0, 0.0, {}, Model::AT1, false}}, 1e-6, 100),
+               std::invalid_argument);
   EXPECT_TRUE(PhaseField(quadratic, {Fracture{1.0, 2.0, 0.0, {}, Model::AT1}}, 1e-6, 100).bounded());
-  EXPECT_FALSE(PhaseField(quadratic, {Fracture{1.0, 2.0, 0.0}}, 1e-6, 100).bounded());
+}
+
+TEST(Models, WhichSolvesAreBounded)
+{
+  // Second order: bounded unless every material asks for no bound; fourth
+  // order: never (its own profile leaves [0, 1] when gamma_n > 1).
+  const Grid quadratic(2, {8, 8}, 1.0, {0.0, 0.0});
+  const Voigt gamma{1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 2.0};
+  const Fracture at2{1.0, 2.0, 0.0}, free{1.0, 2.0, 0.0, {}, Model::AT2, false};
+  EXPECT_TRUE(at2.bound);
+  EXPECT_TRUE(PhaseField(quadratic, {at2}, 1e-6, 100).bounded());
+  EXPECT_FALSE(PhaseField(quadratic, {free}, 1e-6, 100).bounded());
+  EXPECT_TRUE(PhaseField(quadratic, {free, at2}, 1e-6, 100).bounded());
+  EXPECT_FALSE(PhaseField(quadratic, {Fracture{1.0, 2.0, 0.0, gamma}}, 1e-6, 100).bounded());
 }
 
 TEST(BoundedSolve, BelowTheThresholdNothingIsDamaged)
