@@ -133,8 +133,24 @@ def test_compare_driver_at_a_tiny_size(tmp_path):
 
     a = json.loads((out / "agreement.json").read_text())
     assert a["h"] == 0.5 and a["l0"] == 1.0 and a["initiation_mpm_us"] is None
+    assert a["model"] == "AT2"
     assert a["elastic_rms_rel"] < 0.05  # both are elastic up to 6 us
     assert "| mpm | 0.5 | 144000 |" in (out / "comparison.md").read_text()
+
+
+def test_compare_runs_either_model(tmp_path):
+    """``--model AT1``: both methods solve AT1 with the bound, and the outputs say so."""
+    out = tmp_path / "cmp"
+    r = pfmpm("compare", "borden", "--h", "1.0", "--l0", "2.0", "--end", "3", "--model", "AT1",
+              "--out", out, "--scene", DEMO, "--quiet", timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert "\nAT1: agreement at h = 1:" in r.stdout
+    assert json.loads((out / "agreement.json").read_text())["model"] == "AT1"
+    assert (out / "comparison.md").read_text().splitlines()[2].startswith("AT1 phase field, l0 = 2 mm")
+    mpm, fem = (json.loads((out / f"{m}_h1" / "summary.json").read_text())["phase_field"]
+                for m in ("mpm", "fem"))
+    assert mpm["bounded"] and mpm["passes"] >= mpm["solves"] > 1
+    assert fem["solver"] == "vinewtonrsls: cg + jacobi" and fem["passes"] >= 1
 
 
 def test_l0_below_h_is_refused_before_any_run(tmp_path):

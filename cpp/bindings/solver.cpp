@@ -41,6 +41,9 @@ py::dict stats_dict(const PhaseFieldStats& st)
   d["start_residual"] = st.start_residual;
   d["last_residual"] = st.last_residual;
   d["unknowns"] = st.unknowns;
+  d["passes"] = st.passes;
+  d["last_passes"] = st.last_passes;
+  d["at_bound"] = st.at_bound;
   return d;
 }
 
@@ -72,21 +75,34 @@ void bind_solver(py::module_& m)
         out[i][j] = v[3 * i + j];
     return out;
   };
+  py::enum_<Model>(m, "Model", "the phase-field model: w(d) = d^2 (AT2) or d (AT1)")
+      .value("AT2", Model::AT2)
+      .value("AT1", Model::AT1);
   py::class_<Fracture>(m, "Fracture", "Fracture parameters of a material that can crack")
       .def(py::init(
-               [](double Gc, double l0, double k_f, const Matrix3& gamma)
+               [](double Gc, double l0, double k_f, const Matrix3& gamma, Model model, bool bound)
                {
                  Fracture f{Gc, l0, k_f};
                  for (int i = 0; i < 3; ++i)
                    for (int j = 0; j < 3; ++j)
                      f.gamma[3 * i + j] = gamma[i][j];
+                 f.model = model;
+                 f.bound = bound;
                  return f;
                }),
            py::arg("Gc"), py::arg("l0"), py::arg("k_f") = 0.0, py::arg("gamma") = Matrix3{},
+           py::arg("model") = Model::AT2, py::arg("bound") = true,
            "gamma: the 3 x 3 Voigt anisotropy tensor of eq. 6 in the material frame")
       .def_readonly("Gc", &Fracture::Gc)
       .def_readonly("l0", &Fracture::l0)
       .def_readonly("k_f", &Fracture::k_f)
+      .def_readonly("model", &Fracture::model)
+      .def_readonly("bound", &Fracture::bound)
+      .def("reaction", &Fracture::reaction, py::arg("H"),
+           "coefficient of N_I N_J V_p in K at history H (eq. 49; AT1: 16 l0 (1 - k_f) H / (3 G_c))")
+      .def("source", &Fracture::source, "coefficient of N_I V_p in F (eq. 52): 1 (AT2), 1/2 (AT1)")
+      .def("crack_density", &Fracture::crack_density, py::arg("c"), py::arg("grad2"),
+           "crack density Z at c with |grad c|^2 = grad2 (eq. 4, gamma = 0)")
       .def_property_readonly("gamma", [matrix](const Fracture& f) { return matrix(f.gamma); })
       .def_property_readonly("fourth_order", &Fracture::fourth_order)
       .def("rotated", [matrix](const Fracture& f, double phi) { return matrix(f.rotated(phi)); },
@@ -121,6 +137,7 @@ void bind_solver(py::module_& m)
            {
              py::dict d = stats_dict(s.phase_field_stats());
              d["fourth_order"] = s.fourth_order();
+             d["bounded"] = s.bounded();
              return d;
            })
       .def("set_stability_length", &Solver::set_stability_length, py::arg("length"),

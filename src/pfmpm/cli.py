@@ -105,7 +105,7 @@ def _compare(args: argparse.Namespace) -> int:
     out = Path(args.out)
     try:
         result = compare_borden(out, hs, args.l0, args.end, scene_path=args.scene, overrides=args.set,
-                                progress=not args.quiet)
+                                progress=not args.quiet, model=args.model)
     except SimulationError as err:
         print(f"error: {err}", file=sys.stderr)
         print(f"output so far is in {out}", file=sys.stderr)
@@ -114,7 +114,7 @@ def _compare(args: argparse.Namespace) -> int:
         print(f"interrupted; output so far is in {out}", file=sys.stderr)
         return 130
     a = result.agreement
-    print(f"agreement at h = {result.h_common:g}: initiation {a['initiation_mpm_us']:.3f} (MPM)"
+    print(f"{args.model}: agreement at h = {result.h_common:g}: initiation {a['initiation_mpm_us']:.3f} (MPM)"
           f" vs {a['initiation_fem_us']:.3f} us (FEM); elastic energy RMS difference"
           f" {100 * a['elastic_rms_rel']:.2f} % of the peak; end fracture energy"
           f" {100 * a['fracture_end_rel_diff']:+.2f} %")
@@ -241,6 +241,8 @@ def main(argv: list[str] | None = None) -> int:
     compare.add_argument("--l0", type=float, default=DEFAULT_L0,
                          help="phase-field length scale (default %(default)g)")
     compare.add_argument("--end", type=float, default=DEFAULT_END, help="end time (default %(default)g)")
+    compare.add_argument("--model", choices=["AT2", "AT1"], default="AT2",
+                         help="phase-field model of both methods (default %(default)s)")
     compare.add_argument("--out", default="out/compare_borden", help="output directory (default %(default)s)")
     compare.add_argument("--scene", default=str(BORDEN_SCENE), help="the scene file (default %(default)s)")
     compare.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",

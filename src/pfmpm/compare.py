@@ -169,10 +169,11 @@ def agreement(mpm_csv, fem_csv) -> dict:
 # -- the runs -----------------------------------------------------------------
 
 
-def comparison_overrides(scene: dict, h: float, l0: float, end: float) -> list[str]:
+def comparison_overrides(scene: dict, h: float, l0: float, end: float,
+                         model: str = "AT2") -> list[str]:
     """Scene overrides of one comparison run: grid spacing ``h``, the length
-    scale ``l0`` of every material that can crack, end time ``end``, and no
-    particle output.
+    scale ``l0`` and phase-field ``model`` (AT1 or AT2) of every material that
+    can crack, end time ``end``, and no particle output.
 
     Parameters
     ----------
@@ -183,6 +184,7 @@ def comparison_overrides(scene: dict, h: float, l0: float, end: float) -> list[s
     materials = scene.get("materials", [])
     crackable = [i for i, m in enumerate(materials) if isinstance(m, Mapping) and "fracture" in m]
     return ([f"grid.h={h!r}"] + [f"materials.{i}.fracture.l0={l0!r}" for i in crackable]
+            + [f"materials.{i}.fracture.model={model}" for i in crackable]
             + [f"time.end={end!r}", "output.particles=false"])
 
 
@@ -199,7 +201,8 @@ def _run_name(method: str, h: float) -> str:
 
 def compare_borden(out_dir: Path | str, hs: Sequence[float] = DEFAULT_H, l0: float = DEFAULT_L0,
                    end: float = DEFAULT_END, scene_path: Path | str = BORDEN_SCENE,
-                   overrides: Sequence[str] = (), progress: bool = True, log=print) -> Comparison:
+                   overrides: Sequence[str] = (), progress: bool = True, log=print,
+                   model: str = "AT2") -> Comparison:
     """Run the Borden plate with PF-MPM and PF-FEM at each ``h`` and compare.
 
     Parameters
@@ -223,6 +226,9 @@ def compare_borden(out_dir: Path | str, hs: Sequence[float] = DEFAULT_H, l0: flo
         Show progress bars.
     log : callable
         Called with one line of text per run started and finished.
+    model : str
+        The phase-field model of both methods, ``"AT2"`` (the paper's) or
+        ``"AT1"`` (:class:`~pfmpm.scene.Fracture`).
 
     Returns
     -------
@@ -248,7 +254,8 @@ def compare_borden(out_dir: Path | str, hs: Sequence[float] = DEFAULT_H, l0: flo
     hs = sorted({float(h) for h in hs}, reverse=True)  # coarse to fine
     out = Path(out_dir)
     tables = read_toml(scene_path)
-    by_h = {h: _with_snapshots(Scene.from_dict(tables, comparison_overrides(tables, h, l0, end)
+    by_h = {h: _with_snapshots(Scene.from_dict(tables,
+                                               comparison_overrides(tables, h, l0, end, model)
                                                + list(overrides)))
             for h in hs}
     # The FEM set-up is cheap and checks that its path supports the scene.
@@ -274,7 +281,7 @@ def compare_borden(out_dir: Path | str, hs: Sequence[float] = DEFAULT_H, l0: flo
     rows = _table(runs, hs, scene.cracks[0])
     fine = hs[-1]
     agree = agreement(runs["mpm", fine]["energies"], runs["fem", fine]["energies"])
-    files = _write_outputs(out, rows, agree, runs, hs, scene, l0, end)
+    files = _write_outputs(out, rows, agree, runs, hs, scene, l0, end, model)
     return Comparison(out_dir=out, rows=rows, agreement=agree, h_common=fine, files=files)
 
 
@@ -309,7 +316,7 @@ def _table(runs: dict, hs: list[float], crack: Crack) -> list[dict]:
 
 
 def _write_outputs(out: Path, rows: list[dict], agree: dict, runs: dict, hs: list[float],
-                   scene: Scene, l0: float, end: float) -> dict[str, Path]:
+                   scene: Scene, l0: float, end: float, model: str) -> dict[str, Path]:
     """Write the CSV, the plots and ``comparison.md``; return their paths by name."""
     files = {name: out / name for name in (
         "speed_vs_error.csv", "energies_overlay.png", "crack_tip_speed_overlay.png",
@@ -330,8 +337,9 @@ def _write_outputs(out: Path, rows: list[dict], agree: dict, runs: dict, hs: lis
                               files["phase_field_side_by_side.png"]):
         del files["phase_field_side_by_side.png"]
     _plot_speed_vs_error(rows, files["speed_vs_error.png"])
-    files["comparison.md"].write_text(_markdown(rows, agree, hs[-1], l0, end))
+    files["comparison.md"].write_text(_markdown(rows, agree, hs[-1], l0, end, model))
     plain = {k: v if math.isfinite(v) else None for k, v in {"h": hs[-1], "l0": l0, **agree}.items()}
+    plain["model"] = model
     (out / "agreement.json").write_text(json.dumps(plain, indent=2) + "\n")  # NaN as null
     files["agreement.json"] = out / "agreement.json"
     return files
@@ -442,12 +450,12 @@ def _fmt(value, spec: str = ".4g") -> str:
     return "NaN" if not math.isfinite(value) else format(value, spec)
 
 
-def _markdown(rows: list[dict], agree: dict, h: float, l0: float, end: float) -> str:
+def _markdown(rows: list[dict], agree: dict, h: float, l0: float, end: float, model: str) -> str:
     """``comparison.md``: the table of runs and the agreement at the finest common h."""
     lines = [
         "# PF-MPM against PF-FEM: Borden plate",
         "",
-        f"l0 = {l0:g} mm, end time {end:g} us. Errors: relative difference of the end fracture"
+        f"{model} phase field, l0 = {l0:g} mm, end time {end:g} us. Errors: relative difference of the end fracture"
         " energy from the finest run of the same method (`error`) and of the other method"
         " (`error_vs_other`). Branch time: the tip first more than 1 mm off the notch line"
         " while more than 5 mm ahead of the notch tip.",

@@ -37,7 +37,8 @@ def core_materials(scene: Scene) -> tuple[list, list]:
                              + ", ".join(core) + ")", m.model)
         materials.append(_core.material(m.model, m.core_parameters(scene.plane)))
         f = m.fracture
-        fracture.append(_core.Fracture(f.Gc, f.l0, f.k_f, f.gamma().tolist()) if f else None)
+        fracture.append(_core.Fracture(f.Gc, f.l0, f.k_f, f.gamma().tolist(),
+                                       _core.Model.__members__[f.model], f.bound) if f else None)
     return materials, fracture
 
 

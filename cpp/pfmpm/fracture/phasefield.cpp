@@ -91,6 +91,8 @@ PhaseField::PhaseField(const Grid& grid, std::vector<std::optional<Fracture>> fr
   _active = std::any_of(_fracture.begin(), _fracture.end(), [](const auto& f) { return f.has_value(); });
   _fourth = std::any_of(_fracture.begin(), _fracture.end(),
                         [](const auto& f) { return f && f->fourth_order(); });
+  _bounded = !_fourth && std::any_of(_fracture.begin(), _fracture.end(),
+                                     [](const auto& f) { return f && f->bound; });
   for (std::size_t m = 0; m < _fracture.size(); ++m)
   {
     if (!_fracture[m])
@@ -109,7 +111,17 @@ PhaseField::PhaseField(const Grid& grid, std::vector<std::optional<Fracture>> fr
     if (f.fourth_order() && grid.degree() < 2)
       throw std::invalid_argument(at + "gamma != 0 needs second derivatives of the basis: "
                                   "the grid degree must be >= 2, not 1");
+    if (f.model != Model::AT1 && f.model != Model::AT2)
+      throw std::invalid_argument(at + "model = " + std::to_string(static_cast<int>(f.model))
+                                  + ": must be AT1 or AT2");
+    if (f.model == Model::AT1 && !f.bound)
+      throw std::invalid_argument(at + "AT1 needs the bound 0 <= c <= 1");
   }
+  const bool at1 = std::any_of(_fracture.begin(), _fracture.end(),
+                               [](const auto& f) { return f && f->model == Model::AT1; });
+  if (at1 && _fourth)
+    throw std::invalid_argument("AT1 is solved with the second-order functional only: no "
+                                "material of its phase field may have gamma != 0");
   if (!(tol > 0.0 && tol < 1.0))
     throw std::invalid_argument("tol = " + text(tol) + ": must lie in (0, 1)");
   if (max_iterations < 1)
@@ -163,7 +175,11 @@ bool PhaseField::solve(Particles& particles, const CellSort& sort)
   {
     constexpr bool Fourth = decltype(fourth)::value;
     assemble<P, Fourth>(particles, sort);
-    const bool converged = conjugate_gradient<P, Fourth>();
+    bool converged;
+    if constexpr (Fourth) // never bounded (the constructor refuses AT1 with gamma != 0)
+      converged = conjugate_gradient<P, true>();
+    else
+      converged = _bounded ? bounded_solve<P>() : conjugate_gradient<P, false>();
     map_to_particles<P, Fourth>(particles, sort);
     return converged;
   };
@@ -229,9 +245,9 @@ void PhaseField::assemble(const Particles& particles, const CellSort& sort)
             {
               const Fracture& fr = *fracture(material[p]);
               const double V = volume[p];
-              // eq. 49: F_p = 4 l0 (1 - k_f) H / G_c + 1
-              const double a = (4.0 * fr.l0 * (1.0 - fr.k_f) * history[p] / fr.Gc + 1.0) * V;
-              const double b = 4.0 * fr.l0 * fr.l0 * V;
+              const double a = fr.reaction(history[p]) * V; // eq. 49 (AT1: Fracture::reaction)
+              const double b = fr.diffusion() * V;
+              const double src = fr.source() * V;
               alignas(32) double w[R]{}, gx[R]{}, gy[R]{};
               for (int i = 0; i < K; ++i)
               {
@@ -253,7 +269,7 @@ void PhaseField::assemble(const Particles& particles, const CellSort& sort)
                 const double e = 4.0 * fr.l0 * fr.l0 * fr.l0 * fr.l0 * V;
                 for (int i = 0; i < K; ++i)
                 {
-                  f[i] += V * w[i]; // eq. 52
+                  f[i] += src * w[i]; // eq. 52
                   const double aw = a * w[i], bx_ = b * gx[i], by_ = b * gy[i];
                   // e G kappa_i, so that the fourth-order term is u . kappa_j
                   const double u0 = e * (G[0] * kxx[i] + G[1] * kyy[i] + G[2] * kxy[i]);
@@ -267,7 +283,7 @@ void PhaseField::assemble(const Particles& particles, const CellSort& sort)
               else
                 for (int i = 0; i < K; ++i)
                 {
-                  f[i] += V * w[i]; // eq. 52
+                  f[i] += src * w[i]; // eq. 52
                   const double aw = a * w[i], bx_ = b * gx[i], by_ = b * gy[i];
                   for (int j = 0; j < R; ++j)
                     block[i][j] += aw * w[j] + bx_ * gx[j] + by_ * gy[j]; // eq. 57, gamma = 0
@@ -531,10 +547,11 @@ void PhaseField::ssor_iterations(double norm_f, double stop, double& residual, i
 /// Preconditioned conjugate gradients for K c = F (eq. 50), from the warm
 /// start until ||F - K c|| <= tol ||F||.
 ///
-/// The second-order model keeps the Jacobi preconditioner z = D^-1 r
-/// (jacobi_iterations): its CG needs only 12-28 iterations per step, too few
-/// for Gauss-Seidel sweeps to pay back their cost, and its results stay those
-/// of before bit for bit.
+/// The second-order model without the bound (Fracture::bound false; by
+/// default it is solved by bounded_solve) keeps the Jacobi preconditioner
+/// z = D^-1 r (jacobi_iterations): its CG needs only 12-28 iterations per
+/// step, too few for Gauss-Seidel sweeps to pay back their cost, and its
+/// results stay those of before bit for bit.
 ///
 /// The fourth-order model, whose condition number grows like
 /// gamma_n (l0/h)^4, takes symmetric Gauss-Seidel (SSOR with omega = 1,
@@ -586,6 +603,183 @@ bool PhaseField::conjugate_gradient()
   return residual <= stop;
 }
 
+/// K c = F (eq. 50) with the bound 0 <= c <= 1 at every active node: AT1
+/// needs it (without it its equation has no solution where H = 0, and c
+/// would exceed 1 where H is small), and for both models it keeps
+/// c_p = sum N_I c_I, a convex combination of nodal values, in [0, 1]
+/// (unbounded, AT2's nodal values undershoot below 0 next to a band of huge
+/// history).
+///
+/// K is symmetric positive semi-definite, so this is the minimisation of
+/// c.K c / 2 - F.c over the box, whose optimality conditions are, with the
+/// multiplier r = F - K c: r_I = 0 where 0 < c_I < 1, r_I >= 0 where
+/// c_I = 1 and r_I <= 0 where c_I = 0. The primal-dual active-set method
+/// (Hintermüller, Ito & Kunisch 2002; for phase-field fracture Heister,
+/// Wheeler & Wick 2015) solves them by passes:
+/// 1. warm start as conjugate_gradient, projected onto [0, 1]; nodes on a
+///    bound are held there only if their multiplier pushes them outwards by
+///    more than tol K_II (update_active_set with the margin -tol): a node that
+///    no history reaches, where r = 0 up to round-off of either sign, starts
+///    free, so a cold start does not release the nodes one layer per pass;
+/// 2. update_active_set with r at the current c;
+/// 3. CG on the free nodes, the held ones as identity rows with their bound
+///    as right-hand side (free_set_iterations), to ||r_free|| <= tol ||F||;
+/// 4. r = F - K c and update_active_set again; stop when no node changes,
+///    else back to 3.
+/// Each pass is warm-started from the last, and a step's first pass from
+/// the last step's solution, so after the first steps one or two passes
+/// suffice; a cold start (an initial crack at t = 0) takes about one pass
+/// per two grid spacings of the AT1 band's half-width 4 l0, as each pass
+/// releases the nodes next to the damaged ones. Every update is per node and
+/// every sum is a deterministic_sum, so the result has the same bits on any
+/// number of threads. The CG iterations of each pass, and the passes, are
+/// each limited to max_iterations.
+template <int P>
+bool PhaseField::bounded_solve()
+{
+  const std::size_t na = _rhs.size();
+  const auto norm_f = std::sqrt(deterministic_sum<1>(
+      na, [&](std::size_t a, std::array<double, 1>& acc) { acc[0] += _rhs[a] * _rhs[a]; })[0]);
+  const double stop = _tol * norm_f;
+
+  // The warm start of conjugate_gradient, projected onto the bounds.
+  const double trend = _stats.solves >= 2 ? 1.0 : 0.0;
+  _bound.resize(na);
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t a = 0; a < static_cast<std::ptrdiff_t>(na); ++a)
+  {
+    const std::size_t i = _position[a];
+    const double now = _c[i];
+    const double c = std::clamp(now + trend * (now - _c_previous[i]), 0.0, 1.0);
+    _c_previous[i] = now;
+    _c[i] = c;
+    _bound[a] = c == 1.0 ? 1 : c == 0.0 ? -1 : 0;
+  }
+  multiply<P>(_c, _q);
+  update_active_set(-_tol);
+
+  double residual = 0.0;
+  int it = 0, passes = 0;
+  bool settled = false;
+  while (passes < _max_iterations)
+  {
+    ++passes;
+    double start = 0.0;
+    int pass_it = 0;
+    free_set_iterations<P>(stop, start, residual, pass_it);
+    it += pass_it;
+    if (passes == 1)
+      _stats.start_residual = norm_f > 0.0 ? start / norm_f : 0.0;
+    if (residual > stop)
+      break; // CG ran out of iterations
+    multiply<P>(_c, _q);
+    if (update_active_set(_tol) == 0)
+    {
+      settled = true;
+      break;
+    }
+  }
+  _stats.solves += 1;
+  _stats.iterations += it;
+  _stats.last_iterations = it;
+  _stats.passes += passes;
+  _stats.last_passes = passes;
+  _stats.last_residual = norm_f > 0.0 ? residual / norm_f : 0.0;
+  _stats.unknowns = static_cast<std::int32_t>(na);
+  _stats.at_bound = static_cast<std::int32_t>(na - _free.size());
+  return settled;
+}
+
+std::int64_t PhaseField::update_active_set(double margin)
+{
+  const auto na = static_cast<std::ptrdiff_t>(_rhs.size());
+  std::int64_t changed = 0;
+#pragma omp parallel for schedule(static) reduction(+ : changed)
+  for (std::ptrdiff_t a = 0; a < na; ++a)
+  {
+    const std::size_t i = _position[a];
+    // The multiplier r_a over K_aa: how far a Jacobi step would move c_a.
+    const double step = (_rhs[a] - _q[a]) / _diagonal[a];
+    std::int8_t b = _bound[a];
+    // Released when the multiplier pulls the node into the box by at least the margin.
+    if ((b == 1 && step <= -margin) || (b == -1 && step >= margin))
+      b = 0;
+    else if (b == 0 && (_c[i] > 1.0 || _c[i] < 0.0))
+      b = _c[i] > 1.0 ? 1 : -1; // hold it on the bound it crossed
+    if (b != _bound[a])
+    {
+      ++changed;
+      _bound[a] = b;
+      if (b != 0)
+        _c[i] = b > 0 ? 1.0 : 0.0;
+    }
+  }
+  _free.clear();
+  for (std::ptrdiff_t a = 0; a < na; ++a)
+    if (_bound[a] == 0)
+      _free.push_back(static_cast<std::size_t>(a));
+  return changed;
+}
+
+template <int P>
+void PhaseField::free_set_iterations(double stop, double& start, double& residual, int& it)
+{
+  const std::size_t nf = _free.size();
+  const Stencil<P> stencil(_padded_ny);
+  // The search direction is zero on the held nodes, so K p touches only the
+  // free ones: CG on K restricted to them.
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t k = 0; k < static_cast<std::ptrdiff_t>(_search.size()); ++k)
+    _search[k] = 0.0;
+  auto rr = deterministic_sum<2>(
+      nf,
+      [&](std::size_t k, std::array<double, 2>& acc)
+      {
+        const std::size_t a = _free[k];
+        _r[k] = _rhs[a] - row_product(stencil, a, _c.data()); // eq. 50
+        _z[k] = _r[k] / _diagonal[a];
+        _search[_position[a]] = _z[k];
+        acc[0] += _r[k] * _r[k];
+        acc[1] += _r[k] * _z[k];
+      });
+  residual = std::sqrt(rr[0]);
+  start = residual;
+  double rz = rr[1];
+  while (residual > stop && it < _max_iterations)
+  {
+    ++it;
+    const double pq = deterministic_sum<1>(
+        nf,
+        [&](std::size_t k, std::array<double, 1>& acc)
+        {
+          const std::size_t a = _free[k];
+          _q[k] = row_product(stencil, a, _search.data());
+          acc[0] += _search[_position[a]] * _q[k];
+        })[0];
+    const double alpha = rz / pq;
+    rr = deterministic_sum<2>(
+        nf,
+        [&](std::size_t k, std::array<double, 2>& acc)
+        {
+          const std::size_t i = _position[_free[k]];
+          _c[i] += alpha * _search[i];
+          _r[k] -= alpha * _q[k];
+          _z[k] = _r[k] / _diagonal[_free[k]];
+          acc[0] += _r[k] * _r[k];
+          acc[1] += _r[k] * _z[k];
+        });
+    residual = std::sqrt(rr[0]);
+    const double beta = rr[1] / rz;
+    rz = rr[1];
+#pragma omp parallel for schedule(static)
+    for (std::ptrdiff_t k = 0; k < static_cast<std::ptrdiff_t>(nf); ++k)
+    {
+      const std::size_t i = _position[_free[k]];
+      _search[i] = _z[k] + beta * _search[i];
+    }
+  }
+}
+
 template <int P, bool Fourth>
 void PhaseField::map_to_particles(Particles& particles, const CellSort& sort)
 {
@@ -622,9 +816,8 @@ void PhaseField::map_to_particles(Particles& particles, const CellSort& sort)
                         kappa[h] += s.d2N(h, i) * nodal[i]; // eq. 55, per component
                   }
                   c[p] = cp;
-                  // G_c V Z with Z of eq. 4.
-                  const double one_minus = 1.0 - cp;
-                  double Z = one_minus * one_minus / (4.0 * fr.l0) + fr.l0 * (gx * gx + gy * gy);
+                  // G_c V Z with Z of eq. 4 (AT1: Fracture::crack_density).
+                  double Z = fr.crack_density(cp, gx * gx + gy * gy);
                   if constexpr (Fourth) // zero for a material with gamma = 0
                     Z += fr.l0 * fr.l0 * fr.l0 * curvature_energy(rotated(fr, phi[p]), kappa);
                   energy[p] = fr.Gc * volume[p] * Z;

@@ -21,6 +21,15 @@ namespace pfmpm
 /// term of eq. 4 is l0^3 kappa^T gamma kappa.
 using Voigt = std::array<double, 9>;
 
+/// @brief The local term w(d) of the crack density, d = 1 - c. In the
+/// standard form (G_c / c_w) (w(d) / l + l |grad d|^2) with l = 2 l0
+/// (docs/method.md):
+enum class Model : int
+{
+  AT2 = 0, ///< w = d^2, c_w = 2: eq. 4 of the paper; damage at any tension
+  AT1 = 1  ///< w = d, c_w = 8/3: an elastic threshold and a band of finite width
+};
+
 /// Fracture parameters of a material that can crack.
 struct Fracture
 {
@@ -28,9 +37,41 @@ struct Fracture
   double l0;     ///< length scale l0 (> 0)
   double k_f;    ///< residual stiffness k_f in [0, 1) (eq. 15)
   Voigt gamma{}; ///< anisotropy in the material frame; zero: the second-order functional
+  Model model = Model::AT2; ///< AT1 only with gamma = 0
+  /// Solve with the bound 0 <= c <= 1 (PhaseField::bounded_solve); AT1 needs
+  /// it, the fourth-order functional (gamma != 0) is solved without it.
+  bool bound = true;
 
   /// Degradation g(c) = (1 - k_f) c^2 + k_f (eq. 15).
   double degradation(double c) const { return (1.0 - k_f) * c * c + k_f; }
+
+  /// @brief Per unit volume, the coefficient of N_I N_J in K (eq. 57) at
+  /// history H: eq. 49's F_p = 4 l0 (1 - k_f) H / G_c + 1 for AT2, and
+  /// 16 l0 (1 - k_f) H / (3 G_c) for AT1, whose crack density has no
+  /// (1 - c)^2 term.
+  double reaction(double H) const
+  {
+    if (model == Model::AT1)
+      return 16.0 * l0 * (1.0 - k_f) * H / (3.0 * Gc);
+    return 4.0 * l0 * (1.0 - k_f) * H / Gc + 1.0;
+  }
+  /// @brief Per unit volume, the coefficient of grad N_I . grad N_J in K
+  /// (eq. 57): 4 l0^2 for both models.
+  double diffusion() const { return 4.0 * l0 * l0; }
+  /// @brief Per unit volume, the coefficient of N_I in F (eq. 52): 1 for
+  /// AT2, 1/2 for AT1 (its linear term (3 / 16 l0) (1 - c), scaled like
+  /// the rest of AT1's equation by 8 l0 / (3 G_c)).
+  double source() const { return model == Model::AT1 ? 0.5 : 1.0; }
+  /// @brief Crack density Z at phase field c with |grad c|^2 = `grad2`
+  /// (eq. 4 with gamma = 0): (1 - c)^2 / (4 l0) + l0 |grad c|^2 for AT2,
+  /// 3 (1 - c) / (16 l0) + (3/4) l0 |grad c|^2 for AT1.
+  double crack_density(double c, double grad2) const
+  {
+    const double d = 1.0 - c;
+    if (model == Model::AT1)
+      return 3.0 * d / (16.0 * l0) + 0.75 * l0 * grad2;
+    return d * d / (4.0 * l0) + l0 * grad2;
+  }
   /// Whether eq. 4 has its fourth-order term.
   bool fourth_order() const;
   /// @brief gamma seen in the global frame by a point whose principal material
@@ -46,10 +87,13 @@ struct PhaseFieldStats
 {
   std::int64_t solves = 0;           ///< solves so far
   std::int64_t iterations = 0;       ///< CG iterations over all solves
-  std::int32_t last_iterations = 0;  ///< CG iterations of the last solve
+  std::int32_t last_iterations = 0;  ///< CG iterations of the last solve (all its passes)
   double start_residual = 0.0;       ///< ||R|| / ||F|| of the last solve's warm start
   double last_residual = 0.0;        ///< ||R|| / ||F|| after the last solve
   std::int32_t unknowns = 0;         ///< nodes in the last system
+  std::int64_t passes = 0;           ///< active-set passes over all bounded solves
+  std::int32_t last_passes = 0;      ///< active-set passes of the last bounded solve
+  std::int32_t at_bound = 0;         ///< nodes held at c = 0 or 1 by the last bounded solve
 };
 
 /// @brief What one solve hands to the next: the nodal phase field of the last
@@ -82,6 +126,12 @@ struct PhaseFieldState
 /// ||F - K c|| <= tol ||F||. Sums over particles and nodes, and the
 /// Gauss-Seidel sweeps, are taken in an order that does not depend on the
 /// number of threads.
+///
+/// The second-order system is solved with the bound 0 <= c <= 1 on every
+/// node instead (bounded_solve) unless every material asks for no bound
+/// (Fracture::bound, AT2 only): AT1 has no solution without it, and it keeps
+/// AT2's nodal values, which undershoot next to a band of huge history, in
+/// [0, 1].
 class PhaseField
 {
 public:
@@ -100,6 +150,8 @@ public:
   bool active() const { return _active; }
   /// Whether some material has the fourth-order term (gamma != 0).
   bool fourth_order() const { return _fourth; }
+  /// Whether the nodal phase field is solved with the bound 0 <= c <= 1.
+  bool bounded() const { return _bounded; }
   /// Fracture parameters of `material`, or nullptr when it cannot crack.
   const Fracture* fracture(std::int32_t material) const
   {
@@ -143,6 +195,26 @@ private:
   void ssor_iterations(double norm_f, double stop, double& residual, int& it);
   template <int P>
   void multiply(const std::vector<double>& padded, std::vector<double>& out) const;
+  /// @brief K c = F (eq. 50) with the bound 0 <= c <= 1 on every active
+  /// node, by a primal-dual active-set method around Jacobi-preconditioned
+  /// CG (see the definition).
+  /// @return false if a CG pass did not reach tol within max_iterations or
+  /// the active set did not settle within max_iterations passes.
+  template <int P>
+  bool bounded_solve();
+  /// @brief One active-set update from c and r = F - K c (in _q as K c):
+  /// a node at a bound is released when its multiplier pulls it into the box
+  /// by at least `margin` K_II (a negative margin: unless it pushes it
+  /// outwards by more than -margin K_II), a free node outside [0, 1] is put
+  /// on the bound it crossed (and c set to it). Rebuilds the free list `_free`.
+  /// @return how many nodes changed their state.
+  std::int64_t update_active_set(double margin);
+  /// @brief Jacobi-preconditioned CG on the free nodes (`_free`), the others
+  /// held at their values: the rows of the held nodes are identity rows.
+  /// Sets `start` and `residual` to ||r|| over the free nodes before and
+  /// after and `it` to the iterations; stops at `stop` or max_iterations.
+  template <int P>
+  void free_set_iterations(double stop, double& start, double& residual, int& it);
   template <int P, bool Fourth>
   void map_to_particles(Particles& particles, const CellSort& sort);
   /// @brief The upper half of K's (2p+1)^2-point stencil: the centre, then the
@@ -197,6 +269,7 @@ private:
   std::vector<std::optional<Fracture>> _fracture;
   bool _active;
   bool _fourth; // some material has gamma != 0
+  bool _bounded; // second order and some material bounded: 0 <= c <= 1 is imposed
   double _tol;
   int _max_iterations;
   int _pad;                // padding of the node layout: the degree
@@ -217,6 +290,10 @@ private:
   std::vector<std::size_t> _column_start;
   std::vector<double> _inverse;
   std::vector<double> _forward, _v, _g;
+  // Bounded solve only: per active node -1 (held at c = 0), 0 (free) or +1
+  // (held at c = 1), and the free active nodes in ascending order.
+  std::vector<std::int8_t> _bound;
+  std::vector<std::size_t> _free;
   PhaseFieldStats _stats;
 };
 

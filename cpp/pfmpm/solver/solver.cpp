@@ -126,6 +126,9 @@ SolverState Solver::state() const
     s.scalars[phase_key(k, "start_residual")] = pf.stats.start_residual;
     s.scalars[phase_key(k, "last_residual")] = pf.stats.last_residual;
     s.scalars[phase_key(k, "unknowns")] = pf.stats.unknowns;
+    s.scalars[phase_key(k, "passes")] = static_cast<double>(pf.stats.passes);
+    s.scalars[phase_key(k, "last_passes")] = pf.stats.last_passes;
+    s.scalars[phase_key(k, "at_bound")] = pf.stats.at_bound;
   }
   if (const ContactStats* c = contact_stats())
   {
@@ -178,6 +181,9 @@ void Solver::restore(const SolverState& state)
     stats.start_residual = at("start_residual");
     stats.last_residual = at("last_residual");
     stats.unknowns = static_cast<std::int32_t>(at("unknowns"));
+    stats.passes = static_cast<std::int64_t>(at("passes"));
+    stats.last_passes = static_cast<std::int32_t>(at("last_passes"));
+    stats.at_bound = static_cast<std::int32_t>(at("at_bound"));
     _phase[k].field.restore(PhaseFieldState{state.arrays.at(phase_key(k, "c")),
                                             state.arrays.at(phase_key(k, "c_previous")), stats});
   }
@@ -291,11 +297,14 @@ void Solver::prepare(Fields& fields)
     {
       const PhaseFieldStats& s = g.field.stats();
       std::ostringstream msg;
-      msg << "phase field" << (g.body >= 0 ? " of body " + std::to_string(g.body) : std::string())
-          << ": conjugate gradients stopped at relative residual " << s.last_residual
-          << " > tol = " << g.field.tol() << " after " << s.last_iterations
-          << " iterations, at the start of the step after step " << _step << " (t = " << _time
-          << ")";
+      msg << "phase field" << (g.body >= 0 ? " of body " + std::to_string(g.body) : std::string());
+      if (s.last_residual <= g.field.tol()) // only the bounded solve fails this way
+        msg << ": the active set of the bounded solve did not settle in " << s.last_passes
+            << " passes";
+      else
+        msg << ": conjugate gradients stopped at relative residual " << s.last_residual
+            << " > tol = " << g.field.tol() << " after " << s.last_iterations << " iterations";
+      msg << ", at the start of the step after step " << _step << " (t = " << _time << ")";
       throw SimulationError(msg.str());
     }
   }
@@ -492,6 +501,11 @@ bool Solver::fourth_order() const
   return !_phase.empty() && _phase.front().field.fourth_order();
 }
 
+bool Solver::bounded() const
+{
+  return !_phase.empty() && _phase.front().field.bounded();
+}
+
 PhaseFieldStats Solver::phase_field_stats() const
 {
   PhaseFieldStats total;
@@ -504,6 +518,9 @@ PhaseFieldStats Solver::phase_field_stats() const
     total.start_residual = std::max(total.start_residual, s.start_residual);
     total.last_residual = std::max(total.last_residual, s.last_residual);
     total.unknowns += s.unknowns;
+    total.passes += s.passes;
+    total.last_passes = std::max(total.last_passes, s.last_passes);
+    total.at_bound += s.at_bound;
   }
   return total;
 }

@@ -43,7 +43,7 @@ struct Energies
 /// (the single field's is 0; with discrete fields, one per crackable body in
 /// body order) `phase_field/k/solves`, `.../iterations`,
 /// `.../last_iterations`, `.../start_residual`, `.../last_residual`,
-/// `.../unknowns`; with discrete fields `contact/nodes`, `contact/pairs`,
+/// `.../unknowns`, `.../passes`, `.../last_passes`, `.../at_bound`; with discrete fields `contact/nodes`, `contact/pairs`,
 /// `contact/active`, `contact/sliding`, `contact/C1` .. `contact/C4`,
 /// `contact/friction_work`. Arrays: `phase_field/k/c` and
 /// `phase_field/k/c_previous`, the nodal warm start.
@@ -140,6 +140,8 @@ public:
   bool cracks() const { return !_phase.empty(); }
   /// Whether some material has the fourth-order phase-field term.
   bool fourth_order() const;
+  /// Whether the phase field is solved with the bound 0 <= c <= 1.
+  bool bounded() const;
   /// Phase-field convergence record, summed over the phase fields.
   PhaseFieldStats phase_field_stats() const;
   /// The contact record, or nullptr with one velocity field.

@@ -31,12 +31,13 @@ import numpy as np
 from ..anisotropy import check_gamma
 from .validation import SceneError, choice, real, seq, store, text
 
-__all__ = ["PLANES", "SPLITS", "SYMMETRIES", "MATERIALS", "DEFAULT_MODEL", "register_material",
+__all__ = ["PLANES", "SPLITS", "FRACTURE_MODELS", "SYMMETRIES", "MATERIALS", "DEFAULT_MODEL", "register_material",
            "material_class", "MaterialSpec", "LinearElasticSpec", "FractureSpec", "Anisotropy",
            "wave_speed", "rayleigh_speed"]
 
 PLANES = ("strain", "stress")
 SPLITS = ("spectral", "volumetric_deviatoric", "none")
+FRACTURE_MODELS = ("AT2", "AT1")
 SYMMETRIES = ("isotropic2", "isotropic4", "cubic", "orthotropic", "general")
 
 MATERIALS: dict[str, type["MaterialSpec"]] = {}
@@ -161,10 +162,22 @@ class Anisotropy:
 @dataclass(frozen=True)
 class FractureSpec:
     """Phase-field fracture parameters of a material (its ``fracture`` table;
-    AT2, eqs. 4, 14-15); the core's ``Fracture`` is built from it.
+    eqs. 4, 14-15); the core's ``Fracture`` is built from it.
 
     Parameters
     ----------
+    model : str
+        ``"AT2"`` (the paper's eq. 4, the default) or ``"AT1"``: the local term
+        of the crack density is ``w(d) = d^2`` or ``d`` with ``d = 1 - c``.  In
+        the standard form ``(G_c / c_w) (w(d) / l + l |grad d|^2)`` both use
+        ``l = 2 l0`` (docs/method.md); AT1 has an elastic threshold and a
+        damage band of finite width, and needs the bound ``0 <= c <= 1``.
+    bound : bool
+        Solve the phase field with the bound ``0 <= c <= 1`` on its nodal
+        values (the default, and AT1's only choice).  ``False`` gives AT2's
+        unbounded solve of before, whose values undershoot below 0 next to a
+        band of huge history.  The fourth-order functional is solved without
+        it either way (docs/method.md).
     Gc : float
         Critical energy release rate, > 0; with a fourth-order ``anisotropy``
         it is the reference value G-bar_c of eq. 8.
@@ -177,7 +190,7 @@ class FractureSpec:
         ``"volumetric_deviatoric"`` (Amor) or ``"none"``.
     anisotropy : Anisotropy or None
         The tensor gamma of the fourth-order functional (eqs. 4-6); ``None``:
-        the second-order isotropic functional.
+        the second-order isotropic functional.  AT2 only.
     """
 
     Gc: float
@@ -185,14 +198,24 @@ class FractureSpec:
     k_f: float = 0.0
     split: str = "spectral"
     anisotropy: Anisotropy | None = None
+    model: str = "AT2"
+    bound: bool = True
 
     def __post_init__(self):
         store(self, "Gc", real("Gc", self.Gc, gt=0))
         store(self, "l0", real("l0", self.l0, gt=0))
         store(self, "k_f", real("k_f", self.k_f, ge=0, lt=1))
         store(self, "split", choice("split", self.split, SPLITS))
+        store(self, "model", choice("model", self.model, FRACTURE_MODELS))
         if self.anisotropy is not None and not isinstance(self.anisotropy, Anisotropy):
             raise SceneError("anisotropy", "must be an anisotropy table", self.anisotropy)
+        if not isinstance(self.bound, bool):
+            raise SceneError("bound", "must be true or false", self.bound)
+        if self.model == "AT1" and not self.bound:
+            raise SceneError("bound", "AT1 needs the bound 0 <= c <= 1", self.bound)
+        if self.model == "AT1" and self.anisotropy is not None and self.anisotropy.fourth_order:
+            raise SceneError("model", "AT1 is second order only: it cannot take a fourth-order"
+                             f" anisotropy (symmetry {self.anisotropy.symmetry!r})", self.model)
 
     def gamma(self) -> np.ndarray:
         """gamma of eq. 6 in the material frame (zero without anisotropy)."""
