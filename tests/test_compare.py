@@ -169,7 +169,8 @@ def test_the_comparison_finds_the_crackable_materials_by_their_tables():
     tables["materials"][0]["name"] = "glass"
     tables["bodies"][0]["material"] = "glass"
     sets = comparison_overrides(tables, 1.0, 2.0, 5.0)
-    assert sets == ["grid.h=1.0", "materials.0.fracture.l0=2.0", "time.end=5.0", "output.particles=false"]
+    assert sets == ["grid.h=1.0", "materials.0.fracture.l0=2.0", "materials.0.fracture.model=AT2",
+                    "time.end=5.0", "output.particles=false"]
     scene = Scene.from_dict(tables, sets)
     assert scene.materials[0].name == "glass" and scene.materials[0].fracture.l0 == 2.0
     beam_and_disk = read_toml(ROOT / "demos" / "disk_beam.toml")

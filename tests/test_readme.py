@@ -32,8 +32,8 @@ def smoke(benchmark: str) -> list[str]:
 # (pattern of a command, arguments appended to it); None: not run here.
 RULES = [
     (r"^bash tools/(main|test)\.sh$", None),
-    (r"pfmpm compare borden ", ["--h", "1.0", "--end", "0.5", "--set", "bodies.plate.particles_per_cell=1",
-                                "--quiet"]),
+    (r"pfmpm compare borden ", ["--h", "1.0", "--l0", "2.0", "--end", "0.5", "--set",
+                                "bodies.plate.particles_per_cell=1", "--quiet"]),
     (r"pfmpm run demos/borden_plate\.toml --out out/borden$", smoke("borden_plate") + ["--quiet"]),
     # More than 500 steps, so that the checkpoint the next command resumes from is written.
     (r"pfmpm run demos/borden_plate\.toml --out out/borden --checkpoint-every 500$",
