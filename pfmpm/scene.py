@@ -66,6 +66,7 @@ SYMMETRIES = ("isotropic2", "isotropic4", "cubic", "orthotropic", "general")
 EDGES = ("top", "bottom", "left", "right")
 SIDES = ("left", "right", "bottom", "top")
 WALL_TYPES = ("fixed", "slip")
+PRECONDITIONERS = ("automatic", "jacobi", "ssor", "multigrid")
 
 _MAX_COUNT = 2**31 - 1  # cells and particles are indexed with int32
 _MAX_STEPS = 2**53  # step counts beyond this are not representable exactly
@@ -887,16 +888,23 @@ class PhaseField:
     max_iterations : int
         Conjugate-gradient iterations allowed per step; the run stops with
         an error when they do not reach ``tol``.
+    preconditioner : str
+        Of the conjugate gradients: ``"jacobi"``, ``"ssor"`` (symmetric
+        Gauss-Seidel), ``"multigrid"`` (a geometric V-cycle on the B-spline
+        grid), or ``"automatic"``: jacobi for the second-order model, ssor for
+        the fourth-order one.
     """
 
     tol: float = 1e-6
     max_iterations: int = 1000
+    preconditioner: str = "automatic"
 
     def __post_init__(self):
         _set(self, "tol", _real("tol", self.tol, gt=0, lt=1))
         _set(self, "max_iterations", _integer("max_iterations", self.max_iterations, ge=1))
         if self.max_iterations > _MAX_COUNT:
             raise SceneError("max_iterations", f"must be <= {_MAX_COUNT}", self.max_iterations)
+        _set(self, "preconditioner", _choice("preconditioner", self.preconditioner, PRECONDITIONERS))
 
 
 @dataclass(frozen=True)

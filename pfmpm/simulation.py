@@ -73,6 +73,7 @@ class Simulation:
         friction = scene.contact.friction_matrix(names).ravel() if self.contact else []
         self.solver = _core.Solver(self.grid, self.particles, materials, scene.dt(), fracture,
                                    pf.tol, pf.max_iterations, friction)
+        self.solver.set_phase_field_preconditioner(_core.Preconditioner.__members__[pf.preconditioner])
         self.solver.set_stability_length(scene.critical_length())
         self.crack_tip = None
         if scene.cracks:

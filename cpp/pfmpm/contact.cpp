@@ -536,6 +536,12 @@ std::vector<double> DiscreteFields::fracture_energies() const
   return out;
 }
 
+void DiscreteFields::set_phase_field_preconditioner(Preconditioner preconditioner)
+{
+  for (PhaseField& pf : _phase)
+    pf.set_preconditioner(preconditioner);
+}
+
 PhaseFieldStats DiscreteFields::phase_field_stats() const
 {
   PhaseFieldStats total;

@@ -119,6 +119,8 @@ public:
   std::vector<double> fracture_energies() const;
   /// Phase-field statistics summed over the fields' solves.
   PhaseFieldStats phase_field_stats() const;
+  /// @brief The CG preconditioner of every field's phase-field solves.
+  void set_phase_field_preconditioner(Preconditioner preconditioner);
   const ContactStats& stats() const { return _stats; }
 
   /// @brief A copy of the state carried between steps, for a checkpoint.

@@ -597,6 +597,13 @@ Energies Solver::energies() const
   return e;
 }
 
+void Solver::set_phase_field_preconditioner(Preconditioner preconditioner)
+{
+  _phase_field.set_preconditioner(preconditioner);
+  if (_fields)
+    _fields->set_phase_field_preconditioner(preconditioner);
+}
+
 PhaseFieldStats Solver::phase_field_stats() const
 {
   return _fields ? _fields->phase_field_stats() : _phase_field.stats();

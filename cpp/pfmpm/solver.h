@@ -145,6 +145,8 @@ public:
   const PhaseField& phase_field() const { return _phase_field; }
   /// Phase-field convergence record: of the single field, or summed over the discrete fields.
   PhaseFieldStats phase_field_stats() const;
+  /// @brief The CG preconditioner of every phase field's solves from now on.
+  void set_phase_field_preconditioner(Preconditioner preconditioner);
   /// The discrete fields and their contact record, or nullptr with one field.
   const DiscreteFields* fields() const { return _fields.get(); }
 
