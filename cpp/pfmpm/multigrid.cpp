@@ -4,6 +4,7 @@
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 namespace pfmpm
 {
@@ -136,16 +137,14 @@ Refinement::Refinement(int cells, int degree_) : degree(degree_)
   }
 }
 
-Multigrid::Multigrid(std::array<int, 2> cells, int degree, int sweeps, int direct_size)
-    : _degree(degree), _sweeps(sweeps), _direct_size(direct_size)
+Multigrid::Multigrid(std::array<int, 2> cells, int degree, int direct_size)
+    : _degree(degree), _direct_size(direct_size)
 {
   if (degree < 1 || degree > 3)
     throw std::invalid_argument("multigrid: degree = " + std::to_string(degree)
                                 + ": must be 1, 2 or 3");
   if (cells[0] < 1 || cells[1] < 1)
     throw std::invalid_argument("multigrid: the grid needs at least one cell each way");
-  if (sweeps < 1)
-    throw std::invalid_argument("multigrid: sweeps = " + std::to_string(sweeps) + ": must be >= 1");
   if (direct_size < 1)
     throw std::invalid_argument("multigrid: direct_size = " + std::to_string(direct_size)
                                 + ": must be >= 1");
@@ -181,12 +180,12 @@ std::vector<std::int64_t> Multigrid::unknowns() const
 
 void Multigrid::number_unknowns(Level& level) const
 {
-  // Columns from the padded index: the unknowns are in increasing padded order.
-  level.column_start.assign(level.nx + 1, 0);
-  for (std::size_t i : level.live)
-    ++level.column_start[i / level.padded_ny - _degree + 1];
-  for (int ix = 0; ix < level.nx; ++ix)
-    level.column_start[ix + 1] += level.column_start[ix];
+  // The unknowns are in increasing padded order, column by column.
+  level.column_start.resize(level.nx + 1);
+  for (int ix = 0; ix <= level.nx; ++ix)
+    level.column_start[ix] = static_cast<std::size_t>(
+        std::lower_bound(level.live.begin(), level.live.end(), padded(level, ix, -_degree))
+        - level.live.begin());
 }
 
 template <int P>
@@ -205,6 +204,7 @@ void Multigrid::setup(const std::vector<double>& rows, const std::vector<std::si
   f.b.assign(f.padded_size, 0.0);
   f.r.assign(f.padded_size, 0.0);
   f.inverse.resize(f.live.size());
+  _delta.assign(f.padded_size, 0.0);
   const SymmetricStencil<P> stencil(f.padded_ny);
   // A row with no off-diagonal entry (a node no crackable particle touches)
   // is solved exactly by the smoother and stays out of the coarse correction.
@@ -228,6 +228,23 @@ void Multigrid::setup(const std::vector<double>& rows, const std::vector<std::si
   }
   factor_coarsest<P>();
 }
+
+namespace
+{
+/// at[dx * U + dy] += w K_{i, i + (dx, dy)} over K's (2p+1)^2-point stencil
+/// at padded node i, K stored in `rows`, for `at` in a window of rows of U.
+template <int P, int U, std::size_t... K>
+void add_row(double* at, double w, const double* rows, std::size_t i,
+             const SymmetricStencil<P>& stencil, std::index_sequence<K...>)
+{
+  constexpr int H = SymmetricStencil<P>::size;
+  using S = SymmetricStencil<P>;
+  at[0] += w * rows[i * H];
+  ((at[S::column(K + 1) * U + S::row(K + 1)] += w * rows[i * H + K + 1],
+    at[-(S::column(K + 1) * U + S::row(K + 1))] += w * rows[(i - stencil.offset[K + 1]) * H + K + 1]),
+   ...);
+}
+} // namespace
 
 /// The Galerkin operator K_2h = P^T K_h P (P = R_x (x) R_y restricted to the
 /// coupled fine nodes), row by row: for coarse J, u = K_h P e_J on the fine
@@ -262,14 +279,7 @@ void Multigrid::galerkin(const Level& fine, Level& coarse)
             continue;
           touched = true;
           const double w = rx.weight[std::size_t(jx) * W + a] * ry.weight[std::size_t(jy) * W + b];
-          const double* row = &fine.rows[i * H];
-          u[a + P][b + P] += w * row[0];
-          for (int k = 1; k < H; ++k)
-          {
-            const int dx = fs.dx[k], dy = fs.dy[k];
-            u[a + P + dx][b + P + dy] += w * row[k];
-            u[a + P - dx][b + P - dy] += w * fine.rows[(i - fs.offset[k]) * H + k];
-          }
+          add_row<P, U>(&u[a + P][b + P], w, fine.rows, i, fs, std::make_index_sequence<H - 1>{});
         }
       if (!touched)
         continue;
@@ -398,44 +408,114 @@ void Multigrid::solve_coarsest()
     c.x[c.live[i]] = y[i];
 }
 
-/// One Gauss-Seidel sweep x_i += (b_i - (K x)_i) / K_ii over the unknowns of
-/// `level` in the strip order, or in the reverse order (backward).
-template <int P>
-void Multigrid::sweep(Level& level, bool forward)
+/// f(u, left, right, even) for the unknowns u of `level` in the Gauss-Seidel
+/// order (Ordered), or in any order with all strips at once. `left` and
+/// `right`: the columns of u's strip on either side of u's, `even` whether
+/// the strip is. Forward: strip by strip, even strips first, each column by
+/// column upwards; backward: the reverse.
+template <bool Ordered, class F>
+void Multigrid::strips(const Level& level, bool forward, F&& f) const
 {
-  const SymmetricStencil<P> stencil(level.padded_ny);
   const int strips = (level.nx + sweep_strip - 1) / sweep_strip;
-  const double* rows = level.rows;
-  double* x = level.x.data();
-  const double* b = level.b.data();
-  auto node = [&](std::size_t u)
+  auto strip = [&](int s)
   {
-    const std::size_t i = level.live[u];
-    x[i] += (b[i] - row_product(stencil, rows, i, x)) * level.inverse[u];
-  };
-#pragma omp parallel if (level.live.size() > parallel_nodes)
-  for (int pass = 0; pass < 2; ++pass)
-  {
-    const int parity = forward ? pass : 1 - pass;
-#pragma omp for schedule(dynamic)
-    for (int s = parity; s < strips; s += 2)
+    const int begin = s * sweep_strip, end = std::min(begin + sweep_strip, level.nx);
+    const bool even = s % 2 == 0;
+    for (int n = 0; n < end - begin; ++n)
     {
-      const int begin = s * sweep_strip, end = std::min(begin + sweep_strip, level.nx);
+      const int ix = forward ? begin + n : end - 1 - n;
+      const int left = ix - begin, right = end - 1 - ix;
       if (forward)
-        for (std::size_t u = level.column_start[begin]; u < level.column_start[end]; ++u)
-          node(u);
+        for (std::size_t u = level.column_start[ix]; u < level.column_start[ix + 1]; ++u)
+          f(u, left, right, even);
       else
-        for (std::size_t u = level.column_start[end]; u-- > level.column_start[begin];)
-          node(u);
+        for (std::size_t u = level.column_start[ix + 1]; u-- > level.column_start[ix];)
+          f(u, left, right, even);
     }
+  };
+  if constexpr (Ordered)
+  {
+    // Strips of one parity share no stencil entry: each half-sweep runs them in parallel.
+#pragma omp parallel if (level.live.size() > parallel_nodes)
+    for (int pass = 0; pass < 2; ++pass)
+    {
+      const int parity = forward ? pass : 1 - pass;
+#pragma omp for schedule(dynamic)
+      for (int s = parity; s < strips; s += 2)
+        strip(s);
+    }
+  }
+  else
+  {
+#pragma omp parallel for schedule(dynamic) if (level.live.size() > parallel_nodes)
+    for (int s = 0; s < strips; ++s)
+      strip(s);
   }
 }
 
-/// The V-cycle on level l for b_l, from x_l = 0: pre-smoothing, the coarse
-/// correction x_l += P K_2h^-1 P^T (b_l - K_l x_l) (the coarse solve
-/// recursive), post-smoothing in the reverse order.
+namespace
+{
+/// sum_j K_ij x_j over the neighbours j != i of padded node i that come
+/// before it in the forward Gauss-Seidel order (Multigrid::strips), after it,
+/// or both, with K stored in `rows`. Within i's strip the order is the node
+/// order; a neighbour in the next or the last strip comes after i iff i's
+/// strip is even. The terms are summed per column offset |dx| and the sums
+/// added from the farthest column to i's own, which comes last: in a sweep its
+/// terms are the ones that wait for the node just updated.
+template <int P, bool Before, bool After>
+double neighbours(const SymmetricStencil<P>& stencil, const double* rows, std::size_t i, int left,
+                  int right, bool even, const double* x)
+{
+  constexpr int H = SymmetricStencil<P>::size;
+  const double* row = &rows[i * H];
+  double column[P + 1] = {};
+  if (left >= P && right >= P) // away from the strip's edges: the upper half comes after i
+  {
+#pragma GCC unroll 32
+    for (int k = 1; k < H; ++k)
+    {
+      const std::ptrdiff_t o = stencil.offset[k];
+      if constexpr (After)
+        column[SymmetricStencil<P>::column(k)] += row[k] * x[i + o];
+      if constexpr (Before)
+        column[SymmetricStencil<P>::column(k)] += rows[(i - o) * H + k] * x[i - o];
+    }
+  }
+  else
+  {
+#pragma GCC unroll 32
+    for (int k = 1; k < H; ++k)
+    {
+      const std::ptrdiff_t o = stencil.offset[k];
+      const int dx = SymmetricStencil<P>::column(k);
+      if (dx <= right || even ? After : Before) // i + o
+        column[dx] += row[k] * x[i + o];
+      if (dx > left && even ? After : Before) // i - o
+        column[dx] += rows[(i - o) * H + k] * x[i - o];
+    }
+  }
+  double sum = column[P];
+  for (int dx = P - 1; dx >= 0; --dx)
+    sum += column[dx];
+  return sum;
+}
+} // namespace
+
+/// The V-cycle on level l for b_l (eq. 50's residual restricted to it), from
+/// x_l = 0:
+///  - a forward Gauss-Seidel sweep, x_i = (b_i - sum_{j before i} K_ij x_j) / K_ii
+///    (the nodes after i are still zero), after which the residual is
+///    r_i = -sum_{j after i} K_ij x_j: the two passes read K once;
+///  - the coarse correction x += P x_2h with x_2h = K_2h^-1 P^T r, the coarse
+///    solve the same cycle one level down (a Cholesky solve on the coarsest);
+///  - a backward sweep x_i = (b_i - sum_{j != i} K_ij x_j) / K_ii in the
+///    reverse order, the adjoint of the forward one, so that the cycle is
+///    symmetric.
+/// On the finest level the backward sweep keeps its changes delta, and
+/// K x = b + (sum_{j before i} K_ij delta_j)_i, half a product, is returned in
+/// `kx` (when not null) for the conjugate gradients.
 template <int P>
-void Multigrid::cycle(std::size_t l)
+void Multigrid::cycle(std::size_t l, double* kx)
 {
   if (l == _coarsest)
   {
@@ -446,71 +526,98 @@ void Multigrid::cycle(std::size_t l)
   Level& f = _levels[l];
   Level& c = _levels[l + 1];
   const SymmetricStencil<P> stencil(f.padded_ny);
-  const auto n = static_cast<std::ptrdiff_t>(f.live.size());
+  const double* rows = f.rows;
+  double* x = f.x.data();
+  const double* b = f.b.data();
   const bool parallel = f.live.size() > parallel_nodes;
-#pragma omp parallel for schedule(static) if (parallel)
-  for (std::ptrdiff_t u = 0; u < n; ++u)
-    f.x[f.live[u]] = 0.0;
-  for (int s = 0; s < _sweeps; ++s)
-    sweep<P>(f, true);
+  strips<true>(f, true,
+               [&](std::size_t u, int left, int right, bool even)
+               {
+                 const std::size_t i = f.live[u];
+                 x[i] = (b[i] - neighbours<P, true, false>(stencil, rows, i, left, right, even, x))
+                        * f.inverse[u];
+               });
   // The residual at the coupled nodes (zero elsewhere, from setup).
-#pragma omp parallel for schedule(static) if (parallel)
-  for (std::ptrdiff_t u = 0; u < n; ++u)
-    if (const std::size_t i = f.live[u]; f.coupled[i])
-      f.r[i] = f.b[i] - row_product(stencil, f.rows, i, f.x.data());
+  strips<false>(f, true,
+                [&](std::size_t u, int left, int right, bool even)
+                {
+                  if (const std::size_t i = f.live[u]; f.coupled[i])
+                    f.r[i] = -neighbours<P, false, true>(stencil, rows, i, left, right, even, x);
+                });
+
   // Restriction b_2h = P^T r.
   const Refinement& rx = f.refine[0];
   const Refinement& ry = f.refine[1];
-  const auto nc = static_cast<std::ptrdiff_t>(c.live.size());
 #pragma omp parallel for schedule(static) if (parallel)
-  for (std::ptrdiff_t v = 0; v < nc; ++v)
-  {
-    const std::size_t j = c.live[v];
-    const int jx = static_cast<int>(j / c.padded_ny) - P, jy = static_cast<int>(j % c.padded_ny) - P;
-    double sum = 0.0;
-    for (int a = 0; a < rx.count[jx]; ++a)
+  for (int jx = 0; jx < c.nx; ++jx)
+    for (std::size_t v = c.column_start[jx]; v < c.column_start[jx + 1]; ++v)
     {
-      double column = 0.0;
-      for (int b = 0; b < ry.count[jy]; ++b)
-        column += ry.weight[std::size_t(jy) * W + b]
-                  * f.r[padded(f, rx.first[jx] + a, ry.first[jy] + b)];
-      sum += rx.weight[std::size_t(jx) * W + a] * column;
+      const std::size_t j = c.live[v];
+      const int jy = static_cast<int>(j - padded(c, jx, 0));
+      double sum = 0.0;
+      for (int a = 0; a < rx.count[jx]; ++a)
+      {
+        double column = 0.0;
+        for (int e = 0; e < ry.count[jy]; ++e)
+          column += ry.weight[std::size_t(jy) * W + e]
+                    * f.r[padded(f, rx.first[jx] + a, ry.first[jy] + e)];
+        sum += rx.weight[std::size_t(jx) * W + a] * column;
+      }
+      c.b[j] = sum;
     }
-    c.b[j] = sum;
-  }
-  cycle<P>(l + 1);
+  cycle<P>(l + 1, nullptr);
   // Prolongation x += P x_2h at the coupled nodes.
 #pragma omp parallel for schedule(static) if (parallel)
-  for (std::ptrdiff_t u = 0; u < n; ++u)
-  {
-    const std::size_t i = f.live[u];
-    if (!f.coupled[i])
-      continue;
-    const int ix = static_cast<int>(i / f.padded_ny) - P, iy = static_cast<int>(i % f.padded_ny) - P;
-    double sum = 0.0;
-    for (int a = 0; a < rx.count_t[ix]; ++a)
+  for (int ix = 0; ix < f.nx; ++ix)
+    for (std::size_t u = f.column_start[ix]; u < f.column_start[ix + 1]; ++u)
     {
-      double column = 0.0;
-      for (int b = 0; b < ry.count_t[iy]; ++b)
-        column += ry.weight_t[std::size_t(iy) * W + b]
-                  * c.x[padded(c, rx.first_coarse[ix] + a, ry.first_coarse[iy] + b)];
-      sum += rx.weight_t[std::size_t(ix) * W + a] * column;
+      const std::size_t i = f.live[u];
+      if (!f.coupled[i])
+        continue;
+      const int iy = static_cast<int>(i - padded(f, ix, 0));
+      double sum = 0.0;
+      for (int a = 0; a < rx.count_t[ix]; ++a)
+      {
+        double column = 0.0;
+        for (int e = 0; e < ry.count_t[iy]; ++e)
+          column += ry.weight_t[std::size_t(iy) * W + e]
+                    * c.x[padded(c, rx.first_coarse[ix] + a, ry.first_coarse[iy] + e)];
+        sum += rx.weight_t[std::size_t(ix) * W + a] * column;
+      }
+      x[i] += sum;
     }
-    f.x[i] += sum;
-  }
-  for (int s = 0; s < _sweeps; ++s)
-    sweep<P>(f, false);
+
+  double* delta = _delta.data();
+  strips<true>(f, false,
+               [&](std::size_t u, int left, int right, bool even)
+               {
+                 const std::size_t i = f.live[u];
+                 const double next
+                     = (b[i] - neighbours<P, true, true>(stencil, rows, i, left, right, even, x))
+                       * f.inverse[u];
+                 if (kx)
+                   delta[i] = next - x[i];
+                 x[i] = next;
+               });
+  if (!kx)
+    return;
+  strips<false>(f, true,
+                [&](std::size_t u, int left, int right, bool even)
+                {
+                  const std::size_t i = f.live[u];
+                  kx[u] = b[i] + neighbours<P, true, false>(stencil, rows, i, left, right, even, delta);
+                });
 }
 
 template <int P>
-void Multigrid::apply(const double* r, double* z)
+void Multigrid::apply(const double* r, double* z, double* kz)
 {
   Level& f = _levels[0];
   const auto n = static_cast<std::ptrdiff_t>(f.live.size());
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t u = 0; u < n; ++u)
     f.b[f.live[u]] = r[u];
-  cycle<P>(0);
+  cycle<P>(0, kz);
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t u = 0; u < n; ++u)
     z[u] = f.x[f.live[u]];
@@ -518,7 +625,7 @@ void Multigrid::apply(const double* r, double* z)
 
 #define PFMPM_MULTIGRID(P)                                                                         \
   template void Multigrid::setup<P>(const std::vector<double>&, const std::vector<std::size_t>&);  \
-  template void Multigrid::apply<P>(const double*, double*);
+  template void Multigrid::apply<P>(const double*, double*, double*);
 PFMPM_MULTIGRID(1)
 PFMPM_MULTIGRID(2)
 PFMPM_MULTIGRID(3)

@@ -64,21 +64,20 @@ struct Refinement
 /// are solved exactly by the smoother. Coarsening stops at a level of at most
 /// `direct_size` unknowns, which is solved by a banded Cholesky factorisation.
 ///
-/// Smoother: Gauss-Seidel in strips of 32 grid columns, even strips then odd
-/// ones, each column by column (as PhaseField's symmetric Gauss-Seidel),
-/// `sweeps` forward sweeps before the coarse correction and as many backward
-/// (the reversed order) after it, so B is symmetric. Strips of one parity share
-/// no matrix entry, so each half-sweep runs them in parallel; every other
-/// kernel writes each node from a sum in a fixed order. B, and so the CG
-/// iterates, have the same bits for any number of threads.
+/// Smoother: one Gauss-Seidel sweep before the coarse correction and one in
+/// the reverse order after it, so that B is symmetric; the order is that of
+/// PhaseField's symmetric Gauss-Seidel (strips of 32 grid columns, the even
+/// strips first, each column by column). Strips of one parity share no matrix
+/// entry, so each half-sweep runs them in parallel; every other kernel writes
+/// each node from a sum in a fixed order. B, and so the CG iterates, have the
+/// same bits for any number of threads.
 class Multigrid
 {
 public:
   /// @param cells Cells of the finest grid in x and y.
   /// @param degree B-spline degree p (1..3).
-  /// @param sweeps Gauss-Seidel sweeps before and after each coarse correction (>= 1).
   /// @param direct_size Unknowns at most on the coarsest level (>= 1).
-  Multigrid(std::array<int, 2> cells, int degree, int sweeps = 1, int direct_size = 400);
+  Multigrid(std::array<int, 2> cells, int degree, int direct_size = 400);
 
   /// @brief Build the coarse levels for a new matrix K (once per solve).
   /// @param rows K's upper-half stencil per node of the padded layout of the
@@ -89,10 +88,10 @@ public:
   template <int P>
   void setup(const std::vector<double>& rows, const std::vector<std::size_t>& position);
 
-  /// @brief z = B r: one V-cycle from a zero guess.
-  /// @param r, z Per unknown of the finest level (the order of `position`).
+  /// @brief z = B r: one V-cycle from a zero guess, and K z.
+  /// @param r, z, kz Per unknown of the finest level (the order of `position`).
   template <int P>
-  void apply(const double* r, double* z);
+  void apply(const double* r, double* z, double* kz);
 
   /// Unknowns per level of the last setup, the finest first.
   std::vector<std::int64_t> unknowns() const;
@@ -115,10 +114,10 @@ private:
 
   template <int P>
   void galerkin(const Level& fine, Level& coarse);
+  template <bool Ordered, class F>
+  void strips(const Level& level, bool forward, F&& f) const;
   template <int P>
-  void sweep(Level& level, bool forward);
-  template <int P>
-  void cycle(std::size_t l);
+  void cycle(std::size_t l, double* kx);
   template <int P>
   void factor_coarsest();
   void solve_coarsest();
@@ -129,7 +128,6 @@ private:
   }
 
   int _degree;
-  int _sweeps;
   int _direct_size;
   std::array<int, 2> _cells;
   std::vector<Level> _levels;
@@ -139,6 +137,7 @@ private:
   std::size_t _band = 0;
   std::vector<double> _factor;
   std::vector<double> _scratch; // per unknown of the coarsest level
+  std::vector<double> _delta;   // the finest level's backward-sweep changes, padded layout
 };
 
 } // namespace pfmpm

@@ -653,27 +653,27 @@ void PhaseField::multigrid_iterations(double norm_f, double stop, double& residu
   _stats.start_residual = norm_f > 0.0 ? residual / norm_f : 0.0;
   if (residual <= stop)
     return;
+  _v.resize(na);
   _multigrid->setup<P>(_stencil, _position);
-  double rz = 0.0, beta = 0.0;
+  // z = B r and K z from the V-cycle; then p = z + beta p and K p = K z + beta K p.
+  double* kz = _v.data();
+  double rz = 0.0;
   for (;;)
   {
-    _multigrid->apply<P>(_r.data(), _z.data());
+    _multigrid->apply<P>(_r.data(), _z.data(), kz);
     const double rz_next = deterministic_sum<1>(
         na, [&](std::size_t a, std::array<double, 1>& acc) { acc[0] += _r[a] * _z[a]; })[0];
-    beta = it == 0 ? 0.0 : rz_next / rz;
+    const double beta = it == 0 ? 0.0 : rz_next / rz;
     rz = rz_next;
-#pragma omp parallel for schedule(static)
-    for (std::ptrdiff_t a = 0; a < static_cast<std::ptrdiff_t>(na); ++a)
-      _search[_position[a]] = _z[a] + beta * _search[_position[a]];
     ++it;
-    // q = K p and p . q in one pass.
-    const Stencil<P> stencil(_padded_ny);
     const double pq = deterministic_sum<1>(
         na,
         [&](std::size_t a, std::array<double, 1>& acc)
         {
-          _q[a] = row_product(stencil, a, _search.data());
-          acc[0] += _search[_position[a]] * _q[a];
+          double& p = _search[_position[a]];
+          p = _z[a] + beta * p;
+          _q[a] = kz[a] + beta * _q[a];
+          acc[0] += p * _q[a];
         })[0];
     const double alpha = rz / pq;
     residual = std::sqrt(deterministic_sum<1>(na,

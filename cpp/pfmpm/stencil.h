@@ -34,6 +34,10 @@ struct SymmetricStencil
           dy[k] = y;
         }
   }
+  /// The column offset dx of slot k.
+  static constexpr int column(int k) { return k <= P ? 0 : (k - P - 1) / width + 1; }
+  /// The row offset dy of slot k.
+  static constexpr int row(int k) { return k <= P ? k : (k - P - 1) % width - P; }
   /// Index of offset (dx, dy) in the upper half, or -1 for the lower half.
   static constexpr int slot(int dx, int dy)
   {
