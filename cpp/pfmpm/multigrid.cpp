@@ -178,6 +178,37 @@ std::vector<std::int64_t> Multigrid::unknowns() const
   return out;
 }
 
+double Multigrid::entry(std::size_t level, int ix, int iy, int dx, int dy) const
+{
+  if (level > _coarsest)
+    throw std::out_of_range("multigrid: level " + std::to_string(level) + " of "
+                            + std::to_string(_coarsest + 1));
+  switch (_degree)
+  {
+  case 1:
+    return stencil_entry<1>(_levels[level], ix, iy, dx, dy);
+  case 2:
+    return stencil_entry<2>(_levels[level], ix, iy, dx, dy);
+  default:
+    return stencil_entry<3>(_levels[level], ix, iy, dx, dy);
+  }
+}
+
+template <int P>
+double Multigrid::stencil_entry(const Level& level, int ix, int iy, int dx, int dy) const
+{
+  constexpr int H = SymmetricStencil<P>::size;
+  if (std::abs(dx) > P || std::abs(dy) > P)
+    throw std::out_of_range("multigrid: offset beyond the stencil");
+  const int jx = ix + dx, jy = iy + dy;
+  if (!level.rows || ix < 0 || ix >= level.nx || iy < 0 || iy >= level.ny || jx < 0
+      || jx >= level.nx || jy < 0 || jy >= level.ny)
+    return 0.0;
+  if (const int k = SymmetricStencil<P>::slot(dx, dy); k >= 0)
+    return level.rows[padded(level, ix, iy) * H + k];
+  return level.rows[padded(level, jx, jy) * H + SymmetricStencil<P>::slot(-dx, -dy)];
+}
+
 void Multigrid::number_unknowns(Level& level) const
 {
   // The unknowns are in increasing padded order, column by column.

@@ -95,6 +95,10 @@ public:
 
   /// Unknowns per level of the last setup, the finest first.
   std::vector<std::int64_t> unknowns() const;
+  /// @brief Entry (i, j) of level l's operator in the last setup (level 0:
+  /// K), for node i = (ix, iy) of that level's grid and j = i + (dx, dy),
+  /// |dx|, |dy| <= p; zero where j lies off the grid.
+  double entry(std::size_t level, int ix, int iy, int dx, int dy) const;
 
 private:
   struct Level
@@ -114,6 +118,8 @@ private:
 
   template <int P>
   void galerkin(const Level& fine, Level& coarse);
+  template <int P>
+  double stencil_entry(const Level& level, int ix, int iy, int dx, int dy) const;
   template <bool Ordered, class F>
   void strips(const Level& level, bool forward, F&& f) const;
   template <int P>
