@@ -551,6 +551,13 @@ void Multigrid::cycle(std::size_t l, double* kx)
   if (l == _coarsest)
   {
     solve_coarsest();
+    if (kx) // the finest level is the coarsest: K x by a product
+    {
+      const Level& f = _levels[l];
+      const SymmetricStencil<P> stencil(f.padded_ny);
+      for (std::size_t u = 0; u < f.live.size(); ++u)
+        kx[u] = row_product(stencil, f.rows, f.live[u], f.x.data());
+    }
     return;
   }
   constexpr int W = Refinement::width(P);

@@ -263,6 +263,36 @@ TEST(Multigrid, EveryPreconditionerReachesTheSameSolution)
   }
 }
 
+class MultigridDegree : public ::testing::TestWithParam<int>
+{
+};
+
+TEST_P(MultigridDegree, ConvergesForEveryDegree)
+{
+  // Linear, quadratic and cubic B-splines (second order for the linear ones,
+  // which have no second derivatives): few iterations to the tight solution.
+  const int p = GetParam();
+  const double h = 0.25, l0 = 0.5;
+  const Fracture f = fracture(l0, p >= 2);
+  PlateRun mg(p, h, make_plate(h, 2, l0), f, Preconditioner::multigrid, 1e-6);
+  PlateRun tight(p, h, make_plate(h, 2, l0), f, Preconditioner::multigrid, 1e-12);
+  EXPECT_LE(mg.stats().last_iterations, 30);
+  EXPECT_LT(max_difference(mg.particles.c, tight.particles.c), 1e-6);
+}
+
+INSTANTIATE_TEST_SUITE_P(Degrees, MultigridDegree, ::testing::Values(1, 2, 3));
+
+TEST(Multigrid, ASmallSystemIsSolvedDirectly)
+{
+  // 10 x 6 active nodes, fewer than the 400 of the coarsest level: the
+  // V-cycle is the Cholesky solve, and CG converges in one iteration.
+  const double h = 1.0, l0 = 2.0;
+  PlateRun mg(2, h, make_plate(h, 2, l0), fracture(l0, true), Preconditioner::multigrid, 1e-10);
+  EXPECT_EQ(mg.stats().unknowns, 60);
+  EXPECT_EQ(mg.stats().last_iterations, 1);
+  EXPECT_LE(mg.stats().last_residual, 1e-10);
+}
+
 TEST(Multigrid, ThreadCountDoesNotChangeBits)
 {
   // Enough nodes (164 x 84 cells) that the sweeps, the transfers and the
