@@ -94,47 +94,37 @@ Refinement::Refinement(int cells, int degree_) : degree(degree_)
     alpha.swap(a);
   }
 
-  // Per coarse function its nonzero run of fine weights, and the transpose.
-  first.assign(coarse, 0);
-  count.assign(coarse, 0);
-  weight.assign(std::size_t(coarse) * W, 0.0);
-  first_coarse.assign(fine, 0);
-  count_t.assign(fine, 0);
-  weight_t.assign(std::size_t(fine) * W, 0.0);
-  for (int j = 0; j < coarse; ++j)
+  // Per coarse function its run of nonzero fine weights, and per fine
+  // function its run of coarse ones: for each of n rows of R(row, k),
+  // k < m, the first k, the run's length and its values.
+  auto runs = [W](int n, int m, auto R, std::vector<int>& lo_of, std::vector<int>& length,
+                  std::vector<double>& values)
   {
-    int lo = fine, hi = -1;
-    for (int i = 0; i < fine; ++i)
-      if (alpha[std::size_t(j) * nf + i] != 0.0)
-      {
-        lo = std::min(lo, i);
-        hi = std::max(hi, i);
-      }
-    if (hi < lo || hi - lo + 1 > W)
-      throw std::logic_error("Refinement: coarse function " + std::to_string(j)
-                             + " has no run of at most 2p + 1 fine functions");
-    first[j] = lo;
-    count[j] = hi - lo + 1;
-    for (int i = lo; i <= hi; ++i)
-      weight[std::size_t(j) * W + (i - lo)] = alpha[std::size_t(j) * nf + i];
-  }
-  for (int i = 0; i < fine; ++i)
-  {
-    int lo = coarse, hi = -1;
-    for (int j = 0; j < coarse; ++j)
-      if (alpha[std::size_t(j) * nf + i] != 0.0)
-      {
-        lo = std::min(lo, j);
-        hi = std::max(hi, j);
-      }
-    if (hi < lo || hi - lo + 1 > W)
-      throw std::logic_error("Refinement: fine function " + std::to_string(i)
-                             + " lies in no run of at most 2p + 1 coarse functions");
-    first_coarse[i] = lo;
-    count_t[i] = hi - lo + 1;
-    for (int j = lo; j <= hi; ++j)
-      weight_t[std::size_t(i) * W + (j - lo)] = alpha[std::size_t(j) * nf + i];
-  }
+    lo_of.assign(n, 0);
+    length.assign(n, 0);
+    values.assign(std::size_t(n) * W, 0.0);
+    for (int row = 0; row < n; ++row)
+    {
+      int lo = m, hi = -1;
+      for (int k = 0; k < m; ++k)
+        if (R(row, k) != 0.0)
+        {
+          lo = std::min(lo, k);
+          hi = std::max(hi, k);
+        }
+      if (hi < lo || hi - lo + 1 > W)
+        throw std::logic_error("Refinement: function " + std::to_string(row)
+                               + " has no run of at most 2p + 1 nonzero weights");
+      lo_of[row] = lo;
+      length[row] = hi - lo + 1;
+      for (int k = lo; k <= hi; ++k)
+        values[std::size_t(row) * W + (k - lo)] = R(row, k);
+    }
+  };
+  runs(coarse, fine, [&](int j, int i) { return alpha[std::size_t(j) * nf + i]; }, first, count,
+       weight);
+  runs(fine, coarse, [&](int i, int j) { return alpha[std::size_t(j) * nf + i]; }, first_coarse,
+       count_t, weight_t);
 }
 
 Multigrid::Multigrid(std::array<int, 2> cells, int degree, int direct_size)
@@ -280,8 +270,9 @@ void add_row(double* at, double w, const double* rows, std::size_t i,
 /// The Galerkin operator K_2h = P^T K_h P (P = R_x (x) R_y restricted to the
 /// coupled fine nodes), row by row: for coarse J, u = K_h P e_J on the fine
 /// nodes within p of P e_J's support, then K_2h(J, L) = (P e_L) . u for the
-/// upper half of J's stencil. Each coarse row is written by one thread, its
-/// terms summed in a fixed order.
+/// upper half of J's stencil. With nested spaces this is eq. 57 assembled from
+/// the same particles with the coarse basis. Each coarse row is written by one
+/// thread, its terms summed in a fixed order.
 template <int P>
 void Multigrid::galerkin(const Level& fine, Level& coarse)
 {
@@ -530,6 +521,23 @@ double neighbours(const SymmetricStencil<P>& stencil, const double* rows, std::s
     sum += column[dx];
   return sum;
 }
+
+/// sum_a wx[a] sum_e wy[e] v[index(x0 + a, y0 + e)] over a < nx, e < ny: one
+/// node of a transfer, P^T r or P x_2h, with the tensor-product weights of R.
+template <class Index>
+double tensor_gather(const double* wx, int nx, int x0, const double* wy, int ny, int y0,
+                     const std::vector<double>& v, Index index)
+{
+  double sum = 0.0;
+  for (int a = 0; a < nx; ++a)
+  {
+    double column = 0.0;
+    for (int e = 0; e < ny; ++e)
+      column += wy[e] * v[index(x0 + a, y0 + e)];
+    sum += wx[a] * column;
+  }
+  return sum;
+}
 } // namespace
 
 /// The V-cycle on level l for b_l (eq. 50's residual restricted to it), from
@@ -592,16 +600,9 @@ void Multigrid::cycle(std::size_t l, double* kx)
     {
       const std::size_t j = c.live[v];
       const int jy = static_cast<int>(j - padded(c, jx, 0));
-      double sum = 0.0;
-      for (int a = 0; a < rx.count[jx]; ++a)
-      {
-        double column = 0.0;
-        for (int e = 0; e < ry.count[jy]; ++e)
-          column += ry.weight[std::size_t(jy) * W + e]
-                    * f.r[padded(f, rx.first[jx] + a, ry.first[jy] + e)];
-        sum += rx.weight[std::size_t(jx) * W + a] * column;
-      }
-      c.b[j] = sum;
+      c.b[j] = tensor_gather(&rx.weight[std::size_t(jx) * W], rx.count[jx], rx.first[jx],
+                             &ry.weight[std::size_t(jy) * W], ry.count[jy], ry.first[jy], f.r,
+                             [&](int ix, int iy) { return padded(f, ix, iy); });
     }
   cycle<P>(l + 1, nullptr);
   // Prolongation x += P x_2h at the coupled nodes.
@@ -613,16 +614,9 @@ void Multigrid::cycle(std::size_t l, double* kx)
       if (!f.coupled[i])
         continue;
       const int iy = static_cast<int>(i - padded(f, ix, 0));
-      double sum = 0.0;
-      for (int a = 0; a < rx.count_t[ix]; ++a)
-      {
-        double column = 0.0;
-        for (int e = 0; e < ry.count_t[iy]; ++e)
-          column += ry.weight_t[std::size_t(iy) * W + e]
-                    * c.x[padded(c, rx.first_coarse[ix] + a, ry.first_coarse[iy] + e)];
-        sum += rx.weight_t[std::size_t(ix) * W + a] * column;
-      }
-      x[i] += sum;
+      x[i] += tensor_gather(&rx.weight_t[std::size_t(ix) * W], rx.count_t[ix], rx.first_coarse[ix],
+                            &ry.weight_t[std::size_t(iy) * W], ry.count_t[iy], ry.first_coarse[iy],
+                            c.x, [&](int jx, int jy) { return padded(c, jx, jy); });
     }
 
   double* delta = _delta.data();

@@ -135,7 +135,6 @@ private:
 
   int _degree;
   int _direct_size;
-  std::array<int, 2> _cells;
   std::vector<Level> _levels;
   std::size_t _coarsest = 0; // the level solved directly in the last setup
   // The coarsest level's banded Cholesky factor K = L L^T over its unknowns:
