@@ -13,6 +13,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <type_traits>
 #include <utility>
 
 namespace py = pybind11;
@@ -108,6 +109,12 @@ void bind_solver(py::module_& m)
       .def("rotated", [matrix](const Fracture& f, double phi) { return matrix(f.rotated(phi)); },
            py::arg("phi"), "gamma in the global frame for axes turned phi radians clockwise");
 
+  py::enum_<Preconditioner>(m, "Preconditioner", "preconditioner of the phase-field CG")
+      .value("automatic", Preconditioner::automatic)
+      .value("jacobi", Preconditioner::jacobi)
+      .value("ssor", Preconditioner::ssor)
+      .value("multigrid", Preconditioner::multigrid);
+
   py::class_<Solver>(m, "Solver", "Explicit MPM stepping with a staggered phase field (Algorithm 1)")
       .def(py::init(
                [](Grid& grid, Particles& particles,
@@ -140,6 +147,31 @@ void bind_solver(py::module_& m)
              d["bounded"] = s.bounded();
              return d;
            })
+      .def(
+          "phase_field_system",
+          [](const Solver& s)
+          {
+            const PhaseFieldSystem k = s.phase_field_system();
+            auto copy = [](const auto& v)
+            {
+              using T = typename std::decay_t<decltype(v)>::value_type;
+              return py::array_t<T>(static_cast<py::ssize_t>(v.size()), v.data());
+            };
+            py::dict d;
+            d["nodes"] = copy(k.nodes);
+            d["row_start"] = copy(k.row_start);
+            d["column"] = copy(k.column);
+            d["value"] = copy(k.value);
+            d["rhs"] = copy(k.rhs);
+            d["solution"] = copy(k.solution);
+            return d;
+          },
+          "the last phase-field system K c = F in compressed rows over the active nodes "
+          "(nodes, row_start, column, value, rhs) and its solution (one velocity field only)")
+      .def("set_phase_field_preconditioner", &Solver::set_phase_field_preconditioner,
+           py::arg("preconditioner"),
+           "the phase-field CG preconditioner from the next solve on (automatic: jacobi for "
+           "the second-order model, ssor for the fourth-order one)")
       .def("set_stability_length", &Solver::set_stability_length, py::arg("length"),
            "check dt (c_p + |v_p|) <= length after every step (0: no check)")
       .def_property_readonly("light_nodes", &Solver::light_nodes,

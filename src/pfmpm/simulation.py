@@ -81,6 +81,7 @@ class Simulation:
         # The solver adds the models' columns; then their initial values.
         self.solver = _core.Solver(self.grid, self.particles, materials, scene.dt(), fracture,
                                    pf.tol, pf.max_iterations, friction)
+        self.solver.set_phase_field_preconditioner(_core.Preconditioner.__members__[pf.preconditioner])
         columns = {c["name"] for c in self.particles.columns()}
         for name in (columns - core) & arrays.keys():
             getattr(self.particles, name)[...] = arrays[name]

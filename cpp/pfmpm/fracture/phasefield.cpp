@@ -138,6 +138,23 @@ PhaseField::PhaseField(const Grid& grid, std::vector<std::optional<Fracture>> fr
   }
 }
 
+void PhaseField::set_preconditioner(Preconditioner preconditioner)
+{
+  _preconditioner = preconditioner;
+  _multigrid.reset();
+  if (_active && preconditioner == Preconditioner::multigrid)
+    _multigrid = std::make_unique<Multigrid>(_grid.cells(), _grid.degree());
+  if (_active && this->preconditioner() == Preconditioner::ssor && _forward.empty())
+    _forward.assign(_c.size(), 0.0);
+}
+
+Preconditioner PhaseField::preconditioner() const
+{
+  if (_preconditioner != Preconditioner::automatic)
+    return _preconditioner;
+  return _fourth ? Preconditioner::ssor : Preconditioner::jacobi;
+}
+
 PhaseFieldState PhaseField::state() const
 {
   return PhaseFieldState{_c, _c_previous, _stats};
@@ -166,6 +183,53 @@ std::vector<ColumnSpec> PhaseField::columns()
           {"phi", 1, DType::f64, {0.0}, "principal material direction, radians clockwise from x",
            "", ""},
           {"fracture_energy", 1, DType::f64, {0.0}, "G_c V_p Z(c_p) (K&T eqs. 3-4)", "", ""}};
+}
+
+PhaseFieldSystem PhaseField::system() const
+{
+  switch (_pad)
+  {
+  case 1:
+    return compressed_rows<1>();
+  case 2:
+    return compressed_rows<2>();
+  default:
+    return compressed_rows<3>();
+  }
+}
+
+template <int P>
+PhaseFieldSystem PhaseField::compressed_rows() const
+{
+  constexpr int H = Stencil<P>::size;
+  PhaseFieldSystem out;
+  const std::size_t na = _rhs.size();
+  if (na == 0)
+    return out;
+  const int nnx = _grid.nodes()[0], nny = _grid.nodes()[1];
+  out.nodes.assign(_grid.active_nodes().begin(), _grid.active_nodes().end());
+  out.rhs = _rhs;
+  out.row_start.push_back(0);
+  for (std::size_t a = 0; a < na; ++a)
+  {
+    const int ix = out.nodes[a] / nny, iy = out.nodes[a] % nny;
+    out.solution.push_back(_c[_position[a]]);
+    // Neighbours in increasing node order, hence increasing active index.
+    for (int dx = -P; dx <= P; ++dx)
+      for (int dy = -P; dy <= P; ++dy)
+      {
+        const int jx = ix + dx, jy = iy + dy;
+        if (jx < 0 || jx >= nnx || jy < 0 || jy >= nny || _grid.active_index(jx, jy) < 0)
+          continue;
+        const int k = Stencil<P>::slot(dx, dy);
+        const double v = k >= 0 ? _stencil[_position[a] * H + k]
+                                : _stencil[padded(jx, jy) * H + Stencil<P>::slot(-dx, -dy)];
+        out.column.push_back(_grid.active_index(jx, jy));
+        out.value.push_back(v);
+      }
+    out.row_start.push_back(static_cast<std::int64_t>(out.column.size()));
+  }
+  return out;
 }
 
 template <int P>
@@ -313,26 +377,6 @@ void PhaseField::assemble(const Particles& particles, const CellSort& sort)
     _diagonal[a] = d;
   }
 
-  if constexpr (Fourth)
-  {
-    // The strips of the Gauss-Seidel order (ssor_iterations): 32 grid columns
-    // each, consecutive active nodes (they are numbered column by column).
-    constexpr int width = 32;
-    const int nx = _grid.nodes()[0], strips = (nx + width - 1) / width;
-    _strip_column.resize(strips + 1);
-    for (int s = 0; s <= strips; ++s)
-      _strip_column[s] = std::min(s * width, nx);
-    _column_start.resize(nx + 1);
-    for (int ix = 0; ix <= nx; ++ix)
-      _column_start[ix] = static_cast<std::size_t>(
-          std::lower_bound(nodes.begin(), nodes.end(), ix * nny) - nodes.begin());
-    _inverse.resize(na);
-#pragma omp parallel for schedule(static)
-    for (std::ptrdiff_t a = 0; a < static_cast<std::ptrdiff_t>(na); ++a)
-      _inverse[a] = 1.0 / _diagonal[a];
-    _v.resize(na);
-    _g.resize(na);
-  }
 }
 
 template <int P>
@@ -544,18 +588,89 @@ void PhaseField::ssor_iterations(double norm_f, double stop, double& residual, i
   }
 }
 
+void PhaseField::prepare_ssor()
+{
+  const std::vector<std::int32_t>& nodes = _grid.active_nodes();
+  const auto na = static_cast<std::ptrdiff_t>(_rhs.size());
+  constexpr int width = 32;
+  const int nx = _grid.nodes()[0], nny = _grid.nodes()[1], strips = (nx + width - 1) / width;
+  _strip_column.resize(strips + 1);
+  for (int s = 0; s <= strips; ++s)
+    _strip_column[s] = std::min(s * width, nx);
+  _column_start.resize(nx + 1);
+  for (int ix = 0; ix <= nx; ++ix)
+    _column_start[ix] = static_cast<std::size_t>(
+        std::lower_bound(nodes.begin(), nodes.end(), ix * nny) - nodes.begin());
+  _inverse.resize(na);
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t a = 0; a < na; ++a)
+    _inverse[a] = 1.0 / _diagonal[a];
+  _v.resize(na);
+  _g.resize(na);
+}
+
+/// PCG with z = B r, B one V-cycle of Multigrid (symmetric positive definite),
+/// set up for this K only when the warm start has not yet converged.
+template <int P>
+void PhaseField::multigrid_iterations(double norm_f, double stop, double& residual, int& it)
+{
+  const std::size_t na = _rhs.size();
+  residual = std::sqrt(deterministic_sum<1>(na,
+                                            [&](std::size_t a, std::array<double, 1>& acc)
+                                            {
+                                              _r[a] = _rhs[a] - _q[a];
+                                              acc[0] += _r[a] * _r[a];
+                                            })[0]);
+  _stats.start_residual = norm_f > 0.0 ? residual / norm_f : 0.0;
+  if (residual <= stop)
+    return;
+  _v.resize(na);
+  _multigrid->setup<P>(_stencil, _position);
+  // z = B r and K z from the V-cycle; then p = z + beta p and K p = K z + beta K p.
+  double* kz = _v.data();
+  double rz = 0.0;
+  for (;;)
+  {
+    _multigrid->apply<P>(_r.data(), _z.data(), kz);
+    const double rz_next = deterministic_sum<1>(
+        na, [&](std::size_t a, std::array<double, 1>& acc) { acc[0] += _r[a] * _z[a]; })[0];
+    const double beta = it == 0 ? 0.0 : rz_next / rz;
+    rz = rz_next;
+    ++it;
+    const double pq = deterministic_sum<1>(
+        na,
+        [&](std::size_t a, std::array<double, 1>& acc)
+        {
+          double& p = _search[_position[a]];
+          p = _z[a] + beta * p;
+          _q[a] = kz[a] + beta * _q[a];
+          acc[0] += p * _q[a];
+        })[0];
+    const double alpha = rz / pq;
+    residual = std::sqrt(deterministic_sum<1>(na,
+                                              [&](std::size_t a, std::array<double, 1>& acc)
+                                              {
+                                                _c[_position[a]] += alpha * _search[_position[a]];
+                                                _r[a] -= alpha * _q[a];
+                                                acc[0] += _r[a] * _r[a];
+                                              })[0]);
+    if (residual <= stop || it >= _max_iterations)
+      return;
+  }
+}
+
 /// Preconditioned conjugate gradients for K c = F (eq. 50), from the warm
-/// start until ||F - K c|| <= tol ||F||.
+/// start until ||F - K c|| <= tol ||F||, with the preconditioner of
+/// set_preconditioner().
 ///
-/// The second-order model without the bound (Fracture::bound false; by
-/// default it is solved by bounded_solve) keeps the Jacobi preconditioner
-/// z = D^-1 r (jacobi_iterations): its CG needs only 12-28 iterations per
-/// step, too few for Gauss-Seidel sweeps to pay back their cost, and its
-/// results stay those of before bit for bit.
+/// By default the second-order model is solved by bounded_solve (Jacobi CG
+/// on the free nodes); without the bound (Fracture::bound false) it keeps
+/// the Jacobi preconditioner z = D^-1 r (jacobi_iterations): 12-28
+/// iterations per step, and its results stay those of before bit for bit.
 ///
 /// The fourth-order model, whose condition number grows like
-/// gamma_n (l0/h)^4, takes symmetric Gauss-Seidel (SSOR with omega = 1,
-/// ssor_iterations): with K = L + D + U in the Gauss-Seidel order,
+/// gamma_n (l0/h)^4, takes symmetric Gauss-Seidel by default (SSOR with
+/// omega = 1, ssor_iterations): with K = L + D + U in the Gauss-Seidel order,
 /// M = (D + L) D^-1 (D + U), symmetric positive definite since D > 0. The
 /// order: strips of 32 grid columns, the even strips first, then the odd ones,
 /// each strip column by column; strips of one parity share no entry of K, so
@@ -566,6 +681,9 @@ void PhaseField::ssor_iterations(double norm_f, double stop, double& residual, i
 /// and a product; c and the true residual r = F - K c are updated alongside.
 /// The CG scalars are those of PCG with M; about a third of the Jacobi
 /// iterations (docs/performance.md).
+///
+/// The multigrid V-cycle (multigrid_iterations, Multigrid) takes a few
+/// iterations for either order (docs/performance.md).
 template <int P, bool Fourth>
 bool PhaseField::conjugate_gradient()
 {
@@ -591,10 +709,18 @@ bool PhaseField::conjugate_gradient()
   multiply<P>(_c, _q);
   double residual = 0.0;
   int it = 0;
-  if constexpr (Fourth)
+  switch (preconditioner())
+  {
+  case Preconditioner::ssor:
+    prepare_ssor();
     ssor_iterations<P>(norm_f, stop, residual, it);
-  else
+    break;
+  case Preconditioner::multigrid:
+    multigrid_iterations<P>(norm_f, stop, residual, it);
+    break;
+  default:
     jacobi_iterations<P>(norm_f, stop, residual, it);
+  }
   _stats.solves += 1;
   _stats.iterations += it;
   _stats.last_iterations = it;

@@ -7,9 +7,12 @@
 #include "pfmpm/grid/grid.h"
 #include "pfmpm/particles/cell_sort.h"
 #include "pfmpm/particles/particles.h"
+#include "pfmpm/fracture/multigrid.h"
+#include "pfmpm/fracture/symmetric_stencil.h"
 
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <vector>
 
@@ -82,6 +85,15 @@ struct Fracture
   Voigt rotated(double phi) const;
 };
 
+/// @brief The preconditioner of the phase-field conjugate gradients.
+enum class Preconditioner : int
+{
+  automatic = 0, ///< jacobi for the second-order model, ssor for the fourth-order one
+  jacobi = 1,    ///< z = D^-1 r
+  ssor = 2,      ///< symmetric Gauss-Seidel with Eisenstat's trick
+  multigrid = 3  ///< a geometric multigrid V-cycle (Multigrid)
+};
+
 /// Convergence record of the phase-field solves.
 struct PhaseFieldStats
 {
@@ -94,6 +106,19 @@ struct PhaseFieldStats
   std::int64_t passes = 0;           ///< active-set passes over all bounded solves
   std::int32_t last_passes = 0;      ///< active-set passes of the last bounded solve
   std::int32_t at_bound = 0;         ///< nodes held at c = 0 or 1 by the last bounded solve
+};
+
+/// @brief The last assembled phase-field system K c = F (eqs. 56-57, 52) in
+/// compressed rows over the active nodes, both halves of K, with the solution
+/// of the last solve: for checks and for comparisons with other solvers.
+struct PhaseFieldSystem
+{
+  std::vector<std::int32_t> nodes;     ///< grid node (ix * nodes_y + iy) of each row
+  std::vector<std::int64_t> row_start; ///< rows + 1 offsets into column and value
+  std::vector<std::int32_t> column;    ///< row index of each entry's column, ascending per row
+  std::vector<double> value;           ///< K's entries
+  std::vector<double> rhs;             ///< F
+  std::vector<double> solution;        ///< c of the last solve
 };
 
 /// @brief What one solve hands to the next: the nodal phase field of the last
@@ -120,8 +145,9 @@ struct PhaseFieldState
 /// K is stored as the upper half of a (2p+1)^2-point stencil per grid node
 /// (padded by p nodes on each side, zero away from active nodes); only particles of
 /// materials that can crack contribute. Nodes that no such particle touches
-/// keep c = 1. The solve is preconditioned conjugate gradients (Jacobi for
-/// the second-order model, symmetric Gauss-Seidel for the fourth-order one),
+/// keep c = 1. The solve is preconditioned conjugate gradients (by default
+/// Jacobi for the second-order model, symmetric Gauss-Seidel for the
+/// fourth-order one; either, or a multigrid V-cycle, by set_preconditioner),
 /// started from the last two steps' nodal values extrapolated in time, stopped when
 /// ||F - K c|| <= tol ||F||. Sums over particles and nodes, and the
 /// Gauss-Seidel sweeps, are taken in an order that does not depend on the
@@ -148,6 +174,10 @@ public:
 
   /// Whether any material can crack.
   bool active() const { return _active; }
+  /// @brief Choose the CG preconditioner for the following solves.
+  void set_preconditioner(Preconditioner preconditioner);
+  /// The preconditioner the solves use (never automatic).
+  Preconditioner preconditioner() const;
   /// Whether some material has the fourth-order term (gamma != 0).
   bool fourth_order() const { return _fourth; }
   /// Whether the nodal phase field is solved with the bound 0 <= c <= 1.
@@ -169,6 +199,10 @@ public:
 
   const PhaseFieldStats& stats() const { return _stats; }
 
+  /// @brief The last assembled system and its solution, in compressed rows
+  /// over the active nodes of that solve (empty before the first solve).
+  PhaseFieldSystem system() const;
+
   /// @brief A copy of the state carried between solves.
   PhaseFieldState state() const;
   /// @brief Replace the state carried between solves by `state`.
@@ -186,13 +220,20 @@ private:
   template <int P, bool Fourth>
   bool conjugate_gradient();
   /// @brief The iterations of conjugate_gradient from r = F - K c with
-  /// q = K c given: Jacobi-preconditioned (second order) or preconditioned by
-  /// symmetric Gauss-Seidel with Eisenstat's trick (fourth order). Set
+  /// q = K c given: Jacobi-preconditioned, preconditioned by symmetric
+  /// Gauss-Seidel with Eisenstat's trick, or by a multigrid V-cycle. Set
   /// `residual` = ||r|| and count iterations in `it`.
   template <int P>
   void jacobi_iterations(double norm_f, double stop, double& residual, int& it);
   template <int P>
   void ssor_iterations(double norm_f, double stop, double& residual, int& it);
+  template <int P>
+  void multigrid_iterations(double norm_f, double stop, double& residual, int& it);
+  /// The Gauss-Seidel order and 1 / K_II of ssor_iterations, for this step's
+  /// active nodes and K.
+  void prepare_ssor();
+  template <int P>
+  PhaseFieldSystem compressed_rows() const;
   template <int P>
   void multiply(const std::vector<double>& padded, std::vector<double>& out) const;
   /// @brief K c = F (eq. 50) with the bound 0 <= c <= 1 on every active
@@ -217,47 +258,14 @@ private:
   void free_set_iterations(double stop, double& start, double& residual, int& it);
   template <int P, bool Fourth>
   void map_to_particles(Particles& particles, const CellSort& sort);
-  /// @brief The upper half of K's (2p+1)^2-point stencil: the centre, then the
-  /// offsets (0, 1..p), then (1..p, -p..p). K is symmetric, so the entry for
-  /// (-dx, -dy) is the (dx, dy) entry of the neighbour's row.
+  /// K's stencil storage (symmetric_stencil.h).
   template <int P>
-  struct Stencil
-  {
-    static constexpr int width = 2 * P + 1, size = (width * width + 1) / 2;
-    std::ptrdiff_t offset[size]; // in the padded node layout
-    int dx[size];                // the column offset
-    explicit Stencil(std::size_t padded_ny)
-    {
-      for (int x = 0; x <= P; ++x)
-        for (int y = -P; y <= P; ++y)
-          if (const int k = slot(x, y); k >= 0)
-          {
-            offset[k] = x * static_cast<std::ptrdiff_t>(padded_ny) + y;
-            dx[k] = x;
-          }
-    }
-    /// Index of offset (dx, dy) in the upper half, or -1 for the lower half.
-    static constexpr int slot(int dx, int dy)
-    {
-      if (dx < 0 || (dx == 0 && dy < 0))
-        return -1;
-      return dx == 0 ? dy : P + (dx - 1) * width + dy + P + 1;
-    }
-  };
+  using Stencil = SymmetricStencil<P>;
   /// Row `a` (an active node) of K times the padded vector `v`.
   template <int P>
   double row_product(const Stencil<P>& stencil, std::size_t a, const double* v) const
   {
-    constexpr int H = Stencil<P>::size;
-    const std::size_t i = _position[a];
-    const double* row = &_stencil[i * H];
-    double sum = row[0] * v[i];
-    for (int k = 1; k < H; ++k)
-    {
-      const std::ptrdiff_t o = stencil.offset[k];
-      sum += row[k] * v[i + o] + _stencil[(i - o) * H + k] * v[i - o];
-    }
-    return sum;
+    return pfmpm::row_product(stencil, _stencil.data(), _position[a], v);
   }
   /// Index of node (ix, iy) in the padded node layout.
   std::size_t padded(int ix, int iy) const
@@ -282,7 +290,7 @@ private:
   std::vector<std::size_t> _position; // per active node: its index in the padded layout
   std::vector<double> _r, _z, _q;     // CG work vectors, per active node
   std::vector<double> _search;        // CG search direction, padded layout
-  // Fourth order only (SSOR-preconditioned CG): strip s of the Gauss-Seidel
+  // SSOR-preconditioned CG only: strip s of the Gauss-Seidel
   // order is the grid columns [_strip_column[s], _strip_column[s + 1]), column
   // ix the active nodes [_column_start[ix], _column_start[ix + 1]); 1 / K_II per
   // active node; work vectors _forward (padded layout), _v and _g (per active node).
@@ -294,6 +302,8 @@ private:
   // (held at c = 1), and the free active nodes in ascending order.
   std::vector<std::int8_t> _bound;
   std::vector<std::size_t> _free;
+  Preconditioner _preconditioner = Preconditioner::automatic;
+  std::unique_ptr<Multigrid> _multigrid; // with Preconditioner::multigrid
   PhaseFieldStats _stats;
 };
 

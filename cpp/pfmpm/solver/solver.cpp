@@ -501,6 +501,25 @@ bool Solver::fourth_order() const
   return !_phase.empty() && _phase.front().field.fourth_order();
 }
 
+void Solver::set_phase_field_preconditioner(Preconditioner preconditioner)
+{
+  for (PhaseFieldGroup& g : _phase)
+    g.field.set_preconditioner(preconditioner);
+}
+
+Preconditioner Solver::phase_field_preconditioner() const
+{
+  return _phase.empty() ? Preconditioner::automatic : _phase.front().field.preconditioner();
+}
+
+PhaseFieldSystem Solver::phase_field_system() const
+{
+  if (_phase.size() != 1)
+    throw std::logic_error("phase_field_system: the run has " + std::to_string(_phase.size())
+                           + " phase fields, not one");
+  return _phase.front().field.system();
+}
+
 bool Solver::bounded() const
 {
   return !_phase.empty() && _phase.front().field.bounded();

@@ -146,6 +146,13 @@ public:
   PhaseFieldStats phase_field_stats() const;
   /// The contact record, or nullptr with one velocity field.
   const ContactStats* contact_stats() const;
+  /// @brief The CG preconditioner of every phase field's solves from now on.
+  void set_phase_field_preconditioner(Preconditioner preconditioner);
+  /// The preconditioner the phase-field CG uses (automatic resolved).
+  Preconditioner phase_field_preconditioner() const;
+  /// @brief The last system K c = F of the (single) phase field, for the record.
+  /// @throws std::logic_error without a phase field or with several.
+  PhaseFieldSystem phase_field_system() const;
 
   /// @brief Map the current particle state to the grid (P2G only) and return,
   /// per active node, (node index, mass, momentum x, momentum y), summed over
