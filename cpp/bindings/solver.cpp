@@ -171,7 +171,7 @@ void bind_solver(py::module_& m)
       .def("set_phase_field_preconditioner", &Solver::set_phase_field_preconditioner,
            py::arg("preconditioner"),
            "the phase-field CG preconditioner from the next solve on (automatic: jacobi for "
-           "the second-order model, ssor for the fourth-order one)")
+           "the second-order model, multigrid for the fourth-order one)")
       .def("set_stability_length", &Solver::set_stability_length, py::arg("length"),
            "check dt (c_p + |v_p|) <= length after every step (0: no check)")
       .def_property_readonly("light_nodes", &Solver::light_nodes,

@@ -133,18 +133,19 @@ PhaseField::PhaseField(const Grid& grid, std::vector<std::optional<Fracture>> fr
     _c.assign(padded_nx * _padded_ny, 1.0);
     _c_previous = _c;
     _search.assign(_c.size(), 0.0);
-    if (_fourth)
-      _forward.assign(_c.size(), 0.0);
   }
+  set_preconditioner(Preconditioner::automatic);
 }
 
 void PhaseField::set_preconditioner(Preconditioner preconditioner)
 {
   _preconditioner = preconditioner;
   _multigrid.reset();
-  if (_active && preconditioner == Preconditioner::multigrid)
+  if (!_active)
+    return;
+  if (this->preconditioner() == Preconditioner::multigrid)
     _multigrid = std::make_unique<Multigrid>(_grid.cells(), _grid.degree());
-  if (_active && this->preconditioner() == Preconditioner::ssor && _forward.empty())
+  if (this->preconditioner() == Preconditioner::ssor && _forward.empty())
     _forward.assign(_c.size(), 0.0);
 }
 
@@ -152,7 +153,7 @@ Preconditioner PhaseField::preconditioner() const
 {
   if (_preconditioner != Preconditioner::automatic)
     return _preconditioner;
-  return _fourth ? Preconditioner::ssor : Preconditioner::jacobi;
+  return _fourth ? Preconditioner::multigrid : Preconditioner::jacobi;
 }
 
 PhaseFieldState PhaseField::state() const
@@ -669,7 +670,8 @@ void PhaseField::multigrid_iterations(double norm_f, double stop, double& residu
 /// iterations per step, and its results stay those of before bit for bit.
 ///
 /// The fourth-order model, whose condition number grows like
-/// gamma_n (l0/h)^4, takes symmetric Gauss-Seidel by default (SSOR with
+/// gamma_n (l0/h)^4, takes the multigrid V-cycle by default (below); with
+/// Preconditioner::ssor it takes symmetric Gauss-Seidel (SSOR with
 /// omega = 1, ssor_iterations): with K = L + D + U in the Gauss-Seidel order,
 /// M = (D + L) D^-1 (D + U), symmetric positive definite since D > 0. The
 /// order: strips of 32 grid columns, the even strips first, then the odd ones,

@@ -88,7 +88,7 @@ struct Fracture
 /// @brief The preconditioner of the phase-field conjugate gradients.
 enum class Preconditioner : int
 {
-  automatic = 0, ///< jacobi for the second-order model, ssor for the fourth-order one
+  automatic = 0, ///< jacobi for the second-order model, multigrid for the fourth-order one
   jacobi = 1,    ///< z = D^-1 r
   ssor = 2,      ///< symmetric Gauss-Seidel with Eisenstat's trick
   multigrid = 3  ///< a geometric multigrid V-cycle (Multigrid)

@@ -159,8 +159,8 @@ class PhaseFieldSpec:
     preconditioner : str
         Of the conjugate gradients: ``"jacobi"``, ``"ssor"`` (symmetric
         Gauss-Seidel), ``"multigrid"`` (a geometric V-cycle on the B-spline
-        grid), or ``"automatic"``: jacobi for the second-order model, ssor for
-        the fourth-order one.
+        grid), or ``"automatic"``: jacobi for the second-order model, multigrid
+        for the fourth-order one.
     """
 
     tol: float = 1e-6
