@@ -1,10 +1,16 @@
-"""Throughput of the core step on a synthetic block of particles."""
+"""Throughput of the core step: on a synthetic block of particles
+(:func:`bench`), and on the scenes users run (:func:`scenes_bench`)."""
 
 from __future__ import annotations
 
+import json
 import math
+import resource
 import statistics
+import subprocess
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -95,3 +101,85 @@ def bench(physics: str = "elastic", particles: int = 1_000_000, steps: int = 20,
         "phase_field_iterations_per_step": stats["iterations"] / max(stats["solves"], 1),
         "contact_nodes": (sim.solver.contact_stats() or {"nodes": 0})["nodes"],
     }
+
+
+def _rss_bytes() -> int:
+    """Resident set size of this process now."""
+    with open("/proc/self/status") as f:
+        for line in f:
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1]) * 1024
+    return 0
+
+
+def scene_bench(path: Path | str, steps: int = 20, overrides: list[str] | tuple[str, ...] = ()) -> dict:
+    """Time ``steps`` steps of a scene file after two warm-up steps, in this process.
+
+    Returns particle-steps per second, CG iterations per phase-field solve and
+    the peak memory per particle: the process's peak resident size
+    (``ru_maxrss``) less its size before the scene was built, over the
+    particle count, so it holds the core's arrays, the solver's grid and
+    phase-field storage and the Python copies the set-up makes. Run one scene
+    per process (:func:`scenes_bench`) for a peak of its own.
+    """
+    from .scene import Scene
+
+    before = _rss_bytes()
+    scene = Scene.from_toml(path, list(overrides) + ["output.particles=false"])
+    sim = Simulation(scene)
+    sim.advance(2)  # warm-up: allocations, the first sort, the cold phase-field solve
+    solves, iterations = (sim.solver.phase_field_stats()[k] for k in ("solves", "iterations"))
+    start = time.perf_counter()
+    sim.advance(steps)
+    seconds = time.perf_counter() - start
+    stats = sim.solver.phase_field_stats()
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+    n = len(sim.particles)
+    solved = stats["solves"] - solves
+    return {
+        "scene": scene.name,
+        "particles": n,
+        "steps": steps,
+        "threads": _core.num_threads(),
+        "seconds": seconds,
+        "particle_steps_per_s": n * steps / seconds,
+        "cg_iterations_per_solve": (stats["iterations"] - iterations) / solved if solved else 0.0,
+        "peak_bytes_per_particle": (peak - before) / n,
+    }
+
+
+def scenes_bench(paths: list[Path | str], steps: int = 20,
+                 overrides: list[str] | tuple[str, ...] = ()) -> list[dict]:
+    """:func:`scene_bench` of each scene in a process of its own, in order."""
+    rows = []
+    for path in paths:
+        args = [sys.executable, "-m", "pfmpm.bench", str(path), "--steps", str(steps)]
+        for o in overrides:
+            args += ["--set", o]
+        r = subprocess.run(args, capture_output=True, text=True)
+        if r.returncode != 0:
+            raise RuntimeError(f"{path}: {r.stderr.strip().splitlines()[-1] if r.stderr.strip() else r.returncode}")
+        rows.append(json.loads(r.stdout))
+    return rows
+
+
+def markdown_table(rows: list[dict]) -> str:
+    """The rows of :func:`scenes_bench` as a Markdown table."""
+    lines = ["| scene | particles | threads | M particle-steps/s | CG iterations per solve |"
+             " peak bytes per particle |", "|---|---|---|---|---|---|"]
+    for r in rows:
+        lines.append(f"| {r['scene']} | {r['particles']} | {r['threads']} | "
+                     f"{r['particle_steps_per_s'] / 1e6:.2f} | {r['cg_iterations_per_solve']:.1f} | "
+                     f"{r['peak_bytes_per_particle']:.0f} |")
+    return "\n".join(lines) + "\n"
+
+
+if __name__ == "__main__":
+    import argparse
+
+    parser = argparse.ArgumentParser(description="scene_bench of one scene, as one JSON object")
+    parser.add_argument("scene")
+    parser.add_argument("--steps", type=int, default=20)
+    parser.add_argument("--set", action="append", default=[], dest="overrides")
+    a = parser.parse_args()
+    print(json.dumps(scene_bench(a.scene, a.steps, a.overrides)))

@@ -208,7 +208,7 @@ PhaseFieldSystem PhaseField::compressed_rows() const
   if (na == 0)
     return out;
   const int nnx = _grid.nodes()[0], nny = _grid.nodes()[1];
-  out.nodes.assign(_grid.active_nodes().begin(), _grid.active_nodes().end());
+  out.nodes.assign(_nodes.nodes().begin(), _nodes.nodes().end());
   out.rhs = _rhs;
   out.row_start.push_back(0);
   for (std::size_t a = 0; a < na; ++a)
@@ -220,12 +220,12 @@ PhaseFieldSystem PhaseField::compressed_rows() const
       for (int dy = -P; dy <= P; ++dy)
       {
         const int jx = ix + dx, jy = iy + dy;
-        if (jx < 0 || jx >= nnx || jy < 0 || jy >= nny || _grid.active_index(jx, jy) < 0)
+        if (jx < 0 || jx >= nnx || jy < 0 || jy >= nny || _nodes.index(jx, jy) < 0)
           continue;
         const int k = Stencil<P>::slot(dx, dy);
         const double v = k >= 0 ? _stencil[_position[a] * H + k]
                                 : _stencil[padded(jx, jy) * H + Stencil<P>::slot(-dx, -dy)];
-        out.column.push_back(_grid.active_index(jx, jy));
+        out.column.push_back(_nodes.index(jx, jy));
         out.value.push_back(v);
       }
     out.row_start.push_back(static_cast<std::int64_t>(out.column.size()));
@@ -261,7 +261,10 @@ void PhaseField::assemble(const Particles& particles, const CellSort& sort)
   constexpr int K = Shape::size;      // nodes of one cell
   constexpr int H = Stencil<P>::size; // stored entries per node
   const int nny = _grid.nodes()[1];
-  const auto na = static_cast<std::size_t>(_grid.num_active());
+  // The system's unknowns: the nodes in the support of the sort's particles
+  // (with discrete fields, of this body's particles alone).
+  _nodes.activate(_grid, sort.cell_start());
+  const auto na = static_cast<std::size_t>(_nodes.size());
   const double* volume = particles.volume.data();
   const double* history = particles.f64("history").data();
   const double* phi = particles.f64("phi").data();
@@ -274,7 +277,7 @@ void PhaseField::assemble(const Particles& particles, const CellSort& sort)
   _r.resize(na);
   _z.resize(na);
   _q.resize(na);
-  const std::vector<std::int32_t>& nodes = _grid.active_nodes();
+  const std::vector<std::int32_t>& nodes = _nodes.nodes();
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t a = 0; a < static_cast<std::ptrdiff_t>(na); ++a)
   {
@@ -357,7 +360,7 @@ void PhaseField::assemble(const Particles& particles, const CellSort& sort)
         for (int i = 0; i < K; ++i)
         {
           const int ix = cell.cx + Shape::offset(i, 0), iy = cell.cy + Shape::offset(i, 1);
-          _rhs[_grid.active_index(ix, iy)] += f[i];
+          _rhs[_nodes.index(ix, iy)] += f[i];
           double* row = &_stencil[padded(ix, iy) * H];
           for (int j = 0; j < K; ++j)
             if (slot[i][j] >= 0)
@@ -591,7 +594,7 @@ void PhaseField::ssor_iterations(double norm_f, double stop, double& residual, i
 
 void PhaseField::prepare_ssor()
 {
-  const std::vector<std::int32_t>& nodes = _grid.active_nodes();
+  const std::vector<std::int32_t>& nodes = _nodes.nodes();
   const auto na = static_cast<std::ptrdiff_t>(_rhs.size());
   constexpr int width = 32;
   const int nx = _grid.nodes()[0], nny = _grid.nodes()[1], strips = (nx + width - 1) / width;

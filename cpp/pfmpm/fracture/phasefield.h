@@ -192,7 +192,7 @@ public:
   /// fracture energy at the particles of `sort`.
   ///
   /// `sort` holds the particles that take part, all of crackable materials,
-  /// sorted by cell; the grid's active nodes must be those of this step.
+  /// sorted by cell; its unknowns are the nodes these particles touch.
   /// @return false if CG did not reach tol within max_iterations.
   template <int P>
   bool solve(Particles& particles, const CellSort& sort);
@@ -274,6 +274,7 @@ private:
   }
 
   const Grid& _grid;
+  ActiveNodes _nodes; // the unknowns: the nodes the solve's particles touch
   std::vector<std::optional<Fracture>> _fracture;
   bool _active;
   bool _fourth; // some material has gamma != 0
