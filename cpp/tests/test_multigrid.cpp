@@ -1,7 +1,7 @@
-// The multigrid preconditioner of the phase-field CG: the B-spline two-scale
-// relation, Galerkin coarse operators equal to the matrices assembled on the
-// coarse grids, few iterations to the tight solution, and the same bits on any
-// number of threads.
+/// @file test_multigrid.cpp
+/// @brief The multigrid preconditioner of the phase-field CG: the B-spline two-scale relation,
+/// Galerkin coarse operators equal to the matrices assembled on the coarse grids, few iterations
+/// to the tight solution, and the same bits on any number of threads.
 #include "helpers.h"
 #include "pfmpm/fracture/multigrid.h"
 #include "pfmpm/fracture/phasefield.h"

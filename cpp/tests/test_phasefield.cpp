@@ -1,7 +1,7 @@
-// The anisotropy tensor of the fourth-order phase field in a turned material
-// frame (Fracture::rotated, section 4.3.4 of the paper); the AT1 and AT2
-// coefficients (Fracture::reaction, source, crack_density) and the bounded
-// solve of AT1.
+/// @file test_phasefield.cpp
+/// @brief The anisotropy tensor of the fourth-order phase field in a turned material frame
+/// (Fracture::rotated, section 4.3.4 of the paper); the AT1 and AT2 coefficients
+/// (Fracture::reaction, source, crack_density) and the bounded solve of AT1.
 #include "pfmpm/fracture/phasefield.h"
 #include "pfmpm/solver/solver.h"
 

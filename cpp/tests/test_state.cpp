@@ -1,6 +1,7 @@
-// The solver state: restored into a fresh solver, it continues bitwise as the
-// original, with one field or with discrete fields in contact; the stability
-// check stops a step that outruns the grid.
+/// @file test_state.cpp
+/// @brief The solver state: restored into a fresh solver, it continues bitwise as the original,
+/// with one field or with discrete fields in contact; the stability check stops a step that
+/// outruns the grid.
 #include "disks.h"
 #include "helpers.h"
 #include "pfmpm/grid/grid.h"

@@ -1,6 +1,7 @@
-// Particle-grid transfers: P2G conserves mass and momentum to round-off,
-// free motion conserves momentum exactly, and results do not depend on the
-// number of OpenMP threads (bitwise).
+/// @file test_transfer.cpp
+/// @brief Particle-grid transfers: P2G conserves mass and momentum to round-off, free motion
+/// conserves momentum exactly, and results do not depend on the number of OpenMP threads
+/// (bitwise).
 #include "helpers.h"
 #include "pfmpm/grid/grid.h"
 #include "pfmpm/solver/solver.h"
