@@ -7,7 +7,7 @@ import json
 import sys
 from pathlib import Path
 
-from .bench import PHYSICS
+from .bench import MODELS, PHYSICS
 from .compare import BORDEN_SCENE, DEFAULT_END, DEFAULT_H, DEFAULT_L0
 
 
@@ -84,7 +84,11 @@ def _count(text: str) -> int:
 def _bench(args: argparse.Namespace) -> int:
     from .bench import bench
 
-    r = bench(args.physics, args.particles, args.steps, args.repeats, args.degree)
+    try:
+        r = bench(args.physics, args.particles, args.steps, args.repeats, args.degree, args.model)
+    except ValueError as err:
+        print(f"error: --model: {err}", file=sys.stderr)
+        return 2
     if args.json:
         print(json.dumps(r))
     else:
@@ -231,6 +235,8 @@ def main(argv: list[str] | None = None) -> int:
     bench.add_argument("--steps", type=int, default=20)
     bench.add_argument("--repeats", type=int, default=3)
     bench.add_argument("--degree", type=int, default=2, choices=[1, 2, 3])
+    bench.add_argument("--model", default="linear_elastic", choices=MODELS,
+                       help="material model (neo_hookean: with --physics elastic or contact)")
     bench.add_argument("--json", action="store_true", help="print one JSON object")
     bench.set_defaults(func=_bench)
 

@@ -59,7 +59,7 @@ std::vector<ColumnSpec> NeoHookean<Damage>::columns() const
     out.push_back({"sigma_f", 1, DType::f64, {_sigma_f},
                    "tensile strength sigma_f (H&H eq. 25 with a Weibull field)", "", "sigma_f"});
     out.push_back({"dissipated", 1, DType::f64, {0.0},
-                   "work dissipated by damage, V_0 W+ dD summed over the steps", "", ""});
+                   "work dissipated by damage, the sum of V_0 W+ dD over the steps", "", ""});
   }
   return out;
 }
