@@ -101,9 +101,12 @@ public:
   void advance(const View& v, std::size_t p, const double* L, double dt) const
   {
     double* F = &v.F[4 * p];
-    [[maybe_unused]] double released = 0.0; // W+ before the step
+    [[maybe_unused]] double before[5]; // F and J at the start of the step
     if constexpr (damages)
-      released = tensile_energy(Principal(*this, F, v.J[p]));
+    {
+      std::copy(F, F + 4, before);
+      before[4] = v.J[p];
+    }
     _update(F, L, dt);
     const double J = determinant(F);
     if (!_volume_as_g2p)
@@ -120,6 +123,7 @@ public:
       if (D > D0)
       {
         // int W+ dD over the step by the trapezoidal rule, W+ at F^n and F^{n+1}.
+        const double released = tensile_energy(Principal(*this, before, before[4]));
         v.dissipated[p] += v.volume[p] / J * (D - D0) * 0.5 * (released + tensile_energy(s));
         v.damage[p] = D;
       }
