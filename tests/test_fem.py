@@ -27,8 +27,10 @@ from pfmpm.scene import (
     Fracture,
     Grid,
     Material,
+    NeoHookeanSpec,
     Output,
     PhaseField,
+    RankineSpec,
     Rectangle,
     Scene,
     Time,
@@ -217,6 +219,17 @@ def test_unsupported_scenes_are_named(change, path):
         FemSimulation(plate(bodies=(body,)))
     assert err.value.path == path
     assert "FEM" in str(err.value)
+
+
+def test_finite_strain_and_damage_models_are_refused():
+    # The FEM path is small-strain linear elasticity: a neo-Hookean material,
+    # with or without damage, is refused by one line naming its key.
+    for damage in (None, RankineSpec(sigma_f=1.0, Gf=1.0)):
+        material = NeoHookeanSpec(name="m", E=100.0, nu=0.25, density=7.0, damage=damage)
+        with pytest.raises(SceneError) as err:
+            FemSimulation(plate(material=material))
+        assert str(err.value) == ("materials[0].model = 'neo_hookean': the FEM path solves"
+                                  " small-strain linear elasticity only")
 
 
 def test_two_bodies_are_refused():

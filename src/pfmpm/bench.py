@@ -16,13 +16,16 @@ import numpy as np
 
 from . import _core
 from .scene import (Anisotropy, Body, Contact, Crack, FractureSpec, GridSpec, LinearElasticSpec,
-                    PhaseFieldSpec, Rectangle, Scene, Time)
+                    NeoHookeanSpec, PhaseFieldSpec, Rectangle, Scene, Time)
 from .simulation import Simulation
 
 PHYSICS = ("elastic", "phasefield", "anisotropic", "contact")
+MODELS = ("linear_elastic", "neo_hookean")
+"""Material models the bench can run (``"neo_hookean"`` with ``elastic`` or ``contact`` only)."""
 
 
-def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str = "elastic") -> Scene:
+def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str = "elastic",
+                model: str = "linear_elastic") -> Scene:
     """A square block of about ``particles`` points, 3x3 per cell, with a margin of empty cells.
 
     ``physics="phasefield"`` makes the block crackable (l0 = 2 h, spectral
@@ -34,8 +37,14 @@ def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str
     ``physics="contact"`` cuts the elastic block into two bodies along its
     vertical midline, each its own discrete field with frictional contact
     (mu = 0.3): the same particles as ``"elastic"``, with a line of contact
-    nodes through the middle.
+    nodes through the middle. ``model="neo_hookean"`` makes the material
+    neo-Hookean (eq. 8 in one step, no damage) with the same E, nu and
+    density; it has no phase field.
     """
+    if model not in MODELS:
+        raise ValueError(f"model = {model!r}: must be one of {', '.join(MODELS)}")
+    if model == "neo_hookean" and physics not in ("elastic", "contact"):
+        raise ValueError(f"model = 'neo_hookean': physics must be elastic or contact, not {physics!r}")
     cells = max(4, math.ceil(math.sqrt(particles / per_cell**2)))
     margin = 4
     side = cells + 2 * margin
@@ -56,7 +65,8 @@ def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str
         grid=GridSpec(size=(float(side), float(side)), h=1.0, degree=degree),
         time=Time(end=1.0),
         cracks=cracks,
-        materials=(LinearElasticSpec(name="m", E=1.0, nu=0.3, density=1.0, fracture=fracture),),
+        materials=(NeoHookeanSpec(name="m", E=1.0, nu=0.3, density=1.0) if model == "neo_hookean"
+                   else LinearElasticSpec(name="m", E=1.0, nu=0.3, density=1.0, fracture=fracture),),
         bodies=tuple(Body(name=name, material="m", shape=shape, particles_per_cell=per_cell,
                           orientation=30.0)
                      for name, shape in shapes.items()),
@@ -66,7 +76,8 @@ def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str
     )
 
 
-def bench(physics: str = "elastic", particles: int = 1_000_000, steps: int = 20, repeats: int = 3, degree: int = 2) -> dict:
+def bench(physics: str = "elastic", particles: int = 1_000_000, steps: int = 20, repeats: int = 3,
+          degree: int = 2, model: str = "linear_elastic") -> dict:
     """Time ``steps`` core steps ``repeats`` times and report the median.
 
     The block vibrates in a smooth mode (velocity amplitude 1e-3 of the wave
@@ -74,7 +85,7 @@ def bench(physics: str = "elastic", particles: int = 1_000_000, steps: int = 20,
     """
     if physics not in PHYSICS:
         raise ValueError(f"physics = {physics!r}: must be one of {', '.join(PHYSICS)}")
-    sim = Simulation(block_scene(particles, degree, physics=physics))
+    sim = Simulation(block_scene(particles, degree, physics=physics, model=model))
     x = sim.particles.x
     lo, hi = x.min(axis=0), x.max(axis=0)
     s = (x - lo) / (hi - lo)
@@ -91,6 +102,7 @@ def bench(physics: str = "elastic", particles: int = 1_000_000, steps: int = 20,
     stats = sim.solver.phase_field_stats()
     return {
         "physics": physics,
+        "model": model,
         "degree": degree,
         "particles": n,
         "steps": steps,

@@ -7,7 +7,7 @@ import json
 import sys
 from pathlib import Path
 
-from .bench import PHYSICS
+from .bench import MODELS, PHYSICS
 from .compare import BORDEN_SCENE, DEFAULT_END, DEFAULT_H, DEFAULT_L0
 
 
@@ -91,7 +91,11 @@ def _bench(args: argparse.Namespace) -> int:
         rows = scenes_bench(paths, args.steps, args.set)
         print(json.dumps(rows) if args.json else markdown_table(rows), end="" if not args.json else "\n")
         return 0
-    r = bench(args.physics, args.particles, args.steps, args.repeats, args.degree)
+    try:
+        r = bench(args.physics, args.particles, args.steps, args.repeats, args.degree, args.model)
+    except ValueError as err:
+        print(f"error: --model: {err}", file=sys.stderr)
+        return 2
     if args.json:
         print(json.dumps(r))
     else:
@@ -238,6 +242,8 @@ def main(argv: list[str] | None = None) -> int:
     bench.add_argument("--steps", type=int, default=20)
     bench.add_argument("--repeats", type=int, default=3)
     bench.add_argument("--degree", type=int, default=2, choices=[1, 2, 3])
+    bench.add_argument("--model", default="linear_elastic", choices=MODELS,
+                       help="material model (neo_hookean: with --physics elastic or contact)")
     bench.add_argument("--json", action="store_true", help="print one JSON object")
     bench.add_argument("--scenes", nargs="*", metavar="SCENE",
                        help="instead of the block, time --steps steps of each scene file (default:"

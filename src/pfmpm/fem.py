@@ -92,7 +92,8 @@ from . import _core
 from .crack import initial_history
 from .post.tip import CrackTip
 from .run import CRACK_COLUMNS, ENERGY_COLUMNS, RunResult, Snapshots, run_to_end
-from .scene import Body, BodyForce, MaterialSpec, Rectangle, Scene, SceneError, Traction
+from .scene import (Body, BodyForce, LinearElasticSpec, MaterialSpec, Rectangle, Scene, SceneError,
+                    Traction)
 from .simulation import core_materials
 
 __all__ = ["FemSimulation", "MESH_DIAGONAL", "main"]
@@ -807,6 +808,9 @@ def _supported(scene: Scene) -> tuple[Body, MaterialSpec]:
                                  f" on grid lines (multiples of h = {h:g} from the grid origin"
                                  f" {list(origin)})", [list(body.shape.min), list(body.shape.max)])
     material = scene.material_of(body)
+    if not isinstance(material, LinearElasticSpec):
+        raise SceneError(f"materials[{scene.materials.index(material)}].model", "the FEM path solves"
+                         " small-strain linear elasticity only", material.model)
     anisotropy = material.fracture.anisotropy if material.fracture else None
     if anisotropy is not None and anisotropy.fourth_order:
         index = scene.materials.index(material)

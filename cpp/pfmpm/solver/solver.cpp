@@ -433,6 +433,9 @@ Energies Solver::energies() const
   const Particles& P = _particles;
   const Column* fracture = P.find("fracture_energy");
   const double* fe = fracture ? fracture->f64.data() : nullptr;
+  // Models with damage keep the work it dissipated per particle.
+  const Column* dissipated = P.find("dissipated");
+  const double* dw = dissipated ? dissipated->f64.data() : nullptr;
   std::vector<std::unique_ptr<Material::Bound>> bound;
   for (const auto& m : _materials)
     bound.push_back(m->bind(const_cast<Particles&>(P))); // read only
@@ -445,9 +448,9 @@ Energies Solver::energies() const
         degradation[m] = Degradation{_fracture[m]->k_f, P.f64("c").data(), nullptr};
         by_material[m] = &degradation[m];
       }
-  const auto sums = deterministic_block_sum<6>(
+  const auto sums = deterministic_block_sum<7>(
       n,
-      [&](std::size_t begin, std::size_t end, std::array<double, 6>& acc)
+      [&](std::size_t begin, std::size_t end, std::array<double, 7>& acc)
       {
         for (std::size_t p = begin; p < end; ++p)
         {
@@ -458,6 +461,8 @@ Energies Solver::energies() const
           acc[4] += m;
           if (fe)
             acc[5] += fe[p];
+          if (dw)
+            acc[6] += dw[p];
         }
         // The elastic energy of each run of one material, in index order.
         for (std::size_t p = begin; p < end;)
@@ -474,6 +479,7 @@ Energies Solver::energies() const
   e.kinetic = sums[0];
   e.elastic = sums[1];
   e.fracture = sums[5];
+  e.dissipated = sums[6];
   e.external_work = _external_work;
   e.momentum = {sums[2], sums[3]};
   e.mass = sums[4];

@@ -30,6 +30,7 @@ struct Energies
   double fracture = 0.0;       ///< sum of G_c V_p Z(c_p) (eqs. 3-4)
   double external_work = 0.0;  ///< work of the external forces since t = 0
   double friction_work = 0.0;  ///< work of the friction (tangential contact) forces since t = 0 (<= 0)
+  double dissipated = 0.0;     ///< work dissipated by damage since t = 0 (the column `dissipated`)
   std::array<double, 2> momentum{}; ///< sum of M_p v_p
   double mass = 0.0;           ///< sum of M_p
   std::vector<double> fracture_by_field; ///< with discrete fields: fracture energy per field
