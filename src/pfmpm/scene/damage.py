@@ -186,7 +186,7 @@ class RankineSpec(DamageSpec):
     def check(self, E: float, h: float, strongest: float | None = None) -> None:
         """l_ch < 2 E Gf / sigma_f^2 for the strongest particle, or the softening snaps back."""
         sigma = self.sigma_f if strongest is None else strongest
-        limit = 2.0 * E * self.Gf / sigma**2
+        limit = 2.0 * E * self.Gf / sigma / sigma  # sigma**2 would overflow
         length = self.length(h)
         if not length < limit:
             what = "" if strongest is None else f" of the strongest particle (sigma_f = {sigma:.6g})"
