@@ -8,36 +8,50 @@ from __future__ import annotations
 
 import base64
 import csv
+from collections.abc import Iterable
 from pathlib import Path
+from typing import BinaryIO
 
 import numpy as np
 
 _VTK_TYPES = {np.dtype("float64"): "Float64", np.dtype("int32"): "Int32", np.dtype("int64"): "Int64"}
-
-
-def _data_array(name: str, values: np.ndarray) -> str:
-    values = np.ascontiguousarray(values)
-    ncomp = 1 if values.ndim == 1 else values.shape[1]
-    raw = values.tobytes()
-    payload = base64.b64encode(np.uint64(len(raw)).tobytes() + raw).decode("ascii")
-    return (
-        f'<DataArray type="{_VTK_TYPES[values.dtype]}" Name="{name}" '
-        f'NumberOfComponents="{ncomp}" format="binary">{payload}</DataArray>'
-    )
+_BLOCK = 1 << 16  # particles converted and encoded at a time
 
 
 def vtk_values(values: np.ndarray, layout: str) -> np.ndarray:
-    """A particle column as VTK point data: a plane tensor with its out-of-plane
-    entry (layout ``xx,yy,xy,zz``) becomes the symmetric tensor (xx, yy, zz,
-    xy, yz, xz) ParaView reads; every other column is written as it is."""
+    """A particle column as VTK point data: a plane tensor (layout
+    ``xx,yy,xy,zz``, with its out-of-plane entry) becomes the symmetric tensor
+    (xx, yy, zz, xy, yz, xz) ParaView reads, a 2-component vector gets z = 0
+    so ParaView draws it as a vector, and every other column is written as it is."""
     if layout == "xx,yy,xy,zz":
         tensor = np.zeros((len(values), 6))
         tensor[:, [0, 1, 2, 3]] = values[:, [0, 1, 3, 2]]
         return tensor
+    if values.ndim == 2 and values.shape[1] == 2:
+        padded = np.zeros((len(values), 3), dtype=values.dtype)
+        padded[:, :2] = values
+        return padded
     return values
 
 
-def write_vtu(path: Path, points: np.ndarray, point_data: dict[str, np.ndarray]) -> None:
+def _write_data_array(f: BinaryIO, name: str, values: np.ndarray, layout: str = "") -> None:
+    """One binary ``DataArray`` of :func:`vtk_values`: base64 of a UInt64 byte
+    count and the values, converted and encoded ``_BLOCK`` rows at a time,
+    so that a snapshot holds neither its text nor a converted copy of a column."""
+    head = vtk_values(values[:1], layout)
+    ncomp = 1 if head.ndim == 1 else head.shape[1]
+    f.write(f'<DataArray type="{_VTK_TYPES[head.dtype]}" Name="{name}" '
+            f'NumberOfComponents="{ncomp}" format="binary">'.encode())
+    pending = np.uint64(len(values) * ncomp * head.itemsize).tobytes()
+    for start in range(0, len(values), _BLOCK):
+        block = pending + np.ascontiguousarray(vtk_values(values[start:start + _BLOCK], layout)).tobytes()
+        whole = len(block) - len(block) % 3  # base64 of pieces of 3k bytes joins up
+        f.write(base64.b64encode(block[:whole]))
+        pending = block[whole:]
+    f.write(base64.b64encode(pending) + b"</DataArray>")
+
+
+def write_vtu(path: Path, points: np.ndarray, point_data: Iterable[tuple[str, np.ndarray, str]]) -> None:
     """Write 2D points as VTK vertices with point data.
 
     Parameters
@@ -46,44 +60,36 @@ def write_vtu(path: Path, points: np.ndarray, point_data: dict[str, np.ndarray])
         File to write.
     points : (N, 2) ndarray
         Coordinates (z = 0 is added).
-    point_data : dict of name -> (N,) or (N, k) ndarray
-        Fields; 2-component vectors are padded to 3 so ParaView shows them as vectors.
+    point_data : iterable of (name, (N,) or (N, k) ndarray, layout)
+        Fields, written as :func:`vtk_values` of their layout (``""`` for
+        none). The arrays are read, never copied whole, and may be made as
+        the iterable is walked: a snapshot then holds one at a time.
     """
     n = len(points)
-    xyz = np.zeros((n, 3))
-    xyz[:, :2] = points
-    arrays = []
-    for name, values in point_data.items():
-        if values.ndim == 2 and values.shape[1] == 2:
-            padded = np.zeros((n, 3), dtype=values.dtype)
-            padded[:, :2] = values
-            values = padded
-        arrays.append(_data_array(name, values))
-    cells = np.arange(n, dtype=np.int64)
-    text = "\n".join(
-        [
+    tmp = path.with_suffix(".tmp")
+    with open(tmp, "wb") as f:
+        f.write("\n".join([
             '<?xml version="1.0"?>',
             '<VTKFile type="UnstructuredGrid" version="1.0" byte_order="LittleEndian" header_type="UInt64">',
             "<UnstructuredGrid>",
             f'<Piece NumberOfPoints="{n}" NumberOfCells="{n}">',
-            "<PointData>",
-            *arrays,
-            "</PointData>",
-            "<Points>",
-            _data_array("Points", xyz),
-            "</Points>",
-            "<Cells>",
-            _data_array("connectivity", cells),
-            _data_array("offsets", cells + 1),
-            _data_array("types", np.ones(n, dtype=np.int32)),  # VTK_VERTEX
-            "</Cells>",
-            "</Piece>",
-            "</UnstructuredGrid>",
-            "</VTKFile>",
-        ]
-    )
-    tmp = path.with_suffix(".tmp")
-    tmp.write_text(text)
+            "<PointData>\n"]).encode())
+        for name, values, layout in point_data:
+            _write_data_array(f, name, values, layout)
+            f.write(b"\n")
+            del values  # before the iterable makes the next
+        f.write(b"</PointData>\n<Points>\n")
+        _write_data_array(f, "Points", points)
+        f.write(b"\n</Points>\n<Cells>\n")
+        cells = np.arange(n, dtype=np.int64)
+        _write_data_array(f, "connectivity", cells)
+        f.write(b"\n")
+        cells += 1
+        _write_data_array(f, "offsets", cells)
+        f.write(b"\n")
+        del cells
+        _write_data_array(f, "types", np.ones(n, dtype=np.int32))  # VTK_VERTEX
+        f.write(b"\n</Cells>\n</Piece>\n</UnstructuredGrid>\n</VTKFile>")
     tmp.replace(path)
 
 
@@ -104,7 +110,9 @@ class ParticleSeries:
         """(time, file name) of each snapshot so far; pass them back to continue the series."""
         return list(self._entries)
 
-    def write(self, step: int, time: float, points: np.ndarray, point_data: dict[str, np.ndarray]) -> Path:
+    def write(self, step: int, time: float, points: np.ndarray,
+              point_data: Iterable[tuple[str, np.ndarray, str]]) -> Path:
+        """Write snapshot ``step`` at ``time`` (:func:`write_vtu`) and the index."""
         name = f"particles_{step:06d}.vtu"
         write_vtu(self.directory / name, points, point_data)
         self._entries.append((time, name))

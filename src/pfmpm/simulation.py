@@ -2,16 +2,17 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 
 from . import _core
 from .crack import initial_history
-from .output import ParticleSeries, vtk_values
+from .output import ParticleSeries
 from .post.tip import CrackTip
 from .run import CRACK_COLUMNS, ENERGY_COLUMNS, RunResult, Snapshots, run_to_end
-from .scene import Scene, SceneError
+from .scene import Scene, SceneError, seeding
 from .scene.validation import at
 
 CONTACT_COLUMNS = ["friction_dissipation"]
@@ -46,6 +47,9 @@ def core_materials(scene: Scene) -> tuple[list, list]:
     return materials, fracture
 
 
+_BLOCK = 1 << 16  # particles per block where the set-up works on blocks
+
+
 class Simulation:
     """A :class:`~pfmpm.scene.Scene` set up on the C++ core.
 
@@ -71,11 +75,9 @@ class Simulation:
         self.grid = _core.Grid(g.degree, list(g.cells), g.h, list(g.origin))
         for wall in scene.walls:
             self.grid.set_wall(_core.Side.__members__[wall.side], _core.Wall.__members__[wall.type])
-        arrays = scene.particles()
-        self.particles = _core.Particles(len(arrays["mass"]))
-        core = {c["name"] for c in self.particles.columns()}
-        for name in core & arrays.keys():
-            getattr(self.particles, name)[...] = arrays[name]
+        xs = seeding.positions(scene)
+        self.particles = _core.Particles(sum(len(x) for x in xs))
+        core = self._fill(xs)
         materials, fracture = core_materials(scene)
         self.cracks = any(fracture)
         pf = scene.phase_field
@@ -86,10 +88,9 @@ class Simulation:
         self.solver = _core.Solver(self.grid, self.particles, materials, scene.dt(), fracture,
                                    pf.tol, pf.max_iterations, friction)
         self.solver.set_phase_field_preconditioner(_core.Preconditioner.__members__[pf.preconditioner])
-        columns = {c["name"] for c in self.particles.columns()}
-        for name in (columns - core) & arrays.keys():
-            getattr(self.particles, name)[...] = arrays[name]
-        self._initial_columns(arrays["volume"])
+        columns = self._fill(xs, done=core)  # the models' columns the seeding sets: an orientation
+        del xs
+        self._initial_columns()
         self.damage = "dissipated" in columns
         self._crackable = np.zeros(len(self.particles), dtype=bool)
         for b, body in enumerate(scene.bodies):
@@ -101,13 +102,21 @@ class Simulation:
         if self.cracks:
             self.solver.prepare()  # the phase field of the initial cracks
 
-    def _initial_columns(self, volume: np.ndarray) -> None:
+    def _fill(self, xs: list[np.ndarray], done: set[str] = frozenset()) -> set[str]:
+        """Seed the particles' columns, those not in ``done``, in place
+        (:func:`pfmpm.scene.seeding.fill`) from the bodies' positions ``xs``;
+        return the names of all columns there are now."""
+        names = {c["name"] for c in self.particles.columns()}
+        seeding.fill(self.scene, xs, {name: getattr(self.particles, name) for name in names - done})
+        return names
+
+    def _initial_columns(self) -> None:
         """Set each material's initial column values on its particles
         (``MaterialSpec.initial_columns``: a Weibull strength field)."""
         for i, m in enumerate(self.scene.materials):
             sel = np.flatnonzero(self.particles.material == i)
             with at(f"materials[{i}]"):
-                values = m.initial_columns(self.scene, volume[sel])
+                values = m.initial_columns(self.scene, self.particles.volume[sel])
             for name, value in values.items():
                 getattr(self.particles, name)[sel] = value
 
@@ -120,8 +129,10 @@ class Simulation:
             for name in names:
                 body = self.scene.bodies[bodies[name]]
                 sel = np.flatnonzero(self.particles.body == bodies[name])
-                h0 = initial_history(self.particles.x[sel], crack, self.scene.fracture_of(body))
-                self.particles.history[sel] = np.maximum(self.particles.history[sel], h0)
+                for start in range(0, len(sel), _BLOCK):  # a block at a time: no copies of all
+                    part = sel[start:start + _BLOCK]
+                    h0 = initial_history(self.particles.x[part], crack, self.scene.fracture_of(body))
+                    self.particles.history[part] = np.maximum(self.particles.history[part], h0)
 
     @property
     def columns(self) -> list[str]:
@@ -169,11 +180,12 @@ class Simulation:
         x, y, speed = self.crack_tip.update(self.time, self.particles.x[sel], self.particles.c[sel])
         return {"crack_tip_x": x, "crack_tip_y": y, "crack_tip_speed": speed}
 
-    def point_data(self) -> dict[str, np.ndarray]:
-        """The particle columns that declare an output name, under that name
-        (see :func:`pfmpm.output.vtk_values` for how tensors are written)."""
-        return {c["output"]: vtk_values(getattr(self.particles, c["name"]), c["layout"])
-                for c in self.particles.columns() if c["output"]}
+    def point_data(self) -> Iterator[tuple[str, np.ndarray, str]]:
+        """The particle columns that declare an output name: (output name, the
+        column's view, its layout), as :func:`pfmpm.output.write_vtu` takes them."""
+        for c in self.particles.columns():
+            if c["output"]:
+                yield c["output"], getattr(self.particles, c["name"]), c["layout"]
 
     def modules(self) -> list[str]:
         """The parts of the method this scene switches on."""

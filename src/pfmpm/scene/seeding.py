@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -15,7 +15,7 @@ from .loads import Traction
 if TYPE_CHECKING:
     from .scene import Scene
 
-__all__ = ["cell_range", "lattice", "count", "particles"]
+__all__ = ["cell_range", "lattice", "count", "positions", "fill", "particles"]
 
 _CHUNK = 1 << 20  # candidate particles examined per vectorised batch
 _EDGE_TOL = 0.51  # edge layer thickness in particle spacings
@@ -59,65 +59,74 @@ def count(scene: "Scene") -> int:
                for p in lattice(body, scene.grid, *cell_range(body, scene.grid)))
 
 
-def particles(scene: "Scene") -> dict[str, np.ndarray]:
-    """Generate the particles of all bodies of a scene.
+def positions(scene: "Scene") -> list[np.ndarray]:
+    """Each body's particle positions, (k, 2), in the order of :func:`lattice`."""
+    return [np.concatenate([np.empty((0, 2)), *lattice(body, scene.grid, *cell_range(body, scene.grid))])
+            for body in scene.bodies]
 
-    Bodies come in order; within a body particles are sorted by cell
-    (row-major, y outer) then by sub-position (see :func:`lattice`).
 
-    Returns
-    -------
-    dict of str to ndarray
-        ``x`` (N, 2) positions, ``v`` (N, 2) velocities, ``mass`` (N,),
-        ``volume`` (N,) ``= (h/n)^2 * thickness``, ``body`` (N,) int32
-        body index, ``material`` (N,) int32 material index, ``phi`` (N,)
-        material orientation in radians (clockwise from x) and ``fext``
-        (N, 2) constant external forces: ``traction * (h/n) * thickness``
-        on the edge layer of each traction load plus
-        ``mass * acceleration`` of each body force.  The edge layer is
-        the particles of the body within ``0.51 h/n`` of its extreme
-        particle coordinate on that side.
+def fill(scene: "Scene", xs: list[np.ndarray], columns: Mapping[str, np.ndarray]) -> None:
+    """Write the initial particle arrays into ``columns``, body by body.
+
+    ``xs`` are the bodies' positions (:func:`positions`); ``columns`` maps
+    names to arrays of all particles (the core's columns, say), and each of
+    the names below that it holds is written, in place, so no array of all
+    particles is made on the way:
+
+    ``x`` (N, 2) positions, ``v`` (N, 2) velocities, ``mass`` (N,),
+    ``volume`` (N,) ``= (h/n)^2 * thickness``, ``body`` (N,) body index,
+    ``material`` (N,) material index, ``phi`` (N,) material orientation in
+    radians (clockwise from x) and ``fext`` (N, 2) constant external forces:
+    ``traction * (h/n) * thickness`` on the edge layer of each traction load
+    plus ``mass * acceleration`` of each body force.  The edge layer is the
+    particles of the body within ``0.51 h/n`` of its extreme particle
+    coordinate on that side.
     """
-    h = scene.grid.h
     materials = {m.name: i for i, m in enumerate(scene.materials)}
-    xs, vs, masses, volumes, body_ids, material_ids, phis, slices = [], [], [], [], [], [], [], {}
-    start = 0
-    for b, body in enumerate(scene.bodies):
-        x = np.concatenate(list(lattice(body, scene.grid, *cell_range(body, scene.grid))))
-        n = len(x)
+    slices, start = {}, 0
+    for b, (body, x) in enumerate(zip(scene.bodies, xs)):
+        part = slice(start, start + len(x))
         m = materials[body.material]
-        spacing = body.spacing(h)
+        spacing = body.spacing(scene.grid.h)
         volume = spacing * spacing * scene.thickness
-        xs.append(x)
-        vs.append(np.asarray(body.velocity) + x @ np.asarray(body.velocity_gradient).T)
-        volumes.append(np.full(n, volume))
-        masses.append(np.full(n, scene.materials[m].density * volume))
-        body_ids.append(np.full(n, b, dtype=np.int32))
-        material_ids.append(np.full(n, m, dtype=np.int32))
-        phis.append(np.full(n, math.radians(body.orientation)))
-        slices[body.name] = (slice(start, start + n), spacing)
-        start += n
-    out = {
-        "x": np.concatenate(xs),
-        "v": np.concatenate(vs),
-        "mass": np.concatenate(masses),
-        "volume": np.concatenate(volumes),
-        "body": np.concatenate(body_ids),
-        "material": np.concatenate(material_ids),
-        "phi": np.concatenate(phis),
-        "fext": np.zeros((start, 2)),
-    }
+        values = {"x": x, "volume": volume, "mass": scene.materials[m].density * volume,
+                  "body": b, "material": m, "phi": math.radians(body.orientation)}
+        for name, value in values.items():
+            if name in columns:
+                columns[name][part] = value
+        if "v" in columns:
+            columns["v"][part] = body.velocity
+            if np.any(body.velocity_gradient):
+                columns["v"][part] += x @ np.asarray(body.velocity_gradient).T
+        slices[body.name] = (part, spacing, x)
+        start += len(x)
+    if "fext" not in columns:
+        return
+    fext = columns["fext"]
+    fext[...] = 0.0
     for load in scene.loads:
         if isinstance(load, Traction):
-            part, spacing = slices[load.body]
-            coord = out["x"][part, 0 if load.edge in ("left", "right") else 1]
+            part, spacing, x = slices[load.body]
+            coord = x[:, 0 if load.edge in ("left", "right") else 1]
             tol = _EDGE_TOL * spacing
             if load.edge in ("right", "top"):
                 layer = coord >= coord.max() - tol
             else:
                 layer = coord <= coord.min() + tol
-            out["fext"][part][layer] += np.multiply(load.traction, spacing * scene.thickness)
+            fext[part][layer] += np.multiply(load.traction, spacing * scene.thickness)
         else:
             part = slice(None) if load.body is None else slices[load.body][0]
-            out["fext"][part] += out["mass"][part, None] * np.asarray(load.acceleration)
+            fext[part] += columns["mass"][part, None] * np.asarray(load.acceleration)
+
+
+def particles(scene: "Scene") -> dict[str, np.ndarray]:
+    """The particles of all bodies of a scene as new arrays, named as in
+    :func:`fill`. Bodies come in order; within a body particles are sorted
+    by cell (row-major, y outer) then by sub-position (see :func:`lattice`)."""
+    xs = positions(scene)
+    n = sum(len(x) for x in xs)
+    out = {"x": np.empty((n, 2)), "v": np.empty((n, 2)), "mass": np.empty(n), "volume": np.empty(n),
+           "body": np.empty(n, dtype=np.int32), "material": np.empty(n, dtype=np.int32),
+           "phi": np.empty(n), "fext": np.empty((n, 2))}
+    fill(scene, xs, out)
     return out
