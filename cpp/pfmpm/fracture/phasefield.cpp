@@ -303,7 +303,9 @@ void PhaseField::assemble(const Particles& particles, const CellSort& sort)
       _grid, sort, particles.x.data(),
       [&](const Cell& cell, const auto& each)
       {
-        // Rows padded to a multiple of 4 so the inner loop vectorises.
+        // Rows padded to a multiple of 4 so the inner loop vectorises; each
+        // row is a restrict pointer, without which GCC keeps it scalar (the
+        // block is the enclosing lambda's, as far as it knows shared with w).
         constexpr int R = (K + 3) / 4 * 4;
         alignas(32) double block[K][R]{};
         double f[K]{};
@@ -343,9 +345,10 @@ void PhaseField::assemble(const Particles& particles, const CellSort& sort)
                   const double u0 = e * (G[0] * kxx[i] + G[1] * kyy[i] + G[2] * kxy[i]);
                   const double u1 = e * (G[3] * kxx[i] + G[4] * kyy[i] + G[5] * kxy[i]);
                   const double u2 = e * (G[6] * kxx[i] + G[7] * kyy[i] + G[8] * kxy[i]);
+                  double* __restrict row = block[i];
                   for (int j = 0; j < R; ++j) // eq. 57 with its fourth-order term
-                    block[i][j] += aw * w[j] + bx_ * gx[j] + by_ * gy[j] + u0 * kxx[j]
-                                   + u1 * kyy[j] + u2 * kxy[j];
+                    row[j] += aw * w[j] + bx_ * gx[j] + by_ * gy[j] + u0 * kxx[j] + u1 * kyy[j]
+                              + u2 * kxy[j];
                 }
               }
               else
@@ -353,8 +356,9 @@ void PhaseField::assemble(const Particles& particles, const CellSort& sort)
                 {
                   f[i] += src * w[i]; // eq. 52
                   const double aw = a * w[i], bx_ = b * gx[i], by_ = b * gy[i];
+                  double* __restrict row = block[i];
                   for (int j = 0; j < R; ++j)
-                    block[i][j] += aw * w[j] + bx_ * gx[j] + by_ * gy[j]; // eq. 57, gamma = 0
+                    row[j] += aw * w[j] + bx_ * gx[j] + by_ * gy[j]; // eq. 57, gamma = 0
                 }
             });
         for (int i = 0; i < K; ++i)
