@@ -30,8 +30,9 @@ bool insert_sorted(std::int32_t f, std::int32_t* out, int& n, int capacity)
 }
 } // namespace
 
-BodyFields::BodyFields(const Grid& grid, const Particles& particles, std::vector<double> friction)
-    : _grid(grid), _friction(std::move(friction))
+BodyFields::BodyFields(const Grid& grid, const Particles& particles, std::vector<double> friction,
+                       const std::int32_t* field)
+    : _grid(grid), _field(field), _friction(std::move(friction))
 {
   _fields = static_cast<int>(std::lround(std::sqrt(static_cast<double>(_friction.size()))));
   if (_fields < 2 || static_cast<std::size_t>(_fields) * _fields != _friction.size())
@@ -46,8 +47,9 @@ BodyFields::BodyFields(const Grid& grid, const Particles& particles, std::vector
                                     + "] = " + std::to_string(mu)
                                     + ": must be finite, >= 0 and symmetric");
     }
+  const std::int32_t* of = _field ? _field : particles.body.data();
   for (std::size_t p = 0; p < particles.size(); ++p)
-    if (const std::int32_t f = particles.body[p]; f < 0 || f >= _fields)
+    if (const std::int32_t f = of[p]; f < 0 || f >= _fields)
       throw std::invalid_argument("particle " + std::to_string(p) + ": body index "
                                   + std::to_string(f) + " is not a field in [0, "
                                   + std::to_string(_fields) + ")");
@@ -92,7 +94,7 @@ void BodyFields::build(const Particles& particles, const CellSort& sort)
   const int ncx = _grid.cells()[0], ncy = _grid.cells()[1];
   const int nny = _grid.nodes()[1];
   const auto ncells = static_cast<std::ptrdiff_t>(_grid.num_cells());
-  const std::int32_t* body = particles.body.data();
+  const std::int32_t* body = _field ? _field : particles.body.data();
   const std::int32_t* order = sort.order().data();
   const std::int64_t* start = sort.cell_start().data();
 

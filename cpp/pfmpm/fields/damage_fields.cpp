@@ -1,0 +1,457 @@
+/// @file damage_fields.cpp
+/// @brief The damage-field-gradient partition (H&H 2017 sections 2.1-2.4):
+/// particle damage, kernel field, Algorithms 1 and 2, slots, surface flags.
+#include "pfmpm/fields/damage_fields.h"
+#include "pfmpm/common/strips.h"
+#include "pfmpm/fields/kernel.h"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace pfmpm
+{
+
+namespace
+{
+/// Seconds since `start`, added to `total`.
+struct Stopwatch
+{
+  double& total;
+  double start = omp_get_wtime();
+  ~Stopwatch() { total += omp_get_wtime() - start; }
+};
+
+/// Group of each particle: its body's, or the body itself when `groups` is empty.
+std::vector<std::int32_t> particle_groups(const Particles& particles,
+                                          const std::vector<std::int32_t>& groups, int n)
+{
+  std::vector<std::int32_t> out(particles.size());
+  for (std::size_t p = 0; p < particles.size(); ++p)
+  {
+    const std::int32_t b = particles.body[p];
+    std::int32_t g = b;
+    if (!groups.empty())
+    {
+      if (b < 0 || static_cast<std::size_t>(b) >= groups.size())
+        throw std::invalid_argument("particle " + std::to_string(p) + ": body " + std::to_string(b)
+                                    + " has no contact group (groups has "
+                                    + std::to_string(groups.size()) + " entries)");
+      g = groups[b];
+    }
+    if (g < 0 || g >= n)
+      throw std::invalid_argument("particle " + std::to_string(p) + ": contact group "
+                                  + std::to_string(g) + " is not in [0, " + std::to_string(n) + ")");
+    out[p] = g;
+  }
+  return out;
+}
+
+void check_option(bool ok, const std::string& name, double value, const char* rule)
+{
+  if (!ok)
+    throw std::invalid_argument(name + " = " + std::to_string(value) + ": must be " + rule);
+}
+} // namespace
+
+DamageFields::DamageFields(const Grid& grid, Particles& particles, std::vector<double> friction,
+                           std::vector<DamageSource> source, DamageGradientOptions options)
+    : _grid(grid), _friction(std::move(friction)), _source(std::move(source)),
+      _options(std::move(options))
+{
+  _groups_n = static_cast<int>(std::lround(std::sqrt(static_cast<double>(_friction.size()))));
+  if (_groups_n < 1 || static_cast<std::size_t>(_groups_n) * _groups_n != _friction.size())
+    throw std::invalid_argument("friction: " + std::to_string(_friction.size())
+                                + " entries; need groups x groups with at least 1 group");
+  for (int a = 0; a < _groups_n; ++a)
+    for (int b = 0; b < _groups_n; ++b)
+    {
+      const double mu = _friction[a * _groups_n + b];
+      if (!(mu >= 0.0) || !std::isfinite(mu) || mu != _friction[b * _groups_n + a])
+        throw std::invalid_argument("friction[" + std::to_string(a) + "][" + std::to_string(b)
+                                    + "] = " + std::to_string(mu)
+                                    + ": must be finite, >= 0 and symmetric");
+    }
+  const DamageGradientOptions& o = _options;
+  check_option(o.separability > 0.0 && o.separability < 1.0, "separability", o.separability,
+               "in (0, 1)");
+  check_option(o.kernel_radius >= 0.0 && std::isfinite(o.kernel_radius), "kernel_radius",
+               o.kernel_radius, ">= 0 (0: the cell diagonal)");
+  check_option(o.skin > 0.0 && std::isfinite(o.skin), "skin", o.skin, "> 0");
+  check_option(o.full_damage > 0.0 && o.full_damage <= 1.0, "full_damage", o.full_damage,
+               "in (0, 1]");
+  check_option(o.phase_field_threshold >= 0.0 && o.phase_field_threshold < 1.0,
+               "phase_field_threshold", o.phase_field_threshold, "in [0, 1)");
+  if (_groups_n > max_groups)
+    throw std::invalid_argument("friction: " + std::to_string(_groups_n) + " contact groups; at most "
+                                + std::to_string(max_groups));
+  _radius = o.kernel_radius > 0.0 ? o.kernel_radius : std::sqrt(2.0) * grid.h();
+  _group = particle_groups(particles, o.groups, _groups_n);
+  if (_groups_n > 1)
+    _groups.emplace(grid, particles, _friction, _group.data());
+  particles.add({"damage_gradient", 2, DType::f64, {0.0},
+                 "gradient of the normalised kernel damage field at the particle (H&H eqs. 17-19), "
+                 "where it partitions the fields (near fully damaged particles), else 0",
+                 "x,y", "damage_gradient"});
+  particles.add({"surface", 1, DType::i32, {0.0},
+                 "surface flag s_p (H&H section 2.4): 1 on a surface, damage max(s_p, D_p)", "",
+                 "surface"});
+}
+
+double DamageFields::lattice_kernel_sum(double spacing, double radius)
+{
+  const int n = static_cast<int>(std::ceil(radius / spacing));
+  double S = 0.0;
+  for (int i = -n; i <= n; ++i)
+    for (int j = -n; j <= n; ++j)
+      S += kernel_weight(std::hypot(i * spacing, j * spacing) / radius);
+  return S;
+}
+
+std::vector<double> DamageFields::detect_surfaces(Particles& particles, const CellSort& sort,
+                                                  const std::vector<double>& spacing,
+                                                  double threshold)
+{
+  NeighbourList list;
+  list.build(_grid, sort, particles.x, _radius);
+  const auto n = static_cast<std::ptrdiff_t>(particles.size());
+  const double* x = particles.x.data();
+  const std::int32_t* body = particles.body.data();
+  std::int32_t* surface = particles.i32("surface").data();
+  std::vector<double> bulk(spacing.size());
+  for (std::size_t b = 0; b < spacing.size(); ++b)
+  {
+    if (!(spacing[b] > 0.0) || !std::isfinite(spacing[b]))
+      throw std::invalid_argument("spacing[" + std::to_string(b) + "] = "
+                                  + std::to_string(spacing[b]) + ": must be > 0");
+    bulk[b] = lattice_kernel_sum(spacing[b], _radius);
+  }
+  for (std::ptrdiff_t p = 0; p < n; ++p)
+    if (body[p] < 0 || static_cast<std::size_t>(body[p]) >= spacing.size())
+      throw std::invalid_argument("particle " + std::to_string(p) + ": body " + std::to_string(body[p])
+                                  + " has no lattice spacing");
+  std::vector<double> ratio(particles.size());
+  const std::int64_t* start = list.start().data();
+  const std::int32_t* index = list.index().data();
+  const double inv_r = 1.0 / _radius;
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t p = 0; p < n; ++p)
+  {
+    double S = 1.0; // eq. 19 over p's own body
+    for (std::int64_t k = start[p]; k < start[p + 1]; ++k)
+    {
+      const std::int32_t q = index[k];
+      if (body[q] == body[p])
+        S += kernel_weight(std::hypot(x[2 * p] - x[2 * q], x[2 * p + 1] - x[2 * q + 1]) * inv_r);
+    }
+    ratio[p] = S / bulk[body[p]];
+    if (ratio[p] < threshold)
+      surface[p] = 1;
+  }
+  return ratio;
+}
+
+bool DamageFields::particle_damage(const Particles& particles)
+{
+  const auto n = static_cast<std::ptrdiff_t>(particles.size());
+  _damage.resize(n);
+  _full.resize(n);
+  const Column* column = particles.find("damage");
+  const Column* phase = particles.find("c");
+  const double* damage = column ? column->f64.data() : nullptr;
+  const double* c = phase ? phase->f64.data() : nullptr;
+  const std::int32_t* surface = particles.find("surface")->i32.data();
+  const std::int32_t* material = particles.material.data();
+  const DamageSource* source = _source.data();
+  const double full_damage = _options.full_damage, full_c = _options.phase_field_threshold;
+  int any = 0;
+#pragma omp parallel for schedule(static) reduction(| : any)
+  for (std::ptrdiff_t p = 0; p < n; ++p)
+  {
+    double D = 0.0;
+    bool full = false;
+    switch (source[material[p]])
+    {
+    case DamageSource::column:
+      D = std::clamp(damage[p], 0.0, 1.0);
+      full = D >= full_damage;
+      break;
+    case DamageSource::phase_field:
+      D = std::clamp(1.0 - c[p], 0.0, 1.0);
+      full = c[p] <= full_c;
+      break;
+    case DamageSource::none:
+      break;
+    }
+    if (surface[p]) // max(s_p, D_p), section 2.4
+    {
+      D = 1.0;
+      full = true;
+    }
+    _damage[p] = D;
+    _full[p] = full ? 1.0 : 0.0;
+    any |= full ? 1 : 0;
+  }
+  return any != 0;
+}
+
+void DamageFields::gradients(Particles& particles, const CellSort& sort)
+{
+  const int P = _grid.degree();
+  const int ncx = _grid.cells()[0], ncy = _grid.cells()[1];
+  const auto ncells = static_cast<std::ptrdiff_t>(_grid.num_cells());
+  const std::int32_t* order = sort.order().data();
+  const std::int64_t* start = sort.cell_start().data();
+  // Cells within P cells of a fully damaged particle: only their particles'
+  // stencils reach a node where the fields may separate.
+  std::vector<std::uint8_t> full_cell(ncells, 0);
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t c = 0; c < ncells; ++c)
+    for (std::int64_t k = start[c]; k < start[c + 1] && !full_cell[c]; ++k)
+      full_cell[c] = _full[order[k]] != 0.0;
+  std::vector<std::uint8_t> along_y(ncells, 0);
+#pragma omp parallel for schedule(static)
+  for (int cx = 0; cx < ncx; ++cx)
+    for (int cy = 0; cy < ncy; ++cy)
+    {
+      std::uint8_t any = 0;
+      for (int d = std::max(cy - P, 0); d <= std::min(cy + P, ncy - 1) && !any; ++d)
+        any = full_cell[static_cast<std::size_t>(cx) * ncy + d];
+      along_y[static_cast<std::size_t>(cx) * ncy + cy] = any;
+    }
+  _near.assign(ncells, 0);
+#pragma omp parallel for schedule(static)
+  for (int cx = 0; cx < ncx; ++cx)
+    for (int cy = 0; cy < ncy; ++cy)
+    {
+      std::uint8_t any = 0;
+      for (int d = std::max(cx - P, 0); d <= std::min(cx + P, ncx - 1) && !any; ++d)
+        any = along_y[static_cast<std::size_t>(d) * ncy + cy];
+      _near[static_cast<std::size_t>(cx) * ncy + cy] = any;
+    }
+
+  {
+    Stopwatch clock{_timers.neighbours};
+    if (_neighbours.stale(particles.x, _options.skin * _radius))
+      _neighbours.build(_grid, sort, particles.x, (1.0 + 2.0 * _options.skin) * _radius);
+  }
+  Stopwatch clock{_timers.gradient};
+  const double* x = particles.x.data();
+  const double* damage = _damage.data();
+  double* grad = particles.f64("damage_gradient").data();
+  std::uint32_t* mask = _mask.data();
+  const std::int64_t* nstart = _neighbours.start().data();
+  const std::int32_t* nindex = _neighbours.index().data();
+  const double radius = _radius;
+#pragma omp parallel for schedule(dynamic, 64)
+  for (std::ptrdiff_t c = 0; c < ncells; ++c)
+    for (std::int64_t k = start[c]; k < start[c + 1]; ++k)
+    {
+      const std::int32_t p = order[k];
+      if (_near[c])
+      {
+        const KernelValue v = kernel_field(p, &nindex[nstart[p]], nstart[p + 1] - nstart[p], x,
+                                           damage, radius);
+        grad[2 * p] = v.grad[0];
+        grad[2 * p + 1] = v.grad[1];
+      }
+      else
+      {
+        grad[2 * p] = grad[2 * p + 1] = 0.0;
+        mask[p] = 0;
+      }
+    }
+}
+
+void DamageFields::sides(const CellSort& sort, const double* grad)
+{
+  const int P = _grid.degree(), width = P + 1;
+  const int ncx = _grid.cells()[0], ncy = _grid.cells()[1];
+  const std::size_t ngs = _groups ? static_cast<std::size_t>(_groups->num_slots())
+                                  : static_cast<std::size_t>(_grid.num_active());
+  _best_norm.assign(ngs, 0.0);
+  _best.assign(ngs, -1);
+  _group_full.assign(ngs, 0);
+  _has_b.assign(ngs, 0);
+  _G.resize(2 * ngs);
+  const std::int32_t* order = sort.order().data();
+  const std::int32_t* group = _group.data();
+  const double* full = _full.data();
+  auto node_slot = [&](int cx, int cy, int i, std::int32_t g)
+  {
+    const std::int32_t a = _grid.active_index(cx + i / width, cy + i % width);
+    return group_slot(a, g);
+  };
+  // Algorithm 1: per node and group, the particle gradient of largest
+  // magnitude, ties to the smaller particle index, and whether a fully
+  // damaged particle of the group maps there. Strips of one parity share no
+  // node, so the comparisons need no atomics.
+  for_each_cell_by_strips(ncx, ncy, sort.cell_start(),
+                          [&](int cx, int cy, std::int64_t begin, std::int64_t end)
+                          {
+                            if (!_near[static_cast<std::size_t>(cx) * ncy + cy])
+                              return;
+                            for (std::int64_t k = begin; k < end; ++k)
+                            {
+                              const std::int32_t p = order[k];
+                              const double n2 = grad[2 * p] * grad[2 * p] + grad[2 * p + 1] * grad[2 * p + 1];
+                              for (int i = 0; i < width * width; ++i)
+                              {
+                                const std::int32_t s = node_slot(cx, cy, i, group[p]);
+                                if (full[p] != 0.0)
+                                  _group_full[s] = 1;
+                                if (n2 > _best_norm[s] || (n2 > 0.0 && n2 == _best_norm[s] && p < _best[s]))
+                                {
+                                  _best_norm[s] = n2;
+                                  _best[s] = p;
+                                }
+                              }
+                            }
+                          });
+  // G_i, zero where no fully damaged particle of the group maps (there the
+  // fields cannot be separable: one field).
+  const auto ngs_signed = static_cast<std::ptrdiff_t>(ngs);
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t s = 0; s < ngs_signed; ++s)
+  {
+    const bool live = _group_full[s] && _best[s] >= 0;
+    _G[2 * s] = live ? grad[2 * _best[s]] : 0.0;
+    _G[2 * s + 1] = live ? grad[2 * _best[s] + 1] : 0.0;
+  }
+  // Algorithm 2: field A where grad D_p . G_i >= 0, else B.
+  std::uint32_t* mask = _mask.data();
+  for_each_cell_by_strips(ncx, ncy, sort.cell_start(),
+                          [&](int cx, int cy, std::int64_t begin, std::int64_t end)
+                          {
+                            const std::size_t cell = static_cast<std::size_t>(cx) * ncy + cy;
+                            if (!_near[cell])
+                              return;
+                            std::uint32_t any = 0;
+                            for (std::int64_t k = begin; k < end; ++k)
+                            {
+                              const std::int32_t p = order[k];
+                              std::uint32_t m = 0;
+                              for (int i = 0; i < width * width; ++i)
+                              {
+                                const std::int32_t s = node_slot(cx, cy, i, group[p]);
+                                if (grad[2 * p] * _G[2 * s] + grad[2 * p + 1] * _G[2 * s + 1] < 0.0)
+                                {
+                                  m |= 1u << i;
+                                  _has_b[s] = 1;
+                                }
+                              }
+                              mask[p] = m;
+                              any |= m;
+                            }
+                            _split[cell] = any != 0;
+                          });
+}
+
+void DamageFields::layout(const CellSort& sort, bool any_split)
+{
+  const auto na = static_cast<std::ptrdiff_t>(_grid.num_active());
+  const int P = _grid.degree();
+  const int ncx = _grid.cells()[0], ncy = _grid.cells()[1];
+  const std::int32_t* gstart = _groups ? _groups->slot_start().data() : nullptr;
+  auto groups_of = [&](std::ptrdiff_t a, std::int32_t& g0, std::int32_t& g1)
+  {
+    g0 = gstart ? gstart[a] : static_cast<std::int32_t>(a);
+    g1 = gstart ? gstart[a + 1] : static_cast<std::int32_t>(a + 1);
+  };
+  const std::size_t ngs = gstart ? static_cast<std::size_t>(gstart[na]) : static_cast<std::size_t>(na);
+  if (!any_split)
+    _has_b.assign(ngs, 0);
+  _first.resize(ngs);
+  _slot_start.resize(na + 1);
+  _slot_start[0] = 0;
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t a = 0; a < na; ++a)
+  {
+    std::int32_t g0, g1, n = 0;
+    groups_of(a, g0, g1);
+    for (std::int32_t g = g0; g < g1; ++g)
+      n += 1 + _has_b[g];
+    _slot_start[a + 1] = n;
+  }
+  std::int32_t contact = 0;
+  for (std::ptrdiff_t a = 0; a < na; ++a)
+  {
+    contact += _slot_start[a + 1] >= 2 ? 1 : 0;
+    _slot_start[a + 1] += _slot_start[a];
+  }
+  _stats.nodes = contact;
+  _slot_field.resize(_slot_start[na]);
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t a = 0; a < na; ++a)
+  {
+    std::int32_t g0, g1, s = _slot_start[a];
+    groups_of(a, g0, g1);
+    for (std::int32_t g = g0; g < g1; ++g)
+    {
+      const std::int32_t group = _groups ? _groups->field(g) : 0;
+      _first[g] = s;
+      _slot_field[s++] = 2 * group;
+      if (_has_b[g])
+        _slot_field[s++] = 2 * group + 1;
+    }
+  }
+
+  const auto ncells = static_cast<std::ptrdiff_t>(_grid.num_cells());
+  _touches.assign(ncells, 0);
+  if (contact == 0)
+    return;
+  const std::int64_t* start = sort.cell_start().data();
+#pragma omp parallel for schedule(static)
+  for (int cx = 0; cx < ncx; ++cx)
+    for (int cy = 0; cy < ncy; ++cy)
+    {
+      const std::size_t cell = static_cast<std::size_t>(cx) * ncy + cy;
+      if (start[cell + 1] == start[cell])
+        continue;
+      bool any = false;
+      for (int a = 0; a <= P && !any; ++a)
+        for (int b = 0; b <= P && !any; ++b)
+        {
+          const std::int32_t n = _grid.active_index(cx + a, cy + b);
+          any = _slot_start[n + 1] - _slot_start[n] >= 2;
+        }
+      _touches[cell] = any;
+    }
+}
+
+void DamageFields::build(Particles& particles, const CellSort& sort)
+{
+  if (_groups)
+    _groups->build(particles, sort);
+  const auto ncells = static_cast<std::size_t>(_grid.num_cells());
+  _mask.resize(particles.size());
+  _split.assign(ncells, 0);
+  bool any_full;
+  {
+    Stopwatch clock{_timers.damage};
+    any_full = particle_damage(particles);
+  }
+  if (any_full)
+  {
+    gradients(particles, sort);
+    Stopwatch clock{_timers.partition};
+    sides(sort, particles.f64("damage_gradient").data());
+    _dirty = true;
+  }
+  else if (_dirty)
+  {
+    // No particle is fully damaged now (a restored state): clear what an
+    // earlier step set.
+    std::fill(_mask.begin(), _mask.end(), 0u);
+    std::vector<double>& grad = particles.f64("damage_gradient");
+    std::fill(grad.begin(), grad.end(), 0.0);
+    _dirty = false;
+  }
+  Stopwatch clock{_timers.partition};
+  layout(sort, any_full);
+}
+
+} // namespace pfmpm
