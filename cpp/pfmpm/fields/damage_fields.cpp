@@ -57,6 +57,34 @@ void check_option(bool ok, const std::string& name, double value, const char* ru
 }
 } // namespace
 
+KernelField kernel_damage_field(const Grid& grid, const std::vector<double>& x,
+                                const std::vector<double>& damage, double radius)
+{
+  const std::size_t n = x.size() / 2;
+  if (damage.size() != n)
+    throw std::invalid_argument("damage: " + std::to_string(damage.size()) + " values for "
+                                + std::to_string(n) + " particles");
+  CellSort sort;
+  if (const std::size_t outside = sort.sort(grid, x); outside < n)
+    throw std::invalid_argument("particle " + std::to_string(outside) + " is outside the grid");
+  NeighbourList list;
+  list.build(grid, sort, x, radius);
+  KernelField out{std::vector<double>(n), std::vector<double>(n), std::vector<double>(2 * n)};
+  const auto np = static_cast<std::ptrdiff_t>(n);
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t p = 0; p < np; ++p)
+  {
+    const std::int64_t begin = list.start()[p], end = list.start()[p + 1];
+    const KernelValue v =
+        kernel_field(p, &list.index()[begin], end - begin, x.data(), damage.data(), radius);
+    out.S[p] = v.S;
+    out.D[p] = v.D;
+    out.grad[2 * p] = v.grad[0];
+    out.grad[2 * p + 1] = v.grad[1];
+  }
+  return out;
+}
+
 DamageFields::DamageFields(const Grid& grid, Particles& particles, std::vector<double> friction,
                            std::vector<DamageSource> source, DamageGradientOptions options)
     : _grid(grid), _friction(std::move(friction)), _source(std::move(source)),
@@ -266,7 +294,7 @@ void DamageFields::gradients(Particles& particles, const CellSort& sort)
     }
 }
 
-void DamageFields::sides(const CellSort& sort, const double* grad)
+void DamageFields::sides(const CellSort& sort, const double* x, const double* grad)
 {
   const int P = _grid.degree(), width = P + 1;
   const int ncx = _grid.cells()[0], ncy = _grid.cells()[1];
@@ -321,7 +349,11 @@ void DamageFields::sides(const CellSort& sort, const double* grad)
     _G[2 * s] = live ? grad[2 * _best[s]] : 0.0;
     _G[2 * s + 1] = live ? grad[2 * _best[s] + 1] : 0.0;
   }
-  // Algorithm 2: field A where grad D_p . G_i >= 0, else B.
+  // Algorithm 2: field A where grad D_p . G_i >= 0, else B. A particle
+  // whose kernel sees no damage (zero gradient: farther than r_p from it,
+  // which a B-spline stencil reaches past) takes the side of the node's
+  // gradient particle p* when it lies behind p* along G_i, away from the
+  // damage, and the other side when it lies beyond.
   std::uint32_t* mask = _mask.data();
   for_each_cell_by_strips(ncx, ncy, sort.cell_start(),
                           [&](int cx, int cy, std::int64_t begin, std::int64_t end)
@@ -333,11 +365,19 @@ void DamageFields::sides(const CellSort& sort, const double* grad)
                             for (std::int64_t k = begin; k < end; ++k)
                             {
                               const std::int32_t p = order[k];
+                              const bool flat = grad[2 * p] == 0.0 && grad[2 * p + 1] == 0.0;
                               std::uint32_t m = 0;
                               for (int i = 0; i < width * width; ++i)
                               {
                                 const std::int32_t s = node_slot(cx, cy, i, group[p]);
-                                if (grad[2 * p] * _G[2 * s] + grad[2 * p + 1] * _G[2 * s + 1] < 0.0)
+                                const double* G = &_G[2 * s];
+                                const std::int32_t q = _best[s];
+                                const double side =
+                                    flat ? (q < 0 ? 0.0
+                                                  : (x[2 * q] - x[2 * p]) * G[0]
+                                                        + (x[2 * q + 1] - x[2 * p + 1]) * G[1])
+                                         : grad[2 * p] * G[0] + grad[2 * p + 1] * G[1];
+                                if (side < 0.0)
                                 {
                                   m |= 1u << i;
                                   _has_b[s] = 1;
@@ -422,6 +462,25 @@ void DamageFields::layout(const CellSort& sort, bool any_split)
     }
 }
 
+std::vector<std::array<double, 4>> DamageFields::nodal_gradients() const
+{
+  std::vector<std::array<double, 4>> out;
+  const std::int32_t na = _grid.num_active();
+  for (std::int32_t a = 0; a < na; ++a)
+  {
+    const std::int32_t g0 = _groups ? _groups->slot_start()[a] : a;
+    const std::int32_t g1 = _groups ? _groups->slot_start()[a + 1] : a + 1;
+    for (std::int32_t g = g0; g < g1; ++g)
+    {
+      const bool set = 2 * static_cast<std::size_t>(g) + 1 < _G.size() && _dirty;
+      out.push_back({static_cast<double>(_grid.active_nodes()[a]),
+                     static_cast<double>(_groups ? _groups->field(g) : 0),
+                     set ? _G[2 * g] : 0.0, set ? _G[2 * g + 1] : 0.0});
+    }
+  }
+  return out;
+}
+
 void DamageFields::build(Particles& particles, const CellSort& sort)
 {
   if (_groups)
@@ -438,7 +497,7 @@ void DamageFields::build(Particles& particles, const CellSort& sort)
   {
     gradients(particles, sort);
     Stopwatch clock{_timers.partition};
-    sides(sort, particles.f64("damage_gradient").data());
+    sides(sort, particles.x.data(), particles.f64("damage_gradient").data());
     _dirty = true;
   }
   else if (_dirty)

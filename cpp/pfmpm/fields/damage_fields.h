@@ -11,6 +11,7 @@
 #include "pfmpm/particles/cell_sort.h"
 #include "pfmpm/particles/particles.h"
 
+#include <array>
 #include <cstdint>
 #include <optional>
 #include <vector>
@@ -44,6 +45,20 @@ struct DamageGradientOptions
   double phase_field_threshold = 0.05;
 };
 
+/// The normalised kernel damage field at every particle (eqs. 17-19).
+struct KernelField
+{
+  std::vector<double> S;    ///< kernel sum (eq. 19)
+  std::vector<double> D;    ///< D-bar
+  std::vector<double> grad; ///< grad D-bar, N x 2
+};
+
+/// @brief The kernel damage field and its gradient at every particle of
+/// positions `x` (N x 2) with damage `damage`, neighbours within `radius`
+/// found through the cell sort of `grid` (for checks and figures).
+KernelField kernel_damage_field(const Grid& grid, const std::vector<double>& x,
+                                const std::vector<double>& damage, double radius);
+
 /// Per-block wall time of the partition, seconds since construction.
 struct DamageTimers
 {
@@ -69,6 +84,9 @@ struct DamageTimers
 ///   does not depend on the visiting order;
 /// - per (particle, node) pair the side: field A if grad D_p . G_i >= 0,
 ///   else B (Algorithm 2), as a bit per stencil node in a per-particle mask;
+///   a particle with zero gradient (no damage within r_p, which a B-spline
+///   stencil reaches past) is on A when it lies behind the particle that
+///   gave G_i, (x_p* - x_p) . G_i >= 0, else on B;
 /// - the slots: per node, for each group in its support, A and (if some pair
 ///   chose it) B. Field index 2 group + side.
 ///
@@ -155,6 +173,11 @@ public:
   const double* damage() const { return _damage.data(); }
   /// Per particle: 1 when fully damaged (or a surface particle), else 0.
   const double* full() const { return _full.data(); }
+  /// Per particle: the masks of the last build.
+  const std::vector<std::uint32_t>& masks() const { return _mask; }
+  /// @brief The nodal gradients G_i of the last build (Algorithm 1): per
+  /// active node and group in its support, (node, group, G_x, G_y).
+  std::vector<std::array<double, 4>> nodal_gradients() const;
 
   ContactStats& stats() { return _stats; }
   const ContactStats& stats() const { return _stats; }
@@ -173,9 +196,9 @@ private:
   /// The kernel-field gradient at the particles of cells near full damage.
   /// Particles of the other cells get zero gradient and all pairs A.
   void gradients(Particles& particles, const CellSort& sort);
-  /// Algorithms 1 and 2 from the particle gradients `grad`: nodal gradients,
-  /// the pairs' sides, the split cells.
-  void sides(const CellSort& sort, const double* grad);
+  /// Algorithms 1 and 2 from the particle positions `x` and gradients
+  /// `grad`: nodal gradients, the pairs' sides, the split cells.
+  void sides(const CellSort& sort, const double* x, const double* grad);
   /// Slots from the group slots and their sides; the cells next to a node
   /// with two or more.
   void layout(const CellSort& sort, bool any_split);
