@@ -161,6 +161,39 @@ std::vector<double> DamageFields::detect_surfaces(Particles& particles, const Ce
     if (body[p] < 0 || static_cast<std::size_t>(body[p]) >= spacing.size())
       throw std::invalid_argument("particle " + std::to_string(p) + ": body " + std::to_string(body[p])
                                   + " has no lattice spacing");
+  // Walls are mirror planes: per direction, the coordinates of a point and
+  // of its images across the walled grid sides.
+  std::array<std::array<double, 2>, 2> plane{};
+  std::array<std::array<bool, 2>, 2> walled{};
+  for (int d = 0; d < 2; ++d)
+  {
+    const BSpline1D& b = _grid.basis(d);
+    plane[d] = {b.origin(), b.origin() + b.length()};
+    walled[d] = {_grid.wall(static_cast<Side>(2 * d)) != Wall::free,
+                 _grid.wall(static_cast<Side>(2 * d + 1)) != Wall::free};
+  }
+  auto images = [&](const double* q, double (*out)[2])
+  {
+    double c[2][3];
+    int m[2];
+    for (int d = 0; d < 2; ++d)
+    {
+      m[d] = 0;
+      c[d][m[d]++] = q[d];
+      for (int e = 0; e < 2; ++e)
+        if (walled[d][e])
+          c[d][m[d]++] = 2.0 * plane[d][e] - q[d];
+    }
+    int k = 0;
+    for (int i = 0; i < m[0]; ++i)
+      for (int j = 0; j < m[1]; ++j)
+        if (i + j > 0)
+        {
+          out[k][0] = c[0][i];
+          out[k++][1] = c[1][j];
+        }
+    return k;
+  };
   std::vector<double> ratio(particles.size());
   const std::int64_t* start = list.start().data();
   const std::int32_t* index = list.index().data();
@@ -168,12 +201,25 @@ std::vector<double> DamageFields::detect_surfaces(Particles& particles, const Ce
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t p = 0; p < n; ++p)
   {
-    double S = 1.0; // eq. 19 over p's own body
+    // Eq. 19 over p's own body and its mirror images in the walls (a face
+    // on a wall, such as a symmetry plane, is no surface).
+    const double* xp = &x[2 * p];
+    double S = 1.0;
+    auto add = [&](const double* xq, bool self)
+    {
+      if (!self)
+        S += kernel_weight(std::hypot(xp[0] - xq[0], xp[1] - xq[1]) * inv_r);
+      double image[8][2];
+      const int k = images(xq, image);
+      for (int i = 0; i < k; ++i)
+        S += kernel_weight(std::hypot(xp[0] - image[i][0], xp[1] - image[i][1]) * inv_r);
+    };
+    add(xp, true);
     for (std::int64_t k = start[p]; k < start[p + 1]; ++k)
     {
       const std::int32_t q = index[k];
       if (body[q] == body[p])
-        S += kernel_weight(std::hypot(x[2 * p] - x[2 * q], x[2 * p + 1] - x[2 * q + 1]) * inv_r);
+        add(&x[2 * q], false);
     }
     ratio[p] = S / bulk[body[p]];
     if (ratio[p] < threshold)
@@ -294,7 +340,7 @@ void DamageFields::gradients(Particles& particles, const CellSort& sort)
     }
 }
 
-void DamageFields::sides(const CellSort& sort, const double* x, const double* grad)
+void DamageFields::sides(const Particles& particles, const CellSort& sort, const double* grad)
 {
   const int P = _grid.degree(), width = P + 1;
   const int ncx = _grid.cells()[0], ncy = _grid.cells()[1];
@@ -350,10 +396,34 @@ void DamageFields::sides(const CellSort& sort, const double* x, const double* gr
     _G[2 * s + 1] = live ? grad[2 * _best[s] + 1] : 0.0;
   }
   // Algorithm 2: field A where grad D_p . G_i >= 0, else B. A particle
-  // whose kernel sees no damage (zero gradient: farther than r_p from it,
-  // which a B-spline stencil reaches past) takes the side of the node's
-  // gradient particle p* when it lies behind p* along G_i, away from the
-  // damage, and the other side when it lies beyond.
+  // whose kernel sees no damage variation (zero gradient), which a B-spline
+  // stencil reaches past r_p, takes the side of its nearest neighbour of the
+  // same body with a nonzero gradient; without one, an intact particle the
+  // side of the node's gradient particle p* if it lies behind p* along G_i
+  // (away from the damage), else the other, and a fully damaged one A.
+  const std::int32_t* body = particles.body.data();
+  const double* x = particles.x.data();
+  const std::int64_t* nstart = _neighbours.start().data();
+  const std::int32_t* nindex = _neighbours.index().data();
+  auto proxy = [&](std::int32_t p)
+  {
+    std::int32_t best = -1;
+    double closest = 0.0;
+    for (std::int64_t k = nstart[p]; k < nstart[p + 1]; ++k)
+    {
+      const std::int32_t q = nindex[k];
+      if (body[q] != body[p] || (grad[2 * q] == 0.0 && grad[2 * q + 1] == 0.0))
+        continue;
+      const double dx = x[2 * q] - x[2 * p], dy = x[2 * q + 1] - x[2 * p + 1];
+      const double d2 = dx * dx + dy * dy;
+      if (best < 0 || d2 < closest)
+      {
+        best = q;
+        closest = d2;
+      }
+    }
+    return best;
+  };
   std::uint32_t* mask = _mask.data();
   for_each_cell_by_strips(ncx, ncy, sort.cell_start(),
                           [&](int cx, int cy, std::int64_t begin, std::int64_t end)
@@ -366,17 +436,18 @@ void DamageFields::sides(const CellSort& sort, const double* x, const double* gr
                             {
                               const std::int32_t p = order[k];
                               const bool flat = grad[2 * p] == 0.0 && grad[2 * p + 1] == 0.0;
+                              const std::int32_t near = flat ? proxy(p) : p;
                               std::uint32_t m = 0;
                               for (int i = 0; i < width * width; ++i)
                               {
                                 const std::int32_t s = node_slot(cx, cy, i, group[p]);
                                 const double* G = &_G[2 * s];
                                 const std::int32_t q = _best[s];
-                                const double side =
-                                    flat ? (q < 0 ? 0.0
-                                                  : (x[2 * q] - x[2 * p]) * G[0]
-                                                        + (x[2 * q + 1] - x[2 * p + 1]) * G[1])
-                                         : grad[2 * p] * G[0] + grad[2 * p + 1] * G[1];
+                                double side = 0.0;
+                                if (near >= 0)
+                                  side = grad[2 * near] * G[0] + grad[2 * near + 1] * G[1];
+                                else if (full[p] == 0.0 && q >= 0)
+                                  side = (x[2 * q] - x[2 * p]) * G[0] + (x[2 * q + 1] - x[2 * p + 1]) * G[1];
                                 if (side < 0.0)
                                 {
                                   m |= 1u << i;
@@ -497,7 +568,7 @@ void DamageFields::build(Particles& particles, const CellSort& sort)
   {
     gradients(particles, sort);
     Stopwatch clock{_timers.partition};
-    sides(sort, particles.x.data(), particles.f64("damage_gradient").data());
+    sides(particles, sort, particles.f64("damage_gradient").data());
     _dirty = true;
   }
   else if (_dirty)

@@ -84,9 +84,11 @@ struct DamageTimers
 ///   does not depend on the visiting order;
 /// - per (particle, node) pair the side: field A if grad D_p . G_i >= 0,
 ///   else B (Algorithm 2), as a bit per stencil node in a per-particle mask;
-///   a particle with zero gradient (no damage within r_p, which a B-spline
-///   stencil reaches past) is on A when it lies behind the particle that
-///   gave G_i, (x_p* - x_p) . G_i >= 0, else on B;
+///   a particle with zero gradient (no damage variation within r_p, which a
+///   B-spline stencil reaches past) takes the side of its nearest neighbour
+///   of the same body that has a gradient, or without one, if intact, A
+///   when it lies behind the particle p* that gave G_i,
+///   (x_p* - x_p) . G_i >= 0, else B, and if fully damaged A;
 /// - the slots: per node, for each group in its support, A and (if some pair
 ///   chose it) B. Field index 2 group + side.
 ///
@@ -132,7 +134,9 @@ public:
   /// sum of eq. 19 over the particles of p's own body is below `threshold`
   /// times that of the body's lattice interior, S_bulk (reading of card
   /// section 9; per body, so that bodies that start in contact get their
-  /// interface painted). Flags already set are kept.
+  /// interface painted). The grid's walls are mirror planes: the sum adds
+  /// the particles' images in them, so a face on a wall (a symmetry plane)
+  /// is not a surface. Flags already set are kept.
   /// @param spacing Lattice spacing of each body (Particles::body).
   /// @return S / S_bulk per particle.
   std::vector<double> detect_surfaces(Particles& particles, const CellSort& sort,
@@ -196,9 +200,9 @@ private:
   /// The kernel-field gradient at the particles of cells near full damage.
   /// Particles of the other cells get zero gradient and all pairs A.
   void gradients(Particles& particles, const CellSort& sort);
-  /// Algorithms 1 and 2 from the particle positions `x` and gradients
-  /// `grad`: nodal gradients, the pairs' sides, the split cells.
-  void sides(const CellSort& sort, const double* x, const double* grad);
+  /// Algorithms 1 and 2 from the particle gradients `grad`: nodal
+  /// gradients, the pairs' sides, the split cells.
+  void sides(const Particles& particles, const CellSort& sort, const double* grad);
   /// Slots from the group slots and their sides; the cells next to a node
   /// with two or more.
   void layout(const CellSort& sort, bool any_split);

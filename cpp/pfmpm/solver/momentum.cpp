@@ -70,21 +70,21 @@ void update_contact_node(int n, const NodeSums* sums, const SurfaceSums* surface
   ContactPair pairs[F * (F - 1) / 2];
   const int active = coulomb_forces(n, trial, live, field, friction, nfields, volume, dt, fn, ft,
                                     pairs, &acc[sum_contact]);
-  // Corrected velocities (eq. 65), walls, and the work done.
-  double vn[F][2];
+  // Corrected velocities (eq. 65), checked (C.3, C.4) before the walls act
+  // on them; walls, and the work done.
+  double vn[F][2]{}, vc[F][2]{};
+  for (int j = 0; j < n; ++j)
+    if (live[j])
+      for (int d = 0; d < 2; ++d)
+        vc[j][d] = vn[j][d] = trial[j].vt[d] + dt * (fn[j][d] + ft[j][d]) / sums[j].m;
+  check_contact(active, pairs, vc, &acc[sum_contact]);
   for (int j = 0; j < n; ++j)
   {
     if (!live[j])
-    {
       k[j] = NodeKinematics{};
-      vn[j][0] = vn[j][1] = 0.0;
-      continue;
-    }
-    for (int d = 0; d < 2; ++d)
-      vn[j][d] = trial[j].vt[d] + dt * (fn[j][d] + ft[j][d]) / sums[j].m;
-    finish_slot(sums[j], vo[j], vn[j], walls, ft[j], dt, k[j], acc);
+    else
+      finish_slot(sums[j], vo[j], vn[j], walls, ft[j], dt, k[j], acc);
   }
-  check_contact(active, pairs, vn, &acc[sum_contact]);
 }
 
 void update_damage_node(int n, const NodeSums* sums, const SurfaceSums* surface,
