@@ -13,7 +13,7 @@ from .scene import (Anisotropy, Body, Contact, Crack, FractureSpec, GridSpec, Li
                     PhaseFieldSpec, Rectangle, Scene, Time)
 from .simulation import Simulation
 
-PHYSICS = ("elastic", "phasefield", "anisotropic", "contact")
+PHYSICS = ("elastic", "phasefield", "anisotropic", "contact", "damage_gradient")
 
 
 def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str = "elastic") -> Scene:
@@ -29,6 +29,11 @@ def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str
     vertical midline, each its own discrete field with frictional contact
     (mu = 0.3): the same particles as ``"elastic"``, with a line of contact
     nodes through the middle.
+    ``physics="damage_gradient"`` is the elastic block with the
+    damage-gradient partition (Homel & Herbold 2017) and a fully damaged
+    band one cell wide along each midline (surface-flagged particles): every
+    step computes the kernel damage field near the bands, Algorithms 1 and 2,
+    and contact across them, where the block is cut in four.
     """
     cells = max(4, math.ceil(math.sqrt(particles / per_cell**2)))
     margin = 4
@@ -40,11 +45,18 @@ def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str
         mid = margin + cells / 2
         cracks = (Crack(points=((float(margin), mid), (mid, mid))),)
     lo, hi = float(margin), float(margin + cells)
+    contact = None
     if physics == "contact":
         mid = float(margin + cells // 2)
         shapes = {"left": Rectangle(min=(lo, lo), max=(mid, hi)), "right": Rectangle(min=(mid, lo), max=(hi, hi))}
+        contact = Contact(friction=0.3)
     else:
         shapes = {"block": Rectangle(min=(lo, lo), max=(hi, hi))}
+    if physics == "damage_gradient":
+        mid = float(margin + cells // 2)
+        bands = (Rectangle(min=(lo, mid - 0.5), max=(hi, mid + 0.5)),
+                 Rectangle(min=(mid - 0.5, lo), max=(mid + 0.5, hi)))
+        contact = Contact(friction=0.3, partition="damage_gradient", surfaces=bands)
     return Scene(
         name="bench-block",
         grid=GridSpec(size=(float(side), float(side)), h=1.0, degree=degree),
@@ -56,7 +68,7 @@ def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str
                      for name, shape in shapes.items()),
         # The first, cold fourth-order solve needs more than the default limit.
         phase_field=PhaseFieldSpec(max_iterations=100_000),
-        contact=Contact(friction=0.3) if physics == "contact" else None,
+        contact=contact,
     )
 
 
@@ -75,6 +87,7 @@ def bench(physics: str = "elastic", particles: int = 1_000_000, steps: int = 20,
     sim.particles.v[:, 0] = 1e-3 * np.sin(np.pi * s[:, 1])
     sim.particles.v[:, 1] = 1e-3 * np.sin(np.pi * s[:, 0])
     sim.advance(2)  # warm-up: allocations, first sort
+    before = _damage_seconds(sim)
     times = []
     for _ in range(repeats):
         start = time.perf_counter()
@@ -94,4 +107,22 @@ def bench(physics: str = "elastic", particles: int = 1_000_000, steps: int = 20,
         "particle_steps_per_s": n * steps / seconds,
         "phase_field_iterations_per_step": stats["iterations"] / max(stats["solves"], 1),
         "contact_nodes": (sim.solver.contact_stats() or {"nodes": 0})["nodes"],
+        **_damage_share(sim, before, sum(times)),
     }
+
+
+def _damage_seconds(sim: Simulation) -> dict:
+    """Seconds so far in each block of the damage-gradient partition (empty without it)."""
+    part = sim.solver.damage_partition()
+    return dict(part["seconds"]) if part else {}
+
+
+def _damage_share(sim: Simulation, before: dict, total: float) -> dict:
+    """With the damage-gradient partition: the share of the timed steps spent in
+    each of its blocks (particle damage, neighbour list, kernel gradient,
+    Algorithms 1-2 and slots) and the neighbour-list builds so far."""
+    if not before:
+        return {}
+    after = _damage_seconds(sim)
+    return {"damage_share": {k: (after[k] - before[k]) / total for k in after},
+            "neighbour_builds": sim.solver.damage_partition()["neighbour_builds"]}
