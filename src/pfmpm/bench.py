@@ -72,15 +72,17 @@ def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str
     )
 
 
-def bench(physics: str = "elastic", particles: int = 1_000_000, steps: int = 20, repeats: int = 3, degree: int = 2) -> dict:
-    """Time ``steps`` core steps ``repeats`` times and report the median.
+def bench(physics: str = "elastic", particles: int = 1_000_000, steps: int = 20, repeats: int = 3,
+          degree: int = 2, per_cell: int = 3) -> dict:
+    """Time ``steps`` core steps ``repeats`` times and report the median
+    (``per_cell`` particles per cell and direction).
 
     The block vibrates in a smooth mode (velocity amplitude 1e-3 of the wave
     speed), so strains and stresses are nonzero and nothing leaves the grid.
     """
     if physics not in PHYSICS:
         raise ValueError(f"physics = {physics!r}: must be one of {', '.join(PHYSICS)}")
-    sim = Simulation(block_scene(particles, degree, physics=physics))
+    sim = Simulation(block_scene(particles, degree, per_cell, physics=physics))
     x = sim.particles.x
     lo, hi = x.min(axis=0), x.max(axis=0)
     s = (x - lo) / (hi - lo)
@@ -99,6 +101,7 @@ def bench(physics: str = "elastic", particles: int = 1_000_000, steps: int = 20,
     return {
         "physics": physics,
         "degree": degree,
+        "per_cell": per_cell,
         "particles": n,
         "steps": steps,
         "repeats": repeats,

@@ -84,7 +84,7 @@ def _count(text: str) -> int:
 def _bench(args: argparse.Namespace) -> int:
     from .bench import bench
 
-    r = bench(args.physics, args.particles, args.steps, args.repeats, args.degree)
+    r = bench(args.physics, args.particles, args.steps, args.repeats, args.degree, args.per_cell)
     if args.json:
         print(json.dumps(r))
     else:
@@ -231,6 +231,7 @@ def main(argv: list[str] | None = None) -> int:
     bench.add_argument("--steps", type=int, default=20)
     bench.add_argument("--repeats", type=int, default=3)
     bench.add_argument("--degree", type=int, default=2, choices=[1, 2, 3])
+    bench.add_argument("--per-cell", type=int, default=3, help="particles per cell and direction")
     bench.add_argument("--json", action="store_true", help="print one JSON object")
     bench.set_defaults(func=_bench)
 

@@ -320,12 +320,24 @@ void DamageFields::gradients(Particles& particles, const CellSort& sort)
   const std::int64_t* nstart = _neighbours.start().data();
   const std::int32_t* nindex = _neighbours.index().data();
   const double radius = _radius;
+  // Where every listed neighbour has p's damage, the kernel field is flat
+  // and its gradient exactly zero (the sums of differences in kernel_field
+  // vanish): a look at the damage alone.
+  auto uniform = [&](std::int32_t p)
+  {
+    const double d = damage[p];
+    bool same = true;
+    for (std::int64_t k = nstart[p]; k < nstart[p + 1]; ++k)
+      same &= damage[nindex[k]] == d;
+    return same;
+  };
 #pragma omp parallel for schedule(dynamic, 64)
   for (std::ptrdiff_t c = 0; c < ncells; ++c)
+  {
     for (std::int64_t k = start[c]; k < start[c + 1]; ++k)
     {
       const std::int32_t p = order[k];
-      if (_near[c])
+      if (_near[c] && !uniform(p))
       {
         const KernelValue v = kernel_field(p, &nindex[nstart[p]], nstart[p + 1] - nstart[p], x,
                                            damage, radius);
@@ -338,6 +350,7 @@ void DamageFields::gradients(Particles& particles, const CellSort& sort)
         mask[p] = 0;
       }
     }
+  }
 }
 
 void DamageFields::sides(const Particles& particles, const CellSort& sort, const double* grad)
@@ -354,10 +367,15 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
   const std::int32_t* order = sort.order().data();
   const std::int32_t* group = _group.data();
   const double* full = _full.data();
-  auto node_slot = [&](int cx, int cy, int i, std::int32_t g)
+  // The active nodes of a cell's stencil, in stencil order.
+  auto cell_nodes = [&](int cx, int cy, std::int32_t* out)
   {
-    const std::int32_t a = _grid.active_index(cx + i / width, cy + i % width);
-    return group_slot(a, g);
+    for (int a = 0; a < width; ++a)
+    {
+      const std::int32_t row = _grid.active_index(cx + a, cy);
+      for (int b = 0; b < width; ++b)
+        out[a * width + b] = row + b;
+    }
   };
   // Algorithm 1: per node and group, the particle gradient of largest
   // magnitude, ties to the smaller particle index, and whether a fully
@@ -368,13 +386,17 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
                           {
                             if (!_near[static_cast<std::size_t>(cx) * ncy + cy])
                               return;
+                            std::int32_t nodes[(max_degree + 1) * (max_degree + 1)];
+                            cell_nodes(cx, cy, nodes);
                             for (std::int64_t k = begin; k < end; ++k)
                             {
                               const std::int32_t p = order[k];
                               const double n2 = grad[2 * p] * grad[2 * p] + grad[2 * p + 1] * grad[2 * p + 1];
+                              if (n2 == 0.0 && full[p] == 0.0)
+                                continue; // nothing to note
                               for (int i = 0; i < width * width; ++i)
                               {
-                                const std::int32_t s = node_slot(cx, cy, i, group[p]);
+                                const std::int32_t s = group_slot(nodes[i], group[p]);
                                 if (full[p] != 0.0)
                                   _group_full[s] = 1;
                                 if (n2 > _best_norm[s] || (n2 > 0.0 && n2 == _best_norm[s] && p < _best[s]))
@@ -397,10 +419,12 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
   }
   // Algorithm 2: field A where grad D_p . G_i >= 0, else B. A particle
   // whose kernel sees no damage variation (zero gradient), which a B-spline
-  // stencil reaches past r_p, takes the side of its nearest neighbour of the
-  // same body with a nonzero gradient; without one, an intact particle the
-  // side of the node's gradient particle p* if it lies behind p* along G_i
-  // (away from the damage), else the other, and a fully damaged one A.
+  // stencil reaches past r_p, takes the side of its nearest listed
+  // neighbour of the same body with a gradient (inside a flagged corner the
+  // kernel sees only flagged particles; in a body, only intact ones). Without
+  // one, an intact particle is placed by position: on the side of the
+  // node's gradient particle p* if it lies behind p* along G_i (away from
+  // the damage), else on the other; a fully damaged one on A.
   const std::int32_t* body = particles.body.data();
   const double* x = particles.x.data();
   const std::int64_t* nstart = _neighbours.start().data();
@@ -431,6 +455,8 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
                             const std::size_t cell = static_cast<std::size_t>(cx) * ncy + cy;
                             if (!_near[cell])
                               return;
+                            std::int32_t nodes[(max_degree + 1) * (max_degree + 1)];
+                            cell_nodes(cx, cy, nodes);
                             std::uint32_t any = 0;
                             for (std::int64_t k = begin; k < end; ++k)
                             {
@@ -440,7 +466,7 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
                               std::uint32_t m = 0;
                               for (int i = 0; i < width * width; ++i)
                               {
-                                const std::int32_t s = node_slot(cx, cy, i, group[p]);
+                                const std::int32_t s = group_slot(nodes[i], group[p]);
                                 const double* G = &_G[2 * s];
                                 const std::int32_t q = _best[s];
                                 double side = 0.0;
@@ -515,12 +541,15 @@ void DamageFields::layout(const CellSort& sort, bool any_split)
   if (contact == 0)
     return;
   const std::int64_t* start = sort.cell_start().data();
+  // With one group, only a split node has two slots, and only cells near
+  // full damage have one among their nodes.
+  const bool near_only = !_groups && any_split;
 #pragma omp parallel for schedule(static)
   for (int cx = 0; cx < ncx; ++cx)
     for (int cy = 0; cy < ncy; ++cy)
     {
       const std::size_t cell = static_cast<std::size_t>(cx) * ncy + cy;
-      if (start[cell + 1] == start[cell])
+      if (start[cell + 1] == start[cell] || (near_only && !_near[cell]))
         continue;
       bool any = false;
       for (int a = 0; a <= P && !any; ++a)
