@@ -188,6 +188,9 @@ public:
   const DamageTimers& timers() const { return _timers; }
   /// Neighbour-list builds so far.
   std::int64_t neighbour_builds() const { return _neighbours.builds(); }
+  /// @brief Note that no particle moved more than `distance` in the step
+  /// (for the neighbour lists' skin).
+  void moved(double distance) { _neighbours.moved(distance); }
 
 private:
   /// Group slot of `group` at active node a.

@@ -8,21 +8,6 @@
 namespace pfmpm
 {
 
-bool NeighbourList::stale(const std::vector<double>& x, double skin) const
-{
-  if (_builds == 0 || _x0.size() != x.size())
-    return true;
-  const auto n = static_cast<std::ptrdiff_t>(x.size() / 2);
-  double moved = 0.0;
-#pragma omp parallel for schedule(static) reduction(max : moved)
-  for (std::ptrdiff_t p = 0; p < n; ++p)
-  {
-    const double dx = x[2 * p] - _x0[2 * p], dy = x[2 * p + 1] - _x0[2 * p + 1];
-    moved = std::max(moved, dx * dx + dy * dy);
-  }
-  return !(moved <= skin * skin);
-}
-
 void NeighbourList::build(const Grid& grid, const CellSort& sort, const std::vector<double>& x,
                           double cutoff)
 {
@@ -73,7 +58,7 @@ void NeighbourList::build(const Grid& grid, const CellSort& sort, const std::vec
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t p = 0; p < np; ++p)
     std::sort(&_index[_start[p]], &_index[_start[p + 1]]);
-  _x0 = x;
+  _drift = 0.0;
   _cutoff = cutoff;
   ++_builds;
 }

@@ -415,15 +415,17 @@ struct G2PArrays
 /// node) pair reading the values of its local field (`select`); the velocity
 /// gradient L_ij = dv_i/dx_j into `L` (4 per particle, in sorted order; H&H
 /// eq. 7 on the same fields) and the volume from det(I + dt L). Notes the
-/// smallest particle with a non-finite position or velocity in `bad` and the
-/// largest |v_p|^2 in `speed2`.
+/// smallest particle with a non-finite position or velocity in `bad`, the
+/// largest |v_p|^2 in `speed2` and the largest squared nodal velocity a
+/// particle moved with in `drift2`.
 ///
 /// Not inlined, on purpose: every partition runs this same compiled
 /// arithmetic (see sum_cell).
 template <class Shape, int F, class Select>
 [[gnu::noinline]] void move_cell(const detail::EachParticle<Shape>& each, const G2PArrays& a,
                                  const Select& select, const G2PBlock<F, Shape::size>& block,
-                                 double dt, double* L, std::size_t& bad, double& speed2)
+                                 double dt, double* L, std::size_t& bad, double& speed2,
+                                 double& drift2)
 {
   constexpr int K = Shape::size;
   // Local copies, which the compiler keeps apart from the particle arrays.
@@ -459,6 +461,7 @@ template <class Shape, int F, class Select>
         if (!std::isfinite(x[2 * p] + x[2 * p + 1] + v[2 * p] + v[2 * p + 1]))
           bad = std::min(bad, p);
         speed2 = std::max(speed2, v[2 * p] * v[2 * p] + v[2 * p + 1] * v[2 * p + 1]);
+        drift2 = std::max(drift2, vx * vx + vy * vy);
         L[0] = Lxx;
         L[1] = Lxy;
         L[2] = Lyx;
@@ -490,9 +493,10 @@ struct KinematicsG2P
     std::size_t bad;       // first particle with a non-finite value
     double speed2 = 0.0;   // largest |v_p|^2
     double wave = 0.0;     // largest P-wave speed
+    double drift2 = 0.0;   // largest squared velocity a particle moved with
   };
   std::size_t bad;
-  double speed2 = 0.0, wave = 0.0;
+  double speed2 = 0.0, wave = 0.0, drift2 = 0.0;
 
   Local local() const { return Local{{}, particles.size()}; }
   void merge(const Local& l)
@@ -500,6 +504,7 @@ struct KinematicsG2P
     bad = std::min(bad, l.bad);
     speed2 = std::max(speed2, l.speed2);
     wave = std::max(wave, l.wave);
+    drift2 = std::max(drift2, l.drift2);
   }
 
   void operator()(Local& local, const Cell& cell, const detail::EachParticle<Shape>& each) const
@@ -545,7 +550,8 @@ struct KinematicsG2P
       }
     local.L.resize(4 * static_cast<std::size_t>(cell.end - cell.begin));
     const G2PArrays arrays{particles.x.data(), particles.v.data(), particles.volume.data()};
-    move_cell<Shape, F>(each, arrays, select, nodes, dt, local.L.data(), local.bad, local.speed2);
+    move_cell<Shape, F>(each, arrays, select, nodes, dt, local.L.data(), local.bad, local.speed2,
+                        local.drift2);
     // The materials: each run of the cell's particles of one material (with
     // one material, the whole cell).
     auto update = [&](std::int32_t m, const Batch& b)

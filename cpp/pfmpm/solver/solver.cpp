@@ -428,6 +428,8 @@ void Solver::grid_to_particle(Fields& fields)
   pfmpm::grid_to_particle<Shape>(_grid, _sort, _particles.x.data(), kernel);
   if (kernel.bad < _particles.size())
     non_finite(kernel.bad);
+  if constexpr (Fields::per_pair)
+    fields.moved(_dt * std::sqrt(kernel.drift2)); // the neighbour lists' skin (H&H section 2.5)
   // max c_p + max |v_p| bounds max (c_p + |v_p|) without a square root per
   // particle; only a step whose bound exceeds the limit takes the exact maximum.
   if (check_stability && _dt * (kernel.wave + std::sqrt(kernel.speed2)) > stability_limit())
