@@ -419,12 +419,12 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
   }
   // Algorithm 2: field A where grad D_p . G_i >= 0, else B. A particle
   // whose kernel sees no damage variation (zero gradient), which a B-spline
-  // stencil reaches past r_p, takes the side of its nearest listed
-  // neighbour of the same body with a gradient (inside a flagged corner the
-  // kernel sees only flagged particles; in a body, only intact ones). Without
-  // one, an intact particle is placed by position: on the side of the
-  // node's gradient particle p* if it lies behind p* along G_i (away from
-  // the damage), else on the other; a fully damaged one on A.
+  // stencil reaches past r_p, is placed by position if it is intact: on the
+  // side of the node's gradient particle p* if it lies behind p* along G_i
+  // (away from the damage), else on the other. A fully damaged one (inside
+  // a flagged corner, where the kernel sees only flagged particles) takes
+  // the side of its nearest listed neighbour of the same body with a
+  // gradient, or A without one.
   const std::int32_t* body = particles.body.data();
   const double* x = particles.x.data();
   const std::int64_t* nstart = _neighbours.start().data();
@@ -462,7 +462,7 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
                             {
                               const std::int32_t p = order[k];
                               const bool flat = grad[2 * p] == 0.0 && grad[2 * p + 1] == 0.0;
-                              const std::int32_t near = flat ? proxy(p) : p;
+                              const std::int32_t near = !flat ? p : full[p] != 0.0 ? proxy(p) : -1;
                               std::uint32_t m = 0;
                               for (int i = 0; i < width * width; ++i)
                               {

@@ -85,10 +85,10 @@ struct DamageTimers
 /// - per (particle, node) pair the side: field A if grad D_p . G_i >= 0,
 ///   else B (Algorithm 2), as a bit per stencil node in a per-particle mask;
 ///   a particle with zero gradient (no damage variation within r_p, which a
-///   B-spline stencil reaches past) takes the side of its nearest listed
-///   neighbour of the same body that has a gradient; without one, if
-///   intact, A when it lies behind the particle p* that gave G_i,
-///   (x_p* - x_p) . G_i >= 0, else B, and if fully damaged A;
+///   B-spline stencil reaches past) is, if intact, on A when it lies behind
+///   the particle p* that gave G_i, (x_p* - x_p) . G_i >= 0, else on B, and
+///   if fully damaged on the side of its nearest listed neighbour of the
+///   same body that has a gradient (A without one);
 /// - the slots: per node, for each group in its support, A and (if some pair
 ///   chose it) B. Field index 2 group + side.
 ///
