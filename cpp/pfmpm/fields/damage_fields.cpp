@@ -90,19 +90,7 @@ DamageFields::DamageFields(const Grid& grid, Particles& particles, std::vector<d
     : _grid(grid), _friction(std::move(friction)), _source(std::move(source)),
       _options(std::move(options))
 {
-  _groups_n = static_cast<int>(std::lround(std::sqrt(static_cast<double>(_friction.size()))));
-  if (_groups_n < 1 || static_cast<std::size_t>(_groups_n) * _groups_n != _friction.size())
-    throw std::invalid_argument("friction: " + std::to_string(_friction.size())
-                                + " entries; need groups x groups with at least 1 group");
-  for (int a = 0; a < _groups_n; ++a)
-    for (int b = 0; b < _groups_n; ++b)
-    {
-      const double mu = _friction[a * _groups_n + b];
-      if (!(mu >= 0.0) || !std::isfinite(mu) || mu != _friction[b * _groups_n + a])
-        throw std::invalid_argument("friction[" + std::to_string(a) + "][" + std::to_string(b)
-                                    + "] = " + std::to_string(mu)
-                                    + ": must be finite, >= 0 and symmetric");
-    }
+  _groups_n = friction_fields(_friction, 1);
   const DamageGradientOptions& o = _options;
   check_option(o.separability > 0.0 && o.separability < 1.0, "separability", o.separability,
                "in (0, 1)");
@@ -286,26 +274,27 @@ void DamageFields::gradients(Particles& particles, const CellSort& sort)
   for (std::ptrdiff_t c = 0; c < ncells; ++c)
     for (std::int64_t k = start[c]; k < start[c + 1] && !full_cell[c]; ++k)
       full_cell[c] = _full[order[k]] != 0.0;
-  std::vector<std::uint8_t> along_y(ncells, 0);
+  // Dilated by P cells along y, then along x (stride ncy, resp. 1).
+  auto dilate = [&](const std::vector<std::uint8_t>& in, std::vector<std::uint8_t>& out, int axis)
+  {
+    const int n[2] = {ncx, ncy};
+    const std::ptrdiff_t stride = axis == 0 ? ncy : 1;
+    out.assign(ncells, 0);
 #pragma omp parallel for schedule(static)
-  for (int cx = 0; cx < ncx; ++cx)
-    for (int cy = 0; cy < ncy; ++cy)
-    {
-      std::uint8_t any = 0;
-      for (int d = std::max(cy - P, 0); d <= std::min(cy + P, ncy - 1) && !any; ++d)
-        any = full_cell[static_cast<std::size_t>(cx) * ncy + d];
-      along_y[static_cast<std::size_t>(cx) * ncy + cy] = any;
-    }
-  _near.assign(ncells, 0);
-#pragma omp parallel for schedule(static)
-  for (int cx = 0; cx < ncx; ++cx)
-    for (int cy = 0; cy < ncy; ++cy)
-    {
-      std::uint8_t any = 0;
-      for (int d = std::max(cx - P, 0); d <= std::min(cx + P, ncx - 1) && !any; ++d)
-        any = along_y[static_cast<std::size_t>(d) * ncy + cy];
-      _near[static_cast<std::size_t>(cx) * ncy + cy] = any;
-    }
+    for (int cx = 0; cx < ncx; ++cx)
+      for (int cy = 0; cy < ncy; ++cy)
+      {
+        const int i = axis == 0 ? cx : cy;
+        const std::ptrdiff_t cell = static_cast<std::ptrdiff_t>(cx) * ncy + cy;
+        std::uint8_t any = 0;
+        for (int d = std::max(i - P, 0); d <= std::min(i + P, n[axis] - 1) && !any; ++d)
+          any = in[cell + (d - i) * stride];
+        out[cell] = any;
+      }
+  };
+  std::vector<std::uint8_t> along_y;
+  dilate(full_cell, along_y, 1);
+  dilate(along_y, _near, 0);
 
   {
     Stopwatch clock{_timers.neighbours};

@@ -48,6 +48,11 @@ struct NodeKinematics
   double vx, vy, ax, ay;
 };
 
+/// @brief The number n of fields of a row-major n x n friction matrix.
+/// @throws std::invalid_argument unless it is square with n >= `at_least`
+///         fields and finite, >= 0 and symmetric entries.
+int friction_fields(const std::vector<double>& friction, int at_least);
+
 /// @brief One velocity field: node a's only slot is a.
 struct SingleField
 {
