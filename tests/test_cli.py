@@ -106,3 +106,20 @@ def test_bench_json():
     assert result["particles"] == 15 * 15 * 9  # ceil(sqrt(2000 / 9)) = 15 cells a side
     assert result["steps"] == 3 and result["threads"] >= 1
     assert result["particle_steps_per_s"] == pytest.approx(result["particles"] * 3 / result["seconds"])
+
+
+def test_bench_damage_gradient_bands():
+    """Three bands a direction cut the block in 16: more neighbour lists and
+    separable nodes than one band; no bands is a one-line error."""
+    runs = []
+    for bands in ("1", "3"):
+        r = pfmpm("bench", "--physics", "damage_gradient", "--particles", "20000", "--per-cell", "2",
+                  "--steps", "2", "--repeats", "1", "--bands", bands, "--json")
+        assert r.returncode == 0, r.stderr
+        runs.append(json.loads(r.stdout))
+    one, three = runs
+    assert one["bands"] == 1 and three["bands"] == 3 and one["particles"] == three["particles"]
+    assert set(one["damage_share"]) == {"damage", "neighbours", "gradient", "partition"}
+    assert three["contact_nodes"] > 2 * one["contact_nodes"] > 0
+    r = pfmpm("bench", "--physics", "damage_gradient", "--particles", "2000", "--bands", "0")
+    assert r.returncode == 2 and r.stderr.strip() == "error: bands = 0: must be >= 1"

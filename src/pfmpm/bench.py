@@ -16,7 +16,8 @@ from .simulation import Simulation
 PHYSICS = ("elastic", "phasefield", "anisotropic", "contact", "damage_gradient")
 
 
-def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str = "elastic") -> Scene:
+def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str = "elastic",
+                bands: int = 1) -> Scene:
     """A square block of about ``particles`` points, 3x3 per cell, with a margin of empty cells.
 
     ``physics="phasefield"`` makes the block crackable (l0 = 2 h, spectral
@@ -33,8 +34,12 @@ def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str
     damage-gradient partition (Homel & Herbold 2017) and a fully damaged
     band one cell wide along each midline (surface-flagged particles): every
     step computes the kernel damage field near the bands, Algorithms 1 and 2,
-    and contact across them, where the block is cut in four.
+    and contact across them, where the block is cut in four. ``bands`` such
+    bands per direction, evenly spaced, cut it into (bands + 1)^2 fragments:
+    the share of particles near full damage grows with it.
     """
+    if bands < 1:
+        raise ValueError(f"bands = {bands}: must be >= 1")
     cells = max(4, math.ceil(math.sqrt(particles / per_cell**2)))
     margin = 4
     side = cells + 2 * margin
@@ -53,10 +58,10 @@ def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str
     else:
         shapes = {"block": Rectangle(min=(lo, lo), max=(hi, hi))}
     if physics == "damage_gradient":
-        mid = float(margin + cells // 2)
-        bands = (Rectangle(min=(lo, mid - 0.5), max=(hi, mid + 0.5)),
-                 Rectangle(min=(mid - 0.5, lo), max=(mid + 0.5, hi)))
-        contact = Contact(friction=0.3, partition="damage_gradient", surfaces=bands)
+        at = [float(margin + cells * k // (bands + 1)) for k in range(1, bands + 1)]
+        cuts = tuple(shape for c in at for shape in (Rectangle(min=(lo, c - 0.5), max=(hi, c + 0.5)),
+                                                    Rectangle(min=(c - 0.5, lo), max=(c + 0.5, hi))))
+        contact = Contact(friction=0.3, partition="damage_gradient", surfaces=cuts)
     return Scene(
         name="bench-block",
         grid=GridSpec(size=(float(side), float(side)), h=1.0, degree=degree),
@@ -73,16 +78,17 @@ def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str
 
 
 def bench(physics: str = "elastic", particles: int = 1_000_000, steps: int = 20, repeats: int = 3,
-          degree: int = 2, per_cell: int = 3) -> dict:
+          degree: int = 2, per_cell: int = 3, bands: int = 1) -> dict:
     """Time ``steps`` core steps ``repeats`` times and report the median
-    (``per_cell`` particles per cell and direction).
+    (``per_cell`` particles per cell and direction; ``bands`` damaged bands
+    per direction with ``physics="damage_gradient"``, :func:`block_scene`).
 
     The block vibrates in a smooth mode (velocity amplitude 1e-3 of the wave
     speed), so strains and stresses are nonzero and nothing leaves the grid.
     """
     if physics not in PHYSICS:
         raise ValueError(f"physics = {physics!r}: must be one of {', '.join(PHYSICS)}")
-    sim = Simulation(block_scene(particles, degree, per_cell, physics=physics))
+    sim = Simulation(block_scene(particles, degree, per_cell, physics=physics, bands=bands))
     x = sim.particles.x
     lo, hi = x.min(axis=0), x.max(axis=0)
     s = (x - lo) / (hi - lo)
@@ -110,6 +116,7 @@ def bench(physics: str = "elastic", particles: int = 1_000_000, steps: int = 20,
         "particle_steps_per_s": n * steps / seconds,
         "phase_field_iterations_per_step": stats["iterations"] / max(stats["solves"], 1),
         "contact_nodes": (sim.solver.contact_stats() or {"nodes": 0})["nodes"],
+        **({"bands": bands} if physics == "damage_gradient" else {}),
         **_damage_share(sim, before, sum(times)),
     }
 

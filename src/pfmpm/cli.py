@@ -84,7 +84,12 @@ def _count(text: str) -> int:
 def _bench(args: argparse.Namespace) -> int:
     from .bench import bench
 
-    r = bench(args.physics, args.particles, args.steps, args.repeats, args.degree, args.per_cell)
+    try:
+        r = bench(args.physics, args.particles, args.steps, args.repeats, args.degree, args.per_cell,
+                  args.bands)
+    except ValueError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
     if args.json:
         print(json.dumps(r))
     else:
@@ -232,6 +237,8 @@ def main(argv: list[str] | None = None) -> int:
     bench.add_argument("--repeats", type=int, default=3)
     bench.add_argument("--degree", type=int, default=2, choices=[1, 2, 3])
     bench.add_argument("--per-cell", type=int, default=3, help="particles per cell and direction")
+    bench.add_argument("--bands", type=int, default=1,
+                       help="damage_gradient: fully damaged bands per direction (default 1)")
     bench.add_argument("--json", action="store_true", help="print one JSON object")
     bench.set_defaults(func=_bench)
 
