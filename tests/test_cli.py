@@ -116,5 +116,22 @@ def test_bench_neo_hookean_and_its_limits():
     assert json.loads(r.stdout)["model"] == "neo_hookean"
     r = pfmpm("bench", "--model", "neo_hookean", "--physics", "phasefield", "--particles", "2000")
     assert r.returncode == 2
-    assert r.stderr == ("error: --model: model = 'neo_hookean': physics must be elastic or contact,"
+    assert r.stderr == ("error: model = 'neo_hookean': physics must be elastic or contact,"
                         " not 'phasefield'\n")
+
+
+def test_bench_damage_gradient_bands():
+    """Three bands a direction cut the block in 16: more neighbour lists and
+    separable nodes than one band; no bands is a one-line error."""
+    runs = []
+    for bands in ("1", "3"):
+        r = pfmpm("bench", "--physics", "damage_gradient", "--particles", "20000", "--per-cell", "2",
+                  "--steps", "2", "--repeats", "1", "--bands", bands, "--json")
+        assert r.returncode == 0, r.stderr
+        runs.append(json.loads(r.stdout))
+    one, three = runs
+    assert one["bands"] == 1 and three["bands"] == 3 and one["particles"] == three["particles"]
+    assert set(one["damage_share"]) == {"damage", "neighbours", "gradient", "partition"}
+    assert three["contact_nodes"] > 2 * one["contact_nodes"] > 0
+    r = pfmpm("bench", "--physics", "damage_gradient", "--particles", "2000", "--bands", "0")
+    assert r.returncode == 2 and r.stderr.strip() == "error: bands = 0: must be >= 1"

@@ -19,7 +19,8 @@ import pytest
 
 from pfmpm import scenes
 from pfmpm.output import read_csv
-from pfmpm.post import cone_index, crack_rise, run_directions, run_fragments, tip_report
+from pfmpm.post import (closest_approach, cone_index, crack_rise, run_directions, run_fragments,
+                        tip_report)
 from pfmpm.scene import Scene
 from pfmpm.simulation import Simulation
 
@@ -58,6 +59,8 @@ BALANCE = {
     "composite_plate": 0.01,
     "disk_beam": 0.04,
     "two_rings": 0.05,
+    "billet": 0.01,
+    "wedge_disk_block": 0.05,
 }
 """Energy-balance tolerances of the smoke runs."""
 
@@ -136,6 +139,29 @@ def check_rings(scene, sim, out, e):
     assert min(row["closest"] for row in rows) > 0.5
 
 
+def check_billet(scene, sim, out, e):
+    # One field meeting itself: the platen presses the billet through separable
+    # damage-gradient fields along the painted interface, which slides; no
+    # contact check fails and the bodies do not pass into each other.
+    summary = json.loads((out / "summary.json").read_text())["contact"]
+    assert summary["separable_nodes_last_step"] >= 20 and summary["active_node_pairs"] > 0
+    assert summary["violations"] == {"C1": 0, "C2": 0, "C3": 0, "C4": 0}
+    assert closest_approach(scene, sim.particles.x, sim.particles.body) > 0.9
+    assert e["friction_dissipation"][-1] > 0.0
+
+
+def check_wedge(scene, sim, out, e):
+    # The wedge has met the disk: contact acts, the bodies stay apart, and
+    # until the disk meets the block the x momentum is the load's impulse.
+    summary = json.loads((out / "summary.json").read_text())["contact"]
+    assert summary["active_node_pairs"] > 0
+    assert summary["violations"] == {"C1": 0, "C2": 0, "C3": 0, "C4": 0}
+    assert closest_approach(scene, sim.particles.x, sim.particles.body) > 0.4
+    m = sim.particles.mass[sim.particles.body == 0].sum()
+    impulse = m * scene.loads[0].acceleration[0] * e["t"][1:]
+    assert np.abs(e["momentum_x"][1:] - impulse).max() <= 1e-9 * impulse.max()
+
+
 CHECKS = {
     "vibrating_bar": check_bar,
     "borden_plate": check_borden,
@@ -144,6 +170,8 @@ CHECKS = {
     "composite_plate": check_composite,
     "disk_beam": check_disk_beam,
     "two_rings": check_rings,
+    "billet": check_billet,
+    "wedge_disk_block": check_wedge,
 }
 """The physics each smoke run must show, and its benchmark's measure."""
 
@@ -206,3 +234,41 @@ def test_disk_beam_measure_scripts(tmp_path, capsys):
     assert table["v"].tolist() == [0.02] and table["beta"].tolist() == [0.0]
     assert (tmp_path / "sweep" / "cone_index.png").exists()
     assert "beta = 0" in capsys.readouterr().out
+
+
+def test_self_contact_measure_scripts(tmp_path):
+    """benchmarks/billet/compare.py and benchmarks/wedge_disk_block/compare.py at
+    their smoke settings: the damage-gradient run is far closer to the
+    multi-field reference than the single field (checks B1, B2, W1, W2), no
+    contact check fails (B3), nothing passes into anything (B4) and the wedge's
+    momentum is the load's impulse (W4)."""
+    import runpy
+
+    def run(name):
+        sets = [arg for s in manifests()[name]["smoke"] for arg in ("--set", s)]
+        script = runpy.run_path(str(ROOT / "benchmarks" / name / "compare.py"))
+        return script["main"](sets + ["--out", str(tmp_path / name)])
+
+    billet = run("billet")
+    # Measured: B1 0.36, 0.18, 0.29 (single field) and 3e-4, 3e-5, 9e-5.
+    for sf, dfg in zip(billet["B1"]["single_field"], billet["B1"]["damage_gradient"]):
+        assert dfg <= min(0.05, 0.2 * sf)
+    # Slip (mm), measured: single field 1.1e-7, -1.6e-6, 4.0e-7; multi-field
+    # 9.11e-7, 1.60e-5, 3.56e-4; damage gradient 9.10e-7, 1.59e-5, 3.56e-4. At
+    # the first sample the interface has barely started to slide.
+    slip = billet["B2"]
+    for k, (sf, mf, dfg) in enumerate(zip(slip["single_field"], slip["multi_field"],
+                                          slip["damage_gradient"])):
+        assert abs(dfg - mf) <= 0.1 * abs(mf)
+        assert abs(sf) <= (0.2 if k == 0 else 0.1) * abs(mf)
+    assert all(v == {"C1": 0, "C2": 0, "C3": 0, "C4": 0} for v in billet["B3"].values())
+    assert min(billet["B4"].values()) >= 0.8
+    wedge = run("wedge_disk_block")
+    # Measured: W2 0.089 (single field) and 0.0057; W1 0.126 of the single
+    # field's rotation error. On this coarse grid W1 follows the round-off
+    # of the particle gradients (summing the kernel in two interleaved
+    # chains gave 0.19), so its bound here is looser than the check's 0.15.
+    assert wedge["W2"]["damage_gradient"] <= 0.2 * wedge["W2"]["single_field"]
+    assert wedge["W1"]["dfg_over_sf"] <= 0.25
+    assert max(wedge["W4"].values()) <= 1e-9
+    assert all(v == {"C1": 0, "C2": 0, "C3": 0, "C4": 0} for v in wedge["contact"].values())

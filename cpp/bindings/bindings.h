@@ -13,6 +13,8 @@ void bind_grid(pybind11::module_& m);
 void bind_particles(pybind11::module_& m);
 /// Materials: the registry, and linear elasticity's vectorised helpers.
 void bind_materials(pybind11::module_& m);
+/// The damage-gradient partition's parameters and the kernel damage field.
+void bind_fields(pybind11::module_& m);
 /// Fracture parameters and the solver.
 void bind_solver(pybind11::module_& m);
 

@@ -79,5 +79,6 @@ PYBIND11_MODULE(_core, m)
   pfmpm::bindings::bind_grid(m);
   pfmpm::bindings::bind_particles(m);
   pfmpm::bindings::bind_materials(m);
+  pfmpm::bindings::bind_fields(m);
   pfmpm::bindings::bind_solver(m);
 }

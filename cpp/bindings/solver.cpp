@@ -49,7 +49,7 @@ py::dict stats_dict(const PhaseFieldStats& st)
 }
 
 /// The contact record as a dict.
-py::dict contact_dict(const ContactStats& st)
+py::dict contact_dict(const ContactStats& st, bool damage)
 {
   py::dict d;
   d["nodes"] = st.nodes;
@@ -61,7 +61,22 @@ py::dict contact_dict(const ContactStats& st)
   d["C3"] = st.violations[2];
   d["C4"] = st.violations[3];
   d["friction_work"] = st.friction_work;
+  if (damage)
+  {
+    d["split"] = st.split;
+    d["separable"] = st.separable;
+    d["separable_total"] = st.separable_total;
+  }
   return d;
+}
+
+/// A copy of `data` as a numpy array.
+template <class T>
+py::array_t<T> copy_of(const std::vector<T>& data)
+{
+  py::array_t<T> out(static_cast<py::ssize_t>(data.size()));
+  std::copy(data.begin(), data.end(), out.mutable_data());
+  return out;
 }
 } // namespace
 
@@ -120,21 +135,23 @@ void bind_solver(py::module_& m)
                [](Grid& grid, Particles& particles,
                   const std::vector<std::shared_ptr<Material>>& materials, double dt,
                   std::vector<std::optional<Fracture>> fracture, double tol, int max_iterations,
-                  std::vector<double> friction)
+                  std::vector<double> friction, std::optional<DamageGradientOptions> damage)
                {
                  return std::make_unique<Solver>(
                      grid, particles,
                      std::vector<std::shared_ptr<const Material>>(materials.begin(), materials.end()),
-                     dt, std::move(fracture), tol, max_iterations, std::move(friction));
+                     dt, std::move(fracture), tol, max_iterations, std::move(friction),
+                     std::move(damage));
                }),
            py::arg("grid"), py::arg("particles"), py::arg("materials"), py::arg("dt"),
            py::arg("fracture") = std::vector<std::optional<Fracture>>{}, py::arg("tol") = 1e-6,
            py::arg("max_iterations") = 1000, py::arg("friction") = std::vector<double>{},
-           py::keep_alive<1, 2>(), py::keep_alive<1, 3>(),
+           py::arg("damage") = std::nullopt, py::keep_alive<1, 2>(), py::keep_alive<1, 3>(),
            "materials: pfmpm._core.Material per material index (see pfmpm._core.material); "
            "friction: empty for one velocity field, else the n x n (row-major) Coulomb "
-           "coefficients between bodies, each body its own discrete field. Adds the models' "
-           "particle columns.")
+           "coefficients between bodies, each body its own discrete field; damage: a "
+           "pfmpm._core.DamageGradient for two fields per contact group split by the damage "
+           "gradient (friction then between groups). Adds the models' particle columns.")
       .def("advance", &Solver::advance, py::arg("steps"),
            py::call_guard<py::gil_scoped_release>())
       .def("prepare", [](Solver& s) { s.prepare(); }, py::call_guard<py::gil_scoped_release>(),
@@ -238,11 +255,48 @@ void bind_solver(py::module_& m)
             const ContactStats* c = s.contact_stats();
             if (!c)
               return py::none();
-            return contact_dict(*c);
+            return contact_dict(*c, s.damage_fields() != nullptr);
           },
           "contact record (None with one field): contact nodes in the last step, node-pairs "
           "examined, active (eq. 77) and sliding (eq. 75) ones, violations of C.1-C.4, work of "
-          "the friction forces since t = 0")
+          "the friction forces since t = 0; with damage-gradient fields also the nodes where "
+          "a group has both sides (split) and of them the separable ones (eq. 21) in the last "
+          "step, and the separable ones summed over the steps (separable_total)")
+      .def(
+          "detect_surfaces",
+          [](Solver& s, const std::vector<double>& spacing, double threshold)
+          { return copy_of(s.detect_surfaces(spacing, threshold)); },
+          py::arg("spacing"), py::arg("threshold") = 0.99,
+          "surface flags at t = 0 (H&H section 2.4) into the `surface` column: S < threshold "
+          "S_bulk over each body's own particles, S_bulk from the body's lattice spacing; "
+          "returns S / S_bulk per particle")
+      .def(
+          "damage_partition",
+          [](const Solver& s) -> py::object
+          {
+            const DamageFields* d = s.damage_fields();
+            if (!d)
+              return py::none();
+            py::dict out;
+            out["mask"] = copy_of(d->masks());
+            const auto rows = d->nodal_gradients();
+            py::array_t<double> G({py::ssize_t(rows.size()), py::ssize_t(4)});
+            const auto* flat = reinterpret_cast<const double*>(rows.data());
+            std::copy(flat, flat + 4 * rows.size(), G.mutable_data());
+            out["nodal_gradient"] = G;
+            out["radius"] = d->radius();
+            out["neighbour_builds"] = d->neighbour_builds();
+            const DamageTimers& t = d->timers();
+            out["seconds"] = py::dict(py::arg("damage") = t.damage,
+                                      py::arg("neighbours") = t.neighbours,
+                                      py::arg("gradient") = t.gradient,
+                                      py::arg("partition") = t.partition);
+            return out;
+          },
+          "the damage-gradient partition of the last step (None without it): per particle the "
+          "mask of its stencil nodes where it chose field B (bit i: stencil node i, x-major), "
+          "per (active node, group) the nodal gradient (node, group, G_x, G_y) of Algorithm 1, "
+          "the kernel radius, the neighbour-list builds so far and the seconds spent per block")
       .def(
           "nodal_mass_momentum",
           [](Solver& s)

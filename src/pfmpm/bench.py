@@ -19,13 +19,13 @@ from .scene import (Anisotropy, Body, Contact, Crack, FractureSpec, GridSpec, Li
                     NeoHookeanSpec, PhaseFieldSpec, Rectangle, Scene, Time)
 from .simulation import Simulation
 
-PHYSICS = ("elastic", "phasefield", "anisotropic", "contact")
+PHYSICS = ("elastic", "phasefield", "anisotropic", "contact", "damage_gradient")
 MODELS = ("linear_elastic", "neo_hookean")
 """Material models the bench can run (``"neo_hookean"`` with ``elastic`` or ``contact`` only)."""
 
 
 def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str = "elastic",
-                model: str = "linear_elastic") -> Scene:
+                model: str = "linear_elastic", bands: int = 1) -> Scene:
     """A square block of about ``particles`` points, 3x3 per cell, with a margin of empty cells.
 
     ``physics="phasefield"`` makes the block crackable (l0 = 2 h, spectral
@@ -37,10 +37,19 @@ def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str
     ``physics="contact"`` cuts the elastic block into two bodies along its
     vertical midline, each its own discrete field with frictional contact
     (mu = 0.3): the same particles as ``"elastic"``, with a line of contact
-    nodes through the middle. ``model="neo_hookean"`` makes the material
-    neo-Hookean (eq. 8 in one step, no damage) with the same E, nu and
-    density; it has no phase field.
+    nodes through the middle.
+    ``physics="damage_gradient"`` is the elastic block with the
+    damage-gradient partition (Homel & Herbold 2017) and a fully damaged
+    band one cell wide along each midline (surface-flagged particles): every
+    step computes the kernel damage field near the bands, Algorithms 1 and 2,
+    and contact across them, where the block is cut in four. ``bands`` such
+    bands per direction, evenly spaced, cut it into (bands + 1)^2 fragments:
+    the share of particles near full damage grows with it.
+    ``model="neo_hookean"`` makes the material neo-Hookean (eq. 8 in one
+    step, no damage) with the same E, nu and density; it has no phase field.
     """
+    if bands < 1:
+        raise ValueError(f"bands = {bands}: must be >= 1")
     if model not in MODELS:
         raise ValueError(f"model = {model!r}: must be one of {', '.join(MODELS)}")
     if model == "neo_hookean" and physics not in ("elastic", "contact"):
@@ -55,11 +64,18 @@ def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str
         mid = margin + cells / 2
         cracks = (Crack(points=((float(margin), mid), (mid, mid))),)
     lo, hi = float(margin), float(margin + cells)
+    contact = None
     if physics == "contact":
         mid = float(margin + cells // 2)
         shapes = {"left": Rectangle(min=(lo, lo), max=(mid, hi)), "right": Rectangle(min=(mid, lo), max=(hi, hi))}
+        contact = Contact(friction=0.3)
     else:
         shapes = {"block": Rectangle(min=(lo, lo), max=(hi, hi))}
+    if physics == "damage_gradient":
+        at = [float(margin + cells * k // (bands + 1)) for k in range(1, bands + 1)]
+        cuts = tuple(shape for c in at for shape in (Rectangle(min=(lo, c - 0.5), max=(hi, c + 0.5)),
+                                                    Rectangle(min=(c - 0.5, lo), max=(c + 0.5, hi))))
+        contact = Contact(friction=0.3, partition="damage_gradient", surfaces=cuts)
     return Scene(
         name="bench-block",
         grid=GridSpec(size=(float(side), float(side)), h=1.0, degree=degree),
@@ -72,26 +88,29 @@ def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str
                      for name, shape in shapes.items()),
         # The first, cold fourth-order solve needs more than the default limit.
         phase_field=PhaseFieldSpec(max_iterations=100_000),
-        contact=Contact(friction=0.3) if physics == "contact" else None,
+        contact=contact,
     )
 
 
 def bench(physics: str = "elastic", particles: int = 1_000_000, steps: int = 20, repeats: int = 3,
-          degree: int = 2, model: str = "linear_elastic") -> dict:
-    """Time ``steps`` core steps ``repeats`` times and report the median.
+          degree: int = 2, model: str = "linear_elastic", per_cell: int = 3, bands: int = 1) -> dict:
+    """Time ``steps`` core steps ``repeats`` times and report the median
+    (``per_cell`` particles per cell and direction; ``bands`` damaged bands
+    per direction with ``physics="damage_gradient"``, :func:`block_scene`).
 
     The block vibrates in a smooth mode (velocity amplitude 1e-3 of the wave
     speed), so strains and stresses are nonzero and nothing leaves the grid.
     """
     if physics not in PHYSICS:
         raise ValueError(f"physics = {physics!r}: must be one of {', '.join(PHYSICS)}")
-    sim = Simulation(block_scene(particles, degree, physics=physics, model=model))
+    sim = Simulation(block_scene(particles, degree, per_cell, physics=physics, model=model, bands=bands))
     x = sim.particles.x
     lo, hi = x.min(axis=0), x.max(axis=0)
     s = (x - lo) / (hi - lo)
     sim.particles.v[:, 0] = 1e-3 * np.sin(np.pi * s[:, 1])
     sim.particles.v[:, 1] = 1e-3 * np.sin(np.pi * s[:, 0])
     sim.advance(2)  # warm-up: allocations, first sort
+    before = _damage_seconds(sim)
     times = []
     for _ in range(repeats):
         start = time.perf_counter()
@@ -104,6 +123,7 @@ def bench(physics: str = "elastic", particles: int = 1_000_000, steps: int = 20,
         "physics": physics,
         "model": model,
         "degree": degree,
+        "per_cell": per_cell,
         "particles": n,
         "steps": steps,
         "repeats": repeats,
@@ -112,7 +132,26 @@ def bench(physics: str = "elastic", particles: int = 1_000_000, steps: int = 20,
         "particle_steps_per_s": n * steps / seconds,
         "phase_field_iterations_per_step": stats["iterations"] / max(stats["solves"], 1),
         "contact_nodes": (sim.solver.contact_stats() or {"nodes": 0})["nodes"],
+        **({"bands": bands} if physics == "damage_gradient" else {}),
+        **_damage_share(sim, before, sum(times)),
     }
+
+
+def _damage_seconds(sim: Simulation) -> dict:
+    """Seconds so far in each block of the damage-gradient partition (empty without it)."""
+    part = sim.solver.damage_partition()
+    return dict(part["seconds"]) if part else {}
+
+
+def _damage_share(sim: Simulation, before: dict, total: float) -> dict:
+    """With the damage-gradient partition: the share of the timed steps spent in
+    each of its blocks (particle damage, neighbour list, kernel gradient,
+    Algorithms 1-2 and slots) and the neighbour-list builds so far."""
+    if not before:
+        return {}
+    after = _damage_seconds(sim)
+    return {"damage_share": {k: (after[k] - before[k]) / total for k in after},
+            "neighbour_builds": sim.solver.damage_partition()["neighbour_builds"]}
 
 
 def _rss_bytes() -> int:

@@ -92,9 +92,10 @@ def _bench(args: argparse.Namespace) -> int:
         print(json.dumps(rows) if args.json else markdown_table(rows), end="" if not args.json else "\n")
         return 0
     try:
-        r = bench(args.physics, args.particles, args.steps, args.repeats, args.degree, args.model)
+        r = bench(args.physics, args.particles, args.steps, args.repeats, args.degree, args.model,
+                  args.per_cell, args.bands)
     except ValueError as err:
-        print(f"error: --model: {err}", file=sys.stderr)
+        print(f"error: {err}", file=sys.stderr)
         return 2
     if args.json:
         print(json.dumps(r))
@@ -244,6 +245,9 @@ def main(argv: list[str] | None = None) -> int:
     bench.add_argument("--degree", type=int, default=2, choices=[1, 2, 3])
     bench.add_argument("--model", default="linear_elastic", choices=MODELS,
                        help="material model (neo_hookean: with --physics elastic or contact)")
+    bench.add_argument("--per-cell", type=int, default=3, help="particles per cell and direction")
+    bench.add_argument("--bands", type=int, default=1,
+                       help="damage_gradient: fully damaged bands per direction (default 1)")
     bench.add_argument("--json", action="store_true", help="print one JSON object")
     bench.add_argument("--scenes", nargs="*", metavar="SCENE",
                        help="instead of the block, time --steps steps of each scene file (default:"

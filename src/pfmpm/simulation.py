@@ -82,16 +82,26 @@ class Simulation:
         self.cracks = any(fracture)
         pf = scene.phase_field
         names = tuple(b.name for b in scene.bodies)
-        self.contact = scene.contact is not None and len(names) > 1
-        friction = scene.contact.friction_matrix(names).ravel() if self.contact else []
+        contact = scene.contact
+        self.damage_gradient = contact is not None and contact.damage_gradient
+        self.contact = contact is not None and (len(names) > 1 or self.damage_gradient)
+        friction = contact.friction_matrix(names).ravel() if self.contact else []
+        damage = None
+        if self.damage_gradient:
+            damage = _core.DamageGradient(
+                contact.group_indices(names), contact.separability,
+                contact.resolved_radius(g.h), contact.skin,
+                phase_field_threshold=contact.phase_field_threshold)
         # The solver adds the models' columns; then their initial values.
         self.solver = _core.Solver(self.grid, self.particles, materials, scene.dt(), fracture,
-                                   pf.tol, pf.max_iterations, friction)
+                                   pf.tol, pf.max_iterations, friction, damage)
         self.solver.set_phase_field_preconditioner(_core.Preconditioner.__members__[pf.preconditioner])
         columns = self._fill(xs, done=core)  # the models' columns the seeding sets: an orientation
         del xs
         self._initial_columns()
         self.damage = "dissipated" in columns
+        if self.damage_gradient:
+            self._flag_surfaces()
         self._crackable = np.zeros(len(self.particles), dtype=bool)
         for b, body in enumerate(scene.bodies):
             if scene.fracture_of(body) is not None:
@@ -99,8 +109,21 @@ class Simulation:
         self._impose_cracks()
         self.solver.set_stability_length(scene.critical_length())
         self.crack_tip = CrackTip.for_scene(scene) if scene.cracks else None
-        if self.cracks:
-            self.solver.prepare()  # the phase field of the initial cracks
+        if self.cracks or self.damage_gradient:
+            # The phase field of the initial cracks; the damage-gradient fields.
+            self.solver.prepare()
+
+    def _flag_surfaces(self) -> None:
+        """Surface flags at t = 0 (Homel & Herbold 2017, section 2.4): the particles
+        inside ``contact.surfaces``, and with ``contact.surface_detection = "kernel_sum"``
+        those whose kernel sum over their own body is below the threshold."""
+        contact = self.scene.contact
+        x = self.particles.x
+        for shape in contact.surfaces:
+            self.particles.surface[shape.contains(x[:, 0], x[:, 1])] = 1
+        if contact.surface_detection == "kernel_sum":
+            spacing = [b.spacing(self.scene.grid.h) for b in self.scene.bodies]
+            self.solver.detect_surfaces(spacing, contact.surface_threshold)
 
     def _fill(self, xs: list[np.ndarray], done: set[str] = frozenset()) -> set[str]:
         """Seed the particles' columns, those not in ``done``, in place
@@ -204,6 +227,8 @@ class Simulation:
             active.append("contact")
         if self.damage:
             active.append("damage")
+        if self.damage_gradient:
+            self._flag_surfaces()
         return active
 
     def run(self, out_dir: Path | str, progress: bool = True, checkpoint_every: int = 0,
@@ -273,6 +298,19 @@ class Simulation:
                 "violations": {c: stats[c] for c in ("C1", "C2", "C3", "C4")},
                 "friction_dissipation": -stats["friction_work"],
             }
+        if self.damage_gradient:
+            # Homel & Herbold 2017: nodes where a group's two fields meet, the
+            # separable ones (eq. 21), the neighbour lists and the cost per block.
+            part = self.solver.damage_partition()
+            fields["contact"].update({
+                "split_nodes_last_step": stats["split"],
+                "separable_nodes_last_step": stats["separable"],
+                "separable_node_steps": stats["separable_total"],
+                "surface_particles": int(np.count_nonzero(self.particles.surface)),
+                "kernel_radius": part["radius"],
+                "neighbour_builds": part["neighbour_builds"],
+                "seconds": part["seconds"],
+            })
         return fields
 
 

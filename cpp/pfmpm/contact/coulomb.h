@@ -23,6 +23,12 @@ struct ContactStats
   /// friction at the cap against the slip, eqs. 23c-23e).
   std::array<std::int64_t, 4> violations{};
   double friction_work = 0.0; ///< work of the tangential (friction) contact forces since t = 0 (<= 0)
+  /// With damage-gradient fields (H&H): nodes where a group has both sides,
+  /// and of them the separable ones (eq. 21), in the last step; and the
+  /// separable (node, group)s summed over all steps.
+  std::int32_t split = 0;
+  std::int32_t separable = 0;
+  std::int64_t separable_total = 0;
 };
 
 /// A field at a contact node after its trial update, as the contact law sees it.
@@ -56,6 +62,8 @@ enum ContactCount : int
   count_c2,        ///< violations of C.2
   count_c3,        ///< violations of C.3
   count_c4,        ///< violations of C.4
+  count_split,     ///< (node, group)s with both damage-gradient sides
+  count_separable, ///< of them, separable (H&H eq. 21)
   contact_counts
 };
 

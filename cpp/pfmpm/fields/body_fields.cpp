@@ -30,24 +30,33 @@ bool insert_sorted(std::int32_t f, std::int32_t* out, int& n, int capacity)
 }
 } // namespace
 
-BodyFields::BodyFields(const Grid& grid, const Particles& particles, std::vector<double> friction)
-    : _grid(grid), _friction(std::move(friction))
+int friction_fields(const std::vector<double>& friction, int at_least)
 {
-  _fields = static_cast<int>(std::lround(std::sqrt(static_cast<double>(_friction.size()))));
-  if (_fields < 2 || static_cast<std::size_t>(_fields) * _fields != _friction.size())
-    throw std::invalid_argument("friction: " + std::to_string(_friction.size())
-                                + " entries; need fields x fields with at least 2 fields");
-  for (int a = 0; a < _fields; ++a)
-    for (int b = 0; b < _fields; ++b)
+  const int n = static_cast<int>(std::lround(std::sqrt(static_cast<double>(friction.size()))));
+  if (n < at_least || static_cast<std::size_t>(n) * n != friction.size())
+    throw std::invalid_argument("friction: " + std::to_string(friction.size())
+                                + " entries; need fields x fields with at least "
+                                + std::to_string(at_least) + (at_least == 1 ? " field" : " fields"));
+  for (int a = 0; a < n; ++a)
+    for (int b = 0; b < n; ++b)
     {
-      const double mu = _friction[a * _fields + b];
-      if (!(mu >= 0.0) || !std::isfinite(mu) || mu != _friction[b * _fields + a])
+      const double mu = friction[a * n + b];
+      if (!(mu >= 0.0) || !std::isfinite(mu) || mu != friction[b * n + a])
         throw std::invalid_argument("friction[" + std::to_string(a) + "][" + std::to_string(b)
                                     + "] = " + std::to_string(mu)
                                     + ": must be finite, >= 0 and symmetric");
     }
+  return n;
+}
+
+BodyFields::BodyFields(const Grid& grid, const Particles& particles, std::vector<double> friction,
+                       const std::int32_t* field)
+    : _grid(grid), _field(field), _friction(std::move(friction))
+{
+  _fields = friction_fields(_friction, 2);
+  const std::int32_t* of = _field ? _field : particles.body.data();
   for (std::size_t p = 0; p < particles.size(); ++p)
-    if (const std::int32_t f = particles.body[p]; f < 0 || f >= _fields)
+    if (const std::int32_t f = of[p]; f < 0 || f >= _fields)
       throw std::invalid_argument("particle " + std::to_string(p) + ": body index "
                                   + std::to_string(f) + " is not a field in [0, "
                                   + std::to_string(_fields) + ")");
@@ -92,7 +101,7 @@ void BodyFields::build(const Particles& particles, const CellSort& sort)
   const int ncx = _grid.cells()[0], ncy = _grid.cells()[1];
   const int nny = _grid.nodes()[1];
   const auto ncells = static_cast<std::ptrdiff_t>(_grid.num_cells());
-  const std::int32_t* body = particles.body.data();
+  const std::int32_t* body = _field ? _field : particles.body.data();
   const std::int32_t* order = sort.order().data();
   const std::int64_t* start = sort.cell_start().data();
 

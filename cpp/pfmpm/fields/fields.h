@@ -9,7 +9,8 @@
 /// to its body's slot; nodes with two or more are contact nodes (Remark 4),
 /// where the contact law couples the slots. A partition that chooses the slot
 /// per (particle, node) pair (the damage-field gradient of Homel & Herbold
-/// 2017, Algorithm 2) takes the same place: its `select` depends on the node.
+/// 2017, Algorithm 2: DamageFields, damage_fields.h) takes the same place:
+/// its choice depends on the node (`per_pair`).
 #pragma once
 
 #include "pfmpm/contact/coulomb.h"
@@ -36,6 +37,9 @@ struct SurfaceSums
 {
   double gx, gy; ///< mass gradient sum_p grad N_I M_p (eq. 70, before normalisation)
   double V;      ///< volume sum_p N_I V_p (the touch check, docs/contact.md)
+  /// With damage fields only: sum_p N_I M_p D_p, the numerator of the mean
+  /// damage (H&H eq. 21), and whether a fully damaged particle maps here (1 or 0).
+  double md, full;
 };
 
 /// Velocity and acceleration of one slot after the grid update (eqs. 63-65).
@@ -44,10 +48,16 @@ struct NodeKinematics
   double vx, vy, ax, ay;
 };
 
+/// @brief The number n of fields of a row-major n x n friction matrix.
+/// @throws std::invalid_argument unless it is square with n >= `at_least`
+///         fields and finite, >= 0 and symmetric entries.
+int friction_fields(const std::vector<double>& friction, int at_least);
+
 /// @brief One velocity field: node a's only slot is a.
 struct SingleField
 {
   static constexpr bool discrete = false;
+  static constexpr bool per_pair = false;
 };
 
 /// @brief Every body its own velocity field on the shared grid (eq. 28),
@@ -61,6 +71,7 @@ class BodyFields
 {
 public:
   static constexpr bool discrete = true;
+  static constexpr bool per_pair = false;
   /// The most bodies that may meet in one cell or at one node.
   static constexpr int max_fields = 16;
 
@@ -68,7 +79,10 @@ public:
   /// @param particles Particles; Particles::body is the field index, in [0, fields).
   /// @param friction Coulomb coefficient mu_f per pair of fields, row-major
   ///        fields x fields, symmetric, >= 0, at least 2 x 2.
-  BodyFields(const Grid& grid, const Particles& particles, std::vector<double> friction);
+  /// @param field The field index of each particle instead of
+  ///        Particles::body (the contact groups of DamageFields; kept by pointer).
+  BodyFields(const Grid& grid, const Particles& particles, std::vector<double> friction,
+             const std::int32_t* field = nullptr);
 
   /// Number of fields.
   int size() const { return _fields; }
@@ -110,6 +124,7 @@ private:
   int node_fields(int ix, int iy, std::int32_t* out) const;
 
   const Grid& _grid;
+  const std::int32_t* _field;             // per particle, or null: Particles::body
   int _fields;
   std::vector<double> _friction;          // fields x fields
   std::vector<std::int32_t> _cell_field;  // per cell: -1 empty, field, or -2 - mixed index

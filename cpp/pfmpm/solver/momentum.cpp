@@ -1,6 +1,7 @@
 /// @file momentum.cpp
 /// @brief The grid update of one slot (K&T eqs. 63-65), out of line so that
-/// every velocity-field partition runs the same arithmetic.
+/// every velocity-field partition runs the same arithmetic, and of the
+/// fields at a contact node (K&T eqs. 66-77, H&H Algorithm 3).
 #include "pfmpm/solver/momentum.h"
 
 namespace pfmpm
@@ -36,6 +37,112 @@ void finish_slot(const NodeSums& s, const double* vo, double* vn, std::uint8_t w
   if (friction)
     acc[sum_friction_work] +=
         0.5 * dt * (friction[0] * (vw[0] + vn[0]) + friction[1] * (vw[1] + vn[1]));
+}
+
+void update_contact_node(int n, const NodeSums* sums, const SurfaceSums* surface,
+                         const std::int32_t* field, const double* friction, int nfields,
+                         double volume, std::uint8_t walls, double dt, double mass_tol,
+                         NodeKinematics* k, double* acc)
+{
+  constexpr int F = BodyFields::max_fields;
+  TrialField trial[F]{};
+  bool live[F]{};
+  double vo[F][2], fn[F][2]{}, ft[F][2]{};
+  for (int j = 0; j < n; ++j)
+  {
+    const NodeSums& s = sums[j];
+    const SurfaceSums& u = surface[j];
+    live[j] = s.m > mass_tol;
+    if (!live[j])
+    {
+      if (s.m > 0.0)
+        acc[sum_light] += 1.0;
+      continue;
+    }
+    vo[j][0] = s.px / s.m;
+    vo[j][1] = s.py / s.m;
+    trial[j] = TrialField{s.m,
+                          {s.px + dt * s.fx, s.py + dt * s.fy},                       // eq. 63
+                          {vo[j][0] + dt * s.fx / s.m, vo[j][1] + dt * s.fy / s.m}, // eq. 64
+                          {u.gx, u.gy},
+                          u.V};
+  }
+  ContactPair pairs[F * (F - 1) / 2];
+  const int active = coulomb_forces(n, trial, live, field, friction, nfields, volume, dt, fn, ft,
+                                    pairs, &acc[sum_contact]);
+  // Corrected velocities (eq. 65), checked (C.3, C.4) before the walls act
+  // on them; walls, and the work done.
+  double vn[F][2]{}, vc[F][2]{};
+  for (int j = 0; j < n; ++j)
+    if (live[j])
+      for (int d = 0; d < 2; ++d)
+        vc[j][d] = vn[j][d] = trial[j].vt[d] + dt * (fn[j][d] + ft[j][d]) / sums[j].m;
+  check_contact(active, pairs, vc, &acc[sum_contact]);
+  for (int j = 0; j < n; ++j)
+  {
+    if (!live[j])
+      k[j] = NodeKinematics{};
+    else
+      finish_slot(sums[j], vo[j], vn[j], walls, ft[j], dt, k[j], acc);
+  }
+}
+
+void update_damage_node(int n, const NodeSums* sums, const SurfaceSums* surface,
+                        const std::int32_t* field, const double* friction, int groups,
+                        double separability, double volume, std::uint8_t walls, double dt,
+                        double mass_tol, NodeKinematics* k, double* acc)
+{
+  constexpr int F = BodyFields::max_fields;
+  // The fields that act: a separable side on its own, the two sides of a
+  // group that are not separable summed into one.
+  NodeSums unit[F];
+  SurfaceSums usurf[F];
+  std::int32_t group[F], of[F];
+  int units = 0;
+  for (int j = 0; j < n; ++j)
+  {
+    const bool side_b = field[j] % 2 == 1;
+    if (side_b && j > 0 && field[j - 1] == field[j] - 1)
+    {
+      // Sides A (slot j - 1) and B (slot j) of one group: eq. 21.
+      acc[sum_contact + count_split] += 1.0;
+      const NodeSums &a = sums[j - 1], &b = sums[j];
+      const SurfaceSums &sa = surface[j - 1], &sb = surface[j];
+      const bool apart = a.m > mass_tol && b.m > mass_tol && std::max(sa.full, sb.full) > 0.0
+                         && std::min(sa.md / a.m, sb.md / b.m) > separability;
+      if (apart)
+        acc[sum_contact + count_separable] += 1.0;
+      else
+      {
+        NodeSums& u = unit[units - 1];
+        u.m += b.m;
+        u.px += b.px;
+        u.py += b.py;
+        u.fx += b.fx;
+        u.fy += b.fy;
+        u.ex += b.ex;
+        u.ey += b.ey;
+        SurfaceSums& v = usurf[units - 1];
+        v.gx += sb.gx;
+        v.gy += sb.gy;
+        v.V += sb.V;
+        of[j] = units - 1;
+        continue;
+      }
+    }
+    unit[units] = sums[j];
+    usurf[units] = surface[j];
+    group[units] = field[j] / 2;
+    of[j] = units++;
+  }
+  NodeKinematics kin[F];
+  if (units == 1)
+    update_free_slot(unit[0], walls, dt, mass_tol, kin[0], acc);
+  else
+    update_contact_node(units, unit, usurf, group, friction, groups, volume, walls, dt, mass_tol,
+                        kin, acc);
+  for (int j = 0; j < n; ++j)
+    k[j] = kin[of[j]];
 }
 
 } // namespace pfmpm

@@ -46,11 +46,12 @@ private:
   std::int32_t _row[Shape::width];
 };
 
-/// The fields of a cell: the local field f of the block is `field[f]`.
+/// The fields of a cell: the local field f of the block is `field[f]` (with
+/// damage fields, the local fields 2 f and 2 f + 1 are the sides of group `field[f]`).
 struct CellFields
 {
-  int n = 1;                                      ///< local fields
-  std::int32_t field[BodyFields::max_fields] = {}; ///< their field indices
+  int n = 1;                                      ///< local fields (groups)
+  std::int32_t field[BodyFields::max_fields] = {}; ///< their field (group) indices
   /// Local field of a particle of field `body`.
   int local(std::int32_t body) const
   {
@@ -61,44 +62,89 @@ struct CellFields
   }
 };
 
+/// @brief The local field of a cell's (particle, node) pairs when the cell
+/// has one: every pair maps to it.
+struct OneField
+{
+  struct Particle
+  {
+  };
+  Particle particle(std::size_t) const { return {}; }
+  static int at(Particle, int) { return 0; }
+};
+
+/// @brief Discrete fields (K&T eq. 28): a particle maps to its body's local
+/// field at every node.
+struct ByBody
+{
+  const std::int32_t* body;
+  const CellFields& local;
+  int particle(std::size_t p) const { return local.local(body[p]); }
+  static int at(int f, int) { return f; }
+};
+
+/// @brief Damage-gradient fields (H&H Algorithm 2): the pair (p, i) maps to
+/// the local field 2 g + side, g the local index of p's group and side the
+/// bit i of p's mask (A if grad D_p . G_i >= 0, B otherwise).
+struct BySide
+{
+  const std::int32_t* group;
+  const std::uint32_t* mask;
+  const CellFields& local;
+  struct Particle
+  {
+    int base;
+    std::uint32_t mask;
+  };
+  Particle particle(std::size_t p) const { return {2 * local.local(group[p]), mask[p]}; }
+  static int at(const Particle& f, int i) { return f.base + static_cast<int>((f.mask >> i) & 1u); }
+};
+
 /// The particle arrays that P2G reads.
 struct P2GArrays
 {
   const double *v, *mass, *volume, *stress, *fext;
-  const std::int32_t* body;
+  const double *damage, *full; ///< with damage fields: D~_p and the fully damaged flag
 };
 
 /// @brief The P2G sums of one cell: per local field and stencil node, the
-/// sums of NodeSums (internal and external force apart) and, with Surface,
-/// of SurfaceSums.
-template <int F, int K, bool Surface>
+/// sums of NodeSums (internal and external force apart), with Surface those
+/// of SurfaceSums, and with Damage its damage sums.
+template <int F, int K, bool Surface, bool Damage>
 struct P2GBlock
 {
   double m[F][K], px[F][K], py[F][K], fx[F][K], fy[F][K], ex[F][K], ey[F][K];
   double gx[Surface ? F : 1][K], gy[Surface ? F : 1][K], V[Surface ? F : 1][K];
+  double md[Damage ? F : 1][K], full[Damage ? F : 1][K];
 };
 
 /// @brief Sum a cell's particles, in sorted order, into its block: mass
 /// (K&T eq. 46), momentum (eq. 61), internal and external force (eqs. 62,
-/// 42) and, with Surface, mass gradient (eq. 70) and volume.
+/// 42), with Surface the mass gradient (eq. 70, H&H eq. 11) and volume, and
+/// with Damage the mass-weighted damage and the fully damaged flag of H&H
+/// eq. 21. `select` gives each (particle, node) pair its local field.
 ///
 /// Not inlined, on purpose: every partition runs this same compiled
 /// arithmetic (the compiler may fuse multiply-adds differently where it
-/// inlines), so a body alone in its cells gets the bits one field gets.
-template <class Shape, bool External, int F, bool Surface>
+/// inlines), so a body alone in its cells, or a damage field with no
+/// split, gets the bits one field gets.
+template <class Shape, bool External, int F, bool Surface, bool Damage, class Select>
 [[gnu::noinline]] void sum_cell(const detail::EachParticle<Shape>& each, const P2GArrays& a,
-                                const CellFields& local, P2GBlock<F, Shape::size, Surface>& block)
+                                const Select& select,
+                                P2GBlock<F, Shape::size, Surface, Damage>& block)
 {
   constexpr int K = Shape::size;
   constexpr int S = Surface ? F : 1;
+  constexpr int D = Damage ? F : 1;
   const double *v = a.v, *mass = a.mass, *volume = a.volume, *stress = a.stress, *fext = a.fext;
   // Local arrays, which the compiler keeps apart from the particle arrays.
   double m[F][K]{}, px[F][K]{}, py[F][K]{}, fx[F][K]{}, fy[F][K]{}, ex[F][K]{}, ey[F][K]{};
   [[maybe_unused]] double gx[S][K]{}, gy[S][K]{}, V[S][K]{};
+  [[maybe_unused]] double md[D][K]{}, full[D][K]{};
   each(
       [&](std::size_t p, const Shape& s)
       {
-        const int f = F == 1 ? 0 : local.local(a.body[p]);
+        const auto fp = select.particle(p);
         const double mp = mass[p];
         const double mvx = mp * v[2 * p], mvy = mp * v[2 * p + 1];
         const double Vp = volume[p];
@@ -107,6 +153,7 @@ template <class Shape, bool External, int F, bool Surface>
         s.each_node(
             [&](int i, double w, const double* g)
             {
+              const int f = Select::at(fp, i);
               m[f][i] += w * mp;   // eq. 46
               px[f][i] += w * mvx; // eq. 61
               py[f][i] += w * mvy;
@@ -123,6 +170,11 @@ template <class Shape, bool External, int F, bool Surface>
                 gy[f][i] += g[1] * mp;
                 V[f][i] += w * Vp; // for the touch check
               }
+              if constexpr (Damage)
+              {
+                md[f][i] += w * mp * a.damage[p]; // H&H eq. 21, numerator
+                full[f][i] = std::max(full[f][i], a.full[p]);
+              }
             });
       });
   std::memcpy(block.m, m, sizeof m);
@@ -138,21 +190,43 @@ template <class Shape, bool External, int F, bool Surface>
     std::memcpy(block.gy, gy, sizeof gy);
     std::memcpy(block.V, V, sizeof V);
   }
+  if constexpr (Damage)
+  {
+    std::memcpy(block.md, md, sizeof md);
+    std::memcpy(block.full, full, sizeof full);
+  }
+}
+
+/// @brief The slot of local field f of a cell at active node a: a with one
+/// field, the body's slot with discrete fields, the group's side with damage
+/// fields (-1 where that side has no particle at the node).
+template <class Fields>
+std::int32_t slot_of(const Fields& fields, std::int32_t a, const CellFields& local, int f)
+{
+  if constexpr (Fields::per_pair)
+    return fields.slot(a, local.field[f / 2], f % 2);
+  else if constexpr (Fields::discrete)
+    return fields.slot(a, local.field[f]);
+  else
+    return a;
 }
 
 /// @brief P2G of mass, momentum, internal and external force into the slots
 /// of a partition; at cells next to a contact node also the mass gradient
-/// and volume of each field (sum_cell).
+/// and volume of each field, and with damage fields their damage sums (sum_cell).
 ///
 /// Each cell's particles are summed into a local block per field of the
 /// cell, which is then added to the slots once. The internal and external
-/// forces are summed apart in the block and added together.
+/// forces are summed apart in the block and added together. A cell whose
+/// pairs all map to one field takes the one-field block, whatever the
+/// partition.
 template <class Shape, bool External, class Fields>
 struct MomentumP2G
 {
   const Grid& grid;
   const Fields& fields;
   P2GArrays arrays;
+  const std::int32_t* field_of; ///< per particle: its body (discrete) or group (damage fields)
   NodeSums* sums;
   SurfaceSums* surface;
 
@@ -160,34 +234,47 @@ struct MomentumP2G
   {
     CellFields local;
     if constexpr (!Fields::discrete)
-      scatter<1, false>(cell, each, local);
-    else
+      scatter<1, false, false>(cell, each, OneField{}, local);
+    else if constexpr (!Fields::per_pair)
     {
       local.n = fields.cell_fields(cell.key, local.field);
       if (local.n > 1)
-        scatter<BodyFields::max_fields, true>(cell, each, local);
+        scatter<BodyFields::max_fields, true, false>(cell, each, ByBody{field_of, local}, local);
       else if (fields.touches(cell.key))
-        scatter<1, true>(cell, each, local);
+        scatter<1, true, false>(cell, each, OneField{}, local);
       else
-        scatter<1, false>(cell, each, local);
+        scatter<1, false, false>(cell, each, OneField{}, local);
+    }
+    else
+    {
+      local.n = fields.cell_groups(cell.key, local.field);
+      const BySide sides{field_of, fields.mask(), local};
+      if (local.n > 1)
+        scatter<2 * Fields::max_groups, true, true>(cell, each, sides, local);
+      else if (fields.split(cell.key))
+        scatter<2, true, true>(cell, each, sides, local);
+      else if (fields.touches(cell.key))
+        scatter<1, true, true>(cell, each, OneField{}, local);
+      else
+        scatter<1, false, false>(cell, each, OneField{}, local);
     }
   }
 
-  template <int F, bool Surface>
-  void scatter(const Cell& cell, const detail::EachParticle<Shape>& each,
+  template <int F, bool Surface, bool Damage, class Select>
+  void scatter(const Cell& cell, const detail::EachParticle<Shape>& each, const Select& select,
                const CellFields& local) const
   {
     constexpr int K = Shape::size;
-    P2GBlock<F, K, Surface> b;
-    sum_cell<Shape, External, F, Surface>(each, arrays, local, b);
-    const int nf = F == 1 ? 1 : local.n;
+    P2GBlock<F, K, Surface, Damage> b;
+    sum_cell<Shape, External, F, Surface, Damage>(each, arrays, select, b);
+    const int nf = F == 1 ? 1 : Fields::per_pair ? 2 * local.n : local.n;
     const CellNodes<Shape> nodes(grid, cell);
     for (int f = 0; f < nf; ++f)
       for (int i = 0; i < K; ++i)
       {
-        std::int32_t slot = nodes[i];
-        if constexpr (Fields::discrete)
-          slot = fields.slot(slot, local.field[f]);
+        const std::int32_t slot = slot_of(fields, nodes[i], local, f);
+        if (slot < 0)
+          continue; // a side no pair of the node chose: its sums are zero
         NodeSums& n = sums[slot];
         n.m += b.m[f][i];
         n.px += b.px[f][i];
@@ -202,6 +289,11 @@ struct MomentumP2G
           u.gx += b.gx[f][i];
           u.gy += b.gy[f][i];
           u.V += b.V[f][i];
+          if constexpr (Damage)
+          {
+            u.md += b.md[f][i];
+            u.full = std::max(u.full, b.full[f][i]);
+          }
         }
       }
   }
@@ -233,9 +325,35 @@ void update_free_slot(const NodeSums& s, std::uint8_t walls, double dt, double m
 void finish_slot(const NodeSums& s, const double* vo, double* vn, std::uint8_t walls,
                  const double* friction, double dt, NodeKinematics& k, double* acc);
 
+/// @brief The update of the n >= 2 fields at a contact node (K&T eqs. 63-77):
+/// trial momenta and velocities, Coulomb contact between every pair that
+/// touches and approaches (coulomb_forces), corrected velocities (eq. 65),
+/// walls, the work done, and the checks C.3 and C.4.
+/// @param field Field index of each slot, into `friction` (nfields x nfields).
+/// @param volume The node's volume, the integral of its basis function.
+void update_contact_node(int n, const NodeSums* sums, const SurfaceSums* surface,
+                         const std::int32_t* field, const double* friction, int nfields,
+                         double volume, std::uint8_t walls, double dt, double mass_tol,
+                         NodeKinematics* k, double* acc);
+
+/// @brief The update of the n >= 2 damage-gradient fields at a node (H&H
+/// Algorithm 3 with eq. 21): the two sides of a group are separable where
+/// both carry mass, a fully damaged particle maps to one of them, and both
+/// mean damages exceed `separability`; sides that are not are summed into
+/// one field (the node acts as one field, FLIP update included). The fields
+/// that remain, separable sides and other groups, meet by the Coulomb law
+/// (update_contact_node), with the friction of their groups' pair (a
+/// group's own for its crack faces).
+/// @param field Field index of each slot, 2 group + side, sorted.
+void update_damage_node(int n, const NodeSums* sums, const SurfaceSums* surface,
+                        const std::int32_t* field, const double* friction, int groups,
+                        double separability, double volume, std::uint8_t walls, double dt,
+                        double mass_tol, NodeKinematics* k, double* acc);
+
 /// @brief The grid update (K&T eqs. 63-65): trial momentum and velocity of
 /// every slot, frictional contact among the slots of a contact node
-/// (eqs. 66-77), walls, and the nodal accelerations that G2P reads.
+/// (eqs. 66-77; with damage fields H&H Algorithm 3), walls, and the nodal
+/// accelerations that G2P reads.
 /// @return The sums of GridUpdateSum.
 template <class Fields>
 std::array<double, grid_update_sums> update_grid(const Grid& grid, Fields& fields,
@@ -263,53 +381,18 @@ std::array<double, grid_update_sums> update_grid(const Grid& grid, Fields& field
           return update_free_slot(sums[s0], wall, dt, mass_tol, kinematics[s0], acc.data());
         if constexpr (Fields::discrete)
         {
-          constexpr int F = BodyFields::max_fields;
-          TrialField trial[F];
-          bool live[F];
-          double vo[F][2], fn[F][2]{}, ft[F][2]{};
-          for (int j = 0; j < n; ++j)
-          {
-            const NodeSums& s = sums[s0 + j];
-            const SurfaceSums& u = surface[s0 + j];
-            live[j] = s.m > mass_tol;
-            if (!live[j])
-            {
-              if (s.m > 0.0)
-                acc[sum_light] += 1.0;
-              continue;
-            }
-            vo[j][0] = s.px / s.m;
-            vo[j][1] = s.py / s.m;
-            trial[j] = TrialField{s.m,
-                                  {s.px + dt * s.fx, s.py + dt * s.fy}, // eq. 63
-                                  {vo[j][0] + dt * s.fx / s.m, vo[j][1] + dt * s.fy / s.m}, // eq. 64
-                                  {u.gx, u.gy},
-                                  u.V};
-          }
           // The node's volume, the integral of its basis function.
           const std::int32_t id = grid.active_nodes()[a], ny = grid.nodes()[1];
           const double full = grid.basis(0).integral(id / ny) * grid.basis(1).integral(id % ny);
-          ContactPair pairs[F * (F - 1) / 2];
-          const int active = coulomb_forces(n, trial, live, &fields.slot_field()[s0],
-                                            fields.friction().data(), fields.size(), full, dt, fn,
-                                            ft, pairs, &acc[sum_contact]);
-          // Corrected velocities (eq. 65), walls, and the work done.
-          double vn[F][2];
-          for (int j = 0; j < n; ++j)
-          {
-            NodeKinematics& k = kinematics[s0 + j];
-            if (!live[j])
-            {
-              k = NodeKinematics{};
-              vn[j][0] = vn[j][1] = 0.0;
-              continue;
-            }
-            const NodeSums& s = sums[s0 + j];
-            for (int d = 0; d < 2; ++d)
-              vn[j][d] = trial[j].vt[d] + dt * (fn[j][d] + ft[j][d]) / s.m;
-            finish_slot(s, vo[j], vn[j], wall, ft[j], dt, k, acc.data());
-          }
-          check_contact(active, pairs, vn, &acc[sum_contact]);
+          if constexpr (Fields::per_pair)
+            update_damage_node(n, &sums[s0], &surface[s0], &fields.slot_field()[s0],
+                               fields.friction().data(), fields.size(),
+                               fields.options().separability, full, wall, dt, mass_tol,
+                               &kinematics[s0], acc.data());
+          else
+            update_contact_node(n, &sums[s0], &surface[s0], &fields.slot_field()[s0],
+                                fields.friction().data(), fields.size(), full, wall, dt,
+                                mass_tol, &kinematics[s0], acc.data());
         }
       });
 }
@@ -325,22 +408,24 @@ struct G2PBlock
 struct G2PArrays
 {
   double *x, *v, *volume;
-  const std::int32_t* body;
 };
 
 /// @brief Move a cell's particles (K&T eqs. 80, 82): velocity from the nodal
-/// accelerations (FLIP), position from the nodal velocities, each reading its
-/// own field's values; the velocity gradient L_ij = dv_i/dx_j into `L` (4 per
-/// particle, in sorted order) and the volume from det(I + dt L). Notes the
-/// smallest particle with a non-finite position or velocity in `bad` and the
-/// largest |v_p|^2 in `speed2`.
+/// accelerations (FLIP), position from the nodal velocities, each (particle,
+/// node) pair reading the values of its local field (`select`); the velocity
+/// gradient L_ij = dv_i/dx_j into `L` (4 per particle, in sorted order; H&H
+/// eq. 7 on the same fields) and the volume from det(I + dt L). Notes the
+/// smallest particle with a non-finite position or velocity in `bad`, the
+/// largest |v_p|^2 in `speed2` and the largest squared nodal velocity a
+/// particle moved with in `drift2`.
 ///
 /// Not inlined, on purpose: every partition runs this same compiled
 /// arithmetic (see sum_cell).
-template <class Shape, int F>
+template <class Shape, int F, class Select>
 [[gnu::noinline]] void move_cell(const detail::EachParticle<Shape>& each, const G2PArrays& a,
-                                 const CellFields& local, const G2PBlock<F, Shape::size>& block,
-                                 double dt, double* L, std::size_t& bad, double& speed2)
+                                 const Select& select, const G2PBlock<F, Shape::size>& block,
+                                 double dt, double* L, std::size_t& bad, double& speed2,
+                                 double& drift2)
 {
   constexpr int K = Shape::size;
   // Restrict: the nodal values are apart from the particle arrays. (Copying
@@ -354,20 +439,20 @@ template <class Shape, int F>
   each(
       [&](std::size_t p, const Shape& s)
       {
-        const int f = F == 1 ? 0 : local.local(a.body[p]);
-        const double *kvx = nvx[f], *kvy = nvy[f], *kax = nax[f], *kay = nay[f];
+        const auto fp = select.particle(p);
         double vx = 0, vy = 0, ax = 0, ay = 0, Lxx = 0, Lxy = 0, Lyx = 0, Lyy = 0;
         s.each_node([&](int i, double w, const double* g)
         {
+          const int f = Select::at(fp, i);
           const double gx = g[0], gy = g[1];
-          vx += w * kvx[i];
-          vy += w * kvy[i];
-          ax += w * kax[i];
-          ay += w * kay[i];
-          Lxx += kvx[i] * gx; // velocity gradient, L_ij = dv_i/dx_j
-          Lxy += kvx[i] * gy;
-          Lyx += kvy[i] * gx;
-          Lyy += kvy[i] * gy;
+          vx += w * nvx[f][i];
+          vy += w * nvy[f][i];
+          ax += w * nax[f][i];
+          ay += w * nay[f][i];
+          Lxx += nvx[f][i] * gx; // velocity gradient, L_ij = dv_i/dx_j
+          Lxy += nvx[f][i] * gy;
+          Lyx += nvy[f][i] * gx;
+          Lyy += nvy[f][i] * gy;
         });
         v[2 * p] += dt * ax; // eq. 80
         v[2 * p + 1] += dt * ay;
@@ -377,6 +462,7 @@ template <class Shape, int F>
         if (!std::isfinite(x[2 * p] + x[2 * p + 1] + v[2 * p] + v[2 * p + 1]))
           bad = std::min(bad, p);
         speed2 = std::max(speed2, v[2 * p] * v[2 * p] + v[2 * p + 1] * v[2 * p + 1]);
+        drift2 = std::max(drift2, vx * vx + vy * vy);
         L[0] = Lxx;
         L[1] = Lxy;
         L[2] = Lyx;
@@ -400,6 +486,7 @@ struct KinematicsG2P
   const std::vector<std::unique_ptr<Material::Bound>>& materials;
   const std::vector<const Degradation*>& degradation;
   double dt;
+  const std::int32_t* field_of; ///< per particle: its body (discrete) or group (damage fields)
 
   struct Local
   {
@@ -407,9 +494,10 @@ struct KinematicsG2P
     std::size_t bad;       // first particle with a non-finite value
     double speed2 = 0.0;   // largest |v_p|^2
     double wave = 0.0;     // largest P-wave speed
+    double drift2 = 0.0;   // largest squared velocity a particle moved with
   };
   std::size_t bad;
-  double speed2 = 0.0, wave = 0.0;
+  double speed2 = 0.0, wave = 0.0, drift2 = 0.0;
 
   Local local() const { return Local{{}, particles.size()}; }
   void merge(const Local& l)
@@ -417,46 +505,54 @@ struct KinematicsG2P
     bad = std::min(bad, l.bad);
     speed2 = std::max(speed2, l.speed2);
     wave = std::max(wave, l.wave);
+    drift2 = std::max(drift2, l.drift2);
   }
 
   void operator()(Local& local, const Cell& cell, const detail::EachParticle<Shape>& each) const
   {
     CellFields fields_of;
-    if constexpr (Fields::discrete)
+    if constexpr (Fields::discrete && !Fields::per_pair)
     {
       fields_of.n = fields.cell_fields(cell.key, fields_of.field);
       if (fields_of.n > 1)
-        return gather<BodyFields::max_fields>(local, cell, each, fields_of);
+        return gather<BodyFields::max_fields>(local, cell, each, ByBody{field_of, fields_of},
+                                              fields_of);
     }
-    gather<1>(local, cell, each, fields_of);
+    if constexpr (Fields::per_pair)
+    {
+      fields_of.n = fields.cell_groups(cell.key, fields_of.field);
+      const BySide sides{field_of, fields.mask(), fields_of};
+      if (fields_of.n > 1)
+        return gather<2 * Fields::max_groups>(local, cell, each, sides, fields_of);
+      if (fields.split(cell.key))
+        return gather<2>(local, cell, each, sides, fields_of);
+    }
+    gather<1>(local, cell, each, OneField{}, fields_of);
   }
 
-  template <int F>
+  template <int F, class Select>
   void gather(Local& local, const Cell& cell, const detail::EachParticle<Shape>& each,
-              const CellFields& fields_of) const
+              const Select& select, const CellFields& fields_of) const
   {
     constexpr int K = Shape::size;
-    const int nf = F == 1 ? 1 : fields_of.n;
+    const int nf = F == 1 ? 1 : Fields::per_pair ? 2 * fields_of.n : fields_of.n;
     // The cell's nodes are read once for all its particles.
     const CellNodes<Shape> active(grid, cell);
     G2PBlock<F, K> nodes;
     for (int f = 0; f < nf; ++f)
       for (int i = 0; i < K; ++i)
       {
-        std::int32_t slot = active[i];
-        if constexpr (Fields::discrete)
-          slot = fields.slot(slot, fields_of.field[f]);
-        const NodeKinematics& k = kinematics[slot];
+        const std::int32_t slot = slot_of(fields, active[i], fields_of, f);
+        const NodeKinematics k = slot < 0 ? NodeKinematics{} : kinematics[slot];
         nodes.vx[f][i] = k.vx;
         nodes.vy[f][i] = k.vy;
         nodes.ax[f][i] = k.ax;
         nodes.ay[f][i] = k.ay;
       }
     local.L.resize(4 * static_cast<std::size_t>(cell.end - cell.begin));
-    const G2PArrays arrays{particles.x.data(), particles.v.data(), particles.volume.data(),
-                           particles.body.data()};
-    move_cell<Shape, F>(each, arrays, fields_of, nodes, dt, local.L.data(), local.bad,
-                        local.speed2);
+    const G2PArrays arrays{particles.x.data(), particles.v.data(), particles.volume.data()};
+    move_cell<Shape, F>(each, arrays, select, nodes, dt, local.L.data(), local.bad, local.speed2,
+                        local.drift2);
     // The materials: each run of the cell's particles of one material (with
     // one material, the whole cell).
     auto update = [&](std::int32_t m, const Batch& b)

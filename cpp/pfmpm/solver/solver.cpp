@@ -38,7 +38,7 @@ std::string phase_key(std::size_t k, const char* name)
 Solver::Solver(Grid& grid, Particles& particles,
                std::vector<std::shared_ptr<const Material>> materials, double dt,
                std::vector<std::optional<Fracture>> fracture, double tol, int max_iterations,
-               std::vector<double> friction)
+               std::vector<double> friction, std::optional<DamageGradientOptions> damage)
     : _grid(grid), _particles(particles), _materials(std::move(materials)), _dt(dt)
 {
   if (!(dt > 0.0) || !std::isfinite(dt))
@@ -72,19 +72,39 @@ Solver::Solver(Grid& grid, Particles& particles,
   // amplify round-off (a particle at the edge of a node's support).
   _mass_tol = 1e-12 * max_mass;
 
-  if (!friction.empty())
+  if (damage)
+  {
+    if (friction.empty())
+      throw std::invalid_argument("damage-gradient fields need a friction matrix between groups");
+    // Each material's damage: a damage model's column, else the phase field's.
+    std::vector<DamageSource> source;
+    for (std::size_t m = 0; m < _materials.size(); ++m)
+    {
+      const auto columns = _materials[m]->columns();
+      const bool column = std::any_of(columns.begin(), columns.end(),
+                                      [](const ColumnSpec& c) { return c.name == "damage"; });
+      source.push_back(column          ? DamageSource::column
+                       : _fracture[m] ? DamageSource::phase_field
+                                      : DamageSource::none);
+    }
+    _fields.emplace<DamageFields>(grid, particles, std::move(friction), std::move(source),
+                                  std::move(*damage));
+  }
+  else if (!friction.empty())
     _fields.emplace<BodyFields>(grid, particles, std::move(friction));
   if (!cracks)
     return;
   // The phase fields: one over all crackable particles, or with discrete
-  // fields one per crackable body (eq. 28), each from its own particles.
+  // fields one per crackable body (eq. 28), each from its own particles
+  // (with damage-gradient fields, one per crackable contact group).
+  const std::int32_t* field_of = phase_field_of();
   std::vector<char> crackable_body;
   bool all_crackable = true;
   for (std::size_t p = 0; p < particles.size(); ++p)
   {
     const bool c = _fracture[particles.material[p]].has_value();
     all_crackable = all_crackable && c;
-    const std::size_t b = static_cast<std::size_t>(particles.body[p]);
+    const std::size_t b = static_cast<std::size_t>(field_of[p]);
     if (c && b >= crackable_body.size())
       crackable_body.resize(b + 1, 0);
     if (c)
@@ -98,6 +118,13 @@ Solver::Solver(Grid& grid, Particles& particles,
       if (crackable_body[b])
         _phase.push_back(PhaseFieldGroup{PhaseField(grid, _fracture, tol, max_iterations),
                                          static_cast<std::int32_t>(b), true, {}});
+}
+
+const std::int32_t* Solver::phase_field_of() const
+{
+  if (const auto* d = std::get_if<DamageFields>(&_fields))
+    return d->group().data();
+  return _particles.body.data();
 }
 
 void Solver::set_stability_length(double length)
@@ -139,6 +166,12 @@ SolverState Solver::state() const
     for (int i = 0; i < 4; ++i)
       s.scalars["contact/C" + std::to_string(i + 1)] = static_cast<double>(c->violations[i]);
     s.scalars["contact/friction_work"] = c->friction_work;
+    if (damage_fields())
+    {
+      s.scalars["contact/split"] = c->split;
+      s.scalars["contact/separable"] = c->separable;
+      s.scalars["contact/separable_total"] = static_cast<double>(c->separable_total);
+    }
   }
   return s;
 }
@@ -187,9 +220,9 @@ void Solver::restore(const SolverState& state)
     _phase[k].field.restore(PhaseFieldState{state.arrays.at(phase_key(k, "c")),
                                             state.arrays.at(phase_key(k, "c_previous")), stats});
   }
-  if (auto* fields = std::get_if<BodyFields>(&_fields))
+  if (const ContactStats* stats = contact_stats())
   {
-    ContactStats& c = fields->stats();
+    ContactStats& c = const_cast<ContactStats&>(*stats);
     c.nodes = static_cast<std::int32_t>(state.scalars.at("contact/nodes"));
     c.pairs = static_cast<std::int64_t>(state.scalars.at("contact/pairs"));
     c.active = static_cast<std::int64_t>(state.scalars.at("contact/active"));
@@ -197,6 +230,12 @@ void Solver::restore(const SolverState& state)
     for (int i = 0; i < 4; ++i)
       c.violations[i] = static_cast<std::int64_t>(state.scalars.at("contact/C" + std::to_string(i + 1)));
     c.friction_work = state.scalars.at("contact/friction_work");
+    if (damage_fields())
+    {
+      c.split = static_cast<std::int32_t>(state.scalars.at("contact/split"));
+      c.separable = static_cast<std::int32_t>(state.scalars.at("contact/separable"));
+      c.separable_total = static_cast<std::int64_t>(state.scalars.at("contact/separable_total"));
+    }
   }
   _time = time;
   _step = static_cast<std::int64_t>(step);
@@ -270,14 +309,12 @@ void Solver::prepare(Fields& fields)
   if (const std::size_t outside = _sort.sort(_grid, _particles.x); outside < _particles.size())
     throw SimulationError(where(outside) + " is outside the grid");
   _grid.activate(_sort.cell_start());
-  if constexpr (Fields::discrete)
-    fields.build(_particles, _sort); // Remark 4
   for (std::size_t k = 0; k < _phase.size(); ++k)
   {
     PhaseFieldGroup& g = _phase[k];
     if (g.select)
     {
-      const std::int32_t* body = _particles.body.data();
+      const std::int32_t* body = phase_field_of();
       const std::int32_t* material = _particles.material.data();
       g.sort.select(_sort, [&](std::size_t p)
                     { return _fracture[material[p]] && (g.body < 0 || body[p] == g.body); });
@@ -308,6 +345,10 @@ void Solver::prepare(Fields& fields)
       throw SimulationError(msg.str());
     }
   }
+  // The velocity fields, after the phase field: damage-gradient fields read
+  // the new c (Remark 4; H&H Algorithms 1 and 2).
+  if constexpr (Fields::discrete)
+    fields.build(_particles, _sort);
 }
 
 template <int P, class Fields>
@@ -327,11 +368,28 @@ void Solver::step(Fields& fields)
     c.sliding += static_cast<std::int64_t>(sums[sum_contact + count_sliding]);
     for (int i = 0; i < 4; ++i)
       c.violations[i] += static_cast<std::int64_t>(sums[sum_contact + count_c1 + i]);
+    c.split = static_cast<std::int32_t>(sums[sum_contact + count_split]);
+    c.separable = static_cast<std::int32_t>(sums[sum_contact + count_separable]);
+    c.separable_total += c.separable;
   }
   grid_to_particle<P>(fields);
   _time += _dt;
   ++_step;
 }
+
+namespace
+{
+/// Per particle, the field index a partition reads: the body, or with
+/// damage-gradient fields the contact group.
+template <class Fields>
+const std::int32_t* field_of_particles(const Fields& fields, const Particles& particles)
+{
+  if constexpr (Fields::per_pair)
+    return fields.group().data();
+  else
+    return particles.body.data();
+}
+} // namespace
 
 template <int P, class Fields>
 void Solver::particle_to_grid(Fields& fields)
@@ -346,15 +404,21 @@ void Solver::particle_to_grid(Fields& fields)
     _sums[a] = NodeSums{};
   if constexpr (Fields::discrete)
     _surface.assign(slots, SurfaceSums{});
+  const Particles& P_ = _particles;
+  P2GArrays arrays{P_.v.data(), P_.mass.data(), P_.volume.data(), P_.stress.data(),
+                   P_.fext.data(), nullptr, nullptr};
+  if constexpr (Fields::per_pair)
+  {
+    arrays.damage = fields.damage();
+    arrays.full = fields.full();
+  }
   auto run = [&](auto external)
   {
     constexpr bool External = decltype(external)::value;
-    const Particles& P_ = _particles;
     pfmpm::particle_to_grid<Shape>(
         _grid, _sort, P_.x.data(),
-        MomentumP2G<Shape, External, Fields>{_grid, fields, P_.v.data(), P_.mass.data(),
-                                             P_.volume.data(), P_.stress.data(), P_.fext.data(),
-                                             P_.body.data(), _sums.data(), _surface.data()});
+        MomentumP2G<Shape, External, Fields>{
+            _grid, fields, arrays, field_of_particles(fields, _particles), _sums.data(), _surface.data()});
   };
   if (_external)
     run(std::true_type{});
@@ -367,11 +431,14 @@ void Solver::grid_to_particle(Fields& fields)
 {
   using Shape = BSplineStencil<2, P>;
   const bool check_stability = _stability_length > 0.0;
-  KinematicsG2P<Shape, Fields> kernel{_grid,        fields, _kinematics.data(), _particles,
-                                      _bound,       _degradation, _dt,     _particles.size()};
+  KinematicsG2P<Shape, Fields> kernel{_grid,   fields,       _kinematics.data(), _particles,
+                                      _bound,  _degradation, _dt,               field_of_particles(fields, _particles),
+                                      _particles.size()};
   pfmpm::grid_to_particle<Shape>(_grid, _sort, _particles.x.data(), kernel);
   if (kernel.bad < _particles.size())
     non_finite(kernel.bad);
+  if constexpr (Fields::per_pair)
+    fields.moved(_dt * std::sqrt(kernel.drift2)); // the neighbour lists' skin (H&H section 2.5)
   // max c_p + max |v_p| bounds max (c_p + |v_p|) without a square root per
   // particle; only a step whose bound exceeds the limit takes the exact maximum.
   if (check_stability && _dt * (kernel.wave + std::sqrt(kernel.speed2)) > stability_limit())
@@ -483,14 +550,17 @@ Energies Solver::energies() const
   e.external_work = _external_work;
   e.momentum = {sums[2], sums[3]};
   e.mass = sums[4];
-  if (const auto* fields = std::get_if<BodyFields>(&_fields))
+  if (const ContactStats* stats = contact_stats())
   {
-    e.friction_work = fields->stats().friction_work;
-    e.fracture_by_field.assign(fields->size(), 0.0);
+    // Fracture energy per body (with damage-gradient fields too).
+    const std::int32_t nbodies =
+        n == 0 ? 0 : *std::max_element(P.body.begin(), P.body.end()) + 1;
+    e.friction_work = stats->friction_work;
+    e.fracture_by_field.assign(nbodies, 0.0);
     if (fe)
     {
       const std::int32_t* body = P.body.data();
-      for (int f = 0; f < fields->size(); ++f)
+      for (std::int32_t f = 0; f < nbodies; ++f)
         e.fracture_by_field[f] = deterministic_sum<1>(
             n, [&](std::size_t p, std::array<double, 1>& acc)
             { acc[0] += body[p] == f ? fe[p] : 0.0; })[0];
@@ -552,8 +622,21 @@ PhaseFieldStats Solver::phase_field_stats() const
 
 const ContactStats* Solver::contact_stats() const
 {
-  const auto* fields = std::get_if<BodyFields>(&_fields);
-  return fields ? &fields->stats() : nullptr;
+  if (const auto* fields = std::get_if<BodyFields>(&_fields))
+    return &fields->stats();
+  if (const auto* fields = std::get_if<DamageFields>(&_fields))
+    return &fields->stats();
+  return nullptr;
+}
+
+std::vector<double> Solver::detect_surfaces(const std::vector<double>& spacing, double threshold)
+{
+  auto* fields = std::get_if<DamageFields>(&_fields);
+  if (!fields)
+    throw std::logic_error("surface detection needs the damage-gradient partition");
+  if (const std::size_t outside = _sort.sort(_grid, _particles.x); outside < _particles.size())
+    throw SimulationError(where(outside) + " is outside the grid");
+  return fields->detect_surfaces(_particles, _sort, spacing, threshold);
 }
 
 bool Solver::has_external_force() const

@@ -3,6 +3,7 @@
 #pragma once
 
 #include "pfmpm/common/error.h"
+#include "pfmpm/fields/damage_fields.h"
 #include "pfmpm/fields/fields.h"
 #include "pfmpm/fracture/phasefield.h"
 #include "pfmpm/grid/grid.h"
@@ -46,7 +47,8 @@ struct Energies
 /// `.../last_iterations`, `.../start_residual`, `.../last_residual`,
 /// `.../unknowns`, `.../passes`, `.../last_passes`, `.../at_bound`; with discrete fields `contact/nodes`, `contact/pairs`,
 /// `contact/active`, `contact/sliding`, `contact/C1` .. `contact/C4`,
-/// `contact/friction_work`. Arrays: `phase_field/k/c` and
+/// `contact/friction_work`; with damage-gradient fields also
+/// `contact/split`, `contact/separable`, `contact/separable_total`. Arrays: `phase_field/k/c` and
 /// `phase_field/k/c_previous`, the nodal warm start.
 struct SolverState
 {
@@ -67,10 +69,12 @@ struct SolverState
 /// taken in an order fixed by the particle positions alone, so results do
 /// not depend on the thread count.
 ///
-/// The velocity-field partition is chosen once, at construction: one field,
+/// The velocity-field partition is chosen once, at construction: one field;
 /// or (with a friction matrix) every body its own discrete field coupled by
 /// frictional contact (eqs. 63-77), each crackable body with its own phase
-/// field.
+/// field; or (with damage-gradient options too) two fields per contact group
+/// chosen per (particle, node) by the damage gradient (Homel & Herbold 2017,
+/// DamageFields), each crackable group with its own phase field.
 ///
 /// With explicit time integration the internal force of a step comes from
 /// the stresses fixed at its start, so the staggered loop of Algorithm 1
@@ -90,10 +94,15 @@ public:
   /// @param friction Empty: all particles form one velocity field. Otherwise
   ///        every body (Particles::body) is its own discrete field, coupled by
   ///        frictional contact with coefficient friction[a * n + b] between
-  ///        bodies a and b (n x n, n >= 2; see BodyFields).
+  ///        bodies a and b (n x n, n >= 2; see BodyFields); with `damage`,
+  ///        between contact groups a and b (n x n, n >= 1; see DamageFields).
+  /// @param damage The damage-gradient partition's parameters, or none. A
+  ///        material's damage is its `damage` column if it has one, else
+  ///        1 - c if it cracks by the phase field, else 0.
   Solver(Grid& grid, Particles& particles, std::vector<std::shared_ptr<const Material>> materials,
          double dt, std::vector<std::optional<Fracture>> fracture = {}, double tol = 1e-6,
-         int max_iterations = 1000, std::vector<double> friction = {});
+         int max_iterations = 1000, std::vector<double> friction = {},
+         std::optional<DamageGradientOptions> damage = std::nullopt);
 
   /// @brief Take `steps` explicit steps.
   /// @throws SimulationError when a particle leaves the grid, a value turns
@@ -154,6 +163,16 @@ public:
   /// @brief The last system K c = F of the (single) phase field, for the record.
   /// @throws std::logic_error without a phase field or with several.
   PhaseFieldSystem phase_field_system() const;
+  /// The damage-gradient partition, or nullptr.
+  const DamageFields* damage_fields() const { return std::get_if<DamageFields>(&_fields); }
+
+  /// @brief Surface flags at t = 0 by the kernel sum over each body's own
+  /// particles (DamageFields::detect_surfaces), into the `surface` column.
+  /// @param spacing Lattice spacing of each body.
+  /// @param threshold s_p = 1 where S < threshold S_bulk.
+  /// @return S / S_bulk per particle.
+  /// @throws std::logic_error without the damage-gradient partition.
+  std::vector<double> detect_surfaces(const std::vector<double>& spacing, double threshold);
 
   /// @brief Map the current particle state to the grid (P2G only) and return,
   /// per active node, (node index, mass, momentum x, momentum y), summed over
@@ -186,11 +205,15 @@ private:
   double signal_speed(std::size_t particle) const;
   bool has_external_force() const;
 
+  /// Per particle, the field index its phase field is chosen by: the body
+  /// with discrete fields, the contact group with damage-gradient fields.
+  const std::int32_t* phase_field_of() const;
+
   /// A phase field and the particles that assemble it.
   struct PhaseFieldGroup
   {
     PhaseField field;
-    std::int32_t body; ///< its body, or -1 for all crackable particles of the single field
+    std::int32_t body; ///< its body (contact group), or -1 for all crackable particles of the single field
     bool select;       ///< whether its particles are a selection of the sort
     CellSort sort;     ///< the selection, when select
   };
@@ -210,7 +233,7 @@ private:
   std::int64_t _light_nodes = 0;
   double _stability_length = 0.0; // 0: no check
   bool _external = false; // some particle carries an external force
-  std::variant<SingleField, BodyFields> _fields;
+  std::variant<SingleField, BodyFields, DamageFields> _fields;
   std::vector<PhaseFieldGroup> _phase;
 
   CellSort _sort;

@@ -18,6 +18,10 @@ Each measure reads cracks with the scene's ``output.crack_threshold``.
     the Hertzian cone index (:func:`~pfmpm.post.disk_beam.cone_index`).
 ``frames``
     The particle snapshots of a finished run.
+``self_contact``
+    Damage-gradient self-contact against the multi-field and single-field
+    runs (Homel & Herbold 2017, section 3.1): the billet's checks B1-B4 and
+    the wedge's W1-W4 (:func:`~pfmpm.post.self_contact.run_variants`).
 
 ``pfmpm post crack-tip|crack-directions|fragments SCENE RUN_DIR`` prints the
 measures that read a finished run's output directory.

@@ -263,6 +263,8 @@ class Scene:
                 raise SceneError(f"contact.pairs[{i}].bodies",
                                  f"duplicate pair (also contact.pairs[{seen[key]}])", pair.bodies)
             seen[key] = i
+        if contact.damage_gradient:
+            self._check_damage_gradient(bodies)
         # Bodies in contact must start apart: no particle of one inside another.
         lattices = [np.concatenate(list(seeding.lattice(b, self.grid, *seeding.cell_range(b, self.grid))))
                     for b in self.bodies]
@@ -276,6 +278,30 @@ class Scene:
                     raise SceneError(f"bodies[{b}]", f"{inside} of its particles lie inside"
                                      f" bodies[{a}] ({body.name!r}) at t = 0; bodies in contact"
                                      " must not overlap", other.name)
+
+    def _check_damage_gradient(self, bodies: Mapping[str, int]) -> None:
+        """Check the damage-gradient keys: groups of known bodies, each body in one group,
+        no pair within a group, a kernel radius that reaches the neighbours."""
+        contact = self.contact
+        where: dict[str, int] = {}
+        for i, group in enumerate(contact.groups):
+            for k, name in enumerate(group):
+                reference(f"contact.groups[{i}][{k}]", name, bodies, "body")
+                if name in where:
+                    raise SceneError(f"contact.groups[{i}][{k}]", "body already in"
+                                     f" contact.groups[{where[name]}]", name)
+                where[name] = i
+        groups = dict(zip(bodies, contact.group_indices(tuple(bodies))))
+        for i, pair in enumerate(contact.pairs):
+            if groups[pair.bodies[0]] == groups[pair.bodies[1]]:
+                raise SceneError(f"contact.pairs[{i}].bodies", "both bodies are in one contact"
+                                 " group, whose fields meet with contact.friction", pair.bodies)
+        radius = contact.resolved_radius(self.grid.h)
+        spacing = max(b.spacing(self.grid.h) for b in self.bodies)
+        if radius <= spacing:
+            raise SceneError("contact.kernel_radius", f"must exceed the particle spacing"
+                                                      f" {spacing:g}, or the kernel sees no"
+                                                      " neighbour", radius)
 
     def _check_time(self) -> None:
         """Check the stability limit, a fixed dt against it, and the step count."""

@@ -52,7 +52,8 @@ def build_scene(cls: type, d: Any, overrides: list[str] | tuple[str, ...] = ()) 
         "cracks": lambda v: _tables(v, lambda t: _build(Crack, t)),
         "phase_field": lambda t: _build(PhaseFieldSpec, t),
         "contact": lambda t: _build(Contact, t, {
-            "pairs": lambda v: _tables(v, lambda p: _build(ContactPair, p))}),
+            "pairs": lambda v: _tables(v, lambda p: _build(ContactPair, p)),
+            "surfaces": lambda v: _tables(v, lambda t: _typed(t, SHAPES))}),
     })
 
 

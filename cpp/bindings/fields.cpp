@@ -1,0 +1,69 @@
+/// @file fields.cpp
+/// @brief The damage-gradient partition's parameters and the kernel damage
+/// field (H&H 2017 eqs. 17-19) in Python.
+#include "bindings.h"
+
+#include "pfmpm/fields/damage_fields.h"
+
+#include <pybind11/numpy.h>
+#include <pybind11/stl.h>
+
+#include <vector>
+
+namespace py = pybind11;
+using namespace pfmpm;
+
+namespace pfmpm::bindings
+{
+
+void bind_fields(py::module_& m)
+{
+  py::class_<DamageGradientOptions>(
+      m, "DamageGradient",
+      "Parameters of the damage-field-gradient partition (Homel & Herbold 2017)")
+      .def(py::init(
+               [](std::vector<std::int32_t> groups, double separability, double kernel_radius,
+                  double skin, double full_damage, double phase_field_threshold)
+               {
+                 return DamageGradientOptions{std::move(groups), separability, kernel_radius,
+                                              skin, full_damage, phase_field_threshold};
+               }),
+           py::arg("groups") = std::vector<std::int32_t>{}, py::arg("separability") = 0.25,
+           py::arg("kernel_radius") = 0.0, py::arg("skin") = 0.1,
+           py::arg("full_damage") = 1.0 - 1e-4, py::arg("phase_field_threshold") = 0.05,
+           "groups: contact group of each body (empty: each body its own); separability: "
+           "D-bar_min of eq. 21; kernel_radius: r_p (0: the cell diagonal); skin: Verlet skin "
+           "over r_p; full_damage: D at which a damage model's particle is fully damaged; "
+           "phase_field_threshold: c at or below which a phase-field particle is")
+      .def_readonly("groups", &DamageGradientOptions::groups)
+      .def_readonly("separability", &DamageGradientOptions::separability)
+      .def_readonly("kernel_radius", &DamageGradientOptions::kernel_radius)
+      .def_readonly("skin", &DamageGradientOptions::skin)
+      .def_readonly("full_damage", &DamageGradientOptions::full_damage)
+      .def_readonly("phase_field_threshold", &DamageGradientOptions::phase_field_threshold);
+
+  m.def(
+      "kernel_damage_field",
+      [](const Grid& grid, py::array_t<double, py::array::c_style | py::array::forcecast> x,
+         py::array_t<double, py::array::c_style | py::array::forcecast> damage, double radius)
+      {
+        if (x.ndim() != 2 || x.shape(1) != 2)
+          throw py::value_error("x must have shape (N, 2)");
+        std::vector<double> xs(x.data(), x.data() + x.size());
+        std::vector<double> ds(damage.data(), damage.data() + damage.size());
+        KernelField f = kernel_damage_field(grid, xs, ds, radius);
+        const auto n = static_cast<py::ssize_t>(f.S.size());
+        py::array_t<double> S(n), D(n), grad({n, py::ssize_t(2)});
+        std::copy(f.S.begin(), f.S.end(), S.mutable_data());
+        std::copy(f.D.begin(), f.D.end(), D.mutable_data());
+        std::copy(f.grad.begin(), f.grad.end(), grad.mutable_data());
+        return py::make_tuple(S, D, grad);
+      },
+      py::arg("grid"), py::arg("x"), py::arg("damage"), py::arg("radius"),
+      "(S, D-bar, grad D-bar) at every particle: the kernel sum (eq. 19), the normalised kernel "
+      "damage field (eqs. 17-19) and its gradient, neighbours within radius");
+  m.def("lattice_kernel_sum", &DamageFields::lattice_kernel_sum, py::arg("spacing"),
+        py::arg("radius"), "kernel sum (eq. 19) at the interior of a square lattice");
+}
+
+} // namespace pfmpm::bindings

@@ -1,0 +1,605 @@
+/// @file damage_fields.cpp
+/// @brief The damage-field-gradient partition (H&H 2017 sections 2.1-2.4):
+/// particle damage, kernel field, Algorithms 1 and 2, slots, surface flags.
+#include "pfmpm/fields/damage_fields.h"
+#include "pfmpm/common/strips.h"
+#include "pfmpm/fields/kernel.h"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace pfmpm
+{
+
+namespace
+{
+/// Seconds since `start`, added to `total`.
+struct Stopwatch
+{
+  double& total;
+  double start = omp_get_wtime();
+  ~Stopwatch() { total += omp_get_wtime() - start; }
+};
+
+/// Group of each particle: its body's, or the body itself when `groups` is empty.
+std::vector<std::int32_t> particle_groups(const Particles& particles,
+                                          const std::vector<std::int32_t>& groups, int n)
+{
+  std::vector<std::int32_t> out(particles.size());
+  for (std::size_t p = 0; p < particles.size(); ++p)
+  {
+    const std::int32_t b = particles.body[p];
+    std::int32_t g = b;
+    if (!groups.empty())
+    {
+      if (b < 0 || static_cast<std::size_t>(b) >= groups.size())
+        throw std::invalid_argument("particle " + std::to_string(p) + ": body " + std::to_string(b)
+                                    + " has no contact group (groups has "
+                                    + std::to_string(groups.size()) + " entries)");
+      g = groups[b];
+    }
+    if (g < 0 || g >= n)
+      throw std::invalid_argument("particle " + std::to_string(p) + ": contact group "
+                                  + std::to_string(g) + " is not in [0, " + std::to_string(n) + ")");
+    out[p] = g;
+  }
+  return out;
+}
+
+void check_option(bool ok, const std::string& name, double value, const char* rule)
+{
+  if (!ok)
+    throw std::invalid_argument(name + " = " + std::to_string(value) + ": must be " + rule);
+}
+} // namespace
+
+KernelField kernel_damage_field(const Grid& grid, const std::vector<double>& x,
+                                const std::vector<double>& damage, double radius)
+{
+  const std::size_t n = x.size() / 2;
+  if (damage.size() != n)
+    throw std::invalid_argument("damage: " + std::to_string(damage.size()) + " values for "
+                                + std::to_string(n) + " particles");
+  CellSort sort;
+  if (const std::size_t outside = sort.sort(grid, x); outside < n)
+    throw std::invalid_argument("particle " + std::to_string(outside) + " is outside the grid");
+  NeighbourList list;
+  list.build(grid, sort, x, radius);
+  KernelField out{std::vector<double>(n), std::vector<double>(n), std::vector<double>(2 * n)};
+  const auto np = static_cast<std::ptrdiff_t>(n);
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t p = 0; p < np; ++p)
+  {
+    const std::int64_t begin = list.start()[p], end = list.start()[p + 1];
+    const KernelValue v =
+        kernel_field(p, &list.index()[begin], end - begin, x.data(), damage.data(), radius);
+    out.S[p] = v.S;
+    out.D[p] = v.D;
+    out.grad[2 * p] = v.grad[0];
+    out.grad[2 * p + 1] = v.grad[1];
+  }
+  return out;
+}
+
+DamageFields::DamageFields(const Grid& grid, Particles& particles, std::vector<double> friction,
+                           std::vector<DamageSource> source, DamageGradientOptions options)
+    : _grid(grid), _friction(std::move(friction)), _source(std::move(source)),
+      _options(std::move(options))
+{
+  _groups_n = friction_fields(_friction, 1);
+  const DamageGradientOptions& o = _options;
+  check_option(o.separability > 0.0 && o.separability < 1.0, "separability", o.separability,
+               "in (0, 1)");
+  check_option(o.kernel_radius >= 0.0 && std::isfinite(o.kernel_radius), "kernel_radius",
+               o.kernel_radius, ">= 0 (0: the cell diagonal)");
+  check_option(o.skin > 0.0 && std::isfinite(o.skin), "skin", o.skin, "> 0");
+  check_option(o.full_damage > 0.0 && o.full_damage <= 1.0, "full_damage", o.full_damage,
+               "in (0, 1]");
+  check_option(o.phase_field_threshold >= 0.0 && o.phase_field_threshold < 1.0,
+               "phase_field_threshold", o.phase_field_threshold, "in [0, 1)");
+  if (_groups_n > max_groups)
+    throw std::invalid_argument("friction: " + std::to_string(_groups_n) + " contact groups; at most "
+                                + std::to_string(max_groups));
+  _radius = o.kernel_radius > 0.0 ? o.kernel_radius : std::sqrt(2.0) * grid.h();
+  _group = particle_groups(particles, o.groups, _groups_n);
+  if (_groups_n > 1)
+    _groups.emplace(grid, particles, _friction, _group.data());
+  particles.add({"damage_gradient", 2, DType::f64, {0.0},
+                 "gradient of the normalised kernel damage field at the particle (H&H eqs. 17-19), "
+                 "where it partitions the fields (near fully damaged particles), else 0",
+                 "x,y", "damage_gradient"});
+  particles.add({"surface", 1, DType::i32, {0.0},
+                 "surface flag s_p (H&H section 2.4): 1 on a surface, damage max(s_p, D_p)", "",
+                 "surface"});
+}
+
+double DamageFields::lattice_kernel_sum(double spacing, double radius)
+{
+  const int n = static_cast<int>(std::ceil(radius / spacing));
+  double S = 0.0;
+  for (int i = -n; i <= n; ++i)
+    for (int j = -n; j <= n; ++j)
+      S += kernel_weight(std::hypot(i * spacing, j * spacing) / radius);
+  return S;
+}
+
+std::vector<double> DamageFields::detect_surfaces(Particles& particles, const CellSort& sort,
+                                                  const std::vector<double>& spacing,
+                                                  double threshold)
+{
+  NeighbourList list;
+  list.build(_grid, sort, particles.x, _radius);
+  const auto n = static_cast<std::ptrdiff_t>(particles.size());
+  const double* x = particles.x.data();
+  const std::int32_t* body = particles.body.data();
+  std::int32_t* surface = particles.i32("surface").data();
+  std::vector<double> bulk(spacing.size());
+  for (std::size_t b = 0; b < spacing.size(); ++b)
+  {
+    if (!(spacing[b] > 0.0) || !std::isfinite(spacing[b]))
+      throw std::invalid_argument("spacing[" + std::to_string(b) + "] = "
+                                  + std::to_string(spacing[b]) + ": must be > 0");
+    bulk[b] = lattice_kernel_sum(spacing[b], _radius);
+  }
+  for (std::ptrdiff_t p = 0; p < n; ++p)
+    if (body[p] < 0 || static_cast<std::size_t>(body[p]) >= spacing.size())
+      throw std::invalid_argument("particle " + std::to_string(p) + ": body " + std::to_string(body[p])
+                                  + " has no lattice spacing");
+  // Walls are mirror planes: per direction, the coordinates of a point and
+  // of its images across the walled grid sides.
+  std::array<std::array<double, 2>, 2> plane{};
+  std::array<std::array<bool, 2>, 2> walled{};
+  for (int d = 0; d < 2; ++d)
+  {
+    const BSpline1D& b = _grid.basis(d);
+    plane[d] = {b.origin(), b.origin() + b.length()};
+    walled[d] = {_grid.wall(static_cast<Side>(2 * d)) != Wall::free,
+                 _grid.wall(static_cast<Side>(2 * d + 1)) != Wall::free};
+  }
+  auto images = [&](const double* q, double (*out)[2])
+  {
+    double c[2][3];
+    int m[2];
+    for (int d = 0; d < 2; ++d)
+    {
+      m[d] = 0;
+      c[d][m[d]++] = q[d];
+      for (int e = 0; e < 2; ++e)
+        if (walled[d][e])
+          c[d][m[d]++] = 2.0 * plane[d][e] - q[d];
+    }
+    int k = 0;
+    for (int i = 0; i < m[0]; ++i)
+      for (int j = 0; j < m[1]; ++j)
+        if (i + j > 0)
+        {
+          out[k][0] = c[0][i];
+          out[k++][1] = c[1][j];
+        }
+    return k;
+  };
+  std::vector<double> ratio(particles.size());
+  const std::int64_t* start = list.start().data();
+  const std::int32_t* index = list.index().data();
+  const double inv_r = 1.0 / _radius;
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t p = 0; p < n; ++p)
+  {
+    // Eq. 19 over p's own body and its mirror images in the walls (a face
+    // on a wall, such as a symmetry plane, is no surface).
+    const double* xp = &x[2 * p];
+    double S = 1.0;
+    auto add = [&](const double* xq, bool self)
+    {
+      if (!self)
+        S += kernel_weight(std::hypot(xp[0] - xq[0], xp[1] - xq[1]) * inv_r);
+      double image[8][2];
+      const int k = images(xq, image);
+      for (int i = 0; i < k; ++i)
+        S += kernel_weight(std::hypot(xp[0] - image[i][0], xp[1] - image[i][1]) * inv_r);
+    };
+    add(xp, true);
+    for (std::int64_t k = start[p]; k < start[p + 1]; ++k)
+    {
+      const std::int32_t q = index[k];
+      if (body[q] == body[p])
+        add(&x[2 * q], false);
+    }
+    ratio[p] = S / bulk[body[p]];
+    if (ratio[p] < threshold)
+      surface[p] = 1;
+  }
+  return ratio;
+}
+
+bool DamageFields::particle_damage(const Particles& particles)
+{
+  const auto n = static_cast<std::ptrdiff_t>(particles.size());
+  _damage.resize(n);
+  _full.resize(n);
+  const Column* column = particles.find("damage");
+  const Column* phase = particles.find("c");
+  const double* damage = column ? column->f64.data() : nullptr;
+  const double* c = phase ? phase->f64.data() : nullptr;
+  const std::int32_t* surface = particles.find("surface")->i32.data();
+  const std::int32_t* material = particles.material.data();
+  const DamageSource* source = _source.data();
+  const double full_damage = _options.full_damage, full_c = _options.phase_field_threshold;
+  int any = 0;
+#pragma omp parallel for schedule(static) reduction(| : any)
+  for (std::ptrdiff_t p = 0; p < n; ++p)
+  {
+    double D = 0.0;
+    bool full = false;
+    switch (source[material[p]])
+    {
+    case DamageSource::column:
+      D = std::clamp(damage[p], 0.0, 1.0);
+      full = D >= full_damage;
+      break;
+    case DamageSource::phase_field:
+      D = std::clamp(1.0 - c[p], 0.0, 1.0);
+      full = c[p] <= full_c;
+      break;
+    case DamageSource::none:
+      break;
+    }
+    if (surface[p]) // max(s_p, D_p), section 2.4
+    {
+      D = 1.0;
+      full = true;
+    }
+    _damage[p] = D;
+    _full[p] = full ? 1.0 : 0.0;
+    any |= full ? 1 : 0;
+  }
+  return any != 0;
+}
+
+void DamageFields::gradients(Particles& particles, const CellSort& sort)
+{
+  const int P = _grid.degree();
+  const int ncx = _grid.cells()[0], ncy = _grid.cells()[1];
+  const auto ncells = static_cast<std::ptrdiff_t>(_grid.num_cells());
+  const std::int32_t* order = sort.order().data();
+  const std::int64_t* start = sort.cell_start().data();
+  // Cells within P cells of a fully damaged particle: only their particles'
+  // stencils reach a node where the fields may separate.
+  std::vector<std::uint8_t> full_cell(ncells, 0);
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t c = 0; c < ncells; ++c)
+    for (std::int64_t k = start[c]; k < start[c + 1] && !full_cell[c]; ++k)
+      full_cell[c] = _full[order[k]] != 0.0;
+  // Dilated by P cells along y, then along x (stride ncy, resp. 1).
+  auto dilate = [&](const std::vector<std::uint8_t>& in, std::vector<std::uint8_t>& out, int axis)
+  {
+    const int n[2] = {ncx, ncy};
+    const std::ptrdiff_t stride = axis == 0 ? ncy : 1;
+    out.assign(ncells, 0);
+#pragma omp parallel for schedule(static)
+    for (int cx = 0; cx < ncx; ++cx)
+      for (int cy = 0; cy < ncy; ++cy)
+      {
+        const int i = axis == 0 ? cx : cy;
+        const std::ptrdiff_t cell = static_cast<std::ptrdiff_t>(cx) * ncy + cy;
+        std::uint8_t any = 0;
+        for (int d = std::max(i - P, 0); d <= std::min(i + P, n[axis] - 1) && !any; ++d)
+          any = in[cell + (d - i) * stride];
+        out[cell] = any;
+      }
+  };
+  std::vector<std::uint8_t> along_y;
+  dilate(full_cell, along_y, 1);
+  dilate(along_y, _near, 0);
+
+  {
+    Stopwatch clock{_timers.neighbours};
+    if (_neighbours.stale(particles.size(), _options.skin * _radius))
+      _neighbours.build(_grid, sort, particles.x, (1.0 + 2.0 * _options.skin) * _radius);
+  }
+  Stopwatch clock{_timers.gradient};
+  const double* x = particles.x.data();
+  const double* damage = _damage.data();
+  double* grad = particles.f64("damage_gradient").data();
+  std::uint32_t* mask = _mask.data();
+  const std::int64_t* nstart = _neighbours.start().data();
+  const std::int32_t* nindex = _neighbours.index().data();
+  const double radius = _radius;
+  // Where every listed neighbour has p's damage, the kernel field is flat
+  // and its gradient exactly zero (the sums of differences in kernel_field
+  // vanish): a look at the damage alone.
+  auto uniform = [&](std::int32_t p)
+  {
+    const double d = damage[p];
+    bool same = true;
+    for (std::int64_t k = nstart[p]; k < nstart[p + 1]; ++k)
+      same &= damage[nindex[k]] == d;
+    return same;
+  };
+#pragma omp parallel for schedule(dynamic, 64)
+  for (std::ptrdiff_t c = 0; c < ncells; ++c)
+  {
+    for (std::int64_t k = start[c]; k < start[c + 1]; ++k)
+    {
+      const std::int32_t p = order[k];
+      if (_near[c] && !uniform(p))
+      {
+        const KernelValue v = kernel_field(p, &nindex[nstart[p]], nstart[p + 1] - nstart[p], x,
+                                           damage, radius);
+        grad[2 * p] = v.grad[0];
+        grad[2 * p + 1] = v.grad[1];
+      }
+      else
+      {
+        grad[2 * p] = grad[2 * p + 1] = 0.0;
+        mask[p] = 0;
+      }
+    }
+  }
+}
+
+void DamageFields::sides(const Particles& particles, const CellSort& sort, const double* grad)
+{
+  const int P = _grid.degree(), width = P + 1;
+  const int ncx = _grid.cells()[0], ncy = _grid.cells()[1];
+  const std::size_t ngs = _groups ? static_cast<std::size_t>(_groups->num_slots())
+                                  : static_cast<std::size_t>(_grid.num_active());
+  _best_norm.assign(ngs, 0.0);
+  _best.assign(ngs, -1);
+  _group_full.assign(ngs, 0);
+  _has_b.assign(ngs, 0);
+  _G.resize(2 * ngs);
+  const std::int32_t* order = sort.order().data();
+  const std::int32_t* group = _group.data();
+  const double* full = _full.data();
+  // The active nodes of a cell's stencil, in stencil order.
+  auto cell_nodes = [&](int cx, int cy, std::int32_t* out)
+  {
+    for (int a = 0; a < width; ++a)
+    {
+      const std::int32_t row = _grid.active_index(cx + a, cy);
+      for (int b = 0; b < width; ++b)
+        out[a * width + b] = row + b;
+    }
+  };
+  // Algorithm 1: per node and group, the particle gradient of largest
+  // magnitude, ties to the smaller particle index, and whether a fully
+  // damaged particle of the group maps there. Strips of one parity share no
+  // node, so the comparisons need no atomics.
+  for_each_cell_by_strips(ncx, ncy, sort.cell_start(),
+                          [&](int cx, int cy, std::int64_t begin, std::int64_t end)
+                          {
+                            if (!_near[static_cast<std::size_t>(cx) * ncy + cy])
+                              return;
+                            std::int32_t nodes[(max_degree + 1) * (max_degree + 1)];
+                            cell_nodes(cx, cy, nodes);
+                            for (std::int64_t k = begin; k < end; ++k)
+                            {
+                              const std::int32_t p = order[k];
+                              const double n2 = grad[2 * p] * grad[2 * p] + grad[2 * p + 1] * grad[2 * p + 1];
+                              if (n2 == 0.0 && full[p] == 0.0)
+                                continue; // nothing to note
+                              for (int i = 0; i < width * width; ++i)
+                              {
+                                const std::int32_t s = group_slot(nodes[i], group[p]);
+                                if (full[p] != 0.0)
+                                  _group_full[s] = 1;
+                                if (n2 > _best_norm[s] || (n2 > 0.0 && n2 == _best_norm[s] && p < _best[s]))
+                                {
+                                  _best_norm[s] = n2;
+                                  _best[s] = p;
+                                }
+                              }
+                            }
+                          });
+  // G_i, zero where no fully damaged particle of the group maps (there the
+  // fields cannot be separable: one field).
+  const auto ngs_signed = static_cast<std::ptrdiff_t>(ngs);
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t s = 0; s < ngs_signed; ++s)
+  {
+    const bool live = _group_full[s] && _best[s] >= 0;
+    _G[2 * s] = live ? grad[2 * _best[s]] : 0.0;
+    _G[2 * s + 1] = live ? grad[2 * _best[s] + 1] : 0.0;
+  }
+  // Algorithm 2: field A where grad D_p . G_i >= 0, else B. A particle
+  // whose kernel sees no damage variation (zero gradient), which a B-spline
+  // stencil reaches past r_p, is placed by position if it is intact: on the
+  // side of the node's gradient particle p* if it lies behind p* along G_i
+  // (away from the damage), else on the other. A fully damaged one (inside
+  // a flagged corner, where the kernel sees only flagged particles) takes
+  // the side of its nearest listed neighbour of the same body with a
+  // gradient, or A without one.
+  const std::int32_t* body = particles.body.data();
+  const double* x = particles.x.data();
+  const std::int64_t* nstart = _neighbours.start().data();
+  const std::int32_t* nindex = _neighbours.index().data();
+  auto proxy = [&](std::int32_t p)
+  {
+    std::int32_t best = -1;
+    double closest = 0.0;
+    for (std::int64_t k = nstart[p]; k < nstart[p + 1]; ++k)
+    {
+      const std::int32_t q = nindex[k];
+      if (body[q] != body[p] || (grad[2 * q] == 0.0 && grad[2 * q + 1] == 0.0))
+        continue;
+      const double dx = x[2 * q] - x[2 * p], dy = x[2 * q + 1] - x[2 * p + 1];
+      const double d2 = dx * dx + dy * dy;
+      if (best < 0 || d2 < closest)
+      {
+        best = q;
+        closest = d2;
+      }
+    }
+    return best;
+  };
+  std::uint32_t* mask = _mask.data();
+  for_each_cell_by_strips(ncx, ncy, sort.cell_start(),
+                          [&](int cx, int cy, std::int64_t begin, std::int64_t end)
+                          {
+                            const std::size_t cell = static_cast<std::size_t>(cx) * ncy + cy;
+                            if (!_near[cell])
+                              return;
+                            std::int32_t nodes[(max_degree + 1) * (max_degree + 1)];
+                            cell_nodes(cx, cy, nodes);
+                            std::uint32_t any = 0;
+                            for (std::int64_t k = begin; k < end; ++k)
+                            {
+                              const std::int32_t p = order[k];
+                              const bool flat = grad[2 * p] == 0.0 && grad[2 * p + 1] == 0.0;
+                              const std::int32_t near = !flat ? p : full[p] != 0.0 ? proxy(p) : -1;
+                              std::uint32_t m = 0;
+                              for (int i = 0; i < width * width; ++i)
+                              {
+                                const std::int32_t s = group_slot(nodes[i], group[p]);
+                                const double* G = &_G[2 * s];
+                                const std::int32_t q = _best[s];
+                                double side = 0.0;
+                                if (near >= 0)
+                                  side = grad[2 * near] * G[0] + grad[2 * near + 1] * G[1];
+                                else if (full[p] == 0.0 && q >= 0)
+                                  side = (x[2 * q] - x[2 * p]) * G[0] + (x[2 * q + 1] - x[2 * p + 1]) * G[1];
+                                if (side < 0.0)
+                                {
+                                  m |= 1u << i;
+                                  _has_b[s] = 1;
+                                }
+                              }
+                              mask[p] = m;
+                              any |= m;
+                            }
+                            _split[cell] = any != 0;
+                          });
+}
+
+void DamageFields::layout(const CellSort& sort, bool any_split)
+{
+  const auto na = static_cast<std::ptrdiff_t>(_grid.num_active());
+  const int P = _grid.degree();
+  const int ncx = _grid.cells()[0], ncy = _grid.cells()[1];
+  const std::int32_t* gstart = _groups ? _groups->slot_start().data() : nullptr;
+  auto groups_of = [&](std::ptrdiff_t a, std::int32_t& g0, std::int32_t& g1)
+  {
+    g0 = gstart ? gstart[a] : static_cast<std::int32_t>(a);
+    g1 = gstart ? gstart[a + 1] : static_cast<std::int32_t>(a + 1);
+  };
+  const std::size_t ngs = gstart ? static_cast<std::size_t>(gstart[na]) : static_cast<std::size_t>(na);
+  if (!any_split)
+    _has_b.assign(ngs, 0);
+  _first.resize(ngs);
+  _slot_start.resize(na + 1);
+  _slot_start[0] = 0;
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t a = 0; a < na; ++a)
+  {
+    std::int32_t g0, g1, n = 0;
+    groups_of(a, g0, g1);
+    for (std::int32_t g = g0; g < g1; ++g)
+      n += 1 + _has_b[g];
+    _slot_start[a + 1] = n;
+  }
+  std::int32_t contact = 0;
+  for (std::ptrdiff_t a = 0; a < na; ++a)
+  {
+    contact += _slot_start[a + 1] >= 2 ? 1 : 0;
+    _slot_start[a + 1] += _slot_start[a];
+  }
+  _stats.nodes = contact;
+  _slot_field.resize(_slot_start[na]);
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t a = 0; a < na; ++a)
+  {
+    std::int32_t g0, g1, s = _slot_start[a];
+    groups_of(a, g0, g1);
+    for (std::int32_t g = g0; g < g1; ++g)
+    {
+      const std::int32_t group = _groups ? _groups->field(g) : 0;
+      _first[g] = s;
+      _slot_field[s++] = 2 * group;
+      if (_has_b[g])
+        _slot_field[s++] = 2 * group + 1;
+    }
+  }
+
+  const auto ncells = static_cast<std::ptrdiff_t>(_grid.num_cells());
+  _touches.assign(ncells, 0);
+  if (contact == 0)
+    return;
+  const std::int64_t* start = sort.cell_start().data();
+  // With one group, only a split node has two slots, and only cells near
+  // full damage have one among their nodes.
+  const bool near_only = !_groups && any_split;
+#pragma omp parallel for schedule(static)
+  for (int cx = 0; cx < ncx; ++cx)
+    for (int cy = 0; cy < ncy; ++cy)
+    {
+      const std::size_t cell = static_cast<std::size_t>(cx) * ncy + cy;
+      if (start[cell + 1] == start[cell] || (near_only && !_near[cell]))
+        continue;
+      bool any = false;
+      for (int a = 0; a <= P && !any; ++a)
+        for (int b = 0; b <= P && !any; ++b)
+        {
+          const std::int32_t n = _grid.active_index(cx + a, cy + b);
+          any = _slot_start[n + 1] - _slot_start[n] >= 2;
+        }
+      _touches[cell] = any;
+    }
+}
+
+std::vector<std::array<double, 4>> DamageFields::nodal_gradients() const
+{
+  std::vector<std::array<double, 4>> out;
+  const std::int32_t na = _grid.num_active();
+  for (std::int32_t a = 0; a < na; ++a)
+  {
+    const std::int32_t g0 = _groups ? _groups->slot_start()[a] : a;
+    const std::int32_t g1 = _groups ? _groups->slot_start()[a + 1] : a + 1;
+    for (std::int32_t g = g0; g < g1; ++g)
+    {
+      const bool set = 2 * static_cast<std::size_t>(g) + 1 < _G.size() && _dirty;
+      out.push_back({static_cast<double>(_grid.active_nodes()[a]),
+                     static_cast<double>(_groups ? _groups->field(g) : 0),
+                     set ? _G[2 * g] : 0.0, set ? _G[2 * g + 1] : 0.0});
+    }
+  }
+  return out;
+}
+
+void DamageFields::build(Particles& particles, const CellSort& sort)
+{
+  if (_groups)
+    _groups->build(particles, sort);
+  const auto ncells = static_cast<std::size_t>(_grid.num_cells());
+  _mask.resize(particles.size());
+  _split.assign(ncells, 0);
+  bool any_full;
+  {
+    Stopwatch clock{_timers.damage};
+    any_full = particle_damage(particles);
+  }
+  if (any_full)
+  {
+    gradients(particles, sort);
+    Stopwatch clock{_timers.partition};
+    sides(particles, sort, particles.f64("damage_gradient").data());
+    _dirty = true;
+  }
+  else if (_dirty)
+  {
+    // No particle is fully damaged now (a restored state): clear what an
+    // earlier step set.
+    std::fill(_mask.begin(), _mask.end(), 0u);
+    std::vector<double>& grad = particles.f64("damage_gradient");
+    std::fill(grad.begin(), grad.end(), 0.0);
+    _dirty = false;
+  }
+  Stopwatch clock{_timers.partition};
+  layout(sort, any_full);
+}
+
+} // namespace pfmpm

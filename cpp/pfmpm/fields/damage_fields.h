@@ -1,0 +1,247 @@
+/// @file damage_fields.h
+/// @brief The damage-field-gradient (DFG) partition of Homel & Herbold (2017),
+/// sections 2.1-2.4: two velocity fields per contact group, chosen per
+/// (particle, node) pair by the sign of the damage gradient.
+#pragma once
+
+#include "pfmpm/contact/coulomb.h"
+#include "pfmpm/fields/fields.h"
+#include "pfmpm/fields/neighbours.h"
+#include "pfmpm/grid/grid.h"
+#include "pfmpm/particles/cell_sort.h"
+#include "pfmpm/particles/particles.h"
+
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+namespace pfmpm
+{
+
+/// Where a material's particles take their damage D_p from.
+enum class DamageSource : int
+{
+  none = 0,       ///< D_p = 0 (surface flags still count)
+  column = 1,     ///< the `damage` column of a damage model, D_p in [0, 1]
+  phase_field = 2 ///< D_p = 1 - c, clipped to [0, 1]
+};
+
+/// @brief Parameters of the damage-gradient partition.
+struct DamageGradientOptions
+{
+  /// Contact group of each body (Particles::body); empty: every body its own group.
+  std::vector<std::int32_t> groups;
+  /// D-bar_min of the separability test (eq. 21): both fields' mean damage must exceed it.
+  double separability = 0.25;
+  /// Kernel radius r_p of eqs. 17-19; 0: the cell diagonal (the paper's choice).
+  double kernel_radius = 0.0;
+  /// Verlet skin delta over r_p: neighbours are listed within r_p + 2 delta
+  /// and rebuilt once a particle has moved more than delta.
+  double skin = 0.1;
+  /// A damage model's particle is fully damaged at D_p >= this (the paper's D = 1).
+  double full_damage = 1.0 - 1e-4;
+  /// A phase-field particle is fully damaged at c <= this.
+  double phase_field_threshold = 0.05;
+};
+
+/// The normalised kernel damage field at every particle (eqs. 17-19).
+struct KernelField
+{
+  std::vector<double> S;    ///< kernel sum (eq. 19)
+  std::vector<double> D;    ///< D-bar
+  std::vector<double> grad; ///< grad D-bar, N x 2
+};
+
+/// @brief The kernel damage field and its gradient at every particle of
+/// positions `x` (N x 2) with damage `damage`, neighbours within `radius`
+/// found through the cell sort of `grid` (for checks and figures).
+KernelField kernel_damage_field(const Grid& grid, const std::vector<double>& x,
+                                const std::vector<double>& damage, double radius);
+
+/// Per-block wall time of the partition, seconds since construction.
+struct DamageTimers
+{
+  double damage = 0.0;     ///< the particle damage and its fully damaged cells
+  double neighbours = 0.0; ///< staleness check and rebuilds of the neighbour list
+  double gradient = 0.0;   ///< the kernel field and its gradient (eqs. 17-19)
+  double partition = 0.0;  ///< Algorithm 1, Algorithm 2 and the slot layout
+};
+
+/// @brief Two velocity fields per contact group, split at every node by the
+/// damage-field gradient (H&H Algorithms 1 and 2), coupled by frictional
+/// contact where they are separable (eq. 21, Algorithm 3).
+///
+/// build() computes, every step:
+/// - the particle damage D~_p = max(s_p, D_p) with the surface flag s_p
+///   (section 2.4) and whether the particle is fully damaged;
+/// - at particles near a fully damaged one, the normalised kernel field and
+///   its gradient grad D_p (eqs. 17-19, `damage_gradient`), neighbours from
+///   the Verlet list;
+/// - per node and group, the nodal gradient G_i: the particle gradient of
+///   largest magnitude among the group's particles mapping to the node
+///   (Algorithm 1), ties to the smaller particle index, so that the result
+///   does not depend on the visiting order;
+/// - per (particle, node) pair the side: field A if grad D_p . G_i >= 0,
+///   else B (Algorithm 2), as a bit per stencil node in a per-particle mask;
+///   a particle with zero gradient (no damage variation within r_p, which a
+///   B-spline stencil reaches past) is, if intact, on A when it lies behind
+///   the particle p* that gave G_i, (x_p* - x_p) . G_i >= 0, else on B, and
+///   if fully damaged on the side of its nearest listed neighbour of the
+///   same body that has a gradient (A without one);
+/// - the slots: per node, for each group in its support, A and (if some pair
+///   chose it) B. Field index 2 group + side.
+///
+/// Exact shortcut: a group's fields at a node are separable only if a fully
+/// damaged particle of the group maps to it (eq. 21, condition i), and a
+/// non-separable node acts as one field (Algorithm 3). So G_i is taken as
+/// zero there, every pair chooses A, and the node has one slot: the single
+/// field's sums, without a split that would be merged again. Only particles
+/// whose stencil reaches such a node need their gradient.
+class DamageFields
+{
+public:
+  static constexpr bool discrete = true;
+  static constexpr bool per_pair = true;
+  /// The most contact groups that may meet at a node (two fields each).
+  static constexpr int max_groups = BodyFields::max_fields / 2;
+
+  /// @param grid The background grid (kept by reference).
+  /// @param particles Particles (kept by reference); gains the columns
+  ///        `damage_gradient` and `surface`.
+  /// @param friction Coulomb coefficient per pair of groups, row-major
+  ///        groups x groups, symmetric, >= 0; the diagonal entry of a group
+  ///        is that of its crack faces.
+  /// @param source Per material, where its particles' damage comes from.
+  DamageFields(const Grid& grid, Particles& particles, std::vector<double> friction,
+               std::vector<DamageSource> source, DamageGradientOptions options);
+
+  /// Number of contact groups.
+  int size() const { return _groups_n; }
+  double friction(std::int32_t f, std::int32_t g) const { return _friction[f * _groups_n + g]; }
+  const std::vector<double>& friction() const { return _friction; }
+  const DamageGradientOptions& options() const { return _options; }
+  /// The kernel radius r_p.
+  double radius() const { return _radius; }
+  /// Contact group of each particle.
+  const std::vector<std::int32_t>& group() const { return _group; }
+
+  /// @brief The partition of this step: damage, gradients, Algorithms 1 and
+  /// 2, slots (see the class comment).
+  void build(Particles& particles, const CellSort& sort);
+
+  /// @brief Surface flags at t = 0 (H&H section 2.4): s_p = 1 where the kernel
+  /// sum of eq. 19 over the particles of p's own body is below `threshold`
+  /// times that of the body's lattice interior, S_bulk (reading of card
+  /// section 9; per body, so that bodies that start in contact get their
+  /// interface painted). The grid's walls are mirror planes: the sum adds
+  /// the particles' images in them, so a face on a wall (a symmetry plane)
+  /// is not a surface. Flags already set are kept.
+  /// @param spacing Lattice spacing of each body (Particles::body).
+  /// @return S / S_bulk per particle.
+  std::vector<double> detect_surfaces(Particles& particles, const CellSort& sort,
+                                      const std::vector<double>& spacing, double threshold);
+
+  /// Kernel sum at the interior of a square lattice of `spacing` (eq. 19).
+  static double lattice_kernel_sum(double spacing, double radius);
+
+  // -- what the transfers read ---------------------------------------------
+
+  /// Slots of active node a: [slot_start()[a], slot_start()[a + 1]).
+  const std::vector<std::int32_t>& slot_start() const { return _slot_start; }
+  std::int32_t num_slots() const { return _slot_start.back(); }
+  /// Field index of each slot: 2 group + side (0: A, 1: B).
+  const std::vector<std::int32_t>& slot_field() const { return _slot_field; }
+  /// @brief Slot of (group, side) at active node a, or -1 when that field
+  /// has no particle there.
+  std::int32_t slot(std::int32_t a, std::int32_t group, int side) const
+  {
+    const std::int32_t g = group_slot(a, group);
+    return side == 0 ? _first[g] : (_has_b[g] ? _first[g] + 1 : -1);
+  }
+  /// @brief The groups of occupied cell `key`, sorted, into out[0, n); returns n.
+  int cell_groups(std::size_t key, std::int32_t* out) const
+  {
+    if (_groups)
+      return _groups->cell_fields(key, out);
+    out[0] = 0;
+    return 1;
+  }
+  /// Whether a pair of cell `key` chose field B at some node.
+  bool split(std::size_t key) const { return _split[key] != 0; }
+  /// Whether cell `key` has a node with two or more slots.
+  bool touches(std::size_t key) const { return _touches[key] != 0; }
+  /// Per particle: bit i set when the pair with stencil node i chose field B.
+  const std::uint32_t* mask() const { return _mask.data(); }
+  /// Per particle: D~_p = max(s_p, D_p).
+  const double* damage() const { return _damage.data(); }
+  /// Per particle: 1 when fully damaged (or a surface particle), else 0.
+  const double* full() const { return _full.data(); }
+  /// Per particle: the masks of the last build.
+  const std::vector<std::uint32_t>& masks() const { return _mask; }
+  /// @brief The nodal gradients G_i of the last build (Algorithm 1): per
+  /// active node and group in its support, (node, group, G_x, G_y).
+  std::vector<std::array<double, 4>> nodal_gradients() const;
+
+  ContactStats& stats() { return _stats; }
+  const ContactStats& stats() const { return _stats; }
+  const DamageTimers& timers() const { return _timers; }
+  /// Neighbour-list builds so far.
+  std::int64_t neighbour_builds() const { return _neighbours.builds(); }
+  /// @brief Note that no particle moved more than `distance` in the step
+  /// (for the neighbour lists' skin).
+  void moved(double distance) { _neighbours.moved(distance); }
+
+private:
+  /// Group slot of `group` at active node a.
+  std::int32_t group_slot(std::int32_t a, std::int32_t group) const
+  {
+    return _groups ? _groups->slot(a, group) : a;
+  }
+  /// D~_p and the fully damaged flags; returns whether some particle is.
+  bool particle_damage(const Particles& particles);
+  /// The kernel-field gradient at the particles of cells near full damage.
+  /// Particles of the other cells get zero gradient and all pairs A.
+  void gradients(Particles& particles, const CellSort& sort);
+  /// Algorithms 1 and 2 from the particle gradients `grad`: nodal
+  /// gradients, the pairs' sides, the split cells.
+  void sides(const Particles& particles, const CellSort& sort, const double* grad);
+  /// Slots from the group slots and their sides; the cells next to a node
+  /// with two or more.
+  void layout(const CellSort& sort, bool any_split);
+
+  const Grid& _grid;
+  int _groups_n;
+  std::vector<double> _friction;
+  std::vector<DamageSource> _source;
+  DamageGradientOptions _options;
+  double _radius;
+  std::vector<std::int32_t> _group;   // per particle
+  std::optional<BodyFields> _groups;  // with two or more groups: their slots
+  NeighbourList _neighbours;
+
+  std::vector<double> _damage;        // per particle: D~_p
+  std::vector<double> _full;          // per particle: 0 or 1
+  std::vector<std::uint32_t> _mask;   // per particle
+  std::vector<std::uint8_t> _near;    // per cell: a fully damaged particle within degree cells
+  std::vector<std::uint8_t> _split;   // per cell
+  std::vector<std::uint8_t> _touches; // per cell
+  bool _dirty = false;                // gradients or masks were set in an earlier step
+
+  // Per group slot: Algorithm 1's best particle (|grad|^2, index), whether
+  // a fully damaged particle maps there, the nodal gradient, whether some
+  // pair chose B, and its first slot.
+  std::vector<double> _best_norm;
+  std::vector<std::int32_t> _best;
+  std::vector<std::uint8_t> _group_full;
+  std::vector<double> _G;
+  std::vector<std::uint8_t> _has_b;
+  std::vector<std::int32_t> _first;
+
+  std::vector<std::int32_t> _slot_start; // per active node + 1
+  std::vector<std::int32_t> _slot_field; // per slot
+  ContactStats _stats;
+  DamageTimers _timers;
+};
+
+} // namespace pfmpm

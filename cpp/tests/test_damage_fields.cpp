@@ -1,0 +1,351 @@
+// The damage-field-gradient partition (Homel & Herbold 2017): the kernel
+// field's gradient vanishes for uniform damage and points at a damaged band
+// (U1, U2), surface flags of a rectangle (U4), a band splits its two sides
+// at every node between them (U2), zero damage runs with the bits of one
+// field (U5), colliding bodies of one group conserve momentum with equal
+// and opposite contact forces, and results do not depend on the thread
+// count or on a restart.
+#include "disks.h"
+#include "helpers.h"
+#include "pfmpm/contact/coulomb.h"
+#include "pfmpm/fields/kernel.h"
+#include "pfmpm/grid/grid.h"
+#include "pfmpm/solver/solver.h"
+
+#include <gtest/gtest.h>
+#include <omp.h>
+
+#include <cmath>
+#include <map>
+#include <random>
+#include <set>
+#include <vector>
+
+using namespace pfmpm;
+using namespace pfmpm::test;
+
+namespace
+{
+/// A rectangle [x0, x1] x [y0, y1] of particles, `n` per cell of side h per
+/// direction, body 0, unit density.
+Particles make_rectangle(double x0, double y0, double x1, double y1, double h, int n)
+{
+  const double d = h / n;
+  const int nx = static_cast<int>(std::lround((x1 - x0) / d)), ny = static_cast<int>(std::lround((y1 - y0) / d));
+  Particles P(static_cast<std::size_t>(nx) * ny);
+  for (int i = 0; i < nx; ++i)
+    for (int j = 0; j < ny; ++j)
+    {
+      const std::size_t p = static_cast<std::size_t>(i) * ny + j;
+      P.x[2 * p] = x0 + (i + 0.5) * d;
+      P.x[2 * p + 1] = y0 + (j + 0.5) * d;
+      P.mass[p] = P.volume[p] = d * d;
+    }
+  return P;
+}
+
+/// Momentum scale: sum of M_p |v_p|.
+double momentum_scale(const Particles& P)
+{
+  double s = 0;
+  for (std::size_t i = 0; i < P.size(); ++i)
+    s += P.mass[i] * std::hypot(P.v[2 * i], P.v[2 * i + 1]);
+  return s;
+}
+
+/// A block [1, 5] x [1, 3] (h = 0.25, 2 per cell) with a fully damaged band
+/// one cell wide across x = 3 (surface-flagged particles), its halves pulled
+/// apart and sheared, with one group of friction 0.3.
+struct BandedBlock
+{
+  Grid grid{2, {24, 16}, 0.25, {0.0, 0.0}};
+  Particles P = make_rectangle(1.0, 1.0, 5.0, 3.0, 0.25, 2);
+  std::unique_ptr<Solver> solver;
+
+  explicit BandedBlock(std::optional<DamageGradientOptions> options = DamageGradientOptions{})
+  {
+    add_model_columns(P, false);
+    for (std::size_t p = 0; p < P.size(); ++p)
+    {
+      const double x = P.x[2 * p], y = P.x[2 * p + 1];
+      P.v[2 * p] = x < 3.0 ? -0.02 : 0.02;
+      P.v[2 * p + 1] = 0.01 * std::sin(3.0 * x) + (x < 3.0 ? 0.01 : -0.01);
+      P.f64("strain")[3 * p] = 1e-3 * std::cos(2.0 * y);
+    }
+    std::vector<double> friction;
+    if (options)
+      friction = {0.3};
+    solver = std::make_unique<Solver>(grid, P, elastic(100.0, 0.3, 1.0), 2e-3,
+                                      std::vector<std::optional<Fracture>>{}, 1e-6, 1000,
+                                      friction, options);
+    if (options)
+      for (std::size_t p = 0; p < P.size(); ++p)
+        if (std::abs(P.x[2 * p] - 3.0) < 0.125)
+          P.i32("surface")[p] = 1;
+  }
+};
+} // namespace
+
+TEST(KernelField, UniformDamageHasZeroGradient)
+{
+  // U1: any particle set, free surfaces included.
+  const Grid grid(2, {24, 24}, 0.25, {0.0, 0.0});
+  Particles P = make_disks({{3.0, 3.0, 1.7, 0.0, 0.0}}, 0.125);
+  const double radius = std::sqrt(2.0) * 0.25;
+  for (double d : {0.0, 0.37, 1.0})
+  {
+    const KernelField f = kernel_damage_field(grid, P.x, std::vector<double>(P.size(), d), radius);
+    for (std::size_t p = 0; p < P.size(); ++p)
+    {
+      EXPECT_EQ(f.D[p], d);
+      EXPECT_LT(std::hypot(f.grad[2 * p], f.grad[2 * p + 1]), 1e-12 / radius);
+      EXPECT_GE(f.S[p], 1.0);
+    }
+  }
+}
+
+TEST(KernelField, LatticeSums)
+{
+  // The card's table (shared/homel-herbold-method.md section 9).
+  EXPECT_NEAR(DamageFields::lattice_kernel_sum(0.5, std::sqrt(2.0)), 7.588, 5e-4);
+  EXPECT_NEAR(DamageFields::lattice_kernel_sum(1.0 / 3.0, std::sqrt(2.0)), 16.949, 5e-4);
+}
+
+TEST(KernelField, GradientPointsAtADamagedBand)
+{
+  // U2: one row of D = 1 at y = 2.0625 in a block; within r_p of the band and
+  // away from its ends, the gradients point at it along its normal.
+  const Grid grid(2, {32, 16}, 0.25, {0.0, 0.0});
+  const Particles P = make_rectangle(1.0, 1.0, 7.0, 3.0, 0.25, 2);
+  const double radius = std::sqrt(2.0) * 0.25, band = 2.0625;
+  std::vector<double> damage(P.size(), 0.0);
+  for (std::size_t p = 0; p < P.size(); ++p)
+    damage[p] = std::abs(P.x[2 * p + 1] - band) < 0.01 ? 1.0 : 0.0;
+  const KernelField f = kernel_damage_field(grid, P.x, damage, radius);
+  int seen = 0;
+  for (std::size_t p = 0; p < P.size(); ++p)
+  {
+    const double x = P.x[2 * p], dy = P.x[2 * p + 1] - band;
+    if (std::abs(dy) < 0.01 || std::abs(dy) >= radius || x < 1.0 + radius || x > 7.0 - radius)
+      continue;
+    const double gx = f.grad[2 * p], gy = f.grad[2 * p + 1];
+    EXPECT_LT(gy * dy, 0.0) << "towards the band";
+    EXPECT_LT(std::atan2(std::abs(gx), std::abs(gy)), M_PI / 180.0) << "along its normal";
+    ++seen;
+  }
+  EXPECT_GT(seen, 100);
+}
+
+TEST(DamageFields, SurfaceFlagsOfARectangle)
+{
+  // U4: with S < 0.99 S_bulk, exactly the two outer particle rows of a 2 per
+  // cell rectangle are flagged; its corner particle has S / S_bulk = 0.470.
+  Grid grid(2, {24, 20}, 0.25, {0.0, 0.0});
+  Particles P = make_rectangle(1.0, 1.0, 5.0, 4.0, 0.25, 2);
+  Solver solver(grid, P, elastic(100.0, 0.3, 1.0), 1e-3, {}, 1e-6, 1000, {0.0},
+                DamageGradientOptions{});
+  const std::vector<double> ratio = solver.detect_surfaces({0.125}, 0.99);
+  const std::vector<std::int32_t>& flag = P.i32("surface");
+  for (std::size_t p = 0; p < P.size(); ++p)
+  {
+    const double x = P.x[2 * p], y = P.x[2 * p + 1];
+    const double edge = std::min({x - 1.0, 5.0 - x, y - 1.0, 4.0 - y}); // 0.0625 + 0.125 k
+    EXPECT_EQ(flag[p], edge < 0.25 ? 1 : 0) << x << ", " << y;
+    if (std::abs(x - 1.0625) < 1e-9 && std::abs(y - 1.0625) < 1e-9)
+      EXPECT_NEAR(ratio[p], 0.470, 5e-4);
+  }
+}
+
+TEST(DamageFields, BandSplitsItsTwoSides)
+{
+  // U2: at every node that particles from both sides of the band map to,
+  // the two sides are in different fields.
+  BandedBlock b;
+  b.solver->prepare();
+  const DamageFields& fields = *b.solver->damage_fields();
+  const std::vector<std::uint32_t>& mask = fields.masks();
+  std::map<std::pair<int, int>, std::set<std::pair<int, int>>> at; // node -> (half, side)
+  for (std::size_t p = 0; p < b.P.size(); ++p)
+  {
+    const double x = b.P.x[2 * p];
+    if (std::abs(x - 3.0) < 0.125)
+      continue; // the band itself
+    const int cx = static_cast<int>(x / 0.25), cy = static_cast<int>(b.P.x[2 * p + 1] / 0.25);
+    for (int i = 0; i < 9; ++i)
+      at[{cx + i / 3, cy + i % 3}].insert({x < 3.0 ? 0 : 1, (mask[p] >> i) & 1});
+  }
+  int straddling = 0;
+  for (const auto& [node, sides] : at)
+  {
+    std::set<int> halves;
+    for (const auto& [half, side] : sides)
+      halves.insert(half);
+    if (halves.size() < 2)
+      continue;
+    ++straddling;
+    for (int side = 0; side < 2; ++side)
+      EXPECT_FALSE(sides.count({0, side}) && sides.count({1, side}))
+          << "node " << node.first << ", " << node.second;
+  }
+  EXPECT_GT(straddling, 10);
+}
+
+TEST(DamageFields, ZeroDamageRunsAsOneField)
+{
+  // U5: no damage and no surface flags: the bits of the single field.
+  auto run = [](bool damage)
+  {
+    BandedBlock b(damage ? std::optional<DamageGradientOptions>{DamageGradientOptions{}} : std::nullopt);
+    if (damage)
+      std::fill(b.P.i32("surface").begin(), b.P.i32("surface").end(), 0);
+    b.solver->advance(300);
+    return b.P;
+  };
+  const Particles one = run(false), split = run(true);
+  EXPECT_TRUE(same_bits(one.x, split.x));
+  EXPECT_TRUE(same_bits(one.v, split.v));
+  EXPECT_TRUE(same_bits(one.stress, split.stress));
+}
+
+TEST(DamageFields, BandParts)
+{
+  // The two halves are pulled apart: the band's nodes are separable and
+  // carry no force, so each half keeps its momentum exactly.
+  BandedBlock b;
+  auto half_momentum = [&]
+  {
+    double px = 0.0;
+    for (std::size_t p = 0; p < b.P.size(); ++p)
+      if (b.P.x[2 * p] > 3.0)
+        px += b.P.mass[p] * b.P.v[2 * p];
+    return px;
+  };
+  b.solver->advance(2);
+  const double before = half_momentum();
+  b.solver->advance(200);
+  const ContactStats& s = *b.solver->contact_stats();
+  EXPECT_GT(s.separable_total, 0);
+  EXPECT_EQ(s.active, 0);
+  EXPECT_NEAR(half_momentum(), before, 1e-13 * std::abs(before));
+}
+
+TEST(DamageFields, CollisionConservesMomentum)
+{
+  // Two disks of one contact group meet through their surface-flagged
+  // fields: momentum is kept, forces are equal and opposite, C.1-C.4 hold.
+  Grid grid(2, {32, 24}, 0.25, {0.0, 0.0});
+  Particles P = make_disks({{2.0, 2.0, 1.0, 0.5, 0.1}, {4.1, 2.6, 1.0, 0.0, 0.0}}, 0.125);
+  DamageGradientOptions options;
+  options.groups = {0, 0};
+  Solver solver(grid, P, elastic(100.0, 0.3, 1.0), 2e-3, {}, 1e-6, 1000, {0.3}, options);
+  solver.detect_surfaces({0.125, 0.125}, 0.99);
+  const Energies before = solver.energies();
+  const double scale = momentum_scale(P);
+  for (int k = 0; k < 60; ++k)
+  {
+    solver.advance(25);
+    const Energies e = solver.energies();
+    EXPECT_NEAR(e.momentum[0], before.momentum[0], 1e-10 * scale);
+    EXPECT_NEAR(e.momentum[1], before.momentum[1], 1e-10 * scale);
+  }
+  const ContactStats& s = *solver.contact_stats();
+  EXPECT_GT(s.active, 0);
+  EXPECT_GT(s.separable_total, 0);
+  EXPECT_LT(s.friction_work, 0.0);
+  for (int c = 0; c < 4; ++c)
+    EXPECT_EQ(s.violations[c], 0) << "C." << c + 1;
+}
+
+TEST(DamageFields, ThreadCountDoesNotChangeBits)
+{
+  auto run = [](int threads)
+  {
+    omp_set_num_threads(threads);
+    BandedBlock b;
+    b.solver->advance(300);
+    return std::make_pair(b.P, b.solver->contact_stats()->separable_total);
+  };
+  const int max_threads = omp_get_max_threads();
+  const auto [p1, s1] = run(1);
+  const auto [p3, s3] = run(3);
+  omp_set_num_threads(max_threads);
+  EXPECT_GT(s1, 0);
+  EXPECT_EQ(s1, s3);
+  EXPECT_TRUE(same_bits(p1.x, p3.x));
+  EXPECT_TRUE(same_bits(p1.v, p3.v));
+  EXPECT_TRUE(same_bits(p1.f64("damage_gradient"), p3.f64("damage_gradient")));
+}
+
+TEST(DamageFields, RestoredRunContinuesBitwise)
+{
+  BandedBlock original;
+  original.solver->advance(120);
+  BandedBlock resumed;
+  resumed.P = original.P; // the particle columns, surface flags included
+  resumed.solver->restore(original.solver->state());
+  original.solver->advance(150);
+  resumed.solver->advance(150);
+  EXPECT_TRUE(same_bits(original.P.x, resumed.P.x));
+  EXPECT_TRUE(same_bits(original.P.v, resumed.P.v));
+  EXPECT_TRUE(same_bits(original.P.stress, resumed.P.stress));
+  EXPECT_EQ(original.solver->contact_stats()->separable_total,
+            resumed.solver->contact_stats()->separable_total);
+}
+
+TEST(DamageFields, BadOptionsAreRefused)
+{
+  Grid grid(2, {8, 8}, 1.0, {0.0, 0.0});
+  Particles P(1);
+  P.x = {4.0, 4.0};
+  P.mass = {1.0};
+  P.volume = {1.0};
+  const auto m = elastic(1.0, 0.0, 1.0);
+  auto make = [&](DamageGradientOptions o, std::vector<double> friction = {0.1})
+  { Solver(grid, P, m, 0.1, {}, 1e-6, 10, std::move(friction), std::move(o)); };
+  DamageGradientOptions o;
+  EXPECT_NO_THROW(make(o));
+  o.separability = 1.0;
+  EXPECT_THROW(make(o), std::invalid_argument);
+  o = {};
+  o.kernel_radius = -1.0;
+  EXPECT_THROW(make(o), std::invalid_argument);
+  o = {};
+  o.skin = 0.0;
+  EXPECT_THROW(make(o), std::invalid_argument);
+  o = {};
+  o.groups = {1};
+  EXPECT_THROW(make(o), std::invalid_argument); // group 1 of a 1 x 1 friction matrix
+  EXPECT_THROW(make({}, {}), std::invalid_argument);
+}
+
+TEST(Coulomb, PairForcesAreExactlyOpposite)
+{
+  // B3: the Coulomb law gives the two fields of a pair forces that are exact
+  // negatives (the reduced mass and the relative velocity), bit for bit.
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int k = 0; k < 1000; ++k)
+  {
+    TrialField f[2];
+    for (TrialField& t : f)
+    {
+      t.m = 1.0 + u(rng) * u(rng);
+      for (int d = 0; d < 2; ++d)
+      {
+        t.vt[d] = u(rng);
+        t.pt[d] = t.m * t.vt[d];
+        t.g[d] = u(rng);
+      }
+      t.V = 1.0;
+    }
+    const bool live[2] = {true, true};
+    const std::int32_t field[2] = {0, 1};
+    const double friction[4] = {0.0, 0.4, 0.4, 0.0};
+    double fn[2][2]{}, ft[2][2]{}, count[contact_counts]{};
+    ContactPair pairs[1];
+    coulomb_forces(2, f, live, field, friction, 2, 1.0, 1e-2, fn, ft, pairs, count);
+    for (int d = 0; d < 2; ++d)
+      EXPECT_EQ(fn[0][d] + ft[0][d], -(fn[1][d] + ft[1][d]));
+    EXPECT_EQ(count[count_c2], 0.0);
+  }
+}
