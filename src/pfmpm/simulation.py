@@ -228,7 +228,9 @@ class Simulation:
         if self.damage:
             active.append("damage")
         if self.damage_gradient:
-            self._flag_surfaces()
+            active.append("damage_gradient")
+            if self.scene.contact.surface_detection != "none" or self.scene.contact.surfaces:
+                active.append("surface_flags")
         return active
 
     def run(self, out_dir: Path | str, progress: bool = True, checkpoint_every: int = 0,
