@@ -175,6 +175,7 @@ void bind_solver(py::module_& m)
              d["fracture"] = e.fracture;
              d["external_work"] = e.external_work;
              d["friction_work"] = e.friction_work;
+             d["wall_work"] = e.wall_work;
              d["fracture_by_body"] = e.fracture_by_field;
              d["momentum_x"] = e.momentum[0];
              d["momentum_y"] = e.momentum[1];

@@ -87,8 +87,8 @@ from petsc4py import PETSc
 
 from . import _core
 from .crack import initial_history
-from .post.tip import CrackTip
-from .run import CRACK_COLUMNS, ENERGY_COLUMNS, RunResult, Snapshots, run_to_end
+from .post.tip import CrackPath, CrackTip
+from .run import CRACK_COLUMNS, ENERGY_COLUMNS, WALL_COLUMNS, RunResult, Snapshots, run_to_end
 from .scene import Body, BodyForce, MaterialSpec, Rectangle, Scene, SceneError, Traction
 from .simulation import core_materials
 
@@ -156,6 +156,7 @@ class FemSimulation:
         self.dt = scene.dt()
         self._step = 0
         self._work = 0.0  # external work of this rank's owned vertices
+        self._wall_work = 0.0  # and the work of the walls on them
         with _quiet_jit():
             self._build_mesh()
             self._build_dynamics(material)
@@ -226,6 +227,7 @@ class FemSimulation:
         self.history = np.zeros(len(self._dofs))
         self._pf = None
         self.crack_tip = None
+        self.crack_path = None
         if self._fracture is None:
             return
         for crack in self.scene.cracks:
@@ -235,6 +237,7 @@ class FemSimulation:
         self._pf = _PhaseFieldSolver(self.c, self._fracture, self.scene.phase_field, len(self._dofs))
         if self.scene.cracks:
             self.crack_tip = CrackTip.for_scene(self.scene)
+            self.crack_path = CrackPath(self._owned, self.scene.output.crack_threshold)
         self._solve_phase_field()  # the phase field of the initial cracks, as the MPM
 
     def _assemble(self, local: np.ndarray, scalar: bool = False) -> np.ndarray:
@@ -323,7 +326,8 @@ class FemSimulation:
     @property
     def columns(self) -> list[str]:
         """Columns of ``energies.csv`` for this scene (crack-tip columns with a crack)."""
-        return ENERGY_COLUMNS + (CRACK_COLUMNS if self.crack_tip is not None else [])
+        return (ENERGY_COLUMNS + (WALL_COLUMNS if self.scene.walls else [])
+                + (CRACK_COLUMNS if self.crack_tip is not None else []))
 
     @property
     def step(self) -> int:
@@ -419,6 +423,8 @@ class FemSimulation:
         self._v += dt * (self._fext - fint) / self._mass[:, None]
         for on, components in self._walls:
             for k in components:
+                # As the MPM's walls: the work is the kinetic energy stopped.
+                self._wall_work -= 0.5 * float(self._mass[on] @ (v_old[on, k] ** 2))
                 self._v[on, k] = 0.0
         self._work += 0.5 * dt * float(np.sum(self._fext * (v_old + self._v)))
         u = self._u.array.reshape(-1, 2)
@@ -447,10 +453,11 @@ class FemSimulation:
             float(self._volume @ (self._g * psi_plus + psi_minus)),
             self._fracture_energy(),
             self._work,
+            self._wall_work,
             float(m @ v[:, 0]),
             float(m @ v[:, 1]),
         ])
-        kinetic, elastic, fracture, work, px, py = self.comm.allreduce(local, op=MPI.SUM)
+        kinetic, elastic, fracture, work, wall, px, py = self.comm.allreduce(local, op=MPI.SUM)
         return {
             "step": self._step,
             "t": self.time,
@@ -458,7 +465,8 @@ class FemSimulation:
             "elastic": elastic,
             "fracture": fracture,
             "external_work": work,
-            "total": kinetic + elastic + fracture - work,
+            "wall_work": wall,
+            "total": kinetic + elastic + fracture - work - wall,
             "momentum_x": px,
             "momentum_y": py,
         }
@@ -477,35 +485,29 @@ class FemSimulation:
         return self._fracture.Gc * float(self._volume @ density)
 
     def crack_tip_record(self) -> dict[str, float]:
-        """Record the crack tip now: ``crack_tip_x``, ``crack_tip_y``, ``crack_tip_speed``.
+        """Record the crack tips now (the :data:`~pfmpm.run.CRACK_COLUMNS`) and
+        which vertices have cracked.
 
-        Each rank finds its farthest cracked vertex ahead of the notch (see
-        :class:`~pfmpm.crack.CrackTip`); the tip is the farthest of those,
-        ties broken by the smaller ``(y, x)``, so it does not depend on how
-        the mesh is partitioned.  Every call is one record of the speed fit;
+        Each rank finds the farthest cracked vertices of its own (see
+        :class:`~pfmpm.post.tip.CrackTip`) and :meth:`~pfmpm.post.tip.CrackTip.merge`
+        takes the farthest of those, so the tips do not depend on how the
+        mesh is partitioned.  Every call is one record of the speed fits;
         collective.  Only for scenes with an initial crack (see :attr:`columns`).
         """
         tip = self.crack_tip
         if tip is None:
             raise ValueError("the scene has no initial crack whose tip could be tracked")
-        xy = self._x[: self._owned]
-        rel = xy - tip.origin
-        cracked = (self.c.x.array[: self._owned] < tip.threshold) & (rel @ tip.direction > 0)
-        best = None
-        if cracked.any():
-            dist = np.hypot(rel[cracked, 0], rel[cracked, 1])
-            far = xy[cracked][dist == dist.max()]
-            x, y = far[np.lexsort((far[:, 0], far[:, 1]))[0]]
-            best = (float(dist.max()), float(y), float(x))
-        found = [b for b in self.comm.allgather(best) if b is not None]
-        if found:
-            far = max(b[0] for b in found)
-            _, y, x = min(b for b in found if b[0] == far)
-            points, c = np.array([[x, y]]), np.zeros(1)
-        else:
-            points, c = np.zeros((0, 2)), np.zeros(0)
-        x, y, speed = tip.update(self.time, points, c)
-        return {"crack_tip_x": x, "crack_tip_y": y, "crack_tip_speed": speed}
+        c = self.c.x.array[: self._owned]
+        self.crack_path.update(self.time, c)
+        found = tip.merge(self.comm.allgather(tip.farthest(self._x[: self._owned], c)))
+        return tip.record(self.time, found)
+
+    def crack_path_points(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """The vertices and the time each cracked (NaN: intact), on rank 0
+        (``None`` on the others); collective."""
+        xy = self.comm.gather(self._x[: self._owned])
+        times = self.comm.gather(self.crack_path.times)
+        return (np.concatenate(xy), np.concatenate(times)) if self.comm.rank == 0 else None
 
     # -- run with output ------------------------------------------------------
 
@@ -529,13 +531,14 @@ class FemSimulation:
         return _XdmfFrames(self, out / "phase_field.xdmf")
 
     def new_snapshots(self) -> Snapshots | None:
-        """Phase-field images like the MPM's (``output.snapshots``), one pixel per
-        vertex, on rank 0; ``None`` on the others, or if nothing can crack."""
+        """Phase-field images like the MPM's (``output.snapshots``), one pixel
+        centred on each vertex, on rank 0; ``None`` on the others, or if nothing
+        can crack."""
         if self.comm.rank != 0 or self._pf is None or not self.scene.output.snapshots:
             return None
         h, (nx, ny) = self.scene.grid.h, self.scene.grid.cells
         return Snapshots(self.scene, h, np.asarray(self.scene.grid.origin, dtype=float) - 0.5 * h,
-                         (nx + 1, ny + 1))
+                         (nx + 1, ny + 1), reach=0.5 * h)
 
     def offer_snapshot(self, snapshots: Snapshots | None) -> None:
         """Gather the vertex phase field to rank 0 while images are pending (collective)."""

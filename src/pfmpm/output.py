@@ -27,12 +27,17 @@ def _data_array(name: str, values: np.ndarray) -> str:
 
 
 def vtk_values(values: np.ndarray, layout: str) -> np.ndarray:
-    """A particle column as VTK point data: a plane tensor with its out-of-plane
-    entry (layout ``xx,yy,xy,zz``) becomes the symmetric tensor (xx, yy, zz,
-    xy, yz, xz) ParaView reads; every other column is written as it is."""
-    if layout == "xx,yy,xy,zz":
+    """A particle column as VTK point data: a plane tensor (layout ``xx,yy,xy``,
+    or ``xx,yy,xy,zz`` with its out-of-plane entry) becomes the symmetric
+    tensor (xx, yy, zz, xy, yz, xz) ParaView reads, zz = 0 where the column
+    has none (the strain of a plane-strain run; a plane-stress run keeps no
+    out-of-plane strain); every other column is written as it is."""
+    if layout in ("xx,yy,xy", "xx,yy,xy,zz"):
         tensor = np.zeros((len(values), 6))
-        tensor[:, [0, 1, 2, 3]] = values[:, [0, 1, 3, 2]]
+        if layout == "xx,yy,xy":
+            tensor[:, [0, 1, 3]] = values
+        else:
+            tensor[:, [0, 1, 2, 3]] = values[:, [0, 1, 3, 2]]
         return tensor
     return values
 
@@ -121,11 +126,20 @@ class ParticleSeries:
 class CsvLog:
     """A CSV file written row by row and flushed after each row.
 
-    With ``append``, rows are added to an existing file that already has the header.
+    With ``append``, rows are added to an existing file that already has a
+    header, under that header's columns (a run resumed from a checkpoint of
+    an older pfmpm keeps the columns its file started with); each must be one
+    of ``columns``.
     """
 
     def __init__(self, path: Path, columns: list[str], append: bool = False):
         self.columns = list(columns)
+        if append:
+            with open(path, newline="") as f:
+                header = next(csv.reader(f), self.columns)
+            if unknown := [c for c in header if c not in self.columns]:
+                raise ValueError(f"{path}: column {unknown[0]} is not one of this run's")
+            self.columns = header
         self._file = open(path, "a" if append else "w", newline="")
         self._writer = csv.writer(self._file)
         if not append:

@@ -9,8 +9,8 @@ import numpy as np
 from . import _core
 from .crack import initial_history
 from .output import ParticleSeries, vtk_values
-from .post.tip import CrackTip
-from .run import CRACK_COLUMNS, ENERGY_COLUMNS, RunResult, Snapshots, run_to_end
+from .post.tip import CrackPath, CrackTip
+from .run import CRACK_COLUMNS, ENERGY_COLUMNS, WALL_COLUMNS, RunResult, Snapshots, run_to_end
 from .scene import Scene, SceneError
 
 CONTACT_COLUMNS = ["friction_dissipation"]
@@ -50,9 +50,13 @@ class Simulation:
     grid : pfmpm._core.Grid
     particles : pfmpm._core.Particles
         Particle arrays as zero-copy numpy views (``x``, ``v``, ``stress``, ...).
+    initial_x : ndarray (N, 2)
+        The particle positions at t = 0.
     solver : pfmpm._core.Solver
     crack_tip : CrackTip or None
-        Tracks the tip of the first initial crack, if any.
+        Tracks the tip of the first initial crack and of its branches, if any.
+    crack_path : CrackPath or None
+        With a crack tip: when each crackable particle cracked.
     """
 
     comm = None
@@ -67,6 +71,8 @@ class Simulation:
         for wall in scene.walls:
             self.grid.set_wall(_core.Side.__members__[wall.side], _core.Wall.__members__[wall.type])
         arrays = scene.particles()
+        # The seeding is deterministic, so a resumed run gets the same start.
+        self.initial_x = arrays["x"]
         self.particles = _core.Particles(len(arrays["mass"]))
         core = {c["name"] for c in self.particles.columns()}
         for name in core & arrays.keys():
@@ -90,6 +96,8 @@ class Simulation:
         self._impose_cracks()
         self.solver.set_stability_length(scene.critical_length())
         self.crack_tip = CrackTip.for_scene(scene) if scene.cracks else None
+        self.crack_path = (CrackPath(int(self._crackable.sum()), scene.output.crack_threshold)
+                           if scene.cracks else None)
         if self.cracks:
             self.solver.prepare()  # the phase field of the initial cracks
 
@@ -108,7 +116,8 @@ class Simulation:
     @property
     def columns(self) -> list[str]:
         """Columns of ``energies.csv`` for this scene."""
-        columns = ENERGY_COLUMNS + (CRACK_COLUMNS if self.crack_tip else [])
+        columns = ENERGY_COLUMNS + (WALL_COLUMNS if self.scene.walls else [])
+        columns += CRACK_COLUMNS if self.crack_tip else []
         if self.contact:
             columns += CONTACT_COLUMNS + [f"fracture_{b.name}" for b in self.scene.bodies]
         return columns
@@ -132,7 +141,8 @@ class Simulation:
         e["step"] = self.step
         e["t"] = self.time
         friction = -e.pop("friction_work")
-        e["total"] = e["kinetic"] + e["elastic"] + e["fracture"] - e["external_work"] + friction
+        e["total"] = (e["kinetic"] + e["elastic"] + e["fracture"] - e["external_work"]
+                      - e["wall_work"] + friction)
         if self.contact:
             e["friction_dissipation"] = friction
             for body, value in zip(self.scene.bodies, by_body):
@@ -140,16 +150,40 @@ class Simulation:
         return e
 
     def crack_tip_record(self) -> dict[str, float]:
-        """Record the crack tip now: ``crack_tip_x``, ``crack_tip_y``, ``crack_tip_speed``."""
+        """Record the crack tips now (the :data:`~pfmpm.run.CRACK_COLUMNS`) and
+        which particles have cracked."""
         sel = self._crackable
-        x, y, speed = self.crack_tip.update(self.time, self.particles.x[sel], self.particles.c[sel])
-        return {"crack_tip_x": x, "crack_tip_y": y, "crack_tip_speed": speed}
+        c = self.particles.c[sel]
+        self.crack_path.update(self.time, c)
+        return self.crack_tip.update(self.time, self.particles.x[sel], c)
+
+    def restore_crack_path(self, times) -> None:
+        """Continue the crack path of a checkpoint: its crack times, or, from a
+        file that has none, the checkpoint's time for the particles cracked by then."""
+        if times is not None:
+            self.crack_path.times[...] = times
+        else:
+            self.crack_path.update(self.time, self.particles.c[self._crackable])
+
+    def crack_path_points(self) -> tuple[np.ndarray, np.ndarray]:
+        """The crackable particles now and the time each cracked (NaN: intact)."""
+        return self.particles.x[self._crackable], self.crack_path.times
 
     def point_data(self) -> dict[str, np.ndarray]:
-        """The particle columns that declare an output name, under that name
-        (see :func:`pfmpm.output.vtk_values` for how tensors are written)."""
-        return {c["output"]: vtk_values(getattr(self.particles, c["name"]), c["layout"])
+        """The particle output: every column that declares an output name, under
+        that name (:func:`pfmpm.output.vtk_values` says how tensors are written:
+        ``velocity``, ``volume``, ``stress``, ``strain``, ``body``,
+        ``material``, with a phase field ``c`` and ``history``), then
+        ``displacement`` (from the position at t = 0), ``damage`` (``1 - c``,
+        with a phase field) and ``id`` (the particle's index, which the core
+        keeps: it sorts an index, not the particles)."""
+        data = {c["output"]: vtk_values(getattr(self.particles, c["name"]), c["layout"])
                 for c in self.particles.columns() if c["output"]}
+        data["displacement"] = self.particles.x - self.initial_x
+        if self.cracks:
+            data["damage"] = 1.0 - self.particles.c
+        data["id"] = np.arange(len(self.particles), dtype=np.int64)
+        return data
 
     def modules(self) -> list[str]:
         """The parts of the method this scene switches on."""
@@ -194,12 +228,15 @@ class Simulation:
 
     def new_snapshots(self) -> Snapshots | None:
         """Phase-field images of the crackable particles at ``output.snapshots``,
-        a pixel per particle spacing; ``None`` if nothing can crack or no time is given."""
+        a pixel per (finest) particle spacing, each showing the nearest particle
+        within the coarsest spacing; ``None`` if no time is given."""
         if not (self.cracks and self.scene.output.snapshots):
             return None
         g = self.scene.grid
-        pixel = g.h / max(b.particles_per_cell for b in self.scene.bodies)
-        return Snapshots(self.scene, pixel, g.origin, tuple(int(round(s / pixel)) for s in g.size))
+        spacings = [b.spacing(g.h) for b in self.scene.bodies if self.scene.fracture_of(b)]
+        pixel = min(spacings)
+        return Snapshots(self.scene, pixel, g.origin, tuple(int(round(s / pixel)) for s in g.size),
+                         reach=max(spacings))
 
     def offer_snapshot(self, snapshots: Snapshots | None) -> None:
         """Hand the crackable particles' phase field now to ``snapshots``."""
