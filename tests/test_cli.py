@@ -70,7 +70,7 @@ def test_missing_scene_file(tmp_path):
 
 def test_ctrl_c_stops_cleanly_with_output_intact(tmp_path):
     out = tmp_path / "long"
-    args = ["run", BAR, "--out", out, "--quiet", "--set", "time.end=1e5", "--set", "output.every=500"]
+    args = ["run", BAR, "--out", out, "--quiet", "--set", "time.end=1e4", "--set", "output.every=500"]
     proc = subprocess.Popen([sys.executable, "-m", "pfmpm.cli", *map(str, args)], stderr=subprocess.PIPE, text=True)
     csv = out / "energies.csv"
     deadline = time.time() + 60

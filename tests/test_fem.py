@@ -202,7 +202,7 @@ def test_non_finite_energy_stops_the_run_and_keeps_the_output(tmp_path):
     assert read_csv(tmp_path / "energies.csv")["step"].tolist() == [0.0]
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert (summary["method"], summary["status"], summary["steps"]) == ("fem", "failed", 1)
-    assert (tmp_path / "phase_field.xdmf").exists()
+    assert (tmp_path / "fields.xdmf").exists()
 
 
 @pytest.mark.parametrize("change, path", [

@@ -43,6 +43,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .post.tip import CrackTip
+
 FORMAT = "pfmpm-checkpoint"
 VERSION = 4
 # Version 4 stores the particle columns and the solver state by the names the
@@ -147,7 +149,7 @@ def _state_of(sim, run) -> tuple[dict, dict[str, np.ndarray]]:
     arrays["output/energies_csv"] = np.frombuffer(run.energies_csv(), dtype=np.uint8)
     attrs["series"] = [[t, name] for t, name in run.series_entries()]
     tip = sim.crack_tip.records() if sim.crack_tip is not None else []
-    arrays["output/crack_tip"] = np.asarray(tip, dtype=float).reshape(len(tip), -1)
+    arrays["output/crack_tip"] = np.asarray(tip, dtype=float).reshape(-1, 1 + len(CrackTip.TRACKS))
     if sim.crack_path is not None:
         arrays["output/crack_time"] = sim.crack_path.times
     times, images = run.snapshot_state()

@@ -70,7 +70,7 @@ run; the energies match a serial run to round-off and the solver tolerance.
 
 from __future__ import annotations
 
-import argparse
+import logging
 import math
 import sys
 import warnings
@@ -87,12 +87,13 @@ from petsc4py import PETSc
 
 from . import _core
 from .crack import initial_history
+from .output import check_directory
 from .post.tip import CrackPath, CrackTip
 from .run import CRACK_COLUMNS, ENERGY_COLUMNS, WALL_COLUMNS, RunResult, Snapshots, run_to_end
 from .scene import Body, BodyForce, MaterialSpec, Rectangle, Scene, SceneError, Traction
 from .simulation import core_materials
 
-__all__ = ["FemSimulation", "MESH_DIAGONAL", "main"]
+__all__ = ["FemSimulation", "MESH_DIAGONAL", "run_command", "main"]
 
 #: DOLFINx diagonal pattern of the structured triangle mesh (see the module docstring).
 MESH_DIAGONAL = mesh.DiagonalType.left_right
@@ -408,9 +409,13 @@ class FemSimulation:
         eps[:, 2] = 0.5 * (self._dy @ ux + self._dx @ uy)
         return eps
 
+    def stresses(self) -> np.ndarray:
+        """Cell stresses (cells, 4): xx, yy, xy, zz of ``g psi+ + psi-`` (eqs. 14-16)."""
+        return self._elastic.stresses(self._eps, self._g)
+
     def _internal_force(self) -> np.ndarray:
         """Internal force on the owned vertices (owned, 2), eq. (62) over cells."""
-        sig = self._elastic.stresses(self._eps, self._g) * self._volume[:, None]  # eqs. (14)-(16)
+        sig = self.stresses() * self._volume[:, None]
         f = np.empty((self._local, 2))
         f[:, 0] = self._dx_t @ sig[:, 0] + self._dy_t @ sig[:, 2]
         f[:, 1] = self._dx_t @ sig[:, 2] + self._dy_t @ sig[:, 1]
@@ -516,8 +521,8 @@ class FemSimulation:
 
         The run loop of :func:`pfmpm.run.run_to_end`: rank 0 writes
         ``energies.csv``, ``summary.json`` and the plots; all ranks write the
-        XDMF series ``phase_field.xdmf`` of ``c`` every ``output.every``
-        steps (and at the start and the end).  A non-finite energy stops the
+        XDMF series ``fields.xdmf`` (:meth:`open_frames`) every
+        ``output.every`` steps (and at the start and the end).  A non-finite energy stops the
         run with status ``"failed"`` and an error naming the step and time;
         Ctrl-C or SIGTERM stops every rank at the same step with status
         ``"interrupted"``.  Output written so far stays.
@@ -527,8 +532,9 @@ class FemSimulation:
     # -- what the run loop of pfmpm.run asks of a simulation -----------------
 
     def open_frames(self, out: Path, resume=None) -> "_XdmfFrames":
-        """The XDMF series ``phase_field.xdmf`` of ``c`` on the mesh (collective)."""
-        return _XdmfFrames(self, out / "phase_field.xdmf")
+        """The XDMF series ``fields.xdmf`` on the mesh (collective): phase field,
+        displacement, velocity, stress and history."""
+        return _XdmfFrames(self, out / "fields.xdmf")
 
     def new_snapshots(self) -> Snapshots | None:
         """Phase-field images like the MPM's (``output.snapshots``), one pixel
@@ -580,15 +586,41 @@ class FemSimulation:
 
 
 class _XdmfFrames:
-    """The XDMF series of a FEM run's phase field: ``write()`` adds ``c`` now (collective)."""
+    """The XDMF series of a FEM run (collective): ``write()`` adds, at the
+    current time, the phase field ``c`` and the displacement and velocity
+    (vertex values), and the stress (the symmetric 3 x 3 tensor with its zz
+    entry) and history field ``H`` (cell values)."""
 
     def __init__(self, sim: FemSimulation, path: Path):
         self._sim = sim
+        msh = sim.mesh
+        with _quiet_jit():
+            vector = fem.VectorFunctionSpace(msh, ("Lagrange", 1))
+            cells = fem.FunctionSpace(msh, ("DG", 0))
+            tensor = fem.TensorFunctionSpace(msh, ("DG", 0), shape=(3, 3))
+        self._u = fem.Function(vector, name="displacement")
+        self._v = fem.Function(vector, name="velocity")
+        self._stress = fem.Function(tensor, name="stress")
+        self._history = fem.Function(cells, name="history")
+        n_cells = len(sim.history)
+        self._cell_dof = cells.dofmap.list.array[:n_cells]
+        # Where each stress entry (xx, yy, xy, zz) goes in the row-major 3 x 3 tensor.
+        block = tensor.dofmap.index_map_bs * tensor.dofmap.list.array[:n_cells]
+        self._stress_dofs = [block[:, None] + np.array(entries) for entries in ([0], [4], [1, 3], [8])]
         self._file = io.XDMFFile(sim.comm, str(path), "w")
-        self._file.write_mesh(sim.mesh)
+        self._file.write_mesh(msh)
 
     def write(self) -> None:
-        self._file.write_function(self._sim.c, self._sim.time)
+        sim, t = self._sim, self._sim.time
+        self._u.x.array[:] = sim.displacement.ravel()
+        self._v.x.array[: 2 * sim.owned] = sim.velocity.ravel()
+        self._v.x.scatter_forward()
+        sigma = sim.stresses()
+        for k, dofs in enumerate(self._stress_dofs):
+            self._stress.x.array[dofs] = sigma[:, k, None]
+        self._history.x.array[self._cell_dof] = sim.history
+        for function in (sim.c, self._u, self._v, self._stress, self._history):
+            self._file.write_function(function, t)
 
     def close(self) -> None:
         self._file.close()
@@ -674,19 +706,36 @@ class _PhaseFieldSolver:
                 f" iterations (PETSc reason {reason}) at step {step} (t = {t:g})")
 
 
+class _BelowWarning(logging.Filter):
+    """Drops log records below WARNING."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        return record.levelno >= logging.WARNING
+
+
 @contextmanager
 def _quiet_jit():
-    """Ignore the ResourceWarning of FFCx 0.5's JIT compiler.
+    """Keep FFCx 0.5's JIT compiler quiet.
 
-    When it compiles a new form or element, FFCx 0.5 creates the module's C
-    file as a lock with ``open(name, "x")`` and never closes it; under
-    ``-W error`` (the test suite) that warning would fail the first run on a
-    fresh cache.  Only that message is ignored.
+    Its C compiler (through cffi and distutils) sets the root logger, which
+    FFCx gives a handler on stderr, to INFO and logs every command it runs:
+    those records are dropped and the level is put back.  And when it
+    compiles a new form or element, FFCx 0.5 creates the module's C file as a
+    lock with ``open(name, "x")`` and never closes it; under ``-W error`` (the
+    test suite) that ResourceWarning would fail the first run on a fresh
+    cache, so that message is ignored.
     """
-    with warnings.catch_warnings():
-        warnings.filterwarnings("ignore", category=ResourceWarning,
-                                message=r"unclosed file <_io\.TextIOWrapper name='[^']*libffcx_")
-        yield
+    root = logging.getLogger()
+    level, drop = root.level, _BelowWarning()
+    root.addFilter(drop)
+    try:
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", category=ResourceWarning,
+                                    message=r"unclosed file <_io\.TextIOWrapper name='[^']*libffcx_")
+            yield
+    finally:
+        root.removeFilter(drop)
+        root.setLevel(level)
 
 
 def _supported(scene: Scene) -> tuple[Body, MaterialSpec]:
@@ -716,22 +765,17 @@ def _supported(scene: Scene) -> tuple[Body, MaterialSpec]:
     return body, material
 
 
-def main(argv: list[str] | None = None) -> int:
-    """``python -m pfmpm.fem SCENE --out DIR``: run a scene with the FEM path (MPI-aware)."""
-    parser = argparse.ArgumentParser(prog="python -m pfmpm.fem",
-                                     description="Phase-field FEM reference run of a scene")
-    parser.add_argument("scene", help="scene TOML file")
-    parser.add_argument("--out", required=True, help="output directory")
-    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                        help="override a scene value, e.g. time.end=10")
-    parser.add_argument("--quiet", action="store_true", help="no progress bar")
-    args = parser.parse_args(argv)
+def run_command(scene_path: str, out: str, overrides: list[str], quiet: bool = False) -> int:
+    """``pfmpm fem SCENE --out DIR``: run a scene file with the FEM path on
+    every rank of ``MPI.COMM_WORLD``; rank 0 prints.  Returns the exit status:
+    0 done, 1 failed, 2 a bad scene or output directory, 130 interrupted."""
     comm = MPI.COMM_WORLD
     root = comm.rank == 0
     try:
-        scene = Scene.from_toml(args.scene, overrides=args.set)
+        check_directory(out)
+        scene = Scene.from_toml(scene_path, overrides=overrides)
         sim = FemSimulation(scene, comm)
-    except (SceneError, FileNotFoundError) as err:
+    except (SceneError, OSError) as err:
         if root:
             print(f"error: {err}", file=sys.stderr)
         return 2
@@ -739,20 +783,27 @@ def main(argv: list[str] | None = None) -> int:
         s = sim.summary()
         print(f"{scene.name}: FEM, {s['vertices']} vertices, {s['cells']} cells on {comm.size}"
               f" rank(s), {scene.steps()} steps of dt = {sim.dt:.6g} ({sim.substeps} sub-steps)"
-              f" -> {args.out}")
-    result = sim.run(args.out, progress=not args.quiet)
+              f" -> {out}")
+    result = sim.run(out, progress=not quiet)
     if result.status == "failed":
         if root:
             print(f"error: {result.error}", file=sys.stderr)
-            print(f"output so far is in {args.out}", file=sys.stderr)
+            print(f"output so far is in {out}", file=sys.stderr)
         return 1
     if result.status == "interrupted":
         if root:
-            print(f"interrupted at step {result.steps}; output so far is in {args.out}", file=sys.stderr)
+            print(f"interrupted at step {result.steps}; output so far is in {out}", file=sys.stderr)
         return 130
     if root:
-        print(f"done: {result.steps} steps in {result.wall_s:.1f} s; output in {args.out}")
+        print(f"done: {result.steps} steps in {result.wall_s:.1f} s; output in {out}")
     return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m pfmpm.fem SCENE --out DIR``: the same as ``pfmpm fem``."""
+    from .cli import main as cli
+
+    return cli(["fem", *(sys.argv[1:] if argv is None else argv)])
 
 
 if __name__ == "__main__":

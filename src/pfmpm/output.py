@@ -15,6 +15,23 @@ import numpy as np
 _VTK_TYPES = {np.dtype("float64"): "Float64", np.dtype("int32"): "Int32", np.dtype("int64"): "Int64"}
 
 
+def check_directory(path: Path | str) -> Path:
+    """``path`` as an output directory, which need not exist yet.
+
+    Raises
+    ------
+    NotADirectoryError
+        Naming ``path`` and the file in the way, if it or a folder above it
+        is a file.
+    """
+    path = Path(path)
+    for p in (path, *path.parents):
+        if p.exists() and not p.is_dir():
+            where = "is a file" if p == path else f"lies under the file {p}"
+            raise NotADirectoryError(f"output directory {path} {where}")
+    return path
+
+
 def _data_array(name: str, values: np.ndarray) -> str:
     values = np.ascontiguousarray(values)
     ncomp = 1 if values.ndim == 1 else values.shape[1]

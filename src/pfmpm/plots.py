@@ -96,7 +96,7 @@ def crack_path(csv_path: Path, xy: np.ndarray, times: np.ndarray, png_path: Path
     order = np.argsort(times[cracked], kind="stable")
     if cracked.any():
         dots = ax.scatter(xy[cracked, 0][order], xy[cracked, 1][order], c=times[cracked][order],
-                          s=2, cmap="viridis", linewidths=0)
+                          s=2, cmap="viridis", linewidths=0, vmin=0.0, vmax=float(e["t"][-1]))
         fig.colorbar(dots, ax=ax, label=units.label("time cracked", "time"))
     for track, label, style in (("left_tip", "left branch tip", "C3-"), ("right_tip", "right branch tip", "C1-"),
                                 ("crack_tip", "farthest tip", "k:")):

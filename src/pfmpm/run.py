@@ -42,7 +42,7 @@ from pathlib import Path
 import numpy as np
 
 from . import _core
-from .output import CsvLog
+from .output import CsvLog, check_directory
 from .post.tip import CrackTip
 from .scene import Scene
 
@@ -132,6 +132,11 @@ def run_to_end(sim, out_dir: Path | str, progress: bool = True, checkpoint_every
     -------
     RunResult
 
+    Raises
+    ------
+    NotADirectoryError
+        If ``out_dir`` or a folder above it is a file.
+
     Notes
     -----
     SIGINT (Ctrl-C) and SIGTERM stop the run after the current chunk of
@@ -152,7 +157,7 @@ def run_to_end(sim, out_dir: Path | str, progress: bool = True, checkpoint_every
         raise ValueError(f"{type(sim).__name__} writes no checkpoints")
     comm = sim.comm
     root = comm is None or comm.rank == 0
-    out = Path(out_dir)
+    out = check_directory(out_dir)
     if root:
         out.mkdir(parents=True, exist_ok=True)
     if comm is not None:

@@ -61,15 +61,20 @@ def read_toml(path: Path | str) -> dict:
     Raises
     ------
     SceneError
-        On a TOML syntax error (path = the file).
+        On a TOML syntax error, text that is not UTF-8, or a directory
+        (path = the file).
     OSError
         If the file cannot be read.
     """
+    if Path(path).is_dir():
+        raise SceneError(str(path), "is a directory, not a scene file")
     with open(path, "rb") as f:
         try:
             return tomllib.load(f)
         except tomllib.TOMLDecodeError as err:
             raise SceneError(str(path), f"invalid TOML: {err}") from None
+        except UnicodeDecodeError as err:
+            raise SceneError(str(path), f"not UTF-8 text, as TOML must be (byte {err.start})") from None
 
 
 def plain(value: Any) -> Any:
