@@ -82,6 +82,18 @@ def _fem(args: argparse.Namespace) -> int:
     return run_command(args.scene, out, args.set, args.quiet)
 
 
+def _animate(args: argparse.Namespace) -> int:
+    from .animate import animate
+
+    try:
+        path = animate(args.run_dir, args.output, args.field, args.fps)
+    except (KeyError, ValueError) as err:
+        print(f"error: {err.args[0]}", file=sys.stderr)
+        return 2
+    print(f"animation: {path}")
+    return 0
+
+
 def _count(text: str) -> int:
     """A non-negative integer command-line value."""
     try:
@@ -335,6 +347,15 @@ def main(argv: list[str] | None = None) -> int:
                          help="crack-directions: also the direction near each tip at every snapshot")
     measure.add_argument("--json", action="store_true", help="print one JSON object")
     measure.set_defaults(func=_post)
+
+    anim = sub.add_parser("animate", help="an animation (GIF, or MP4 with ffmpeg) of a field over a run's frames")
+    anim.add_argument("run_dir", help="the run's output directory (particles.pvd or fields.xdmf)")
+    anim.add_argument("--field", default="c",
+                      help="the field: c (the phase field), damage, velocity, displacement, ..."
+                           " (default %(default)s)")
+    anim.add_argument("--output", help="a .gif or .mp4 file (default RUN_DIR/<field>.gif)")
+    anim.add_argument("--fps", type=float, default=6.0, help="frames per second (default %(default)g)")
+    anim.set_defaults(func=_animate)
 
     args = parser.parse_args(argv)
     from .scene import SceneError

@@ -46,7 +46,8 @@ from .output import CsvLog, check_directory
 from .post.tip import CrackTip
 from .scene import Scene
 
-__all__ = ["ENERGY_COLUMNS", "WALL_COLUMNS", "CRACK_COLUMNS", "RunResult", "Snapshots", "run_to_end", "step_to_end"]
+__all__ = ["ENERGY_COLUMNS", "WALL_COLUMNS", "CRACK_COLUMNS", "RunResult", "Snapshots", "nearest_image",
+           "run_to_end", "step_to_end"]
 
 ENERGY_COLUMNS = ["step", "t", "kinetic", "elastic", "fracture", "external_work", "total",
                   "momentum_x", "momentum_y"]
@@ -224,7 +225,8 @@ def run_to_end(sim, out_dir: Path | str, progress: bool = True, checkpoint_every
         fields = sim.summary_fields(result)
         result.light_nodes = fields.get("light_nodes", 0)
         if root:
-            result.write_summary(out / "summary.json", {"scene": sim.scene.name, **fields})
+            result.write_summary(out / "summary.json", {"scene": sim.scene.name, "units": sim.scene.units,
+                                                        **fields})
     units = sim.scene.unit_system()
     if result.status == "completed":
         from . import plots
@@ -416,16 +418,42 @@ class Snapshots:
     def rasterize(self, xy: np.ndarray, c: np.ndarray) -> np.ndarray:
         """``c`` of the nearest point within ``reach`` of each pixel centre, NaN
         where there is none; shape (ny, nx)."""
-        from scipy.spatial import cKDTree
+        return nearest_image(xy, c, self.origin, self.pixel, self.shape, self.reach)
 
-        nx, ny = self.shape
-        if not len(xy):
-            return np.full((ny, nx), np.nan)
-        gx = self.origin[0] + (np.arange(nx) + 0.5) * self.pixel
-        gy = self.origin[1] + (np.arange(ny) + 0.5) * self.pixel
-        centres = np.stack(np.meshgrid(gx, gy), axis=-1).reshape(-1, 2)
-        _, nearest = cKDTree(xy).query(centres, distance_upper_bound=self.reach)
-        found = nearest < len(xy)
-        image = np.full(len(centres), np.nan)
-        image[found] = np.asarray(c)[nearest[found]]
-        return image.reshape(ny, nx)
+
+def nearest_image(xy: np.ndarray, values: np.ndarray, origin, pixel: float, shape: tuple[int, int],
+                  reach: float) -> np.ndarray:
+    """An image of point values: each pixel the value of the point nearest its
+    centre, NaN where none lies within ``reach``.
+
+    Parameters
+    ----------
+    xy : (N, 2) ndarray
+        The points.
+    values : (N,) ndarray
+    origin : (float, float)
+        Lower-left corner of the image.
+    pixel : float
+        Pixel side.
+    shape : (int, int)
+        Pixels in x and y.
+    reach : float
+
+    Returns
+    -------
+    (ny, nx) ndarray
+        Row 0 at the bottom (``imshow(..., origin="lower")``).
+    """
+    from scipy.spatial import cKDTree
+
+    nx, ny = shape
+    if not len(xy):
+        return np.full((ny, nx), np.nan)
+    gx = origin[0] + (np.arange(nx) + 0.5) * pixel
+    gy = origin[1] + (np.arange(ny) + 0.5) * pixel
+    centres = np.stack(np.meshgrid(gx, gy), axis=-1).reshape(-1, 2)
+    _, nearest = cKDTree(xy).query(centres, distance_upper_bound=reach)
+    found = nearest < len(xy)
+    image = np.full(len(centres), np.nan)
+    image[found] = np.asarray(values)[nearest[found]]
+    return image.reshape(ny, nx)
