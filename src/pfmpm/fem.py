@@ -533,7 +533,7 @@ class FemSimulation:
 
     def open_frames(self, out: Path, resume=None) -> "_XdmfFrames":
         """The XDMF series ``fields.xdmf`` on the mesh (collective): phase field,
-        displacement, velocity, stress and history."""
+        displacement, velocity, stress and history (see :class:`_XdmfFrames`)."""
         return _XdmfFrames(self, out / "fields.xdmf")
 
     def new_snapshots(self) -> Snapshots | None:
@@ -587,9 +587,11 @@ class FemSimulation:
 
 class _XdmfFrames:
     """The XDMF series of a FEM run (collective): ``write()`` adds, at the
-    current time, the phase field ``c`` and the displacement and velocity
-    (vertex values), and the stress (the symmetric 3 x 3 tensor with its zz
-    entry) and history field ``H`` (cell values)."""
+    current time, the phase field ``c``, the displacement and the velocity
+    (vertex values), and the in-plane stress (a 2 x 2 tensor, which XDMF pads
+    to 3 x 3 with zeros), its out-of-plane entry ``stress_zz`` and the
+    history field ``H`` (cell values).  (DOLFINx 0.5 writes a cell-wise
+    tensor as cell data only if it is gdim x gdim, hence zz apart.)"""
 
     def __init__(self, sim: FemSimulation, path: Path):
         self._sim = sim
@@ -597,16 +599,17 @@ class _XdmfFrames:
         with _quiet_jit():
             vector = fem.VectorFunctionSpace(msh, ("Lagrange", 1))
             cells = fem.FunctionSpace(msh, ("DG", 0))
-            tensor = fem.TensorFunctionSpace(msh, ("DG", 0), shape=(3, 3))
+            tensor = fem.TensorFunctionSpace(msh, ("DG", 0))
         self._u = fem.Function(vector, name="displacement")
         self._v = fem.Function(vector, name="velocity")
         self._stress = fem.Function(tensor, name="stress")
+        self._zz = fem.Function(cells, name="stress_zz")
         self._history = fem.Function(cells, name="history")
         n_cells = len(sim.history)
         self._cell_dof = cells.dofmap.list.array[:n_cells]
-        # Where each stress entry (xx, yy, xy, zz) goes in the row-major 3 x 3 tensor.
+        # Where each stress entry (xx, yy, xy) goes in the row-major 2 x 2 tensor.
         block = tensor.dofmap.index_map_bs * tensor.dofmap.list.array[:n_cells]
-        self._stress_dofs = [block[:, None] + np.array(entries) for entries in ([0], [4], [1, 3], [8])]
+        self._stress_dofs = [block[:, None] + np.array(entries) for entries in ([0], [3], [1, 2])]
         self._file = io.XDMFFile(sim.comm, str(path), "w")
         self._file.write_mesh(msh)
 
@@ -618,8 +621,9 @@ class _XdmfFrames:
         sigma = sim.stresses()
         for k, dofs in enumerate(self._stress_dofs):
             self._stress.x.array[dofs] = sigma[:, k, None]
+        self._zz.x.array[self._cell_dof] = sigma[:, 3]
         self._history.x.array[self._cell_dof] = sim.history
-        for function in (sim.c, self._u, self._v, self._stress, self._history):
+        for function in (sim.c, self._u, self._v, self._stress, self._zz, self._history):
             self._file.write_function(function, t)
 
     def close(self) -> None:

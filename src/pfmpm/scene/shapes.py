@@ -212,7 +212,7 @@ class MeshShape(Shape):
 
         try:
             mesh = meshio.read(self.file)
-        except Exception as err:  # meshio raises many kinds for a file it cannot read
+        except (Exception, SystemExit) as err:  # meshio raises many kinds, and exits on some files
             raise SceneError("file", f"cannot be read as a mesh ({type(err).__name__}: {err})",
                              self.file) from None
         triangles = []
