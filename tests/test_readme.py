@@ -41,7 +41,7 @@ RULES = [
     (r"pfmpm fem demos/borden_plate\.toml --out out/borden_fem1$",
      ["--set", "grid.h=1.0", "--set", "materials.concrete.fracture.l0=2.0", "--set", "time.end=1", "--quiet"]),
     # PFMPM_SMOKE=1 (set for every command here) makes the notebook short.
-    (r"python -m jupyter nbconvert --to html --execute docs/notebooks/phase_field_profiles\.ipynb", []),
+    (r"python -m nbconvert --to html --execute docs/notebooks/phase_field_profiles\.ipynb", []),
     (r"pfmpm run demos/borden_plate\.toml --out out/borden$", smoke("borden_plate") + ["--quiet"]),
     # More than 500 steps, so that the checkpoint the next command resumes from is written.
     (r"pfmpm run demos/borden_plate\.toml --out out/borden --checkpoint-every 500$",

@@ -39,6 +39,7 @@ rm -rf build/lib.*
 .venv/bin/python -m pip install --quiet --no-build-isolation --no-deps --no-index .
 # A Jupyter kernel that runs this venv's Python, for docs/notebooks; found
 # before Debian's python3 kernel, which cannot import pfmpm.
-# (Without frozen modules, so that debugpy does not warn about them on stderr.)
+# debugpy warns on stderr, whenever a kernel starts, that Python's frozen
+# modules may hide breakpoints: the kernel turns that check off.
 PYDEVD_DISABLE_FILE_VALIDATION=1 .venv/bin/python -Xfrozen_modules=off -m ipykernel install --sys-prefix \
-  --name python3 --display-name "pfmpm (.venv)" > /dev/null
+  --name python3 --display-name "pfmpm (.venv)" --env PYDEVD_DISABLE_FILE_VALIDATION 1 > /dev/null
