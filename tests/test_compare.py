@@ -20,7 +20,7 @@ import pytest
 
 from pfmpm import scenes
 from pfmpm.compare import (BORDEN_SCENE, COLUMNS, agreement, branch_time, compare_borden,
-                           comparison_overrides, initiation_time)
+                           comparison_overrides, initiation_time, reference)
 from pfmpm.output import read_csv
 from pfmpm.scene import Crack, Scene
 from pfmpm.scene.toml import read_toml
@@ -76,6 +76,19 @@ def test_agreement_of_known_histories():
     assert a["t_end"] == 40.0
     assert a["fracture_end_rel_diff"] == pytest.approx(-0.02 / 0.48, rel=1e-12)
     assert a["fracture_gain_rel_diff"] == pytest.approx(-0.02 / 0.30, rel=1e-12)
+
+
+def test_reference_extrapolates_the_fem_runs():
+    # Three levels converging at order 1.5 (errors 0.1 h^1.5 about 1.0): that order is used, exactly.
+    ends = {h: 1.0 + 0.1 * h**1.5 for h in (1.0, 0.5, 0.25)}
+    r = reference(ends)
+    assert r["observed_order"] == pytest.approx(1.5, rel=1e-12) and r["order"] == r["observed_order"]
+    assert r["value"] == pytest.approx(1.0, rel=1e-12) and r["h"] == [0.5, 0.25]
+    # Two levels: the assumed order 2; oscillating levels: no observed order.
+    assert reference({1.0: 1.3, 0.5: 1.1})["value"] == pytest.approx(1.1 - 0.2 / 3, rel=1e-12)
+    wild = reference({1.0: 1.3, 0.5: 1.1, 0.25: 1.2})
+    assert math.isnan(wild["observed_order"]) and wild["order"] == 2.0
+    assert reference({0.5: 0.7})["kind"] == "finest FEM run"
 
 
 def read_table(path):
@@ -135,8 +148,8 @@ def test_compare_driver_at_a_tiny_size(tmp_path):
         else:
             xdmf = (run / "fields.xdmf").read_text()
             assert xdmf.count('<Attribute Name="displacement"') == 3
-    # The reference: Richardson (order 1) from the FEM runs, for both methods.
-    ref = end["fem", 0.5] + (end["fem", 0.5] - end["fem", 1.0])
+    # The reference: Richardson (order 2 assumed, with two h) from the FEM runs, for both methods.
+    ref = end["fem", 0.5] + (end["fem", 0.5] - end["fem", 1.0]) / 3
     for key, row in runs.items():
         assert float(row["error"]) == pytest.approx(abs(end[key] / ref - 1), rel=1e-12)
         assert 0 < float(row["error"]) < 0.25
@@ -145,13 +158,14 @@ def test_compare_driver_at_a_tiny_size(tmp_path):
     assert a["h"] == 0.5 and a["l0"] == 1.0 and a["initiation_mpm_us"] is None
     assert a["branch_mpm_us"] is None and a["branch_fem_us"] is None
     assert a["reference"]["kind"] == "richardson" and a["reference"]["h"] == [1.0, 0.5]
+    assert a["reference"]["order"] == 2.0 and a["reference"]["observed_order"] is None
     assert a["reference"]["value"] == pytest.approx(ref, rel=1e-12)
     # Rows every 10 steps of dt = 0.105 us (h = 0.5): the times are known to 1.05 us.
     assert a["record_interval_us"] == pytest.approx(1.05, rel=1e-6)
     assert a["elastic_rms_rel"] < 0.05  # both are elastic up to 6 us
     text = (out / "comparison.md").read_text()
     assert "| mpm | 0.5 | 144000 | - |" in text and "| fem | 0.5 | - | 48843 |" in text
-    assert "Richardson extrapolation (order 1) of the PF-FEM runs at h = 1 and 0.5" in text
+    assert "Richardson extrapolation (assumed order 2) of the PF-FEM runs at h = 1 and 0.5" in text
     assert "crack branching (tip 1 mm off the notch line) [us], +- 1.050" in text
     assert "crack initiation (tip 0.5 mm past its start) [us], +- 1.050" in text
 
