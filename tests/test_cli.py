@@ -106,6 +106,7 @@ def test_bench_json():
     assert result["particles"] == 15 * 15 * 9  # ceil(sqrt(2000 / 9)) = 15 cells a side
     assert result["steps"] == 3 and result["threads"] >= 1
     assert result["particle_steps_per_s"] == pytest.approx(result["particles"] * 3 / result["seconds"])
+    assert result["model"] == "linear_elastic"
 
 
 @pytest.mark.parametrize("case", ["not utf-8", "a directory", "out is a file", "out under a file"])
@@ -200,3 +201,14 @@ def test_particle_output_has_displacement_damage_strain_volume_and_id(tmp_path):
     expected = lam * (p.strain[:, 0] + p.strain[:, 1]) + 2 * mu * p.strain[:, 1]
     np.testing.assert_allclose(data["stress"][intact, 1], expected[intact] * p.c[intact] ** 2, rtol=0.01,
                                atol=1e-6)
+
+
+def test_bench_neo_hookean_and_its_limits():
+    r = pfmpm("bench", "--model", "neo_hookean", "--particles", "2000", "--steps", "3", "--repeats", "1",
+              "--json")
+    assert r.returncode == 0, r.stderr
+    assert json.loads(r.stdout)["model"] == "neo_hookean"
+    r = pfmpm("bench", "--model", "neo_hookean", "--physics", "phasefield", "--particles", "2000")
+    assert r.returncode == 2
+    assert r.stderr == ("error: --model: model = 'neo_hookean': physics must be elastic or contact,"
+                        " not 'phasefield'\n")

@@ -156,6 +156,7 @@ def test_compare_driver_at_a_tiny_size(tmp_path):
 
     a = json.loads((out / "agreement.json").read_text())
     assert a["h"] == 0.5 and a["l0"] == 1.0 and a["initiation_mpm_us"] is None
+    assert a["model"] == "AT2"
     assert a["branch_mpm_us"] is None and a["branch_fem_us"] is None
     assert a["reference"]["kind"] == "richardson" and a["reference"]["h"] == [1.0, 0.5]
     assert a["reference"]["order"] == 2.0 and a["reference"]["observed_order"] is None
@@ -202,6 +203,21 @@ def test_an_interrupted_comparison_resumes(tmp_path):
     assert whole.reference["kind"] == "finest FEM run"
 
 
+def test_compare_runs_either_model(tmp_path):
+    """``--model AT1``: both methods solve AT1 with the bound, and the outputs say so."""
+    out = tmp_path / "cmp"
+    r = pfmpm("compare", "borden", "--h", "1.0", "--l0", "2.0", "--end", "3", "--model", "AT1",
+              "--out", out, "--scene", DEMO, "--quiet", timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert "\nAT1: agreement at h = 1:" in r.stdout
+    assert json.loads((out / "agreement.json").read_text())["model"] == "AT1"
+    assert (out / "comparison.md").read_text().splitlines()[2].startswith("AT1 phase field, l0 = 2 mm")
+    mpm, fem = (json.loads((out / f"{m}_h1" / "summary.json").read_text())["phase_field"]
+                for m in ("mpm", "fem"))
+    assert mpm["bounded"] and mpm["passes"] >= mpm["solves"] > 1
+    assert fem["solver"] == "vinewtonrsls: cg + jacobi" and fem["passes"] >= 1
+
+
 def test_l0_below_h_is_refused_before_any_run(tmp_path):
     out = tmp_path / "cmp"
     r = pfmpm("compare", "borden", "--h", "1.0,0.5", "--l0", "0.75", "--out", out, "--scene", DEMO)
@@ -218,7 +234,8 @@ def test_the_comparison_finds_the_crackable_materials_by_their_tables():
     tables["materials"][0]["name"] = "glass"
     tables["bodies"][0]["material"] = "glass"
     sets = comparison_overrides(tables, 1.0, 2.0, 5.0)
-    assert sets == ["grid.h=1.0", "materials.0.fracture.l0=2.0", "time.end=5.0"]
+    assert sets == ["grid.h=1.0", "materials.0.fracture.l0=2.0", "materials.0.fracture.model=AT2",
+                    "time.end=5.0"]
     scene = Scene.from_dict(tables, sets)
     assert scene.materials[0].name == "glass" and scene.materials[0].fracture.l0 == 2.0
     beam_and_disk = read_toml(ROOT / "demos" / "disk_beam.toml")

@@ -10,7 +10,7 @@ import pytest
 
 from pfmpm import Simulation
 from pfmpm.scene import (Body, Grid, ImageShape, Material, MeshShape, Polygon, Rectangle, Scene,
-                         SceneError, Time, image_colors, seeding)
+                         SceneError, image_colors, seeding)
 from pfmpm.scene.toml import read_toml
 
 # An L-shaped outline with a square hole, its corners off the particle lattice.

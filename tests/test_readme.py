@@ -33,8 +33,8 @@ def smoke(benchmark: str) -> list[str]:
 RULES = [
     (r"^bash tools/(main|test)\.sh$", None),
     (r"pfmpm --version$", []),
-    (r"pfmpm compare borden --h ", ["--h", "1.0", "--end", "0.5", "--set", "bodies.plate.particles_per_cell=1",
-                                    "--quiet"]),
+    (r"pfmpm compare borden --h ", ["--h", "1.0", "--l0", "2.0", "--end", "0.5", "--set",
+                                    "bodies.plate.particles_per_cell=1", "--quiet"]),
     # The study above is complete: its runs are kept.
     (r"pfmpm compare borden --resume --out out/study$", ["--quiet"]),
     (r"pfmpm animate out/borden$", []),

@@ -390,6 +390,9 @@ BAD = [
     ("bodies.plate.orientation=nan", "bodies[0].orientation = nan: must be finite"),
     ("phase_field.tol=0", "phase_field.tol = 0: must be > 0"),
     ("phase_field.max_iterations=0", "phase_field.max_iterations = 0: must be >= 1"),
+    ("phase_field.preconditioner=gauss", "phase_field.preconditioner = 'gauss': must be one of "
+                                         "'automatic', 'jacobi', 'ssor', 'multigrid'"),
+    ("phase_field.preconditioner=1", "phase_field.preconditioner = 1: must be one of"),
     ("output.crack_threshold=1.5", "output.crack_threshold = 1.5: must be > 0 and < 1"),
     ("output.snapshots=[-1.0]", "output.snapshots[0] = -1.0: must be >= 0"),
 ]

@@ -13,6 +13,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <type_traits>
 #include <utility>
 
 namespace py = pybind11;
@@ -41,6 +42,9 @@ py::dict stats_dict(const PhaseFieldStats& st)
   d["start_residual"] = st.start_residual;
   d["last_residual"] = st.last_residual;
   d["unknowns"] = st.unknowns;
+  d["passes"] = st.passes;
+  d["last_passes"] = st.last_passes;
+  d["at_bound"] = st.at_bound;
   return d;
 }
 
@@ -72,25 +76,44 @@ void bind_solver(py::module_& m)
         out[i][j] = v[3 * i + j];
     return out;
   };
+  py::enum_<Model>(m, "Model", "the phase-field model: w(d) = d^2 (AT2) or d (AT1)")
+      .value("AT2", Model::AT2)
+      .value("AT1", Model::AT1);
   py::class_<Fracture>(m, "Fracture", "Fracture parameters of a material that can crack")
       .def(py::init(
-               [](double Gc, double l0, double k_f, const Matrix3& gamma)
+               [](double Gc, double l0, double k_f, const Matrix3& gamma, Model model, bool bound)
                {
                  Fracture f{Gc, l0, k_f};
                  for (int i = 0; i < 3; ++i)
                    for (int j = 0; j < 3; ++j)
                      f.gamma[3 * i + j] = gamma[i][j];
+                 f.model = model;
+                 f.bound = bound;
                  return f;
                }),
            py::arg("Gc"), py::arg("l0"), py::arg("k_f") = 0.0, py::arg("gamma") = Matrix3{},
+           py::arg("model") = Model::AT2, py::arg("bound") = true,
            "gamma: the 3 x 3 Voigt anisotropy tensor of eq. 6 in the material frame")
       .def_readonly("Gc", &Fracture::Gc)
       .def_readonly("l0", &Fracture::l0)
       .def_readonly("k_f", &Fracture::k_f)
+      .def_readonly("model", &Fracture::model)
+      .def_readonly("bound", &Fracture::bound)
+      .def("reaction", &Fracture::reaction, py::arg("H"),
+           "coefficient of N_I N_J V_p in K at history H (eq. 49; AT1: 16 l0 (1 - k_f) H / (3 G_c))")
+      .def("source", &Fracture::source, "coefficient of N_I V_p in F (eq. 52): 1 (AT2), 1/2 (AT1)")
+      .def("crack_density", &Fracture::crack_density, py::arg("c"), py::arg("grad2"),
+           "crack density Z at c with |grad c|^2 = grad2 (eq. 4, gamma = 0)")
       .def_property_readonly("gamma", [matrix](const Fracture& f) { return matrix(f.gamma); })
       .def_property_readonly("fourth_order", &Fracture::fourth_order)
       .def("rotated", [matrix](const Fracture& f, double phi) { return matrix(f.rotated(phi)); },
            py::arg("phi"), "gamma in the global frame for axes turned phi radians clockwise");
+
+  py::enum_<Preconditioner>(m, "Preconditioner", "preconditioner of the phase-field CG")
+      .value("automatic", Preconditioner::automatic)
+      .value("jacobi", Preconditioner::jacobi)
+      .value("ssor", Preconditioner::ssor)
+      .value("multigrid", Preconditioner::multigrid);
 
   py::class_<Solver>(m, "Solver", "Explicit MPM stepping with a staggered phase field (Algorithm 1)")
       .def(py::init(
@@ -121,8 +144,34 @@ void bind_solver(py::module_& m)
            {
              py::dict d = stats_dict(s.phase_field_stats());
              d["fourth_order"] = s.fourth_order();
+             d["bounded"] = s.bounded();
              return d;
            })
+      .def(
+          "phase_field_system",
+          [](const Solver& s)
+          {
+            const PhaseFieldSystem k = s.phase_field_system();
+            auto copy = [](const auto& v)
+            {
+              using T = typename std::decay_t<decltype(v)>::value_type;
+              return py::array_t<T>(static_cast<py::ssize_t>(v.size()), v.data());
+            };
+            py::dict d;
+            d["nodes"] = copy(k.nodes);
+            d["row_start"] = copy(k.row_start);
+            d["column"] = copy(k.column);
+            d["value"] = copy(k.value);
+            d["rhs"] = copy(k.rhs);
+            d["solution"] = copy(k.solution);
+            return d;
+          },
+          "the last phase-field system K c = F in compressed rows over the active nodes "
+          "(nodes, row_start, column, value, rhs) and its solution (one velocity field only)")
+      .def("set_phase_field_preconditioner", &Solver::set_phase_field_preconditioner,
+           py::arg("preconditioner"),
+           "the phase-field CG preconditioner from the next solve on (automatic: jacobi for "
+           "the second-order model, multigrid for the fourth-order one)")
       .def("set_stability_length", &Solver::set_stability_length, py::arg("length"),
            "check dt (c_p + |v_p|) <= length after every step (0: no check)")
       .def_property_readonly("light_nodes", &Solver::light_nodes,
@@ -176,6 +225,7 @@ void bind_solver(py::module_& m)
              d["external_work"] = e.external_work;
              d["friction_work"] = e.friction_work;
              d["wall_work"] = e.wall_work;
+             d["dissipated"] = e.dissipated;
              d["fracture_by_body"] = e.fracture_by_field;
              d["momentum_x"] = e.momentum[0];
              d["momentum_y"] = e.momentum[1];

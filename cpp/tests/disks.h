@@ -1,4 +1,5 @@
-// Disks of particles for the contact tests: test_contact.cpp, test_state.cpp.
+/// @file disks.h
+/// @brief Disks of particles for the contact tests: test_contact.cpp, test_state.cpp.
 #pragma once
 
 #include "pfmpm/particles/particles.h"

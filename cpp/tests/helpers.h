@@ -1,4 +1,5 @@
-// Helpers of the C++ tests: materials, model columns and bitwise comparison.
+/// @file helpers.h
+/// @brief Helpers of the C++ tests: materials, model columns and bitwise comparison.
 #pragma once
 
 #include "pfmpm/fracture/phasefield.h"

@@ -1,6 +1,7 @@
-// B-spline basis on open knot vectors: partition of unity, zero-sum
-// derivatives, exact reproduction of linear fields (Greville abscissae), and
-// agreement with a direct Cox-de Boor evaluation, on boundary and interior cells.
+/// @file test_bspline.cpp
+/// @brief B-spline basis on open knot vectors: partition of unity, zero-sum derivatives, exact
+/// reproduction of linear fields (Greville abscissae), and agreement with a direct Cox-de Boor
+/// evaluation, on boundary and interior cells.
 #include "pfmpm/grid/bspline.h"
 #include "pfmpm/grid/grid.h"
 

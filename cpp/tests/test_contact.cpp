@@ -1,7 +1,7 @@
-// Discrete fields with frictional contact (eqs. 63-77): momentum is conserved
-// to round-off through a collision, the checks C.1-C.4 hold at every contact
-// node, results do not depend on the thread count, and bodies that never
-// meet run with the same bits as one field.
+/// @file test_contact.cpp
+/// @brief Discrete fields with frictional contact (eqs. 63-77): momentum is conserved to round-off
+/// through a collision, the checks C.1-C.4 hold at every contact node, results do not depend on
+/// the thread count, and bodies that never meet run with the same bits as one field.
 #include "disks.h"
 #include "helpers.h"
 #include "pfmpm/grid/grid.h"

@@ -1,7 +1,8 @@
-// A constitutive model added in the test tree: one class and one
-// registration, with no change to the step, the bindings or the checkpoints.
-// Saint Venant-Kirchhoff on the deformation gradient F, in plane strain, runs
-// through a whole step and gives its closed-form stress under uniaxial strain.
+/// @file test_material.cpp
+/// @brief A constitutive model added in the test tree: one class and one registration, with no
+/// change to the step, the bindings or the checkpoints. Saint Venant-Kirchhoff on the deformation
+/// gradient F, in plane strain, runs through a whole step and gives its closed-form stress under
+/// uniaxial strain.
 #include "helpers.h"
 #include "pfmpm/grid/grid.h"
 #include "pfmpm/materials/material.h"

@@ -1,10 +1,18 @@
-// The anisotropy tensor of the fourth-order phase field in a turned material
-// frame (Fracture::rotated, section 4.3.4 of the paper).
+/// @file test_phasefield.cpp
+/// @brief The anisotropy tensor of the fourth-order phase field in a turned material frame
+/// (Fracture::rotated, section 4.3.4 of the paper); the AT1 and AT2 coefficients
+/// (Fracture::reaction, source, crack_density) and the bounded solve of AT1.
 #include "pfmpm/fracture/phasefield.h"
+#include "pfmpm/solver/solver.h"
+
+#include "disks.h"
+#include "helpers.h"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <tuple>
 
 
 using namespace pfmpm;
@@ -81,4 +89,133 @@ TEST(Anisotropy, FourthOrderNeedsC1Splines)
   const Grid quadratic(2, {8, 8}, 1.0, {0.0, 0.0});
   EXPECT_TRUE(PhaseField(quadratic, {Fracture{1.0, 2.0, 0.0, gamma}}, 1e-6, 100).fourth_order());
   EXPECT_FALSE(PhaseField(quadratic, {Fracture{1.0, 2.0, 0.0}}, 1e-6, 100).fourth_order());
+}
+
+namespace
+{
+/// Integral over x of Fracture::crack_density along the 1D profile d(x)
+/// (d = 1 - c, d' its derivative), midpoint rule on [-L, L].
+template <class D, class DD>
+double crack_density_integral(const Fracture& f, double L, D d, DD dd)
+{
+  const int n = 200000;
+  const double dx = 2.0 * L / n;
+  double sum = 0.0;
+  for (int k = 0; k < n; ++k)
+  {
+    const double x = -L + (k + 0.5) * dx;
+    sum += f.crack_density(1.0 - d(x), dd(x) * dd(x)) * dx;
+  }
+  return sum;
+}
+} // namespace
+
+TEST(Models, ProfilesCarryOneUnitOfCrackDensity)
+{
+  // The 1D optimal profiles in K&T's l0 (l = 2 l0 in the standard form):
+  // AT2 d = exp(-|x| / (2 l0)); AT1 d = (1 - |x| / (4 l0))^2 on |x| <= 4 l0.
+  // Both integrate to one unit of crack (eq. 3: G_c per unit area).
+  const double l0 = 0.7;
+  const Fracture at2{1.0, l0, 0.0};
+  const Fracture at1{1.0, l0, 0.0, {}, Model::AT1};
+  const double e2 = crack_density_integral(
+      at2, 60.0 * l0, [&](double x) { return std::exp(-std::abs(x) / (2 * l0)); },
+      [&](double x) { return -std::copysign(1.0, x) * std::exp(-std::abs(x) / (2 * l0)) / (2 * l0); });
+  const double e1 = crack_density_integral(
+      at1, 4.0 * l0,
+      [&](double x) { return std::pow(1.0 - std::abs(x) / (4 * l0), 2); },
+      [&](double x) { return -std::copysign(1.0, x) * (1.0 - std::abs(x) / (4 * l0)) / (2 * l0); });
+  EXPECT_NEAR(e2, 1.0, 1e-7); // the midpoint rule's error
+  EXPECT_NEAR(e1, 1.0, 1e-7);
+}
+
+TEST(Models, AT1ThresholdAndCoefficients)
+{
+  // A homogeneous AT1 state solves reaction(H) c = source(): c = 1 exactly at
+  // H_c = 3 G_c / (32 l0), i.e. sigma_c^2 / (2 E) with
+  // sigma_c = sqrt(3 E G_c / (8 l)), l = 2 l0.
+  const double Gc = 2.5, l0 = 0.4, E = 30.0;
+  const Fracture at1{Gc, l0, 0.0, {}, Model::AT1};
+  const double sigma_c = std::sqrt(3.0 * E * Gc / (8.0 * 2.0 * l0));
+  const double Hc = sigma_c * sigma_c / (2.0 * E);
+  EXPECT_NEAR(at1.reaction(Hc), at1.source(), 1e-15);
+  EXPECT_EQ(at1.source(), 0.5);
+  EXPECT_EQ(at1.diffusion(), 4.0 * l0 * l0);
+  // AT2 keeps eq. 49 and F = 1.
+  const Fracture at2{Gc, l0, 0.2};
+  EXPECT_EQ(at2.reaction(3.0), 4.0 * l0 * 0.8 * 3.0 / Gc + 1.0);
+  EXPECT_EQ(at2.source(), 1.0);
+  // k_f scales the history term of both models.
+  const Fracture at1k{Gc, l0, 0.2, {}, Model::AT1};
+  EXPECT_NEAR(at1k.reaction(Hc), 0.8 * at1.reaction(Hc), 1e-15);
+}
+
+TEST(Models, AT1IsSecondOrderOnly)
+{
+  const Grid quadratic(2, {8, 8}, 1.0, {0.0, 0.0});
+  const Voigt gamma{1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 2.0};
+  EXPECT_THROW(PhaseField(quadratic, {Fracture{1.0, 2.0, 0.0, gamma, Model::AT1}}, 1e-6, 100),
+               std::invalid_argument);
+  // Nor in one phase field with a fourth-order AT2 material.
+  EXPECT_THROW(PhaseField(quadratic,
+                          {Fracture{1.0, 2.0, 0.0, {}, Model::AT1}, Fracture{1.0, 2.0, 0.0, gamma}},
+                          1e-6, 100),
+               std::invalid_argument);
+  EXPECT_THROW(PhaseField(quadratic, {Fracture{1.0, 2.0, 0.0, {}, Model::AT1, false}}, 1e-6, 100),
+               std::invalid_argument);
+  EXPECT_TRUE(PhaseField(quadratic, {Fracture{1.0, 2.0, 0.0, {}, Model::AT1}}, 1e-6, 100).bounded());
+}
+
+TEST(Models, WhichSolvesAreBounded)
+{
+  // Second order: bounded unless every material asks for no bound; fourth
+  // order: never (its own profile leaves [0, 1] when gamma_n > 1).
+  const Grid quadratic(2, {8, 8}, 1.0, {0.0, 0.0});
+  const Voigt gamma{1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 2.0};
+  const Fracture at2{1.0, 2.0, 0.0}, free{1.0, 2.0, 0.0, {}, Model::AT2, false};
+  EXPECT_TRUE(at2.bound);
+  EXPECT_TRUE(PhaseField(quadratic, {at2}, 1e-6, 100).bounded());
+  EXPECT_FALSE(PhaseField(quadratic, {free}, 1e-6, 100).bounded());
+  EXPECT_TRUE(PhaseField(quadratic, {free, at2}, 1e-6, 100).bounded());
+  EXPECT_FALSE(PhaseField(quadratic, {Fracture{1.0, 2.0, 0.0, gamma}}, 1e-6, 100).bounded());
+}
+
+TEST(BoundedSolve, BelowTheThresholdNothingIsDamaged)
+{
+  // An AT1 block with a history just below and then just above H_c: below,
+  // every node is held at c = 1 without a CG iteration, the particles have
+  // c = 1 to round-off and no fracture energy; above, the bound lets go.
+  const double Gc = 1.0, l0 = 0.5, Hc = 3.0 * Gc / (32.0 * l0);
+  auto run = [&](double H)
+  {
+    Grid grid(2, {24, 24}, 0.25, {0.0, 0.0});
+    Particles P = test::make_disks({{3.0, 3.0, 2.0, 0.0, 0.0}}, 0.125);
+    test::add_model_columns(P, true);
+    for (double& h : P.f64("history"))
+      h = H;
+    Solver solver(grid, P, test::elastic(100.0, 0.3, 1.0), 1e-3,
+                  {Fracture{Gc, l0, 0.0, {}, Model::AT1}}, 1e-8, 1000);
+    solver.prepare();
+    double lo = 1.0, hi = 0.0;
+    for (double c : P.f64("c"))
+    {
+      lo = std::min(lo, c);
+      hi = std::max(hi, c);
+    }
+    return std::make_tuple(lo, hi, solver.energies().fracture, solver.phase_field_stats());
+  };
+  const auto [lo, hi, fracture, stats] = run(0.999 * Hc);
+  EXPECT_NEAR(lo, 1.0, 1e-14);
+  EXPECT_NEAR(hi, 1.0, 1e-14);
+  EXPECT_NEAR(fracture, 0.0, 1e-14);
+  EXPECT_EQ(stats.at_bound, stats.unknowns);
+  EXPECT_EQ(stats.last_iterations, 0);
+  EXPECT_EQ(stats.last_passes, 1);
+  // Above H_c the solution is homogeneous, c = H_c / H (a constant has no
+  // gradient, so the free boundary does not disturb it).
+  const auto [lo2, hi2, fracture2, stats2] = run(2.0 * Hc);
+  EXPECT_NEAR(lo2, 0.5, 1e-6);
+  EXPECT_NEAR(hi2, 0.5, 1e-6);
+  EXPECT_GT(fracture2, 0.0);
+  EXPECT_LT(stats2.at_bound, stats2.unknowns);
 }

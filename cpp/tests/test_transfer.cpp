@@ -1,6 +1,7 @@
-// Particle-grid transfers: P2G conserves mass and momentum to round-off,
-// free motion conserves momentum exactly, and results do not depend on the
-// number of OpenMP threads (bitwise).
+/// @file test_transfer.cpp
+/// @brief Particle-grid transfers: P2G conserves mass and momentum to round-off, free motion
+/// conserves momentum exactly, and results do not depend on the number of OpenMP threads
+/// (bitwise).
 #include "helpers.h"
 #include "pfmpm/grid/grid.h"
 #include "pfmpm/solver/solver.h"
@@ -92,8 +93,9 @@ namespace
 /// Whether 1 and 3 threads give the same bits, with the phase field on: a
 /// notch of history along y = 2.5 makes the solve and the degraded stresses
 /// take part; a nonzero gamma adds the fourth-order term, with orientations
-/// that vary from particle to particle.
-void expect_thread_independent_bits(int degree, const Voigt& gamma)
+/// that vary from particle to particle; AT2 with and without the bound, AT1.
+void expect_thread_independent_bits(int degree, const Voigt& gamma, Model model = Model::AT2,
+                                    bool bound = true)
 {
   auto run = [&](int threads)
   {
@@ -108,7 +110,7 @@ void expect_thread_independent_bits(int degree, const Voigt& gamma)
       phi[i] = 0.3 * P.x[2 * i];
     }
     Solver solver(grid, P, elastic(100.0, 0.3, 1.0), 1e-3,
-                  {Fracture{0.5, 0.5, 0.0, gamma}}, 1e-6, 20000);
+                  {Fracture{0.5, 0.5, 0.0, gamma, model, bound}}, 1e-6, 20000);
     solver.advance(50);
     return std::make_pair(P, solver.energies());
   };
@@ -131,7 +133,9 @@ void expect_thread_independent_bits(int degree, const Voigt& gamma)
 
 TEST_P(TransferDegree, ThreadCountDoesNotChangeBits)
 {
-  expect_thread_independent_bits(GetParam(), Voigt{});
+  expect_thread_independent_bits(GetParam(), Voigt{});              // AT2, bounded
+  expect_thread_independent_bits(GetParam(), Voigt{}, Model::AT2, false); // unbounded CG
+  expect_thread_independent_bits(GetParam(), Voigt{}, Model::AT1);
   if (GetParam() >= 2)
     expect_thread_independent_bits(GetParam(), Voigt{1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 74.0});
 }

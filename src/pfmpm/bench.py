@@ -1,22 +1,31 @@
-"""Throughput of the core step on a synthetic block of particles."""
+"""Throughput of the core step: on a synthetic block of particles
+(:func:`bench`), and on the scenes users run (:func:`scenes_bench`)."""
 
 from __future__ import annotations
 
+import json
 import math
+import resource
 import statistics
+import subprocess
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
 from . import _core
 from .scene import (Anisotropy, Body, Contact, Crack, FractureSpec, GridSpec, LinearElasticSpec,
-                    PhaseFieldSpec, Rectangle, Scene, Time)
+                    NeoHookeanSpec, PhaseFieldSpec, Rectangle, Scene, Time)
 from .simulation import Simulation
 
 PHYSICS = ("elastic", "phasefield", "anisotropic", "contact")
+MODELS = ("linear_elastic", "neo_hookean")
+"""Material models the bench can run (``"neo_hookean"`` with ``elastic`` or ``contact`` only)."""
 
 
-def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str = "elastic") -> Scene:
+def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str = "elastic",
+                model: str = "linear_elastic") -> Scene:
     """A square block of about ``particles`` points, 3x3 per cell, with a margin of empty cells.
 
     ``physics="phasefield"`` makes the block crackable (l0 = 2 h, spectral
@@ -28,8 +37,14 @@ def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str
     ``physics="contact"`` cuts the elastic block into two bodies along its
     vertical midline, each its own discrete field with frictional contact
     (mu = 0.3): the same particles as ``"elastic"``, with a line of contact
-    nodes through the middle.
+    nodes through the middle. ``model="neo_hookean"`` makes the material
+    neo-Hookean (eq. 8 in one step, no damage) with the same E, nu and
+    density; it has no phase field.
     """
+    if model not in MODELS:
+        raise ValueError(f"model = {model!r}: must be one of {', '.join(MODELS)}")
+    if model == "neo_hookean" and physics not in ("elastic", "contact"):
+        raise ValueError(f"model = 'neo_hookean': physics must be elastic or contact, not {physics!r}")
     cells = max(4, math.ceil(math.sqrt(particles / per_cell**2)))
     margin = 4
     side = cells + 2 * margin
@@ -50,7 +65,8 @@ def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str
         grid=GridSpec(size=(float(side), float(side)), h=1.0, degree=degree),
         time=Time(end=1.0),
         cracks=cracks,
-        materials=(LinearElasticSpec(name="m", E=1.0, nu=0.3, density=1.0, fracture=fracture),),
+        materials=(NeoHookeanSpec(name="m", E=1.0, nu=0.3, density=1.0) if model == "neo_hookean"
+                   else LinearElasticSpec(name="m", E=1.0, nu=0.3, density=1.0, fracture=fracture),),
         bodies=tuple(Body(name=name, material="m", shape=shape, particles_per_cell=per_cell,
                           orientation=30.0)
                      for name, shape in shapes.items()),
@@ -60,7 +76,8 @@ def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str
     )
 
 
-def bench(physics: str = "elastic", particles: int = 1_000_000, steps: int = 20, repeats: int = 3, degree: int = 2) -> dict:
+def bench(physics: str = "elastic", particles: int = 1_000_000, steps: int = 20, repeats: int = 3,
+          degree: int = 2, model: str = "linear_elastic") -> dict:
     """Time ``steps`` core steps ``repeats`` times and report the median.
 
     The block vibrates in a smooth mode (velocity amplitude 1e-3 of the wave
@@ -68,7 +85,7 @@ def bench(physics: str = "elastic", particles: int = 1_000_000, steps: int = 20,
     """
     if physics not in PHYSICS:
         raise ValueError(f"physics = {physics!r}: must be one of {', '.join(PHYSICS)}")
-    sim = Simulation(block_scene(particles, degree, physics=physics))
+    sim = Simulation(block_scene(particles, degree, physics=physics, model=model))
     x = sim.particles.x
     lo, hi = x.min(axis=0), x.max(axis=0)
     s = (x - lo) / (hi - lo)
@@ -85,6 +102,7 @@ def bench(physics: str = "elastic", particles: int = 1_000_000, steps: int = 20,
     stats = sim.solver.phase_field_stats()
     return {
         "physics": physics,
+        "model": model,
         "degree": degree,
         "particles": n,
         "steps": steps,
@@ -95,3 +113,85 @@ def bench(physics: str = "elastic", particles: int = 1_000_000, steps: int = 20,
         "phase_field_iterations_per_step": stats["iterations"] / max(stats["solves"], 1),
         "contact_nodes": (sim.solver.contact_stats() or {"nodes": 0})["nodes"],
     }
+
+
+def _rss_bytes() -> int:
+    """Resident set size of this process now."""
+    with open("/proc/self/status") as f:
+        for line in f:
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1]) * 1024
+    return 0
+
+
+def scene_bench(path: Path | str, steps: int = 20, overrides: list[str] | tuple[str, ...] = ()) -> dict:
+    """Time ``steps`` steps of a scene file after two warm-up steps, in this process.
+
+    Returns particle-steps per second, CG iterations per phase-field solve and
+    the peak memory per particle: the process's peak resident size
+    (``ru_maxrss``) less its size before the scene was built, over the
+    particle count, so it holds the core's arrays, the solver's grid and
+    phase-field storage and the Python copies the set-up makes. Run one scene
+    per process (:func:`scenes_bench`) for a peak of its own.
+    """
+    from .scene import Scene
+
+    before = _rss_bytes()
+    scene = Scene.from_toml(path, list(overrides) + ["output.particles=false"])
+    sim = Simulation(scene)
+    sim.advance(2)  # warm-up: allocations, the first sort, the cold phase-field solve
+    solves, iterations = (sim.solver.phase_field_stats()[k] for k in ("solves", "iterations"))
+    start = time.perf_counter()
+    sim.advance(steps)
+    seconds = time.perf_counter() - start
+    stats = sim.solver.phase_field_stats()
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+    n = len(sim.particles)
+    solved = stats["solves"] - solves
+    return {
+        "scene": scene.name,
+        "particles": n,
+        "steps": steps,
+        "threads": _core.num_threads(),
+        "seconds": seconds,
+        "particle_steps_per_s": n * steps / seconds,
+        "cg_iterations_per_solve": (stats["iterations"] - iterations) / solved if solved else 0.0,
+        "peak_bytes_per_particle": (peak - before) / n,
+    }
+
+
+def scenes_bench(paths: list[Path | str], steps: int = 20,
+                 overrides: list[str] | tuple[str, ...] = ()) -> list[dict]:
+    """:func:`scene_bench` of each scene in a process of its own, in order."""
+    rows = []
+    for path in paths:
+        args = [sys.executable, "-m", "pfmpm.bench", str(path), "--steps", str(steps)]
+        for o in overrides:
+            args += ["--set", o]
+        r = subprocess.run(args, capture_output=True, text=True)
+        if r.returncode != 0:
+            raise RuntimeError(f"{path}: {r.stderr.strip().splitlines()[-1] if r.stderr.strip() else r.returncode}")
+        rows.append(json.loads(r.stdout))
+    return rows
+
+
+def markdown_table(rows: list[dict]) -> str:
+    """The rows of :func:`scenes_bench` as a Markdown table."""
+    lines = ["| scene | particles | threads | M particle-steps/s | CG iterations per solve |"
+             " peak bytes per particle |", "|---|---|---|---|---|---|"]
+    for r in rows:
+        lines.append(f"| {r['scene']} | {r['particles']} | {r['threads']} | "
+                     f"{r['particle_steps_per_s'] / 1e6:.2f} | {r['cg_iterations_per_solve']:.1f} | "
+                     f"{r['peak_bytes_per_particle']:.0f} |")
+    return "\n".join(lines) + "\n"
+
+
+if __name__ == "__main__":
+    import argparse
+
+    parser = argparse.ArgumentParser(description="scene_bench of one scene, as one JSON object")
+    parser.add_argument("scene")
+    parser.add_argument("--steps", type=int, default=20)
+    parser.add_argument("--set", action="append", default=[], dest="overrides")
+    a = parser.parse_args()
+    print(json.dumps(scene_bench(a.scene, a.steps, a.overrides)))

@@ -293,7 +293,13 @@ def _from_version_3(meta: dict, arrays: dict[str, np.ndarray]) -> tuple[dict, di
     stress, fext, body, material, c, history, phi (the last three also where
     nothing cracks), and the fracture energy and the phase-field warm start
     with the solver (one, or per crackable body under ``solver/fields/<k>``).
+    Their runs solved the phase field without the bound 0 <= c <= 1, so every
+    fracture table of the saved scene gets ``bound = false``: the run resumes
+    as it was run.
     """
+    for material in meta["scene"].get("materials", []):
+        if isinstance(material.get("fracture"), dict):
+            material["fracture"]["bound"] = False
     old = meta["solver"]
     stats_keys = ("solves", "iterations", "last_iterations", "start_residual", "last_residual",
                   "unknowns")
@@ -305,6 +311,7 @@ def _from_version_3(meta: dict, arrays: dict[str, np.ndarray]) -> tuple[dict, di
         solver_arrays[f"phase_field/{k}/c"] = c
         solver_arrays[f"phase_field/{k}/c_previous"] = c_previous
         scalars.update({f"phase_field/{k}/{key}": stats[key] for key in stats_keys})
+        scalars.update({f"phase_field/{k}/{key}": 0 for key in ("passes", "last_passes", "at_bound")})
 
     if (fields := old["fields"]) is not None:
         for k, stats in enumerate(fields["phase_field_stats"]):

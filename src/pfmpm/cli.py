@@ -9,7 +9,7 @@ import sys
 from pathlib import Path
 
 from . import __version__
-from .bench import PHYSICS
+from .bench import MODELS, PHYSICS
 from .compare import (BORDEN_SCENE, DEFAULT_END, DEFAULT_FRAMES, DEFAULT_H, DEFAULT_L0, compare_borden,
                       read_study)
 from .output import check_directory
@@ -106,9 +106,20 @@ def _count(text: str) -> int:
 
 
 def _bench(args: argparse.Namespace) -> int:
-    from .bench import bench
+    from .bench import bench, markdown_table, scenes_bench
 
-    r = bench(args.physics, args.particles, args.steps, args.repeats, args.degree)
+    if args.scenes is not None:
+        from . import scenes
+
+        paths = args.scenes or [scenes.path(name) for name in scenes.names()]
+        rows = scenes_bench(paths, args.steps, args.set)
+        print(json.dumps(rows) if args.json else markdown_table(rows), end="" if not args.json else "\n")
+        return 0
+    try:
+        r = bench(args.physics, args.particles, args.steps, args.repeats, args.degree, args.model)
+    except ValueError as err:
+        print(f"error: --model: {err}", file=sys.stderr)
+        return 2
     if args.json:
         print(json.dumps(r))
     else:
@@ -123,12 +134,14 @@ def _compare(args: argparse.Namespace) -> int:
 
     out = Path(args.out)
     if args.resume:
-        given = [f"--{k}" for k in ("h", "l0", "end", "scene", "set", "frames") if getattr(args, k) is not None]
+        given = [f"--{k}" for k in ("h", "l0", "end", "scene", "set", "frames", "model")
+                 if getattr(args, k) is not None]
         if given:
             print(f"error: {given[0]}: cannot change the study of a resumed comparison", file=sys.stderr)
             return 2
         study = read_study(out)
-        hs, l0, end, scene, sets, frames = (study[k] for k in ("h", "l0", "end", "scene", "overrides", "frames"))
+        hs, l0, end, scene, sets, frames, model = (
+            study[k] for k in ("h", "l0", "end", "scene", "overrides", "frames", "model"))
     else:
         try:
             hs = [float(h) for h in (args.h or ",".join(f"{h:g}" for h in DEFAULT_H)).split(",")]
@@ -139,10 +152,11 @@ def _compare(args: argparse.Namespace) -> int:
         end = DEFAULT_END if args.end is None else args.end
         scene, sets = args.scene or str(BORDEN_SCENE), args.set or []
         frames = DEFAULT_FRAMES if args.frames is None else args.frames
+        model = args.model or "AT2"
     check_directory(out)
     try:
         result = compare_borden(out, hs, l0, end, scene_path=scene, overrides=sets,
-                                progress=not args.quiet, frames=frames, resume=args.resume)
+                                progress=not args.quiet, frames=frames, resume=args.resume, model=model)
     except (ValueError, CheckpointError) as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
@@ -155,7 +169,7 @@ def _compare(args: argparse.Namespace) -> int:
               f" pfmpm compare borden --resume --out {out}", file=sys.stderr)
         return 130
     a, ref = result.agreement, result.reference
-    print(f"agreement at h = {result.h_common:g}: initiation {a['initiation_mpm_us']:.3f} (MPM)"
+    print(f"{model}: agreement at h = {result.h_common:g}: initiation {a['initiation_mpm_us']:.3f} (MPM)"
           f" vs {a['initiation_fem_us']:.3f} us (FEM), branching {a['branch_mpm_us']:.3f} vs"
           f" {a['branch_fem_us']:.3f} us (each +- {a['record_interval_us']:.3f} us); elastic energy"
           f" RMS difference {100 * a['elastic_rms_rel']:.2f} % of the peak; end fracture energy"
@@ -297,7 +311,15 @@ def main(argv: list[str] | None = None) -> int:
                             " (default %(default)d)")
     bench.add_argument("--degree", type=int, default=2, choices=[1, 2, 3],
                        help="B-spline degree of the grid (default %(default)d)")
+    bench.add_argument("--model", default="linear_elastic", choices=MODELS,
+                       help="material model (neo_hookean: with --physics elastic or contact)")
     bench.add_argument("--json", action="store_true", help="print one JSON object")
+    bench.add_argument("--scenes", nargs="*", metavar="SCENE",
+                       help="instead of the block, time --steps steps of each scene file (default:"
+                            " the shipped paper scenes), one process each, and print a table of"
+                            " particle-steps/s, CG iterations per solve and peak bytes per particle")
+    bench.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                       help="with --scenes: override a scene value in every scene")
     bench.set_defaults(func=_bench)
 
     compare = sub.add_parser("compare", help="run PF-MPM and PF-FEM on a benchmark and compare them")
@@ -306,6 +328,8 @@ def main(argv: list[str] | None = None) -> int:
                                      + ",".join(f"{h:g}" for h in DEFAULT_H) + ")")
     compare.add_argument("--l0", type=float, help=f"phase-field length scale (default {DEFAULT_L0:g})")
     compare.add_argument("--end", type=float, help=f"end time (default {DEFAULT_END:g})")
+    compare.add_argument("--model", choices=["AT2", "AT1"],
+                         help="phase-field model of both methods (default AT2)")
     compare.add_argument("--out", default="out/compare_borden", help="output directory (default %(default)s)")
     compare.add_argument("--scene", help=f"the scene file (default {BORDEN_SCENE})")
     compare.add_argument("--set", action="append", metavar="KEY=VALUE",

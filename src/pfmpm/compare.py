@@ -254,9 +254,11 @@ def reference(fem_end: Mapping[float, float], order: float = ORDER) -> dict:
 # -- the runs -----------------------------------------------------------------
 
 
-def comparison_overrides(scene: dict, h: float, l0: float, end: float) -> list[str]:
+def comparison_overrides(scene: dict, h: float, l0: float, end: float,
+                         model: str = "AT2") -> list[str]:
     """Scene overrides of one comparison run: grid spacing ``h``, the length
-    scale ``l0`` of every material that can crack, and end time ``end``.
+    scale ``l0`` and phase-field ``model`` (AT1 or AT2) of every material that
+    can crack, and end time ``end``.
 
     Parameters
     ----------
@@ -267,6 +269,7 @@ def comparison_overrides(scene: dict, h: float, l0: float, end: float) -> list[s
     materials = scene.get("materials", [])
     crackable = [i for i, m in enumerate(materials) if isinstance(m, Mapping) and "fracture" in m]
     return ([f"grid.h={h!r}"] + [f"materials.{i}.fracture.l0={l0!r}" for i in crackable]
+            + [f"materials.{i}.fracture.model={model}" for i in crackable]
             + [f"time.end={end!r}"])
 
 
@@ -286,7 +289,7 @@ def _run_name(method: str, h: float) -> str:
 
 def read_study(out_dir: Path | str) -> dict:
     """The settings of the comparison in ``out_dir`` (its :data:`STUDY` file):
-    ``h``, ``l0``, ``end``, ``scene``, ``overrides``, ``frames``.
+    ``h``, ``l0``, ``end``, ``scene``, ``overrides``, ``frames``, ``model``.
 
     Raises
     ------
@@ -302,7 +305,8 @@ def read_study(out_dir: Path | str) -> dict:
 def compare_borden(out_dir: Path | str, hs: Sequence[float] = DEFAULT_H, l0: float = DEFAULT_L0,
                    end: float = DEFAULT_END, scene_path: Path | str = BORDEN_SCENE,
                    overrides: Sequence[str] = (), progress: bool = True, log=print,
-                   frames: int = DEFAULT_FRAMES, resume: bool = False) -> Comparison:
+                   frames: int = DEFAULT_FRAMES, resume: bool = False,
+                   model: str = "AT2") -> Comparison:
     """Run the Borden plate with PF-MPM and PF-FEM at each ``h`` and compare.
 
     Parameters
@@ -332,6 +336,9 @@ def compare_borden(out_dir: Path | str, hs: Sequence[float] = DEFAULT_H, l0: flo
         Continue the comparison in ``out_dir``, which must have been started
         with the same settings: keep its completed runs, resume an
         interrupted MPM run from its checkpoint, run the rest.
+    model : str
+        The phase-field model of both methods, ``"AT2"`` (the paper's) or
+        ``"AT1"`` (:class:`~pfmpm.scene.Fracture`).
 
     Returns
     -------
@@ -360,10 +367,10 @@ def compare_borden(out_dir: Path | str, hs: Sequence[float] = DEFAULT_H, l0: flo
     hs = sorted({float(h) for h in hs}, reverse=True)  # coarse to fine
     out = Path(out_dir)
     settings = {"h": hs, "l0": float(l0), "end": float(end), "scene": str(scene_path),
-                "overrides": list(overrides), "frames": int(frames)}
+                "overrides": list(overrides), "frames": int(frames), "model": model}
     study = _open_study(out, settings, resume)
     tables = read_toml(scene_path)
-    by_h = {h: _for_comparison(Scene.from_dict(tables, comparison_overrides(tables, h, l0, end)
+    by_h = {h: _for_comparison(Scene.from_dict(tables, comparison_overrides(tables, h, l0, end, model)
                                                + list(overrides)), frames)
             for h in hs}
     # The FEM set-up is cheap and checks that its path supports the scene.
@@ -407,7 +414,7 @@ def compare_borden(out_dir: Path | str, hs: Sequence[float] = DEFAULT_H, l0: flo
     rows = _table(runs, hs, crack, ref["value"])
     fine = hs[-1]
     agree = agreement(runs["mpm", fine]["energies"], runs["fem", fine]["energies"], crack)
-    files = _write_outputs(out, rows, agree, ref, runs, hs, scene, l0, end)
+    files = _write_outputs(out, rows, agree, ref, runs, hs, scene, l0, end, model)
     return Comparison(out_dir=out, rows=rows, agreement=agree, h_common=fine, reference=ref, files=files)
 
 
@@ -478,7 +485,7 @@ def _table(runs: dict, hs: list[float], crack: Crack, ref: float) -> list[dict]:
 
 
 def _write_outputs(out: Path, rows: list[dict], agree: dict, ref: dict, runs: dict, hs: list[float],
-                   scene: Scene, l0: float, end: float) -> dict[str, Path]:
+                   scene: Scene, l0: float, end: float, model: str) -> dict[str, Path]:
     """Write the CSV, the plots and ``comparison.md``; return their paths by name."""
     files = {name: out / name for name in (
         "speed_vs_error.csv", "energies_overlay.png", "crack_tip_speed_overlay.png",
@@ -505,10 +512,11 @@ def _write_outputs(out: Path, rows: list[dict], agree: dict, ref: dict, runs: di
         if not _plot_side_by_side([out / name / png for name in fine], titles, files[key]):
             del files[key]
     _plot_speed_vs_error(rows, ref, files["speed_vs_error.png"])
-    files["comparison.md"].write_text(_markdown(rows, agree, ref, hs[-1], l0, end))
+    files["comparison.md"].write_text(_markdown(rows, agree, ref, hs[-1], l0, end, model))
     plain = {k: v if math.isfinite(v) else None for k, v in {"h": hs[-1], "l0": l0, **agree}.items()}
     plain["reference"] = {k: (v if not isinstance(v, float) or math.isfinite(v) else None)
                           for k, v in ref.items()}
+    plain["model"] = model
     (out / "agreement.json").write_text(json.dumps(plain, indent=2) + "\n")  # NaN as null
     files["agreement.json"] = out / "agreement.json"
     return files
@@ -635,7 +643,8 @@ def _fmt(value, spec: str = ".4g") -> str:
     return "NaN" if not math.isfinite(value) else format(value, spec)
 
 
-def _markdown(rows: list[dict], agree: dict, ref: dict, h: float, l0: float, end: float) -> str:
+def _markdown(rows: list[dict], agree: dict, ref: dict, h: float, l0: float, end: float,
+              model: str) -> str:
     """``comparison.md``: the table of runs, the reference and the agreement at the finest common h."""
     a = agree
     res = _fmt(a["record_interval_us"], ".3f")
@@ -644,7 +653,7 @@ def _markdown(rows: list[dict], agree: dict, ref: dict, h: float, l0: float, end
     lines = [
         "# PF-MPM against PF-FEM: Borden plate",
         "",
-        f"l0 = {l0:g} mm, end time {end:g} us. `error`: relative difference of a run's end fracture"
+        f"{model} phase field, l0 = {l0:g} mm, end time {end:g} us. `error`: relative difference of a run's end fracture"
         f" energy from {_reference_text(ref)}, one reference for both methods.{observed}"
         " `particles` counts the MPM material points, `dofs` the FEM unknowns (two displacements"
         " and the phase field per vertex). Initiation: the tip 0.5 mm past its start; branching:"

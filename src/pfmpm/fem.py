@@ -32,7 +32,9 @@ Phase field
     assembled once and ``M_F = (F c, q)``, ``F`` of eq. (49) per cell,
     reassembled each step (about 25 % cheaper than reassembling the whole
     form: 16 against 21 ms for 128,000 cells); right-hand side
-    ``F^c = (1, q)`` (eq. 52).
+    ``F^c = (1, q)`` (eq. 52).  AT1 (``fracture.model``, docs/method.md)
+    changes ``F`` and ``F^c`` (:func:`_reaction`).  Both models are solved
+    with the bound ``0 <= c <= 1`` unless ``fracture.bound = false``.
 
 One step
 --------
@@ -55,7 +57,8 @@ phase field is solved at the MPM times, once per scene step; ``H`` takes
 the maximum over the sub-steps.
 
 The phase-field system is solved by conjugate gradients with a Jacobi
-preconditioner.  The reaction term keeps its condition number of order
+preconditioner, inside PETSc's ``vinewtonrsls`` for the bound (see
+``_PhaseFieldSolver``).  The reaction term keeps its condition number of order
 ``1 + (l0 / h)^2`` whatever the size of the mesh, so the iteration count
 does not grow with it; Jacobi does not depend on how the mesh is
 partitioned, so one and several MPI ranks take the same iterates up to
@@ -90,7 +93,8 @@ from .crack import initial_history
 from .output import check_directory
 from .post.tip import CrackPath, CrackTip
 from .run import CRACK_COLUMNS, ENERGY_COLUMNS, WALL_COLUMNS, RunResult, Snapshots, run_to_end
-from .scene import Body, BodyForce, MaterialSpec, Rectangle, Scene, SceneError, Traction
+from .scene import (Body, BodyForce, LinearElasticSpec, MaterialSpec, Rectangle, Scene, SceneError,
+                    Traction)
 from .simulation import core_materials
 
 __all__ = ["FemSimulation", "MESH_DIAGONAL", "run_command", "main"]
@@ -448,8 +452,8 @@ class FemSimulation:
         Sums run over owned vertices and cells and are reduced over the
         communicator, so every rank gets the same values.  ``elastic`` is
         ``sum V (g psi+ + psi-)`` (eq. 14), ``fracture`` the crack density
-        functional ``G_c int (1 - c)^2 / (4 l0) + l0 |grad c|^2 dV``
-        (eqs. 3-4 with no anisotropy), exact for P1 ``c``.
+        functional ``G_c int Z dV`` (eqs. 3-4 with no anisotropy, or AT1's
+        density, see :meth:`_fracture_energy`), exact for P1 ``c``.
         """
         psi_plus, psi_minus = self._elastic.split_energies(self._eps)
         m, v = self._mass, self._v
@@ -477,16 +481,24 @@ class FemSimulation:
         }
 
     def _fracture_energy(self) -> float:
-        """This rank's ``G_c int (1 - c)^2 / (4 l0) + l0 |grad c|^2 dV`` (eq. 4, gamma = 0)."""
+        """This rank's ``G_c int Z dV`` (eq. 4, gamma = 0), exact for P1 ``c``.
+
+        AT2: ``Z = (1 - c)^2 / (4 l0) + l0 |grad c|^2``; AT1:
+        ``Z = 3 (1 - c) / (16 l0) + (3/4) l0 |grad c|^2`` (the C++
+        ``Fracture::crack_density``).
+        """
         if self._fracture is None:
             return 0.0
         ce = self.c.x.array[self._dofs]
         w = 1.0 - ce
-        mean_sq = (w.sum(axis=1) ** 2 + (w * w).sum(axis=1)) / 12.0  # cell mean of (1 - c)^2
         cx = np.einsum("ca,ca->c", ce, self._gx)
         cy = np.einsum("ca,ca->c", ce, self._gy)
         l0 = self._fracture.l0
-        density = mean_sq / (4.0 * l0) + l0 * (cx * cx + cy * cy)
+        if self._fracture.model == "AT1":
+            density = 3.0 * w.mean(axis=1) / (16.0 * l0) + 0.75 * l0 * (cx * cx + cy * cy)
+        else:
+            mean_sq = (w.sum(axis=1) ** 2 + (w * w).sum(axis=1)) / 12.0  # cell mean of (1 - c)^2
+            density = mean_sq / (4.0 * l0) + l0 * (cx * cx + cy * cy)
         return self._fracture.Gc * float(self._volume @ density)
 
     def crack_tip_record(self) -> dict[str, float]:
@@ -635,10 +647,20 @@ class _PhaseFieldSolver:
 
     ``K^c c = F^c`` (eq. 56) with ``K^c = L + M_F`` (eq. 57, cells for
     particles): ``L_IJ = 4 l0^2 (grad N_J, grad N_I)``,
-    ``M_F,IJ = (F N_J, N_I)`` with ``F = 4 l0 (1 - k_f) H / G_c + 1`` per
-    cell (eq. 49), and ``F^c_I = (1, N_I)`` (eq. 52).  ``L`` and ``F^c`` are
-    assembled once; each solve reassembles ``M_F`` into the same sparsity
-    pattern and adds ``L``.
+    ``M_F,IJ = (F N_J, N_I)`` with the per-cell reaction ``F`` of
+    :func:`_reaction`, and ``F^c_I = s (1, N_I)`` (eq. 52) with ``s = 1``
+    (AT2) or ``1/2`` (AT1).  ``L`` and ``F^c`` are assembled once; each solve
+    reassembles ``M_F`` into the same sparsity pattern and adds ``L``.
+
+    With ``fracture.bound`` (the default, and always for AT1) it is solved
+    with the bound ``0 <= c <= 1`` by PETSc's variational-inequality Newton
+    method ``vinewtonrsls`` (reduced-space active set): the residual
+    ``K^c c - F^c`` is linear, so each Newton step is one CG solve on the free
+    vertices with the held ones fixed, and the steps stop when the active set
+    settles and ``||F^c - K^c c||`` over the free vertices is at most
+    ``tol ||F^c||``, the criterion of the MPM's bounded solve.  AT2's first
+    solve starts from the unbounded CG solution.  Without the bound (AT2 with
+    ``bound = false``), by PETSc's CG alone.
 
     Parameters
     ----------
@@ -646,7 +668,8 @@ class _PhaseFieldSolver:
         P1 phase field; solved in place, warm-starting from its value.
     fracture : pfmpm.scene.Fracture
     settings : pfmpm.scene.PhaseField
-        Tolerance on ``||F^c - K^c c|| / ||F^c||`` and the iteration limit.
+        Tolerance on ``||F^c - K^c c|| / ||F^c||`` and the iteration limit
+        (of the CG iterations of one solve, and of its Newton steps).
     n_cells : int
         Number of local cells (the history array's length).
     """
@@ -670,7 +693,22 @@ class _PhaseFieldSolver:
         self._A = self._L.duplicate(copy=True)
         self._b = fem_petsc.assemble_vector(fem.form(q * ufl.dx))
         self._b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        ksp = PETSc.KSP().create(msh.comm)
+        if fracture.model == "AT1":
+            self._b.scale(0.5)  # AT1's source (Fracture::source), exact in binary
+        # CG on K^c c = F^c: AT2's solver without the bound, and with it the
+        # first guess of the first solve (below).
+        self._plain = self._cg(msh.comm, settings) if fracture.model == "AT2" else None
+        self.bounded = fracture.bound  # always for AT1 (the scene checks)
+        if self.bounded:
+            self._snes = self._bounded_solver(msh.comm, settings)
+        self._ksp = self._snes.getKSP() if self.bounded else self._plain
+        self.stats = {"solves": 0, "iterations": 0, "last_iterations": 0}
+        if self.bounded:
+            self.stats.update({"passes": 0, "last_passes": 0})
+
+    def _cg(self, comm, settings) -> PETSc.KSP:
+        """Jacobi-preconditioned CG for ``K^c c = F^c``, warm-started from ``c``."""
+        ksp = PETSc.KSP().create(comm)
         ksp.setOptionsPrefix("pfmpm_pf_")
         ksp.setOperators(self._A)
         ksp.setType(PETSc.KSP.Type.CG)
@@ -679,34 +717,88 @@ class _PhaseFieldSolver:
         ksp.setTolerances(rtol=settings.tol, atol=0.0, max_it=settings.max_iterations)
         ksp.setInitialGuessNonzero(True)
         ksp.setFromOptions()
-        self._ksp = ksp
-        self.stats = {"solves": 0, "iterations": 0, "last_iterations": 0}
+        return ksp
+
+    def _bounded_solver(self, comm, settings) -> PETSc.SNES:
+        """PETSc's ``vinewtonrsls`` for ``K^c c = F^c`` with ``0 <= c <= 1``."""
+        snes = PETSc.SNES().create(comm)
+        snes.setOptionsPrefix("pfmpm_pf_")
+        snes.setType("vinewtonrsls")
+        self._residual = self._b.duplicate()
+
+        def residual(snes, x, f):
+            self._A.mult(x, f)
+            f.axpy(-1.0, self._b)
+
+        snes.setFunction(residual, self._residual)
+        snes.setJacobian(lambda snes, x, J, P: None, self._A)  # K^c, assembled by solve()
+        self._lower, self._upper = self._b.duplicate(), self._b.duplicate()
+        self._lower.set(0.0)
+        self._upper.set(1.0)
+        snes.setVariableBounds(self._lower, self._upper)
+        # Unless the options say otherwise: full steps, as K^c c - F^c is
+        # linear; and a vertex is on a bound only when it is exactly there
+        # (PETSc's default, within 1e-8, holds the tail of an AT2 profile at
+        # c = 1 and frees it one layer of vertices per Newton step).
+        options = PETSc.Options("pfmpm_pf_")
+        for key, value in (("snes_linesearch_type", "basic"), ("snes_vi_zero_tolerance", 0.0)):
+            if not options.hasName(key):
+                options[key] = value
+        snes.setTolerances(atol=settings.tol * self._b.norm(), rtol=0.0, stol=0.0,
+                           max_it=settings.max_iterations)
+        # Each Newton step solves for an update from zero: its CG stops on the
+        # absolute residual that the SNES test asks for.
+        ksp = snes.getKSP()
+        ksp.setType(PETSc.KSP.Type.CG)
+        ksp.getPC().setType(PETSc.PC.Type.JACOBI)
+        ksp.setNormType(PETSc.KSP.NormType.UNPRECONDITIONED)
+        ksp.setTolerances(rtol=1e-50, atol=0.5 * settings.tol * self._b.norm(),
+                          max_it=settings.max_iterations)
+        snes.setFromOptions()
+        return snes
 
     @property
     def solver(self) -> str:
-        """The PETSc Krylov method and preconditioner, e.g. ``"cg + jacobi"``."""
-        return f"{self._ksp.getType()} + {self._ksp.getPC().getType()}"
+        """The PETSc method, e.g. ``"cg + jacobi"`` or ``"vinewtonrsls: cg + jacobi"``."""
+        inner = f"{self._ksp.getType()} + {self._ksp.getPC().getType()}"
+        return f"{self._snes.getType()}: {inner}" if self.bounded else inner
 
     def solve(self, history: np.ndarray, step: int, t: float) -> None:
-        """Solve for ``c`` with the cell history ``H``; raise if CG fails."""
-        fr = self._fracture
-        # eq. (49)
-        self._reaction.x.array[self._cell_dof] = 4.0 * fr.l0 * (1.0 - fr.k_f) * history / fr.Gc + 1.0
+        """Solve for ``c`` with the cell history ``H``; raise if the solver fails."""
+        self._reaction.x.array[self._cell_dof] = _reaction(self._fracture, history)
         self._M.zeroEntries()
         fem_petsc.assemble_matrix(self._M, self._mass_form)
         self._M.assemble()
         self._L.copy(self._A, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
         self._A.axpy(1.0, self._M, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
-        self._ksp.solve(self._b, self.c.vector)
+        if self.bounded:
+            cold = 0
+            if self._plain is not None and self.stats["solves"] == 0:
+                # AT2's first solve starts from the unbounded solution: from
+                # c = 1, where K^c c - F^c is zero up to round-off of either
+                # sign, PETSc would hold a random half of the vertices on the
+                # bound and free them one layer per Newton step.
+                self._plain.solve(self._b, self.c.vector)
+                cold = self._plain.getIterationNumber()
+            self._snes.solve(None, self.c.vector)
+            its = cold + self._snes.getLinearSolveIterations()
+            passes = self._snes.getIterationNumber()
+            self.stats["passes"] += passes
+            self.stats["last_passes"] = passes
+            reason = self._snes.getConvergedReason()
+            what = "vinewtonrsls"
+        else:
+            self._ksp.solve(self._b, self.c.vector)
+            its = self._ksp.getIterationNumber()
+            reason = self._ksp.getConvergedReason()
+            what = "CG"
         self.c.x.scatter_forward()
-        its = self._ksp.getIterationNumber()
         self.stats["solves"] += 1
         self.stats["iterations"] += its
         self.stats["last_iterations"] = its
-        reason = self._ksp.getConvergedReason()
         if reason < 0:
             raise _core.SimulationError(
-                f"phase field: CG stopped without reaching tol = {self._tol:g} after {its}"
+                f"phase field: {what} stopped without reaching tol = {self._tol:g} after {its}"
                 f" iterations (PETSc reason {reason}) at step {step} (t = {t:g})")
 
 
@@ -715,6 +807,18 @@ class _BelowWarning(logging.Filter):
 
     def filter(self, record: logging.LogRecord) -> bool:
         return record.levelno >= logging.WARNING
+
+
+def _reaction(fracture, history: np.ndarray) -> np.ndarray:
+    """Per cell, the coefficient of ``c q`` in eq. (57) (the C++ ``Fracture::reaction``).
+
+    AT2: ``F = 4 l0 (1 - k_f) H / G_c + 1`` (eq. 49); AT1:
+    ``16 l0 (1 - k_f) H / (3 G_c)``, no constant term.
+    """
+    fr = fracture
+    if fr.model == "AT1":
+        return 16.0 * fr.l0 * (1.0 - fr.k_f) * history / (3.0 * fr.Gc)
+    return 4.0 * fr.l0 * (1.0 - fr.k_f) * history / fr.Gc + 1.0
 
 
 @contextmanager
@@ -760,6 +864,9 @@ def _supported(scene: Scene) -> tuple[Body, MaterialSpec]:
                                  f" on grid lines (multiples of h = {h:g} from the grid origin"
                                  f" {list(origin)})", [list(body.shape.min), list(body.shape.max)])
     material = scene.material_of(body)
+    if not isinstance(material, LinearElasticSpec):
+        raise SceneError(f"materials[{scene.materials.index(material)}].model", "the FEM path solves"
+                         " small-strain linear elasticity only", material.model)
     anisotropy = material.fracture.anisotropy if material.fracture else None
     if anisotropy is not None and anisotropy.fourth_order:
         index = scene.materials.index(material)

@@ -52,9 +52,10 @@ __all__ = ["ENERGY_COLUMNS", "WALL_COLUMNS", "CRACK_COLUMNS", "RunResult", "Snap
 ENERGY_COLUMNS = ["step", "t", "kinetic", "elastic", "fracture", "external_work", "total",
                   "momentum_x", "momentum_y"]
 """Columns of ``energies.csv``; ``total = kinetic + elastic + fracture +
-friction_dissipation - external_work - wall_work``, the energy balance: it
-keeps its value at t = 0 where energy is conserved.  The friction
-dissipation is zero without a ``[contact]`` table, the wall work without walls."""
+friction_dissipation + damage_dissipation - external_work - wall_work``, the
+energy balance: it keeps its value at t = 0 where energy is conserved.  The
+friction dissipation is zero without a ``[contact]`` table, the damage
+dissipation without a damage model, the wall work without walls."""
 WALL_COLUMNS = ["wall_work"]
 """Extra ``energies.csv`` column of scenes with walls: the work the walls did
 on the bodies since t = 0 (<= 0: the kinetic energy they stopped)."""

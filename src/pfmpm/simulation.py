@@ -12,10 +12,14 @@ from .output import ParticleSeries, vtk_values
 from .post.tip import CrackPath, CrackTip
 from .run import CRACK_COLUMNS, ENERGY_COLUMNS, WALL_COLUMNS, RunResult, Snapshots, run_to_end
 from .scene import Scene, SceneError
+from .scene.validation import at
 
 CONTACT_COLUMNS = ["friction_dissipation"]
 """Extra ``energies.csv`` columns of scenes with contact: the energy the friction forces took
 out since t = 0, then ``fracture_<body>`` per body."""
+DAMAGE_COLUMNS = ["damage_dissipation"]
+"""Extra ``energies.csv`` column of scenes whose models dissipate by damage (a core column
+``dissipated``): the work dissipated since t = 0, part of ``total``."""
 
 
 def core_materials(scene: Scene) -> tuple[list, list]:
@@ -35,9 +39,10 @@ def core_materials(scene: Scene) -> tuple[list, list]:
         if m.model not in core:
             raise SceneError(f"materials[{i}].model", "the core has no such model (it has "
                              + ", ".join(core) + ")", m.model)
-        materials.append(_core.material(m.model, m.core_parameters(scene.plane)))
+        materials.append(_core.material(m.model, m.core_parameters(scene)))
         f = m.fracture
-        fracture.append(_core.Fracture(f.Gc, f.l0, f.k_f, f.gamma().tolist()) if f else None)
+        fracture.append(_core.Fracture(f.Gc, f.l0, f.k_f, f.gamma().tolist(),
+                                       _core.Model.__members__[f.model], f.bound) if f else None)
     return materials, fracture
 
 
@@ -86,9 +91,12 @@ class Simulation:
         # The solver adds the models' columns; then their initial values.
         self.solver = _core.Solver(self.grid, self.particles, materials, scene.dt(), fracture,
                                    pf.tol, pf.max_iterations, friction)
+        self.solver.set_phase_field_preconditioner(_core.Preconditioner.__members__[pf.preconditioner])
         columns = {c["name"] for c in self.particles.columns()}
         for name in (columns - core) & arrays.keys():
             getattr(self.particles, name)[...] = arrays[name]
+        self._initial_columns(arrays["volume"])
+        self.damage = "dissipated" in columns
         self._crackable = np.zeros(len(self.particles), dtype=bool)
         for b, body in enumerate(scene.bodies):
             if scene.fracture_of(body) is not None:
@@ -100,6 +108,16 @@ class Simulation:
                            if scene.cracks else None)
         if self.cracks:
             self.solver.prepare()  # the phase field of the initial cracks
+
+    def _initial_columns(self, volume: np.ndarray) -> None:
+        """Set each material's initial column values on its particles
+        (``MaterialSpec.initial_columns``: a Weibull strength field)."""
+        for i, m in enumerate(self.scene.materials):
+            sel = np.flatnonzero(self.particles.material == i)
+            with at(f"materials[{i}]"):
+                values = m.initial_columns(self.scene, volume[sel])
+            for name, value in values.items():
+                getattr(self.particles, name)[sel] = value
 
     def _impose_cracks(self) -> None:
         """Set the initial history of every crack on the particles of its bodies."""
@@ -118,6 +136,8 @@ class Simulation:
         """Columns of ``energies.csv`` for this scene."""
         columns = ENERGY_COLUMNS + (WALL_COLUMNS if self.scene.walls else [])
         columns += CRACK_COLUMNS if self.crack_tip else []
+        if self.damage:
+            columns += DAMAGE_COLUMNS
         if self.contact:
             columns += CONTACT_COLUMNS + [f"fracture_{b.name}" for b in self.scene.bodies]
         return columns
@@ -141,8 +161,12 @@ class Simulation:
         e["step"] = self.step
         e["t"] = self.time
         friction = -e.pop("friction_work")
+        dissipated = e.pop("dissipated")
         e["total"] = (e["kinetic"] + e["elastic"] + e["fracture"] - e["external_work"]
                       - e["wall_work"] + friction)
+        if self.damage:
+            e["damage_dissipation"] = dissipated
+            e["total"] += dissipated
         if self.contact:
             e["friction_dissipation"] = friction
             for body, value in zip(self.scene.bodies, by_body):
@@ -200,6 +224,8 @@ class Simulation:
             active.append("initial_cracks")
         if self.contact:
             active.append("contact")
+        if self.damage:
+            active.append("damage")
         return active
 
     def run(self, out_dir: Path | str, progress: bool = True, checkpoint_every: int = 0,

@@ -91,6 +91,8 @@ PhaseField::PhaseField(const Grid& grid, std::vector<std::optional<Fracture>> fr
   _active = std::any_of(_fracture.begin(), _fracture.end(), [](const auto& f) { return f.has_value(); });
   _fourth = std::any_of(_fracture.begin(), _fracture.end(),
                         [](const auto& f) { return f && f->fourth_order(); });
+  _bounded = !_fourth && std::any_of(_fracture.begin(), _fracture.end(),
+                                     [](const auto& f) { return f && f->bound; });
   for (std::size_t m = 0; m < _fracture.size(); ++m)
   {
     if (!_fracture[m])
@@ -109,7 +111,17 @@ PhaseField::PhaseField(const Grid& grid, std::vector<std::optional<Fracture>> fr
     if (f.fourth_order() && grid.degree() < 2)
       throw std::invalid_argument(at + "gamma != 0 needs second derivatives of the basis: "
                                   "the grid degree must be >= 2, not 1");
+    if (f.model != Model::AT1 && f.model != Model::AT2)
+      throw std::invalid_argument(at + "model = " + std::to_string(static_cast<int>(f.model))
+                                  + ": must be AT1 or AT2");
+    if (f.model == Model::AT1 && !f.bound)
+      throw std::invalid_argument(at + "AT1 needs the bound 0 <= c <= 1");
   }
+  const bool at1 = std::any_of(_fracture.begin(), _fracture.end(),
+                               [](const auto& f) { return f && f->model == Model::AT1; });
+  if (at1 && _fourth)
+    throw std::invalid_argument("AT1 is solved with the second-order functional only: no "
+                                "material of its phase field may have gamma != 0");
   if (!(tol > 0.0 && tol < 1.0))
     throw std::invalid_argument("tol = " + text(tol) + ": must lie in (0, 1)");
   if (max_iterations < 1)
@@ -121,9 +133,27 @@ PhaseField::PhaseField(const Grid& grid, std::vector<std::optional<Fracture>> fr
     _c.assign(padded_nx * _padded_ny, 1.0);
     _c_previous = _c;
     _search.assign(_c.size(), 0.0);
-    if (_fourth)
-      _forward.assign(_c.size(), 0.0);
   }
+  set_preconditioner(Preconditioner::automatic);
+}
+
+void PhaseField::set_preconditioner(Preconditioner preconditioner)
+{
+  _preconditioner = preconditioner;
+  _multigrid.reset();
+  if (!_active)
+    return;
+  if (this->preconditioner() == Preconditioner::multigrid)
+    _multigrid = std::make_unique<Multigrid>(_grid.cells(), _grid.degree());
+  if (this->preconditioner() == Preconditioner::ssor && _forward.empty())
+    _forward.assign(_c.size(), 0.0);
+}
+
+Preconditioner PhaseField::preconditioner() const
+{
+  if (_preconditioner != Preconditioner::automatic)
+    return _preconditioner;
+  return _fourth ? Preconditioner::multigrid : Preconditioner::jacobi;
 }
 
 PhaseFieldState PhaseField::state() const
@@ -156,6 +186,53 @@ std::vector<ColumnSpec> PhaseField::columns()
           {"fracture_energy", 1, DType::f64, {0.0}, "G_c V_p Z(c_p) (K&T eqs. 3-4)", "", ""}};
 }
 
+PhaseFieldSystem PhaseField::system() const
+{
+  switch (_pad)
+  {
+  case 1:
+    return compressed_rows<1>();
+  case 2:
+    return compressed_rows<2>();
+  default:
+    return compressed_rows<3>();
+  }
+}
+
+template <int P>
+PhaseFieldSystem PhaseField::compressed_rows() const
+{
+  constexpr int H = Stencil<P>::size;
+  PhaseFieldSystem out;
+  const std::size_t na = _rhs.size();
+  if (na == 0)
+    return out;
+  const int nnx = _grid.nodes()[0], nny = _grid.nodes()[1];
+  out.nodes.assign(_nodes.nodes().begin(), _nodes.nodes().end());
+  out.rhs = _rhs;
+  out.row_start.push_back(0);
+  for (std::size_t a = 0; a < na; ++a)
+  {
+    const int ix = out.nodes[a] / nny, iy = out.nodes[a] % nny;
+    out.solution.push_back(_c[_position[a]]);
+    // Neighbours in increasing node order, hence increasing active index.
+    for (int dx = -P; dx <= P; ++dx)
+      for (int dy = -P; dy <= P; ++dy)
+      {
+        const int jx = ix + dx, jy = iy + dy;
+        if (jx < 0 || jx >= nnx || jy < 0 || jy >= nny || _nodes.index(jx, jy) < 0)
+          continue;
+        const int k = Stencil<P>::slot(dx, dy);
+        const double v = k >= 0 ? _stencil[_position[a] * H + k]
+                                : _stencil[padded(jx, jy) * H + Stencil<P>::slot(-dx, -dy)];
+        out.column.push_back(_nodes.index(jx, jy));
+        out.value.push_back(v);
+      }
+    out.row_start.push_back(static_cast<std::int64_t>(out.column.size()));
+  }
+  return out;
+}
+
 template <int P>
 bool PhaseField::solve(Particles& particles, const CellSort& sort)
 {
@@ -163,7 +240,11 @@ bool PhaseField::solve(Particles& particles, const CellSort& sort)
   {
     constexpr bool Fourth = decltype(fourth)::value;
     assemble<P, Fourth>(particles, sort);
-    const bool converged = conjugate_gradient<P, Fourth>();
+    bool converged;
+    if constexpr (Fourth) // never bounded (the constructor refuses AT1 with gamma != 0)
+      converged = conjugate_gradient<P, true>();
+    else
+      converged = _bounded ? bounded_solve<P>() : conjugate_gradient<P, false>();
     map_to_particles<P, Fourth>(particles, sort);
     return converged;
   };
@@ -180,7 +261,10 @@ void PhaseField::assemble(const Particles& particles, const CellSort& sort)
   constexpr int K = Shape::size;      // nodes of one cell
   constexpr int H = Stencil<P>::size; // stored entries per node
   const int nny = _grid.nodes()[1];
-  const auto na = static_cast<std::size_t>(_grid.num_active());
+  // The system's unknowns: the nodes in the support of the sort's particles
+  // (with discrete fields, of this body's particles alone).
+  _nodes.activate(_grid, sort.cell_start());
+  const auto na = static_cast<std::size_t>(_nodes.size());
   const double* volume = particles.volume.data();
   const double* history = particles.f64("history").data();
   const double* phi = particles.f64("phi").data();
@@ -193,7 +277,7 @@ void PhaseField::assemble(const Particles& particles, const CellSort& sort)
   _r.resize(na);
   _z.resize(na);
   _q.resize(na);
-  const std::vector<std::int32_t>& nodes = _grid.active_nodes();
+  const std::vector<std::int32_t>& nodes = _nodes.nodes();
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t a = 0; a < static_cast<std::ptrdiff_t>(na); ++a)
   {
@@ -229,9 +313,9 @@ void PhaseField::assemble(const Particles& particles, const CellSort& sort)
             {
               const Fracture& fr = *fracture(material[p]);
               const double V = volume[p];
-              // eq. 49: F_p = 4 l0 (1 - k_f) H / G_c + 1
-              const double a = (4.0 * fr.l0 * (1.0 - fr.k_f) * history[p] / fr.Gc + 1.0) * V;
-              const double b = 4.0 * fr.l0 * fr.l0 * V;
+              const double a = fr.reaction(history[p]) * V; // eq. 49 (AT1: Fracture::reaction)
+              const double b = fr.diffusion() * V;
+              const double src = fr.source() * V;
               alignas(32) double w[R]{}, gx[R]{}, gy[R]{};
               for (int i = 0; i < K; ++i)
               {
@@ -253,7 +337,7 @@ void PhaseField::assemble(const Particles& particles, const CellSort& sort)
                 const double e = 4.0 * fr.l0 * fr.l0 * fr.l0 * fr.l0 * V;
                 for (int i = 0; i < K; ++i)
                 {
-                  f[i] += V * w[i]; // eq. 52
+                  f[i] += src * w[i]; // eq. 52
                   const double aw = a * w[i], bx_ = b * gx[i], by_ = b * gy[i];
                   // e G kappa_i, so that the fourth-order term is u . kappa_j
                   const double u0 = e * (G[0] * kxx[i] + G[1] * kyy[i] + G[2] * kxy[i]);
@@ -267,7 +351,7 @@ void PhaseField::assemble(const Particles& particles, const CellSort& sort)
               else
                 for (int i = 0; i < K; ++i)
                 {
-                  f[i] += V * w[i]; // eq. 52
+                  f[i] += src * w[i]; // eq. 52
                   const double aw = a * w[i], bx_ = b * gx[i], by_ = b * gy[i];
                   for (int j = 0; j < R; ++j)
                     block[i][j] += aw * w[j] + bx_ * gx[j] + by_ * gy[j]; // eq. 57, gamma = 0
@@ -276,7 +360,7 @@ void PhaseField::assemble(const Particles& particles, const CellSort& sort)
         for (int i = 0; i < K; ++i)
         {
           const int ix = cell.cx + Shape::offset(i, 0), iy = cell.cy + Shape::offset(i, 1);
-          _rhs[_grid.active_index(ix, iy)] += f[i];
+          _rhs[_nodes.index(ix, iy)] += f[i];
           double* row = &_stencil[padded(ix, iy) * H];
           for (int j = 0; j < K; ++j)
             if (slot[i][j] >= 0)
@@ -297,26 +381,6 @@ void PhaseField::assemble(const Particles& particles, const CellSort& sort)
     _diagonal[a] = d;
   }
 
-  if constexpr (Fourth)
-  {
-    // The strips of the Gauss-Seidel order (ssor_iterations): 32 grid columns
-    // each, consecutive active nodes (they are numbered column by column).
-    constexpr int width = 32;
-    const int nx = _grid.nodes()[0], strips = (nx + width - 1) / width;
-    _strip_column.resize(strips + 1);
-    for (int s = 0; s <= strips; ++s)
-      _strip_column[s] = std::min(s * width, nx);
-    _column_start.resize(nx + 1);
-    for (int ix = 0; ix <= nx; ++ix)
-      _column_start[ix] = static_cast<std::size_t>(
-          std::lower_bound(nodes.begin(), nodes.end(), ix * nny) - nodes.begin());
-    _inverse.resize(na);
-#pragma omp parallel for schedule(static)
-    for (std::ptrdiff_t a = 0; a < static_cast<std::ptrdiff_t>(na); ++a)
-      _inverse[a] = 1.0 / _diagonal[a];
-    _v.resize(na);
-    _g.resize(na);
-  }
 }
 
 template <int P>
@@ -528,17 +592,90 @@ void PhaseField::ssor_iterations(double norm_f, double stop, double& residual, i
   }
 }
 
+void PhaseField::prepare_ssor()
+{
+  const std::vector<std::int32_t>& nodes = _nodes.nodes();
+  const auto na = static_cast<std::ptrdiff_t>(_rhs.size());
+  constexpr int width = 32;
+  const int nx = _grid.nodes()[0], nny = _grid.nodes()[1], strips = (nx + width - 1) / width;
+  _strip_column.resize(strips + 1);
+  for (int s = 0; s <= strips; ++s)
+    _strip_column[s] = std::min(s * width, nx);
+  _column_start.resize(nx + 1);
+  for (int ix = 0; ix <= nx; ++ix)
+    _column_start[ix] = static_cast<std::size_t>(
+        std::lower_bound(nodes.begin(), nodes.end(), ix * nny) - nodes.begin());
+  _inverse.resize(na);
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t a = 0; a < na; ++a)
+    _inverse[a] = 1.0 / _diagonal[a];
+  _v.resize(na);
+  _g.resize(na);
+}
+
+/// PCG with z = B r, B one V-cycle of Multigrid (symmetric positive definite),
+/// set up for this K only when the warm start has not yet converged.
+template <int P>
+void PhaseField::multigrid_iterations(double norm_f, double stop, double& residual, int& it)
+{
+  const std::size_t na = _rhs.size();
+  residual = std::sqrt(deterministic_sum<1>(na,
+                                            [&](std::size_t a, std::array<double, 1>& acc)
+                                            {
+                                              _r[a] = _rhs[a] - _q[a];
+                                              acc[0] += _r[a] * _r[a];
+                                            })[0]);
+  _stats.start_residual = norm_f > 0.0 ? residual / norm_f : 0.0;
+  if (residual <= stop)
+    return;
+  _v.resize(na);
+  _multigrid->setup<P>(_stencil, _position);
+  // z = B r and K z from the V-cycle; then p = z + beta p and K p = K z + beta K p.
+  double* kz = _v.data();
+  double rz = 0.0;
+  for (;;)
+  {
+    _multigrid->apply<P>(_r.data(), _z.data(), kz);
+    const double rz_next = deterministic_sum<1>(
+        na, [&](std::size_t a, std::array<double, 1>& acc) { acc[0] += _r[a] * _z[a]; })[0];
+    const double beta = it == 0 ? 0.0 : rz_next / rz;
+    rz = rz_next;
+    ++it;
+    const double pq = deterministic_sum<1>(
+        na,
+        [&](std::size_t a, std::array<double, 1>& acc)
+        {
+          double& p = _search[_position[a]];
+          p = _z[a] + beta * p;
+          _q[a] = kz[a] + beta * _q[a];
+          acc[0] += p * _q[a];
+        })[0];
+    const double alpha = rz / pq;
+    residual = std::sqrt(deterministic_sum<1>(na,
+                                              [&](std::size_t a, std::array<double, 1>& acc)
+                                              {
+                                                _c[_position[a]] += alpha * _search[_position[a]];
+                                                _r[a] -= alpha * _q[a];
+                                                acc[0] += _r[a] * _r[a];
+                                              })[0]);
+    if (residual <= stop || it >= _max_iterations)
+      return;
+  }
+}
+
 /// Preconditioned conjugate gradients for K c = F (eq. 50), from the warm
-/// start until ||F - K c|| <= tol ||F||.
+/// start until ||F - K c|| <= tol ||F||, with the preconditioner of
+/// set_preconditioner().
 ///
-/// The second-order model keeps the Jacobi preconditioner z = D^-1 r
-/// (jacobi_iterations): its CG needs only 12-28 iterations per step, too few
-/// for Gauss-Seidel sweeps to pay back their cost, and its results stay those
-/// of before bit for bit.
+/// By default the second-order model is solved by bounded_solve (Jacobi CG
+/// on the free nodes); without the bound (Fracture::bound false) it keeps
+/// the Jacobi preconditioner z = D^-1 r (jacobi_iterations): 12-28
+/// iterations per step, and its results stay those of before bit for bit.
 ///
 /// The fourth-order model, whose condition number grows like
-/// gamma_n (l0/h)^4, takes symmetric Gauss-Seidel (SSOR with omega = 1,
-/// ssor_iterations): with K = L + D + U in the Gauss-Seidel order,
+/// gamma_n (l0/h)^4, takes the multigrid V-cycle by default (below); with
+/// Preconditioner::ssor it takes symmetric Gauss-Seidel (SSOR with
+/// omega = 1, ssor_iterations): with K = L + D + U in the Gauss-Seidel order,
 /// M = (D + L) D^-1 (D + U), symmetric positive definite since D > 0. The
 /// order: strips of 32 grid columns, the even strips first, then the odd ones,
 /// each strip column by column; strips of one parity share no entry of K, so
@@ -549,6 +686,9 @@ void PhaseField::ssor_iterations(double norm_f, double stop, double& residual, i
 /// and a product; c and the true residual r = F - K c are updated alongside.
 /// The CG scalars are those of PCG with M; about a third of the Jacobi
 /// iterations (docs/performance.md).
+///
+/// The multigrid V-cycle (multigrid_iterations, Multigrid) takes a few
+/// iterations for either order (docs/performance.md).
 template <int P, bool Fourth>
 bool PhaseField::conjugate_gradient()
 {
@@ -574,16 +714,201 @@ bool PhaseField::conjugate_gradient()
   multiply<P>(_c, _q);
   double residual = 0.0;
   int it = 0;
-  if constexpr (Fourth)
+  switch (preconditioner())
+  {
+  case Preconditioner::ssor:
+    prepare_ssor();
     ssor_iterations<P>(norm_f, stop, residual, it);
-  else
+    break;
+  case Preconditioner::multigrid:
+    multigrid_iterations<P>(norm_f, stop, residual, it);
+    break;
+  default:
     jacobi_iterations<P>(norm_f, stop, residual, it);
+  }
   _stats.solves += 1;
   _stats.iterations += it;
   _stats.last_iterations = it;
   _stats.last_residual = norm_f > 0.0 ? residual / norm_f : 0.0;
   _stats.unknowns = static_cast<std::int32_t>(na);
   return residual <= stop;
+}
+
+/// K c = F (eq. 50) with the bound 0 <= c <= 1 at every active node: AT1
+/// needs it (without it its equation has no solution where H = 0, and c
+/// would exceed 1 where H is small), and for both models it keeps
+/// c_p = sum N_I c_I, a convex combination of nodal values, in [0, 1]
+/// (unbounded, AT2's nodal values undershoot below 0 next to a band of huge
+/// history).
+///
+/// K is symmetric positive semi-definite, so this is the minimisation of
+/// c.K c / 2 - F.c over the box, whose optimality conditions are, with the
+/// multiplier r = F - K c: r_I = 0 where 0 < c_I < 1, r_I >= 0 where
+/// c_I = 1 and r_I <= 0 where c_I = 0. The primal-dual active-set method
+/// (Hintermüller, Ito & Kunisch 2002; for phase-field fracture Heister,
+/// Wheeler & Wick 2015) solves them by passes:
+/// 1. warm start as conjugate_gradient, projected onto [0, 1]; nodes on a
+///    bound are held there only if their multiplier pushes them outwards by
+///    more than tol K_II (update_active_set with the margin -tol): a node that
+///    no history reaches, where r = 0 up to round-off of either sign, starts
+///    free, so a cold start does not release the nodes one layer per pass;
+/// 2. update_active_set with r at the current c;
+/// 3. CG on the free nodes, the held ones as identity rows with their bound
+///    as right-hand side (free_set_iterations), to ||r_free|| <= tol ||F||;
+/// 4. r = F - K c and update_active_set again; stop when no node changes,
+///    else back to 3.
+/// Each pass is warm-started from the last, and a step's first pass from
+/// the last step's solution, so after the first steps one or two passes
+/// suffice; a cold start (an initial crack at t = 0) takes about one pass
+/// per two grid spacings of the AT1 band's half-width 4 l0, as each pass
+/// releases the nodes next to the damaged ones. Every update is per node and
+/// every sum is a deterministic_sum, so the result has the same bits on any
+/// number of threads. The CG iterations of each pass, and the passes, are
+/// each limited to max_iterations.
+template <int P>
+bool PhaseField::bounded_solve()
+{
+  const std::size_t na = _rhs.size();
+  const auto norm_f = std::sqrt(deterministic_sum<1>(
+      na, [&](std::size_t a, std::array<double, 1>& acc) { acc[0] += _rhs[a] * _rhs[a]; })[0]);
+  const double stop = _tol * norm_f;
+
+  // The warm start of conjugate_gradient, projected onto the bounds.
+  const double trend = _stats.solves >= 2 ? 1.0 : 0.0;
+  _bound.resize(na);
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t a = 0; a < static_cast<std::ptrdiff_t>(na); ++a)
+  {
+    const std::size_t i = _position[a];
+    const double now = _c[i];
+    const double c = std::clamp(now + trend * (now - _c_previous[i]), 0.0, 1.0);
+    _c_previous[i] = now;
+    _c[i] = c;
+    _bound[a] = c == 1.0 ? 1 : c == 0.0 ? -1 : 0;
+  }
+  multiply<P>(_c, _q);
+  update_active_set(-_tol);
+
+  double residual = 0.0;
+  int it = 0, passes = 0;
+  bool settled = false;
+  while (passes < _max_iterations)
+  {
+    ++passes;
+    double start = 0.0;
+    int pass_it = 0;
+    free_set_iterations<P>(stop, start, residual, pass_it);
+    it += pass_it;
+    if (passes == 1)
+      _stats.start_residual = norm_f > 0.0 ? start / norm_f : 0.0;
+    if (residual > stop)
+      break; // CG ran out of iterations
+    multiply<P>(_c, _q);
+    if (update_active_set(_tol) == 0)
+    {
+      settled = true;
+      break;
+    }
+  }
+  _stats.solves += 1;
+  _stats.iterations += it;
+  _stats.last_iterations = it;
+  _stats.passes += passes;
+  _stats.last_passes = passes;
+  _stats.last_residual = norm_f > 0.0 ? residual / norm_f : 0.0;
+  _stats.unknowns = static_cast<std::int32_t>(na);
+  _stats.at_bound = static_cast<std::int32_t>(na - _free.size());
+  return settled;
+}
+
+std::int64_t PhaseField::update_active_set(double margin)
+{
+  const auto na = static_cast<std::ptrdiff_t>(_rhs.size());
+  std::int64_t changed = 0;
+#pragma omp parallel for schedule(static) reduction(+ : changed)
+  for (std::ptrdiff_t a = 0; a < na; ++a)
+  {
+    const std::size_t i = _position[a];
+    // The multiplier r_a over K_aa: how far a Jacobi step would move c_a.
+    const double step = (_rhs[a] - _q[a]) / _diagonal[a];
+    std::int8_t b = _bound[a];
+    // Released when the multiplier pulls the node into the box by at least the margin.
+    if ((b == 1 && step <= -margin) || (b == -1 && step >= margin))
+      b = 0;
+    else if (b == 0 && (_c[i] > 1.0 || _c[i] < 0.0))
+      b = _c[i] > 1.0 ? 1 : -1; // hold it on the bound it crossed
+    if (b != _bound[a])
+    {
+      ++changed;
+      _bound[a] = b;
+      if (b != 0)
+        _c[i] = b > 0 ? 1.0 : 0.0;
+    }
+  }
+  _free.clear();
+  for (std::ptrdiff_t a = 0; a < na; ++a)
+    if (_bound[a] == 0)
+      _free.push_back(static_cast<std::size_t>(a));
+  return changed;
+}
+
+template <int P>
+void PhaseField::free_set_iterations(double stop, double& start, double& residual, int& it)
+{
+  const std::size_t nf = _free.size();
+  const Stencil<P> stencil(_padded_ny);
+  // The search direction is zero on the held nodes, so K p touches only the
+  // free ones: CG on K restricted to them.
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t k = 0; k < static_cast<std::ptrdiff_t>(_search.size()); ++k)
+    _search[k] = 0.0;
+  auto rr = deterministic_sum<2>(
+      nf,
+      [&](std::size_t k, std::array<double, 2>& acc)
+      {
+        const std::size_t a = _free[k];
+        _r[k] = _rhs[a] - row_product(stencil, a, _c.data()); // eq. 50
+        _z[k] = _r[k] / _diagonal[a];
+        _search[_position[a]] = _z[k];
+        acc[0] += _r[k] * _r[k];
+        acc[1] += _r[k] * _z[k];
+      });
+  residual = std::sqrt(rr[0]);
+  start = residual;
+  double rz = rr[1];
+  while (residual > stop && it < _max_iterations)
+  {
+    ++it;
+    const double pq = deterministic_sum<1>(
+        nf,
+        [&](std::size_t k, std::array<double, 1>& acc)
+        {
+          const std::size_t a = _free[k];
+          _q[k] = row_product(stencil, a, _search.data());
+          acc[0] += _search[_position[a]] * _q[k];
+        })[0];
+    const double alpha = rz / pq;
+    rr = deterministic_sum<2>(
+        nf,
+        [&](std::size_t k, std::array<double, 2>& acc)
+        {
+          const std::size_t i = _position[_free[k]];
+          _c[i] += alpha * _search[i];
+          _r[k] -= alpha * _q[k];
+          _z[k] = _r[k] / _diagonal[_free[k]];
+          acc[0] += _r[k] * _r[k];
+          acc[1] += _r[k] * _z[k];
+        });
+    residual = std::sqrt(rr[0]);
+    const double beta = rr[1] / rz;
+    rz = rr[1];
+#pragma omp parallel for schedule(static)
+    for (std::ptrdiff_t k = 0; k < static_cast<std::ptrdiff_t>(nf); ++k)
+    {
+      const std::size_t i = _position[_free[k]];
+      _search[i] = _z[k] + beta * _search[i];
+    }
+  }
 }
 
 template <int P, bool Fourth>
@@ -622,9 +947,8 @@ void PhaseField::map_to_particles(Particles& particles, const CellSort& sort)
                         kappa[h] += s.d2N(h, i) * nodal[i]; // eq. 55, per component
                   }
                   c[p] = cp;
-                  // G_c V Z with Z of eq. 4.
-                  const double one_minus = 1.0 - cp;
-                  double Z = one_minus * one_minus / (4.0 * fr.l0) + fr.l0 * (gx * gx + gy * gy);
+                  // G_c V Z with Z of eq. 4 (AT1: Fracture::crack_density).
+                  double Z = fr.crack_density(cp, gx * gx + gy * gy);
                   if constexpr (Fourth) // zero for a material with gamma = 0
                     Z += fr.l0 * fr.l0 * fr.l0 * curvature_energy(rotated(fr, phi[p]), kappa);
                   energy[p] = fr.Gc * volume[p] * Z;

@@ -7,9 +7,12 @@
 #include "pfmpm/grid/grid.h"
 #include "pfmpm/particles/cell_sort.h"
 #include "pfmpm/particles/particles.h"
+#include "pfmpm/fracture/multigrid.h"
+#include "pfmpm/fracture/symmetric_stencil.h"
 
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <vector>
 
@@ -21,6 +24,15 @@ namespace pfmpm
 /// term of eq. 4 is l0^3 kappa^T gamma kappa.
 using Voigt = std::array<double, 9>;
 
+/// @brief The local term w(d) of the crack density, d = 1 - c. In the
+/// standard form (G_c / c_w) (w(d) / l + l |grad d|^2) with l = 2 l0
+/// (docs/method.md):
+enum class Model : int
+{
+  AT2 = 0, ///< w = d^2, c_w = 2: eq. 4 of the paper; damage at any tension
+  AT1 = 1  ///< w = d, c_w = 8/3: an elastic threshold and a band of finite width
+};
+
 /// Fracture parameters of a material that can crack.
 struct Fracture
 {
@@ -28,9 +40,41 @@ struct Fracture
   double l0;     ///< length scale l0 (> 0)
   double k_f;    ///< residual stiffness k_f in [0, 1) (eq. 15)
   Voigt gamma{}; ///< anisotropy in the material frame; zero: the second-order functional
+  Model model = Model::AT2; ///< AT1 only with gamma = 0
+  /// Solve with the bound 0 <= c <= 1 (PhaseField::bounded_solve); AT1 needs
+  /// it, the fourth-order functional (gamma != 0) is solved without it.
+  bool bound = true;
 
   /// Degradation g(c) = (1 - k_f) c^2 + k_f (eq. 15).
   double degradation(double c) const { return (1.0 - k_f) * c * c + k_f; }
+
+  /// @brief Per unit volume, the coefficient of N_I N_J in K (eq. 57) at
+  /// history H: eq. 49's F_p = 4 l0 (1 - k_f) H / G_c + 1 for AT2, and
+  /// 16 l0 (1 - k_f) H / (3 G_c) for AT1, whose crack density has no
+  /// (1 - c)^2 term.
+  double reaction(double H) const
+  {
+    if (model == Model::AT1)
+      return 16.0 * l0 * (1.0 - k_f) * H / (3.0 * Gc);
+    return 4.0 * l0 * (1.0 - k_f) * H / Gc + 1.0;
+  }
+  /// @brief Per unit volume, the coefficient of grad N_I . grad N_J in K
+  /// (eq. 57): 4 l0^2 for both models.
+  double diffusion() const { return 4.0 * l0 * l0; }
+  /// @brief Per unit volume, the coefficient of N_I in F (eq. 52): 1 for
+  /// AT2, 1/2 for AT1 (its linear term (3 / 16 l0) (1 - c), scaled like
+  /// the rest of AT1's equation by 8 l0 / (3 G_c)).
+  double source() const { return model == Model::AT1 ? 0.5 : 1.0; }
+  /// @brief Crack density Z at phase field c with |grad c|^2 = `grad2`
+  /// (eq. 4 with gamma = 0): (1 - c)^2 / (4 l0) + l0 |grad c|^2 for AT2,
+  /// 3 (1 - c) / (16 l0) + (3/4) l0 |grad c|^2 for AT1.
+  double crack_density(double c, double grad2) const
+  {
+    const double d = 1.0 - c;
+    if (model == Model::AT1)
+      return 3.0 * d / (16.0 * l0) + 0.75 * l0 * grad2;
+    return d * d / (4.0 * l0) + l0 * grad2;
+  }
   /// Whether eq. 4 has its fourth-order term.
   bool fourth_order() const;
   /// @brief gamma seen in the global frame by a point whose principal material
@@ -41,15 +85,40 @@ struct Fracture
   Voigt rotated(double phi) const;
 };
 
+/// @brief The preconditioner of the phase-field conjugate gradients.
+enum class Preconditioner : int
+{
+  automatic = 0, ///< jacobi for the second-order model, multigrid for the fourth-order one
+  jacobi = 1,    ///< z = D^-1 r
+  ssor = 2,      ///< symmetric Gauss-Seidel with Eisenstat's trick
+  multigrid = 3  ///< a geometric multigrid V-cycle (Multigrid)
+};
+
 /// Convergence record of the phase-field solves.
 struct PhaseFieldStats
 {
   std::int64_t solves = 0;           ///< solves so far
   std::int64_t iterations = 0;       ///< CG iterations over all solves
-  std::int32_t last_iterations = 0;  ///< CG iterations of the last solve
+  std::int32_t last_iterations = 0;  ///< CG iterations of the last solve (all its passes)
   double start_residual = 0.0;       ///< ||R|| / ||F|| of the last solve's warm start
   double last_residual = 0.0;        ///< ||R|| / ||F|| after the last solve
   std::int32_t unknowns = 0;         ///< nodes in the last system
+  std::int64_t passes = 0;           ///< active-set passes over all bounded solves
+  std::int32_t last_passes = 0;      ///< active-set passes of the last bounded solve
+  std::int32_t at_bound = 0;         ///< nodes held at c = 0 or 1 by the last bounded solve
+};
+
+/// @brief The last assembled phase-field system K c = F (eqs. 56-57, 52) in
+/// compressed rows over the active nodes, both halves of K, with the solution
+/// of the last solve: for checks and for comparisons with other solvers.
+struct PhaseFieldSystem
+{
+  std::vector<std::int32_t> nodes;     ///< grid node (ix * nodes_y + iy) of each row
+  std::vector<std::int64_t> row_start; ///< rows + 1 offsets into column and value
+  std::vector<std::int32_t> column;    ///< row index of each entry's column, ascending per row
+  std::vector<double> value;           ///< K's entries
+  std::vector<double> rhs;             ///< F
+  std::vector<double> solution;        ///< c of the last solve
 };
 
 /// @brief What one solve hands to the next: the nodal phase field of the last
@@ -76,12 +145,19 @@ struct PhaseFieldState
 /// K is stored as the upper half of a (2p+1)^2-point stencil per grid node
 /// (padded by p nodes on each side, zero away from active nodes); only particles of
 /// materials that can crack contribute. Nodes that no such particle touches
-/// keep c = 1. The solve is preconditioned conjugate gradients (Jacobi for
-/// the second-order model, symmetric Gauss-Seidel for the fourth-order one),
+/// keep c = 1. The solve is preconditioned conjugate gradients (by default
+/// Jacobi for the second-order model, symmetric Gauss-Seidel for the
+/// fourth-order one; either, or a multigrid V-cycle, by set_preconditioner),
 /// started from the last two steps' nodal values extrapolated in time, stopped when
 /// ||F - K c|| <= tol ||F||. Sums over particles and nodes, and the
 /// Gauss-Seidel sweeps, are taken in an order that does not depend on the
 /// number of threads.
+///
+/// The second-order system is solved with the bound 0 <= c <= 1 on every
+/// node instead (bounded_solve) unless every material asks for no bound
+/// (Fracture::bound, AT2 only): AT1 has no solution without it, and it keeps
+/// AT2's nodal values, which undershoot next to a band of huge history, in
+/// [0, 1].
 class PhaseField
 {
 public:
@@ -98,8 +174,14 @@ public:
 
   /// Whether any material can crack.
   bool active() const { return _active; }
+  /// @brief Choose the CG preconditioner for the following solves.
+  void set_preconditioner(Preconditioner preconditioner);
+  /// The preconditioner the solves use (never automatic).
+  Preconditioner preconditioner() const;
   /// Whether some material has the fourth-order term (gamma != 0).
   bool fourth_order() const { return _fourth; }
+  /// Whether the nodal phase field is solved with the bound 0 <= c <= 1.
+  bool bounded() const { return _bounded; }
   /// Fracture parameters of `material`, or nullptr when it cannot crack.
   const Fracture* fracture(std::int32_t material) const
   {
@@ -110,12 +192,16 @@ public:
   /// fracture energy at the particles of `sort`.
   ///
   /// `sort` holds the particles that take part, all of crackable materials,
-  /// sorted by cell; the grid's active nodes must be those of this step.
+  /// sorted by cell; its unknowns are the nodes these particles touch.
   /// @return false if CG did not reach tol within max_iterations.
   template <int P>
   bool solve(Particles& particles, const CellSort& sort);
 
   const PhaseFieldStats& stats() const { return _stats; }
+
+  /// @brief The last assembled system and its solution, in compressed rows
+  /// over the active nodes of that solve (empty before the first solve).
+  PhaseFieldSystem system() const;
 
   /// @brief A copy of the state carried between solves.
   PhaseFieldState state() const;
@@ -134,58 +220,52 @@ private:
   template <int P, bool Fourth>
   bool conjugate_gradient();
   /// @brief The iterations of conjugate_gradient from r = F - K c with
-  /// q = K c given: Jacobi-preconditioned (second order) or preconditioned by
-  /// symmetric Gauss-Seidel with Eisenstat's trick (fourth order). Set
+  /// q = K c given: Jacobi-preconditioned, preconditioned by symmetric
+  /// Gauss-Seidel with Eisenstat's trick, or by a multigrid V-cycle. Set
   /// `residual` = ||r|| and count iterations in `it`.
   template <int P>
   void jacobi_iterations(double norm_f, double stop, double& residual, int& it);
   template <int P>
   void ssor_iterations(double norm_f, double stop, double& residual, int& it);
   template <int P>
+  void multigrid_iterations(double norm_f, double stop, double& residual, int& it);
+  /// The Gauss-Seidel order and 1 / K_II of ssor_iterations, for this step's
+  /// active nodes and K.
+  void prepare_ssor();
+  template <int P>
+  PhaseFieldSystem compressed_rows() const;
+  template <int P>
   void multiply(const std::vector<double>& padded, std::vector<double>& out) const;
+  /// @brief K c = F (eq. 50) with the bound 0 <= c <= 1 on every active
+  /// node, by a primal-dual active-set method around Jacobi-preconditioned
+  /// CG (see the definition).
+  /// @return false if a CG pass did not reach tol within max_iterations or
+  /// the active set did not settle within max_iterations passes.
+  template <int P>
+  bool bounded_solve();
+  /// @brief One active-set update from c and r = F - K c (in _q as K c):
+  /// a node at a bound is released when its multiplier pulls it into the box
+  /// by at least `margin` K_II (a negative margin: unless it pushes it
+  /// outwards by more than -margin K_II), a free node outside [0, 1] is put
+  /// on the bound it crossed (and c set to it). Rebuilds the free list `_free`.
+  /// @return how many nodes changed their state.
+  std::int64_t update_active_set(double margin);
+  /// @brief Jacobi-preconditioned CG on the free nodes (`_free`), the others
+  /// held at their values: the rows of the held nodes are identity rows.
+  /// Sets `start` and `residual` to ||r|| over the free nodes before and
+  /// after and `it` to the iterations; stops at `stop` or max_iterations.
+  template <int P>
+  void free_set_iterations(double stop, double& start, double& residual, int& it);
   template <int P, bool Fourth>
   void map_to_particles(Particles& particles, const CellSort& sort);
-  /// @brief The upper half of K's (2p+1)^2-point stencil: the centre, then the
-  /// offsets (0, 1..p), then (1..p, -p..p). K is symmetric, so the entry for
-  /// (-dx, -dy) is the (dx, dy) entry of the neighbour's row.
+  /// K's stencil storage (symmetric_stencil.h).
   template <int P>
-  struct Stencil
-  {
-    static constexpr int width = 2 * P + 1, size = (width * width + 1) / 2;
-    std::ptrdiff_t offset[size]; // in the padded node layout
-    int dx[size];                // the column offset
-    explicit Stencil(std::size_t padded_ny)
-    {
-      for (int x = 0; x <= P; ++x)
-        for (int y = -P; y <= P; ++y)
-          if (const int k = slot(x, y); k >= 0)
-          {
-            offset[k] = x * static_cast<std::ptrdiff_t>(padded_ny) + y;
-            dx[k] = x;
-          }
-    }
-    /// Index of offset (dx, dy) in the upper half, or -1 for the lower half.
-    static constexpr int slot(int dx, int dy)
-    {
-      if (dx < 0 || (dx == 0 && dy < 0))
-        return -1;
-      return dx == 0 ? dy : P + (dx - 1) * width + dy + P + 1;
-    }
-  };
+  using Stencil = SymmetricStencil<P>;
   /// Row `a` (an active node) of K times the padded vector `v`.
   template <int P>
   double row_product(const Stencil<P>& stencil, std::size_t a, const double* v) const
   {
-    constexpr int H = Stencil<P>::size;
-    const std::size_t i = _position[a];
-    const double* row = &_stencil[i * H];
-    double sum = row[0] * v[i];
-    for (int k = 1; k < H; ++k)
-    {
-      const std::ptrdiff_t o = stencil.offset[k];
-      sum += row[k] * v[i + o] + _stencil[(i - o) * H + k] * v[i - o];
-    }
-    return sum;
+    return pfmpm::row_product(stencil, _stencil.data(), _position[a], v);
   }
   /// Index of node (ix, iy) in the padded node layout.
   std::size_t padded(int ix, int iy) const
@@ -194,9 +274,11 @@ private:
   }
 
   const Grid& _grid;
+  ActiveNodes _nodes; // the unknowns: the nodes the solve's particles touch
   std::vector<std::optional<Fracture>> _fracture;
   bool _active;
   bool _fourth; // some material has gamma != 0
+  bool _bounded; // second order and some material bounded: 0 <= c <= 1 is imposed
   double _tol;
   int _max_iterations;
   int _pad;                // padding of the node layout: the degree
@@ -209,7 +291,7 @@ private:
   std::vector<std::size_t> _position; // per active node: its index in the padded layout
   std::vector<double> _r, _z, _q;     // CG work vectors, per active node
   std::vector<double> _search;        // CG search direction, padded layout
-  // Fourth order only (SSOR-preconditioned CG): strip s of the Gauss-Seidel
+  // SSOR-preconditioned CG only: strip s of the Gauss-Seidel
   // order is the grid columns [_strip_column[s], _strip_column[s + 1]), column
   // ix the active nodes [_column_start[ix], _column_start[ix + 1]); 1 / K_II per
   // active node; work vectors _forward (padded layout), _v and _g (per active node).
@@ -217,6 +299,12 @@ private:
   std::vector<std::size_t> _column_start;
   std::vector<double> _inverse;
   std::vector<double> _forward, _v, _g;
+  // Bounded solve only: per active node -1 (held at c = 0), 0 (free) or +1
+  // (held at c = 1), and the free active nodes in ascending order.
+  std::vector<std::int8_t> _bound;
+  std::vector<std::size_t> _free;
+  Preconditioner _preconditioner = Preconditioner::automatic;
+  std::unique_ptr<Multigrid> _multigrid; // with Preconditioner::multigrid
   PhaseFieldStats _stats;
 };
 

@@ -8,8 +8,7 @@ namespace pfmpm
 {
 
 Grid::Grid(int degree, std::array<int, 2> cells, double h, std::array<double, 2> origin)
-    : _basis{BSpline1D(degree, cells[0], h, origin[0]), BSpline1D(degree, cells[1], h, origin[1])},
-      _active_index(static_cast<std::size_t>(num_nodes()), -1)
+    : _basis{BSpline1D(degree, cells[0], h, origin[0]), BSpline1D(degree, cells[1], h, origin[1])}
 {
 }
 
@@ -18,11 +17,13 @@ bool Grid::has_walls() const
   return std::any_of(_walls.begin(), _walls.end(), [](Wall w) { return w != Wall::free; });
 }
 
-void Grid::activate(const std::vector<std::int64_t>& cell_start)
+void ActiveNodes::activate(const Grid& grid, const std::vector<std::int64_t>& cell_start)
 {
-  const int p = degree();
-  const int ncx = _basis[0].cells(), ncy = _basis[1].cells();
-  const int nnx = _basis[0].size(), nny = _basis[1].size();
+  const int p = grid.degree();
+  const int ncx = grid.cells()[0], ncy = grid.cells()[1];
+  const int nnx = grid.nodes()[0], nny = grid.nodes()[1];
+  _nodes_y = nny;
+  _index.resize(static_cast<std::size_t>(nnx) * nny);
   auto occupied = [&](int cx, int cy)
   {
     const std::size_t c = static_cast<std::size_t>(cx) * ncy + cy;
@@ -42,29 +43,35 @@ void Grid::activate(const std::vector<std::int64_t>& cell_start)
       for (int cx = cx0; cx <= cx1 && !active; ++cx)
         for (int cy = cy0; cy <= cy1 && !active; ++cy)
           active = occupied(cx, cy);
-      _active_index[static_cast<std::size_t>(ix) * nny + iy] = active ? 0 : -1;
+      _index[static_cast<std::size_t>(ix) * nny + iy] = active ? 0 : -1;
     }
   }
 
-  _active.clear();
-  for (std::size_t n = 0; n < _active_index.size(); ++n)
-    if (_active_index[n] >= 0)
+  _nodes.clear();
+  for (std::size_t n = 0; n < _index.size(); ++n)
+    if (_index[n] >= 0)
     {
-      _active_index[n] = static_cast<std::int32_t>(_active.size());
-      _active.push_back(static_cast<std::int32_t>(n));
+      _index[n] = static_cast<std::int32_t>(_nodes.size());
+      _nodes.push_back(static_cast<std::int32_t>(n));
     }
+}
 
+void Grid::activate(const std::vector<std::int64_t>& cell_start)
+{
+  _active.activate(*this, cell_start);
   _constraints.clear();
   if (!has_walls())
     return;
   // Open knot vectors interpolate at the ends: only the first and last node of
   // each row and column carry the boundary value, so walls act on them alone.
+  const int nnx = _basis[0].size(), nny = _basis[1].size();
   const std::array<std::uint8_t, 3> normal_mask_x{0, 3, 1}; // free, fixed, slip on left/right
   const std::array<std::uint8_t, 3> normal_mask_y{0, 3, 2}; // free, fixed, slip on bottom/top
-  _constraints.assign(_active.size(), 0);
-  for (std::size_t a = 0; a < _active.size(); ++a)
+  const std::vector<std::int32_t>& nodes = _active.nodes();
+  _constraints.assign(nodes.size(), 0);
+  for (std::size_t a = 0; a < nodes.size(); ++a)
   {
-    const int ix = _active[a] / nny, iy = _active[a] % nny;
+    const int ix = nodes[a] / nny, iy = nodes[a] % nny;
     std::uint8_t m = 0;
     if (ix == 0)
       m |= normal_mask_x[static_cast<int>(wall(Side::left))];

@@ -28,6 +28,34 @@ enum class Wall : int
   slip = 2   ///< normal velocity component zero
 };
 
+class Grid;
+
+/// @brief The nodes in the support of the occupied cells of a particle sort,
+/// numbered compactly in increasing node order (K&T Algorithm 1, "find active
+/// part of Eulerian grid"); the degree+1 nodes of one grid column above a cell
+/// then have consecutive indices.
+class ActiveNodes
+{
+public:
+  /// @brief Rebuild from per-cell particle offsets (num_cells + 1 entries):
+  /// a node is active when a cell in its support holds a particle.
+  void activate(const Grid& grid, const std::vector<std::int64_t>& cell_start);
+  /// Number of active nodes.
+  std::int32_t size() const { return static_cast<std::int32_t>(_nodes.size()); }
+  /// Node index of each active node.
+  const std::vector<std::int32_t>& nodes() const { return _nodes; }
+  /// Active index of node (ix, iy), or -1 when the node is inactive.
+  std::int32_t index(int ix, int iy) const
+  {
+    return _index[static_cast<std::size_t>(ix) * _nodes_y + iy];
+  }
+
+private:
+  std::vector<std::int32_t> _index; // per node
+  std::vector<std::int32_t> _nodes; // per active node
+  int _nodes_y = 0;
+};
+
 /// @brief Uniform 2D grid of square cells carrying a tensor-product B-spline basis.
 ///
 /// Cells are keyed column by column, `cell = cx * cells_y + cy`, and the basis
@@ -57,23 +85,19 @@ public:
   Wall wall(Side side) const { return _walls[static_cast<int>(side)]; }
   bool has_walls() const;
 
-  /// @brief Rebuild the active node set from per-cell particle counts.
-  ///
-  /// A node is active when a cell in its support holds a particle. Active
-  /// nodes are numbered in increasing node order, so the degree+1 nodes of one
-  /// grid column above a cell have consecutive active indices.
+  /// @brief Rebuild the active node set (ActiveNodes) of all particles and
+  /// the wall constraints of its nodes.
   /// @param cell_start Offsets of each cell's particles, num_cells()+1 entries.
   void activate(const std::vector<std::int64_t>& cell_start);
 
+  /// The active nodes of all particles.
+  const ActiveNodes& active() const { return _active; }
   /// Number of active nodes.
-  std::int32_t num_active() const { return static_cast<std::int32_t>(_active.size()); }
+  std::int32_t num_active() const { return _active.size(); }
   /// Node index of each active node.
-  const std::vector<std::int32_t>& active_nodes() const { return _active; }
+  const std::vector<std::int32_t>& active_nodes() const { return _active.nodes(); }
   /// Active index of node (ix, iy), or -1 when the node is inactive.
-  std::int32_t active_index(int ix, int iy) const
-  {
-    return _active_index[static_cast<std::size_t>(ix) * _basis[1].size() + iy];
-  }
+  std::int32_t active_index(int ix, int iy) const { return _active.index(ix, iy); }
   /// Per active node: bit 0 set when the x velocity is constrained, bit 1 for y.
   /// Empty when the grid has no walls.
   const std::vector<std::uint8_t>& constraints() const { return _constraints; }
@@ -81,9 +105,8 @@ public:
 private:
   std::array<BSpline1D, 2> _basis;
   std::array<Wall, 4> _walls{Wall::free, Wall::free, Wall::free, Wall::free};
-  std::vector<std::int32_t> _active_index; // per node
-  std::vector<std::int32_t> _active;       // per active node
-  std::vector<std::uint8_t> _constraints;  // per active node
+  ActiveNodes _active;
+  std::vector<std::uint8_t> _constraints; // per active node
 };
 
 } // namespace pfmpm

@@ -127,6 +127,9 @@ SolverState Solver::state() const
     s.scalars[phase_key(k, "start_residual")] = pf.stats.start_residual;
     s.scalars[phase_key(k, "last_residual")] = pf.stats.last_residual;
     s.scalars[phase_key(k, "unknowns")] = pf.stats.unknowns;
+    s.scalars[phase_key(k, "passes")] = static_cast<double>(pf.stats.passes);
+    s.scalars[phase_key(k, "last_passes")] = pf.stats.last_passes;
+    s.scalars[phase_key(k, "at_bound")] = pf.stats.at_bound;
   }
   if (const ContactStats* c = contact_stats())
   {
@@ -179,6 +182,9 @@ void Solver::restore(const SolverState& state)
     stats.start_residual = at("start_residual");
     stats.last_residual = at("last_residual");
     stats.unknowns = static_cast<std::int32_t>(at("unknowns"));
+    stats.passes = static_cast<std::int64_t>(at("passes"));
+    stats.last_passes = static_cast<std::int32_t>(at("last_passes"));
+    stats.at_bound = static_cast<std::int32_t>(at("at_bound"));
     _phase[k].field.restore(PhaseFieldState{state.arrays.at(phase_key(k, "c")),
                                             state.arrays.at(phase_key(k, "c_previous")), stats});
   }
@@ -293,11 +299,14 @@ void Solver::prepare(Fields& fields)
     {
       const PhaseFieldStats& s = g.field.stats();
       std::ostringstream msg;
-      msg << "phase field" << (g.body >= 0 ? " of body " + std::to_string(g.body) : std::string())
-          << ": conjugate gradients stopped at relative residual " << s.last_residual
-          << " > tol = " << g.field.tol() << " after " << s.last_iterations
-          << " iterations, at the start of the step after step " << _step << " (t = " << _time
-          << ")";
+      msg << "phase field" << (g.body >= 0 ? " of body " + std::to_string(g.body) : std::string());
+      if (s.last_residual <= g.field.tol()) // only the bounded solve fails this way
+        msg << ": the active set of the bounded solve did not settle in " << s.last_passes
+            << " passes";
+      else
+        msg << ": conjugate gradients stopped at relative residual " << s.last_residual
+            << " > tol = " << g.field.tol() << " after " << s.last_iterations << " iterations";
+      msg << ", at the start of the step after step " << _step << " (t = " << _time << ")";
       throw SimulationError(msg.str());
     }
   }
@@ -427,6 +436,9 @@ Energies Solver::energies() const
   const Particles& P = _particles;
   const Column* fracture = P.find("fracture_energy");
   const double* fe = fracture ? fracture->f64.data() : nullptr;
+  // Models with damage keep the work it dissipated per particle.
+  const Column* dissipated = P.find("dissipated");
+  const double* dw = dissipated ? dissipated->f64.data() : nullptr;
   std::vector<std::unique_ptr<Material::Bound>> bound;
   for (const auto& m : _materials)
     bound.push_back(m->bind(const_cast<Particles&>(P))); // read only
@@ -439,9 +451,9 @@ Energies Solver::energies() const
         degradation[m] = Degradation{_fracture[m]->k_f, P.f64("c").data(), nullptr};
         by_material[m] = &degradation[m];
       }
-  const auto sums = deterministic_block_sum<6>(
+  const auto sums = deterministic_block_sum<7>(
       n,
-      [&](std::size_t begin, std::size_t end, std::array<double, 6>& acc)
+      [&](std::size_t begin, std::size_t end, std::array<double, 7>& acc)
       {
         for (std::size_t p = begin; p < end; ++p)
         {
@@ -452,6 +464,8 @@ Energies Solver::energies() const
           acc[4] += m;
           if (fe)
             acc[5] += fe[p];
+          if (dw)
+            acc[6] += dw[p];
         }
         // The elastic energy of each run of one material, in index order.
         for (std::size_t p = begin; p < end;)
@@ -468,6 +482,7 @@ Energies Solver::energies() const
   e.kinetic = sums[0];
   e.elastic = sums[1];
   e.fracture = sums[5];
+  e.dissipated = sums[6];
   e.external_work = _external_work;
   e.wall_work = _wall_work;
   e.momentum = {sums[2], sums[3]};
@@ -496,6 +511,30 @@ bool Solver::fourth_order() const
   return !_phase.empty() && _phase.front().field.fourth_order();
 }
 
+void Solver::set_phase_field_preconditioner(Preconditioner preconditioner)
+{
+  for (PhaseFieldGroup& g : _phase)
+    g.field.set_preconditioner(preconditioner);
+}
+
+Preconditioner Solver::phase_field_preconditioner() const
+{
+  return _phase.empty() ? Preconditioner::automatic : _phase.front().field.preconditioner();
+}
+
+PhaseFieldSystem Solver::phase_field_system() const
+{
+  if (_phase.size() != 1)
+    throw std::logic_error("phase_field_system: the run has " + std::to_string(_phase.size())
+                           + " phase fields, not one");
+  return _phase.front().field.system();
+}
+
+bool Solver::bounded() const
+{
+  return !_phase.empty() && _phase.front().field.bounded();
+}
+
 PhaseFieldStats Solver::phase_field_stats() const
 {
   PhaseFieldStats total;
@@ -508,6 +547,9 @@ PhaseFieldStats Solver::phase_field_stats() const
     total.start_residual = std::max(total.start_residual, s.start_residual);
     total.last_residual = std::max(total.last_residual, s.last_residual);
     total.unknowns += s.unknowns;
+    total.passes += s.passes;
+    total.last_passes = std::max(total.last_passes, s.last_passes);
+    total.at_bound += s.at_bound;
   }
   return total;
 }

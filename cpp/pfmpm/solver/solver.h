@@ -31,6 +31,7 @@ struct Energies
   double external_work = 0.0;  ///< work of the external forces since t = 0
   double friction_work = 0.0;  ///< work of the friction (tangential contact) forces since t = 0 (<= 0)
   double wall_work = 0.0;      ///< work of the wall constraints since t = 0 (<= 0, see finish_slot)
+  double dissipated = 0.0;     ///< work dissipated by damage since t = 0 (the column `dissipated`)
   std::array<double, 2> momentum{}; ///< sum of M_p v_p
   double mass = 0.0;           ///< sum of M_p
   std::vector<double> fracture_by_field; ///< with discrete fields: fracture energy per field
@@ -44,7 +45,7 @@ struct Energies
 /// (the single field's is 0; with discrete fields, one per crackable body in
 /// body order) `phase_field/k/solves`, `.../iterations`,
 /// `.../last_iterations`, `.../start_residual`, `.../last_residual`,
-/// `.../unknowns`; with discrete fields `contact/nodes`, `contact/pairs`,
+/// `.../unknowns`, `.../passes`, `.../last_passes`, `.../at_bound`; with discrete fields `contact/nodes`, `contact/pairs`,
 /// `contact/active`, `contact/sliding`, `contact/C1` .. `contact/C4`,
 /// `contact/friction_work`. Arrays: `phase_field/k/c` and
 /// `phase_field/k/c_previous`, the nodal warm start.
@@ -141,10 +142,19 @@ public:
   bool cracks() const { return !_phase.empty(); }
   /// Whether some material has the fourth-order phase-field term.
   bool fourth_order() const;
+  /// Whether the phase field is solved with the bound 0 <= c <= 1.
+  bool bounded() const;
   /// Phase-field convergence record, summed over the phase fields.
   PhaseFieldStats phase_field_stats() const;
   /// The contact record, or nullptr with one velocity field.
   const ContactStats* contact_stats() const;
+  /// @brief The CG preconditioner of every phase field's solves from now on.
+  void set_phase_field_preconditioner(Preconditioner preconditioner);
+  /// The preconditioner the phase-field CG uses (automatic resolved).
+  Preconditioner phase_field_preconditioner() const;
+  /// @brief The last system K c = F of the (single) phase field, for the record.
+  /// @throws std::logic_error without a phase field or with several.
+  PhaseFieldSystem phase_field_system() const;
 
   /// @brief Map the current particle state to the grid (P2G only) and return,
   /// per active node, (node index, mass, momentum x, momentum y), summed over

@@ -30,8 +30,12 @@ The modules, one concern each:
     :class:`Contact`, :class:`ContactPair`.
 ``materials``
     The registry :data:`MATERIALS` of constitutive models by name
-    (:func:`register_material`), :class:`LinearElasticSpec`, and the
-    fracture table :class:`FractureSpec` with its :class:`Anisotropy`.
+    (:func:`register_material`), :class:`LinearElasticSpec`,
+    :class:`NeoHookeanSpec`, and the fracture table :class:`FractureSpec`
+    with its :class:`Anisotropy`.
+``damage``
+    The damage tables of the neo-Hookean model: :class:`RankineSpec`,
+    :class:`TimeToFailureSpec`, with a :class:`WeibullSpec` strength field.
 ``validation``
     :class:`SceneError` and the value checkers.
 ``seeding``, ``stability``
@@ -49,9 +53,10 @@ from .bodies import Body
 from .components import DEGREES, GridSpec, Output, PhaseFieldSpec, Time
 from .contact import Contact, ContactPair
 from .loads import EDGES, LOADS, SIDES, WALL_TYPES, BodyForce, Crack, Traction, WallSpec
+from .damage import DAMAGE_MODELS, DamageSpec, RankineSpec, TimeToFailureSpec, WeibullSpec
 from .materials import (DEFAULT_MODEL, MATERIALS, PLANES, SPLITS, SYMMETRIES, Anisotropy,
-                        FractureSpec, LinearElasticSpec, MaterialSpec, material_class,
-                        rayleigh_speed, register_material, wave_speed)
+                        FractureSpec, LinearElasticSpec, MaterialSpec, NeoHookeanSpec,
+                        material_class, rayleigh_speed, register_material, wave_speed)
 from .scene import Scene
 from .shapes import SHAPES, Disk, ImageShape, MeshShape, Polygon, Rectangle, Ring, Shape, image_colors
 from .stability import CRITICAL_FACTOR
@@ -78,6 +83,12 @@ __all__ = [
     "material_class",
     "MaterialSpec",
     "LinearElasticSpec",
+    "NeoHookeanSpec",
+    "DAMAGE_MODELS",
+    "DamageSpec",
+    "RankineSpec",
+    "TimeToFailureSpec",
+    "WeibullSpec",
     "FractureSpec",
     "Anisotropy",
     "Shape",

@@ -15,6 +15,10 @@ __all__ = ["DEGREES", "GridSpec", "Time", "Output", "PhaseFieldSpec"]
 DEGREES = (1, 2, 3)
 
 
+PRECONDITIONERS = ("automatic", "jacobi", "ssor", "multigrid")
+"""The phase-field CG preconditioners ``[phase_field] preconditioner`` names."""
+
+
 @dataclass(frozen=True)
 class GridSpec:
     """Uniform background grid of square cells (``[grid]``); the core builds its
@@ -158,13 +162,20 @@ class PhaseFieldSpec:
     max_iterations : int
         Conjugate-gradient iterations allowed per step; the run stops with
         an error when they do not reach ``tol``.
+    preconditioner : str
+        Of the conjugate gradients: ``"jacobi"``, ``"ssor"`` (symmetric
+        Gauss-Seidel), ``"multigrid"`` (a geometric V-cycle on the B-spline
+        grid), or ``"automatic"``: jacobi for the second-order model, multigrid
+        for the fourth-order one.
     """
 
     tol: float = 1e-6
     max_iterations: int = 1000
+    preconditioner: str = "automatic"
 
     def __post_init__(self):
         store(self, "tol", real("tol", self.tol, gt=0, lt=1))
         store(self, "max_iterations", integer("max_iterations", self.max_iterations, ge=1))
         if self.max_iterations > MAX_COUNT:
             raise SceneError("max_iterations", f"must be <= {MAX_COUNT}", self.max_iterations)
+        store(self, "preconditioner", choice("preconditioner", self.preconditioner, PRECONDITIONERS))

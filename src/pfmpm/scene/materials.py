@@ -1,5 +1,6 @@
 """Materials (``[[materials]]``): a registry of constitutive models by name,
-each with an optional phase-field fracture table.
+each with an optional phase-field fracture table (or, for the neo-Hookean
+model, a damage table: :mod:`pfmpm.scene.damage`).
 
 A material table's ``model`` key names its class in :data:`MATERIALS`
 (default ``"linear_elastic"``); the class declares and validates the
@@ -24,20 +25,27 @@ from __future__ import annotations
 import abc
 import math
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
 from ..anisotropy import check_gamma
-from .validation import SceneError, choice, real, seq, store, text
+from .damage import DamageSpec
+from .validation import SceneError, at, choice, integer, real, seq, store, text
 
-__all__ = ["PLANES", "SPLITS", "SYMMETRIES", "MATERIALS", "DEFAULT_MODEL", "register_material",
-           "material_class", "MaterialSpec", "LinearElasticSpec", "FractureSpec", "Anisotropy",
-           "wave_speed", "rayleigh_speed"]
+if TYPE_CHECKING:
+    from .scene import Scene
+
+__all__ = ["PLANES", "SPLITS", "FRACTURE_MODELS", "SYMMETRIES", "INTEGRATIONS", "MATERIALS",
+           "DEFAULT_MODEL", "register_material", "material_class", "MaterialSpec",
+           "LinearElasticSpec", "NeoHookeanSpec", "FractureSpec", "Anisotropy", "wave_speed",
+           "rayleigh_speed"]
 
 PLANES = ("strain", "stress")
 SPLITS = ("spectral", "volumetric_deviatoric", "none")
+FRACTURE_MODELS = ("AT2", "AT1")
 SYMMETRIES = ("isotropic2", "isotropic4", "cubic", "orthotropic", "general")
+INTEGRATIONS = ("euler", "exponential")
 
 MATERIALS: dict[str, type["MaterialSpec"]] = {}
 """Material classes by the ``model`` name scene files give them."""
@@ -161,10 +169,22 @@ class Anisotropy:
 @dataclass(frozen=True)
 class FractureSpec:
     """Phase-field fracture parameters of a material (its ``fracture`` table;
-    AT2, eqs. 4, 14-15); the core's ``Fracture`` is built from it.
+    eqs. 4, 14-15); the core's ``Fracture`` is built from it.
 
     Parameters
     ----------
+    model : str
+        ``"AT2"`` (the paper's eq. 4, the default) or ``"AT1"``: the local term
+        of the crack density is ``w(d) = d^2`` or ``d`` with ``d = 1 - c``.  In
+        the standard form ``(G_c / c_w) (w(d) / l + l |grad d|^2)`` both use
+        ``l = 2 l0`` (docs/method.md); AT1 has an elastic threshold and a
+        damage band of finite width, and needs the bound ``0 <= c <= 1``.
+    bound : bool
+        Solve the phase field with the bound ``0 <= c <= 1`` on its nodal
+        values (the default, and AT1's only choice).  ``False`` gives AT2's
+        unbounded solve of before, whose values undershoot below 0 next to a
+        band of huge history.  The fourth-order functional is solved without
+        it either way (docs/method.md).
     Gc : float
         Critical energy release rate, > 0; with a fourth-order ``anisotropy``
         it is the reference value G-bar_c of eq. 8.
@@ -177,7 +197,7 @@ class FractureSpec:
         ``"volumetric_deviatoric"`` (Amor) or ``"none"``.
     anisotropy : Anisotropy or None
         The tensor gamma of the fourth-order functional (eqs. 4-6); ``None``:
-        the second-order isotropic functional.
+        the second-order isotropic functional.  AT2 only.
     """
 
     Gc: float
@@ -185,14 +205,24 @@ class FractureSpec:
     k_f: float = 0.0
     split: str = "spectral"
     anisotropy: Anisotropy | None = None
+    model: str = "AT2"
+    bound: bool = True
 
     def __post_init__(self):
         store(self, "Gc", real("Gc", self.Gc, gt=0))
         store(self, "l0", real("l0", self.l0, gt=0))
         store(self, "k_f", real("k_f", self.k_f, ge=0, lt=1))
         store(self, "split", choice("split", self.split, SPLITS))
+        store(self, "model", choice("model", self.model, FRACTURE_MODELS))
         if self.anisotropy is not None and not isinstance(self.anisotropy, Anisotropy):
             raise SceneError("anisotropy", "must be an anisotropy table", self.anisotropy)
+        if not isinstance(self.bound, bool):
+            raise SceneError("bound", "must be true or false", self.bound)
+        if self.model == "AT1" and not self.bound:
+            raise SceneError("bound", "AT1 needs the bound 0 <= c <= 1", self.bound)
+        if self.model == "AT1" and self.anisotropy is not None and self.anisotropy.fourth_order:
+            raise SceneError("model", "AT1 is second order only: it cannot take a fourth-order"
+                             f" anisotropy (symmetry {self.anisotropy.symmetry!r})", self.model)
 
     def gamma(self) -> np.ndarray:
         """gamma of eq. 6 in the material frame (zero without anisotropy)."""
@@ -233,8 +263,20 @@ class MaterialSpec(abc.ABC):
         """Rayleigh wave speed, the limit of a running crack's speed."""
 
     @abc.abstractmethod
-    def core_parameters(self, plane: str) -> dict[str, float | str]:
-        """The parameters of the core's model ``model`` (:func:`pfmpm._core.material`)."""
+    def core_parameters(self, scene: "Scene") -> dict[str, float | str]:
+        """The parameters of the core's model ``model`` (:func:`pfmpm._core.material`)
+        in ``scene`` (its plane, its grid)."""
+
+    def check_scene(self, scene: "Scene") -> None:
+        """Check the material against the rest of the scene (the plane, the
+        grid); a :class:`SceneError` names a key of the material's table.
+        Nothing to check by default."""
+
+    def initial_columns(self, scene: "Scene", volume: np.ndarray) -> dict[str, np.ndarray]:
+        """Initial values of the core model's particle columns for this
+        material's particles, by column name, given their initial volumes
+        (in particle order); none by default."""
+        return {}
 
     def _check_fracture(self) -> None:
         """Check the ``fracture`` field (for ``__post_init__``)."""
@@ -283,10 +325,113 @@ class LinearElasticSpec(MaterialSpec):
         """Rayleigh wave speed, see :func:`rayleigh_speed`."""
         return rayleigh_speed(self.E, self.nu, self.density)
 
-    def core_parameters(self, plane: str) -> dict[str, float | str]:
+    def core_parameters(self, scene: "Scene") -> dict[str, float | str]:
         """E, nu, density, the plane and the energy split of the fracture table."""
-        return {"E": self.E, "nu": self.nu, "density": self.density, "plane": plane,
+        return {"E": self.E, "nu": self.nu, "density": self.density, "plane": scene.plane,
                 "split": self.fracture.split if self.fracture else "none"}
+
+
+@register_material
+@dataclass(frozen=True)
+class NeoHookeanSpec(MaterialSpec):
+    """Compressible neo-Hookean elasticity in plane strain (``model =
+    "neo_hookean"``; Homel & Herbold 2017, eq. 22) on the deformation gradient
+    (eq. 8), with an optional damage model.
+
+    Parameters
+    ----------
+    name : str
+        Unique name, referenced by bodies.
+    E : float
+        Young's modulus of the small-strain limit, > 0.
+    nu : float
+        Poisson's ratio, in ``(-1, 0.5)``.
+    density : float
+        Reference mass density, > 0.
+    damage : DamageSpec or None
+        :class:`~pfmpm.scene.damage.RankineSpec` or
+        :class:`~pfmpm.scene.damage.TimeToFailureSpec`; ``None``: elastic.
+    integration : str
+        How F follows the velocity gradient: ``"euler"``, eq. 8
+        ``F <- (I + dt L) F`` (in ``substeps``), or ``"exponential"``,
+        ``F <- exp(dt L) F``, exact for the step's L and so objective.
+    substeps : int
+        Sub-steps of eq. 8 per step, >= 1 (1 with ``"exponential"``).
+    fracture : None
+        The model has no phase-field coupling yet: a fracture table is refused.
+    """
+
+    model: ClassVar[str] = "neo_hookean"
+    name: str
+    E: float
+    nu: float
+    density: float
+    damage: DamageSpec | None = None
+    integration: str = "euler"
+    substeps: int = 1
+    fracture: FractureSpec | None = None
+
+    def __post_init__(self):
+        store(self, "name", text("name", self.name))
+        store(self, "E", real("E", self.E, gt=0))
+        store(self, "nu", real("nu", self.nu, gt=-1, lt=0.5))
+        store(self, "density", real("density", self.density, gt=0))
+        if self.damage is not None and not isinstance(self.damage, DamageSpec):
+            raise SceneError("damage", "must be a damage table", self.damage)
+        store(self, "integration", choice("integration", self.integration, INTEGRATIONS))
+        store(self, "substeps", integer("substeps", self.substeps, ge=1))
+        if self.substeps > 1000:
+            raise SceneError("substeps", "must be <= 1000", self.substeps)
+        if self.integration == "exponential" and self.substeps != 1:
+            raise SceneError("substeps", "must be 1 with integration = 'exponential'"
+                             " (exact for the step's velocity gradient)", self.substeps)
+        if self.fracture is not None:
+            raise SceneError("fracture", "the neo_hookean model has no phase-field coupling yet;"
+                             " give it a damage table instead")
+
+    def wave_speed(self, plane: str) -> float:
+        """P-wave speed of the undeformed material, see :func:`wave_speed`."""
+        return wave_speed(self.E, self.nu, self.density, plane)
+
+    def rayleigh_speed(self) -> float:
+        """Rayleigh wave speed of the undeformed material, see :func:`rayleigh_speed`."""
+        return rayleigh_speed(self.E, self.nu, self.density)
+
+    def check_scene(self, scene: "Scene") -> None:
+        """Plane strain only; the damage parameters against the grid (l_ch)."""
+        if scene.plane != "strain":
+            raise SceneError("model", f"is plane strain only (the scene has plane = {scene.plane!r})",
+                             self.model)
+        if self.damage is not None:
+            with at("damage"):
+                self.damage.check(self.E, scene.grid.h)
+
+    def core_parameters(self, scene: "Scene") -> dict[str, float | str]:
+        """E, nu, density, the integration of F and the damage parameters."""
+        out: dict[str, float | str] = {"E": self.E, "nu": self.nu, "density": self.density,
+                                       "integration": self.integration,
+                                       "substeps": float(self.substeps)}
+        if self.damage is not None:
+            out.update(self.damage.core_parameters(scene.grid.h))
+        return out
+
+    def initial_columns(self, scene: "Scene", volume: np.ndarray) -> dict[str, np.ndarray]:
+        """With damage, the strength ``sigma_f`` of each particle (a Weibull
+        field, eq. 25, or the table's ``sigma_f``).
+
+        Raises
+        ------
+        SceneError
+            Naming ``damage.l_ch`` if the strongest particle's strength puts
+            l_ch beyond its limit.
+        """
+        if self.damage is None:
+            return {}
+        strength = self.damage.strengths(volume)
+        if self.damage.weibull is not None and len(strength):
+            with at("damage"):
+                self.damage.check(self.E, scene.grid.h, strongest=float(strength.max()))
+        return {"sigma_f": strength}
 
 
 def rayleigh_speed(E: float, nu: float, rho: float) -> float:

@@ -128,6 +128,9 @@ class Scene:
         self._check_loads()
         self._check_memory()
         self._check_fracture(bodies)
+        for i, material in enumerate(self.materials):
+            with at(f"materials[{i}]"):
+                material.check_scene(self)
         self._check_contact(bodies)
         self._check_time()
 

@@ -14,6 +14,7 @@ from .bodies import Body
 from .components import GridSpec, Output, PhaseFieldSpec, Time
 from .contact import Contact, ContactPair
 from .loads import LOADS, Crack, WallSpec
+from .damage import DamageSpec, WeibullSpec, damage_class
 from .materials import DEFAULT_MODEL, Anisotropy, FractureSpec, MaterialSpec, material_class
 from .shapes import SHAPES
 from .validation import SceneError, at, fmt, key_text
@@ -96,10 +97,10 @@ def _files_from(tables: dict, folder: Path) -> None:
 def plain(value: Any) -> Any:
     """Convert scene objects and tuples to TOML-ready dicts and lists (None fields omitted).
 
-    Shapes and loads get their ``type`` key, materials their ``model`` key.
+    Shapes and loads get their ``type`` key, materials and damage tables their ``model`` key.
     """
     if dataclasses.is_dataclass(value):
-        if isinstance(value, MaterialSpec):
+        if isinstance(value, (MaterialSpec, DamageSpec)):
             out = {"model": value.model}
         else:
             out = {"type": value.kind} if hasattr(value, "kind") else {}
@@ -172,8 +173,20 @@ def _material(table: Any) -> MaterialSpec:
     if not isinstance(table, Mapping):
         raise SceneError("", "must be a table", table)
     cls = material_class(table.get("model", DEFAULT_MODEL))
-    return _build(cls, table, {"fracture": lambda f: _build(
-        FractureSpec, f, {"anisotropy": lambda a: _build(Anisotropy, a)})}, extra=("model",))
+    return _build(cls, table, {
+        "fracture": lambda f: _build(FractureSpec, f, {"anisotropy": lambda a: _build(Anisotropy, a)}),
+        "damage": _damage,
+    }, extra=("model",))
+
+
+def _damage(table: Any) -> Any:
+    """Build a damage table: its ``model`` key selects the class (:data:`DAMAGE_MODELS`)."""
+    if not isinstance(table, Mapping):
+        raise SceneError("", "must be a table", table)
+    if "model" not in table:
+        raise SceneError("model", "missing required key")
+    return _build(damage_class(table["model"]), table,
+                  {"weibull": lambda w: _build(WeibullSpec, w)}, extra=("model",))
 
 
 def _body(table: Any) -> Body:

@@ -1,0 +1,254 @@
+/// @file neo_hookean.h
+/// @brief Compressible neo-Hookean elasticity in plane strain (Homel & Herbold
+/// 2017, eq. 22) on the deformation gradient (eq. 8), with an optional scalar
+/// damage model (eqs. 23-27).
+#pragma once
+
+#include "pfmpm/materials/damage.h"
+#include "pfmpm/materials/deformation.h"
+#include "pfmpm/materials/material.h"
+
+#include <algorithm>
+#include <cmath>
+#include <type_traits>
+
+namespace pfmpm
+{
+
+/// @brief Compressible neo-Hookean elasticity, plane strain (F_33 = 1), with
+/// the damage model `Damage` (NoDamage, RankineSoftening or TimeToFailure).
+///
+/// Trial stress (eq. 22): sigma^E = mu/J (B - I) + lambda ln J / J I with
+/// B = F F^T, so sigma_zz = lambda ln J / J; stored energy per unit reference
+/// volume W = mu/2 (tr C - 3) - mu ln J + lambda/2 (ln J)^2, whose Kirchhoff
+/// stress J sigma^E this is.
+///
+/// State (particle columns): `F` (xx, xy, yx, yy), advanced by eq. 8 (in
+/// sub-steps, or by its exponential: DeformationUpdate), and `J` = det F. With damage also
+/// `damage` (D: 0 intact, 1 failed), `sigma_f` (the tensile strength, filled
+/// with the material's; a Weibull field (eq. 25) is drawn into it at set-up)
+/// and `dissipated`, the work dissipated by damage. The current volume is
+/// J V_0: G2P multiplies it by det(I + dt L) each step, which for eq. 8 in
+/// one step is det F^{n+1} / det F^n; otherwise the model rescales it to
+/// keep V / J fixed.
+///
+/// Damage: after F, the largest trial principal stress (in-plane or zz)
+/// grows D (Damage::grow), and the stress is the trial stress with its
+/// tensile principal values scaled by 1 - D (eqs. 26-27). The stored energy
+/// is W - D W+, with W+ = sum over the tensile principal directions of
+/// mu/2 (lambda_i^2 - 1 - ln lambda_i^2), plus lambda/2 (ln J)^2 when J > 1: the
+/// part of W that damage releases. A step that raises D by dD dissipates
+/// V_0 W+ dD (the energy release rate -dpsi/dD; W+ the mean of its values at
+/// the start and the end of the step), summed in `dissipated`. In
+/// one dimension (nu = 0) the degraded stress is exactly d(W - D W+)/dF, so
+/// the energy balance closes; where a tensile principal stress meets a
+/// compressed volume (or the reverse), W+ is not a potential of the
+/// degraded tensile stresses and it closes only approximately.
+///
+/// Registered (neo_hookean.cpp) as "neo_hookean" with the parameters E, nu,
+/// density, integration ("euler", eq. 8, default, or "exponential"),
+/// substeps (of eq. 8, default 1) and damage ("none", default; "rankine"
+/// with sigma_f, Gf, l_ch; "time_to_failure" with sigma_f, c_f, l_ch).
+///
+/// The phase field (MaterialModel's `degraded`) multiplies the whole stress
+/// by g(c) and takes psi+ = the stored energy (no split); scenes do not
+/// combine it with this model yet.
+template <class Damage>
+class NeoHookean final : public MaterialModel<NeoHookean<Damage>>
+{
+public:
+  /// Whether the model carries damage.
+  static constexpr bool damages = !std::is_same_v<Damage, NoDamage>;
+
+  /// @param E Young's modulus (> 0).
+  /// @param nu Poisson ratio (-1 < nu < 0.5).
+  /// @param density Reference mass density (> 0).
+  /// @param update How F follows L (substeps >= 1).
+  /// @param damage The damage model.
+  /// @param sigma_f Tensile strength (> 0), the fill of the `sigma_f` column;
+  ///        unused without damage.
+  NeoHookean(double E, double nu, double density, DeformationUpdate update, Damage damage,
+             double sigma_f);
+
+  double E() const { return _E; }
+  double nu() const { return _nu; }
+  double lambda() const { return _lambda; }
+  double mu() const { return _mu; }
+  double density() const override { return _density; }
+  const DeformationUpdate& update() const { return _update; }
+  const Damage& damage() const { return _damage; }
+  /// P-wave speed of the undeformed material sqrt((lambda + 2 mu) / rho_0).
+  double wave_speed() const override { return std::sqrt((_lambda + 2.0 * _mu) / _density); }
+  std::string model() const override { return "neo_hookean"; }
+  std::vector<ColumnSpec> columns() const override;
+
+  /// @name Per-particle functions of MaterialModel
+  /// @{
+  struct View
+  {
+    double* F;
+    double* J;
+    double* stress;
+    double* volume;
+    double* damage;      ///< with damage only
+    const double* sigma_f;
+    double* dissipated;
+  };
+  View view(Particles& P) const;
+  static constexpr bool constant_wave_speed = false;
+
+  /// Eq. 8 (DeformationUpdate), J, and with damage the growth of D (eqs. 23-24).
+  void advance(const View& v, std::size_t p, const double* L, double dt) const
+  {
+    double* F = &v.F[4 * p];
+    [[maybe_unused]] double before[5]; // F and J at the start of the step
+    if constexpr (damages)
+    {
+      std::copy(F, F + 4, before);
+      before[4] = v.J[p];
+    }
+    _update(F, L, dt);
+    const double J = determinant(F);
+    if (!_volume_as_g2p)
+    {
+      const double step = (1.0 + dt * L[0]) * (1.0 + dt * L[3]) - dt * dt * L[1] * L[2];
+      v.volume[p] *= J / (v.J[p] * step);
+    }
+    v.J[p] = J;
+    if constexpr (damages)
+    {
+      const Principal s(*this, F, J);
+      const double D0 = v.damage[p];
+      const double D = _damage.grow(D0, s.max_stress(), v.sigma_f[p], dt);
+      if (D > D0)
+      {
+        // int W+ dD over the step by the trapezoidal rule, W+ at F^n and F^{n+1}.
+        const double released = tensile_energy(Principal(*this, before, before[4]));
+        v.dissipated[p] += v.volume[p] / J * (D - D0) * 0.5 * (released + tensile_energy(s));
+        v.damage[p] = D;
+      }
+    }
+  }
+  /// The stress of the current state: eq. 22, with damage eqs. 26-27.
+  void undegraded(const View& v, std::size_t p) const
+  {
+    double* sig = &v.stress[4 * p];
+    trial_stress(&v.F[4 * p], v.J[p], sig);
+    if constexpr (damages)
+      if (v.damage[p] > 0.0)
+        degrade_tensile(sig, v.damage[p]);
+  }
+  double degraded(const View& v, std::size_t p, double g) const
+  {
+    undegraded(v, p);
+    for (int k = 0; k < 4; ++k)
+      v.stress[4 * p + k] *= g;
+    return energy(v, p);
+  }
+  /// Stored energy per unit current volume, (W - D W+) / J.
+  double energy(const View& v, std::size_t p) const
+  {
+    const double* F = &v.F[4 * p];
+    const double J = v.J[p];
+    double psi = stored_energy(F, J);
+    if constexpr (damages)
+      if (v.damage[p] > 0.0)
+        psi -= v.damage[p] * tensile_energy(Principal(*this, F, J));
+    return psi / J;
+  }
+  void split(const View& v, std::size_t p, double& plus, double& minus) const
+  {
+    plus = energy(v, p);
+    minus = 0.0;
+  }
+  /// @brief P-wave speed in the current state, for the stability check: the
+  /// largest longitudinal speed of the tangent of eq. 22 is c^2 = (mu b_max +
+  /// lambda + mu - lambda ln J) / rho_0, with b_max the largest in-plane
+  /// eigenvalue of B; we take its bound with -ln J <= max(1/J - 1, 0), equal
+  /// at J = 1 and within a few per cent for |ln J| < 0.1, which saves a
+  /// logarithm per particle and step. With damage, scaled by sqrt(1 - D)
+  /// when every in-plane trial principal stress is tensile (all of the
+  /// stiffness degraded).
+  double state_wave_speed(const View& v, std::size_t p) const
+  {
+    const double* F = &v.F[4 * p];
+    const Mohr b(F[0] * F[0] + F[1] * F[1], F[2] * F[2] + F[3] * F[3], F[0] * F[2] + F[1] * F[3]);
+    const double J = v.J[p];
+    double c2 = (_mu * b.max() + _lambda + _mu + _lambda * std::max(1.0 / J - 1.0, 0.0)) / _density;
+    if constexpr (damages)
+      if (v.damage[p] > 0.0 && Principal(*this, F, J).sigma2 > 0.0)
+        c2 *= 1.0 - v.damage[p];
+    return std::sqrt(c2);
+  }
+  /// @}
+
+  /// @brief The trial stress of eq. 22.
+  /// @param F Deformation gradient (xx, xy, yx, yy).
+  /// @param J det F.
+  /// @param[out] sig Cauchy stress (xx, yy, xy, zz).
+  void trial_stress(const double* F, double J, double* sig) const
+  {
+    const double iJ = 1.0 / J, lnJ = std::log(J);
+    const double Bxx = F[0] * F[0] + F[1] * F[1], Byy = F[2] * F[2] + F[3] * F[3];
+    const double Bxy = F[0] * F[2] + F[1] * F[3];
+    const double vol = _lambda * lnJ;
+    sig[0] = (_mu * (Bxx - 1.0) + vol) * iJ;
+    sig[1] = (_mu * (Byy - 1.0) + vol) * iJ;
+    sig[2] = _mu * Bxy * iJ;
+    sig[3] = vol * iJ;
+  }
+
+  /// @brief W = mu/2 (tr C - 3) - mu ln J + lambda/2 (ln J)^2 per unit
+  /// reference volume (tr C = |F|^2 + 1 in plane strain).
+  double stored_energy(const double* F, double J) const
+  {
+    const double lnJ = std::log(J);
+    const double FF = F[0] * F[0] + F[1] * F[1] + F[2] * F[2] + F[3] * F[3];
+    return 0.5 * _mu * (FF - 2.0) - _mu * lnJ + 0.5 * _lambda * lnJ * lnJ;
+  }
+
+private:
+  /// The principal values of a state: in-plane eigenvalues b1 >= b2 of B
+  /// (the squared principal stretches), ln J, and the trial principal
+  /// stresses sigma_i = (mu (b_i - 1) + lambda ln J) / J, sigma_zz = lambda ln J / J.
+  struct Principal
+  {
+    double b1, b2, lnJ, sigma1, sigma2, sigma_zz;
+    Principal(const NeoHookean& m, const double* F, double J)
+    {
+      const Mohr b(F[0] * F[0] + F[1] * F[1], F[2] * F[2] + F[3] * F[3],
+                   F[0] * F[2] + F[1] * F[3]);
+      b1 = b.max();
+      b2 = b.min();
+      lnJ = std::log(J);
+      const double iJ = 1.0 / J, vol = m._lambda * lnJ;
+      sigma1 = (m._mu * (b1 - 1.0) + vol) * iJ;
+      sigma2 = (m._mu * (b2 - 1.0) + vol) * iJ;
+      sigma_zz = vol * iJ;
+    }
+    /// The largest trial principal stress, the zz one included.
+    double max_stress() const { return std::max(sigma1, sigma_zz); }
+  };
+
+  /// @brief W+ per unit reference volume: the part of W that damage
+  /// releases (see the class description); ln b2 = 2 ln J - ln b1.
+  double tensile_energy(const Principal& s) const
+  {
+    const double ln1 = std::log(s.b1), ln2 = 2.0 * s.lnJ - ln1;
+    double w = s.lnJ > 0.0 ? 0.5 * _lambda * s.lnJ * s.lnJ : 0.0;
+    if (s.sigma1 > 0.0)
+      w += 0.5 * _mu * (s.b1 - 1.0 - ln1);
+    if (s.sigma2 > 0.0)
+      w += 0.5 * _mu * (s.b2 - 1.0 - ln2);
+    return w;
+  }
+
+  double _E, _nu, _density;
+  DeformationUpdate _update;
+  bool _volume_as_g2p;
+  Damage _damage;
+  double _sigma_f;
+  double _lambda, _mu;
+};
+
+} // namespace pfmpm

@@ -1,0 +1,327 @@
+/// @file test_multigrid.cpp
+/// @brief The multigrid preconditioner of the phase-field CG: the B-spline two-scale relation,
+/// Galerkin coarse operators equal to the matrices assembled on the coarse grids, few iterations
+/// to the tight solution, and the same bits on any number of threads.
+#include "helpers.h"
+#include "pfmpm/fracture/multigrid.h"
+#include "pfmpm/fracture/phasefield.h"
+#include "pfmpm/grid/bspline.h"
+#include "pfmpm/grid/grid.h"
+#include "pfmpm/solver/solver.h"
+
+#include <gtest/gtest.h>
+#include <omp.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstring>
+#include <optional>
+#include <vector>
+
+using namespace pfmpm;
+
+namespace
+{
+constexpr double pi = 3.14159265358979323846;
+
+/// A crackable plate [0, 8] x [0, 4] of n x n particles per cell of size d,
+/// with an initial crack from its left edge to its centre along y = 2 as a
+/// history band of width l0 / 2 (as pfmpm.crack does), the material turned
+/// 30 degrees.
+Particles make_plate(double d, int n, double l0)
+{
+  const double s = d / n, Lx = 8.0, Ly = 4.0;
+  const int nx = static_cast<int>(std::lround(Lx / s)), ny = static_cast<int>(std::lround(Ly / s));
+  Particles P(static_cast<std::size_t>(nx) * ny);
+  test::add_model_columns(P, true);
+  std::vector<double>&phi = P.f64("phi"), &history = P.f64("history");
+  const double H0 = 1000.0 / (4.0 * l0), w = 0.5 * l0; // B G_c / (4 l0), G_c = 1
+  for (int i = 0; i < nx; ++i)
+    for (int j = 0; j < ny; ++j)
+    {
+      const std::size_t p = static_cast<std::size_t>(i) * ny + j;
+      const double x = (i + 0.5) * s, y = (j + 0.5) * s;
+      // A slight waviness keeps the particles off a lattice aligned with the grid.
+      P.x[2 * p] = x + 0.05 * s * std::sin(1.7 * y);
+      P.x[2 * p + 1] = y + 0.05 * s * std::cos(1.3 * x);
+      P.volume[p] = s * s;
+      P.mass[p] = s * s;
+      phi[p] = pi / 6.0;
+      const double dist = x <= 4.0 ? std::abs(y - 2.0) : std::hypot(x - 4.0, y - 2.0);
+      history[p] = dist < w ? H0 * (1.0 - dist / w) : 0.0;
+    }
+  return P;
+}
+
+/// The Borden plate's orthotropic gamma (g1111 = 1, g2222 = 80, g1212 = 74),
+/// or zero; without the bound, so that the second-order model is solved by
+/// the preconditioned CG (the bounded solve runs Jacobi CG on its free nodes).
+Fracture fracture(double l0, bool fourth)
+{
+  Fracture f{1.0, l0, 0.0, {}, Model::AT2, false};
+  if (fourth)
+    f.gamma = {1.0, 0.0, 0.0, 0.0, 80.0, 0.0, 0.0, 0.0, 74.0};
+  return f;
+}
+
+/// A solver for the plate on a grid of `cells` of size h from `origin`, by
+/// default two empty cells around the plate; prepare() solves the phase field
+/// of the initial crack cold.
+struct PlateRun
+{
+  Grid grid;
+  Particles particles;
+  Solver solver;
+  PlateRun(int degree, double h, Particles P, const Fracture& f, Preconditioner preconditioner,
+           double tol)
+      : PlateRun(degree, h,
+                 {static_cast<int>(std::lround(8.0 / h)) + 4,
+                  static_cast<int>(std::lround(4.0 / h)) + 4},
+                 {-2.0 * h, -2.0 * h}, std::move(P), f, preconditioner, tol)
+  {
+  }
+  PlateRun(int degree, double h, std::array<int, 2> cells, std::array<double, 2> origin,
+           Particles P, const Fracture& f, Preconditioner preconditioner, double tol)
+      : grid(degree, cells, h, origin),
+        particles(std::move(P)),
+        solver(grid, particles, test::elastic(100.0, 0.2, 1.0), 1e-3, {f}, tol, 100000)
+  {
+    solver.set_phase_field_preconditioner(preconditioner);
+    solver.prepare();
+  }
+  PhaseFieldStats stats() const { return solver.phase_field_stats(); }
+};
+
+/// Max |a - b| over two particle arrays of the same size.
+double max_difference(const std::vector<double>& a, const std::vector<double>& b)
+{
+  double m = 0.0;
+  for (std::size_t i = 0; i < a.size(); ++i)
+    m = std::max(m, std::abs(a[i] - b[i]));
+  return m;
+}
+} // namespace
+
+class RefinementDegree : public ::testing::TestWithParam<int>
+{
+};
+
+TEST_P(RefinementDegree, CoarseFunctionsAreCombinationsOfFineOnes)
+{
+  // N^2h_J(x) = sum_i R_iJ N^h_i(x) at points all over the fine grid, also
+  // when an odd number of fine cells leaves the last coarse cell half outside.
+  const int p = GetParam();
+  for (int cells : {2 * p + 2, 2 * p + 3, 13})
+  {
+    const Refinement R(cells, p);
+    const BSpline1D fine(p, cells, 1.0, 0.0), coarse(p, (cells + 1) / 2, 2.0, 0.0);
+    ASSERT_EQ(R.fine, fine.size());
+    ASSERT_EQ(R.coarse, coarse.size());
+    for (int k = 0; k < 200; ++k)
+    {
+      const double x = (k + 0.37) * cells / 200.0;
+      double nf[4], nc[4];
+      const int cf = fine.cell(x), cc = coarse.cell(x);
+      fine.evaluate(cf, x, nf, nullptr, nullptr);
+      coarse.evaluate(cc, x, nc, nullptr, nullptr);
+      for (int J = 0; J < R.coarse; ++J)
+      {
+        const double value = J >= cc && J <= cc + p ? nc[J - cc] : 0.0;
+        double sum = 0.0;
+        for (int a = 0; a < R.count[J]; ++a)
+        {
+          const int i = R.first[J] + a;
+          if (i >= cf && i <= cf + p)
+            sum += R.weight[std::size_t(J) * R.width() + a] * nf[i - cf];
+        }
+        EXPECT_NEAR(sum, value, 1e-14) << "p = " << p << ", cells = " << cells << ", J = " << J;
+      }
+    }
+    // The transposed runs hold the same weights.
+    for (int i = 0; i < R.fine; ++i)
+      for (int a = 0; a < R.count_t[i]; ++a)
+      {
+        const int J = R.first_coarse[i] + a;
+        const int b = i - R.first[J];
+        ASSERT_TRUE(b >= 0 && b < R.count[J]);
+        EXPECT_EQ(R.weight_t[std::size_t(i) * R.width() + a],
+                  R.weight[std::size_t(J) * R.width() + b]);
+      }
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Degrees, RefinementDegree, ::testing::Values(1, 2, 3));
+
+TEST(Refinement, InteriorWeightsAreBinomial)
+{
+  // 2^-p C(p + 1, k) on fine functions 2J - p + k (knot insertion at the midpoints).
+  const Refinement q(20, 2), c(20, 3);
+  const double wq[] = {0.25, 0.75, 0.75, 0.25}, wc[] = {0.125, 0.5, 0.75, 0.5, 0.125};
+  ASSERT_EQ(q.first[5], 2 * 5 - 2);
+  ASSERT_EQ(q.count[5], 4);
+  for (int k = 0; k < 4; ++k)
+    EXPECT_EQ(q.weight[5 * q.width() + k], wq[k]);
+  ASSERT_EQ(c.first[5], 2 * 5 - 3);
+  ASSERT_EQ(c.count[5], 5);
+  for (int k = 0; k < 5; ++k)
+    EXPECT_EQ(c.weight[5 * c.width() + k], wc[k]);
+}
+
+TEST(Multigrid, GalerkinOperatorIsTheMatrixOfTheCoarseGrid)
+{
+  // The coarse spaces are nested in the fine one and the particles are the
+  // quadrature of both, so P^T K_h P is K assembled on the grid of cells 2h,
+  // entry by entry (fourth order, so second derivatives are in it too).
+  const double h = 0.25, l0 = 0.5;
+  const Fracture f = fracture(l0, true);
+  PlateRun fine(2, h, {36, 20}, {-0.5, -0.5}, make_plate(h, 2, l0), f, Preconditioner::jacobi,
+               1e-6);
+  PlateRun coarse(2, 2 * h, {18, 10}, {-0.5, -0.5}, make_plate(h, 2, l0), f,
+                  Preconditioner::jacobi, 1e-6);
+
+  // K_h in the stencil storage, then the multigrid levels built from it.
+  const int p = 2, H = SymmetricStencil<2>::size;
+  const PhaseFieldSystem k = fine.solver.phase_field_system();
+  const int nny = fine.grid.nodes()[1];
+  const std::size_t pny = nny + 2 * p, pnx = fine.grid.nodes()[0] + 2 * p;
+  auto padded = [&](int ix, int iy) { return std::size_t(ix + p) * pny + (iy + p); };
+  std::vector<double> rows(pnx * pny * H, 0.0);
+  std::vector<std::size_t> position;
+  for (std::size_t a = 0; a < k.nodes.size(); ++a)
+  {
+    const int ix = k.nodes[a] / nny, iy = k.nodes[a] % nny;
+    position.push_back(padded(ix, iy));
+    for (auto e = k.row_start[a]; e < k.row_start[a + 1]; ++e)
+    {
+      const int jx = k.nodes[k.column[e]] / nny, jy = k.nodes[k.column[e]] % nny;
+      if (const int s = SymmetricStencil<2>::slot(jx - ix, jy - iy); s >= 0)
+        rows[padded(ix, iy) * H + s] = k.value[e];
+    }
+  }
+  Multigrid mg(fine.grid.cells(), p, 1);
+  mg.setup<2>(rows, position);
+  ASSERT_GE(mg.unknowns().size(), 2u);
+
+  const PhaseFieldSystem k2 = coarse.solver.phase_field_system();
+  const int cny = coarse.grid.nodes()[1];
+  EXPECT_EQ(mg.unknowns()[1], static_cast<std::int64_t>(k2.nodes.size()));
+  double largest = 0.0, worst = 0.0;
+  for (std::size_t a = 0; a < k2.nodes.size(); ++a)
+  {
+    const int ix = k2.nodes[a] / cny, iy = k2.nodes[a] % cny;
+    for (auto e = k2.row_start[a]; e < k2.row_start[a + 1]; ++e)
+    {
+      const int jx = k2.nodes[k2.column[e]] / cny, jy = k2.nodes[k2.column[e]] % cny;
+      largest = std::max(largest, std::abs(k2.value[e]));
+      worst = std::max(worst, std::abs(mg.entry(1, ix, iy, jx - ix, jy - iy) - k2.value[e]));
+    }
+  }
+  EXPECT_GT(largest, 0.0);
+  EXPECT_LT(worst, 1e-12 * largest);
+}
+
+class MultigridOrder : public ::testing::TestWithParam<bool>
+{
+};
+
+TEST_P(MultigridOrder, FewIterationsToTheTightSolution)
+{
+  // The cold solve of the initial crack: the V-cycle takes a few iterations
+  // where Jacobi (second order) or symmetric Gauss-Seidel (fourth) take
+  // many more, and its c at tol = 1e-6 agrees with a 1e-12 solve.
+  const bool fourth = GetParam();
+  const double h = 0.125, l0 = 0.25;
+  const Fracture f = fracture(l0, fourth);
+  PlateRun mg(2, h, make_plate(h, 2, l0), f, Preconditioner::multigrid, 1e-6);
+  PlateRun plain(2, h, make_plate(h, 2, l0), f,
+                 fourth ? Preconditioner::ssor : Preconditioner::jacobi, 1e-6);
+  PlateRun tight(2, h, make_plate(h, 2, l0), f, Preconditioner::multigrid, 1e-12);
+  // Measured: 13 against 42 Jacobi iterations (second order), 23 against
+  // 548 Gauss-Seidel ones (fourth).
+  EXPECT_LE(mg.stats().last_iterations, fourth ? 30 : 15);
+  EXPECT_GE(plain.stats().last_iterations, (fourth ? 15 : 3) * mg.stats().last_iterations);
+  EXPECT_LE(mg.stats().last_residual, 1e-6);
+  EXPECT_LT(max_difference(mg.particles.f64("c"), tight.particles.f64("c")), 1e-6);
+  EXPECT_LT(max_difference(plain.particles.f64("c"), tight.particles.f64("c")), 1e-6);
+}
+
+INSTANTIATE_TEST_SUITE_P(SecondAndFourth, MultigridOrder, ::testing::Values(false, true));
+
+TEST(Multigrid, EveryPreconditionerReachesTheSameSolution)
+{
+  // Gauss-Seidel for the second-order model and Jacobi for the fourth-order
+  // one, the non-default pairings, converge to the same c.
+  const double h = 0.25, l0 = 0.5;
+  for (bool fourth : {false, true})
+  {
+    const Fracture f = fracture(l0, fourth);
+    PlateRun tight(2, h, make_plate(h, 2, l0), f, Preconditioner::multigrid, 1e-12);
+    for (Preconditioner pc : {Preconditioner::jacobi, Preconditioner::ssor})
+    {
+      PlateRun s(2, h, make_plate(h, 2, l0), f, pc, 1e-8);
+      EXPECT_EQ(s.solver.phase_field_preconditioner(), pc);
+      EXPECT_LT(max_difference(s.particles.f64("c"), tight.particles.f64("c")), 1e-7) << "fourth = " << fourth;
+    }
+  }
+}
+
+class MultigridDegree : public ::testing::TestWithParam<int>
+{
+};
+
+TEST_P(MultigridDegree, ConvergesForEveryDegree)
+{
+  // Linear, quadratic and cubic B-splines (second order for the linear ones,
+  // which have no second derivatives): few iterations to the tight solution.
+  const int p = GetParam();
+  const double h = 0.25, l0 = 0.5;
+  const Fracture f = fracture(l0, p >= 2);
+  PlateRun mg(p, h, make_plate(h, 2, l0), f, Preconditioner::multigrid, 1e-6);
+  PlateRun tight(p, h, make_plate(h, 2, l0), f, Preconditioner::multigrid, 1e-12);
+  EXPECT_LE(mg.stats().last_iterations, 30);
+  EXPECT_LT(max_difference(mg.particles.f64("c"), tight.particles.f64("c")), 1e-6);
+}
+
+INSTANTIATE_TEST_SUITE_P(Degrees, MultigridDegree, ::testing::Values(1, 2, 3));
+
+TEST(Multigrid, ASmallSystemIsSolvedDirectly)
+{
+  // 10 x 6 active nodes, fewer than the 400 of the coarsest level: the
+  // V-cycle is the Cholesky solve, and CG converges in one iteration.
+  const double h = 1.0, l0 = 2.0;
+  PlateRun mg(2, h, make_plate(h, 2, l0), fracture(l0, true), Preconditioner::multigrid, 1e-10);
+  EXPECT_EQ(mg.stats().unknowns, 60);
+  EXPECT_EQ(mg.stats().last_iterations, 1);
+  EXPECT_LE(mg.stats().last_residual, 1e-10);
+}
+
+TEST(Multigrid, ThreadCountDoesNotChangeBits)
+{
+  // Enough nodes (164 x 84 cells) that the sweeps, the transfers and the
+  // Galerkin products run in parallel strips; a few steps of the phase field
+  // with moving particles.
+  const int max_threads = omp_get_max_threads();
+  const double h = 0.05, l0 = 0.1;
+  std::vector<Particles> out;
+  std::vector<std::int64_t> iterations;
+  for (int threads : {1, 2})
+  {
+    omp_set_num_threads(threads);
+    Particles P = make_plate(h, 1, l0);
+    for (std::size_t p = 0; p < P.size(); ++p)
+      P.v[2 * p + 1] = 0.5 * (P.x[2 * p + 1] - 2.0); // opens the crack
+    PlateRun s(2, h, std::move(P), fracture(l0, true), Preconditioner::multigrid, 1e-6);
+    s.solver.advance(3);
+    iterations.push_back(s.solver.phase_field_stats().iterations);
+    out.push_back(s.particles);
+  }
+  omp_set_num_threads(max_threads);
+  EXPECT_EQ(iterations[0], iterations[1]);
+  EXPECT_GT(iterations[0], 0);
+  ASSERT_EQ(out[0].size(), out[1].size());
+  EXPECT_TRUE(test::same_bits(out[0].f64("c"), out[1].f64("c")));
+  EXPECT_EQ(0, std::memcmp(out[0].stress.data(), out[1].stress.data(),
+                           out[0].stress.size() * sizeof(double)));
+  EXPECT_EQ(0, std::memcmp(out[0].x.data(), out[1].x.data(), out[0].x.size() * sizeof(double)));
+}
