@@ -102,7 +102,8 @@ def test_an_image_gives_one_body_per_colour(tmp_path):
 
 def test_scene_files_find_their_meshes_and_masks_beside_them(tmp_path, capfd):
     """A relative ``file`` is read from the scene file's folder, whatever the
-    current directory; the scene runs and its checkpointed dict names the file."""
+    current directory; the particles carry the scene's density; the scene
+    runs and its checkpointed dict names the file."""
     folder = tmp_path / "scene"
     folder.mkdir()
     write_mesh(folder / "l.msh", "quad")
@@ -118,7 +119,7 @@ end = 0.05
 name = "m"
 E = 200.0
 nu = 0.3
-density = 1.0
+density = 2.5
 [[bodies]]
 name = "l"
 material = "m"
@@ -134,6 +135,7 @@ shape = { type = "image", file = "mask.png", pixel = 0.125, color = "#ff0000", o
     sim = Simulation(scene)
     assert np.bincount(sim.particles.body).tolist() == [960, 300]
     assert sim.particles.volume.sum() == pytest.approx((960 + 300) * 0.125**2)
+    np.testing.assert_allclose(sim.particles.mass, 2.5 * sim.particles.volume, rtol=1e-15)
     sim.advance(5)
     again = Scene.from_dict(json.loads(json.dumps(scene.to_dict())))
     assert again == scene

@@ -109,6 +109,9 @@ def test_every_readme_command_runs_as_written(mirror):
         r = run(words + extra, mirror)
         assert r.returncode == 0, f"{shlex.join(words + extra)}\n{r.stderr[-3000:]}"
         assert "Traceback" not in r.stderr, r.stderr
+        # Quiet kernels and JIT: debugpy's warning that frozen modules may hide
+        # breakpoints, and FFCx's log of each compiler command, are gone.
+        assert "frozen modules" not in r.stderr and "ffcx" not in r.stderr.lower(), r.stderr
     summary = (mirror / "out" / "borden" / "summary.json").read_text()
     assert '"resumed_from"' in summary and "step_000000500.h5" in summary
     assert (mirror / "out" / "borden_fem" / "summary.json").exists()

@@ -37,9 +37,10 @@ echo "building pfmpm into .venv"
 # moved or deleted since the last build would be installed again.
 rm -rf build/lib.*
 .venv/bin/python -m pip install --quiet --no-build-isolation --no-deps --no-index .
-# A Jupyter kernel that runs this venv's Python, for docs/notebooks; found
-# before Debian's python3 kernel, which cannot import pfmpm.
-# debugpy warns on stderr, whenever a kernel starts, that Python's frozen
-# modules may hide breakpoints: the kernel turns that check off.
+# A Jupyter kernel that runs this venv's Python, for docs/notebooks (whose
+# metadata name it). debugpy warns on stderr, whenever it is imported, that
+# Python's frozen modules may hide breakpoints: the kernel turns that check
+# off. It is not named python3: for that name Jupyter imports ipykernel, and
+# with it debugpy, in its own process too, which would warn.
 PYDEVD_DISABLE_FILE_VALIDATION=1 .venv/bin/python -Xfrozen_modules=off -m ipykernel install --sys-prefix \
-  --name python3 --display-name "pfmpm (.venv)" --env PYDEVD_DISABLE_FILE_VALIDATION 1 > /dev/null
+  --name pfmpm --display-name "pfmpm (.venv)" --env PYDEVD_DISABLE_FILE_VALIDATION 1 > /dev/null

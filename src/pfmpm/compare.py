@@ -653,8 +653,9 @@ def _markdown(rows: list[dict], agree: dict, ref: dict, h: float, l0: float, end
     lines = [
         "# PF-MPM against PF-FEM: Borden plate",
         "",
-        f"{model} phase field, l0 = {l0:g} mm, end time {end:g} us. `error`: relative difference of a run's end fracture"
-        f" energy from {_reference_text(ref)}, one reference for both methods.{observed}"
+        f"{model} phase field, l0 = {l0:g} mm, end time {end:g} us. `error`: relative difference of"
+        f" a run's end fracture energy from {_reference_text(ref)}, one reference for both"
+        f" methods.{observed}"
         " `particles` counts the MPM material points, `dofs` the FEM unknowns (two displacements"
         " and the phase field per vertex). Initiation: the tip 0.5 mm past its start; branching:"
         " the tip first more than 1 mm off the notch line while more than 5 mm ahead of the notch"
