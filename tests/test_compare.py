@@ -244,8 +244,10 @@ def test_the_comparison_finds_the_crackable_materials_by_their_tables():
 
 
 def test_the_default_scene_ships_with_the_package():
-    """``pfmpm compare borden`` runs from any directory: its scene is the package's."""
+    """``pfmpm compare borden`` runs from any directory (issue 21, defect 8): its
+    scene is the one in the imported (installed) package, not the repository's."""
     assert BORDEN_SCENE == scenes.path("borden_plate") and BORDEN_SCENE.is_absolute()
+    assert BORDEN_SCENE.parent == Path(scenes.__file__).parent
     assert BORDEN_SCENE.read_bytes() == DEMO.read_bytes()
 
 

@@ -177,6 +177,24 @@ def test_speed_vs_error_labels_of_equal_h_do_not_overlap(figures, tmp_path):
     assert math.isclose(reference({0.5: 1.0, 0.25: 0.9})["value"], 0.9 - 0.1 / 3)
 
 
+def test_comparison_overlays_carry_the_scene_units(figures, tmp_path):
+    """Issue 21, defect 5: the comparison's overlays had no unit on any axis."""
+    from pfmpm.compare import _plot_overlay
+
+    t = np.linspace(0.0, 2.0, 5)
+    runs = {(m, 0.5): {"energies": {"t": t, "elastic": t, "fracture": t, "crack_tip_x": t,
+                                    "crack_tip_speed": t}} for m in ("mpm", "fem")}
+    mm = UNIT_SYSTEMS["mm-us-MPa"]
+    _plot_overlay(runs, [0.5], (("elastic", "elastic energy", "energy"), ("fracture", "fracture energy", "energy")),
+                  tmp_path / "e.png", mm)
+    _plot_overlay(runs, [0.5], (("crack_tip_x", "crack tip x", "length"),
+                                ("crack_tip_speed", "crack tip speed", "speed")), tmp_path / "v.png", mm)
+    assert figures["e.png"]["axes"] == [("", "elastic energy [N mm]", ""),
+                                        ("time t [µs]", "fracture energy [N mm]", "")]
+    assert figures["v.png"]["axes"] == [("", "crack tip x [mm]", ""),
+                                        ("time t [µs]", "crack tip speed [mm/µs]", "")]
+
+
 def test_polar_plots_keep_their_scale_off_the_curves_and_say_what_theta_is(figures, tmp_path):
     """The notebook figure pass: the radial tick labels lay on the curves, and
     nothing said whether theta is the crack's direction or its normal."""

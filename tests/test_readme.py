@@ -10,6 +10,7 @@ what is tested.  ``bash tools/main.sh`` and ``bash tools/test.sh`` are not
 run from inside the suite.
 """
 
+import json
 import os
 import re
 import shlex
@@ -141,3 +142,15 @@ def test_the_package_imported_at_the_root_is_the_installed_one(mirror):
     r = run([python, "-m", "pytest", "-p", "no:cacheprovider", "--collect-only", "-q",
              "tests/test_post.py"], mirror)
     assert r.returncode == 0, r.stdout + r.stderr
+
+
+def test_jupyter_and_the_kernel_are_installed(mirror):
+    """``tools/setup.sh`` installs Jupyter (``python -m notebook``, ``python -m
+    nbconvert``) and the ``pfmpm`` kernel the notebooks name, which runs the
+    venv's Python without debugpy's warning."""
+    python = ROOT / ".venv" / "bin" / "python"
+    for module in ("notebook", "nbconvert"):
+        r = run([str(python), "-m", module, "--version"], mirror)
+        assert r.returncode == 0 and r.stdout.strip()[0].isdigit(), (module, r.stdout, r.stderr)
+    spec = json.loads((ROOT / ".venv" / "share" / "jupyter" / "kernels" / "pfmpm" / "kernel.json").read_text())
+    assert spec["argv"][0] == str(python) and spec["env"] == {"PYDEVD_DISABLE_FILE_VALIDATION": "1"}
