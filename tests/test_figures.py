@@ -144,13 +144,19 @@ def test_the_crack_path_plot_shows_the_cracked_points_by_time(borden_run):
     assert fig.axes[1].get_ylabel() == "time cracked [µs]"
 
 
-def test_animate_writes_a_frame_per_snapshot(borden_run, tmp_path):
-    """``pfmpm animate``: a GIF with one frame per particle snapshot."""
+def test_animate_writes_a_frame_per_snapshot(borden_run, tmp_path, monkeypatch):
+    """``pfmpm animate``: a GIF with one frame per particle snapshot, its axes
+    and colour bar labelled with the run's units."""
     _, out, _, _ = borden_run
     path = animate(out, tmp_path / "c.gif")
     frames = sorted(out.glob("particles_*.vtu"))
     with Image.open(path) as gif:
         assert gif.n_frames == len(frames) >= 3
+    saved = catch_figures(monkeypatch)  # each frame is a savefig
+    animate(out, tmp_path / "u.gif", field="displacement")
+    (x_label, y_label, title), (_, colour_label, _) = next(iter(saved.values()))["axes"]  # the first
+    assert (x_label, y_label, colour_label) == ("x [mm]", "y [mm]", "|displacement| [mm]")
+    assert title == "displacement at t = 0 µs"
     with pytest.raises(KeyError, match="no field 'nope'"):
         animate(out, tmp_path / "x.gif", field="nope")
     with pytest.raises(ValueError, match="gif"):

@@ -21,6 +21,9 @@ from .scene.units import unit_system
 
 __all__ = ["frames", "animate"]
 
+VECTOR_QUANTITIES = {"displacement": "length", "velocity": "speed"}
+"""The vector fields drawn by their magnitude, with the quantity of their unit."""
+
 
 def frames(run_dir: Path | str, field: str) -> list[tuple[float, np.ndarray, np.ndarray]]:
     """The frames of a run: ``(t, xy, values)`` of ``field`` at its points, a
@@ -138,7 +141,13 @@ def animate(run_dir: Path | str, output: Path | str | None = None, field: str = 
     ax.set_xlabel(units.label("x", "length"))
     ax.set_ylabel(units.label("y", "length"))
     ax.set_aspect("equal")
-    fig.colorbar(image, ax=ax, label=PHASE_FIELD_LABEL if phase else field)
+    if phase:
+        label = PHASE_FIELD_LABEL
+    elif field in VECTOR_QUANTITIES:
+        label = units.label(f"|{field}|", VECTOR_QUANTITIES[field])
+    else:
+        label = field
+    fig.colorbar(image, ax=ax, label=label)
     output.parent.mkdir(parents=True, exist_ok=True)
     with writer.saving(fig, str(output), dpi=100):
         for t, xy, values in shots:
