@@ -48,8 +48,8 @@ def vtu_phase_field(out: Path) -> list[np.ndarray]:
 
 
 def xdmf_phase_field(out: Path) -> list[np.ndarray]:
-    """c of every frame of a FEM run, read back from its XDMF's HDF5 file."""
-    with h5py.File(out / "phase_field.h5", "r") as f:
+    """c of every frame of a FEM run, read back from the HDF5 file of its ``fields.xdmf``."""
+    with h5py.File(out / "fields.h5", "r") as f:
         return [np.asarray(f["Function/c"][k]).ravel() for k in f["Function/c"]]
 
 

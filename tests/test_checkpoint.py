@@ -226,7 +226,7 @@ def test_signal_leaves_a_checkpoint_that_resumes(tmp_path, sig):
 def test_signal_exit_codes(tmp_path):
     for sig, code in ((signal.SIGINT, 130), (signal.SIGTERM, 143)):
         out = tmp_path / sig.name
-        proc = start_bar(out, 1e5)
+        proc = start_bar(out, 1e4)
         interrupt(proc, out, sig)
         assert proc.returncode == code
 

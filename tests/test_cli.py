@@ -70,7 +70,7 @@ def test_missing_scene_file(tmp_path):
 
 def test_ctrl_c_stops_cleanly_with_output_intact(tmp_path):
     out = tmp_path / "long"
-    args = ["run", BAR, "--out", out, "--quiet", "--set", "time.end=1e5", "--set", "output.every=500"]
+    args = ["run", BAR, "--out", out, "--quiet", "--set", "time.end=1e4", "--set", "output.every=500"]
     proc = subprocess.Popen([sys.executable, "-m", "pfmpm.cli", *map(str, args)], stderr=subprocess.PIPE, text=True)
     csv = out / "energies.csv"
     deadline = time.time() + 60
@@ -107,6 +107,100 @@ def test_bench_json():
     assert result["steps"] == 3 and result["threads"] >= 1
     assert result["particle_steps_per_s"] == pytest.approx(result["particles"] * 3 / result["seconds"])
     assert result["model"] == "linear_elastic"
+
+
+@pytest.mark.parametrize("case", ["not utf-8", "a directory", "out is a file", "out under a file"])
+def test_bad_paths_are_one_line_errors(tmp_path, case):
+    """Issue 21, defect 2: each of these gave a traceback."""
+    scene, out = BAR, tmp_path / "out"
+    if case == "not utf-8":
+        scene = tmp_path / "g.toml"
+        scene.write_bytes(b"\x80garbage")
+        named = f"{scene}: not UTF-8 text"
+    elif case == "a directory":
+        scene = ROOT / "demos"
+        named = f"{scene}: is a directory, not a scene file"
+    else:
+        (tmp_path / "file").write_text("")
+        out = tmp_path / "file" if case == "out is a file" else tmp_path / "file" / "sub"
+        named = f"output directory {out} " + ("is a file" if case == "out is a file" else "lies under the file")
+    for command in (["run", scene, "--out", out], ["fem", scene, "--out", out]):
+        r = pfmpm(*command, "--quiet")
+        lines = r.stderr.strip().splitlines()
+        assert r.returncode == 2 and len(lines) == 1 and lines[0].startswith(f"error: {named}"), r.stderr
+    if case.startswith("out"):
+        r = pfmpm("compare", "borden", "--out", out)
+        assert r.returncode == 2 and r.stderr.strip() == f"error: {named}" + r.stderr.strip().split(named)[1]
+        assert "Traceback" not in r.stderr
+
+
+def test_version_and_help():
+    from pfmpm import __version__
+
+    r = pfmpm("--version")
+    assert r.returncode == 0 and r.stdout.strip() == f"pfmpm {__version__}"
+    r = pfmpm("bench", "--help")
+    assert r.returncode == 0
+    text = " ".join(r.stdout.split())
+    for words in ("elastic: the momentum step alone", "phasefield:", "anisotropic:", "contact:",
+                  "about this many particles", "steps per timed repeat", "median", "B-spline degree"):
+        assert words in text, words
+    r = pfmpm("--help")
+    for command in ("run", "fem", "compare", "post", "animate", "bench", "polar"):
+        assert command in r.stdout
+
+
+def test_fem_beside_run(tmp_path):
+    """``pfmpm fem`` runs a scene with the FEM reference, as ``python -m pfmpm.fem`` does."""
+    borden = ROOT / "demos" / "borden_plate.toml"
+    sets = ["--set", "grid.h=1.0", "--set", "materials.concrete.fracture.l0=2.0", "--set", "time.end=1"]
+    r = pfmpm("fem", borden, "--out", tmp_path / "a", "--quiet", *sets)
+    assert r.returncode == 0, r.stderr
+    summary = json.loads((tmp_path / "a" / "summary.json").read_text())
+    assert summary["method"] == "fem" and summary["status"] == "completed" and summary["units"] == "mm-us-MPa"
+    # With an empty JIT cache, every form and element is compiled: quietly.
+    env = dict(os.environ, XDG_CACHE_HOME=str(tmp_path / "cache"))
+    r = subprocess.run([sys.executable, "-m", "pfmpm.fem", borden, "--out", tmp_path / "b", "--quiet", *sets],
+                       capture_output=True, text=True, env=env)
+    assert r.returncode == 0, r.stderr
+    assert list((tmp_path / "cache").rglob("libffcx_*.c"))
+    assert r.stderr == ""  # issue 21: FFCx logged every compiler command it ran
+    assert (tmp_path / "a" / "energies.csv").read_bytes() == (tmp_path / "b" / "energies.csv").read_bytes()
+
+
+def test_particle_output_has_displacement_damage_strain_volume_and_id(tmp_path):
+    """Issue 21, defect 9: the VTU files hold, besides velocity, stress, c and
+    history, the displacement from t = 0, the damage 1 - c, the strain (as
+    the symmetric tensor ParaView reads), the volume and the particle id."""
+    from pfmpm import Scene, Simulation
+
+    scene = Scene.from_toml(ROOT / "demos" / "borden_plate.toml", [
+        "grid.h=1.0", "materials.concrete.fracture.l0=2.0", "bodies.plate.particles_per_cell=2",
+        "time.end=3", "output.every=1000", "output.snapshots=[]"])
+    sim = Simulation(scene)
+    sim.run(tmp_path, progress=False)
+    last = sorted(tmp_path.glob("particles_*.vtu"))[-1]
+    data = meshio.read(last).point_data
+    assert {"velocity", "volume", "stress", "strain", "c", "history", "displacement", "damage",
+            "id", "body", "material"} <= data.keys()
+    p = sim.particles
+    n = len(p)
+    np.testing.assert_array_equal(data["id"].ravel(), np.arange(n))
+    np.testing.assert_array_equal(data["displacement"][:, :2], p.x - scene.particles()["x"])
+    # Pulled by 1 MPa: the edges move at sigma / (rho c_p) = 1.07e-4 mm/us, for 3 us.
+    assert np.abs(data["displacement"][:, 1]).max() == pytest.approx(1.07e-4 * sim.time, rel=0.15)
+    np.testing.assert_array_equal(data["damage"].ravel(), 1.0 - p.c)
+    np.testing.assert_array_equal(data["volume"].ravel(), p.volume)
+    strain = data["strain"]
+    np.testing.assert_array_equal(strain[:, [0, 1, 3]], p.strain)  # xx, yy, xy
+    np.testing.assert_array_equal(strain[:, [2, 4, 5]], 0.0)  # plane strain: zz = 0
+    # The strain is the one the stress comes from: sigma_yy = lambda tr + 2 mu eps_yy where intact.
+    E, nu = 32000.0, 0.2
+    lam, mu = E * nu / ((1 + nu) * (1 - 2 * nu)), E / (2 * (1 + nu))
+    intact = p.c > 0.999
+    expected = lam * (p.strain[:, 0] + p.strain[:, 1]) + 2 * mu * p.strain[:, 1]
+    np.testing.assert_allclose(data["stress"][intact, 1], expected[intact] * p.c[intact] ** 2, rtol=0.01,
+                               atol=1e-6)
 
 
 def test_bench_neo_hookean_and_its_limits():

@@ -8,8 +8,11 @@ plate at the default h and l0 up to 25 us.
 import csv
 import json
 import math
+import os
+import signal
 import subprocess
 import sys
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -17,7 +20,7 @@ import pytest
 
 from pfmpm import scenes
 from pfmpm.compare import (BORDEN_SCENE, COLUMNS, agreement, branch_time, compare_borden,
-                           comparison_overrides, initiation_time)
+                           comparison_overrides, initiation_time, reference)
 from pfmpm.output import read_csv
 from pfmpm.scene import Crack, Scene
 from pfmpm.scene.toml import read_toml
@@ -75,6 +78,19 @@ def test_agreement_of_known_histories():
     assert a["fracture_gain_rel_diff"] == pytest.approx(-0.02 / 0.30, rel=1e-12)
 
 
+def test_reference_extrapolates_the_fem_runs():
+    # Three levels converging at order 1.5 (errors 0.1 h^1.5 about 1.0): that order is used, exactly.
+    ends = {h: 1.0 + 0.1 * h**1.5 for h in (1.0, 0.5, 0.25)}
+    r = reference(ends)
+    assert r["observed_order"] == pytest.approx(1.5, rel=1e-12) and r["order"] == r["observed_order"]
+    assert r["value"] == pytest.approx(1.0, rel=1e-12) and r["h"] == [0.5, 0.25]
+    # Two levels: the assumed order 2; oscillating levels: no observed order.
+    assert reference({1.0: 1.3, 0.5: 1.1})["value"] == pytest.approx(1.1 - 0.2 / 3, rel=1e-12)
+    wild = reference({1.0: 1.3, 0.5: 1.1, 0.25: 1.2})
+    assert math.isnan(wild["observed_order"]) and wild["order"] == 2.0
+    assert reference({0.5: 0.7})["kind"] == "finest FEM run"
+
+
 def read_table(path):
     with open(path, newline="") as f:
         rows = list(csv.DictReader(f))
@@ -87,12 +103,16 @@ def pfmpm(*args, **kw):
 
 
 def test_compare_driver_at_a_tiny_size(tmp_path):
+    """Issue 21, defects 6 and 9: one reference for both methods' errors,
+    particles and dofs apart, branch times and their resolution in the
+    table, frames of every run."""
     out = tmp_path / "cmp"
     r = pfmpm("compare", "borden", "--h", "1.0,0.5", "--l0", "1.0", "--end", "6", "--out", out,
-              "--scene", DEMO, "--quiet", timeout=300)
+              "--scene", DEMO, "--frames", "3", "--quiet", timeout=300)
     assert r.returncode == 0, r.stderr
     names = ("speed_vs_error.csv", "energies_overlay.png", "crack_tip_speed_overlay.png",
-             "phase_field_side_by_side.png", "speed_vs_error.png", "comparison.md", "agreement.json")
+             "phase_field_side_by_side.png", "crack_path_side_by_side.png", "speed_vs_error.png",
+             "comparison.md", "agreement.json")
     for name in names:
         assert (out / name).stat().st_size > 0, name
         assert str(out / name) in r.stdout  # says where it is
@@ -103,10 +123,10 @@ def test_compare_driver_at_a_tiny_size(tmp_path):
         ("mpm", 1.0), ("mpm", 0.5), ("fem", 1.0), ("fem", 0.5)]
     runs = {(row["method"], float(row["h"])): row for row in rows}
     # Sizes of the 100 x 40 plate: 9 particles per cell; 3 dofs (u, c) per vertex.
-    assert int(runs["mpm", 1.0]["dofs_or_particles"]) == 100 * 40 * 9
-    assert int(runs["mpm", 0.5]["dofs_or_particles"]) == 200 * 80 * 9
-    assert int(runs["fem", 1.0]["dofs_or_particles"]) == 3 * 101 * 41
-    assert int(runs["fem", 0.5]["dofs_or_particles"]) == 3 * 201 * 81
+    assert (runs["mpm", 1.0]["particles"], runs["mpm", 1.0]["dofs"]) == (str(100 * 40 * 9), "")
+    assert int(runs["mpm", 0.5]["particles"]) == 200 * 80 * 9
+    assert (runs["fem", 1.0]["particles"], runs["fem", 1.0]["dofs"]) == ("", str(3 * 101 * 41))
+    assert int(runs["fem", 0.5]["dofs"]) == 3 * 201 * 81
 
     end = {}
     for (method, h), row in runs.items():
@@ -119,23 +139,68 @@ def test_compare_driver_at_a_tiny_size(tmp_path):
         assert float(row["fracture_energy_end"]) == e["fracture"][-1]
         assert float(row["elastic_energy_peak"]) == e["elastic"].max()
         assert float(row["crack_tip_x_end"]) == e["crack_tip_x"][-1]
-        assert math.isnan(float(row["branch_time_us"]))  # 6 us: the crack has not even started
+        # 6 us: the crack has not even started
+        assert math.isnan(float(row["initiation_us"])) and math.isnan(float(row["branch_us"]))
         end[method, h] = e["fracture"][-1]
-    for method, other in (("mpm", "fem"), ("fem", "mpm")):
-        assert float(runs[method, 0.5]["error"]) == 0.0
-        coarse = float(runs[method, 1.0]["error"])
-        assert coarse == pytest.approx(abs(end[method, 1.0] / end[method, 0.5] - 1), rel=1e-12)
-        assert 0 < coarse < 0.2
-        for h in (1.0, 0.5):
-            vs = float(runs[method, h]["error_vs_other"])
-            assert vs == pytest.approx(abs(end[method, h] / end[other, 0.5] - 1), rel=1e-12)
-            assert 0 < vs < 0.2
+        # Three frames, at 0, 3 and 6 us, of each run.
+        if method == "mpm":
+            assert len(list(run.glob("particles_*.vtu"))) == 3
+        else:
+            xdmf = (run / "fields.xdmf").read_text()
+            assert xdmf.count('<Attribute Name="displacement"') == 3
+    # The reference: Richardson (order 2 assumed, with two h) from the FEM runs, for both methods.
+    ref = end["fem", 0.5] + (end["fem", 0.5] - end["fem", 1.0]) / 3
+    for key, row in runs.items():
+        assert float(row["error"]) == pytest.approx(abs(end[key] / ref - 1), rel=1e-12)
+        assert 0 < float(row["error"]) < 0.25
 
     a = json.loads((out / "agreement.json").read_text())
     assert a["h"] == 0.5 and a["l0"] == 1.0 and a["initiation_mpm_us"] is None
     assert a["model"] == "AT2"
+    assert a["branch_mpm_us"] is None and a["branch_fem_us"] is None
+    assert a["reference"]["kind"] == "richardson" and a["reference"]["h"] == [1.0, 0.5]
+    assert a["reference"]["order"] == 2.0 and a["reference"]["observed_order"] is None
+    assert a["reference"]["value"] == pytest.approx(ref, rel=1e-12)
+    # Rows every 10 steps of dt = 0.105 us (h = 0.5): the times are known to 1.05 us.
+    assert a["record_interval_us"] == pytest.approx(1.05, rel=1e-6)
     assert a["elastic_rms_rel"] < 0.05  # both are elastic up to 6 us
-    assert "| mpm | 0.5 | 144000 |" in (out / "comparison.md").read_text()
+    text = (out / "comparison.md").read_text()
+    assert "| mpm | 0.5 | 144000 | - |" in text and "| fem | 0.5 | - | 48843 |" in text
+    assert "Richardson extrapolation (assumed order 2) of the PF-FEM runs at h = 1 and 0.5" in text
+    assert "crack branching (tip 1 mm off the notch line) [us], +- 1.050" in text
+    assert "crack initiation (tip 0.5 mm past its start) [us], +- 1.050" in text
+
+
+def test_an_interrupted_comparison_resumes(tmp_path):
+    """``--resume``: the completed runs are kept, an interrupted MPM run continues
+    from its checkpoint to the same bits as a run that was never stopped."""
+    settings = dict(hs=[1.0], l0=2.0, end=4.0, scene_path=DEMO, frames=2, progress=False)
+    whole = compare_borden(tmp_path / "whole", log=lambda line: None, **settings)
+
+    def stop_the_mpm_run(line):
+        if line.startswith("PF-MPM"):  # a run starts: Ctrl-C a moment later
+            threading.Timer(0.5, os.kill, (os.getpid(), signal.SIGINT)).start()
+
+    with pytest.raises(KeyboardInterrupt):
+        compare_borden(tmp_path / "cut", log=stop_the_mpm_run, **settings)
+    summary = json.loads((tmp_path / "cut" / "mpm_h1" / "summary.json").read_text())
+    assert summary["status"] == "interrupted" and 0 < summary["steps"] < summary["steps_planned"]
+    lines = []
+    resumed = compare_borden(tmp_path / "cut", log=lines.append, resume=True, **settings)
+    assert lines[0].startswith("PF-MPM h = 1: 36000 particles, ") and f"from step {summary['steps']}" in lines[0]
+    for name in ("mpm_h1", "fem_h1"):
+        assert ((tmp_path / "cut" / name / "energies.csv").read_bytes()
+                == (tmp_path / "whole" / name / "energies.csv").read_bytes())
+    assert resumed.rows[0]["wall_s"] > summary["wall_s"]
+    # Resumed again, nothing is left to run; other settings are refused.
+    lines.clear()
+    compare_borden(tmp_path / "cut", log=lines.append, resume=True, **settings)
+    assert all("completed before" in line for line in lines) and len(lines) == 2
+    with pytest.raises(ValueError, match=r"other settings \(end\)"):
+        compare_borden(tmp_path / "cut", log=lines.append, resume=True, **{**settings, "end": 5.0})
+    r = pfmpm("compare", "borden", "--resume", "--out", tmp_path / "cut", "--l0", "1")
+    assert r.returncode == 2 and r.stderr.strip() == "error: --l0: cannot change the study of a resumed comparison"
+    assert whole.reference["kind"] == "finest FEM run"
 
 
 def test_compare_runs_either_model(tmp_path):
@@ -170,7 +235,7 @@ def test_the_comparison_finds_the_crackable_materials_by_their_tables():
     tables["bodies"][0]["material"] = "glass"
     sets = comparison_overrides(tables, 1.0, 2.0, 5.0)
     assert sets == ["grid.h=1.0", "materials.0.fracture.l0=2.0", "materials.0.fracture.model=AT2",
-                    "time.end=5.0", "output.particles=false"]
+                    "time.end=5.0"]
     scene = Scene.from_dict(tables, sets)
     assert scene.materials[0].name == "glass" and scene.materials[0].fracture.l0 == 2.0
     beam_and_disk = read_toml(ROOT / "demos" / "disk_beam.toml")
@@ -179,8 +244,10 @@ def test_the_comparison_finds_the_crackable_materials_by_their_tables():
 
 
 def test_the_default_scene_ships_with_the_package():
-    """``pfmpm compare borden`` runs from any directory: its scene is the package's."""
+    """``pfmpm compare borden`` runs from any directory (issue 21, defect 8): its
+    scene is the one in the imported (installed) package, not the repository's."""
     assert BORDEN_SCENE == scenes.path("borden_plate") and BORDEN_SCENE.is_absolute()
+    assert BORDEN_SCENE.parent == Path(scenes.__file__).parent
     assert BORDEN_SCENE.read_bytes() == DEMO.read_bytes()
 
 
@@ -192,7 +259,7 @@ def test_mpm_and_fem_agree_on_the_borden_plate(tmp_path):
     Measured: initiation 13.1 us in both, elastic energy RMS difference
     about 1 % of the peak, fracture energy at 25 us 2.7 % apart.
     """
-    result = compare_borden(tmp_path, [0.25], 0.5, 25.0, scene_path=DEMO,
+    result = compare_borden(tmp_path, [0.25], 0.5, 25.0, scene_path=DEMO, frames=0,
                             overrides=["bodies.plate.particles_per_cell=2"], progress=False,
                             log=lambda line: None)
     a = result.agreement
@@ -207,4 +274,6 @@ def test_mpm_and_fem_agree_on_the_borden_plate(tmp_path):
     mpm, fem = (read_csv(tmp_path / f"{m}_h0.25" / "energies.csv") for m in ("mpm", "fem"))
     for e in (mpm, fem):
         assert e["fracture"][-1] > 1.15 * e["fracture"][0]
-    assert {row["method"]: row["error"] for row in result.rows} == {"mpm": 0.0, "fem": 0.0}
+    # One h: the reference is the FEM run there.
+    errors = {row["method"]: row["error"] for row in result.rows}
+    assert errors["fem"] == 0.0 and errors["mpm"] == pytest.approx(abs(a["fracture_end_rel_diff"]), rel=1e-9)

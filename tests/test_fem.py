@@ -205,7 +205,7 @@ def test_non_finite_energy_stops_the_run_and_keeps_the_output(tmp_path):
     assert read_csv(tmp_path / "energies.csv")["step"].tolist() == [0.0]
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert (summary["method"], summary["status"], summary["steps"]) == ("fem", "failed", 1)
-    assert (tmp_path / "phase_field.xdmf").exists()
+    assert (tmp_path / "fields.xdmf").exists()
 
 
 @pytest.mark.parametrize("change, path", [
@@ -251,6 +251,30 @@ def _mpirun() -> list[str]:
     return cmd
 
 
+def xdmf_fields(out: Path) -> dict:
+    """Each field of a FEM run's ``fields.xdmf``: its times, the points it lives
+    on (vertices, or cell centres for cell fields) and its values (times, points, components)."""
+    import h5py
+    from xml.etree import ElementTree
+
+    grids = ElementTree.parse(out / "fields.xdmf").getroot().find("Domain").findall("Grid")
+    mesh = next(g for g in grids if g.get("GridType") == "Uniform")
+    with h5py.File(out / "fields.h5", "r") as f:
+        read = lambda item: f[item.text.strip().split(":")[1]][()]  # noqa: E731
+        xy = read(mesh.find("Geometry/DataItem"))[:, :2]
+        centres = xy[read(mesh.find("Topology/DataItem"))].mean(axis=1)
+        fields = {}
+        for grid in grids:
+            if grid.get("CollectionType") != "Temporal":
+                continue
+            steps = grid.findall("Grid")
+            cell = steps[0].find("Attribute").get("Center") == "Cell"
+            values = np.array([read(step.find("Attribute/DataItem")) for step in steps])
+            fields[grid.get("Name")] = ([float(step.find("Time").get("Value")) for step in steps],
+                                        centres if cell else xy, values)
+    return fields
+
+
 @pytest.mark.parametrize("model, end", [("AT2", 4.2), ("AT1", 16.0)])
 def test_two_ranks_reproduce_one(tmp_path, model, end):
     """``mpirun -n 2 python -m pfmpm.fem`` gives the serial energies to 1e-8.
@@ -271,7 +295,7 @@ def test_two_ranks_reproduce_one(tmp_path, model, end):
     args = ["-m", "pfmpm.fem", str(DEMOS / "borden_plate.toml"), "--quiet"]
     args += [item for s in sets for item in ("--set", s)]
     runs = {"serial": [sys.executable], "mpi": _mpirun() + [sys.executable]}
-    energies = {}
+    energies, fields = {}, {}
     for name, launcher in runs.items():
         out = tmp_path / name
         proc = subprocess.run(launcher + args + ["--out", str(out)], env=env, capture_output=True,
@@ -281,8 +305,8 @@ def test_two_ranks_reproduce_one(tmp_path, model, end):
         assert summary["status"] == "completed"
         assert summary["ranks"] == (1 if name == "serial" else 2)
         assert summary["substeps"] == 2  # the MPM step 0.8 h/c_p is above the P1 limit
-        assert (out / "phase_field.h5").exists()
         energies[name] = read_csv(out / "energies.csv")
+        fields[name] = xdmf_fields(out)
     serial, mpi = energies["serial"], energies["mpi"]
     assert len(serial["step"]) == {"AT2": 41, "AT1": 154}[model]
     assert serial["fracture"][-1] > serial["fracture"][0]  # the history grew near the notch
@@ -294,6 +318,32 @@ def test_two_ranks_reproduce_one(tmp_path, model, end):
         np.testing.assert_allclose(mpi[key], serial[key], rtol=0, atol=1e-8 * scale, err_msg=key)
     for key in ("crack_tip_x", "crack_tip_y"):
         np.testing.assert_allclose(mpi[key], serial[key], rtol=0, atol=1e-8 * 100.0, err_msg=key)
+    # The frames (issue 21, defect 9): every 20 steps and at the end, in both
+    # runs, each field of fields.xdmf at the same points, the vertices or the
+    # cell centres.
+    assert fields["serial"].keys() == fields["mpi"].keys() == {
+        "c", "displacement", "velocity", "stress", "stress_zz", "history"}
+    last = len(serial["t"]) - 1
+    frame_times = [serial["t"][k] for k in sorted(set(range(0, last, 20)) | {last})]
+    assert len(frame_times) == {"AT2": 3, "AT1": 9}[model]
+    for key, (times, xy, values) in fields["serial"].items():
+        other_times, other_xy, other_values = fields["mpi"][key]
+        assert times == other_times == pytest.approx(frame_times, abs=1e-12)
+        mine, theirs = np.lexsort(xy.T[::-1]), np.lexsort(other_xy.T[::-1])
+        np.testing.assert_allclose(other_xy[theirs], xy[mine], rtol=0, atol=1e-12)
+        scale = np.max(np.abs(values))
+        assert scale > 0, key
+        np.testing.assert_allclose(other_values[:, theirs], values[:, mine], rtol=0, atol=1e-8 * scale,
+                                   err_msg=key)
+    (_, _, u), (_, _, sigma) = fields["serial"]["displacement"], fields["serial"]["stress"]
+    assert u.shape[2] == 3 and sigma.shape[2] == 9
+    np.testing.assert_array_equal(sigma[..., [2, 5, 6, 7, 8]], 0.0)  # in-plane, padded
+    np.testing.assert_array_equal(sigma[..., 1], sigma[..., 3])  # symmetric
+    # Plane strain, nu = 0.2: sigma_zz = nu (sigma_xx + sigma_yy) where intact (AT2's c
+    # is a little below 1 everywhere, so not to round-off), at 4.2 us (the third
+    # frame, before either model's crack starts).
+    zz, trace = fields["serial"]["stress_zz"][2][2, :, 0], sigma[2, :, 0] + sigma[2, :, 4]
+    np.testing.assert_allclose(zz, 0.2 * trace, rtol=0.05, atol=1e-3 * np.abs(trace).max())
     # Energy balance of the run: the work goes into kinetic, elastic and fracture energy.
     growth = serial["total"] - serial["total"][0]
     assert np.max(np.abs(growth)) < 0.02 * serial["external_work"][-1]

@@ -18,8 +18,6 @@ from pfmpm.scene import (
     PhaseField,
     Rectangle,
     Time,
-    Traction,
-    rayleigh_speed,
 )
 
 PLANES = ("strain", "stress")
@@ -115,12 +113,48 @@ def test_crack_tip_position_and_speed():
     xy = np.column_stack((xs, np.zeros_like(xs)))
     for k, t in enumerate(np.arange(6) * 0.5):
         front = 5.0 + 2.0 * t  # speed 2
-        x, y, v = tip.update(t, xy, np.where(xs <= front, 0.0, 1.0))
-        assert x == pytest.approx(front, abs=0.051)
-        if k:
-            assert v == pytest.approx(2.0, rel=0.03)
+        r = tip.update(t, xy, np.where(xs <= front, 0.0, 1.0))
+        # One crack on the notch line: every tip is its tip.
+        for track in CrackTip.TRACKS:
+            assert r[f"{track}_x"] == pytest.approx(front, abs=0.051)
+            assert r[f"{track}_y"] == 0.0
+            if k:
+                assert r[f"{track}_speed"] == pytest.approx(2.0, rel=0.03)
     # Cracked points behind the notch tip never count.
     assert tip.locate(xy, np.where(xs < 5.0, 0.0, 1.0))[2] == 0.0
+
+
+def test_each_branch_keeps_its_tip():
+    """Issue 21, defect 12: after a crack branches, the farthest cracked point
+    jumps between the branches as they race; the left and right tips each
+    follow their own branch, continuously, at its own speed."""
+    tip = CrackTip(origin=(50.0, 20.0), direction=(1.0, 0.0), threshold=0.2, samples=3)
+    stem = np.column_stack((np.linspace(50.0, 60.0, 101), np.full(101, 20.0)))
+    angle = np.radians(15.0)
+    rows = []
+    for k, t in enumerate(np.arange(8.0)):
+        # Branches from (60, 20) at +-15 degrees, taking turns to be the longer.
+        upper, lower = 2.0 * t + (0.3 if k % 2 else 0.0), 2.0 * t + (0.0 if k % 2 else 0.3)
+        arms = [np.column_stack((60 + s * np.cos(angle), 20 + sign * s * np.sin(angle)))
+                for length, sign in ((upper, 1), (lower, -1)) for s in np.linspace(0.0, length, 200)[None, :]]
+        xy = np.concatenate([stem, *arms])
+        rows.append(tip.update(t, xy, np.zeros(len(xy))))
+    crack_y = np.array([r["crack_tip_y"] for r in rows[1:]])
+    assert np.any(crack_y > 20.0) and np.any(crack_y < 20.0)  # the farthest point jumps
+    left = np.array([(r["left_tip_x"], r["left_tip_y"]) for r in rows])
+    right = np.array([(r["right_tip_x"], r["right_tip_y"]) for r in rows])
+    # Once the branches are more than BRANCH_OFFSET (1) off the line, at t = 2:
+    k = np.arange(2, 8)
+    np.testing.assert_allclose(left[2:, 1], 20.0 + np.sin(angle) * (2.0 * k + 0.3 * (k % 2)))
+    np.testing.assert_allclose(right[2:, 1], 20.0 - np.sin(angle) * (2.0 * k + 0.3 * (k % 2 == 0)))
+    # Each speed is the slope of its own tip's distance from the notch tip
+    # over the last 3 records, whichever branch is ahead.
+    for side, tips in (("left", left), ("right", right)):
+        dist = np.hypot(tips[:, 0] - 50.0, tips[:, 1] - 20.0)
+        for k in range(4, 8):
+            slope = np.polyfit(np.arange(k - 2.0, k + 1.0), dist[k - 2: k + 1], 1)[0]
+            assert rows[k][f"{side}_tip_speed"] == pytest.approx(slope, rel=1e-12)
+            assert 1.6 < slope < 2.1
 
 
 # -- the phase field of an imposed crack (eqs. 47-57) -------------------------

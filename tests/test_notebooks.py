@@ -1,9 +1,10 @@
 """The notebooks in docs/notebooks run in smoke mode (``PFMPM_SMOKE=1``) and
 print the numbers they show, which are checked here.
 
-They run in a Jupyter kernel of this interpreter (a ``python3`` kernel spec
-written for the test, found first through ``JUPYTER_PATH``), so the kernel
-imports the pfmpm this suite tests, DOLFINx included.
+They run in a Jupyter kernel of this interpreter (a ``pfmpm`` kernel spec,
+the name their metadata give, written for the test and found first through
+``JUPYTER_PATH``), so the kernel imports the pfmpm this suite tests, DOLFINx
+included.
 """
 
 import json
@@ -20,8 +21,8 @@ NOTEBOOKS = ROOT / "docs" / "notebooks"
 
 @pytest.fixture
 def kernel_env(tmp_path, monkeypatch):
-    """A ``python3`` kernel of ``sys.executable`` and the smoke-mode environment."""
-    spec = tmp_path / "jupyter" / "kernels" / "python3"
+    """A ``pfmpm`` kernel of ``sys.executable`` and the smoke-mode environment."""
+    spec = tmp_path / "jupyter" / "kernels" / "pfmpm"
     spec.mkdir(parents=True)
     spec.joinpath("kernel.json").write_text(json.dumps({
         "argv": [sys.executable, "-m", "ipykernel_launcher", "-f", "{connection_file}"],
@@ -40,7 +41,8 @@ def execute(name: str, cwd: Path) -> dict:
     nb = nbformat.read(NOTEBOOKS / f"{name}.ipynb", as_version=4)
     assert all(not cell.get("outputs") for cell in nb.cells if cell.cell_type == "code"), \
         f"{name}.ipynb is stored with outputs"
-    NotebookClient(nb, kernel_name="python3", timeout=120,
+    assert nb.metadata.kernelspec.name == "pfmpm", f"{name}.ipynb names another kernel"
+    NotebookClient(nb, kernel_name="pfmpm", timeout=120,
                    resources={"metadata": {"path": str(cwd)}}).execute()
     lines = [line for cell in nb.cells if cell.cell_type == "code" for out in cell.outputs
              if out.output_type == "stream" for line in out.text.splitlines() if line.startswith("RESULT ")]
@@ -57,8 +59,13 @@ def test_borden_comparison_notebook(kernel_env):
     assert abs(a["fracture_end_rel_diff"]) < 0.1
     runs = r["runs"]
     assert set(runs) == {"mpm_h1", "mpm_h0.5", "fem_h1", "fem_h0.5"}
-    assert runs["mpm_h0.5"]["error"] == 0.0 and runs["fem_h0.5"]["error"] == 0.0
-    assert 0 < runs["mpm_h1"]["error"] < 0.2 and 0 < runs["fem_h1"]["error"] < 0.2
+    # One reference for both methods: Richardson (order 2) from the two FEM runs.
+    fine, coarse = runs["fem_h0.5"]["fracture_energy_end"], runs["fem_h1"]["fracture_energy_end"]
+    assert r["reference"]["kind"] == "richardson"
+    assert r["reference"]["value"] == pytest.approx(fine + (fine - coarse) / 3, rel=1e-12)
+    for name, run in runs.items():
+        assert run["error"] == pytest.approx(abs(run["fracture_energy_end"] / r["reference"]["value"] - 1))
+        assert 0 < run["error"] < 0.25, name
 
 
 def test_phase_field_profiles_notebook(kernel_env):
@@ -72,6 +79,14 @@ def test_phase_field_profiles_notebook(kernel_env):
             assert 0.4 < fine / coarse < 0.6, (method, error)
         # The crack density tends to 1 per unit crack length from above.
         assert 1.0 < density[-1] < 1.06 and density[-1] < density[0], (method, density)
+    # The figure: about 60 open markers per method, so the exact curve shows
+    # through (every point of the finest h hid it), and each method in the legend.
+    shown = r["figure"]["shown"]
+    for method in ("mpm", "fem"):
+        assert 55 <= shown[method]["markers"] <= 70 < shown[method]["points"], (method, shown)
+    legend = r["figure"]["legend"]
+    assert legend[0] == "1 - exp(-|x| / (2 l0))"
+    assert [label.split(",")[0] for label in legend[1:]] == ["PF-MPM", "PF-FEM"]
 
 
 def test_anisotropic_surface_energy_notebook(kernel_env):
@@ -84,3 +99,6 @@ def test_anisotropic_surface_energy_notebook(kernel_env):
         coarse, fine = p["rows"]
         assert fine["error"] < 0.01 and fine["error"] < 0.6 * coarse["error"], name
         assert fine["energy"] == pytest.approx(p["exact_energy"], rel=0.02), name
+    # The profiles' legend names the PF-MPM points of each case beside its exact curve.
+    assert r["legend"] == [label for name in r["profiles"]
+                           for label in (f"exact, {name}", f"PF-MPM, h = l0/{r['divisions'][-1]}")]

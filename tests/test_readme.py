@@ -10,6 +10,7 @@ what is tested.  ``bash tools/main.sh`` and ``bash tools/test.sh`` are not
 run from inside the suite.
 """
 
+import json
 import os
 import re
 import shlex
@@ -32,8 +33,16 @@ def smoke(benchmark: str) -> list[str]:
 # (pattern of a command, arguments appended to it); None: not run here.
 RULES = [
     (r"^bash tools/(main|test)\.sh$", None),
-    (r"pfmpm compare borden ", ["--h", "1.0", "--l0", "2.0", "--end", "0.5", "--set",
-                                "bodies.plate.particles_per_cell=1", "--quiet"]),
+    (r"pfmpm --version$", []),
+    (r"pfmpm compare borden --h ", ["--h", "1.0", "--l0", "2.0", "--end", "0.5", "--set",
+                                    "bodies.plate.particles_per_cell=1", "--quiet"]),
+    # The study above is complete: its runs are kept.
+    (r"pfmpm compare borden --resume --out out/study$", ["--quiet"]),
+    (r"pfmpm animate out/borden$", []),
+    (r"pfmpm fem demos/borden_plate\.toml --out out/borden_fem1$",
+     ["--set", "grid.h=1.0", "--set", "materials.concrete.fracture.l0=2.0", "--set", "time.end=1", "--quiet"]),
+    # PFMPM_SMOKE=1 (set for every command here) makes the notebook short.
+    (r"python -m nbconvert --to html --execute docs/notebooks/phase_field_profiles\.ipynb", []),
     (r"pfmpm run demos/borden_plate\.toml --out out/borden$", smoke("borden_plate") + ["--quiet"]),
     # More than 500 steps, so that the checkpoint the next command resumes from is written.
     (r"pfmpm run demos/borden_plate\.toml --out out/borden --checkpoint-every 500$",
@@ -84,14 +93,14 @@ def mirror(tmp_path):
 
 
 def run(words: list[str], cwd: Path) -> subprocess.CompletedProcess:
-    env = dict(os.environ, OMP_NUM_THREADS="1")
+    env = dict(os.environ, OMP_NUM_THREADS="1", PFMPM_SMOKE="1",
+               PFMPM_NOTEBOOK_OUT=str(cwd / "out" / "notebook_runs"))
     return subprocess.run(shlex.join(words), shell=True, executable="/bin/bash", cwd=cwd, env=env,
                           capture_output=True, text=True, timeout=600)
 
 
 def test_every_readme_command_runs_as_written(mirror):
-    if not (ROOT / ".venv" / "bin" / "pfmpm").exists():
-        pytest.skip("the README's commands use .venv, which tools/setup.sh makes")
+    assert (ROOT / ".venv" / "bin" / "pfmpm").exists(), "the README's commands use .venv: run tools/setup.sh"
     commands = readme_commands()
     assert len(commands) >= 10
     for words in commands:
@@ -101,10 +110,26 @@ def test_every_readme_command_runs_as_written(mirror):
         r = run(words + extra, mirror)
         assert r.returncode == 0, f"{shlex.join(words + extra)}\n{r.stderr[-3000:]}"
         assert "Traceback" not in r.stderr, r.stderr
+        # Quiet kernels and JIT: debugpy's warning that frozen modules may hide
+        # breakpoints, and FFCx's log of each compiler command, are gone.
+        assert "frozen modules" not in r.stderr and "ffcx" not in r.stderr.lower(), r.stderr
     summary = (mirror / "out" / "borden" / "summary.json").read_text()
     assert '"resumed_from"' in summary and "step_000000500.h5" in summary
     assert (mirror / "out" / "borden_fem" / "summary.json").exists()
+    assert (mirror / "out" / "borden_fem1" / "summary.json").exists()
+    assert (mirror / "out" / "borden" / "c.gif").exists()
+    assert (mirror / "out" / "notebooks" / "phase_field_profiles.html").exists()
     assert (mirror / "out" / "polar.png").exists()
+
+
+def test_the_python_quickstart_runs_as_written(mirror):
+    """The README's ``python`` block, run from the repository root."""
+    blocks = re.findall(r"```python\n(.*?)```", (ROOT / "README.md").read_text(), flags=re.S)
+    assert len(blocks) == 1
+    r = run([str(ROOT / ".venv" / "bin" / "python"), "-c", blocks[0]], mirror)
+    assert r.returncode == 0, r.stderr
+    assert "completed at step 494 -> out/quickstart" in r.stdout
+    assert (mirror / "out" / "quickstart" / "energies.png").exists()
 
 
 def test_the_package_imported_at_the_root_is_the_installed_one(mirror):
@@ -117,3 +142,15 @@ def test_the_package_imported_at_the_root_is_the_installed_one(mirror):
     r = run([python, "-m", "pytest", "-p", "no:cacheprovider", "--collect-only", "-q",
              "tests/test_post.py"], mirror)
     assert r.returncode == 0, r.stdout + r.stderr
+
+
+def test_jupyter_and_the_kernel_are_installed(mirror):
+    """``tools/setup.sh`` installs Jupyter (``python -m notebook``, ``python -m
+    nbconvert``) and the ``pfmpm`` kernel the notebooks name, which runs the
+    venv's Python without debugpy's warning."""
+    python = ROOT / ".venv" / "bin" / "python"
+    for module in ("notebook", "nbconvert"):
+        r = run([str(python), "-m", module, "--version"], mirror)
+        assert r.returncode == 0 and r.stdout.strip()[0].isdigit(), (module, r.stdout, r.stderr)
+    spec = json.loads((ROOT / ".venv" / "share" / "jupyter" / "kernels" / "pfmpm" / "kernel.json").read_text())
+    assert spec["argv"][0] == str(python) and spec["env"] == {"PYDEVD_DISABLE_FILE_VALIDATION": "1"}

@@ -7,6 +7,8 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
+from pfmpm import scenes
+
 from pfmpm.scene import (
     CRITICAL_FACTOR,
     Body,
@@ -479,3 +481,54 @@ def test_fuzzed_scene_dicts_raise_only_scene_error(data):
     else:
         assert isinstance(scene, Scene)
         assert Scene.from_dict(scene.to_dict()) == scene
+
+
+BORDEN = scenes.path("borden_plate")
+
+
+@pytest.mark.parametrize("override, reported", [
+    # E in Pa in an mm-us-MPa scene: 1000 times the wave speed.
+    ("materials.concrete.E=32e9", "materials[0]: P-wave speed 3.81e+03 mm/µs = 3.81e+06 m/s is no solid's"),
+    # The density in kg/mm^3 (2.45e-6): 31,600 times the wave speed.
+    ("materials.concrete.density=2.45e-6", "materials[0]: P-wave speed 1.2e+05 mm/µs"),
+    # In t/mm^3, as in an mm-s-MPa scene: too fast again.
+    ("materials.concrete.density=2.45e-9", "materials[0]: P-wave speed 3.81e+06 mm/µs"),
+])
+def test_a_material_in_the_wrong_units_is_refused(override, reported):
+    """Issue 21, defect 7: E in Pa started 1.5 million steps without a word, a
+    wrong density failed 989 steps later as a particle off the grid."""
+    with pytest.raises(SceneError) as err:
+        Scene.from_toml(BORDEN, [override])
+    assert str(err.value).startswith(reported)
+    assert "check its moduli (MPa) and density (µg/mm^3) against units = 'mm-us-MPa'" in str(err.value)
+
+
+def test_too_many_steps_are_refused_without_declared_units():
+    """Without declared units E in Pa is caught by the step count, unless
+    ``time.max_steps`` is raised for a run that really is that long."""
+    with pytest.raises(SceneError) as err:
+        Scene.from_toml(BORDEN, ["units=''", "materials.concrete.E=32e9"])
+    message = str(err.value)
+    assert message.startswith("time.end = 80.0: needs 1.52e+06 steps of dt = 5.25e-05, more than"
+                              " time.max_steps = 1000000")
+    assert "crosses the grid 2.99e+03 times" in message and "raise time.max_steps" in message
+    scene = Scene.from_toml(BORDEN, ["units=''", "materials.concrete.E=32e9", "time.max_steps=2000000"])
+    assert scene.steps() == 1523810
+
+
+def test_units_must_be_known():
+    with pytest.raises(SceneError, match=r"^units = 'mm-ms': must be one of '', 'm-s-Pa', "):
+        Scene.from_toml(BORDEN, ["units='mm-ms'"])
+    assert Scene.from_toml(BORDEN).unit_system().time == "µs"
+
+
+def test_snapshots_without_a_phase_field_are_refused():
+    """Issue 21, defect 10: they were ignored without a word."""
+    d = base()
+    d["output"] = {"snapshots": [0.5]}
+    with pytest.raises(SceneError) as err:
+        Scene.from_dict(d)
+    assert str(err.value) == ("output.snapshots = [0.5]: draws the phase field, but no body's material"
+                              " has a fracture table")
+    d["materials"][0]["fracture"] = {"Gc": 0.003, "l0": 0.5}
+    assert Scene.from_dict(d).output.snapshots == (0.5,)

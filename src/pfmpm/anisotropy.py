@@ -42,8 +42,8 @@ from pathlib import Path
 import numpy as np
 
 __all__ = ["check_gamma", "normal_coefficient", "surface_energy", "surface_energy_ratio",
-           "profile", "weak_directions", "polar_table", "write_polar_csv", "plot_polar",
-           "parse_gamma"]
+           "profile", "weak_directions", "polar_table", "write_polar_csv", "THETA_CONVENTION",
+           "polar_panel", "plot_polar", "parse_gamma"]
 
 
 def check_gamma(gamma) -> np.ndarray:
@@ -157,23 +157,38 @@ def write_polar_csv(table: np.ndarray, path: Path) -> None:
         w.writerows(table.tolist())
 
 
+THETA_CONVENTION = "θ: the crack's direction, counter-clockwise from x (its normal at θ + 90°)"
+"""What the angle of the polar plots is, written on them."""
+
+
+def polar_panel(ax, values: np.ndarray, theta_deg: np.ndarray, label: str) -> None:
+    """Draw one polar curve on a polar axes: the values against ``theta_deg``,
+    from 0 to 1.1 times their largest, with the radial scale in the title
+    instead of tick labels, which would lie on the curve."""
+    ax.plot(np.radians(theta_deg), values)
+    top = 1.1 * float(np.max(values))
+    ax.set_rlim(0, top)
+    ax.set_rticks(np.linspace(0.25, 1.0, 4) * top)
+    ax.set_yticklabels([])
+    ax.tick_params(axis="x", labelsize=8, pad=1)
+    ax.set_title(f"{label}\n(outer ring {top:.3g})", fontsize=9)
+
+
 def plot_polar(table: np.ndarray, path: Path, title: str = "") -> None:
-    """Polar plots of ``G_c(theta)`` and ``1/G_c(theta)`` side by side (PNG)."""
+    """Polar plots of ``G_c(theta)`` and ``1/G_c(theta)`` side by side (PNG),
+    with the angle convention (:data:`THETA_CONVENTION`) below them."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    theta = np.radians(table[:, 0])
-    fig, axes = plt.subplots(1, 2, subplot_kw={"projection": "polar"}, figsize=(9, 4.5))
-    for ax, values, label in ((axes[0], table[:, 1], r"$G_c(\theta)$"),
-                              (axes[1], table[:, 2], r"$1/G_c(\theta)$")):
-        ax.plot(theta, values)
-        ax.set_title(label)
-        ax.set_rlim(0, 1.1 * values.max())
+    fig, axes = plt.subplots(1, 2, subplot_kw={"projection": "polar"}, figsize=(9, 5))
+    polar_panel(axes[0], table[:, 1], table[:, 0], r"$G_c(\theta)$")
+    polar_panel(axes[1], table[:, 2], table[:, 0], r"$1/G_c(\theta)$")
     if title:
         fig.suptitle(title)
-    fig.tight_layout()
+    fig.text(0.5, 0.02, THETA_CONVENTION, ha="center", fontsize=9)
+    fig.tight_layout(rect=(0, 0.05, 1, 1))
     fig.savefig(path, dpi=120)
     plt.close(fig)
 

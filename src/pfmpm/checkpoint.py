@@ -15,12 +15,13 @@ as an uninterrupted one:
   ``phase_field/<k>/c_previous``; one phase field, ``k = 0``, or with
   multi-body contact one per crackable body in body order);
 - ``/output``: ``energies.csv`` so far (its bytes), the crack-tip records
-  behind the smoothed tip speed, and the phase-field images taken so far with
-  the times still due.
+  behind the smoothed tip speeds, the time each crackable particle cracked
+  (``crack_time``, for the crack-path plot), and the phase-field images taken
+  so far with the times still due.
 
 The root attributes are ``format``, ``version``, ``sha256`` and ``meta``, a
 JSON object with the scene, the step and time, the rest of the solver state
-(external work, light-node count, CG statistics; with contact, each body's CG
+(external and wall work, light-node count, CG statistics; with contact, each body's CG
 statistics and the contact record: contact nodes, node-pairs, violations of
 C.1-C.4 and the friction work so far), the particle snapshots
 listed in ``particles.pvd``, the checkpoint cadence and a status (``"ok"``, or
@@ -41,6 +42,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+
+from .post.tip import CrackTip
 
 FORMAT = "pfmpm-checkpoint"
 VERSION = 4
@@ -83,8 +86,13 @@ class Checkpoint:
         ``energies.csv`` as it was.
     series : list of (float, str)
         The particle snapshots so far: (time, file name).
-    crack_tip : (M, 2) ndarray
-        Crack-tip records (time, distance) behind the speed fit.
+    crack_tip : (M, 4) ndarray
+        Crack-tip records behind the speed fits: time and the distance of
+        each tip of :attr:`pfmpm.post.tip.CrackTip.TRACKS` ((M, 2), time and
+        the one tip's distance, in files from before the branch tips).
+    crack_time : (N,) ndarray or None
+        When each crackable particle cracked (NaN: intact); ``None`` in files
+        from before it was kept.
     snapshot_times : (K,) ndarray
         Phase-field image times still due.
     snapshot_images : list of (float, ndarray)
@@ -106,6 +114,7 @@ class Checkpoint:
     crack_tip: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
     snapshot_times: np.ndarray = field(default_factory=lambda: np.zeros(0))
     snapshot_images: list = field(default_factory=list)
+    crack_time: np.ndarray | None = None
 
 
 def file_name(step: int, failed: bool = False) -> str:
@@ -140,7 +149,9 @@ def _state_of(sim, run) -> tuple[dict, dict[str, np.ndarray]]:
     arrays["output/energies_csv"] = np.frombuffer(run.energies_csv(), dtype=np.uint8)
     attrs["series"] = [[t, name] for t, name in run.series_entries()]
     tip = sim.crack_tip.records() if sim.crack_tip is not None else []
-    arrays["output/crack_tip"] = np.asarray(tip, dtype=float).reshape(-1, 2)
+    arrays["output/crack_tip"] = np.asarray(tip, dtype=float).reshape(-1, 1 + len(CrackTip.TRACKS))
+    if sim.crack_path is not None:
+        arrays["output/crack_time"] = sim.crack_path.times
     times, images = run.snapshot_state()
     arrays["output/snapshot_times"] = np.asarray(times, dtype=float)
     attrs["snapshot_image_times"] = [t for t, _ in images]
@@ -257,6 +268,12 @@ def read(path: Path | str) -> Checkpoint:
                              if name.startswith("solver/")}}
     else:
         particles, solver = _from_version_3(meta, arrays)
+    if "wall_work" not in solver["scalars"]:
+        # Files from before the wall work was kept: none was done without walls.
+        if meta["scene"].get("walls"):
+            raise CheckpointError(f"checkpoint {path}: written before the work of the walls was"
+                                  " recorded, which this scene's energy balance needs; start the run again")
+        solver["scalars"]["wall_work"] = 0.0
     images = [(t, arrays[f"output/snapshot_{k}"]) for k, t in enumerate(meta["snapshot_image_times"])]
     return Checkpoint(
         path=path, scene=meta["scene"], step=meta["step"], time=meta["time"], status=meta["status"],
@@ -264,6 +281,7 @@ def read(path: Path | str) -> Checkpoint:
         particles=particles, solver=solver,
         energies_csv=arrays["output/energies_csv"].tobytes(),
         series=[(t, name) for t, name in meta["series"]], crack_tip=arrays["output/crack_tip"],
+        crack_time=arrays.get("output/crack_time"),
         snapshot_times=arrays["output/snapshot_times"], snapshot_images=images)
 
 
@@ -366,3 +384,4 @@ def restore(sim, ckpt: Checkpoint) -> None:
         raise CheckpointError(f"checkpoint {ckpt.path}: {err}") from None
     if sim.crack_tip is not None:
         sim.crack_tip.set_records(ckpt.crack_tip)
+        sim.restore_crack_path(ckpt.crack_time)

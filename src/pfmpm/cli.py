@@ -1,4 +1,5 @@
-"""The ``pfmpm`` command: ``pfmpm run``, ``bench``, ``compare``, ``polar`` and ``post``."""
+"""The ``pfmpm`` command: ``pfmpm run``, ``fem``, ``compare``, ``post``,
+``animate``, ``bench`` and ``polar``."""
 
 from __future__ import annotations
 
@@ -7,8 +8,11 @@ import json
 import sys
 from pathlib import Path
 
+from . import __version__
 from .bench import MODELS, PHYSICS
-from .compare import BORDEN_SCENE, DEFAULT_END, DEFAULT_H, DEFAULT_L0
+from .compare import (BORDEN_SCENE, DEFAULT_END, DEFAULT_FRAMES, DEFAULT_H, DEFAULT_L0, compare_borden,
+                      read_study)
+from .output import check_directory
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -43,6 +47,7 @@ def _run(args: argparse.Namespace) -> int:
     if keep < 1:
         print(f"error: --keep {keep}: must be >= 1", file=sys.stderr)
         return 2
+    check_directory(out)
     try:
         sim = Simulation(scene)  # solves the phase field of initial cracks
     except SimulationError as err:
@@ -67,6 +72,25 @@ def _run(args: argparse.Namespace) -> int:
               f" resume with: pfmpm run --resume {out}", file=sys.stderr)
         return 128 + (result.signal or 2)
     print(f"done: {result.steps} steps in {result.wall_s:.1f} s; output in {out}")
+    return 0
+
+
+def _fem(args: argparse.Namespace) -> int:
+    from .fem import run_command
+
+    out = args.out or str(Path("out") / f"{Path(args.scene).stem}_fem")
+    return run_command(args.scene, out, args.set, args.quiet)
+
+
+def _animate(args: argparse.Namespace) -> int:
+    from .animate import animate
+
+    try:
+        path = animate(args.run_dir, args.output, args.field, args.fps)
+    except (KeyError, ValueError) as err:
+        print(f"error: {err.args[0]}", file=sys.stderr)
+        return 2
+    print(f"animation: {path}")
     return 0
 
 
@@ -107,29 +131,52 @@ def _bench(args: argparse.Namespace) -> int:
 
 def _compare(args: argparse.Namespace) -> int:
     from ._core import SimulationError
-    from .compare import compare_borden
+    from .checkpoint import CheckpointError
 
-    try:
-        hs = [float(h) for h in args.h.split(",")]
-    except ValueError:
-        print(f"error: --h {args.h}: must be a comma-separated list of numbers", file=sys.stderr)
-        return 2
     out = Path(args.out)
+    if args.resume:
+        given = [f"--{k}" for k in ("h", "l0", "end", "scene", "set", "frames", "model")
+                 if getattr(args, k) is not None]
+        if given:
+            print(f"error: {given[0]}: cannot change the study of a resumed comparison", file=sys.stderr)
+            return 2
+        study = read_study(out)
+        hs, l0, end, scene, sets, frames, model = (
+            study[k] for k in ("h", "l0", "end", "scene", "overrides", "frames", "model"))
+    else:
+        try:
+            hs = [float(h) for h in (args.h or ",".join(f"{h:g}" for h in DEFAULT_H)).split(",")]
+        except ValueError:
+            print(f"error: --h {args.h}: must be a comma-separated list of numbers", file=sys.stderr)
+            return 2
+        l0 = DEFAULT_L0 if args.l0 is None else args.l0
+        end = DEFAULT_END if args.end is None else args.end
+        scene, sets = args.scene or str(BORDEN_SCENE), args.set or []
+        frames = DEFAULT_FRAMES if args.frames is None else args.frames
+        model = args.model or "AT2"
+    check_directory(out)
     try:
-        result = compare_borden(out, hs, args.l0, args.end, scene_path=args.scene, overrides=args.set,
-                                progress=not args.quiet, model=args.model)
+        result = compare_borden(out, hs, l0, end, scene_path=scene, overrides=sets,
+                                progress=not args.quiet, frames=frames, resume=args.resume, model=model)
+    except (ValueError, CheckpointError) as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
     except SimulationError as err:
         print(f"error: {err}", file=sys.stderr)
         print(f"output so far is in {out}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:
-        print(f"interrupted; output so far is in {out}", file=sys.stderr)
+        print(f"interrupted; output so far is in {out}; continue with:"
+              f" pfmpm compare borden --resume --out {out}", file=sys.stderr)
         return 130
-    a = result.agreement
-    print(f"{args.model}: agreement at h = {result.h_common:g}: initiation {a['initiation_mpm_us']:.3f} (MPM)"
-          f" vs {a['initiation_fem_us']:.3f} us (FEM); elastic energy RMS difference"
-          f" {100 * a['elastic_rms_rel']:.2f} % of the peak; end fracture energy"
+    a, ref = result.agreement, result.reference
+    print(f"{model}: agreement at h = {result.h_common:g}: initiation {a['initiation_mpm_us']:.3f} (MPM)"
+          f" vs {a['initiation_fem_us']:.3f} us (FEM), branching {a['branch_mpm_us']:.3f} vs"
+          f" {a['branch_fem_us']:.3f} us (each +- {a['record_interval_us']:.3f} us); elastic energy"
+          f" RMS difference {100 * a['elastic_rms_rel']:.2f} % of the peak; end fracture energy"
           f" {100 * a['fracture_end_rel_diff']:+.2f} %")
+    print(f"errors against the {ref['kind']} reference {ref['value']:.5g}: "
+          + ", ".join(f"{r['method']} h = {r['h']:g}: {100 * r['error']:.2f} %" for r in result.rows))
     for name, path in result.files.items():
         print(f"{name}: {path}")
     return 0
@@ -221,6 +268,7 @@ def _print_directions(r: dict) -> None:
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``pfmpm`` console command."""
     parser = argparse.ArgumentParser(prog="pfmpm", description="Phase-field material point method")
+    parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
 
     run = sub.add_parser("run", help="run a scene file")
@@ -237,12 +285,33 @@ def main(argv: list[str] | None = None) -> int:
                      help="continue the run in DIR (its newest checkpoint) or from a checkpoint file")
     run.set_defaults(func=_run)
 
-    bench = sub.add_parser("bench", help="time the core step on a synthetic block")
-    bench.add_argument("--physics", default="elastic", choices=PHYSICS)
-    bench.add_argument("--particles", type=int, default=1_000_000)
-    bench.add_argument("--steps", type=int, default=20)
-    bench.add_argument("--repeats", type=int, default=3)
-    bench.add_argument("--degree", type=int, default=2, choices=[1, 2, 3])
+    fem = sub.add_parser("fem", help="run a scene file with the phase-field FEM reference (DOLFINx);"
+                                     " under mpirun -n N on N ranks")
+    fem.add_argument("scene", help="scene TOML file: one rectangular body on grid lines")
+    fem.add_argument("--out", help="output directory (default out/<scene name>_fem)")
+    fem.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                     help="override a scene value, e.g. time.end=10")
+    fem.add_argument("--quiet", action="store_true", help="no progress bar")
+    fem.set_defaults(func=_fem)
+
+    bench = sub.add_parser("bench", help="time the core step on a synthetic block",
+                           description="Time the core's explicit step on a square block of particles"
+                                       " (3 x 3 per cell, vibrating in a smooth mode) and report the"
+                                       " median of the repeats: particle-steps per second, and the"
+                                       " phase-field iterations where there is one.")
+    bench.add_argument("--physics", default="elastic", choices=PHYSICS,
+                       help="elastic: the momentum step alone; phasefield: a crackable block with an"
+                            " initial crack, the AT2 phase field solved every step; anisotropic: the"
+                            " same with the fourth-order cubic surface energy; contact: the block cut"
+                            " in two bodies with frictional contact (default %(default)s)")
+    bench.add_argument("--particles", type=int, default=1_000_000,
+                       help="about this many particles (default %(default)d)")
+    bench.add_argument("--steps", type=int, default=20, help="steps per timed repeat (default %(default)d)")
+    bench.add_argument("--repeats", type=int, default=3,
+                       help="timed repeats, after 2 warm-up steps; the median is reported"
+                            " (default %(default)d)")
+    bench.add_argument("--degree", type=int, default=2, choices=[1, 2, 3],
+                       help="B-spline degree of the grid (default %(default)d)")
     bench.add_argument("--model", default="linear_elastic", choices=MODELS,
                        help="material model (neo_hookean: with --physics elastic or contact)")
     bench.add_argument("--per-cell", type=int, default=3, help="particles per cell and direction")
@@ -259,18 +328,23 @@ def main(argv: list[str] | None = None) -> int:
 
     compare = sub.add_parser("compare", help="run PF-MPM and PF-FEM on a benchmark and compare them")
     compare.add_argument("problem", choices=["borden"], help="the benchmark (the Borden plate)")
-    compare.add_argument("--h", default=",".join(f"{h:g}" for h in DEFAULT_H),
-                         help="grid spacings, comma-separated (default %(default)s)")
-    compare.add_argument("--l0", type=float, default=DEFAULT_L0,
-                         help="phase-field length scale (default %(default)g)")
-    compare.add_argument("--end", type=float, default=DEFAULT_END, help="end time (default %(default)g)")
-    compare.add_argument("--model", choices=["AT2", "AT1"], default="AT2",
-                         help="phase-field model of both methods (default %(default)s)")
+    compare.add_argument("--h", help="grid spacings, comma-separated (default "
+                                     + ",".join(f"{h:g}" for h in DEFAULT_H) + ")")
+    compare.add_argument("--l0", type=float, help=f"phase-field length scale (default {DEFAULT_L0:g})")
+    compare.add_argument("--end", type=float, help=f"end time (default {DEFAULT_END:g})")
+    compare.add_argument("--model", choices=["AT2", "AT1"],
+                         help="phase-field model of both methods (default AT2)")
     compare.add_argument("--out", default="out/compare_borden", help="output directory (default %(default)s)")
-    compare.add_argument("--scene", default=str(BORDEN_SCENE), help="the scene file (default %(default)s)")
-    compare.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+    compare.add_argument("--scene", help=f"the scene file (default {BORDEN_SCENE})")
+    compare.add_argument("--set", action="append", metavar="KEY=VALUE",
                          help="override a scene value for both methods,"
                               " e.g. bodies.plate.particles_per_cell=2")
+    compare.add_argument("--frames", type=_count,
+                         help="particle (MPM) and field (FEM) frames per run, evenly spaced in time"
+                              f" (default {DEFAULT_FRAMES}; 0: none)")
+    compare.add_argument("--resume", action="store_true",
+                         help="continue the comparison in --out with its own settings: keep the"
+                              " completed runs, resume an interrupted MPM run from its checkpoint")
     compare.add_argument("--quiet", action="store_true", help="no progress bars")
     compare.set_defaults(func=_compare)
 
@@ -302,12 +376,21 @@ def main(argv: list[str] | None = None) -> int:
     measure.add_argument("--json", action="store_true", help="print one JSON object")
     measure.set_defaults(func=_post)
 
+    anim = sub.add_parser("animate", help="an animation (GIF, or MP4 with ffmpeg) of a field over a run's frames")
+    anim.add_argument("run_dir", help="the run's output directory (particles.pvd or fields.xdmf)")
+    anim.add_argument("--field", default="c",
+                      help="the field: c (the phase field), damage, velocity, displacement, ..."
+                           " (default %(default)s)")
+    anim.add_argument("--output", help="a .gif or .mp4 file (default RUN_DIR/<field>.gif)")
+    anim.add_argument("--fps", type=float, default=6.0, help="frames per second (default %(default)g)")
+    anim.set_defaults(func=_animate)
+
     args = parser.parse_args(argv)
     from .scene import SceneError
 
     try:
         return args.func(args)
-    except (SceneError, FileNotFoundError) as err:
+    except (SceneError, OSError) as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
     except MemoryError:

@@ -6,26 +6,36 @@ with both methods at a list of grid spacings ``h`` and one length scale
 ``l0``, then writes, into its output directory:
 
 ``speed_vs_error.csv``
-    One row per run, columns :data:`COLUMNS`.  ``error`` is the relative
-    difference of the end fracture energy from that of the finest run (least
-    ``h``) of the same method; ``error_vs_other`` from that of the finest run
-    of the other method.
+    One row per run, columns :data:`COLUMNS`: its size (``particles`` for
+    MPM, ``dofs`` for FEM: displacement and phase field per vertex), wall
+    time, crack initiation and branch times, and ``error``: the relative
+    difference of its end fracture energy from the one reference both
+    methods share (:func:`reference`), a Richardson extrapolation of the FEM
+    runs at the two finest ``h`` (the finest FEM run itself when there is one ``h``).
 ``energies_overlay.png``, ``crack_tip_speed_overlay.png``
     Elastic and fracture energy, and crack-tip position and speed, of every
     run (MPM solid, FEM dashed; one colour per ``h``).
-``phase_field_side_by_side.png``
-    The phase-field snapshots (``phase_field.png``) of the two finest runs.
+``phase_field_side_by_side.png``, ``crack_path_side_by_side.png``
+    The phase-field snapshots (``phase_field.png``) and the crack paths
+    (``crack_path.png``) of the two finest runs.
 ``speed_vs_error.png``
-    Relative error against wall time, log-log.
+    That error against wall time, log-log.
 ``comparison.md``
-    The table and the :func:`agreement` of the two methods at the finest
-    common ``h``.
+    The table, the reference and the :func:`agreement` of the two methods
+    at the finest common ``h``.
 ``agreement.json``
-    That agreement with ``h`` and ``l0`` (NaN written as ``null``).
+    That agreement with ``h``, ``l0`` and the reference (NaN written as ``null``).
+``study.json``
+    The study's settings and each run's wall time, which ``pfmpm compare
+    --resume`` continues from.
 
-Each run keeps its own output in ``mpm_h<h>/`` and ``fem_h<h>/``.  The MPM
-runs use the OpenMP threads the core is given (``OMP_NUM_THREADS``); the
-FEM runs are serial, in this process.
+Each run keeps its own output in ``mpm_h<h>/`` and ``fem_h<h>/``, with
+``frames`` particle (MPM, VTU) or field (FEM, XDMF) frames evenly spaced in
+time.  The MPM runs use the OpenMP threads the core is given
+(``OMP_NUM_THREADS``); the FEM runs are serial, in this process.  An
+interrupted MPM run leaves a checkpoint; with ``resume`` the completed runs
+are kept, an interrupted MPM run continues from its checkpoint and an
+unfinished FEM run starts again.
 
 Definitions used on the ``energies.csv`` columns (see
 :func:`~pfmpm.post.tip.initiation_time`, :func:`~pfmpm.post.tip.branch_time`
@@ -39,6 +49,10 @@ and :func:`agreement`):
   (5 mm) ahead of the notch tip.  Until the crack branches, the tip (the
   cracked point farthest from the notch tip) runs on the notch line; once
   two branches diverge, it lies on one of them.
+
+Both are read from ``energies.csv`` rows, every ``output.energies_every``
+steps, so they are known to within that record interval
+(``record_interval_us`` of the agreement).
 """
 
 from __future__ import annotations
@@ -47,32 +61,45 @@ import csv
 import dataclasses
 import json
 import math
+import textwrap
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from . import _core, scenes
+from . import _core, checkpoint, scenes
 from .output import read_csv
 from .post.tip import branch_time, initiation_time, read_columns
 from .scene import Crack, Scene
 from .scene.toml import read_toml
 
 __all__ = ["COLUMNS", "Comparison", "agreement", "branch_time", "comparison_overrides",
-           "compare_borden", "initiation_time"]
+           "compare_borden", "initiation_time", "reference", "read_study"]
 
 BORDEN_SCENE = scenes.path("borden_plate")
 """The Borden plate scene shipped with the package."""
 DEFAULT_H = (0.5, 0.25)
 DEFAULT_L0 = 0.5
 DEFAULT_END = 80.0
+DEFAULT_FRAMES = 5
+"""Particle or field frames each run writes, evenly spaced from t = 0 to the end."""
 METHODS = ("mpm", "fem")
 LABELS = {"mpm": "PF-MPM", "fem": "PF-FEM"}
+ORDER = 2.0
+"""Convergence order in h of the end fracture energy that the Richardson
+reference assumes when fewer than three FEM runs show one: the FEM runs of
+the l0 = 1 mm study at h = 1, 0.5, 0.25 mm converge at order 1.94
+(docs/verification.md)."""
+OBSERVED_ORDERS = (0.5, 4.0)
+"""An order the three finest FEM runs show is used when it lies in this range."""
+STUDY = "study.json"
+"""The file in a comparison's output directory with its settings and wall times."""
 
-COLUMNS = ["method", "h", "dofs_or_particles", "steps", "wall_s", "fracture_energy_end",
-           "elastic_energy_peak", "crack_tip_x_end", "branch_time_us", "error", "error_vs_other"]
-"""Columns of ``speed_vs_error.csv``."""
+COLUMNS = ["method", "h", "particles", "dofs", "steps", "wall_s", "initiation_us", "branch_us",
+           "fracture_energy_end", "elastic_energy_peak", "crack_tip_x_end", "error"]
+"""Columns of ``speed_vs_error.csv``; ``particles`` is empty for FEM runs and ``dofs`` for MPM runs."""
+
 
 @dataclass
 class Comparison:
@@ -87,6 +114,8 @@ class Comparison:
         :func:`agreement` of the two methods at ``h_common``.
     h_common : float
         The finest ``h`` both methods ran.
+    reference : dict
+        :func:`reference`, against which ``error`` is measured.
     files : dict of str -> Path
         The files written, by name.
     """
@@ -95,13 +124,14 @@ class Comparison:
     rows: list[dict]
     agreement: dict
     h_common: float
+    reference: dict
     files: dict[str, Path] = field(default_factory=dict)
 
 
 # -- measures on energies.csv -------------------------------------------------
 
 
-def agreement(mpm_csv, fem_csv) -> dict:
+def agreement(mpm_csv, fem_csv, crack: Crack | None = None) -> dict:
     """How closely a PF-MPM run follows a PF-FEM run of the same scene.
 
     Differences are MPM minus FEM; relative ones are relative to the FEM run
@@ -112,6 +142,8 @@ def agreement(mpm_csv, fem_csv) -> dict:
     mpm_csv, fem_csv : path or mapping of str -> ndarray
         The two runs' ``energies.csv`` (with crack-tip columns), or their
         columns.
+    crack : Crack, optional
+        The initial crack, for the branch times (NaN without it).
 
     Returns
     -------
@@ -120,6 +152,11 @@ def agreement(mpm_csv, fem_csv) -> dict:
             Crack initiation times (:func:`initiation_time`), NaN if none.
         ``initiation_diff_us``
             Their difference.
+        ``branch_mpm_us``, ``branch_fem_us``, ``branch_diff_us``
+            The same for the branch times (:func:`branch_time`).
+        ``record_interval_us``
+            The longer of the two runs' intervals between ``energies.csv``
+            rows: the resolution of every time above.
         ``elastic_window_us``
             End of the window of the elastic comparison: the earlier
             initiation, or the common end time if neither run initiates.
@@ -141,6 +178,7 @@ def agreement(mpm_csv, fem_csv) -> dict:
     """
     m, f = read_columns(mpm_csv), read_columns(fem_csv)
     t_mpm, t_fem = initiation_time(m), initiation_time(f)
+    b_mpm, b_fem = (branch_time(e, crack) if crack is not None else math.nan for e in (m, f))
     t_end = min(m["t"][-1], f["t"][-1])
     started = [t for t in (t_mpm, t_fem) if math.isfinite(t)]
     window = min(started) if started else t_end
@@ -151,10 +189,15 @@ def agreement(mpm_csv, fem_csv) -> dict:
     end_mpm = float(np.interp(t_end, m["t"], m["fracture"]))
     end_fem = float(np.interp(t_end, f["t"], f["fracture"]))
     gain_mpm, gain_fem = end_mpm - m["fracture"][0], end_fem - f["fracture"][0]
+    intervals = [float(np.diff(e["t"]).max()) if len(e["t"]) > 1 else math.nan for e in (m, f)]
     return {
         "initiation_mpm_us": t_mpm,
         "initiation_fem_us": t_fem,
         "initiation_diff_us": t_mpm - t_fem,
+        "branch_mpm_us": b_mpm,
+        "branch_fem_us": b_fem,
+        "branch_diff_us": b_mpm - b_fem,
+        "record_interval_us": max(intervals),
         "elastic_window_us": float(window),
         "elastic_peak": peak,
         "elastic_rms_rel": rms / peak if peak > 0 else math.nan,
@@ -166,6 +209,48 @@ def agreement(mpm_csv, fem_csv) -> dict:
     }
 
 
+def reference(fem_end: Mapping[float, float], order: float = ORDER) -> dict:
+    """The end fracture energy that every run's error is measured against.
+
+    A Richardson extrapolation of the FEM runs at the two finest ``h``,
+    ``F_f + (F_f - F_c) / ((h_c / h_f)^p - 1)``, with ``p`` the order the
+    three finest FEM runs show if there are three, in a constant ratio of
+    ``h``, converging monotonically at an order within
+    :data:`OBSERVED_ORDERS`; else the assumed ``order``.  With one ``h``,
+    the FEM run there.
+
+    Parameters
+    ----------
+    fem_end : mapping of float -> float
+        End fracture energy of the FEM run at each ``h``.
+    order : float
+        The assumed convergence order in ``h`` (:data:`ORDER`).
+
+    Returns
+    -------
+    dict
+        ``value``; ``kind`` (``"richardson"`` or ``"finest FEM run"``);
+        ``h`` (the FEM runs it comes from); ``order``, the order used;
+        ``observed_order``, the one the three finest FEM runs show (NaN
+        without three, or without a monotone convergence).
+    """
+    hs = sorted(fem_end, reverse=True)
+    if len(hs) == 1:
+        return {"value": fem_end[hs[0]], "kind": "finest FEM run", "h": hs, "order": math.nan,
+                "observed_order": math.nan}
+    (hc, fc), (hf, ff) = [(h, fem_end[h]) for h in hs[-2:]]
+    observed = math.nan
+    if len(hs) >= 3:
+        h1, h2, h3 = hs[-3:]
+        d1, d2 = fem_end[h1] - fem_end[h2], fem_end[h2] - fem_end[h3]
+        if math.isclose(h1 / h2, h2 / h3, rel_tol=1e-9) and d1 * d2 > 0:
+            observed = math.log(d1 / d2) / math.log(h1 / h2)
+    lo, hi = OBSERVED_ORDERS
+    p = observed if lo <= observed <= hi else order
+    return {"value": ff + (ff - fc) / ((hc / hf) ** p - 1.0), "kind": "richardson",
+            "h": [hc, hf], "order": p, "observed_order": observed}
+
+
 # -- the runs -----------------------------------------------------------------
 
 
@@ -173,7 +258,7 @@ def comparison_overrides(scene: dict, h: float, l0: float, end: float,
                          model: str = "AT2") -> list[str]:
     """Scene overrides of one comparison run: grid spacing ``h``, the length
     scale ``l0`` and phase-field ``model`` (AT1 or AT2) of every material that
-    can crack, end time ``end``, and no particle output.
+    can crack, and end time ``end``.
 
     Parameters
     ----------
@@ -185,23 +270,42 @@ def comparison_overrides(scene: dict, h: float, l0: float, end: float,
     crackable = [i for i, m in enumerate(materials) if isinstance(m, Mapping) and "fracture" in m]
     return ([f"grid.h={h!r}"] + [f"materials.{i}.fracture.l0={l0!r}" for i in crackable]
             + [f"materials.{i}.fracture.model={model}" for i in crackable]
-            + [f"time.end={end!r}", "output.particles=false"])
+            + [f"time.end={end!r}"])
 
 
-def _with_snapshots(scene: Scene) -> Scene:
-    """The scene with its snapshot times cut at ``time.end``, which is added."""
+def _for_comparison(scene: Scene, frames: int) -> Scene:
+    """The scene with its snapshot times cut at ``time.end``, which is added,
+    and ``frames`` output frames evenly spaced in time (none for 0)."""
     end = scene.time.end
     times = sorted({t for t in scene.output.snapshots if t < end} | {end})
-    return dataclasses.replace(scene, output=dataclasses.replace(scene.output, snapshots=tuple(times)))
+    every = max(1, math.ceil(scene.steps() / max(frames - 1, 1)))
+    output = dataclasses.replace(scene.output, snapshots=tuple(times), particles=frames > 0, every=every)
+    return dataclasses.replace(scene, output=output)
 
 
 def _run_name(method: str, h: float) -> str:
     return f"{method}_h{h:g}"
 
 
+def read_study(out_dir: Path | str) -> dict:
+    """The settings of the comparison in ``out_dir`` (its :data:`STUDY` file):
+    ``h``, ``l0``, ``end``, ``scene``, ``overrides``, ``frames``, ``model``.
+
+    Raises
+    ------
+    FileNotFoundError
+        Naming the file, if there is no comparison in ``out_dir``.
+    """
+    path = Path(out_dir) / STUDY
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: no comparison to resume in {out_dir}")
+    return json.loads(path.read_text())["settings"]
+
+
 def compare_borden(out_dir: Path | str, hs: Sequence[float] = DEFAULT_H, l0: float = DEFAULT_L0,
                    end: float = DEFAULT_END, scene_path: Path | str = BORDEN_SCENE,
                    overrides: Sequence[str] = (), progress: bool = True, log=print,
+                   frames: int = DEFAULT_FRAMES, resume: bool = False,
                    model: str = "AT2") -> Comparison:
     """Run the Borden plate with PF-MPM and PF-FEM at each ``h`` and compare.
 
@@ -226,6 +330,12 @@ def compare_borden(out_dir: Path | str, hs: Sequence[float] = DEFAULT_H, l0: flo
         Show progress bars.
     log : callable
         Called with one line of text per run started and finished.
+    frames : int
+        Output frames per run, evenly spaced in time (0: none).
+    resume : bool
+        Continue the comparison in ``out_dir``, which must have been started
+        with the same settings: keep its completed runs, resume an
+        interrupted MPM run from its checkpoint, run the rest.
     model : str
         The phase-field model of both methods, ``"AT2"`` (the paper's) or
         ``"AT1"`` (:class:`~pfmpm.scene.Fracture`).
@@ -239,10 +349,13 @@ def compare_borden(out_dir: Path | str, hs: Sequence[float] = DEFAULT_H, l0: flo
     SceneError
         If a scene is invalid (e.g. ``l0 < h``) or the FEM path cannot run
         it; raised before any run.
+    ValueError
+        With ``resume``, if ``out_dir`` holds a comparison of other settings.
     pfmpm.SimulationError
         If a run fails.
     KeyboardInterrupt
-        If a run is interrupted; the runs finished so far keep their output.
+        If a run is interrupted; the runs finished so far keep their output,
+        an interrupted MPM run its checkpoint.
     """
     from mpi4py import MPI
 
@@ -253,45 +366,100 @@ def compare_borden(out_dir: Path | str, hs: Sequence[float] = DEFAULT_H, l0: flo
         raise ValueError("hs: give at least one grid spacing")
     hs = sorted({float(h) for h in hs}, reverse=True)  # coarse to fine
     out = Path(out_dir)
+    settings = {"h": hs, "l0": float(l0), "end": float(end), "scene": str(scene_path),
+                "overrides": list(overrides), "frames": int(frames), "model": model}
+    study = _open_study(out, settings, resume)
     tables = read_toml(scene_path)
-    by_h = {h: _with_snapshots(Scene.from_dict(tables,
-                                               comparison_overrides(tables, h, l0, end, model)
-                                               + list(overrides)))
+    by_h = {h: _for_comparison(Scene.from_dict(tables, comparison_overrides(tables, h, l0, end, model)
+                                               + list(overrides)), frames)
             for h in hs}
     # The FEM set-up is cheap and checks that its path supports the scene.
     fems = {h: FemSimulation(by_h[h], MPI.COMM_SELF) for h in hs}
     out.mkdir(parents=True, exist_ok=True)
+    _save_study(out, study)
     runs = {}
     for h in hs:
         for method in METHODS:
             name = _run_name(method, h)
+            path = out / name
+            summary = _summary(path) if resume else None
+            if summary is not None and summary["status"] == "completed":
+                log(f"{LABELS[method]} h = {h:g}: completed before, in {path}")
+                wall = study["wall_s"].get(name, summary["wall_s"])
+                size = summary["particles" if method == "mpm" else "dofs"]
+                runs[method, h] = {"size": size, "steps": summary["steps"], "wall_s": wall,
+                                   "energies": read_csv(path / "energies.csv")}
+                continue
+            ckpt = _checkpoint(path, by_h[h]) if resume and method == "mpm" else None
             sim = Simulation(by_h[h]) if method == "mpm" else fems.pop(h)
             size = len(sim.particles) if method == "mpm" else sim.summary()["dofs"]
             what = "particles" if method == "mpm" else "dofs"
-            log(f"{LABELS[method]} h = {h:g}: {size} {what}, {by_h[h].steps()} steps -> {out / name}")
-            result = sim.run(out / name, progress=progress)
+            where = f" from step {ckpt.step}" if ckpt else ""
+            log(f"{LABELS[method]} h = {h:g}: {size} {what}, {by_h[h].steps()} steps{where} -> {path}")
+            before = study["wall_s"].get(name, summary["wall_s"] if summary else 0.0) if ckpt else 0.0
+            result = sim.run(path, progress=progress, resume=ckpt) if method == "mpm" else \
+                sim.run(path, progress=progress)
+            study["wall_s"][name] = before + result.wall_s
+            _save_study(out, study)
             if result.status == "interrupted":
                 raise KeyboardInterrupt
             if result.status != "completed":
                 raise _core.SimulationError(f"{LABELS[method]} at h = {h:g}: {result.error}")
             log(f"  done in {result.wall_s:.1f} s")
-            runs[method, h] = {"size": size, "steps": result.steps, "wall_s": result.wall_s,
-                               "energies": read_csv(out / name / "energies.csv")}
+            runs[method, h] = {"size": size, "steps": result.steps, "wall_s": study["wall_s"][name],
+                               "energies": read_csv(path / "energies.csv")}
     scene = by_h[hs[-1]]
-    rows = _table(runs, hs, scene.cracks[0])
+    crack = scene.cracks[0]
+    ref = reference({h: float(runs["fem", h]["energies"]["fracture"][-1]) for h in hs})
+    rows = _table(runs, hs, crack, ref["value"])
     fine = hs[-1]
-    agree = agreement(runs["mpm", fine]["energies"], runs["fem", fine]["energies"])
-    files = _write_outputs(out, rows, agree, runs, hs, scene, l0, end, model)
-    return Comparison(out_dir=out, rows=rows, agreement=agree, h_common=fine, files=files)
+    agree = agreement(runs["mpm", fine]["energies"], runs["fem", fine]["energies"], crack)
+    files = _write_outputs(out, rows, agree, ref, runs, hs, scene, l0, end, model)
+    return Comparison(out_dir=out, rows=rows, agreement=agree, h_common=fine, reference=ref, files=files)
 
 
-def _table(runs: dict, hs: list[float], crack: Crack) -> list[dict]:
-    """The rows of ``speed_vs_error.csv``."""
-    fine = hs[-1]
-    finest = {method: runs[method, fine]["energies"]["fracture"][-1] for method in METHODS}
+def _open_study(out: Path, settings: dict, resume: bool) -> dict:
+    """The study record: new, or with ``resume`` the one in ``out`` if its settings are these."""
+    if not resume:
+        return {"settings": settings, "wall_s": {}}
+    path = out / STUDY
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: no comparison to resume in {out}")
+    study = json.loads(path.read_text())
+    if study["settings"] != settings:
+        differ = ", ".join(k for k in settings if study["settings"].get(k) != settings[k])
+        raise ValueError(f"{path}: the comparison in {out} has other settings ({differ})")
+    return study
+
+
+def _save_study(out: Path, study: dict) -> None:
+    tmp = out / (STUDY + ".tmp")
+    tmp.write_text(json.dumps(study, indent=2) + "\n")
+    tmp.replace(out / STUDY)
+
+
+def _summary(path: Path) -> dict | None:
+    """A run's ``summary.json``, or ``None`` if it has none."""
+    try:
+        return json.loads((path / "summary.json").read_text())
+    except (FileNotFoundError, json.JSONDecodeError):
+        return None
+
+
+def _checkpoint(path: Path, scene: Scene):
+    """The newest checkpoint of the MPM run in ``path`` (of ``scene``), or ``None``."""
+    if not checkpoint.list_checkpoints(path / checkpoint.DIRECTORY):
+        return None
+    ckpt = checkpoint.find(path)
+    if ckpt.scene != scene.to_dict():
+        raise ValueError(f"{ckpt.path}: a checkpoint of another scene than this comparison's")
+    return ckpt
+
+
+def _table(runs: dict, hs: list[float], crack: Crack, ref: float) -> list[dict]:
+    """The rows of ``speed_vs_error.csv``, errors against the reference ``ref``."""
     rows = []
     for method in METHODS:
-        other = METHODS[1 - METHODS.index(method)]
         for h in hs:
             run = runs[method, h]
             e = run["energies"]
@@ -299,15 +467,16 @@ def _table(runs: dict, hs: list[float], crack: Crack) -> list[dict]:
             rows.append({
                 "method": method,
                 "h": h,
-                "dofs_or_particles": run["size"],
+                "particles": run["size"] if method == "mpm" else None,
+                "dofs": run["size"] if method == "fem" else None,
                 "steps": run["steps"],
                 "wall_s": run["wall_s"],
+                "initiation_us": initiation_time(e),
+                "branch_us": branch_time(e, crack),
                 "fracture_energy_end": f_end,
                 "elastic_energy_peak": float(e["elastic"].max()),
                 "crack_tip_x_end": float(e["crack_tip_x"][-1]),
-                "branch_time_us": branch_time(e, crack),
-                "error": abs(f_end - finest[method]) / finest[method],
-                "error_vs_other": abs(f_end - finest[other]) / finest[other],
+                "error": abs(f_end - ref) / ref,
             })
     return rows
 
@@ -315,30 +484,38 @@ def _table(runs: dict, hs: list[float], crack: Crack) -> list[dict]:
 # -- output -------------------------------------------------------------------
 
 
-def _write_outputs(out: Path, rows: list[dict], agree: dict, runs: dict, hs: list[float],
+def _write_outputs(out: Path, rows: list[dict], agree: dict, ref: dict, runs: dict, hs: list[float],
                    scene: Scene, l0: float, end: float, model: str) -> dict[str, Path]:
     """Write the CSV, the plots and ``comparison.md``; return their paths by name."""
     files = {name: out / name for name in (
         "speed_vs_error.csv", "energies_overlay.png", "crack_tip_speed_overlay.png",
-        "phase_field_side_by_side.png", "speed_vs_error.png", "comparison.md")}
+        "phase_field_side_by_side.png", "crack_path_side_by_side.png", "speed_vs_error.png",
+        "comparison.md")}
     with open(files["speed_vs_error.csv"], "w", newline="") as f:
         writer = csv.writer(f)
         writer.writerow(COLUMNS)
         for row in rows:
-            writer.writerow([v if isinstance(v, (str, int)) else repr(float(v))
+            writer.writerow(["" if v is None else v if isinstance(v, (str, int)) else repr(float(v))
                              for v in (row[c] for c in COLUMNS)])
+    units = scene.unit_system()
     v_r = scene.crack_rayleigh_speed()
-    _plot_overlay(runs, hs, ("elastic", "fracture"), files["energies_overlay.png"])
-    _plot_overlay(runs, hs, ("crack_tip_x", "crack_tip_speed"), files["crack_tip_speed_overlay.png"],
+    _plot_overlay(runs, hs, (("elastic", "elastic energy", "energy"), ("fracture", "fracture energy", "energy")),
+                  files["energies_overlay.png"], units)
+    _plot_overlay(runs, hs, (("crack_tip_x", "crack tip x", "length"),
+                             ("crack_tip_speed", "crack tip speed", "speed")),
+                  files["crack_tip_speed_overlay.png"], units,
                   lines=((v_r, "-.", "v_R"), (0.6 * v_r, ":", "0.6 v_R")))
     fine = _run_name("mpm", hs[-1]), _run_name("fem", hs[-1])
-    if not _plot_side_by_side([out / name / "phase_field.png" for name in fine],
-                              [f"{LABELS[m]}, h = {hs[-1]:g}" for m in METHODS],
-                              files["phase_field_side_by_side.png"]):
-        del files["phase_field_side_by_side.png"]
-    _plot_speed_vs_error(rows, files["speed_vs_error.png"])
-    files["comparison.md"].write_text(_markdown(rows, agree, hs[-1], l0, end, model))
+    titles = [f"{LABELS[m]}, h = {hs[-1]:g}" for m in METHODS]
+    for key, png in (("phase_field_side_by_side.png", "phase_field.png"),
+                     ("crack_path_side_by_side.png", "crack_path.png")):
+        if not _plot_side_by_side([out / name / png for name in fine], titles, files[key]):
+            del files[key]
+    _plot_speed_vs_error(rows, ref, files["speed_vs_error.png"])
+    files["comparison.md"].write_text(_markdown(rows, agree, ref, hs[-1], l0, end, model))
     plain = {k: v if math.isfinite(v) else None for k, v in {"h": hs[-1], "l0": l0, **agree}.items()}
+    plain["reference"] = {k: (v if not isinstance(v, float) or math.isfinite(v) else None)
+                          for k, v in ref.items()}
     plain["model"] = model
     (out / "agreement.json").write_text(json.dumps(plain, indent=2) + "\n")  # NaN as null
     files["agreement.json"] = out / "agreement.json"
@@ -360,10 +537,12 @@ def _colours(hs: list[float]) -> dict[float, tuple]:
 _STYLE = {"mpm": "-", "fem": "--"}
 
 
-def _plot_overlay(runs: dict, hs: list[float], columns: tuple[str, str], png: Path,
+def _plot_overlay(runs: dict, hs: list[float], columns, png: Path, units,
                   lines: tuple[tuple[float, str, str], ...] = ()) -> None:
     """Two ``energies.csv`` columns against t, one panel each, every run overlaid.
 
+    ``columns`` are ``(column, label, quantity)``: the quantity gives the
+    unit of the axis (:meth:`~pfmpm.scene.units.UnitSystem.label`).
     ``lines`` are ``(value, style, label)`` horizontal lines on the lower panel.
     """
     plt = _pyplot()
@@ -371,22 +550,22 @@ def _plot_overlay(runs: dict, hs: list[float], columns: tuple[str, str], png: Pa
     fig, axes = plt.subplots(2, 1, figsize=(7, 6.5), sharex=True)
     for (method, h), run in runs.items():
         e = run["energies"]
-        for ax, column in zip(axes, columns):
+        for ax, (column, _, _) in zip(axes, columns):
             ax.plot(e["t"], e[column], _STYLE[method], color=colour[h],
                     label=f"{LABELS[method]}, h = {h:g}")
     for value, style, label in lines:
         axes[1].axhline(value, color="k", linestyle=style, label=label)
-    for ax, column in zip(axes, columns):
-        ax.set_ylabel(column.replace("_", " "))
+    for ax, (_, label, quantity) in zip(axes, columns):
+        ax.set_ylabel(units.label(label, quantity))
         ax.legend(fontsize=8)
-    axes[1].set_xlabel("t")
+    axes[1].set_xlabel(units.label("time t", "time"))
     fig.tight_layout()
     fig.savefig(png, dpi=120)
     plt.close(fig)
 
 
 def _plot_side_by_side(images: list[Path], titles: list[str], png: Path) -> bool:
-    """Put the runs' ``phase_field.png`` side by side; False if one is missing."""
+    """Put the runs' images side by side; False if one is missing."""
     import matplotlib.image as mpimg
 
     plt = _pyplot()
@@ -414,65 +593,88 @@ def _trim(picture: np.ndarray) -> np.ndarray:
     return picture[rows[0]: rows[-1] + 1, cols[0]: cols[-1] + 1]
 
 
-def _plot_speed_vs_error(rows: list[dict], png: Path) -> None:
-    """Error against wall time; zero errors (a method's finest run against itself) left out."""
+def _plot_speed_vs_error(rows: list[dict], ref: dict, png: Path) -> None:
+    """Error against the shared reference over wall time, log-log; a zero
+    error (the reference run itself) is left out."""
     plt = _pyplot()
-    fig, ax = plt.subplots(figsize=(6, 4.5))
+    fig, ax = plt.subplots(figsize=(6.5, 4.8))
     colour = {"mpm": "C0", "fem": "C1"}
+    # Labels of the two methods on opposite sides of their points, so equal h do not overlap.
+    offset = {"mpm": ((-7, -12), "right"), "fem": ((7, 5), "left")}
     for method in METHODS:
-        mine = [r for r in rows if r["method"] == method]
-        other = METHODS[1 - METHODS.index(method)]
-        for key, fill, what in (("error_vs_other", True, f"vs finest {LABELS[other]}"),
-                                ("error", False, f"vs finest {LABELS[method]}")):
-            pts = [(r["wall_s"], r[key], r["h"]) for r in mine if r[key] > 0 and math.isfinite(r[key])]
-            if not pts:
-                continue
-            wall, err, h = map(np.array, zip(*pts))
-            ax.loglog(wall, err, "o-" if fill else "s--", color=colour[method],
-                      markerfacecolor=colour[method] if fill else "none",
-                      label=f"{LABELS[method]}, {what}")
-            for x, y, hh in zip(wall, err, h):
-                ax.annotate(f"h = {hh:g}", (x, y), textcoords="offset points", xytext=(4, 4), fontsize=7)
+        pts = [(r["wall_s"], r["error"], r["h"]) for r in rows
+               if r["method"] == method and r["error"] > 0 and math.isfinite(r["error"])]
+        if not pts:
+            continue
+        wall, err, h = map(np.array, zip(*pts))
+        ax.loglog(wall, err, "o-" if method == "mpm" else "s--", color=colour[method],
+                  label=LABELS[method])
+        xytext, align = offset[method]
+        for x, y, hh in zip(wall, err, h):
+            ax.annotate(f"h = {hh:g}", (x, y), textcoords="offset points", xytext=xytext,
+                        ha=align, fontsize=8, color=colour[method])
     ax.set_xlabel("wall time [s]")
     ax.set_ylabel("relative error of the end fracture energy")
-    ax.set_title("zero errors (finest run vs itself) not shown", fontsize=9)
+    ax.set_title("error against " + textwrap.fill(_reference_text(ref), 70), fontsize=9)
     if ax.get_legend_handles_labels()[0]:
         ax.legend(fontsize=8)
+    ax.margins(0.15)
     fig.tight_layout()
     fig.savefig(png, dpi=120)
     plt.close(fig)
 
 
+def _reference_text(ref: dict) -> str:
+    """The reference in words."""
+    if ref["kind"] == "richardson":
+        (hc, hf) = ref["h"]
+        source = "observed" if ref["order"] == ref["observed_order"] else "assumed"
+        return (f"the Richardson extrapolation ({source} order {ref['order']:.3g}) of the PF-FEM"
+                f" runs at h = {hc:g} and {hf:g}: {ref['value']:.5g}")
+    return f"the PF-FEM run at h = {ref['h'][0]:g} (one h: no extrapolation): {ref['value']:.5g}"
+
+
 def _fmt(value, spec: str = ".4g") -> str:
-    """A table cell: text and integers as they are, floats with ``spec``, NaN as NaN."""
+    """A table cell: text and integers as they are, floats with ``spec``, NaN as NaN, None as -."""
+    if value is None:
+        return "-"
     if isinstance(value, (str, int)):
         return str(value)
     return "NaN" if not math.isfinite(value) else format(value, spec)
 
 
-def _markdown(rows: list[dict], agree: dict, h: float, l0: float, end: float, model: str) -> str:
-    """``comparison.md``: the table of runs and the agreement at the finest common h."""
+def _markdown(rows: list[dict], agree: dict, ref: dict, h: float, l0: float, end: float,
+              model: str) -> str:
+    """``comparison.md``: the table of runs, the reference and the agreement at the finest common h."""
+    a = agree
+    res = _fmt(a["record_interval_us"], ".3f")
+    observed = ("" if not math.isfinite(ref["observed_order"]) else
+                f" The three finest PF-FEM runs converge at order {ref['observed_order']:.2f}.")
     lines = [
         "# PF-MPM against PF-FEM: Borden plate",
         "",
-        f"{model} phase field, l0 = {l0:g} mm, end time {end:g} us. Errors: relative difference of the end fracture"
-        " energy from the finest run of the same method (`error`) and of the other method"
-        " (`error_vs_other`). Branch time: the tip first more than 1 mm off the notch line"
-        " while more than 5 mm ahead of the notch tip.",
+        f"{model} phase field, l0 = {l0:g} mm, end time {end:g} us. `error`: relative difference of"
+        f" a run's end fracture energy from {_reference_text(ref)}, one reference for both"
+        f" methods.{observed}"
+        " `particles` counts the MPM material points, `dofs` the FEM unknowns (two displacements"
+        " and the phase field per vertex). Initiation: the tip 0.5 mm past its start; branching:"
+        " the tip first more than 1 mm off the notch line while more than 5 mm ahead of the notch"
+        f" tip; both read from `energies.csv` rows, so known to within {res} us.",
         "",
         "| " + " | ".join(COLUMNS) + " |",
         "|" + "---|" * len(COLUMNS),
     ]
     lines += ["| " + " | ".join(_fmt(r[c]) for c in COLUMNS) + " |" for r in rows]
-    a = agree
     lines += [
         "",
         f"## Agreement at h = {h:g} (MPM minus FEM, relative to FEM)",
         "",
         "| quantity | PF-MPM | PF-FEM | difference |",
         "|---|---|---|---|",
-        f"| crack initiation (tip 0.5 mm past its start) [us] | {_fmt(a['initiation_mpm_us'], '.3f')}"
+        f"| crack initiation (tip 0.5 mm past its start) [us], +- {res} | {_fmt(a['initiation_mpm_us'], '.3f')}"
         f" | {_fmt(a['initiation_fem_us'], '.3f')} | {_fmt(a['initiation_diff_us'], '+.3f')} us |",
+        f"| crack branching (tip 1 mm off the notch line) [us], +- {res} | {_fmt(a['branch_mpm_us'], '.3f')}"
+        f" | {_fmt(a['branch_fem_us'], '.3f')} | {_fmt(a['branch_diff_us'], '+.3f')} us |",
         f"| elastic energy up to {_fmt(a['elastic_window_us'], '.3f')} us, RMS difference / peak"
         f" {_fmt(a['elastic_peak'])} | | | {_fmt(100 * a['elastic_rms_rel'], '.2f')} % |",
         f"| fracture energy at {_fmt(a['t_end'], '.3f')} us | {_fmt(a['fracture_end_mpm'])}"
@@ -480,8 +682,8 @@ def _markdown(rows: list[dict], agree: dict, h: float, l0: float, end: float, mo
         f"| fracture energy gained since t = 0 | | | {_fmt(100 * a['fracture_gain_rel_diff'], '+.2f')} % |",
         "",
         "Plots: `energies_overlay.png`, `crack_tip_speed_overlay.png`,"
-        " `phase_field_side_by_side.png`, `speed_vs_error.png`. Each run's own output is in"
-        " `mpm_h<h>/` and `fem_h<h>/`.",
+        " `phase_field_side_by_side.png`, `crack_path_side_by_side.png`, `speed_vs_error.png`."
+        " Each run's own output is in `mpm_h<h>/` (particles.pvd) and `fem_h<h>/` (fields.xdmf).",
         "",
     ]
     return "\n".join(lines)

@@ -73,7 +73,7 @@ run; the energies match a serial run to round-off and the solver tolerance.
 
 from __future__ import annotations
 
-import argparse
+import logging
 import math
 import sys
 import warnings
@@ -90,13 +90,14 @@ from petsc4py import PETSc
 
 from . import _core
 from .crack import initial_history
-from .post.tip import CrackTip
-from .run import CRACK_COLUMNS, ENERGY_COLUMNS, RunResult, Snapshots, run_to_end
+from .output import check_directory
+from .post.tip import CrackPath, CrackTip
+from .run import CRACK_COLUMNS, ENERGY_COLUMNS, WALL_COLUMNS, RunResult, Snapshots, run_to_end
 from .scene import (Body, BodyForce, LinearElasticSpec, MaterialSpec, Rectangle, Scene, SceneError,
                     Traction)
 from .simulation import core_materials
 
-__all__ = ["FemSimulation", "MESH_DIAGONAL", "main"]
+__all__ = ["FemSimulation", "MESH_DIAGONAL", "run_command", "main"]
 
 #: DOLFINx diagonal pattern of the structured triangle mesh (see the module docstring).
 MESH_DIAGONAL = mesh.DiagonalType.left_right
@@ -160,6 +161,7 @@ class FemSimulation:
         self.dt = scene.dt()
         self._step = 0
         self._work = 0.0  # external work of this rank's owned vertices
+        self._wall_work = 0.0  # and the work of the walls on them
         with _quiet_jit():
             self._build_mesh()
             self._build_dynamics(material)
@@ -230,6 +232,7 @@ class FemSimulation:
         self.history = np.zeros(len(self._dofs))
         self._pf = None
         self.crack_tip = None
+        self.crack_path = None
         if self._fracture is None:
             return
         for crack in self.scene.cracks:
@@ -239,6 +242,7 @@ class FemSimulation:
         self._pf = _PhaseFieldSolver(self.c, self._fracture, self.scene.phase_field, len(self._dofs))
         if self.scene.cracks:
             self.crack_tip = CrackTip.for_scene(self.scene)
+            self.crack_path = CrackPath(self._owned, self.scene.output.crack_threshold)
         self._solve_phase_field()  # the phase field of the initial cracks, as the MPM
 
     def _assemble(self, local: np.ndarray, scalar: bool = False) -> np.ndarray:
@@ -327,7 +331,8 @@ class FemSimulation:
     @property
     def columns(self) -> list[str]:
         """Columns of ``energies.csv`` for this scene (crack-tip columns with a crack)."""
-        return ENERGY_COLUMNS + (CRACK_COLUMNS if self.crack_tip is not None else [])
+        return (ENERGY_COLUMNS + (WALL_COLUMNS if self.scene.walls else [])
+                + (CRACK_COLUMNS if self.crack_tip is not None else []))
 
     @property
     def step(self) -> int:
@@ -408,9 +413,13 @@ class FemSimulation:
         eps[:, 2] = 0.5 * (self._dy @ ux + self._dx @ uy)
         return eps
 
+    def stresses(self) -> np.ndarray:
+        """Cell stresses (cells, 4): xx, yy, xy, zz of ``g psi+ + psi-`` (eqs. 14-16)."""
+        return self._elastic.stresses(self._eps, self._g)
+
     def _internal_force(self) -> np.ndarray:
         """Internal force on the owned vertices (owned, 2), eq. (62) over cells."""
-        sig = self._elastic.stresses(self._eps, self._g) * self._volume[:, None]  # eqs. (14)-(16)
+        sig = self.stresses() * self._volume[:, None]
         f = np.empty((self._local, 2))
         f[:, 0] = self._dx_t @ sig[:, 0] + self._dy_t @ sig[:, 2]
         f[:, 1] = self._dx_t @ sig[:, 2] + self._dy_t @ sig[:, 1]
@@ -423,6 +432,8 @@ class FemSimulation:
         self._v += dt * (self._fext - fint) / self._mass[:, None]
         for on, components in self._walls:
             for k in components:
+                # As the MPM's walls: the work is the kinetic energy stopped.
+                self._wall_work -= 0.5 * float(self._mass[on] @ (v_old[on, k] ** 2))
                 self._v[on, k] = 0.0
         self._work += 0.5 * dt * float(np.sum(self._fext * (v_old + self._v)))
         u = self._u.array.reshape(-1, 2)
@@ -451,10 +462,11 @@ class FemSimulation:
             float(self._volume @ (self._g * psi_plus + psi_minus)),
             self._fracture_energy(),
             self._work,
+            self._wall_work,
             float(m @ v[:, 0]),
             float(m @ v[:, 1]),
         ])
-        kinetic, elastic, fracture, work, px, py = self.comm.allreduce(local, op=MPI.SUM)
+        kinetic, elastic, fracture, work, wall, px, py = self.comm.allreduce(local, op=MPI.SUM)
         return {
             "step": self._step,
             "t": self.time,
@@ -462,7 +474,8 @@ class FemSimulation:
             "elastic": elastic,
             "fracture": fracture,
             "external_work": work,
-            "total": kinetic + elastic + fracture - work,
+            "wall_work": wall,
+            "total": kinetic + elastic + fracture - work - wall,
             "momentum_x": px,
             "momentum_y": py,
         }
@@ -489,35 +502,29 @@ class FemSimulation:
         return self._fracture.Gc * float(self._volume @ density)
 
     def crack_tip_record(self) -> dict[str, float]:
-        """Record the crack tip now: ``crack_tip_x``, ``crack_tip_y``, ``crack_tip_speed``.
+        """Record the crack tips now (the :data:`~pfmpm.run.CRACK_COLUMNS`) and
+        which vertices have cracked.
 
-        Each rank finds its farthest cracked vertex ahead of the notch (see
-        :class:`~pfmpm.crack.CrackTip`); the tip is the farthest of those,
-        ties broken by the smaller ``(y, x)``, so it does not depend on how
-        the mesh is partitioned.  Every call is one record of the speed fit;
+        Each rank finds the farthest cracked vertices of its own (see
+        :class:`~pfmpm.post.tip.CrackTip`) and :meth:`~pfmpm.post.tip.CrackTip.merge`
+        takes the farthest of those, so the tips do not depend on how the
+        mesh is partitioned.  Every call is one record of the speed fits;
         collective.  Only for scenes with an initial crack (see :attr:`columns`).
         """
         tip = self.crack_tip
         if tip is None:
             raise ValueError("the scene has no initial crack whose tip could be tracked")
-        xy = self._x[: self._owned]
-        rel = xy - tip.origin
-        cracked = (self.c.x.array[: self._owned] < tip.threshold) & (rel @ tip.direction > 0)
-        best = None
-        if cracked.any():
-            dist = np.hypot(rel[cracked, 0], rel[cracked, 1])
-            far = xy[cracked][dist == dist.max()]
-            x, y = far[np.lexsort((far[:, 0], far[:, 1]))[0]]
-            best = (float(dist.max()), float(y), float(x))
-        found = [b for b in self.comm.allgather(best) if b is not None]
-        if found:
-            far = max(b[0] for b in found)
-            _, y, x = min(b for b in found if b[0] == far)
-            points, c = np.array([[x, y]]), np.zeros(1)
-        else:
-            points, c = np.zeros((0, 2)), np.zeros(0)
-        x, y, speed = tip.update(self.time, points, c)
-        return {"crack_tip_x": x, "crack_tip_y": y, "crack_tip_speed": speed}
+        c = self.c.x.array[: self._owned]
+        self.crack_path.update(self.time, c)
+        found = tip.merge(self.comm.allgather(tip.farthest(self._x[: self._owned], c)))
+        return tip.record(self.time, found)
+
+    def crack_path_points(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """The vertices and the time each cracked (NaN: intact), on rank 0
+        (``None`` on the others); collective."""
+        xy = self.comm.gather(self._x[: self._owned])
+        times = self.comm.gather(self.crack_path.times)
+        return (np.concatenate(xy), np.concatenate(times)) if self.comm.rank == 0 else None
 
     # -- run with output ------------------------------------------------------
 
@@ -526,8 +533,8 @@ class FemSimulation:
 
         The run loop of :func:`pfmpm.run.run_to_end`: rank 0 writes
         ``energies.csv``, ``summary.json`` and the plots; all ranks write the
-        XDMF series ``phase_field.xdmf`` of ``c`` every ``output.every``
-        steps (and at the start and the end).  A non-finite energy stops the
+        XDMF series ``fields.xdmf`` (:meth:`open_frames`) every
+        ``output.every`` steps (and at the start and the end).  A non-finite energy stops the
         run with status ``"failed"`` and an error naming the step and time;
         Ctrl-C or SIGTERM stops every rank at the same step with status
         ``"interrupted"``.  Output written so far stays.
@@ -537,17 +544,19 @@ class FemSimulation:
     # -- what the run loop of pfmpm.run asks of a simulation -----------------
 
     def open_frames(self, out: Path, resume=None) -> "_XdmfFrames":
-        """The XDMF series ``phase_field.xdmf`` of ``c`` on the mesh (collective)."""
-        return _XdmfFrames(self, out / "phase_field.xdmf")
+        """The XDMF series ``fields.xdmf`` on the mesh (collective): phase field,
+        displacement, velocity, stress and history (see :class:`_XdmfFrames`)."""
+        return _XdmfFrames(self, out / "fields.xdmf")
 
     def new_snapshots(self) -> Snapshots | None:
-        """Phase-field images like the MPM's (``output.snapshots``), one pixel per
-        vertex, on rank 0; ``None`` on the others, or if nothing can crack."""
+        """Phase-field images like the MPM's (``output.snapshots``), one pixel
+        centred on each vertex, on rank 0; ``None`` on the others, or if nothing
+        can crack."""
         if self.comm.rank != 0 or self._pf is None or not self.scene.output.snapshots:
             return None
         h, (nx, ny) = self.scene.grid.h, self.scene.grid.cells
         return Snapshots(self.scene, h, np.asarray(self.scene.grid.origin, dtype=float) - 0.5 * h,
-                         (nx + 1, ny + 1))
+                         (nx + 1, ny + 1), reach=0.5 * h)
 
     def offer_snapshot(self, snapshots: Snapshots | None) -> None:
         """Gather the vertex phase field to rank 0 while images are pending (collective)."""
@@ -589,15 +598,45 @@ class FemSimulation:
 
 
 class _XdmfFrames:
-    """The XDMF series of a FEM run's phase field: ``write()`` adds ``c`` now (collective)."""
+    """The XDMF series of a FEM run (collective): ``write()`` adds, at the
+    current time, the phase field ``c``, the displacement and the velocity
+    (vertex values), and the in-plane stress (a 2 x 2 tensor, which XDMF pads
+    to 3 x 3 with zeros), its out-of-plane entry ``stress_zz`` and the
+    history field ``H`` (cell values).  (DOLFINx 0.5 writes a cell-wise
+    tensor as cell data only if it is gdim x gdim, hence zz apart.)"""
 
     def __init__(self, sim: FemSimulation, path: Path):
         self._sim = sim
+        msh = sim.mesh
+        with _quiet_jit():
+            vector = fem.VectorFunctionSpace(msh, ("Lagrange", 1))
+            cells = fem.FunctionSpace(msh, ("DG", 0))
+            tensor = fem.TensorFunctionSpace(msh, ("DG", 0))
+        self._u = fem.Function(vector, name="displacement")
+        self._v = fem.Function(vector, name="velocity")
+        self._stress = fem.Function(tensor, name="stress")
+        self._zz = fem.Function(cells, name="stress_zz")
+        self._history = fem.Function(cells, name="history")
+        n_cells = len(sim.history)
+        self._cell_dof = cells.dofmap.list.array[:n_cells]
+        # Where each stress entry (xx, yy, xy) goes in the row-major 2 x 2 tensor.
+        block = tensor.dofmap.index_map_bs * tensor.dofmap.list.array[:n_cells]
+        self._stress_dofs = [block[:, None] + np.array(entries) for entries in ([0], [3], [1, 2])]
         self._file = io.XDMFFile(sim.comm, str(path), "w")
-        self._file.write_mesh(sim.mesh)
+        self._file.write_mesh(msh)
 
     def write(self) -> None:
-        self._file.write_function(self._sim.c, self._sim.time)
+        sim, t = self._sim, self._sim.time
+        self._u.x.array[:] = sim.displacement.ravel()
+        self._v.x.array[: 2 * sim.owned] = sim.velocity.ravel()
+        self._v.x.scatter_forward()
+        sigma = sim.stresses()
+        for k, dofs in enumerate(self._stress_dofs):
+            self._stress.x.array[dofs] = sigma[:, k, None]
+        self._zz.x.array[self._cell_dof] = sigma[:, 3]
+        self._history.x.array[self._cell_dof] = sim.history
+        for function in (sim.c, self._u, self._v, self._stress, self._zz, self._history):
+            self._file.write_function(function, t)
 
     def close(self) -> None:
         self._file.close()
@@ -763,6 +802,13 @@ class _PhaseFieldSolver:
                 f" iterations (PETSc reason {reason}) at step {step} (t = {t:g})")
 
 
+class _BelowWarning(logging.Filter):
+    """Drops log records below WARNING."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        return record.levelno >= logging.WARNING
+
+
 def _reaction(fracture, history: np.ndarray) -> np.ndarray:
     """Per cell, the coefficient of ``c q`` in eq. (57) (the C++ ``Fracture::reaction``).
 
@@ -777,17 +823,27 @@ def _reaction(fracture, history: np.ndarray) -> np.ndarray:
 
 @contextmanager
 def _quiet_jit():
-    """Ignore the ResourceWarning of FFCx 0.5's JIT compiler.
+    """Keep FFCx 0.5's JIT compiler quiet.
 
-    When it compiles a new form or element, FFCx 0.5 creates the module's C
-    file as a lock with ``open(name, "x")`` and never closes it; under
-    ``-W error`` (the test suite) that warning would fail the first run on a
-    fresh cache.  Only that message is ignored.
+    Its C compiler (through cffi and distutils) sets the root logger, which
+    FFCx gives a handler on stderr, to INFO and logs every command it runs:
+    those records are dropped and the level is put back.  And when it
+    compiles a new form or element, FFCx 0.5 creates the module's C file as a
+    lock with ``open(name, "x")`` and never closes it; under ``-W error`` (the
+    test suite) that ResourceWarning would fail the first run on a fresh
+    cache, so that message is ignored.
     """
-    with warnings.catch_warnings():
-        warnings.filterwarnings("ignore", category=ResourceWarning,
-                                message=r"unclosed file <_io\.TextIOWrapper name='[^']*libffcx_")
-        yield
+    root = logging.getLogger()
+    level, drop = root.level, _BelowWarning()
+    root.addFilter(drop)
+    try:
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", category=ResourceWarning,
+                                    message=r"unclosed file <_io\.TextIOWrapper name='[^']*libffcx_")
+            yield
+    finally:
+        root.removeFilter(drop)
+        root.setLevel(level)
 
 
 def _supported(scene: Scene) -> tuple[Body, MaterialSpec]:
@@ -820,22 +876,17 @@ def _supported(scene: Scene) -> tuple[Body, MaterialSpec]:
     return body, material
 
 
-def main(argv: list[str] | None = None) -> int:
-    """``python -m pfmpm.fem SCENE --out DIR``: run a scene with the FEM path (MPI-aware)."""
-    parser = argparse.ArgumentParser(prog="python -m pfmpm.fem",
-                                     description="Phase-field FEM reference run of a scene")
-    parser.add_argument("scene", help="scene TOML file")
-    parser.add_argument("--out", required=True, help="output directory")
-    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                        help="override a scene value, e.g. time.end=10")
-    parser.add_argument("--quiet", action="store_true", help="no progress bar")
-    args = parser.parse_args(argv)
+def run_command(scene_path: str, out: str, overrides: list[str], quiet: bool = False) -> int:
+    """``pfmpm fem SCENE --out DIR``: run a scene file with the FEM path on
+    every rank of ``MPI.COMM_WORLD``; rank 0 prints.  Returns the exit status:
+    0 done, 1 failed, 2 a bad scene or output directory, 130 interrupted."""
     comm = MPI.COMM_WORLD
     root = comm.rank == 0
     try:
-        scene = Scene.from_toml(args.scene, overrides=args.set)
+        check_directory(out)
+        scene = Scene.from_toml(scene_path, overrides=overrides)
         sim = FemSimulation(scene, comm)
-    except (SceneError, FileNotFoundError) as err:
+    except (SceneError, OSError) as err:
         if root:
             print(f"error: {err}", file=sys.stderr)
         return 2
@@ -843,20 +894,27 @@ def main(argv: list[str] | None = None) -> int:
         s = sim.summary()
         print(f"{scene.name}: FEM, {s['vertices']} vertices, {s['cells']} cells on {comm.size}"
               f" rank(s), {scene.steps()} steps of dt = {sim.dt:.6g} ({sim.substeps} sub-steps)"
-              f" -> {args.out}")
-    result = sim.run(args.out, progress=not args.quiet)
+              f" -> {out}")
+    result = sim.run(out, progress=not quiet)
     if result.status == "failed":
         if root:
             print(f"error: {result.error}", file=sys.stderr)
-            print(f"output so far is in {args.out}", file=sys.stderr)
+            print(f"output so far is in {out}", file=sys.stderr)
         return 1
     if result.status == "interrupted":
         if root:
-            print(f"interrupted at step {result.steps}; output so far is in {args.out}", file=sys.stderr)
+            print(f"interrupted at step {result.steps}; output so far is in {out}", file=sys.stderr)
         return 130
     if root:
-        print(f"done: {result.steps} steps in {result.wall_s:.1f} s; output in {args.out}")
+        print(f"done: {result.steps} steps in {result.wall_s:.1f} s; output in {out}")
     return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m pfmpm.fem SCENE --out DIR``: the same as ``pfmpm fem``."""
+    from .cli import main as cli
+
+    return cli(["fem", *(sys.argv[1:] if argv is None else argv)])
 
 
 if __name__ == "__main__":

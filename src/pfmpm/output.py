@@ -18,14 +18,36 @@ _VTK_TYPES = {np.dtype("float64"): "Float64", np.dtype("int32"): "Int32", np.dty
 _BLOCK = 1 << 16  # particles converted and encoded at a time
 
 
+def check_directory(path: Path | str) -> Path:
+    """``path`` as an output directory, which need not exist yet.
+
+    Raises
+    ------
+    NotADirectoryError
+        Naming ``path`` and the file in the way, if it or a folder above it
+        is a file.
+    """
+    path = Path(path)
+    for p in (path, *path.parents):
+        if p.exists() and not p.is_dir():
+            where = "is a file" if p == path else f"lies under the file {p}"
+            raise NotADirectoryError(f"output directory {path} {where}")
+    return path
+
+
 def vtk_values(values: np.ndarray, layout: str) -> np.ndarray:
-    """A particle column as VTK point data: a plane tensor (layout
-    ``xx,yy,xy,zz``, with its out-of-plane entry) becomes the symmetric tensor
-    (xx, yy, zz, xy, yz, xz) ParaView reads, a 2-component vector gets z = 0
-    so ParaView draws it as a vector, and every other column is written as it is."""
-    if layout == "xx,yy,xy,zz":
+    """A particle column as VTK point data: a plane tensor (layout ``xx,yy,xy``,
+    or ``xx,yy,xy,zz`` with its out-of-plane entry) becomes the symmetric
+    tensor (xx, yy, zz, xy, yz, xz) ParaView reads, zz = 0 where the column
+    has none (the strain of a plane-strain run; a plane-stress run keeps no
+    out-of-plane strain); a 2-component vector gets z = 0 so ParaView draws it
+    as a vector; every other column is written as it is."""
+    if layout in ("xx,yy,xy", "xx,yy,xy,zz"):
         tensor = np.zeros((len(values), 6))
-        tensor[:, [0, 1, 2, 3]] = values[:, [0, 1, 3, 2]]
+        if layout == "xx,yy,xy":
+            tensor[:, [0, 1, 3]] = values
+        else:
+            tensor[:, [0, 1, 2, 3]] = values[:, [0, 1, 3, 2]]
         return tensor
     if values.ndim == 2 and values.shape[1] == 2:
         padded = np.zeros((len(values), 3), dtype=values.dtype)
@@ -129,11 +151,20 @@ class ParticleSeries:
 class CsvLog:
     """A CSV file written row by row and flushed after each row.
 
-    With ``append``, rows are added to an existing file that already has the header.
+    With ``append``, rows are added to an existing file that already has a
+    header, under that header's columns (a run resumed from a checkpoint of
+    an older pfmpm keeps the columns its file started with); each must be one
+    of ``columns``.
     """
 
     def __init__(self, path: Path, columns: list[str], append: bool = False):
         self.columns = list(columns)
+        if append:
+            with open(path, newline="") as f:
+                header = next(csv.reader(f), self.columns)
+            if unknown := [c for c in header if c not in self.columns]:
+                raise ValueError(f"{path}: column {unknown[0]} is not one of this run's")
+            self.columns = header
         self._file = open(path, "a" if append else "w", newline="")
         self._writer = csv.writer(self._file)
         if not append:

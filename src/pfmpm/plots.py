@@ -1,4 +1,6 @@
-"""PNG plots of a run: energy histories, crack-tip speed and phase-field snapshots."""
+"""PNG plots of a run: energy histories, crack tips, the crack path and
+phase-field snapshots, their axes labelled in the scene's units
+(:class:`~pfmpm.scene.units.UnitSystem`)."""
 
 from __future__ import annotations
 
@@ -11,44 +13,108 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from .output import read_csv  # noqa: E402
+from .scene.units import NO_UNITS, UnitSystem  # noqa: E402
 
-_ENERGY_CURVES = ("kinetic", "elastic", "fracture", "external_work", "total")
+_ENERGY_CURVES = {
+    "kinetic": "kinetic",
+    "elastic": "elastic",
+    "fracture": "fracture",
+    "external_work": "external work",
+    "friction_dissipation": "friction dissipation",
+    "wall_work": "wall work",
+}
+PHASE_FIELD_LABEL = "phase field c (1 intact, 0 broken)"
+"""The colour-bar label of the phase-field images."""
 
 
-def energies(csv_path: Path, png_path: Path) -> None:
-    """Energy histories of ``energies.csv``; ``total`` is the balance error."""
+def energies(csv_path: Path, png_path: Path, units: UnitSystem = NO_UNITS) -> None:
+    """Energy histories of ``energies.csv`` and the balance residual: ``total``
+    (kinetic + elastic + fracture + dissipation - work) minus its value at t = 0,
+    zero where the energy balance closes."""
     e = read_csv(csv_path)
-    fig, ax = plt.subplots(figsize=(6, 4))
-    for name in _ENERGY_CURVES:
-        if name in e and (name != "fracture" or np.any(e[name])):
-            ax.plot(e["t"], e[name], label=name.replace("_", " "))
-    ax.set_xlabel("t")
-    ax.set_ylabel("energy")
-    ax.legend()
+    fig, ax = plt.subplots(figsize=(6.5, 4.2))
+    for name, label in _ENERGY_CURVES.items():
+        if name in e and (name in ("kinetic", "elastic", "external_work") or np.any(e[name])):
+            ax.plot(e["t"], e[name], label=label)
+    ax.plot(e["t"], e["total"] - e["total"][0], "k--", label="balance residual (total - total at t = 0)")
+    ax.set_xlabel(units.label("time t", "time"))
+    ax.set_ylabel(units.label("energy", "energy"))
+    ax.legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(png_path, dpi=120)
     plt.close(fig)
 
 
-def crack_tip(csv_path: Path, png_path: Path, rayleigh: float) -> None:
-    """Crack-tip position and speed against 0.6 v_R and v_R."""
+def crack_tip(csv_path: Path, png_path: Path, rayleigh: float, units: UnitSystem = NO_UNITS) -> None:
+    """Crack-tip position and speed against 0.6 v_R and v_R: the tip of the
+    whole crack and, where it branches, the tip of each branch."""
     e = read_csv(csv_path)
-    fig, (top, bottom) = plt.subplots(2, 1, figsize=(6, 6), sharex=True)
-    top.plot(e["t"], e["crack_tip_x"])
-    top.set_ylabel("crack tip x")
-    bottom.plot(e["t"], e["crack_tip_speed"], label="crack tip")
-    for factor, style in ((1.0, "--"), (0.6, ":")):
+    fig, (top, middle, bottom) = plt.subplots(3, 1, figsize=(6.5, 8), sharex=True)
+    tracks = [("crack_tip", "farthest tip", "k-")]
+    tracks += [(t, f"{t.split('_')[0]} branch", style) for t, style in (("left_tip", "C0--"), ("right_tip", "C3:"))
+               if f"{t}_x" in e]
+    for track, label, style in tracks:
+        top.plot(e["t"], e[f"{track}_x"], style, label=label)
+        middle.plot(e["t"], e[f"{track}_y"], style, label=label)
+        bottom.plot(e["t"], e[f"{track}_speed"], style, label=label)
+    for factor, style in ((1.0, "-."), (0.6, ":")):
         label = "v_R" if factor == 1.0 else f"{factor:g} v_R"
-        bottom.axhline(factor * rayleigh, color="k", linestyle=style, label=label)
-    bottom.set_xlabel("t")
-    bottom.set_ylabel("crack tip speed")
-    bottom.legend()
+        bottom.axhline(factor * rayleigh, color="0.5", linestyle=style, label=label)
+    top.set_ylabel(units.label("tip x", "length"))
+    middle.set_ylabel(units.label("tip y", "length"))
+    bottom.set_ylabel(units.label("tip speed", "speed"))
+    bottom.set_xlabel(units.label("time t", "time"))
+    top.legend(fontsize=8)
+    bottom.legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(png_path, dpi=120)
     plt.close(fig)
 
 
-def phase_field(snapshots, png_path: Path, polar=None) -> None:
+def crack_path(csv_path: Path, xy: np.ndarray, times: np.ndarray, png_path: Path,
+               bounds: tuple[float, float, float, float], units: UnitSystem = NO_UNITS) -> None:
+    """The crack path in x-y: the cracked points coloured by the time each
+    cracked, and the track of each crack tip of ``energies.csv``.
+
+    Parameters
+    ----------
+    csv_path : path
+        The run's ``energies.csv`` (with the crack-tip columns).
+    xy : (N, 2) ndarray
+        The points (particles or mesh vertices).
+    times : (N,) ndarray
+        When each cracked; NaN for those intact.
+    png_path : path
+    bounds : (xmin, ymin, xmax, ymax)
+        The region drawn (the crackable bodies).
+    """
+    e = read_csv(csv_path)
+    cracked = np.isfinite(times)
+    x0, y0, x1, y1 = bounds
+    width = 7.0
+    fig, ax = plt.subplots(figsize=(width, max(2.5, width * (y1 - y0) / (x1 - x0) * 0.85 + 1.0)))
+    order = np.argsort(times[cracked], kind="stable")
+    if cracked.any():
+        dots = ax.scatter(xy[cracked, 0][order], xy[cracked, 1][order], c=times[cracked][order],
+                          s=2, cmap="viridis", linewidths=0, vmin=0.0, vmax=float(e["t"][-1]))
+        fig.colorbar(dots, ax=ax, label=units.label("time cracked", "time"))
+    for track, label, style in (("left_tip", "left branch tip", "C3-"), ("right_tip", "right branch tip", "C1-"),
+                                ("crack_tip", "farthest tip", "k:")):
+        if f"{track}_x" in e:
+            ax.plot(e[f"{track}_x"], e[f"{track}_y"], style, lw=1.2, label=label)
+    ax.set_xlim(x0, x1)
+    ax.set_ylim(y0, y1)
+    ax.set_aspect("equal")
+    ax.set_xlabel(units.label("x", "length"))
+    ax.set_ylabel(units.label("y", "length"))
+    ax.set_title("crack path: cracked points by time, and the tips", fontsize=10)
+    ax.legend(fontsize=7, loc="lower left")
+    fig.tight_layout()
+    fig.savefig(png_path, dpi=150)
+    plt.close(fig)
+
+
+def phase_field(snapshots, png_path: Path, polar=None, units: UnitSystem = NO_UNITS) -> None:
     """Phase-field images of a :class:`~pfmpm.run.Snapshots`, one panel each.
 
     ``polar``: optional ``(centres, table)``, a :func:`pfmpm.anisotropy.polar_table`
@@ -60,23 +126,28 @@ def phase_field(snapshots, png_path: Path, polar=None) -> None:
     # Wide domains stack their panels, tall ones put them side by side.
     if ny <= nx:
         width = 6.0
-        fig, axes = plt.subplots(n, 1, figsize=(width, n * width * ny / nx + 0.6 * n), squeeze=False)
+        fig, axes = plt.subplots(n, 1, figsize=(width + 1.2, n * (width * ny / nx + 0.9)), squeeze=False)
     else:
         height = 6.0
-        fig, axes = plt.subplots(1, n, figsize=(n * height * nx / ny + 1.5, height + 0.6), squeeze=False)
+        fig, axes = plt.subplots(1, n, figsize=(n * (height * nx / ny + 0.9) + 1.5, height + 0.9),
+                                 squeeze=False)
     axes = axes.ravel()
     (x0, y0), size = snapshots.origin, snapshots.pixel
     extent = (x0, x0 + nx * size, y0, y0 + ny * size)
     for ax, (t, image) in zip(axes, snapshots.images):
-        im = ax.imshow(image, origin="lower", extent=extent, vmin=0, vmax=1, cmap="inferno")
-        ax.set_title(f"phase field c, t = {t:.4g}")
+        im = ax.imshow(image, origin="lower", extent=extent, vmin=0, vmax=1, cmap="inferno",
+                       interpolation="nearest")
+        ax.set_title(f"phase field c at t = {t:.4g}" + (f" {units.time}" if units.declared else ""),
+                     fontsize=10)
         ax.set_aspect("equal")
+        ax.set_xlabel(units.label("x", "length"))
+        ax.set_ylabel(units.label("y", "length"))
         if polar is not None:
             centres, table = polar
             scale = 0.1 * min(nx, ny) * size
             theta, r = np.radians(table[:, 0]), table[:, 2] / table[:, 2].max() * scale
             for cx, cy in centres:
                 ax.plot(cx + r * np.cos(theta), cy + r * np.sin(theta), color="w", lw=1.0)
-    fig.colorbar(im, ax=axes.tolist(), shrink=0.8)
+    fig.colorbar(im, ax=axes.tolist(), shrink=0.8, label=PHASE_FIELD_LABEL)
     fig.savefig(png_path, dpi=120)
     plt.close(fig)

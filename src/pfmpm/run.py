@@ -12,9 +12,10 @@ which provides:
     one, every call below is collective and rank 0 writes the files.
 ``columns``, ``energies()``
     The columns of ``energies.csv`` and a row of them now.
-``crack_tip``, ``crack_tip_record()``
+``crack_tip``, ``crack_tip_record()``, ``crack_path_points()``
     The :class:`~pfmpm.post.tip.CrackTip` of the first initial crack (or
-    ``None``) and the crack-tip columns of a row.
+    ``None``), the crack-tip columns of a row, and the points with the time
+    each cracked (for the crack-path plot; collective, on the root).
 ``open_frames(out, resume)``
     The field series written every ``output.every`` steps (an object with
     ``write()`` and ``close()``), or ``None``.
@@ -41,18 +42,26 @@ from pathlib import Path
 import numpy as np
 
 from . import _core
-from .output import CsvLog
+from .output import CsvLog, check_directory
+from .post.tip import CrackTip
 from .scene import Scene
 
-__all__ = ["ENERGY_COLUMNS", "CRACK_COLUMNS", "RunResult", "Snapshots", "run_to_end", "step_to_end"]
+__all__ = ["ENERGY_COLUMNS", "WALL_COLUMNS", "CRACK_COLUMNS", "RunResult", "Snapshots", "nearest_image",
+           "run_to_end", "step_to_end"]
 
 ENERGY_COLUMNS = ["step", "t", "kinetic", "elastic", "fracture", "external_work", "total",
                   "momentum_x", "momentum_y"]
-"""Columns of ``energies.csv``;
-``total = kinetic + elastic + fracture + friction_dissipation - external_work``, where the
-friction dissipation is zero without a ``[contact]`` table."""
-CRACK_COLUMNS = ["crack_tip_x", "crack_tip_y", "crack_tip_speed"]
-"""Extra ``energies.csv`` columns of scenes with an initial crack (see :class:`~pfmpm.post.tip.CrackTip`)."""
+"""Columns of ``energies.csv``; ``total = kinetic + elastic + fracture +
+friction_dissipation + damage_dissipation - external_work - wall_work``, the
+energy balance: it keeps its value at t = 0 where energy is conserved.  The
+friction dissipation is zero without a ``[contact]`` table, the damage
+dissipation without a damage model, the wall work without walls."""
+WALL_COLUMNS = ["wall_work"]
+"""Extra ``energies.csv`` column of scenes with walls: the work the walls did
+on the bodies since t = 0 (<= 0: the kinetic energy they stopped)."""
+CRACK_COLUMNS = CrackTip.columns()
+"""Extra ``energies.csv`` columns of scenes with an initial crack: the crack tip
+and the tip of each branch (see :class:`~pfmpm.post.tip.CrackTip`)."""
 
 
 @dataclass
@@ -101,8 +110,8 @@ def run_to_end(sim, out_dir: Path | str, progress: bool = True, checkpoint_every
     Writes ``energies.csv`` every ``output.energies_every`` steps, the field
     series (:meth:`open_frames`) every ``output.every`` steps (and at the
     start and the end), ``summary.json``, and, once the run completes,
-    ``energies.png``, ``crack_tip.png`` (with an initial crack) and
-    ``phase_field.png`` (with ``output.snapshots``).
+    ``energies.png``, ``crack_tip.png`` and ``crack_path.png`` (with an
+    initial crack) and ``phase_field.png`` (with ``output.snapshots``).
 
     Parameters
     ----------
@@ -125,6 +134,11 @@ def run_to_end(sim, out_dir: Path | str, progress: bool = True, checkpoint_every
     -------
     RunResult
 
+    Raises
+    ------
+    NotADirectoryError
+        If ``out_dir`` or a folder above it is a file.
+
     Notes
     -----
     SIGINT (Ctrl-C) and SIGTERM stop the run after the current chunk of
@@ -145,7 +159,7 @@ def run_to_end(sim, out_dir: Path | str, progress: bool = True, checkpoint_every
         raise ValueError(f"{type(sim).__name__} writes no checkpoints")
     comm = sim.comm
     root = comm is None or comm.rank == 0
-    out = Path(out_dir)
+    out = check_directory(out_dir)
     if root:
         out.mkdir(parents=True, exist_ok=True)
     if comm is not None:
@@ -212,17 +226,24 @@ def run_to_end(sim, out_dir: Path | str, progress: bool = True, checkpoint_every
         fields = sim.summary_fields(result)
         result.light_nodes = fields.get("light_nodes", 0)
         if root:
-            result.write_summary(out / "summary.json", {"scene": sim.scene.name, **fields})
-    if root and result.status == "completed":
+            result.write_summary(out / "summary.json", {"scene": sim.scene.name, "units": sim.scene.units,
+                                                        **fields})
+    units = sim.scene.unit_system()
+    if result.status == "completed":
         from . import plots
 
-        plots.energies(out / "energies.csv", out / "energies.png")
-        if sim.crack_tip is not None:
-            plots.crack_tip(out / "energies.csv", out / "crack_tip.png", sim.scene.crack_rayleigh_speed())
+        path = sim.crack_path_points() if sim.crack_tip is not None else None
+        if root:
+            plots.energies(out / "energies.csv", out / "energies.png", units)
+        if root and path is not None:
+            plots.crack_tip(out / "energies.csv", out / "crack_tip.png", sim.scene.crack_rayleigh_speed(),
+                            units)
+            plots.crack_path(out / "energies.csv", *path, out / "crack_path.png",
+                             _crackable_bounds(sim.scene), units)
     if snapshots is not None and snapshots.images:
         from . import plots
 
-        plots.phase_field(snapshots, out / "phase_field.png", _polar_overlay(sim.scene))
+        plots.phase_field(snapshots, out / "phase_field.png", _polar_overlay(sim.scene), units)
     return result
 
 
@@ -305,6 +326,12 @@ def _stop_on_signals():
             signal.signal(s, handler)
 
 
+def _crackable_bounds(scene: Scene) -> tuple[float, float, float, float]:
+    """The bounding box of the bodies that can crack."""
+    boxes = np.array([b.shape.bounds() for b in scene.bodies if scene.fracture_of(b) is not None])
+    return (*boxes[:, :2].min(axis=0), *boxes[:, 2:].max(axis=0))
+
+
 def _polar_overlay(scene: Scene):
     """``1/G_c(theta)`` of the first anisotropic body, drawn at the initial
     crack tips (or the body's centre) on the phase-field snapshots; or None."""
@@ -345,12 +372,17 @@ class _OutputState:
         return list(self._snapshots.times), list(self._snapshots.images)
 
 
+_QUERY_PIXELS = 1 << 16  # pixel centres per nearest-point query
+
+
 class Snapshots:
     """Phase-field images at the scene's ``output.snapshots`` times.
 
-    Each image is the mean phase field per pixel of the points offered,
-    taken at the first record at or after the requested time (the last
-    record for times past the end).
+    Each pixel takes the phase field of the point nearest its centre, or NaN
+    when no point lies within ``reach``: the body as the points fill it,
+    without the gaps that binning points into pixels of their own spacing
+    leaves wherever they have moved. Each image is taken at the first record
+    at or after the requested time (the last record for times past the end).
 
     Parameters
     ----------
@@ -361,13 +393,18 @@ class Snapshots:
         Lower-left corner of the image.
     shape : (int, int)
         Pixels in x and y.
+    reach : float
+        Largest distance from a pixel centre to the point it shows: the
+        points' spacing, so that no pixel inside a body is empty and none
+        farther than half a spacing outside it is filled.
     """
 
-    def __init__(self, scene: Scene, pixel: float, origin, shape: tuple[int, int]):
+    def __init__(self, scene: Scene, pixel: float, origin, shape: tuple[int, int], reach: float):
         self.times = sorted(scene.output.snapshots)
         self.pixel = pixel
         self.origin = np.asarray(origin, dtype=float)
         self.shape = shape
+        self.reach = reach
         self.images: list[tuple[float, np.ndarray]] = []
         self._end = scene.steps() * scene.dt()
 
@@ -383,13 +420,48 @@ class Snapshots:
             self.images.append((t, self.rasterize(xy, c)))
 
     def rasterize(self, xy: np.ndarray, c: np.ndarray) -> np.ndarray:
-        """Mean of ``c`` per pixel, NaN where no point lies; shape (ny, nx)."""
-        ij = np.floor((xy - self.origin) / self.pixel).astype(np.int64)
-        nx, ny = self.shape
-        ij[:, 0] = np.clip(ij[:, 0], 0, nx - 1)
-        ij[:, 1] = np.clip(ij[:, 1], 0, ny - 1)
-        key = ij[:, 1] * nx + ij[:, 0]
-        total = np.bincount(key, weights=c, minlength=nx * ny)
-        count = np.bincount(key, minlength=nx * ny)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            return (total / count).reshape(ny, nx)
+        """``c`` of the nearest point within ``reach`` of each pixel centre, NaN
+        where there is none; shape (ny, nx)."""
+        return nearest_image(xy, c, self.origin, self.pixel, self.shape, self.reach)
+
+
+def nearest_image(xy: np.ndarray, values: np.ndarray, origin, pixel: float, shape: tuple[int, int],
+                  reach: float) -> np.ndarray:
+    """An image of point values: each pixel the value of the point nearest its
+    centre, NaN where none lies within ``reach``.
+
+    Parameters
+    ----------
+    xy : (N, 2) ndarray
+        The points.
+    values : (N,) ndarray
+    origin : (float, float)
+        Lower-left corner of the image.
+    pixel : float
+        Pixel side.
+    shape : (int, int)
+        Pixels in x and y.
+    reach : float
+
+    Returns
+    -------
+    (ny, nx) ndarray
+        Row 0 at the bottom (``imshow(..., origin="lower")``).
+    """
+    from scipy.spatial import cKDTree
+
+    nx, ny = shape
+    image = np.full((ny, nx), np.nan)
+    if not len(xy):
+        return image
+    gx = origin[0] + (np.arange(nx) + 0.5) * pixel
+    gy = origin[1] + (np.arange(ny) + 0.5) * pixel
+    tree, values = cKDTree(xy), np.asarray(values)
+    rows = max(1, _QUERY_PIXELS // nx)  # rows of pixels per query, to bound its arrays
+    for r in range(0, ny, rows):
+        cy = gy[r:r + rows]
+        _, nearest = tree.query(np.column_stack((np.tile(gx, len(cy)), np.repeat(cy, nx))),
+                                distance_upper_bound=reach)
+        found = nearest < len(xy)
+        image[r:r + len(cy)].reshape(-1)[found] = values[nearest[found]]
+    return image

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -10,8 +11,8 @@ import numpy as np
 from . import _core
 from .crack import initial_history
 from .output import ParticleSeries
-from .post.tip import CrackTip
-from .run import CRACK_COLUMNS, ENERGY_COLUMNS, RunResult, Snapshots, run_to_end
+from .post.tip import CrackPath, CrackTip
+from .run import CRACK_COLUMNS, ENERGY_COLUMNS, WALL_COLUMNS, RunResult, Snapshots, run_to_end
 from .scene import Scene, SceneError, seeding
 from .scene.validation import at
 
@@ -48,6 +49,9 @@ def core_materials(scene: Scene) -> tuple[list, list]:
 
 
 _BLOCK = 1 << 16  # particles per block where the set-up works on blocks
+SNAPSHOT_PIXELS = 1 << 18
+"""The most pixels of a phase-field image (``phase_field.png``): enough for
+any figure, and a bound on what the images of a run hold."""
 
 
 class Simulation:
@@ -61,7 +65,9 @@ class Simulation:
         Particle arrays as zero-copy numpy views (``x``, ``v``, ``stress``, ...).
     solver : pfmpm._core.Solver
     crack_tip : CrackTip or None
-        Tracks the tip of the first initial crack, if any.
+        Tracks the tip of the first initial crack and of its branches, if any.
+    crack_path : CrackPath or None
+        With a crack tip: when each crackable particle cracked.
     """
 
     comm = None
@@ -106,9 +112,12 @@ class Simulation:
         for b, body in enumerate(scene.bodies):
             if scene.fracture_of(body) is not None:
                 self._crackable |= self.particles.body == b
+        self._all_crackable = bool(self._crackable.all())
         self._impose_cracks()
         self.solver.set_stability_length(scene.critical_length())
         self.crack_tip = CrackTip.for_scene(scene) if scene.cracks else None
+        self.crack_path = (CrackPath(int(self._crackable.sum()), scene.output.crack_threshold)
+                           if scene.cracks else None)
         if self.cracks or self.damage_gradient:
             # The phase field of the initial cracks; the damage-gradient fields.
             self.solver.prepare()
@@ -160,7 +169,8 @@ class Simulation:
     @property
     def columns(self) -> list[str]:
         """Columns of ``energies.csv`` for this scene."""
-        columns = ENERGY_COLUMNS + (CRACK_COLUMNS if self.crack_tip else [])
+        columns = ENERGY_COLUMNS + (WALL_COLUMNS if self.scene.walls else [])
+        columns += CRACK_COLUMNS if self.crack_tip else []
         if self.damage:
             columns += DAMAGE_COLUMNS
         if self.contact:
@@ -187,7 +197,8 @@ class Simulation:
         e["t"] = self.time
         friction = -e.pop("friction_work")
         dissipated = e.pop("dissipated")
-        e["total"] = e["kinetic"] + e["elastic"] + e["fracture"] - e["external_work"] + friction
+        e["total"] = (e["kinetic"] + e["elastic"] + e["fracture"] - e["external_work"]
+                      - e["wall_work"] + friction)
         if self.damage:
             e["damage_dissipation"] = dissipated
             e["total"] += dissipated
@@ -198,17 +209,54 @@ class Simulation:
         return e
 
     def crack_tip_record(self) -> dict[str, float]:
-        """Record the crack tip now: ``crack_tip_x``, ``crack_tip_y``, ``crack_tip_speed``."""
-        sel = self._crackable
-        x, y, speed = self.crack_tip.update(self.time, self.particles.x[sel], self.particles.c[sel])
-        return {"crack_tip_x": x, "crack_tip_y": y, "crack_tip_speed": speed}
+        """Record the crack tips now (the :data:`~pfmpm.run.CRACK_COLUMNS`) and
+        which particles have cracked."""
+        c = self._of_crackable(self.particles.c)
+        self.crack_path.update(self.time, c)
+        return self.crack_tip.update(self.time, self._of_crackable(self.particles.x), c)
+
+    def _of_crackable(self, column: np.ndarray) -> np.ndarray:
+        """A particle column's rows of the crackable particles: the column itself
+        (a view, no copy) when every particle is crackable."""
+        return column if self._all_crackable else column[self._crackable]
+
+    def restore_crack_path(self, times) -> None:
+        """Continue the crack path of a checkpoint: its crack times, or, from a
+        file that has none, the checkpoint's time for the particles cracked by then."""
+        if times is not None:
+            self.crack_path.times[...] = times
+        else:
+            self.crack_path.update(self.time, self._of_crackable(self.particles.c))
+
+    def crack_path_points(self) -> tuple[np.ndarray, np.ndarray]:
+        """The crackable particles now and the time each cracked (NaN: intact)."""
+        return self._of_crackable(self.particles.x), self.crack_path.times
 
     def point_data(self) -> Iterator[tuple[str, np.ndarray, str]]:
-        """The particle columns that declare an output name: (output name, the
-        column's view, its layout), as :func:`pfmpm.output.write_vtu` takes them."""
+        """The particle output as :func:`pfmpm.output.write_vtu` takes it, (name,
+        array, layout), made one array at a time: every column that declares an
+        output name, under that name, as a view (:func:`pfmpm.output.vtk_values`
+        says how tensors are written: ``velocity``, ``volume``, ``stress``,
+        ``strain``, ``body``, ``material``, with a phase field ``c`` and
+        ``history``), then ``displacement`` (:meth:`displacement`), ``damage``
+        (``1 - c``, with a phase field) and ``id`` (the particle's index, which
+        the core keeps: it sorts an index, not the particles)."""
         for c in self.particles.columns():
             if c["output"]:
                 yield c["output"], getattr(self.particles, c["name"]), c["layout"]
+        yield "displacement", self.displacement(), ""
+        if self.cracks:
+            yield "damage", 1.0 - self.particles.c, ""
+        yield "id", np.arange(len(self.particles), dtype=np.int64), ""
+
+    def displacement(self) -> np.ndarray:
+        """Each particle's displacement from its seeded position. The seeding is
+        deterministic, so it is seeded again rather than kept (a resumed run
+        gets the same start)."""
+        u = np.empty_like(self.particles.x)
+        seeding.write_positions(self.scene, u)
+        np.subtract(self.particles.x, u, out=u)
+        return u
 
     def modules(self) -> list[str]:
         """The parts of the method this scene switches on."""
@@ -259,18 +307,22 @@ class Simulation:
 
     def new_snapshots(self) -> Snapshots | None:
         """Phase-field images of the crackable particles at ``output.snapshots``,
-        a pixel per particle spacing; ``None`` if nothing can crack or no time is given."""
+        a pixel per (finest) particle spacing, or larger pixels where that
+        would make more than :data:`SNAPSHOT_PIXELS`, each showing the nearest
+        particle within the coarsest spacing; ``None`` if no time is given."""
         if not (self.cracks and self.scene.output.snapshots):
             return None
         g = self.scene.grid
-        pixel = g.h / max(b.particles_per_cell for b in self.scene.bodies)
-        return Snapshots(self.scene, pixel, g.origin, tuple(int(round(s / pixel)) for s in g.size))
+        spacings = [b.spacing(g.h) for b in self.scene.bodies if self.scene.fracture_of(b)]
+        pixel = max(min(spacings), math.sqrt(g.size[0] * g.size[1] / SNAPSHOT_PIXELS))
+        return Snapshots(self.scene, pixel, g.origin, tuple(int(round(s / pixel)) for s in g.size),
+                         reach=max(spacings))
 
     def offer_snapshot(self, snapshots: Snapshots | None) -> None:
         """Hand the crackable particles' phase field now to ``snapshots``."""
         if snapshots is not None:
-            snapshots.take(self.time, self.dt, self.particles.x[self._crackable],
-                           self.particles.c[self._crackable])
+            snapshots.take(self.time, self.dt, self._of_crackable(self.particles.x),
+                           self._of_crackable(self.particles.c))
 
     def summary_fields(self, result: RunResult) -> dict:
         """The MPM entries of ``summary.json``: sizes, speed, the parts of the method

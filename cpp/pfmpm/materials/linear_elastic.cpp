@@ -80,7 +80,7 @@ double LinearElastic::wave_speed() const { return std::sqrt((_lambda + 2.0 * _mu
 
 std::vector<ColumnSpec> LinearElastic::columns() const
 {
-  return {{"strain", 3, DType::f64, {0.0}, "small strain (K&T eq. 78)", "xx,yy,xy", ""}};
+  return {{"strain", 3, DType::f64, {0.0}, "small strain (K&T eq. 78)", "xx,yy,xy", "strain"}};
 }
 
 PFMPM_REGISTER_MATERIAL(LinearElastic, "linear_elastic")

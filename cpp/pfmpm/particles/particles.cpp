@@ -17,7 +17,7 @@ const std::array<ColumnSpec, 8>& core_specs()
       {"x", 2, DType::f64, {0.0}, "position", "x,y", ""},
       {"v", 2, DType::f64, {0.0}, "velocity (K&T eq. 80)", "x,y", "velocity"},
       {"mass", 1, DType::f64, {0.0}, "mass M_p", "", ""},
-      {"volume", 1, DType::f64, {0.0}, "current volume V_p", "", ""},
+      {"volume", 1, DType::f64, {0.0}, "current volume V_p", "", "volume"},
       {"stress", 4, DType::f64, {0.0}, "Cauchy stress", "xx,yy,xy,zz", "stress"},
       {"fext", 2, DType::f64, {0.0}, "external force (K&T eq. 42)", "x,y", ""},
       {"body", 1, DType::i32, {0.0}, "body index", "", "body"},

@@ -31,7 +31,11 @@ void finish_slot(const NodeSums& s, const double* vo, double* vn, std::uint8_t w
   if (walls)
     for (int d = 0; d < 2; ++d)
       if (walls & (1 << d))
+      {
+        // The wall's work: the kinetic energy it stops along d.
+        acc[sum_wall_work] -= 0.5 * s.m * vo[d] * vo[d];
         vn[d] = vw[d] = 0.0;
+      }
   k = NodeKinematics{vn[0], vn[1], (vn[0] - vo[0]) / dt, (vn[1] - vo[1]) / dt};
   acc[sum_external_work] += 0.5 * dt * (s.ex * (vw[0] + vn[0]) + s.ey * (vw[1] + vn[1]));
   if (friction)

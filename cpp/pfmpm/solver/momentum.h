@@ -304,6 +304,7 @@ enum GridUpdateSum : int
 {
   sum_external_work = 0, ///< work of the external forces over the step
   sum_friction_work,     ///< work of the friction forces over the step
+  sum_wall_work,         ///< work of the wall constraints over the step (<= 0)
   sum_light,             ///< slots with mass too small to divide by
   sum_contact,           ///< first of the contact_counts counters
   grid_update_sums = sum_contact + contact_counts
@@ -321,7 +322,9 @@ void update_free_slot(const NodeSums& s, std::uint8_t walls, double dt, double m
 /// walls (a wall sets the new velocity; the acceleration keeps the
 /// unconstrained old velocity so that the particle update, eq. 80, feels the
 /// reaction), its kinematics and the work of the external and friction forces
-/// over the step (trapezoidal velocity).
+/// over the step (trapezoidal velocity). The work of a wall is the kinetic
+/// energy it takes from the slot, -m vo_d^2 / 2 per constrained direction d:
+/// the forces do no work along d, where the slot does not move.
 void finish_slot(const NodeSums& s, const double* vo, double* vn, std::uint8_t walls,
                  const double* friction, double dt, NodeKinematics& k, double* acc);
 

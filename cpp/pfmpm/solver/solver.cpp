@@ -141,6 +141,7 @@ SolverState Solver::state() const
   s.scalars["time"] = _time;
   s.scalars["step"] = static_cast<double>(_step);
   s.scalars["external_work"] = _external_work;
+  s.scalars["wall_work"] = _wall_work;
   s.scalars["light_nodes"] = static_cast<double>(_light_nodes);
   for (std::size_t k = 0; k < _phase.size(); ++k)
   {
@@ -240,6 +241,7 @@ void Solver::restore(const SolverState& state)
   _time = time;
   _step = static_cast<std::int64_t>(step);
   _external_work = state.scalars.at("external_work");
+  _wall_work = state.scalars.at("wall_work");
   _light_nodes = static_cast<std::int64_t>(state.scalars.at("light_nodes"));
 }
 
@@ -358,6 +360,7 @@ void Solver::step(Fields& fields)
   particle_to_grid<P>(fields);
   const auto sums = update_grid(_grid, fields, _sums, _surface, _kinematics, _dt, _mass_tol);
   _external_work += sums[sum_external_work];
+  _wall_work += sums[sum_wall_work];
   _light_nodes += static_cast<std::int64_t>(sums[sum_light]);
   if constexpr (Fields::discrete)
   {
@@ -548,6 +551,7 @@ Energies Solver::energies() const
   e.fracture = sums[5];
   e.dissipated = sums[6];
   e.external_work = _external_work;
+  e.wall_work = _wall_work;
   e.momentum = {sums[2], sums[3]};
   e.mass = sums[4];
   if (const ContactStats* stats = contact_stats())

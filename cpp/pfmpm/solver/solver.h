@@ -31,6 +31,7 @@ struct Energies
   double fracture = 0.0;       ///< sum of G_c V_p Z(c_p) (eqs. 3-4)
   double external_work = 0.0;  ///< work of the external forces since t = 0
   double friction_work = 0.0;  ///< work of the friction (tangential contact) forces since t = 0 (<= 0)
+  double wall_work = 0.0;      ///< work of the wall constraints since t = 0 (<= 0, see finish_slot)
   double dissipated = 0.0;     ///< work dissipated by damage since t = 0 (the column `dissipated`)
   std::array<double, 2> momentum{}; ///< sum of M_p v_p
   double mass = 0.0;           ///< sum of M_p
@@ -41,7 +42,7 @@ struct Energies
 /// one step to the next, by name: with the columns it is the complete state
 /// of a run.
 ///
-/// Scalars: `time`, `step`, `external_work`, `light_nodes`; per phase field k
+/// Scalars: `time`, `step`, `external_work`, `wall_work`, `light_nodes`; per phase field k
 /// (the single field's is 0; with discrete fields, one per crackable body in
 /// body order) `phase_field/k/solves`, `.../iterations`,
 /// `.../last_iterations`, `.../start_residual`, `.../last_residual`,
@@ -229,6 +230,7 @@ private:
   double _time = 0.0;
   std::int64_t _step = 0;
   double _external_work = 0.0;
+  double _wall_work = 0.0;
   double _mass_tol;
   std::int64_t _light_nodes = 0;
   double _stability_length = 0.0; // 0: no check

@@ -12,7 +12,7 @@ import numpy as np
 from ..output import read_csv
 from ..scene import Crack, Scene
 
-__all__ = ["CrackTip", "INITIATION_ADVANCE", "BRANCH_OFFSET", "BRANCH_AFTER", "initiation_time",
+__all__ = ["CrackTip", "CrackPath", "INITIATION_ADVANCE", "BRANCH_OFFSET", "BRANCH_AFTER", "initiation_time",
            "branch_time", "tip_report", "read_columns"]
 
 INITIATION_ADVANCE = 0.5
@@ -24,13 +24,26 @@ BRANCH_AFTER = 5.0
 
 
 class CrackTip:
-    """The crack tip and its smoothed speed, following Borden et al. (2012).
+    """The crack tip and the tip of each branch, with their smoothed speeds,
+    following Borden et al. (2012).
 
-    The tip is the cracked point (phase field below ``threshold``) farthest
-    from the initial notch tip ``origin``, among points ahead of it (positive
-    projection on ``direction``); with none, the tip is ``origin``. The speed
-    is the least-squares slope of the tip's distance from ``origin`` over the
-    last ``samples`` records, so it lags the tip by about half that window.
+    Three tips are tracked, each the cracked point (phase field below
+    ``threshold``) farthest from the initial notch tip ``origin`` among the
+    points ahead of it (positive projection on ``direction``) in its own set:
+
+    ``crack_tip``
+        all those points.  Once the crack branches this tip is on whichever
+        branch is longer, so it jumps between branches as they race.
+    ``left_tip``, ``right_tip``
+        the points on the left (right) of the notch line, looking along
+        ``direction``, or within :data:`BRANCH_OFFSET` of it.  Before the
+        crack branches both are the tip of the one crack on the line; after
+        it, each follows its own branch.  (A second branching on one side is
+        followed by that side's farther arm.)
+
+    With no point in a set its tip is ``origin``. Each speed is the
+    least-squares slope of the tip's distance from ``origin`` over the last
+    ``samples`` records, so it lags the tip by about half that window.
 
     Parameters
     ----------
@@ -45,14 +58,18 @@ class CrackTip:
         Records in the speed fit, at least 2.
     """
 
+    TRACKS = ("crack_tip", "left_tip", "right_tip")
+    """The tips tracked, the prefixes of their ``energies.csv`` columns."""
+
     def __init__(self, origin, direction, threshold: float, samples: int):
         self.origin = np.asarray(origin, dtype=float)
         norm = math.hypot(*direction)
         if not norm > 0:
             raise ValueError(f"direction = {tuple(direction)}: must be nonzero")
         self.direction = np.asarray(direction, dtype=float) / norm
+        self.normal = np.array([-self.direction[1], self.direction[0]])  # to the left
         self.threshold = threshold
-        self._history: deque[tuple[float, float]] = deque(maxlen=samples)
+        self._history: deque[tuple[float, ...]] = deque(maxlen=samples)
 
     @classmethod
     def for_scene(cls, scene: Scene) -> "CrackTip":
@@ -61,35 +78,111 @@ class CrackTip:
         origin, direction = scene.cracks[0].tip()
         return cls(origin, direction, scene.output.crack_threshold, scene.output.crack_speed_samples)
 
+    @staticmethod
+    def columns() -> list[str]:
+        """The ``energies.csv`` columns of :meth:`record`: ``<track>_x``, ``_y``, ``_speed``."""
+        return [f"{track}_{q}" for track in CrackTip.TRACKS for q in ("x", "y", "speed")]
+
     def locate(self, xy: np.ndarray, c: np.ndarray) -> tuple[float, float, float]:
         """Tip ``(x, y)`` and its distance from the origin for points ``xy`` with phase field ``c``."""
+        found = self.farthest(xy, c)["crack_tip"]
+        if found is None:
+            return float(self.origin[0]), float(self.origin[1]), 0.0
+        dist, x, y = found
+        return x, y, dist
+
+    def farthest(self, xy: np.ndarray, c: np.ndarray) -> dict[str, tuple[float, float, float] | None]:
+        """Per track, ``(distance, x, y)`` of its farthest point among ``xy`` with
+        phase field ``c`` (of equals, the least ``(y, x)``), or ``None`` if it has none."""
         rel = xy - self.origin
         ahead = (c < self.threshold) & (rel @ self.direction > 0)
-        if not ahead.any():
-            return float(self.origin[0]), float(self.origin[1]), 0.0
-        dist = np.hypot(rel[ahead, 0], rel[ahead, 1])
-        k = int(np.argmax(dist))
-        tip = xy[ahead][k]
-        return float(tip[0]), float(tip[1]), float(dist[k])
+        across = rel @ self.normal
+        sets = {"crack_tip": ahead, "left_tip": ahead & (across >= -BRANCH_OFFSET),
+                "right_tip": ahead & (across <= BRANCH_OFFSET)}
+        found = {}
+        for track, sel in sets.items():
+            if not sel.any():
+                found[track] = None
+                continue
+            dist = np.hypot(rel[sel, 0], rel[sel, 1])
+            far = xy[sel][dist == dist.max()]
+            x, y = far[np.lexsort((far[:, 0], far[:, 1]))[0]]
+            found[track] = (float(dist.max()), float(x), float(y))
+        return found
 
-    def records(self) -> list[tuple[float, float]]:
-        """The (time, distance) records in the speed fit, oldest first."""
+    @staticmethod
+    def merge(parts: list[dict]) -> dict[str, tuple[float, float, float] | None]:
+        """The tips of all points from the :meth:`farthest` of parts of them (of
+        the ranks of a distributed mesh): the same whatever the partition."""
+        merged = {}
+        for track in CrackTip.TRACKS:
+            found = [p[track] for p in parts if p[track] is not None]
+            if not found:
+                merged[track] = None
+                continue
+            far = max(d for d, _, _ in found)
+            merged[track] = min(((d, x, y) for d, x, y in found if d == far), key=lambda t: (t[2], t[1]))
+        return merged
+
+    def records(self) -> list[tuple[float, ...]]:
+        """The records in the speed fits, oldest first: (time, distance of each track)."""
         return list(self._history)
 
     def set_records(self, records) -> None:
-        """Replace the records in the speed fit (from :meth:`records`, e.g. in a checkpoint)."""
+        """Replace the records in the speed fits (from :meth:`records`, e.g. in a
+        checkpoint).  Rows of (time, distance) from before the branch tips were
+        tracked give each branch the distance of the one tip."""
         self._history.clear()
-        self._history.extend((float(t), float(d)) for t, d in records)
+        for row in records:
+            t, *dist = (float(v) for v in row)
+            self._history.append((t, *(dist * len(self.TRACKS) if len(dist) == 1 else dist)))
 
-    def update(self, t: float, xy: np.ndarray, c: np.ndarray) -> tuple[float, float, float]:
-        """Record time ``t``; return the tip ``(x, y)`` and its smoothed speed."""
-        x, y, dist = self.locate(xy, c)
-        self._history.append((t, dist))
-        ts, ds = np.array(self._history).T
-        if len(ts) < 2 or np.ptp(ts) == 0:
-            return x, y, 0.0
-        tc = ts - ts.mean()
-        return x, y, float(tc @ (ds - ds.mean()) / (tc @ tc))
+    def update(self, t: float, xy: np.ndarray, c: np.ndarray) -> dict[str, float]:
+        """Record time ``t`` with points ``xy`` of phase field ``c``: :meth:`record`
+        of :meth:`farthest`."""
+        return self.record(t, self.farthest(xy, c))
+
+    def record(self, t: float, found: dict) -> dict[str, float]:
+        """Record time ``t`` with the tips ``found`` (as :meth:`farthest` gives
+        them); return the :meth:`columns` of each tip: position and smoothed speed."""
+        row, out = [t], {}
+        for track in self.TRACKS:
+            dist, x, y = found[track] or (0.0, float(self.origin[0]), float(self.origin[1]))
+            row.append(dist)
+            out[f"{track}_x"], out[f"{track}_y"] = x, y
+        self._history.append(tuple(row))
+        history = np.array(self._history)
+        ts = history[:, 0]
+        for k, track in enumerate(self.TRACKS):
+            if len(ts) < 2 or np.ptp(ts) == 0:
+                out[f"{track}_speed"] = 0.0
+                continue
+            ds = history[:, k + 1]
+            tc = ts - ts.mean()
+            out[f"{track}_speed"] = float(tc @ (ds - ds.mean()) / (tc @ tc))
+        return out
+
+
+class CrackPath:
+    """When each point cracked: the time of the first record at which its phase
+    field was below ``threshold`` (NaN while intact), for the crack-path plot.
+
+    Parameters
+    ----------
+    n : int
+        Number of points.
+    threshold : float
+        The scene's ``output.crack_threshold``.
+    """
+
+    def __init__(self, n: int, threshold: float):
+        self.times = np.full(n, np.nan)
+        self.threshold = threshold
+
+    def update(self, t: float, c: np.ndarray) -> None:
+        """Note time ``t`` for the points that crack now, given the phase field ``c`` of all."""
+        new = np.isnan(self.times) & (c < self.threshold)
+        self.times[new] = t
 
 
 def read_columns(csv_or_columns) -> Mapping[str, np.ndarray]:

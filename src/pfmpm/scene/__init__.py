@@ -10,7 +10,8 @@ whose one-line message names the offending key path, e.g.::
     materials[0].E = -5.0: must be > 0
     grid.hx: unknown key (allowed: size, h, origin, degree)
 
-Units are any consistent set (typically mm, µs, µg, N, MPa).
+Units are any consistent set (typically mm, µs, µg, N, MPa); the scene's
+``units`` key declares which (:mod:`~pfmpm.scene.units`).
 
 The modules, one concern each:
 
@@ -20,8 +21,9 @@ The modules, one concern each:
     The settings tables: :class:`GridSpec`, :class:`Time`, :class:`Output`,
     :class:`PhaseFieldSpec`.
 ``shapes``, ``bodies``
-    :class:`Rectangle`, :class:`Disk`, :class:`Ring`, :class:`Polygon`;
-    :class:`Body`.
+    :class:`Rectangle`, :class:`Disk`, :class:`Ring`, :class:`Polygon`,
+    :class:`MeshShape` (the cells of a mesh file), :class:`ImageShape` (the
+    pixels of one colour of a PNG mask); :class:`Body`.
 ``loads``
     :class:`Traction`, :class:`BodyForce`, :class:`WallSpec`, :class:`Crack`.
 ``contact``
@@ -56,7 +58,7 @@ from .materials import (DEFAULT_MODEL, MATERIALS, PLANES, SPLITS, SYMMETRIES, An
                         FractureSpec, LinearElasticSpec, MaterialSpec, NeoHookeanSpec,
                         material_class, rayleigh_speed, register_material, wave_speed)
 from .scene import Scene
-from .shapes import SHAPES, Disk, Polygon, Rectangle, Ring, Shape
+from .shapes import SHAPES, Disk, ImageShape, MeshShape, Polygon, Rectangle, Ring, Shape, image_colors
 from .stability import CRITICAL_FACTOR
 from .toml import apply_overrides
 from .validation import SceneError
@@ -94,6 +96,9 @@ __all__ = [
     "Disk",
     "Ring",
     "Polygon",
+    "MeshShape",
+    "ImageShape",
+    "image_colors",
     "SHAPES",
     "Body",
     "Traction",

@@ -88,17 +88,23 @@ class Time:
         stability limit (checked by :class:`~pfmpm.scene.Scene`).
     cfl : float
         Courant factor ``alpha_c`` in ``(0, 1]``.
+    max_steps : int
+        The most steps a run may take; a scene needing more is refused
+        (:class:`~pfmpm.scene.Scene`), since that usually means moduli or a
+        density in the wrong units.
     """
 
     end: float
     dt: float | None = None
     cfl: float = 0.8
+    max_steps: int = 1_000_000
 
     def __post_init__(self):
         store(self, "end", real("end", self.end, gt=0))
         if self.dt is not None:
             store(self, "dt", real("dt", self.dt, gt=0))
         store(self, "cfl", real("cfl", self.cfl, gt=0, le=1))
+        store(self, "max_steps", integer("max_steps", self.max_steps, ge=1))
 
 
 @dataclass(frozen=True)

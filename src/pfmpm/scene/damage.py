@@ -90,9 +90,20 @@ class WeibullSpec:
 
         R = u + 2^-54 with u from ``default_rng(seed).random``, so that R lies
         in the open interval (0, 1).
+
+        Raises
+        ------
+        SceneError
+            Naming ``m``, if a draw leaves the floating-point range (0, inf),
+            as a tiny modulus makes it do: 1/m is the power of the draw.
         """
         R = np.random.default_rng(self.seed).random(len(volume)) + 2.0**-54
-        return sigma_ref * ((self.V_ref / volume) * (np.log(R) / math.log(0.5))) ** (1.0 / self.m)
+        with np.errstate(over="ignore", under="ignore"):
+            strength = sigma_ref * ((self.V_ref / volume) * (np.log(R) / math.log(0.5))) ** (1.0 / self.m)
+        if not np.all((strength > 0) & np.isfinite(strength)):
+            raise SceneError("weibull.m", f"draws strengths from {strength.min():g} to {strength.max():g}"
+                             " for these particle volumes, beyond the floating-point range", self.m)
+        return strength
 
     def cdf(self, s, sigma_ref: float, volume: float):
         """P(sigma_f < s) for a particle of ``volume``."""

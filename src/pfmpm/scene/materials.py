@@ -423,13 +423,14 @@ class NeoHookeanSpec(MaterialSpec):
         ------
         SceneError
             Naming ``damage.l_ch`` if the strongest particle's strength puts
-            l_ch beyond its limit.
+            l_ch beyond its limit, or ``damage.weibull.m`` if the draws leave
+            the floating-point range.
         """
         if self.damage is None:
             return {}
-        strength = self.damage.strengths(volume)
-        if self.damage.weibull is not None and len(strength):
-            with at("damage"):
+        with at("damage"):
+            strength = self.damage.strengths(volume)
+            if self.damage.weibull is not None and len(strength):
                 self.damage.check(self.E, scene.grid.h, strongest=float(strength.max()))
         return {"sigma_f": strength}
 

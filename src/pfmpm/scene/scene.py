@@ -18,6 +18,7 @@ from .contact import Contact
 from .loads import BodyForce, Crack, Traction, WallSpec
 from .materials import PLANES, FractureSpec, MaterialSpec
 from .toml import build_scene, plain, read_toml
+from .units import SOLID_WAVE_SPEEDS, UNIT_SYSTEMS, UnitSystem, unit_system
 from .validation import (MAX_COUNT, SceneError, at, choice, fmt, real, reference, seq, store,
                          text)
 
@@ -57,6 +58,12 @@ class Scene:
     contact : Contact or None
         Frictional contact between the bodies, each its own discrete field;
         ``None``: the bodies form one continuum.
+    units : str
+        The scene's unit system, a key of
+        :data:`~pfmpm.scene.units.UNIT_SYSTEMS` (e.g. ``"mm-us-MPa"``), or
+        ``""``: undeclared.  Declared units label the plots, and every
+        material's P-wave speed must then be a solid's
+        (:data:`~pfmpm.scene.units.SOLID_WAVE_SPEEDS`).
 
     Raises
     ------
@@ -78,6 +85,7 @@ class Scene:
     cracks: tuple[Crack, ...] = ()
     phase_field: PhaseFieldSpec = field(default_factory=PhaseFieldSpec)
     contact: Contact | None = None
+    units: str = ""
 
     def __post_init__(self):
         self.validate()
@@ -96,6 +104,7 @@ class Scene:
         store(self, "description", text("description", self.description, empty=True))
         store(self, "plane", choice("plane", self.plane, PLANES))
         store(self, "thickness", real("thickness", self.thickness, gt=0))
+        store(self, "units", choice("units", self.units, ("", *UNIT_SYSTEMS)))
         for key, cls in (("grid", GridSpec), ("time", Time), ("output", Output),
                          ("phase_field", PhaseFieldSpec)):
             if not isinstance(getattr(self, key), cls):
@@ -228,6 +237,9 @@ class Scene:
                                  f" grid.degree must be 2 or 3, not {self.grid.degree}",
                                  anisotropy.symmetry)
         crackable = [b.name for b in self.bodies if self.fracture_of(b) is not None]
+        if self.output.snapshots and not crackable:
+            raise SceneError("output.snapshots", "draws the phase field, but no body's material"
+                                                 " has a fracture table", self.output.snapshots)
         (x0, y0), (sx, sy) = self.grid.origin, self.grid.size
         reach = max(sx, sy)
         for i, crack in enumerate(self.cracks):
@@ -315,6 +327,16 @@ class Scene:
             if not math.isfinite(body.max_speed()):
                 raise SceneError(f"bodies[{i}].velocity_gradient", "gives a speed that is not finite"
                                  " over the body", body.velocity_gradient)
+        units = self.unit_system()
+        if units.declared:
+            lo, hi = SOLID_WAVE_SPEEDS
+            for i, material in enumerate(self.materials):
+                c = material.wave_speed(self.plane)
+                if not lo <= c * units.speed_si <= hi:
+                    raise SceneError(f"materials[{i}]", f"P-wave speed {c:.3g} {units.speed}"
+                                     f" = {c * units.speed_si:.3g} m/s is no solid's ({lo:g} to"
+                                     f" {hi:g} m/s): check its moduli ({units.stress}) and density"
+                                     f" ({units.density}) against units = {self.units!r}")
         limit = self.stable_dt()
         if not 0 < limit < math.inf:
             raise SceneError("time", f"the stability limit {limit:g} is not a positive finite step")
@@ -323,6 +345,14 @@ class Scene:
             raise SceneError("time.dt", f"exceeds the stability limit {limit:.4g}"
                                         " (cfl * kappa * h / (max wave speed + max body speed))", dt)
         steps = self.time.end / self.dt()
+        if steps > self.time.max_steps:
+            c = max(m.wave_speed(self.plane) for m in self.materials)
+            crossings = self.time.end * c / max(self.grid.size)
+            raise SceneError("time.end", f"needs {steps:.3g} steps of dt = {self.dt():.4g}, more than"
+                                         f" time.max_steps = {self.time.max_steps}: the P-wave speed"
+                                         f" {c:.3g} crosses the grid {crossings:.3g} times; check the"
+                                         " units of E and density, or raise time.max_steps",
+                             self.time.end)
         if not steps <= _MAX_STEPS:
             raise SceneError("time.end", f"needs {steps:.3g} steps of dt = {self.dt():.4g}"
                                          f" (limit {_MAX_STEPS})", self.time.end)
@@ -345,6 +375,10 @@ class Scene:
         """Rayleigh speed of the first crackable body's material."""
         body = next(b for b in self.bodies if self.fracture_of(b) is not None)
         return self.material_of(body).rayleigh_speed()
+
+    def unit_system(self) -> UnitSystem:
+        """The declared :class:`~pfmpm.scene.units.UnitSystem` (labels "scene units" if none)."""
+        return unit_system(self.units)
 
     def stable_dt(self) -> float:
         """The stability limit, see :func:`pfmpm.scene.stability.stable_dt`."""

@@ -1,16 +1,19 @@
 """The 2D shapes bodies and their holes are made of (TOML ``type`` of a
-``shape`` or ``holes`` table)."""
+``shape`` or ``holes`` table): rectangles, disks, rings, polygons, the cells
+of a mesh file and the pixels of one colour of an image."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 from typing import ClassVar
 
 import numpy as np
 
-from .validation import SceneError, fmt, real, seq, store, vec2
+from .validation import SceneError, fmt, integer, real, seq, store, text, vec2
 
-__all__ = ["Shape", "Rectangle", "Disk", "Ring", "Polygon", "SHAPES"]
+__all__ = ["Shape", "Rectangle", "Disk", "Ring", "Polygon", "MeshShape", "ImageShape", "SHAPES",
+           "image_colors"]
 
 
 class Shape:
@@ -171,5 +174,194 @@ class Polygon(Shape):
         return (*map(float, v.min(axis=0)), *map(float, v.max(axis=0)))
 
 
-SHAPES: dict[str, type[Shape]] = {cls.kind: cls for cls in (Rectangle, Disk, Ring, Polygon)}
+#: meshio cell types read as triangles, each by its corner vertices (and quads cut in two).
+_MESH_CELLS = {"triangle": 3, "triangle6": 3, "triangle7": 3, "quad": 4, "quad8": 4, "quad9": 4}
+
+
+@dataclass(frozen=True)
+class MeshShape(Shape):
+    """The region covered by the 2D cells of a mesh file that meshio reads
+    (gmsh ``.msh``, VTK ``.vtk``/``.vtu``, ...): its triangles and
+    quadrilaterals (higher-order ones by their corners); line and vertex cells
+    are ignored.  A body of this shape is filled with the scene's particle
+    lattice like any other, so its particles' volume is the area of the
+    lattice cells inside the mesh.
+
+    Parameters
+    ----------
+    file : str
+        The mesh file.  In a scene file a relative path is taken from the
+        scene file's folder; elsewhere from the current directory.
+    scale : float
+        Factor applied to the mesh coordinates (e.g. 1000 for a mesh in m in
+        an mm scene), > 0.
+    offset : (float, float)
+        Added to the coordinates after scaling.
+    """
+
+    kind: ClassVar[str] = "mesh"
+    file: str
+    scale: float = 1.0
+    offset: tuple[float, float] = (0.0, 0.0)
+
+    def __post_init__(self):
+        store(self, "file", str(Path(text("file", self.file)).absolute()))
+        store(self, "scale", real("scale", self.scale, gt=0))
+        store(self, "offset", vec2("offset", self.offset))
+        import meshio
+
+        try:
+            mesh = meshio.read(self.file)
+        except (Exception, SystemExit) as err:  # meshio raises many kinds, and exits on some files
+            raise SceneError("file", f"cannot be read as a mesh ({type(err).__name__}: {err})",
+                             self.file) from None
+        triangles = []
+        for block in mesh.cells:
+            corners = _MESH_CELLS.get(block.type)
+            if corners == 3:
+                triangles.append(block.data[:, :3])
+            elif corners == 4:
+                quads = block.data[:, :4]
+                triangles += [quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]]
+        if not triangles:
+            have = ", ".join(sorted({b.type for b in mesh.cells})) or "none"
+            raise SceneError("file", f"has no triangle or quadrilateral cells (it has {have})", self.file)
+        points = np.asarray(mesh.points, dtype=float)
+        if points.shape[1] > 2 and np.ptp(points[:, 2]) > 1e-9 * max(np.ptp(points[:, :2]), 1e-300):
+            raise SceneError("file", "is not flat: its points have different z", self.file)
+        tri = np.concatenate(triangles).astype(np.int64)
+        used, tri = np.unique(tri, return_inverse=True)
+        xy = points[used, :2] * self.scale + np.asarray(self.offset)
+        tri = tri.reshape(-1, 3)
+        a, b, c = xy[tri[:, 0]], xy[tri[:, 1]], xy[tri[:, 2]]
+        area = 0.5 * ((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (c[:, 0] - a[:, 0]) * (b[:, 1] - a[:, 1]))
+        if not np.all(np.abs(area) > 0):
+            raise SceneError("file", f"has {int(np.sum(area == 0))} cells of zero area", self.file)
+        object.__setattr__(self, "_xy", xy)
+        object.__setattr__(self, "_triangles", tri)
+        object.__setattr__(self, "_area", float(np.abs(area).sum()))
+
+    @property
+    def area(self) -> float:
+        """The area of the mesh's cells (after ``scale``)."""
+        return self._area
+
+    def contains(self, x, y):
+        x, y = np.broadcast_arrays(np.asarray(x, dtype=float), np.asarray(y, dtype=float))
+        if not hasattr(self, "_finder"):
+            from matplotlib.tri import Triangulation
+
+            finder = Triangulation(self._xy[:, 0], self._xy[:, 1], self._triangles).get_trifinder()
+            object.__setattr__(self, "_finder", finder)
+        return self._finder(x, y) >= 0
+
+    def bounds(self):
+        return (*map(float, self._xy.min(axis=0)), *map(float, self._xy.max(axis=0)))
+
+
+def _read_image(path: str) -> np.ndarray:
+    """The RGBA pixels (rows top down) of a PNG file as uint8, (rows, columns, 4)."""
+    import matplotlib.image as mpimg
+
+    image = mpimg.imread(path)
+    if image.dtype != np.uint8:
+        image = np.round(np.asarray(image, dtype=float) * 255).astype(np.uint8)
+    if image.ndim == 2:
+        image = np.repeat(image[:, :, None], 3, axis=2)
+    if image.shape[2] == 3:
+        image = np.concatenate([image, np.full(image.shape[:2] + (1,), 255, np.uint8)], axis=2)
+    return image
+
+
+def _color(value) -> tuple[int, int, int]:
+    """An RGB colour from ``"#rrggbb"`` or ``[r, g, b]`` (0-255)."""
+    if isinstance(value, str):
+        hexa = value.removeprefix("#")
+        if len(hexa) != 6 or any(ch not in "0123456789abcdefABCDEF" for ch in hexa):
+            raise SceneError("color", "must be \"#rrggbb\" or [r, g, b] with 0-255", value)
+        return tuple(int(hexa[k: k + 2], 16) for k in (0, 2, 4))
+    items = seq("color", value, "3 integers 0-255")
+    if len(items) != 3:
+        raise SceneError("color", "must be \"#rrggbb\" or [r, g, b] with 0-255", value)
+    rgb = tuple(integer(f"color[{k}]", v, ge=0) for k, v in enumerate(items))
+    if max(rgb) > 255:
+        raise SceneError("color", "must be \"#rrggbb\" or [r, g, b] with 0-255", value)
+    return rgb
+
+
+def image_colors(file: str) -> dict[str, int]:
+    """The colours of a PNG mask, ``"#rrggbb"`` to their pixel counts, most
+    pixels first; transparent pixels left out.  Each colour can be the
+    ``color`` of an :class:`ImageShape`, one body per colour."""
+    image = _read_image(file)
+    opaque = image[..., 3] > 0
+    colours, counts = np.unique(image[opaque][:, :3], axis=0, return_counts=True)
+    order = np.argsort(-counts, kind="stable")
+    return {"#" + "".join(f"{v:02x}" for v in colours[k]): int(counts[k]) for k in order}
+
+
+@dataclass(frozen=True)
+class ImageShape(Shape):
+    """The pixels of one colour of a PNG image: a mask drawn in any paint
+    program, one body per colour (:func:`image_colors` lists them).
+
+    Parameters
+    ----------
+    file : str
+        The PNG file.  In a scene file a relative path is taken from the
+        scene file's folder; elsewhere from the current directory.
+    pixel : float
+        The side of a pixel in scene units, > 0.
+    color : str or (int, int, int)
+        The body's colour, ``"#rrggbb"`` or ``[r, g, b]`` (0-255);
+        transparent pixels never count.
+    origin : (float, float)
+        Where the image's lower-left corner lies.
+    """
+
+    kind: ClassVar[str] = "image"
+    file: str
+    pixel: float
+    color: str | tuple[int, int, int]
+    origin: tuple[float, float] = (0.0, 0.0)
+
+    def __post_init__(self):
+        store(self, "file", str(Path(text("file", self.file)).absolute()))
+        store(self, "pixel", real("pixel", self.pixel, gt=0))
+        rgb = _color(self.color)
+        store(self, "color", "#" + "".join(f"{v:02x}" for v in rgb))
+        store(self, "origin", vec2("origin", self.origin))
+        try:
+            image = _read_image(self.file)
+        except (OSError, ValueError, SyntaxError) as err:
+            raise SceneError("file", f"cannot be read as a PNG image ({err})", self.file) from None
+        mask = np.all(image[..., :3] == rgb, axis=2) & (image[..., 3] > 0)
+        if not mask.any():
+            raise SceneError("color", f"no pixel of {self.file} has it", self.color)
+        object.__setattr__(self, "_mask", mask[::-1])  # rows bottom up, as y grows
+
+    @property
+    def area(self) -> float:
+        """The area of the body's pixels."""
+        return float(self._mask.sum()) * self.pixel ** 2
+
+    def contains(self, x, y):
+        x, y = np.broadcast_arrays(np.asarray(x, dtype=float), np.asarray(y, dtype=float))
+        rows, cols = self._mask.shape
+        with np.errstate(invalid="ignore", over="ignore"):
+            i = np.floor((x - self.origin[0]) / self.pixel)
+            j = np.floor((y - self.origin[1]) / self.pixel)
+        inside = (i >= 0) & (i < cols) & (j >= 0) & (j < rows)
+        out = np.zeros(x.shape, dtype=bool)
+        out[inside] = self._mask[j[inside].astype(np.int64), i[inside].astype(np.int64)]
+        return out
+
+    def bounds(self):
+        rows, cols = np.nonzero(self._mask)
+        (ox, oy), p = self.origin, self.pixel
+        return (ox + cols.min() * p, oy + rows.min() * p, ox + (cols.max() + 1) * p, oy + (rows.max() + 1) * p)
+
+
+SHAPES: dict[str, type[Shape]] = {cls.kind: cls for cls in (Rectangle, Disk, Ring, Polygon, MeshShape,
+                                                             ImageShape)}
 """Shape classes by their TOML ``type``."""

@@ -58,20 +58,41 @@ def build_scene(cls: type, d: Any, overrides: list[str] | tuple[str, ...] = ()) 
 
 
 def read_toml(path: Path | str) -> dict:
-    """The tables of a TOML scene file.
+    """The tables of a TOML scene file, the ``file`` of each mesh or image
+    shape made relative to the file's folder.
 
     Raises
     ------
     SceneError
-        On a TOML syntax error (path = the file).
+        On a TOML syntax error, text that is not UTF-8, or a directory
+        (path = the file).
     OSError
         If the file cannot be read.
     """
+    if Path(path).is_dir():
+        raise SceneError(str(path), "is a directory, not a scene file")
     with open(path, "rb") as f:
         try:
-            return tomllib.load(f)
+            tables = tomllib.load(f)
         except tomllib.TOMLDecodeError as err:
             raise SceneError(str(path), f"invalid TOML: {err}") from None
+        except UnicodeDecodeError as err:
+            raise SceneError(str(path), f"not UTF-8 text, as TOML must be (byte {err.start})") from None
+    _files_from(tables, Path(path).parent)
+    return tables
+
+
+def _files_from(tables: dict, folder: Path) -> None:
+    """Make the relative ``file`` of every body's shape and holes (mesh and
+    image shapes) relative to ``folder``, the scene file's."""
+    bodies = tables.get("bodies")
+    for body in bodies if isinstance(bodies, list) else ():
+        if not isinstance(body, dict):
+            continue
+        holes = body.get("holes")
+        for shape in [body.get("shape"), *(holes if isinstance(holes, list) else ())]:
+            if isinstance(shape, dict) and isinstance(shape.get("file"), str) and shape["file"]:
+                shape["file"] = str(folder / shape["file"])
 
 
 def plain(value: Any) -> Any:

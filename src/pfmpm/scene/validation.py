@@ -86,14 +86,18 @@ def key_text(key: Any) -> str:
 
 
 def fmt(value: Any, limit: int = 80) -> str:
-    """Format a value TOML-like on one line, shortened to ``limit`` characters."""
+    """Format a value TOML-like on one line, shortened to ``limit`` characters
+    by leaving out its middle, so that a long file path keeps its file name."""
     if isinstance(value, bool):
         out = "true" if value else "false"
     elif isinstance(value, (list, tuple)):
         out = "[" + ", ".join(fmt(v, limit) for v in value) + "]"
     else:
         out = repr(value)
-    return out if len(out) <= limit else out[: limit - 3] + "..."
+    if len(out) <= limit:
+        return out
+    head = (limit - 3) // 2
+    return out[:head] + "..." + out[len(out) - (limit - 3 - head):]
 
 
 def real(path: str, value: Any, *, gt=None, ge=None, lt=None, le=None) -> float:
