@@ -25,7 +25,7 @@ MODELS = ("linear_elastic", "neo_hookean")
 
 
 def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str = "elastic",
-                model: str = "linear_elastic") -> Scene:
+                model: str = "linear_elastic", shape: str = "bspline") -> Scene:
     """A square block of about ``particles`` points, 3x3 per cell, with a margin of empty cells.
 
     ``physics="phasefield"`` makes the block crackable (l0 = 2 h, spectral
@@ -39,7 +39,8 @@ def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str
     (mu = 0.3): the same particles as ``"elastic"``, with a line of contact
     nodes through the middle. ``model="neo_hookean"`` makes the material
     neo-Hookean (eq. 8 in one step, no damage) with the same E, nu and
-    density; it has no phase field.
+    density; it has no phase field. ``shape="cpdi"`` (with ``degree=1``) maps
+    with CPDI1 over the particle domains instead of B-splines at the centres.
     """
     if model not in MODELS:
         raise ValueError(f"model = {model!r}: must be one of {', '.join(MODELS)}")
@@ -62,7 +63,7 @@ def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str
         shapes = {"block": Rectangle(min=(lo, lo), max=(hi, hi))}
     return Scene(
         name="bench-block",
-        grid=GridSpec(size=(float(side), float(side)), h=1.0, degree=degree),
+        grid=GridSpec(size=(float(side), float(side)), h=1.0, degree=degree, shape=shape),
         time=Time(end=1.0),
         cracks=cracks,
         materials=(NeoHookeanSpec(name="m", E=1.0, nu=0.3, density=1.0) if model == "neo_hookean"
@@ -77,7 +78,7 @@ def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str
 
 
 def bench(physics: str = "elastic", particles: int = 1_000_000, steps: int = 20, repeats: int = 3,
-          degree: int = 2, model: str = "linear_elastic") -> dict:
+          degree: int = 2, model: str = "linear_elastic", shape: str = "bspline") -> dict:
     """Time ``steps`` core steps ``repeats`` times and report the median.
 
     The block vibrates in a smooth mode (velocity amplitude 1e-3 of the wave
@@ -85,7 +86,7 @@ def bench(physics: str = "elastic", particles: int = 1_000_000, steps: int = 20,
     """
     if physics not in PHYSICS:
         raise ValueError(f"physics = {physics!r}: must be one of {', '.join(PHYSICS)}")
-    sim = Simulation(block_scene(particles, degree, physics=physics, model=model))
+    sim = Simulation(block_scene(particles, degree, physics=physics, model=model, shape=shape))
     x = sim.particles.x
     lo, hi = x.min(axis=0), x.max(axis=0)
     s = (x - lo) / (hi - lo)
@@ -104,6 +105,7 @@ def bench(physics: str = "elastic", particles: int = 1_000_000, steps: int = 20,
         "physics": physics,
         "model": model,
         "degree": degree,
+        "shape": shape,
         "particles": n,
         "steps": steps,
         "repeats": repeats,

@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 from .bench import MODELS, PHYSICS
+from .scene.components import SHAPES
 from .compare import BORDEN_SCENE, DEFAULT_END, DEFAULT_H, DEFAULT_L0
 
 
@@ -92,7 +93,8 @@ def _bench(args: argparse.Namespace) -> int:
         print(json.dumps(rows) if args.json else markdown_table(rows), end="" if not args.json else "\n")
         return 0
     try:
-        r = bench(args.physics, args.particles, args.steps, args.repeats, args.degree, args.model)
+        r = bench(args.physics, args.particles, args.steps, args.repeats, args.degree, args.model,
+                  args.shape)
     except ValueError as err:
         print(f"error: --model: {err}", file=sys.stderr)
         return 2
@@ -242,6 +244,8 @@ def main(argv: list[str] | None = None) -> int:
     bench.add_argument("--steps", type=int, default=20)
     bench.add_argument("--repeats", type=int, default=3)
     bench.add_argument("--degree", type=int, default=2, choices=[1, 2, 3])
+    bench.add_argument("--shape", default="bspline", choices=SHAPES,
+                       help="shape functions: B-splines, or CPDI1 (with --degree 1)")
     bench.add_argument("--model", default="linear_elastic", choices=MODELS,
                        help="material model (neo_hookean: with --physics elastic or contact)")
     bench.add_argument("--json", action="store_true", help="print one JSON object")

@@ -84,7 +84,9 @@ class Simulation:
         friction = scene.contact.friction_matrix(names).ravel() if self.contact else []
         # The solver adds the models' columns; then their initial values.
         self.solver = _core.Solver(self.grid, self.particles, materials, scene.dt(), fracture,
-                                   pf.tol, pf.max_iterations, friction)
+                                   pf.tol, pf.max_iterations, friction,
+                                   _core.ShapeFunctions.__members__[g.shape], g.scale_failed,
+                                   g.failed_c)
         self.solver.set_phase_field_preconditioner(_core.Preconditioner.__members__[pf.preconditioner])
         columns = {c["name"] for c in self.particles.columns()}
         for name in (columns - core) & arrays.keys():
@@ -243,7 +245,8 @@ class Simulation:
             "particle_steps_per_s": len(self.particles) * result.steps / max(result.wall_s, 1e-12),
             "threads": _core.num_threads(),
             "modules": self.modules(),
-            "grid": {"cells": list(self.scene.grid.cells), "h": self.scene.grid.h, "degree": self.scene.grid.degree},
+            "grid": {"cells": list(self.scene.grid.cells), "h": self.scene.grid.h, "degree": self.scene.grid.degree,
+                     "shape": self.scene.grid.shape},
             "light_nodes": self.solver.light_nodes,
         }
         if self.cracks:

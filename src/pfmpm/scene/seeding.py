@@ -76,11 +76,14 @@ def particles(scene: "Scene") -> dict[str, np.ndarray]:
         on the edge layer of each traction load plus
         ``mass * acceleration`` of each body force.  The edge layer is
         the particles of the body within ``0.51 h/n`` of its extreme
-        particle coordinate on that side.
+        particle coordinate on that side.  With ``grid.shape = "cpdi"``
+        also the half-edges of the particle domains, the ``h/n`` squares of
+        the lattice: ``convected_r1`` and ``domain_r1`` (N, 2) ``= (h/2n, 0)``,
+        ``convected_r2`` and ``domain_r2`` ``= (0, h/2n)``.
     """
     h = scene.grid.h
     materials = {m.name: i for i, m in enumerate(scene.materials)}
-    xs, vs, masses, volumes, body_ids, material_ids, phis, slices = [], [], [], [], [], [], [], {}
+    xs, vs, masses, volumes, body_ids, material_ids, phis, halves, slices = [], [], [], [], [], [], [], [], {}
     start = 0
     for b, body in enumerate(scene.bodies):
         x = np.concatenate(list(lattice(body, scene.grid, *cell_range(body, scene.grid))))
@@ -95,6 +98,7 @@ def particles(scene: "Scene") -> dict[str, np.ndarray]:
         body_ids.append(np.full(n, b, dtype=np.int32))
         material_ids.append(np.full(n, m, dtype=np.int32))
         phis.append(np.full(n, math.radians(body.orientation)))
+        halves.append(np.full(n, 0.5 * spacing))
         slices[body.name] = (slice(start, start + n), spacing)
         start += n
     out = {
@@ -107,6 +111,11 @@ def particles(scene: "Scene") -> dict[str, np.ndarray]:
         "phi": np.concatenate(phis),
         "fext": np.zeros((start, 2)),
     }
+    if scene.grid.shape == "cpdi":
+        half = np.concatenate(halves)
+        zero = np.zeros_like(half)
+        out["convected_r1"] = out["domain_r1"] = np.stack([half, zero], axis=1)
+        out["convected_r2"] = out["domain_r2"] = np.stack([zero, half], axis=1)
     for load in scene.loads:
         if isinstance(load, Traction):
             part, spacing = slices[load.body]
