@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 from .bench import MODELS, PHYSICS
+from .scene import SceneError
 from .scene.components import SHAPES
 from .compare import BORDEN_SCENE, DEFAULT_END, DEFAULT_H, DEFAULT_L0
 
@@ -95,6 +96,9 @@ def _bench(args: argparse.Namespace) -> int:
     try:
         r = bench(args.physics, args.particles, args.steps, args.repeats, args.degree, args.model,
                   args.shape)
+    except SceneError as err:  # the block's grid: --degree with --shape
+        print(f"error: --degree, --shape: {err}", file=sys.stderr)
+        return 2
     except ValueError as err:
         print(f"error: --model: {err}", file=sys.stderr)
         return 2
@@ -303,8 +307,6 @@ def main(argv: list[str] | None = None) -> int:
     measure.set_defaults(func=_post)
 
     args = parser.parse_args(argv)
-    from .scene import SceneError
-
     try:
         return args.func(args)
     except (SceneError, FileNotFoundError) as err:
