@@ -60,6 +60,16 @@ def test_domains_are_convected_by_F_and_written_out():
     assert np.array_equal(data["domain_r2"], P.domain_r2)
 
 
+def test_a_domain_wider_than_a_cell_at_t0_is_refused():
+    # A scene's lattice cannot make one; the core checks what its caller sets.
+    sim = Simulation(bar())
+    sim.particles.convected_r1[3] = sim.particles.domain_r1[3] = (0.6, 0.0)
+    with pytest.raises(ValueError) as err:
+        sim.advance(1)
+    assert str(err.value) == ("particle 3: CPDI domain with half-edges r1 = (0.6, 0), r2 = (0, 0.25)"
+                              " is wider than a cell (h = 1) or not positively oriented at t = 0")
+
+
 @pytest.mark.parametrize("scaled", [True, False])
 def test_failed_domains_span_at_most_a_cell_at_three_times_the_length(scaled):
     # The middle band of the bar (two particle columns) has failed (D = 1:
