@@ -1,7 +1,7 @@
 /// @file test_cpdi.cpp
 /// @brief CPDI1: the averaged shape functions are a partition of unity and reproduce linear
 /// fields and their gradients to round-off for sheared, stretched and rotated domains (also at
-/// the grid's ends, where the node block moves inwards); P2G conserves mass and momentum; the
+/// the grid's ends, where the node block moves inwards, and past them); P2G conserves mass and momentum; the
 /// domains of failed particles are scaled to a diagonal of at most a cell; bad input is refused.
 #include "helpers.h"
 #include "pfmpm/grid/grid.h"
@@ -31,9 +31,10 @@ const double domains[][4] = {
      0.12 * h * std::cos(0.7)}, // stretched and rotated
 };
 
-/// Particle centres over the grid: interior ones, and ones in the first and last cells.
+/// Particle centres over the grid: interior ones, ones in the first and last cells, and one
+/// whose domains reach past the grid's corner (origin (-0.25, 0)).
 const double centres[][2] = {{2.37, 1.81}, {2.5, 2.0}, {0.26, 0.3}, {4.7, 4.74}, {0.3, 4.6},
-                             {1.01, 3.49}};
+                             {1.01, 3.49}, {0.05, 0.1}};
 } // namespace
 
 TEST(Cpdi, PartitionOfUnityAndLinearFields)

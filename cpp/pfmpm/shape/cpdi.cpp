@@ -97,14 +97,19 @@ std::size_t ParticleDomains::update(const Grid& grid, const double* x, std::size
     bool bad = false;
     for (int d = 0; d < 2; ++d)
     {
-      // The corners' cells must lie in the cells of the particle's block.
-      const int cell = basis[d]->cell(x[2 * p + d]);
-      const int first = CpdiStencil::first(cell, basis[d]->size());
-      const double reach = std::abs(r1[d]) + std::abs(r2[d]);
-      for (const double corner : {x[2 * p + d] - reach, x[2 * p + d] + reach})
+      // Each corner, computed as the stencil computes it, in a cell of the
+      // particle's node block, and at most one cell beyond the grid's edge
+      // (where the edge cell's functions extend).
+      const BSpline1D& b = *basis[d];
+      const int first = CpdiStencil::first(b.cell(x[2 * p + d]), b.size());
+      for (int c = 0; c < 4; ++c)
       {
-        const int c = basis[d]->cell(corner);
-        bad = bad || cell < 0 || c < first || c > first + CpdiStencil::width - 2;
+        const double xc = CpdiStencil::corner(&x[2 * p], r1, r2, c, d);
+        const double s = b.coordinate(xc);
+        if (!(s >= -1.0 && s < b.cells() + 1.0)) // also NaN
+          bad = true;
+        else if (const int local = b.clamped_cell(xc) - first; local < 0 || local > 2)
+          bad = true;
       }
     }
     if (bad)

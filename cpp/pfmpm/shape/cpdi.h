@@ -39,8 +39,10 @@ enum class ShapeFunctions : int
 /// corners. A corner lies in the particle's cell or a neighbour (the
 /// domains' check), so the nodes of the cells c-1 .. c+1 hold them all: a
 /// block of 4 x 4 nodes starting one node before the cell, moved inwards at
-/// the grid's ends (first()). Provides the members of BSplineStencil that
-/// the transfers read.
+/// the grid's ends (first()). A corner beyond the grid's edge (a body
+/// against it) takes the edge cell's functions, extended linearly: they stay
+/// a partition of unity and reproduce linear fields. Provides the members of
+/// BSplineStencil that the transfers read.
 struct CpdiStencil
 {
   static constexpr int dim = 2;
@@ -54,6 +56,14 @@ struct CpdiStencil
   static constexpr int offset(int i, int d) { return d == 0 ? i / width : i % width; }
   /// First node of the block of `cell` on a line of `nodes` nodes.
   static int first(int cell, int nodes) { return std::clamp(cell + lower, 0, nodes - width); }
+
+  /// xi_k of corner c (0 .. 3: (-,-), (+,-), (+,+), (-,+)).
+  static double xi(int c, int k) { return (k == 0 ? c == 1 || c == 2 : c >= 2) ? 1.0 : -1.0; }
+  /// Coordinate d of corner c of the domain with centre x and half-edges r1, r2.
+  static double corner(const double* x, const double* r1, const double* r2, int c, int d)
+  {
+    return x[d] + xi(c, 0) * r1[d] + xi(c, 1) * r2[d];
+  }
 
   double n[size];     ///< Sbar_i
   double dn[2][size]; ///< grad Sbar_i
@@ -77,25 +87,27 @@ struct CpdiStencil
   void evaluate(const std::array<const BSpline1D*, 2>& basis, const int* cell, const double* x,
                 const double* r1, const double* r2)
   {
-    const double r[4] = {r1[0], r1[1], r2[0], r2[1]};
     const int first_x = first(cell[0], basis[0]->size());
     const int first_y = first(cell[1], basis[1]->size());
     // R^{-T} = cof(R) / det R, with R = [r_1 r_2] by columns.
-    const double inv = 1.0 / (r[0] * r[3] - r[2] * r[1]);
-    const double t[2][2] = {{r[3] * inv, -r[1] * inv}, {-r[2] * inv, r[0] * inv}};
+    const double inv = 1.0 / (r1[0] * r2[1] - r2[0] * r1[1]);
+    const double t[2][2] = {{r2[1] * inv, -r1[1] * inv}, {-r2[0] * inv, r1[0] * inv}};
     std::fill(n, n + size, 0.0);
     std::fill(dn[0], dn[0] + size, 0.0);
     std::fill(dn[1], dn[1] + size, 0.0);
     for (int c = 0; c < 4; ++c)
     {
-      const double xi1 = (c == 1 || c == 2) ? 1.0 : -1.0, xi2 = c >= 2 ? 1.0 : -1.0;
-      const double xc[2] = {x[0] + xi1 * r[0] + xi2 * r[2], x[1] + xi1 * r[1] + xi2 * r[3]};
+      const double xi1 = xi(c, 0), xi2 = xi(c, 1);
+      const double xc[2] = {corner(x, r1, r2, c, 0), corner(x, r1, r2, c, 1)};
       const double g[2] = {t[0][0] * xi1 + t[0][1] * xi2, t[1][0] * xi1 + t[1][1] * xi2};
-      double sx[2], sy[2], dummy[2];
-      const int cx = basis[0]->cell(xc[0]), cy = basis[1]->cell(xc[1]);
-      basis[0]->evaluate<1>(cx, xc[0], sx, dummy);
-      basis[1]->evaluate<1>(cy, xc[1], sy, dummy);
-      const int ax = cx - first_x, ay = cy - first_y;
+      // The corner's cell in the block (the domains' check puts it there; the
+      // clamp only keeps a corner on a cell face, which the check may have
+      // rounded the other way, in the block: the functions are continuous).
+      const int ax = std::clamp(basis[0]->clamped_cell(xc[0]) - first_x, 0, 2);
+      const int ay = std::clamp(basis[1]->clamped_cell(xc[1]) - first_y, 0, 2);
+      double sx[2], sy[2], unused[2];
+      basis[0]->evaluate<1>(first_x + ax, xc[0], sx, unused);
+      basis[1]->evaluate<1>(first_y + ay, xc[1], sy, unused);
       for (int a = 0; a < 2; ++a)
         for (int b = 0; b < 2; ++b)
         {
@@ -150,8 +162,9 @@ public:
   /// @brief Set every particle's integration domain from its convected one
   /// and its failure state (at the start of a step, after the phase-field
   /// solve).
-  /// @return The first particle whose domain reaches outside the grid or
-  ///         past the cells next to its own, or n when there is none.
+  /// @return The first particle whose domain reaches past the cells next
+  ///         to its own (beyond the grid's edge: past the one cell a corner
+  ///         may extend there), or n when there is none.
   std::size_t update(const Grid& grid, const double* x, std::size_t n) const;
 
   /// @brief The first particle whose domain is wider than a cell in x or y,

@@ -376,7 +376,7 @@ void Solver::check_domains() const
     std::ostringstream msg;
     msg << "the CPDI domain of " << where(p) << ", half-edges r1 = (" << r1[0] << ", " << r1[1]
         << "), r2 = (" << r2[0] << ", " << r2[1]
-        << "), reaches outside the grid or past the cells next to its own";
+        << "), reaches past the cells next to its own";
     throw SimulationError(msg.str());
   }
 }
