@@ -147,7 +147,6 @@ void bind_solver(py::module_& m)
            "scale_failed, failed_c: with CPDI, scale the domains of failed particles (damage "
            "D = 1, or phase field c < failed_c) to a diagonal of at most a cell. Adds the "
            "models' particle columns.")
-      .def_property_readonly("shape", &Solver::shape)
       .def("advance", &Solver::advance, py::arg("steps"),
            py::call_guard<py::gil_scoped_release>())
       .def("prepare", [](Solver& s) { s.prepare(); }, py::call_guard<py::gil_scoped_release>(),

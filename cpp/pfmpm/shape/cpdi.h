@@ -171,9 +171,6 @@ public:
   /// or not positively oriented (det R <= 0), or n when there is none.
   std::size_t oversized(std::size_t n) const;
 
-  double h() const { return _h; }
-  const DomainScaling& scaling() const { return _scaling; }
-
 private:
   /// The integration domain of particle p from its convected one.
   void integration_domain(std::size_t p) const;

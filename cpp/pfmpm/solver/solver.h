@@ -169,9 +169,6 @@ public:
   /// the node's fields. For checks.
   std::vector<std::array<double, 4>> nodal_mass_momentum();
 
-  /// The shape functions of the momentum transfers.
-  ShapeFunctions shape() const { return _domains ? ShapeFunctions::cpdi : ShapeFunctions::bspline; }
-
 private:
   template <class Shape, class Fields>
   void step(Fields& fields);
