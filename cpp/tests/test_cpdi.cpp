@@ -1,8 +1,9 @@
 /// @file test_cpdi.cpp
 /// @brief CPDI1: the averaged shape functions are a partition of unity and reproduce linear
 /// fields and their gradients to round-off for sheared, stretched and rotated domains (also at
-/// the grid's ends, where the node block moves inwards, and past them); P2G conserves mass and momentum; the
-/// domains of failed particles are scaled to a diagonal of at most a cell; bad input is refused.
+/// the grid's ends, where the node block moves inwards, and past them); P2G conserves mass and
+/// momentum; the domains of failed particles are scaled to a diagonal of at most a cell; bad
+/// input is refused.
 #include "helpers.h"
 #include "pfmpm/grid/grid.h"
 #include "pfmpm/shape/cpdi.h"
@@ -52,7 +53,8 @@ TEST(Cpdi, PartitionOfUnityAndLinearFields)
       // sum_i Sbar_i = 1, sum_i grad Sbar_i = 0, sum_i x_i Sbar_i = x_p and
       // sum_i x_i (x) grad Sbar_i = I: the nodes of degree 1 sit at the knots.
       double sum = 0, grad[2] = {}, first[2] = {}, second[2][2] = {};
-      const int x0 = CpdiStencil::first(cell[0], nodes[0]), y0 = CpdiStencil::first(cell[1], nodes[1]);
+      const int x0 = CpdiStencil::first(cell[0], nodes[0]);
+      const int y0 = CpdiStencil::first(cell[1], nodes[1]);
       for (int i = 0; i < CpdiStencil::size; ++i)
       {
         const double xi[2] = {-0.25 + h * (x0 + CpdiStencil::offset(i, 0)),
@@ -88,12 +90,13 @@ TEST(Cpdi, UndeformedDomainAveragesTheHatFunctions)
   const int cell[2] = {4, 2};
   CpdiStencil s;
   s.evaluate(basis, cell, x, r1, r2);
-  BSplineStencil<2, 1> b;
+  using B = BSplineStencil<2, 1>;
+  B b;
   b.evaluate(basis, cell, x);
   // The B-spline block of cell c is nodes c, c+1: CPDI offsets 1, 2.
   for (int i = 0; i < 4; ++i)
   {
-    const int j = (1 + BSplineStencil<2, 1>::offset(i, 0)) * 4 + 1 + BSplineStencil<2, 1>::offset(i, 1);
+    const int j = (1 + B::offset(i, 0)) * 4 + 1 + B::offset(i, 1);
     EXPECT_NEAR(s.N(j), b.N(i), 1e-15);
     EXPECT_NEAR(s.dN(0, j), b.dN(0, i), 1e-14);
     EXPECT_NEAR(s.dN(1, j), b.dN(1, i), 1e-14);

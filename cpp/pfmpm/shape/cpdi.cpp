@@ -10,8 +10,10 @@ namespace pfmpm
 
 std::vector<ColumnSpec> ParticleDomains::columns()
 {
-  return {{"convected_r1", 2, DType::f64, {0.0}, "CPDI half-edge r_1 = F r_1^0 (H&H §1.1)", "x,y", ""},
-          {"convected_r2", 2, DType::f64, {0.0}, "CPDI half-edge r_2 = F r_2^0 (H&H §1.1)", "x,y", ""},
+  return {{"convected_r1", 2, DType::f64, {0.0},
+           "CPDI half-edge r_1 = F r_1^0, advanced as F (H&H eq. 8)", "x,y", ""},
+          {"convected_r2", 2, DType::f64, {0.0},
+           "CPDI half-edge r_2 = F r_2^0, advanced as F (H&H eq. 8)", "x,y", ""},
           {"domain_r1", 2, DType::f64, {0.0},
            "half-edge r_1 of the CPDI integration domain (scaled when failed, H&H §2.6)", "x,y",
            "domain_r1"},

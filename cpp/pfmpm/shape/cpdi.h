@@ -132,7 +132,7 @@ struct DomainScaling
 /// @brief The particle domains of a CPDI run: the half-edge vectors as
 /// named particle columns.
 ///
-/// `convected_r1`, `convected_r2` hold r_k = F r_k^0 (H&H §1.1): each step's
+/// `convected_r1`, `convected_r2` hold r_k = F r_k^0 (method card §1.1): each step's
 /// G2P advances them with the velocity gradient as eq. 8 advances F,
 /// r_k <- (I + dt L) r_k. `domain_r1`, `domain_r2` hold the integration
 /// domain the stencil reads: the convected one, or for a failed particle
