@@ -18,9 +18,11 @@ from test_neo_hookean import LAME, MU, RHO, grips_scene, uniaxial_lateral_stretc
 
 
 @pytest.mark.parametrize("keys, message", [
-    (dict(degree=2, shape="cpdi"), 'degree = 2: shape "cpdi" runs on the degree-1 grid (CPDI1); set degree = 1'),
+    (dict(degree=2, shape="cpdi"),
+     'degree = 2: shape "cpdi" runs on the degree-1 grid (CPDI1); set degree = 1'),
     (dict(degree=1, shape="mpm"), "shape = 'mpm': must be one of 'bspline', 'cpdi'"),
-    (dict(degree=1, size=(2.0, 8.0), shape="cpdi"), 'size = [2.0, 8.0]: 2 x 8 cells: shape "cpdi" needs at least 3 cells a side'),
+    (dict(degree=1, size=(2.0, 8.0), shape="cpdi"),
+     'size = [2.0, 8.0]: 2 x 8 cells: shape "cpdi" needs at least 3 cells a side'),
     (dict(degree=1, failed_c=0.1), 'failed_c = 0.1: applies to shape = "cpdi" only'),
     (dict(degree=1, shape="cpdi", failed_c=1.0), "failed_c = 1.0: must be >= 0 and < 1"),
 ])
