@@ -274,7 +274,8 @@ SHAPE = ("bodies", 0, "shape")
 BAD = [
     # unknown keys at every level
     ("foo=1", "foo: unknown key (allowed: grid, time"),
-    ("grid.hx=0.25", "grid.hx: unknown key (allowed: size, h, origin, degree)"),
+    ("grid.hx=0.25", "grid.hx: unknown key (allowed: size, h, origin, degree, shape, scale_failed,"
+                     " failed_c)"),
     ("time.stop=1", "time.stop: unknown key"),
     ("output.evry=3", "output.evry: unknown key"),
     ("materials.glass.youngs=3", "materials[0].youngs: unknown key"),

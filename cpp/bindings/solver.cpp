@@ -130,28 +130,40 @@ void bind_solver(py::module_& m)
       .value("ssor", Preconditioner::ssor)
       .value("multigrid", Preconditioner::multigrid);
 
+  py::enum_<ShapeFunctions>(m, "ShapeFunctions",
+                            "shape functions of the momentum transfers: B-splines, or CPDI1 "
+                            "averages over the particle domains (degree-1 grid)")
+      .value("bspline", ShapeFunctions::bspline)
+      .value("cpdi", ShapeFunctions::cpdi);
+
   py::class_<Solver>(m, "Solver", "Explicit MPM stepping with a staggered phase field (Algorithm 1)")
       .def(py::init(
                [](Grid& grid, Particles& particles,
                   const std::vector<std::shared_ptr<Material>>& materials, double dt,
                   std::vector<std::optional<Fracture>> fracture, double tol, int max_iterations,
-                  std::vector<double> friction, std::optional<DamageGradientOptions> damage)
+                  std::vector<double> friction, std::optional<DamageGradientOptions> damage,
+                  ShapeFunctions shape, bool scale_failed, double failed_c)
                {
                  return std::make_unique<Solver>(
                      grid, particles,
                      std::vector<std::shared_ptr<const Material>>(materials.begin(), materials.end()),
                      dt, std::move(fracture), tol, max_iterations, std::move(friction),
-                     std::move(damage));
+                     std::move(damage), shape, DomainScaling{scale_failed, failed_c});
                }),
            py::arg("grid"), py::arg("particles"), py::arg("materials"), py::arg("dt"),
            py::arg("fracture") = std::vector<std::optional<Fracture>>{}, py::arg("tol") = 1e-6,
            py::arg("max_iterations") = 1000, py::arg("friction") = std::vector<double>{},
-           py::arg("damage") = std::nullopt, py::keep_alive<1, 2>(), py::keep_alive<1, 3>(),
+           py::arg("damage") = std::nullopt, py::arg("shape") = ShapeFunctions::bspline,
+           py::arg("scale_failed") = true, py::arg("failed_c") = 0.0, py::keep_alive<1, 2>(),
+           py::keep_alive<1, 3>(),
            "materials: pfmpm._core.Material per material index (see pfmpm._core.material); "
            "friction: empty for one velocity field, else the n x n (row-major) Coulomb "
            "coefficients between bodies, each body its own discrete field; damage: a "
            "pfmpm._core.DamageGradient for two fields per contact group split by the damage "
-           "gradient (friction then between groups). Adds the models' particle columns.")
+           "gradient (friction then between groups); shape: the shape functions (CPDI adds the "
+           "domain columns, to be set before the first step); scale_failed, failed_c: with CPDI, "
+           "scale the domains of failed particles (damage D = 1, or phase field c < failed_c) to "
+           "a diagonal of at most a cell. Adds the models' particle columns.")
       .def("advance", &Solver::advance, py::arg("steps"),
            py::call_guard<py::gil_scoped_release>())
       .def("prepare", [](Solver& s) { s.prepare(); }, py::call_guard<py::gil_scoped_release>(),

@@ -25,7 +25,7 @@ MODELS = ("linear_elastic", "neo_hookean")
 
 
 def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str = "elastic",
-                model: str = "linear_elastic", bands: int = 1) -> Scene:
+                model: str = "linear_elastic", bands: int = 1, shape: str = "bspline") -> Scene:
     """A square block of about ``particles`` points, 3x3 per cell, with a margin of empty cells.
 
     ``physics="phasefield"`` makes the block crackable (l0 = 2 h, spectral
@@ -47,6 +47,8 @@ def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str
     the share of particles near full damage grows with it.
     ``model="neo_hookean"`` makes the material neo-Hookean (eq. 8 in one
     step, no damage) with the same E, nu and density; it has no phase field.
+    ``shape="cpdi"`` (with ``degree=1``) maps with CPDI1 over the particle
+    domains instead of B-splines at the centres.
     """
     if bands < 1:
         raise ValueError(f"bands = {bands}: must be >= 1")
@@ -78,7 +80,7 @@ def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str
         contact = Contact(friction=0.3, partition="damage_gradient", surfaces=cuts)
     return Scene(
         name="bench-block",
-        grid=GridSpec(size=(float(side), float(side)), h=1.0, degree=degree),
+        grid=GridSpec(size=(float(side), float(side)), h=1.0, degree=degree, shape=shape),
         time=Time(end=1.0),
         cracks=cracks,
         materials=(NeoHookeanSpec(name="m", E=1.0, nu=0.3, density=1.0) if model == "neo_hookean"
@@ -93,17 +95,20 @@ def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str
 
 
 def bench(physics: str = "elastic", particles: int = 1_000_000, steps: int = 20, repeats: int = 3,
-          degree: int = 2, model: str = "linear_elastic", per_cell: int = 3, bands: int = 1) -> dict:
+          degree: int = 2, model: str = "linear_elastic", per_cell: int = 3, bands: int = 1,
+          shape: str = "bspline") -> dict:
     """Time ``steps`` core steps ``repeats`` times and report the median
     (``per_cell`` particles per cell and direction; ``bands`` damaged bands
-    per direction with ``physics="damage_gradient"``, :func:`block_scene`).
+    per direction with ``physics="damage_gradient"``; ``shape`` the shape
+    functions, :func:`block_scene`).
 
     The block vibrates in a smooth mode (velocity amplitude 1e-3 of the wave
     speed), so strains and stresses are nonzero and nothing leaves the grid.
     """
     if physics not in PHYSICS:
         raise ValueError(f"physics = {physics!r}: must be one of {', '.join(PHYSICS)}")
-    sim = Simulation(block_scene(particles, degree, per_cell, physics=physics, model=model, bands=bands))
+    sim = Simulation(block_scene(particles, degree, per_cell, physics=physics, model=model, bands=bands,
+                                 shape=shape))
     x = sim.particles.x
     lo, hi = x.min(axis=0), x.max(axis=0)
     s = (x - lo) / (hi - lo)
@@ -124,6 +129,7 @@ def bench(physics: str = "elastic", particles: int = 1_000_000, steps: int = 20,
         "model": model,
         "degree": degree,
         "per_cell": per_cell,
+        "shape": shape,
         "particles": n,
         "steps": steps,
         "repeats": repeats,

@@ -13,6 +13,8 @@ from .bench import MODELS, PHYSICS
 from .compare import (BORDEN_SCENE, DEFAULT_END, DEFAULT_FRAMES, DEFAULT_H, DEFAULT_L0, compare_borden,
                       read_study)
 from .output import check_directory
+from .scene import SceneError
+from .scene.components import SHAPES
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -117,7 +119,10 @@ def _bench(args: argparse.Namespace) -> int:
         return 0
     try:
         r = bench(args.physics, args.particles, args.steps, args.repeats, args.degree, args.model,
-                  args.per_cell, args.bands)
+                  args.per_cell, args.bands, args.shape)
+    except SceneError as err:  # the block's grid: --degree with --shape
+        print(f"error: --degree, --shape: {err}", file=sys.stderr)
+        return 2
     except ValueError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
@@ -312,6 +317,8 @@ def main(argv: list[str] | None = None) -> int:
                             " (default %(default)d)")
     bench.add_argument("--degree", type=int, default=2, choices=[1, 2, 3],
                        help="B-spline degree of the grid (default %(default)d)")
+    bench.add_argument("--shape", default="bspline", choices=SHAPES,
+                       help="shape functions: B-splines, or CPDI1 (with --degree 1)")
     bench.add_argument("--model", default="linear_elastic", choices=MODELS,
                        help="material model (neo_hookean: with --physics elastic or contact)")
     bench.add_argument("--per-cell", type=int, default=3, help="particles per cell and direction")
@@ -386,8 +393,6 @@ def main(argv: list[str] | None = None) -> int:
     anim.set_defaults(func=_animate)
 
     args = parser.parse_args(argv)
-    from .scene import SceneError
-
     try:
         return args.func(args)
     except (SceneError, OSError) as err:

@@ -100,9 +100,11 @@ class Simulation:
                 phase_field_threshold=contact.phase_field_threshold)
         # The solver adds the models' columns; then their initial values.
         self.solver = _core.Solver(self.grid, self.particles, materials, scene.dt(), fracture,
-                                   pf.tol, pf.max_iterations, friction, damage)
+                                   pf.tol, pf.max_iterations, friction, damage,
+                                   _core.ShapeFunctions.__members__[g.shape], g.scale_failed,
+                                   g.failed_c)
         self.solver.set_phase_field_preconditioner(_core.Preconditioner.__members__[pf.preconditioner])
-        columns = self._fill(xs, done=core)  # the models' columns the seeding sets: an orientation
+        columns = self._fill(xs, done=core)  # the models' columns the seeding sets: orientation, CPDI domains
         del xs
         self._initial_columns()
         self.damage = "dissipated" in columns
@@ -334,7 +336,8 @@ class Simulation:
             "particle_steps_per_s": len(self.particles) * result.steps / max(result.wall_s, 1e-12),
             "threads": _core.num_threads(),
             "modules": self.modules(),
-            "grid": {"cells": list(self.scene.grid.cells), "h": self.scene.grid.h, "degree": self.scene.grid.degree},
+            "grid": {"cells": list(self.scene.grid.cells), "h": self.scene.grid.h, "degree": self.scene.grid.degree,
+                     "shape": self.scene.grid.shape},
             "light_nodes": self.solver.light_nodes,
         }
         if self.cracks:

@@ -263,7 +263,7 @@ void PhaseField::assemble(const Particles& particles, const CellSort& sort)
   const int nny = _grid.nodes()[1];
   // The system's unknowns: the nodes in the support of the sort's particles
   // (with discrete fields, of this body's particles alone).
-  _nodes.activate(_grid, sort.cell_start());
+  _nodes.activate(_grid, sort.cell_start(), NodeBlock{0, _grid.degree() + 1}); // B-spline support
   const auto na = static_cast<std::size_t>(_nodes.size());
   const double* volume = particles.volume.data();
   const double* history = particles.f64("history").data();
@@ -300,7 +300,7 @@ void PhaseField::assemble(const Particles& particles, const CellSort& sort)
   // Per cell, a local K x K block of eq. 57 and K entries of eq. 52, summed
   // over the cell's particles in sorted order, then added to the stencil rows.
   particle_to_grid<Shape>(
-      _grid, sort, particles.x.data(),
+      _grid, sort, Points{particles.x.data()},
       [&](const Cell& cell, const auto& each)
       {
         // Rows padded to a multiple of 4 so the inner loop vectorises; each
@@ -927,7 +927,7 @@ void PhaseField::map_to_particles(Particles& particles, const CellSort& sort)
   double* energy = particles.f64("fracture_energy").data();
 
   grid_to_particle<Shape>(
-      _grid, sort, particles.x.data(),
+      _grid, sort, Points{particles.x.data()},
       unreduced(
           [&](const Cell& cell, const auto& each)
           {

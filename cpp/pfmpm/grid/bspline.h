@@ -54,6 +54,17 @@ public:
     return static_cast<int>(s);
   }
 
+  /// @brief x in cells from the origin, (x - origin) / h, as cell() computes it.
+  double coordinate(double x) const { return (x - _origin) * _inv_h; }
+
+  /// @brief The cell holding x, or the first or last cell for x before or
+  /// after the grid (whose polynomials extend there); x must not be NaN.
+  int clamped_cell(double x) const
+  {
+    const double s = coordinate(x);
+    return s < 0.0 ? 0 : s >= _cells ? _cells - 1 : static_cast<int>(s);
+  }
+
   /// @brief Values and derivatives of the degree+1 functions nonzero on `cell`.
   ///
   /// Entry k of each output array belongs to basis function cell + k.

@@ -8,7 +8,8 @@ namespace pfmpm
 {
 
 Grid::Grid(int degree, std::array<int, 2> cells, double h, std::array<double, 2> origin)
-    : _basis{BSpline1D(degree, cells[0], h, origin[0]), BSpline1D(degree, cells[1], h, origin[1])}
+    : _basis{BSpline1D(degree, cells[0], h, origin[0]), BSpline1D(degree, cells[1], h, origin[1])},
+      _block{0, degree + 1}
 {
 }
 
@@ -17,9 +18,9 @@ bool Grid::has_walls() const
   return std::any_of(_walls.begin(), _walls.end(), [](Wall w) { return w != Wall::free; });
 }
 
-void ActiveNodes::activate(const Grid& grid, const std::vector<std::int64_t>& cell_start)
+void ActiveNodes::activate(const Grid& grid, const std::vector<std::int64_t>& cell_start,
+                           const NodeBlock& block)
 {
-  const int p = grid.degree();
   const int ncx = grid.cells()[0], ncy = grid.cells()[1];
   const int nnx = grid.nodes()[0], nny = grid.nodes()[1];
   _nodes_y = nny;
@@ -30,19 +31,28 @@ void ActiveNodes::activate(const Grid& grid, const std::vector<std::int64_t>& ce
     return cell_start[c + 1] > cell_start[c];
   };
 
-  // Node (ix, iy) is supported on cells [ix-p, ix] x [iy-p, iy]: a gather, so
-  // every node is written by one thread only.
+  // The cells whose block holds node i along a line of n nodes lie in
+  // [i - lower - width + 1, i - lower] (one more on each side where the
+  // block moves inwards at the grid's ends): a gather, so every node is
+  // written by one thread only.
+  auto holds = [&](int cell, int i, int n)
+  {
+    const int first = block.first(cell, n);
+    return first <= i && i < first + block.width;
+  };
 #pragma omp parallel for schedule(static)
   for (int ix = 0; ix < nnx; ++ix)
   {
-    const int cx0 = std::max(ix - p, 0), cx1 = std::min(ix, ncx - 1);
+    const int cx0 = std::max(ix - block.lower - block.width, 0);
+    const int cx1 = std::min(ix - block.lower + 1, ncx - 1);
     for (int iy = 0; iy < nny; ++iy)
     {
-      const int cy0 = std::max(iy - p, 0), cy1 = std::min(iy, ncy - 1);
+      const int cy0 = std::max(iy - block.lower - block.width, 0);
+      const int cy1 = std::min(iy - block.lower + 1, ncy - 1);
       bool active = false;
       for (int cx = cx0; cx <= cx1 && !active; ++cx)
         for (int cy = cy0; cy <= cy1 && !active; ++cy)
-          active = occupied(cx, cy);
+          active = holds(cx, ix, nnx) && holds(cy, iy, nny) && occupied(cx, cy);
       _index[static_cast<std::size_t>(ix) * nny + iy] = active ? 0 : -1;
     }
   }
@@ -58,7 +68,7 @@ void ActiveNodes::activate(const Grid& grid, const std::vector<std::int64_t>& ce
 
 void Grid::activate(const std::vector<std::int64_t>& cell_start)
 {
-  _active.activate(*this, cell_start);
+  _active.activate(*this, cell_start, _block);
   _constraints.clear();
   if (!has_walls())
     return;

@@ -4,6 +4,7 @@
 
 #include "pfmpm/grid/bspline.h"
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <vector>
@@ -30,6 +31,18 @@ enum class Wall : int
 
 class Grid;
 
+/// @brief The nodes a cell's particles reach: `width` nodes per direction
+/// from first(), `lower` nodes before the cell's own first node, moved
+/// inwards at the grid's ends. A B-spline of degree p reaches the p + 1
+/// nodes of its cell (lower 0); CPDI one node more on each side.
+struct NodeBlock
+{
+  int lower;
+  int width;
+  /// First node of the block of `cell` on a line of `nodes` nodes.
+  int first(int cell, int nodes) const { return std::clamp(cell + lower, 0, nodes - width); }
+};
+
 /// @brief The nodes in the support of the occupied cells of a particle sort,
 /// numbered compactly in increasing node order (K&T Algorithm 1, "find active
 /// part of Eulerian grid"); the degree+1 nodes of one grid column above a cell
@@ -38,8 +51,9 @@ class ActiveNodes
 {
 public:
   /// @brief Rebuild from per-cell particle offsets (num_cells + 1 entries):
-  /// a node is active when a cell in its support holds a particle.
-  void activate(const Grid& grid, const std::vector<std::int64_t>& cell_start);
+  /// a node is active when a cell whose block holds it holds a particle.
+  void activate(const Grid& grid, const std::vector<std::int64_t>& cell_start,
+                const NodeBlock& block);
   /// Number of active nodes.
   std::int32_t size() const { return static_cast<std::int32_t>(_nodes.size()); }
   /// Node index of each active node.
@@ -80,13 +94,18 @@ public:
   std::int64_t num_cells() const { return std::int64_t(_basis[0].cells()) * _basis[1].cells(); }
   std::int64_t num_nodes() const { return std::int64_t(_basis[0].size()) * _basis[1].size(); }
 
+  /// @brief The nodes a cell's particles reach in the momentum transfers
+  /// (by default the cell's B-spline support).
+  void set_block(const NodeBlock& block) { _block = block; }
+  const NodeBlock& block() const { return _block; }
+
   /// @brief Set the kinematic condition on one side.
   void set_wall(Side side, Wall wall) { _walls[static_cast<int>(side)] = wall; }
   Wall wall(Side side) const { return _walls[static_cast<int>(side)]; }
   bool has_walls() const;
 
-  /// @brief Rebuild the active node set (ActiveNodes) of all particles and
-  /// the wall constraints of its nodes.
+  /// @brief Rebuild the active node set (ActiveNodes, with block()) of all
+  /// particles and the wall constraints of its nodes.
   /// @param cell_start Offsets of each cell's particles, num_cells()+1 entries.
   void activate(const std::vector<std::int64_t>& cell_start);
 
@@ -104,6 +123,7 @@ public:
 
 private:
   std::array<BSpline1D, 2> _basis;
+  NodeBlock _block;
   std::array<Wall, 4> _walls{Wall::free, Wall::free, Wall::free, Wall::free};
   ActiveNodes _active;
   std::vector<std::uint8_t> _constraints; // per active node

@@ -26,8 +26,9 @@ constexpr int hessian_size(int dim) { return dim * (dim + 1) / 2; }
 /// transfer multiplies the same factors the same way; the products are formed
 /// where a transfer reads them, in registers.
 ///
-/// CPDI (a second stencil type) provides the same members: `dim`, `width`,
-/// `lower`, `size`, `offset`, `N`, `dN` and `evaluate`.
+/// CPDI (CpdiStencil, shape/cpdi.h) provides the same members: `dim`,
+/// `degree`, `width`, `lower`, `size`, `domains`, `offset`, `first`, `N`,
+/// `dN`, `each_node` and `evaluate`.
 template <int Dim, int P, int Order = 1>
 struct BSplineStencil
 {
@@ -37,6 +38,8 @@ struct BSplineStencil
   static constexpr int width = P + 1; ///< nodes per direction
   static constexpr int lower = 0;     ///< first node relative to the cell
   static constexpr int size = Dim == 1 ? width : Dim == 2 ? width * width : width * width * width;
+  /// The stencil reads the particle centres only, no domains.
+  static constexpr bool domains = false;
 
   /// Offset a_d of stencil node i in direction d.
   static constexpr int offset(int i, int d)
@@ -46,6 +49,8 @@ struct BSplineStencil
       stride *= width;
     return (i / stride) % width;
   }
+  /// First node of the block of `cell`: the cell's own first node.
+  static int first(int cell, int /*nodes*/) { return cell + lower; }
 
   double n[Dim][width];                  ///< N_a(x_d) per direction
   double dn[Dim][width];                 ///< dN_a/dx_d

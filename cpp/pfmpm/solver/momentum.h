@@ -9,6 +9,7 @@
 #include "pfmpm/contact/coulomb.h"
 #include "pfmpm/fields/fields.h"
 #include "pfmpm/materials/material.h"
+#include "pfmpm/shape/cpdi.h"
 #include "pfmpm/transfer/transfer.h"
 
 #include <algorithm>
@@ -33,8 +34,10 @@ public:
   static_assert(Shape::dim == 2, "the grid is two-dimensional");
   CellNodes(const Grid& grid, const Cell& cell)
   {
+    const int x0 = Shape::first(cell.cx, grid.nodes()[0]);
+    const int y0 = Shape::first(cell.cy, grid.nodes()[1]);
     for (int a = 0; a < Shape::width; ++a)
-      _row[a] = grid.active_index(cell.cx + Shape::lower + a, cell.cy + Shape::lower);
+      _row[a] = grid.active_index(x0 + a, y0);
   }
   /// Active index of stencil node i.
   std::int32_t operator[](int i) const
@@ -477,8 +480,9 @@ template <class Shape, int F, class Select>
 /// @brief G2P (K&T eqs. 80, 82, 78): move each cell's particles (move_cell),
 /// each (particle, node) pair reading its slot; then each run of the cell's
 /// particles of one material advances its state with the velocity gradient
-/// and sets its stress (Material::update). Non-finite values and the largest
-/// speed are noted for the checks of the step.
+/// and sets its stress (Material::update), and with CPDI the particle
+/// domains are convected (ParticleDomains::convect). Non-finite values and
+/// the largest speed are noted for the checks of the step.
 template <class Shape, class Fields>
 struct KinematicsG2P
 {
@@ -488,6 +492,7 @@ struct KinematicsG2P
   Particles& particles;
   const std::vector<std::unique_ptr<Material::Bound>>& materials;
   const std::vector<const Degradation*>& degradation;
+  const ParticleDomains* domains; ///< with CPDI, else null
   double dt;
   const std::int32_t* field_of; ///< per particle: its body (discrete) or group (damage fields)
 
@@ -569,6 +574,9 @@ struct KinematicsG2P
       update(0, Batch{each.order + cell.begin, 0, static_cast<std::size_t>(cell.end - cell.begin)});
     else
       for_each_material_run(particles.material.data(), each.order, cell.begin, cell.end, update);
+    if constexpr (Shape::domains)
+      domains->convect(each.order + cell.begin, static_cast<std::size_t>(cell.end - cell.begin),
+                       local.L.data(), dt);
   }
 };
 

@@ -38,7 +38,8 @@ std::string phase_key(std::size_t k, const char* name)
 Solver::Solver(Grid& grid, Particles& particles,
                std::vector<std::shared_ptr<const Material>> materials, double dt,
                std::vector<std::optional<Fracture>> fracture, double tol, int max_iterations,
-               std::vector<double> friction, std::optional<DamageGradientOptions> damage)
+               std::vector<double> friction, std::optional<DamageGradientOptions> damage,
+               ShapeFunctions shape, DomainScaling scaling)
     : _grid(grid), _particles(particles), _materials(std::move(materials)), _dt(dt)
 {
   if (!(dt > 0.0) || !std::isfinite(dt))
@@ -72,6 +73,24 @@ Solver::Solver(Grid& grid, Particles& particles,
   // amplify round-off (a particle at the edge of a node's support).
   _mass_tol = 1e-12 * max_mass;
 
+  if (shape == ShapeFunctions::cpdi)
+  {
+    if (grid.degree() != 1)
+      throw std::invalid_argument("CPDI runs on the degree-1 grid, not degree "
+                                  + std::to_string(grid.degree()));
+    if (!friction.empty())
+      throw std::invalid_argument("CPDI has one velocity field: contact needs quadratic or cubic"
+                                  " B-splines");
+    if (std::min(grid.cells()[0], grid.cells()[1]) < CpdiStencil::width - 1)
+      throw std::invalid_argument("CPDI needs at least 3 cells a side");
+    if (!(scaling.c_failed >= 0.0 && scaling.c_failed < 1.0))
+      throw std::invalid_argument("CPDI failed phase field c = " + std::to_string(scaling.c_failed)
+                                  + ": must lie in [0, 1)");
+    for (const ColumnSpec& c : ParticleDomains::columns())
+      particles.add(c);
+    grid.set_block(NodeBlock{CpdiStencil::lower, CpdiStencil::width});
+    _domains.emplace(grid.h(), scaling);
+  }
   if (damage)
   {
     if (friction.empty())
@@ -245,25 +264,45 @@ void Solver::restore(const SolverState& state)
   _light_nodes = static_cast<std::int64_t>(state.scalars.at("light_nodes"));
 }
 
+namespace
+{
+/// A type as a value, for dispatch.
+template <class T>
+struct Tag
+{
+  using type = T;
+};
+} // namespace
+
 template <class F>
 void Solver::dispatch(F&& f)
 {
   std::visit(
       [&](auto& fields)
       {
+        if constexpr (!std::decay_t<decltype(fields)>::discrete)
+          if (_domains)
+            return f(Tag<CpdiStencil>{}, fields);
         switch (_grid.degree())
         {
         case 1:
-          f(std::integral_constant<int, 1>{}, fields);
+          f(Tag<BSplineStencil<2, 1>>{}, fields);
           break;
         case 2:
-          f(std::integral_constant<int, 2>{}, fields);
+          f(Tag<BSplineStencil<2, 2>>{}, fields);
           break;
         default:
-          f(std::integral_constant<int, 3>{}, fields);
+          f(Tag<BSplineStencil<2, 3>>{}, fields);
         }
       },
       _fields);
+}
+
+Points Solver::points() const
+{
+  if (_domains)
+    return Points{_particles.x.data(), _domains->r1(), _domains->r2()};
+  return Points{_particles.x.data()};
 }
 
 void Solver::advance(std::int64_t steps)
@@ -273,17 +312,17 @@ void Solver::advance(std::int64_t steps)
   _external = has_external_force();
   bind();
   dispatch(
-      [&](auto P, auto& fields)
+      [&](auto shape, auto& fields)
       {
         for (std::int64_t k = 0; k < steps; ++k)
-          step<decltype(P)::value>(fields);
+          step<typename decltype(shape)::type>(fields);
       });
 }
 
 void Solver::prepare()
 {
   bind();
-  dispatch([&](auto P, auto& fields) { prepare<decltype(P)::value>(fields); });
+  dispatch([&](auto shape, auto& fields) { prepare<typename decltype(shape)::type>(fields); });
 }
 
 void Solver::bind()
@@ -291,6 +330,8 @@ void Solver::bind()
   _bound.clear();
   for (const auto& m : _materials)
     _bound.push_back(m->bind(_particles));
+  if (_domains)
+    _domains->bind(_particles);
   _degradation_of.assign(_materials.size(), Degradation{});
   _degradation.assign(_materials.size(), nullptr);
   if (_phase.empty())
@@ -305,9 +346,10 @@ void Solver::bind()
     }
 }
 
-template <int P, class Fields>
+template <class Shape, class Fields>
 void Solver::prepare(Fields& fields)
 {
+  constexpr int P = Shape::degree;
   if (const std::size_t outside = _sort.sort(_grid, _particles.x); outside < _particles.size())
     throw SimulationError(where(outside) + " is outside the grid");
   _grid.activate(_sort.cell_start());
@@ -351,13 +393,43 @@ void Solver::prepare(Fields& fields)
   // the new c (Remark 4; H&H Algorithms 1 and 2).
   if constexpr (Fields::discrete)
     fields.build(_particles, _sort);
+  if constexpr (Shape::domains)
+    check_domains();
 }
 
-template <int P, class Fields>
+void Solver::check_domains() const
+{
+  const std::size_t n = _particles.size();
+  if (_step == 0)
+    if (const std::size_t p = _domains->oversized(n); p < n)
+    {
+      const double* r1 = &_domains->r1()[2 * p];
+      const double* r2 = &_domains->r2()[2 * p];
+      std::ostringstream msg;
+      msg << "particle " << p << ": CPDI domain with half-edges r1 = (" << r1[0] << ", " << r1[1]
+          << "), r2 = (" << r2[0] << ", " << r2[1] << ") is wider than a cell (h = " << _grid.h()
+          << ") or not positively oriented at t = 0";
+      throw std::invalid_argument(msg.str());
+    }
+  // The integration domains of this step (failed particles scaled), each
+  // within the cells next to its particle's.
+  if (const std::size_t p = _domains->update(_grid, _particles.x.data(), n); p < n)
+  {
+    const double* r1 = &_domains->r1()[2 * p];
+    const double* r2 = &_domains->r2()[2 * p];
+    std::ostringstream msg;
+    msg << "the CPDI domain of " << where(p) << ", half-edges r1 = (" << r1[0] << ", " << r1[1]
+        << "), r2 = (" << r2[0] << ", " << r2[1]
+        << "), reaches past the cells next to its own";
+    throw SimulationError(msg.str());
+  }
+}
+
+template <class Shape, class Fields>
 void Solver::step(Fields& fields)
 {
-  prepare<P>(fields);
-  particle_to_grid<P>(fields);
+  prepare<Shape>(fields);
+  particle_to_grid<Shape>(fields);
   const auto sums = update_grid(_grid, fields, _sums, _surface, _kinematics, _dt, _mass_tol);
   _external_work += sums[sum_external_work];
   _wall_work += sums[sum_wall_work];
@@ -375,7 +447,7 @@ void Solver::step(Fields& fields)
     c.separable = static_cast<std::int32_t>(sums[sum_contact + count_separable]);
     c.separable_total += c.separable;
   }
-  grid_to_particle<P>(fields);
+  grid_to_particle<Shape>(fields);
   _time += _dt;
   ++_step;
 }
@@ -394,10 +466,9 @@ const std::int32_t* field_of_particles(const Fields& fields, const Particles& pa
 }
 } // namespace
 
-template <int P, class Fields>
+template <class Shape, class Fields>
 void Solver::particle_to_grid(Fields& fields)
 {
-  using Shape = BSplineStencil<2, P>;
   std::size_t slots = static_cast<std::size_t>(_grid.num_active());
   if constexpr (Fields::discrete)
     slots = static_cast<std::size_t>(fields.num_slots());
@@ -419,7 +490,7 @@ void Solver::particle_to_grid(Fields& fields)
   {
     constexpr bool External = decltype(external)::value;
     pfmpm::particle_to_grid<Shape>(
-        _grid, _sort, P_.x.data(),
+        _grid, _sort, points(),
         MomentumP2G<Shape, External, Fields>{
             _grid, fields, arrays, field_of_particles(fields, _particles), _sums.data(), _surface.data()});
   };
@@ -429,15 +500,22 @@ void Solver::particle_to_grid(Fields& fields)
     run(std::false_type{});
 }
 
-template <int P, class Fields>
+template <class Shape, class Fields>
 void Solver::grid_to_particle(Fields& fields)
 {
-  using Shape = BSplineStencil<2, P>;
   const bool check_stability = _stability_length > 0.0;
-  KinematicsG2P<Shape, Fields> kernel{_grid,   fields,       _kinematics.data(), _particles,
-                                      _bound,  _degradation, _dt,               field_of_particles(fields, _particles),
+  const ParticleDomains* domains = _domains ? &*_domains : nullptr;
+  KinematicsG2P<Shape, Fields> kernel{_grid,
+                                      fields,
+                                      _kinematics.data(),
+                                      _particles,
+                                      _bound,
+                                      _degradation,
+                                      domains,
+                                      _dt,
+                                      field_of_particles(fields, _particles),
                                       _particles.size()};
-  pfmpm::grid_to_particle<Shape>(_grid, _sort, _particles.x.data(), kernel);
+  pfmpm::grid_to_particle<Shape>(_grid, _sort, points(), kernel);
   if (kernel.bad < _particles.size())
     non_finite(kernel.bad);
   if constexpr (Fields::per_pair)
@@ -654,11 +732,13 @@ std::vector<std::array<double, 4>> Solver::nodal_mass_momentum()
   _external = has_external_force();
   std::vector<std::array<double, 4>> out;
   dispatch(
-      [&](auto P, auto& fields)
+      [&](auto shape, auto& fields)
       {
         using Fields = std::decay_t<decltype(fields)>;
-        prepare<decltype(P)::value>(fields);
-        particle_to_grid<decltype(P)::value>(fields);
+        using Shape = typename decltype(shape)::type;
+        bind();
+        prepare<Shape>(fields);
+        particle_to_grid<Shape>(fields);
         const auto na = static_cast<std::size_t>(_grid.num_active());
         out.assign(na, {});
         for (std::size_t a = 0; a < na; ++a)

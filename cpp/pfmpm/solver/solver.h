@@ -10,6 +10,8 @@
 #include "pfmpm/materials/material.h"
 #include "pfmpm/particles/cell_sort.h"
 #include "pfmpm/particles/particles.h"
+#include "pfmpm/shape/cpdi.h"
+#include "pfmpm/transfer/transfer.h"
 
 #include <array>
 #include <cstdint>
@@ -100,10 +102,17 @@ public:
   /// @param damage The damage-gradient partition's parameters, or none. A
   ///        material's damage is its `damage` column if it has one, else
   ///        1 - c if it cracks by the phase field, else 0.
+  /// @param shape The shape functions of the momentum transfers: B-splines,
+  ///        or CPDI1 on the degree-1 grid (one velocity field), which adds the
+  ///        domain columns (ParticleDomains) and sets the grid's node block.
+  ///        The phase field is assembled with B-splines either way.
+  /// @param scaling With CPDI: which particles are failed, and whether their
+  ///        domains are scaled.
   Solver(Grid& grid, Particles& particles, std::vector<std::shared_ptr<const Material>> materials,
          double dt, std::vector<std::optional<Fracture>> fracture = {}, double tol = 1e-6,
          int max_iterations = 1000, std::vector<double> friction = {},
-         std::optional<DamageGradientOptions> damage = std::nullopt);
+         std::optional<DamageGradientOptions> damage = std::nullopt,
+         ShapeFunctions shape = ShapeFunctions::bspline, DomainScaling scaling = {});
 
   /// @brief Take `steps` explicit steps.
   /// @throws SimulationError when a particle leaves the grid, a value turns
@@ -181,15 +190,21 @@ public:
   std::vector<std::array<double, 4>> nodal_mass_momentum();
 
 private:
-  template <int P, class Fields>
+  template <class Shape, class Fields>
   void step(Fields& fields);
-  template <int P, class Fields>
+  template <class Shape, class Fields>
   void prepare(Fields& fields);
-  template <int P, class Fields>
+  template <class Shape, class Fields>
   void particle_to_grid(Fields& fields);
-  template <int P, class Fields>
+  template <class Shape, class Fields>
   void grid_to_particle(Fields& fields);
-  /// f(P, fields) with the degree as a compile-time constant and the partition's type.
+  /// With CPDI: at t = 0, that no domain is wider than a cell; then set the
+  /// step's integration domains and check that each fits its stencil.
+  void check_domains() const;
+  /// The particle data the stencil of the run reads.
+  Points points() const;
+  /// f(shape, fields) with the stencil type as shape's `type` (B-splines of
+  /// the grid's degree, or CPDI) and the partition's type.
   template <class F>
   void dispatch(F&& f);
   /// Attach the materials to the particles, and the degradation of each
@@ -236,6 +251,7 @@ private:
   double _stability_length = 0.0; // 0: no check
   bool _external = false; // some particle carries an external force
   std::variant<SingleField, BodyFields, DamageFields> _fields;
+  std::optional<ParticleDomains> _domains; // with CPDI
   std::vector<PhaseFieldGroup> _phase;
 
   CellSort _sort;

@@ -24,6 +24,15 @@
 namespace pfmpm
 {
 
+/// The particle data a stencil is evaluated from: the centres and, for a
+/// stencil with domains (CPDI), the half-edges of the particle domains.
+struct Points
+{
+  const double* x;              ///< centres, (x, y) per particle
+  const double* r1 = nullptr;   ///< domain half-edge r_1, (x, y) per particle
+  const double* r2 = nullptr;   ///< domain half-edge r_2
+};
+
 /// An occupied cell and the range of its particles in the sort.
 struct Cell
 {
@@ -40,7 +49,7 @@ struct EachParticle
 {
   const std::array<const BSpline1D*, 2>& basis;
   const std::int32_t* order;
-  const double* x;
+  Points points;
   const Cell& cell;
 
   template <class F>
@@ -48,13 +57,16 @@ struct EachParticle
   {
     const int index[2] = {cell.cx, cell.cy};
     const std::array<const BSpline1D*, 2> local = basis;
-    const double* const xs = x;
+    const double* const xs = points.x;
     const std::int32_t* const sorted = order;
     for (std::int64_t k = cell.begin; k < cell.end; ++k)
     {
       const std::size_t p = sorted[k];
       Stencil s;
-      s.evaluate(local, index, &xs[2 * p]);
+      if constexpr (Stencil::domains)
+        s.evaluate(local, index, &xs[2 * p], &points.r1[2 * p], &points.r2[2 * p]);
+      else
+        s.evaluate(local, index, &xs[2 * p]);
       f(p, s);
     }
   }
@@ -69,9 +81,13 @@ struct EachParticle
 /// receives its cells' contributions in an order fixed by the sort: the same
 /// bits on any number of threads.
 template <class Stencil, class Kernel>
-void particle_to_grid(const Grid& grid, const CellSort& sort, const double* x, Kernel&& kernel)
+void particle_to_grid(const Grid& grid, const CellSort& sort, const Points& points, Kernel&& kernel)
 {
-  static_assert(Stencil::lower >= 0 && Stencil::lower + Stencil::width - 1 <= strip_width,
+  // A cell's block is at most strip_width nodes from at most one node before
+  // the cell, so the blocks of two strips of one parity, strip_width cells
+  // apart, never meet (at the grid's ends a block moves one node inwards,
+  // which the first and last strip's neighbours of one parity stay clear of).
+  static_assert(Stencil::lower >= -1 && Stencil::width <= strip_width,
                 "strips of one parity must not share a node");
   const std::array<const BSpline1D*, 2> basis{&grid.basis(0), &grid.basis(1)};
   const int ncy = grid.cells()[1];
@@ -81,7 +97,7 @@ void particle_to_grid(const Grid& grid, const CellSort& sort, const double* x, K
                           {
                             const Cell cell{cx, cy, static_cast<std::size_t>(cx) * ncy + cy,
                                             begin, end};
-                            kernel(cell, detail::EachParticle<Stencil>{basis, order, x, cell});
+                            kernel(cell, detail::EachParticle<Stencil>{basis, order, points, cell});
                           });
 }
 
@@ -93,7 +109,7 @@ void particle_to_grid(const Grid& grid, const CellSort& sort, const double* x, K
 /// for reductions (a minimum or maximum, whose result does not depend on the
 /// order) and per-thread scratch. A kernel writes only to its cell's particles.
 template <class Stencil, class Kernel>
-void grid_to_particle(const Grid& grid, const CellSort& sort, const double* x, Kernel&& kernel)
+void grid_to_particle(const Grid& grid, const CellSort& sort, const Points& points, Kernel&& kernel)
 {
   const std::array<const BSpline1D*, 2> basis{&grid.basis(0), &grid.basis(1)};
   const int ncx = grid.cells()[0], ncy = grid.cells()[1];
@@ -110,7 +126,7 @@ void grid_to_particle(const Grid& grid, const CellSort& sort, const double* x, K
         if (start[key] == start[key + 1])
           continue;
         const Cell cell{cx, cy, key, start[key], start[key + 1]};
-        kernel(local, cell, detail::EachParticle<Stencil>{basis, order, x, cell});
+        kernel(local, cell, detail::EachParticle<Stencil>{basis, order, points, cell});
       }
 #pragma omp critical
     kernel.merge(local);

@@ -10,9 +10,13 @@ from dataclasses import dataclass
 from .validation import (MAX_COUNT, WHOLE_TOL, SceneError, choice, integer, real, seq, store,
                          vec2)
 
-__all__ = ["DEGREES", "GridSpec", "Time", "Output", "PhaseFieldSpec"]
+__all__ = ["DEGREES", "SHAPES", "GridSpec", "Time", "Output", "PhaseFieldSpec"]
 
 DEGREES = (1, 2, 3)
+
+SHAPES = ("bspline", "cpdi")
+"""The shape functions ``[grid] shape`` names: B-splines at the particle centres, or CPDI1
+averages over the particle domains (degree 1 only)."""
 
 
 PRECONDITIONERS = ("automatic", "jacobi", "ssor", "multigrid")
@@ -34,12 +38,25 @@ class GridSpec:
         Lower-left corner.
     degree : int
         B-spline degree of the shape functions, 1, 2 or 3.
+    shape : str
+        Shape functions of the momentum transfers: ``"bspline"`` (at the particle
+        centres) or ``"cpdi"`` (CPDI1 averages over the particle domains, on the
+        degree-1 grid; the phase field keeps B-splines).
+    scale_failed : bool
+        With CPDI: scale the domain of a failed particle (damage D = 1, or phase
+        field c below ``failed_c``) to a diagonal of at most ``h`` (Homel & Herbold §2.6).
+    failed_c : float
+        With CPDI: a particle with phase field c below this is failed; 0 counts
+        damage D = 1 alone.
     """
 
     size: tuple[float, float]
     h: float
     origin: tuple[float, float] = (0.0, 0.0)
     degree: int = 2
+    shape: str = "bspline"
+    scale_failed: bool = True
+    failed_c: float = 0.0
 
     def __post_init__(self):
         store(self, "size", vec2("size", self.size, gt=0))
@@ -63,6 +80,20 @@ class GridSpec:
             raise SceneError("size", f"{nx} x {ny} cells exceed the limit of {MAX_COUNT}", self.size)
         if not all(math.isfinite(o + s) for o, s in zip(self.origin, self.size)):
             raise SceneError("origin", "origin + size is not finite", self.origin)
+        store(self, "shape", choice("shape", self.shape, SHAPES))
+        if not isinstance(self.scale_failed, bool):
+            raise SceneError("scale_failed", "must be true or false", self.scale_failed)
+        store(self, "failed_c", real("failed_c", self.failed_c, ge=0, lt=1))
+        if self.shape == "cpdi":
+            if self.degree != 1:
+                raise SceneError("degree", f"shape \"cpdi\" runs on the degree-1 grid (CPDI1);"
+                                           " set degree = 1", self.degree)
+            if min(nx, ny) < 3:
+                raise SceneError("size", f"{nx} x {ny} cells: shape \"cpdi\" needs at least 3"
+                                         " cells a side", self.size)
+        elif self.failed_c or not self.scale_failed:
+            raise SceneError("failed_c" if self.failed_c else "scale_failed",
+                             "applies to shape = \"cpdi\" only", self.failed_c or self.scale_failed)
 
     @property
     def cells(self) -> tuple[int, int]:

@@ -91,7 +91,10 @@ def fill(scene: "Scene", xs: list[np.ndarray], columns: Mapping[str, np.ndarray]
     ``traction * (h/n) * thickness`` on the edge layer of each traction load
     plus ``mass * acceleration`` of each body force.  The edge layer is the
     particles of the body within ``0.51 h/n`` of its extreme particle
-    coordinate on that side.
+    coordinate on that side.  With ``grid.shape = "cpdi"`` also the
+    half-edges of the particle domains, the ``h/n`` squares of the lattice:
+    ``convected_r1`` and ``domain_r1`` (N, 2) ``= (h/2n, 0)``,
+    ``convected_r2`` and ``domain_r2`` ``= (0, h/2n)``.
     """
     materials = {m.name: i for i, m in enumerate(scene.materials)}
     slices, start = {}, 0
@@ -101,7 +104,10 @@ def fill(scene: "Scene", xs: list[np.ndarray], columns: Mapping[str, np.ndarray]
         spacing = body.spacing(scene.grid.h)
         volume = spacing * spacing * scene.thickness
         values = {"x": x, "volume": volume, "mass": scene.materials[m].density * volume,
-                  "body": b, "material": m, "phi": math.radians(body.orientation)}
+                  "body": b, "material": m, "phi": math.radians(body.orientation),
+                  # CPDI: the domains are the lattice's h/n squares (half-edges h/2n)
+                  "convected_r1": (0.5 * spacing, 0.0), "domain_r1": (0.5 * spacing, 0.0),
+                  "convected_r2": (0.0, 0.5 * spacing), "domain_r2": (0.0, 0.5 * spacing)}
         for name, value in values.items():
             if name in columns:
                 columns[name][part] = value
@@ -139,5 +145,8 @@ def particles(scene: "Scene") -> dict[str, np.ndarray]:
     out = {"x": np.empty((n, 2)), "v": np.empty((n, 2)), "mass": np.empty(n), "volume": np.empty(n),
            "body": np.empty(n, dtype=np.int32), "material": np.empty(n, dtype=np.int32),
            "phi": np.empty(n), "fext": np.empty((n, 2))}
+    if scene.grid.shape == "cpdi":
+        out.update({name: np.empty((n, 2)) for name in
+                    ("convected_r1", "domain_r1", "convected_r2", "domain_r2")})
     fill(scene, xs, out)
     return out

@@ -1,0 +1,254 @@
+/// @file test_cpdi.cpp
+/// @brief CPDI1: the averaged shape functions are a partition of unity and reproduce linear
+/// fields and their gradients to round-off for sheared, stretched and rotated domains (also at
+/// the grid's ends, where the node block moves inwards, and past them); P2G conserves mass and
+/// momentum; the domains of failed particles are scaled to a diagonal of at most a cell; bad
+/// input is refused.
+#include "helpers.h"
+#include "pfmpm/grid/grid.h"
+#include "pfmpm/shape/cpdi.h"
+#include "pfmpm/shape/stencil.h"
+#include "pfmpm/solver/solver.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <stdexcept>
+
+using namespace pfmpm;
+using namespace pfmpm::test;
+
+namespace
+{
+constexpr double h = 0.5;
+
+/// Half-edge pairs (r1x, r1y, r2x, r2y) of undeformed, stretched, sheared and rotated domains,
+/// each at most a cell wide.
+const double domains[][4] = {
+    {h / 4, 0.0, 0.0, h / 4},              // the initial lattice, 2 particles per cell
+    {0.45 * h, 0.0, 0.0, 0.1 * h},         // stretched in x, compressed in y
+    {0.2 * h, 0.05 * h, 0.15 * h, 0.25 * h}, // sheared
+    {0.3 * h * std::cos(0.7), 0.3 * h * std::sin(0.7), -0.12 * h * std::sin(0.7),
+     0.12 * h * std::cos(0.7)}, // stretched and rotated
+};
+
+/// Particle centres over the grid: interior ones, ones in the first and last cells, and one
+/// whose domains reach past the grid's corner (origin (-0.25, 0)).
+const double centres[][2] = {{2.37, 1.81}, {2.5, 2.0}, {0.26, 0.3}, {4.7, 4.74}, {0.3, 4.6},
+                             {1.01, 3.49}, {0.05, 0.1}};
+} // namespace
+
+TEST(Cpdi, PartitionOfUnityAndLinearFields)
+{
+  const Grid grid(1, {10, 10}, h, {-0.25, 0.0});
+  const std::array<const BSpline1D*, 2> basis{&grid.basis(0), &grid.basis(1)};
+  const auto nodes = grid.nodes();
+  for (const auto& r : domains)
+    for (const auto& c : centres)
+    {
+      const double x[2] = {c[0] - 0.25, c[1]};
+      const int cell[2] = {grid.basis(0).cell(x[0]), grid.basis(1).cell(x[1])};
+      CpdiStencil s;
+      s.evaluate(basis, cell, x, &r[0], &r[2]);
+      // sum_i Sbar_i = 1, sum_i grad Sbar_i = 0, sum_i x_i Sbar_i = x_p and
+      // sum_i x_i (x) grad Sbar_i = I: the nodes of degree 1 sit at the knots.
+      double sum = 0, grad[2] = {}, first[2] = {}, second[2][2] = {};
+      const int x0 = CpdiStencil::first(cell[0], nodes[0]);
+      const int y0 = CpdiStencil::first(cell[1], nodes[1]);
+      for (int i = 0; i < CpdiStencil::size; ++i)
+      {
+        const double xi[2] = {-0.25 + h * (x0 + CpdiStencil::offset(i, 0)),
+                              h * (y0 + CpdiStencil::offset(i, 1))};
+        sum += s.N(i);
+        for (int a = 0; a < 2; ++a)
+        {
+          grad[a] += s.dN(a, i);
+          first[a] += xi[a] * s.N(i);
+          for (int b = 0; b < 2; ++b)
+            second[a][b] += xi[a] * s.dN(b, i);
+        }
+      }
+      EXPECT_NEAR(sum, 1.0, 4e-16);
+      for (int a = 0; a < 2; ++a)
+      {
+        EXPECT_NEAR(grad[a], 0.0, 1e-14 / h);
+        EXPECT_NEAR(first[a], x[a], 4e-15);
+        for (int b = 0; b < 2; ++b)
+          EXPECT_NEAR(second[a][b], a == b ? 1.0 : 0.0, 2e-14);
+      }
+    }
+}
+
+TEST(Cpdi, UndeformedDomainAveragesTheHatFunctions)
+{
+  // A domain inside one cell: Sbar_i is the exact mean of the bilinear hat
+  // over the domain, which for a hat linear in each direction is its value
+  // at the centre; grad Sbar_i is then grad S_i at the centre.
+  const Grid grid(1, {10, 10}, h, {0.0, 0.0});
+  const std::array<const BSpline1D*, 2> basis{&grid.basis(0), &grid.basis(1)};
+  const double x[2] = {2.3, 1.2}, r1[2] = {0.06, 0.0}, r2[2] = {0.0, 0.09};
+  const int cell[2] = {4, 2};
+  CpdiStencil s;
+  s.evaluate(basis, cell, x, r1, r2);
+  using B = BSplineStencil<2, 1>;
+  B b;
+  b.evaluate(basis, cell, x);
+  // The B-spline block of cell c is nodes c, c+1: CPDI offsets 1, 2.
+  for (int i = 0; i < 4; ++i)
+  {
+    const int j = (1 + B::offset(i, 0)) * 4 + 1 + B::offset(i, 1);
+    EXPECT_NEAR(s.N(j), b.N(i), 1e-15);
+    EXPECT_NEAR(s.dN(0, j), b.dN(0, i), 1e-14);
+    EXPECT_NEAR(s.dN(1, j), b.dN(1, i), 1e-14);
+  }
+}
+
+namespace
+{
+/// A disk of particles with a swirling velocity, a non-uniform stress and sheared domains that
+/// vary from particle to particle, on a degree-1 CPDI solver.
+struct Disk
+{
+  Grid grid{1, {40, 40}, 0.25, {-1.0, -2.0}};
+  Particles P{0};
+  std::unique_ptr<Solver> solver;
+
+  Disk() : P(count())
+  {
+    add_model_columns(P, false);
+    solver = std::make_unique<Solver>(grid, P, elastic(100.0, 0.3, 1.0), 1e-3,
+                                      std::vector<std::optional<Fracture>>{}, 1e-6, 1000,
+                                      std::vector<double>{}, std::nullopt, ShapeFunctions::cpdi);
+    const double d = 4.0 / 60;
+    std::size_t k = 0;
+    std::vector<double>& strain = P.f64("strain");
+    for (int i = 0; i < 60; ++i)
+      for (int j = 0; j < 60; ++j)
+      {
+        const double x = -2.0 + (i + 0.5) * d, y = -2.0 + (j + 0.5) * d;
+        if (x * x + y * y >= 4.0)
+          continue;
+        P.x[2 * k] = x + 3.0;
+        P.x[2 * k + 1] = y + 2.5;
+        P.v[2 * k] = 0.3 - 0.2 * y + 0.05 * std::sin(3 * x);
+        P.v[2 * k + 1] = -0.1 + 0.2 * x;
+        P.volume[k] = d * d;
+        P.mass[k] = d * d * (1.0 + 0.1 * std::cos(x));
+        strain[3 * k] = 1e-3 * std::sin(y);
+        strain[3 * k + 2] = 5e-4 * x;
+        const double shear = 0.3 * std::sin(2 * x + y), stretch = 1.0 + 0.5 * std::cos(x * y);
+        const double r1[2] = {0.5 * d * stretch, 0.0}, r2[2] = {0.5 * d * shear, 0.5 * d / stretch};
+        for (const char* name : {"convected_r1", "domain_r1"})
+          std::copy(r1, r1 + 2, &P.f64(name)[2 * k]);
+        for (const char* name : {"convected_r2", "domain_r2"})
+          std::copy(r2, r2 + 2, &P.f64(name)[2 * k]);
+        ++k;
+      }
+  }
+  static std::size_t count()
+  {
+    std::size_t n = 0;
+    const double d = 4.0 / 60;
+    for (int i = 0; i < 60; ++i)
+      for (int j = 0; j < 60; ++j)
+      {
+        const double x = -2.0 + (i + 0.5) * d, y = -2.0 + (j + 0.5) * d;
+        n += x * x + y * y < 4.0;
+      }
+    return n;
+  }
+};
+} // namespace
+
+TEST(Cpdi, P2GConservesMassAndMomentum)
+{
+  Disk disk;
+  const Energies e = disk.solver->energies();
+  double m = 0, px = 0, py = 0;
+  for (const auto& row : disk.solver->nodal_mass_momentum())
+  {
+    m += row[1];
+    px += row[2];
+    py += row[3];
+  }
+  EXPECT_NEAR(m, e.mass, 1e-13 * e.mass);
+  EXPECT_NEAR(px, e.momentum[0], 1e-13 * e.mass);
+  EXPECT_NEAR(py, e.momentum[1], 1e-13 * e.mass);
+}
+
+TEST(Cpdi, FreeMotionConservesMomentumAndConvectsDomains)
+{
+  Disk disk;
+  const Energies e0 = disk.solver->energies();
+  const std::vector<double> r0 = disk.P.f64("convected_r1");
+  disk.solver->advance(5);
+  const Energies e = disk.solver->energies();
+  EXPECT_NEAR(e.momentum[0], e0.momentum[0], 1e-13 * e0.mass);
+  EXPECT_NEAR(e.momentum[1], e0.momentum[1], 1e-13 * e0.mass);
+  // The swirl turns the domains: the half-edges changed, and at the start
+  // of the next step the integration domains of the intact particles are
+  // the convected ones.
+  EXPECT_FALSE(same_bits(disk.P.f64("convected_r1"), r0));
+  disk.solver->prepare();
+  EXPECT_TRUE(same_bits(disk.P.f64("convected_r1"), disk.P.f64("domain_r1")));
+}
+
+TEST(Cpdi, FailedDomainsAreScaledToACell)
+{
+  Particles P(3);
+  for (const ColumnSpec& c : ParticleDomains::columns())
+    P.add(c);
+  P.add({"damage", 1, DType::f64, {0.0}, "", "", ""});
+  // Stretched 3x along x and sheared: a diagonal of about 1.6 cells.
+  const double r1[2] = {0.375, 0.05}, r2[2] = {0.1, 0.125};
+  for (std::size_t p = 0; p < 3; ++p)
+  {
+    std::copy(r1, r1 + 2, &P.f64("convected_r1")[2 * p]);
+    std::copy(r2, r2 + 2, &P.f64("convected_r2")[2 * p]);
+    P.x[2 * p] = 2.0 + p;
+    P.x[2 * p + 1] = 2.0;
+  }
+  P.f64("damage")[1] = 1.0;
+  P.f64("damage")[2] = 0.99;
+  const Grid grid(1, {10, 10}, h, {0.0, 0.0});
+  ParticleDomains domains(h, DomainScaling{true, 0.0});
+  domains.bind(P);
+  EXPECT_EQ(domains.update(grid, P.x.data(), 3), 3u);
+  const double* d1 = domains.r1();
+  const double* d2 = domains.r2();
+  // Intact and damaged but not failed: the convected domain.
+  for (std::size_t p : {0u, 2u})
+    for (int a = 0; a < 2; ++a)
+    {
+      EXPECT_EQ(d1[2 * p + a], r1[a]);
+      EXPECT_EQ(d2[2 * p + a], r2[a]);
+    }
+  // Failed: l_a = (0.475, 0.175) and l_b = (0.275, -0.075) are shortened to
+  // h / 2 = 0.25 along themselves.
+  const double la = std::hypot(0.475, 0.175), lb = std::hypot(0.275, -0.075);
+  const double sa = 0.25 / la, sb = 0.25 / lb;
+  EXPECT_NEAR(d1[2], 0.5 * (0.475 * sa + 0.275 * sb), 1e-15);
+  EXPECT_NEAR(d1[3], 0.5 * (0.175 * sa - 0.075 * sb), 1e-15);
+  EXPECT_NEAR(d2[2], 0.5 * (0.475 * sa - 0.275 * sb), 1e-15);
+  EXPECT_NEAR(d2[3], 0.5 * (0.175 * sa + 0.075 * sb), 1e-15);
+  EXPECT_NEAR(std::hypot(d1[2] + d2[2], d1[3] + d2[3]), 0.25, 1e-15);
+  EXPECT_NEAR(std::hypot(d1[2] - d2[2], d1[3] - d2[3]), 0.25, 1e-15);
+}
+
+TEST(Cpdi, BadInputIsRefused)
+{
+  Disk disk;
+  // Degree 2, and contact.
+  Grid quadratic(2, {10, 10}, 0.5, {0.0, 0.0});
+  Particles P(1);
+  EXPECT_THROW(Solver(quadratic, P, elastic(1.0, 0.3, 1.0), 1e-3, {}, 1e-6, 1000, {},
+                      std::nullopt, ShapeFunctions::cpdi),
+               std::invalid_argument);
+  Grid linear(1, {10, 10}, 0.5, {0.0, 0.0});
+  EXPECT_THROW(Solver(linear, P, elastic(1.0, 0.3, 1.0), 1e-3, {}, 1e-6, 1000, {0, 0, 0, 0},
+                      std::nullopt, ShapeFunctions::cpdi),
+               std::invalid_argument);
+  // A domain wider than a cell at t = 0.
+  disk.P.f64("convected_r1")[0] = disk.P.f64("domain_r1")[0] = 0.2;
+  EXPECT_THROW(disk.solver->advance(1), std::invalid_argument);
+}
