@@ -12,7 +12,6 @@ import os
 import signal
 import subprocess
 import sys
-import threading
 from pathlib import Path
 
 import numpy as np
@@ -24,6 +23,7 @@ from pfmpm.compare import (BORDEN_SCENE, COLUMNS, agreement, branch_time, compar
 from pfmpm.output import read_csv
 from pfmpm.scene import Crack, Scene
 from pfmpm.scene.toml import read_toml
+from pfmpm.simulation import Simulation
 
 ROOT = Path(__file__).resolve().parents[1]
 DEMO = ROOT / "demos" / "borden_plate.toml"
@@ -171,18 +171,25 @@ def test_compare_driver_at_a_tiny_size(tmp_path):
     assert "crack initiation (tip 0.5 mm past its start) [us], +- 1.050" in text
 
 
-def test_an_interrupted_comparison_resumes(tmp_path):
+def test_an_interrupted_comparison_resumes(tmp_path, monkeypatch):
     """``--resume``: the completed runs are kept, an interrupted MPM run continues
     from its checkpoint to the same bits as a run that was never stopped."""
     settings = dict(hs=[1.0], l0=2.0, end=4.0, scene_path=DEMO, frames=2, progress=False)
     whole = compare_borden(tmp_path / "whole", log=lambda line: None, **settings)
 
-    def stop_the_mpm_run(line):
-        if line.startswith("PF-MPM"):  # a run starts: Ctrl-C a moment later
-            threading.Timer(0.5, os.kill, (os.getpid(), signal.SIGINT)).start()
+    advance = Simulation.advance
 
+    def advance_then_ctrl_c(sim, steps):  # Ctrl-C once, a few steps into the MPM run
+        advance(sim, steps)
+        if sim.step >= 5 and not interrupted:
+            interrupted.append(sim.step)
+            os.kill(os.getpid(), signal.SIGINT)
+
+    interrupted = []
+    monkeypatch.setattr(Simulation, "advance", advance_then_ctrl_c)
     with pytest.raises(KeyboardInterrupt):
-        compare_borden(tmp_path / "cut", log=stop_the_mpm_run, **settings)
+        compare_borden(tmp_path / "cut", log=lambda line: None, **settings)
+    monkeypatch.undo()
     summary = json.loads((tmp_path / "cut" / "mpm_h1" / "summary.json").read_text())
     assert summary["status"] == "interrupted" and 0 < summary["steps"] < summary["steps_planned"]
     lines = []

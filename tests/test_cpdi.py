@@ -59,7 +59,7 @@ def test_domains_are_convected_by_F_and_written_out():
     assert np.abs(F[:, 1, 0]).min() > 0.04  # it did turn
     sim.solver.prepare()  # the domains of the next step
     assert np.array_equal(P.domain_r1, P.convected_r1)
-    data = sim.point_data()
+    data = {name: values for name, values, _ in sim.point_data()}
     assert np.array_equal(data["domain_r2"], P.domain_r2)
 
 

@@ -58,16 +58,15 @@ def main(argv: list[str] | None = None) -> None:
     out.mkdir(parents=True, exist_ok=True)
     scene = Scene.from_toml(scenes.path("disk_beam"), args.set)
     index = [b.name for b in scene.bodies].index("beam")
-    line_x = scene.body("disk").shape.center[0]  # the impact line
+    impact_x = scene.body("disk").shape.center[0]  # the impact line
+    line_x = impact_x if args.line is None else args.line
     sim = Simulation(scene)
-    # Each crackable body's field keeps its own per-particle fracture energy.
-    field = sum(scene.fracture_of(b) is not None for b in scene.bodies[:index])
 
     def beam_energy() -> float:
         """The beam's fracture energy, or with --line that of its half on the line's side."""
         if args.line is None:
             return sim.energies()["fracture_beam"]
-        per_particle = sim.solver.state()["fields"]["phase_fields"][field]["fracture_energy"]
+        per_particle = sim.particles.fracture_energy
         side = np.sign(line_x - impact_x) * (sim.particles.x[:, 0] - impact_x) > 0
         return float(per_particle[(sim.particles.body == index) & side].sum())
 

@@ -86,7 +86,7 @@ class GridSpec:
         store(self, "failed_c", real("failed_c", self.failed_c, ge=0, lt=1))
         if self.shape == "cpdi":
             if self.degree != 1:
-                raise SceneError("degree", f"shape \"cpdi\" runs on the degree-1 grid (CPDI1);"
+                raise SceneError("degree", "shape \"cpdi\" runs on the degree-1 grid (CPDI1);"
                                            " set degree = 1", self.degree)
             if min(nx, ny) < 3:
                 raise SceneError("size", f"{nx} x {ny} cells: shape \"cpdi\" needs at least 3"
