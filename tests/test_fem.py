@@ -289,9 +289,12 @@ def test_two_ranks_reproduce_one(tmp_path, model, end):
     env = dict(os.environ, OMP_NUM_THREADS="1")
     if os.geteuid() == 0:
         env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
+    # The solves to 1e-10: the ranks' partial sums reach the Krylov and Newton
+    # iterates in another order, so the runs agree to the solver tolerance
+    # (at the default 1e-6, 1.7e-8 of the fracture energy was seen once).
     sets = ["grid.h=0.5", "materials.concrete.fracture.l0=1.0", f"time.end={end}",
             "output.energies_every=1", "output.every=20", "output.snapshots=[]",
-            f"materials.concrete.fracture.model={model}"]
+            f"materials.concrete.fracture.model={model}", "phase_field.tol=1e-10"]
     args = ["-m", "pfmpm.fem", str(DEMOS / "borden_plate.toml"), "--quiet"]
     args += [item for s in sets for item in ("--set", s)]
     runs = {"serial": [sys.executable], "mpi": _mpirun() + [sys.executable]}
