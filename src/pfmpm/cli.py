@@ -62,13 +62,16 @@ def _run(args: argparse.Namespace) -> int:
     except checkpoint.CheckpointError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
-    if result.light_nodes:
-        print(f"note: {result.light_nodes} grid node-steps had a mass too small to divide by"
-              " (below 1e-12 of the heaviest particle) and were given zero velocity", file=sys.stderr)
-    if result.status == "failed":
+    light = (f"note: {result.light_nodes} grid node-steps had a mass too small to divide by"
+             " (below 1e-12 of the heaviest particle) and were given zero velocity")
+    if result.status == "failed":  # the error first: a failure's first line says what failed
         print(f"error: {result.error}", file=sys.stderr)
         print(f"output so far is in {out}; the state at the failure is in {result.checkpoint}", file=sys.stderr)
+        if result.light_nodes:
+            print(light, file=sys.stderr)
         return 1
+    if result.light_nodes:
+        print(light, file=sys.stderr)
     if result.status == "interrupted":
         print(f"interrupted at step {result.steps}; output so far is in {out};"
               f" resume with: pfmpm run --resume {out}", file=sys.stderr)

@@ -4,6 +4,7 @@ phase-field snapshots, their axes labelled in the scene's units
 
 from __future__ import annotations
 
+import functools
 from pathlib import Path
 
 import matplotlib
@@ -27,6 +28,24 @@ PHASE_FIELD_LABEL = "phase field c (1 intact, 0 broken)"
 """The colour-bar label of the phase-field images."""
 
 
+def _closing(plot):
+    """A plot that closes the figures it opened when it fails: a long-lived
+    process (a notebook, the tests) does not collect them."""
+
+    @functools.wraps(plot)
+    def wrapper(*args, **kwargs):
+        before = set(plt.get_fignums())
+        try:
+            return plot(*args, **kwargs)
+        except BaseException:
+            for number in set(plt.get_fignums()) - before:
+                plt.close(number)
+            raise
+
+    return wrapper
+
+
+@_closing
 def energies(csv_path: Path, png_path: Path, units: UnitSystem = NO_UNITS) -> None:
     """Energy histories of ``energies.csv`` and the balance residual: ``total``
     (kinetic + elastic + fracture + dissipation - work) minus its value at t = 0,
@@ -45,6 +64,7 @@ def energies(csv_path: Path, png_path: Path, units: UnitSystem = NO_UNITS) -> No
     plt.close(fig)
 
 
+@_closing
 def crack_tip(csv_path: Path, png_path: Path, rayleigh: float, units: UnitSystem = NO_UNITS) -> None:
     """Crack-tip position and speed against 0.6 v_R and v_R: the tip of the
     whole crack and, where it branches, the tip of each branch."""
@@ -71,6 +91,7 @@ def crack_tip(csv_path: Path, png_path: Path, rayleigh: float, units: UnitSystem
     plt.close(fig)
 
 
+@_closing
 def crack_path(csv_path: Path, xy: np.ndarray, times: np.ndarray, png_path: Path,
                bounds: tuple[float, float, float, float], units: UnitSystem = NO_UNITS) -> None:
     """The crack path in x-y: the cracked points coloured by the time each
@@ -92,7 +113,8 @@ def crack_path(csv_path: Path, xy: np.ndarray, times: np.ndarray, png_path: Path
     cracked = np.isfinite(times)
     x0, y0, x1, y1 = bounds
     width = 7.0
-    fig, ax = plt.subplots(figsize=(width, max(2.5, width * (y1 - y0) / (x1 - x0) * 0.85 + 1.0)))
+    aspect = (y1 - y0) / (x1 - x0) if x1 > x0 and y1 > y0 else 1.0  # a body can be a point
+    fig, ax = plt.subplots(figsize=(width, max(2.5, width * aspect * 0.85 + 1.0)))
     order = np.argsort(times[cracked], kind="stable")
     if cracked.any():
         dots = ax.scatter(xy[cracked, 0][order], xy[cracked, 1][order], c=times[cracked][order],
@@ -102,8 +124,9 @@ def crack_path(csv_path: Path, xy: np.ndarray, times: np.ndarray, png_path: Path
                                 ("crack_tip", "farthest tip", "k:")):
         if f"{track}_x" in e:
             ax.plot(e[f"{track}_x"], e[f"{track}_y"], style, lw=1.2, label=label)
-    ax.set_xlim(x0, x1)
-    ax.set_ylim(y0, y1)
+    if x1 > x0 and y1 > y0:  # else matplotlib's own limits (a body can be a point)
+        ax.set_xlim(x0, x1)
+        ax.set_ylim(y0, y1)
     ax.set_aspect("equal")
     ax.set_xlabel(units.label("x", "length"))
     ax.set_ylabel(units.label("y", "length"))
@@ -114,6 +137,7 @@ def crack_path(csv_path: Path, xy: np.ndarray, times: np.ndarray, png_path: Path
     plt.close(fig)
 
 
+@_closing
 def phase_field(snapshots, png_path: Path, polar=None, units: UnitSystem = NO_UNITS) -> None:
     """Phase-field images of a :class:`~pfmpm.run.Snapshots`, one panel each.
 
