@@ -146,6 +146,7 @@ void BodyFields::build(const Particles& particles, const CellSort& sort)
   const std::vector<std::int32_t>& nodes = _grid.active_nodes();
   _slot_start.resize(na + 1);
   _slot_start[0] = 0;
+  _lone_field.resize(na);
   std::ptrdiff_t overflow = na;
 #pragma omp parallel for schedule(static) reduction(min : overflow)
   for (std::ptrdiff_t a = 0; a < na; ++a)
@@ -153,6 +154,7 @@ void BodyFields::build(const Particles& particles, const CellSort& sort)
     std::int32_t list[max_fields];
     const int n = node_fields(nodes[a] / nny, nodes[a] % nny, list);
     _slot_start[a + 1] = n;
+    _lone_field[a] = n > 0 ? list[0] : -1; // for the nodes of one field, nearly all
     if (n < 0)
       overflow = std::min(overflow, a);
   }
@@ -170,7 +172,10 @@ void BodyFields::build(const Particles& particles, const CellSort& sort)
   _slot_field.resize(_slot_start[na]);
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t a = 0; a < na; ++a)
-    node_fields(nodes[a] / nny, nodes[a] % nny, &_slot_field[_slot_start[a]]);
+    if (_slot_start[a + 1] - _slot_start[a] == 1)
+      _slot_field[_slot_start[a]] = _lone_field[a];
+    else
+      node_fields(nodes[a] / nny, nodes[a] % nny, &_slot_field[_slot_start[a]]);
 
   _touches.assign(ncells, 0);
   if (contact == 0)

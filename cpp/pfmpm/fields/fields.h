@@ -133,6 +133,7 @@ private:
   std::vector<std::uint8_t> _touches;     // per cell
   std::vector<std::int32_t> _slot_start;  // per active node + 1
   std::vector<std::int32_t> _slot_field;  // per slot
+  std::vector<std::int32_t> _lone_field;  // per active node: its field, when it has one (build scratch)
   std::int32_t _contact_nodes = 0;
   ContactStats _stats;
 };
