@@ -693,26 +693,32 @@ void PhaseField::multigrid_iterations(double norm_f, double stop, double& residu
 ///
 /// The multigrid V-cycle (multigrid_iterations, Multigrid) takes a few
 /// iterations for either order (docs/performance.md).
+double PhaseField::rhs_norm() const
+{
+  return std::sqrt(deterministic_sum<1>(_rhs.size(), [&](std::size_t a, std::array<double, 1>& acc)
+                                        { acc[0] += _rhs[a] * _rhs[a]; })[0]);
+}
+
+double PhaseField::warm_start(std::size_t i)
+{
+  const double trend = _stats.solves >= 2 ? 1.0 : 0.0;
+  const double now = _c[i];
+  const double guess = now + trend * (now - _c_previous[i]);
+  _c_previous[i] = now;
+  return guess;
+}
+
 template <int P, bool Fourth>
 bool PhaseField::conjugate_gradient()
 {
   const std::size_t na = _rhs.size();
-  const auto norm_f = std::sqrt(deterministic_sum<1>(
-      na, [&](std::size_t a, std::array<double, 1>& acc) { acc[0] += _rhs[a] * _rhs[a]; })[0]);
+  const double norm_f = rhs_norm();
   const double stop = _tol * norm_f;
 
-  // Warm start: the last two solutions extrapolated linearly in time, or the
-  // last one while there is no earlier solution to extrapolate from. (No
-  // clamping to [0, 1]: B-spline control values may lie outside it.)
-  const double trend = _stats.solves >= 2 ? 1.0 : 0.0;
+  // The warm start, not clamped to [0, 1]: B-spline control values may lie outside it.
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t a = 0; a < static_cast<std::ptrdiff_t>(na); ++a)
-  {
-    const std::size_t i = _position[a];
-    const double now = _c[i];
-    _c[i] = now + trend * (now - _c_previous[i]);
-    _c_previous[i] = now;
-  }
+    _c[_position[a]] = warm_start(_position[a]);
 
   // Residual of the warm start: r = F - K c (eq. 50).
   multiply<P>(_c, _q);
@@ -773,20 +779,16 @@ template <int P>
 bool PhaseField::bounded_solve()
 {
   const std::size_t na = _rhs.size();
-  const auto norm_f = std::sqrt(deterministic_sum<1>(
-      na, [&](std::size_t a, std::array<double, 1>& acc) { acc[0] += _rhs[a] * _rhs[a]; })[0]);
+  const double norm_f = rhs_norm();
   const double stop = _tol * norm_f;
 
-  // The warm start of conjugate_gradient, projected onto the bounds.
-  const double trend = _stats.solves >= 2 ? 1.0 : 0.0;
+  // The warm start, projected onto the bounds.
   _bound.resize(na);
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t a = 0; a < static_cast<std::ptrdiff_t>(na); ++a)
   {
     const std::size_t i = _position[a];
-    const double now = _c[i];
-    const double c = std::clamp(now + trend * (now - _c_previous[i]), 0.0, 1.0);
-    _c_previous[i] = now;
+    const double c = std::clamp(warm_start(i), 0.0, 1.0);
     _c[i] = c;
     _bound[a] = c == 1.0 ? 1 : c == 0.0 ? -1 : 0;
   }

@@ -217,6 +217,12 @@ public:
 private:
   template <int P, bool Fourth>
   void assemble(const Particles& particles, const CellSort& sort);
+  /// ||F||, the scale of the solves' stopping test ||F - K c|| <= tol ||F||.
+  double rhs_norm() const;
+  /// @brief The warm start of the solves at padded node i: the last two
+  /// solutions extrapolated linearly in time, or the last one while there is
+  /// no earlier solution to extrapolate from; c_previous takes the last one.
+  double warm_start(std::size_t i);
   template <int P, bool Fourth>
   bool conjugate_gradient();
   /// @brief The iterations of conjugate_gradient from r = F - K c with
