@@ -28,7 +28,6 @@ import argparse
 import json
 from pathlib import Path
 
-
 from pfmpm import scenes
 from pfmpm.post.self_contact import interface_slip, relative_difference, run_variants
 from pfmpm.scene import Scene

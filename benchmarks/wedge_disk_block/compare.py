@@ -27,7 +27,6 @@ import argparse
 import json
 from pathlib import Path
 
-
 from pfmpm import scenes
 from pfmpm.post.self_contact import relative_difference, rigid_rotation, run_variants
 from pfmpm.scene import Scene
