@@ -31,6 +31,8 @@ class CMakeBuild(build_ext):
                 f"-DPython3_EXECUTABLE={sys.executable}",
                 f"-Dpybind11_DIR={pybind11.get_cmake_dir()}",
                 "-DCMAKE_BUILD_TYPE=Release",
+                # Extra CMake options, e.g. CMAKE_ARGS=-DPFMPM_NATIVE=OFF for a portable build.
+                *os.environ.get("CMAKE_ARGS", "").split(),
             ],
             cwd=build_dir,
         )

@@ -284,11 +284,20 @@ def test_damaged_checkpoint_is_refused(saved, tmp_path, capsys, how, reason):
 DATA = Path(__file__).resolve().parent / "data"
 
 
-def test_version_3_borden_resumes_bitwise(tmp_path):
+def test_version_3_borden_resumes_as_it_ran(tmp_path):
     """A version-3 checkpoint (written by 55831d5, format of particle arrays
     and solver state by fixed lists) resumes into the named columns and
-    state of version 4 and continues with the same bits as that commit's
-    uninterrupted run: the coarse Borden plate, phase field included."""
+    state of version 4 and continues as that commit's uninterrupted run:
+    the coarse Borden plate, phase field included.
+
+    The stored run was made by a build for another CPU (``-march=native``):
+    a build for a CPU with other vector units (AVX-512 against AVX2) groups
+    some multiply-adds differently, so the two agree to round-off rather
+    than bit for bit. On the 2026-12-01 machine (AMD EPYC, AVX-512) the
+    first 25 rows are identical and the largest relative difference of an
+    energy is 2.7e-14; momenta (zero up to round-off) differ by at most
+    3e-13. A resumed run against an uninterrupted one on one build is
+    bitwise (``test_resumed_run_is_bitwise_identical``)."""
     run = tmp_path / "borden"
     (run / "checkpoints").mkdir(parents=True)
     shutil.copy(DATA / "borden_v3_step120.h5", run / "checkpoints" / "step_000000120.h5")
@@ -296,7 +305,14 @@ def test_version_3_borden_resumes_bitwise(tmp_path):
     assert ckpt.particles["fracture_energy"].shape == ckpt.particles["mass"].shape
     assert sorted(ckpt.solver["arrays"]) == ["phase_field/0/c", "phase_field/0/c_previous"]
     assert main(["run", "--resume", str(run), "--quiet"]) == 0
-    assert (run / "energies.csv").read_bytes() == (DATA / "borden_v3_energies.csv").read_bytes()
+    now, then = read_csv(run / "energies.csv"), read_csv(DATA / "borden_v3_energies.csv")
+    assert list(now) == list(then)
+    np.testing.assert_array_equal(now["step"], then["step"])
+    for column in then:
+        if column.startswith("momentum"):
+            np.testing.assert_allclose(now[column], then[column], rtol=0, atol=1e-11, err_msg=column)
+        else:
+            np.testing.assert_allclose(now[column], then[column], rtol=1e-12, atol=0, err_msg=column)
 
 
 def test_version_3_contact_state_is_restored(tmp_path):
