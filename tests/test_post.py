@@ -143,3 +143,97 @@ def test_crack_tip_takes_the_scene_threshold():
     assert tuple(tip.origin) == (50.0, 20.0) and tuple(tip.direction) == (1.0, 0.0)
     xy, c = np.array([[60.0, 20.0], [55.0, 20.0]]), np.array([0.3, 0.1])
     assert tip.locate(xy, c) == (60.0, 20.0, 10.0)  # 0.3 is cracked at 0.35
+
+
+# -- Kalthoff-Winkler: the crack from the notch tip (H&H section 3.2) ---------------
+
+KW_SMOKE = ["grid.h=2.0", "bodies.target.holes.0.max=[50.0, 29.0]"]
+
+
+def kw_band(tip, angle_deg, r0, r1, spacing, width):
+    """Points of a band along a ray from ``tip`` at ``angle_deg``, ``width`` wide."""
+    u = np.array([math.cos(math.radians(angle_deg)), math.sin(math.radians(angle_deg))])
+    n = np.array([-u[1], u[0]])
+    s, w = np.meshgrid(np.arange(r0, r1, spacing), np.arange(-width / 2, width / 2 + 1e-9, spacing))
+    return tip + s.ravel()[:, None] * u + w.ravel()[:, None] * n, w.ravel()
+
+
+def test_kalthoff_winkler_notch_tip_and_crack_angles():
+    from pfmpm.post.kalthoff_winkler import crack_angles, notch_tip
+
+    scene = Scene.from_toml(DEMOS / "kalthoff_winkler.toml")
+    tip, direction = notch_tip(scene)
+    assert tip.tolist() == [50.0, 26.0] and direction.tolist() == [1.0, 0.0]
+    # One row of failed particles at 60 degrees, a second crack below the notch's
+    # line (not the crack that leaves it upwards) and partial damage around.
+    row = tip + np.outer(np.arange(1.0, 40.0, 1.3), [0.5, math.sqrt(3) / 2])
+    below = tip + np.outer(np.arange(1.0, 40.0, 1.3), [0.5, -math.sqrt(3) / 2])
+    x = np.vstack([row, below, row + [0.3, 0.0]])
+    damage = np.concatenate([np.ones(len(row)), np.ones(len(below)), np.full(len(row), 0.99)])
+    bearing, line = crack_angles(x, damage, tip, direction)
+    assert bearing == pytest.approx(60.0, abs=1e-9) and line == pytest.approx(60.0, abs=1e-9)
+    # En echelon: from 15 mm on the row steps 4 mm sideways. The bearing turns
+    # less than the line, which tilts towards the offset.
+    step = np.where(np.hypot(*(row - tip).T)[:, None] > 15.0, [4.0, 0.0], [0.0, 0.0])
+    bearing, line = crack_angles(row + step, np.ones(len(row)), tip, direction)
+    assert 50.0 < bearing < 60.0 and line < bearing - 5.0  # 54.9 and 48.0
+    assert all(math.isnan(a) for a in crack_angles(x, np.zeros(len(x)), tip, direction))
+
+
+def test_kalthoff_winkler_record_follows_the_band_from_the_notch_tip():
+    from pfmpm.post.kalthoff_winkler import CrackRecord, report
+
+    scene = Scene.from_toml(DEMOS / "kalthoff_winkler.toml", KW_SMOKE)  # h = 2, tip (50, 27)
+    tip = np.array([50.0, 27.0])
+    band, offset = kw_band(tip, 60.0, 0.5, 25.0, 0.5, 4.0)
+    # Partial damage across the band, failed particles on its axis every 4 mm
+    # (farther apart than the particles link), and far off a spall of failed
+    # particles that never reaches the notch tip.
+    damage = np.where(np.abs(offset) < 1.0, 0.7, 0.6)
+    axis = np.flatnonzero(np.abs(offset) < 1e-9)[::8]  # from 0.5 mm, every 4 mm
+    damage[axis] = 1.0
+    spall = lattice(80.0, 100.0, 0.0, 1.0, 0.5)
+    x = np.vstack([band, spall, lattice(0.0, 100.0, 60.0, 62.0, 5.0)])
+    d = np.concatenate([damage, np.ones(len(spall)), np.zeros(len(x) - len(band) - len(spall))])
+    record = CrackRecord(scene, len(x))
+    record.sample(0.0, x, np.zeros(len(x)), 1.0)
+    reach = float(np.hypot(*(band[axis] - tip).T).max())
+    record.sample(10.0, x, d, 1.0 + 1e-12)
+    assert record.rows[-1]["tip"] == pytest.approx(reach)
+    assert record.rows[-1]["arms"] == [1, 1, 0]  # the band crosses 10 and 20 mm, not 30
+    assert record.first == {"t": 10.0, "distance": pytest.approx(float(np.hypot(*(band[axis] - tip).T).min()))}
+    # A branch from 12 mm at 110 degrees: two arms at 20 mm.
+    fork = tip + 12.0 * np.array([0.5, math.sqrt(3) / 2])
+    branch, _ = kw_band(fork, 110.0, 0.5, 15.0, 0.5, 2.0)
+    x2, d2 = np.vstack([x, branch]), np.concatenate([d, np.full(len(branch), 0.8)])
+    record2 = CrackRecord(scene, len(x2))
+    record2.sample(20.0, x2, d2, 1.0)
+    assert record2.rows[-1]["arms"][:2] == [1, 2]
+    run = {"rows": record.rows, "first": record.first, "passed": record.passed, "momentum_x0": 1.0}
+    out = report(run, scene.grid.h)
+    assert out["momentum_drift"] == pytest.approx(1e-12, rel=1e-3)
+    assert out["initiation_near_tip"] is True
+    assert out["single_until"] == 10.0 and out["single_crack"] is False
+    assert math.isnan(out["angle"])  # the tip never passed 30 mm
+
+
+def test_kalthoff_winkler_speed_is_the_slope_over_the_window():
+    from pfmpm.post.kalthoff_winkler import speed
+
+    rows = [{"t": t, "tip": max(0.0, 2.0 * (t - 30.0))} for t in np.arange(0.0, 60.0, 0.5)]
+    assert speed(rows, (40.0, 50.0)) == pytest.approx(2.0, rel=1e-12)
+    assert math.isnan(speed(rows, (10.0, 20.0)))  # no crack yet
+
+
+def test_body_fields_keeps_the_bodies_apart_without_partitioning():
+    from pfmpm.post.self_contact import body_fields, variants
+
+    scene = Scene.from_toml(DEMOS / "kalthoff_winkler.toml")
+    sf = body_fields(scene)
+    assert sf.contact.partition == "bodies" and sf.contact.friction == 0.1
+    assert [(p.bodies, p.friction) for p in sf.contact.pairs] == [(("target", "impactor"), 0.0)]
+    assert sf.bodies == scene.bodies and sf.materials == scene.materials
+    assert variants(Scene.from_toml(DEMOS / "billet.toml"))["multi_field"] == body_fields(
+        Scene.from_toml(DEMOS / "billet.toml"))
+    with pytest.raises(ValueError, match="damage_gradient"):
+        body_fields(sf)

@@ -326,6 +326,40 @@ class Simulation:
             snapshots.take(self.time, self.dt, self._of_crackable(self.particles.x),
                            self._of_crackable(self.particles.c))
 
+    def contact_record(self) -> dict:
+        """The contact entry of ``summary.json`` now: the contact nodes of the last
+        step, the node-pairs examined, active and sliding, the violations of the
+        checks C.1-C.4 and the friction dissipation over the run; with the damage
+        gradient also the split and separable nodes, the surface particles, the
+        kernel radius, the neighbour-list builds and the seconds per block.
+        Empty without a ``[contact]`` table."""
+        if not self.contact:
+            return {}
+        # Checks C.1-C.4 of Algorithm 1, counted over the whole run.
+        stats = self.solver.contact_stats()
+        record = {
+            "contact_nodes_last_step": stats["nodes"],
+            "node_pairs": stats["pairs"],
+            "active_node_pairs": stats["active"],
+            "sliding_node_pairs": stats["sliding"],
+            "violations": {c: stats[c] for c in ("C1", "C2", "C3", "C4")},
+            "friction_dissipation": -stats["friction_work"],
+        }
+        if self.damage_gradient:
+            # Homel & Herbold 2017: nodes where a group's two fields meet, the
+            # separable ones (eq. 21), the neighbour lists and the cost per block.
+            part = self.solver.damage_partition()
+            record.update({
+                "split_nodes_last_step": stats["split"],
+                "separable_nodes_last_step": stats["separable"],
+                "separable_node_steps": stats["separable_total"],
+                "surface_particles": int(np.count_nonzero(self.particles.surface)),
+                "kernel_radius": part["radius"],
+                "neighbour_builds": part["neighbour_builds"],
+                "seconds": part["seconds"],
+            })
+        return record
+
     def summary_fields(self, result: RunResult) -> dict:
         """The MPM entries of ``summary.json``: sizes, speed, the parts of the method
         switched on, phase-field and contact statistics."""
@@ -345,29 +379,7 @@ class Simulation:
             stats["mean_iterations"] = stats["iterations"] / max(stats["solves"], 1)
             fields["phase_field"] = stats
         if self.contact:
-            # Checks C.1-C.4 of Algorithm 1, counted over the whole run.
-            stats = self.solver.contact_stats()
-            fields["contact"] = {
-                "contact_nodes_last_step": stats["nodes"],
-                "node_pairs": stats["pairs"],
-                "active_node_pairs": stats["active"],
-                "sliding_node_pairs": stats["sliding"],
-                "violations": {c: stats[c] for c in ("C1", "C2", "C3", "C4")},
-                "friction_dissipation": -stats["friction_work"],
-            }
-        if self.damage_gradient:
-            # Homel & Herbold 2017: nodes where a group's two fields meet, the
-            # separable ones (eq. 21), the neighbour lists and the cost per block.
-            part = self.solver.damage_partition()
-            fields["contact"].update({
-                "split_nodes_last_step": stats["split"],
-                "separable_nodes_last_step": stats["separable"],
-                "separable_node_steps": stats["separable_total"],
-                "surface_particles": int(np.count_nonzero(self.particles.surface)),
-                "kernel_radius": part["radius"],
-                "neighbour_builds": part["neighbour_builds"],
-                "seconds": part["seconds"],
-            })
+            fields["contact"] = self.contact_record()
         return fields
 
 

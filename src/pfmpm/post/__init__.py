@@ -1,6 +1,7 @@
 """Measures of runs: what the papers report, computed from a run's state or output.
 
-Each measure reads cracks with the scene's ``output.crack_threshold``.
+Each measure of a phase field reads cracks with the scene's
+``output.crack_threshold``; those of a damage model read failure at full damage.
 
 ``tip``
     :class:`~pfmpm.post.tip.CrackTip` (tracked during a run), crack initiation
@@ -21,7 +22,14 @@ Each measure reads cracks with the scene's ``output.crack_threshold``.
 ``self_contact``
     Damage-gradient self-contact against the multi-field and single-field
     runs (Homel & Herbold 2017, section 3.1): the billet's checks B1-B4 and
-    the wedge's W1-W4 (:func:`~pfmpm.post.self_contact.run_variants`).
+    the wedge's W1-W4 (:func:`~pfmpm.post.self_contact.run_variants`);
+    :func:`~pfmpm.post.self_contact.body_fields`, the single-field run of
+    the impact problems.
+``kalthoff_winkler``
+    The crack that leaves a notch tip in a damage model's run (Homel &
+    Herbold 2017, section 3.2): its angle, tip speed and arms, checks K1-K4
+    (:func:`~pfmpm.post.kalthoff_winkler.run_crack`); failure at full
+    damage, not at ``output.crack_threshold``.
 
 ``pfmpm post crack-tip|crack-directions|fragments SCENE RUN_DIR`` prints the
 measures that read a finished run's output directory.

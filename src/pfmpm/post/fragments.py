@@ -6,7 +6,8 @@ import numpy as np
 
 from ..scene import Scene
 
-__all__ = ["LINK", "MIN_POINTS", "count_fragments", "fragments", "closest_approach", "run_fragments"]
+__all__ = ["LINK", "MIN_POINTS", "linked_sets", "count_fragments", "fragments", "closest_approach",
+           "run_fragments"]
 
 LINK = 1.5
 """Two intact particles belong to one fragment when closer than this many particle spacings."""
@@ -14,19 +15,26 @@ MIN_POINTS = 4
 """A fragment has at least this many particles (fewer are debris)."""
 
 
-def count_fragments(x: np.ndarray, spacing: float) -> int:
-    """Number of connected sets of the points ``x`` (N, 2), two points linked when
-    closer than :data:`LINK` spacings, with at least :data:`MIN_POINTS` points."""
+def linked_sets(x: np.ndarray, radius: float) -> np.ndarray:
+    """Label of the connected set of each point of ``x`` (N, 2), two points
+    linked when closer than ``radius`` (scipy's connected components)."""
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
     from scipy.spatial import cKDTree
 
     if len(x) == 0:
-        return 0
-    pairs = cKDTree(x).query_pairs(LINK * spacing, output_type="ndarray")
+        return np.zeros(0, dtype=np.int32)
+    pairs = cKDTree(x).query_pairs(radius, output_type="ndarray")
     graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(x), len(x)))
-    _, labels = connected_components(graph, directed=False)
-    return int(np.count_nonzero(np.bincount(labels) >= MIN_POINTS))
+    return connected_components(graph, directed=False)[1]
+
+
+def count_fragments(x: np.ndarray, spacing: float) -> int:
+    """Number of connected sets of the points ``x`` (N, 2), two points linked when
+    closer than :data:`LINK` spacings, with at least :data:`MIN_POINTS` points."""
+    if len(x) == 0:
+        return 0
+    return int(np.count_nonzero(np.bincount(linked_sets(x, LINK * spacing)) >= MIN_POINTS))
 
 
 def _spacing(scene: Scene) -> float:

@@ -18,8 +18,8 @@ import numpy as np
 from ..scene import Scene
 from .fragments import closest_approach
 
-__all__ = ["VARIANTS", "variants", "run_variants", "relative_difference", "interface_slip",
-           "rigid_rotation"]
+__all__ = ["VARIANTS", "variants", "body_fields", "run_variants", "relative_difference",
+           "interface_slip", "rigid_rotation"]
 
 VARIANTS = ("single_field", "multi_field", "damage_gradient")
 """No-slip single field, every body its own contact group, and damage-gradient self-contact."""
@@ -28,17 +28,27 @@ VARIANTS = ("single_field", "multi_field", "damage_gradient")
 def variants(scene: Scene) -> dict[str, Scene]:
     """The three runs of a self-contact scene: the scene itself (damage gradient),
     the same without ``[contact]`` (single field) and with every body its own
-    discrete field with the scene's friction (multi-field)."""
+    discrete field with the scene's friction (multi-field, :func:`body_fields`)."""
+    multi = body_fields(scene)
+    single = {k: v for k, v in scene.to_dict().items() if k != "contact"}
+    return {"single_field": Scene.from_dict(single), "multi_field": multi,
+            "damage_gradient": scene}
+
+
+def body_fields(scene: Scene) -> Scene:
+    """A damage-gradient scene with every body its own velocity field and no
+    partitioning (``partition = "bodies"``): the bodies meet by Coulomb
+    contact with the scene's friction between them. It is the multi-field
+    reference of :func:`variants`, and the single-field ("SF") run of the
+    impact problems (Homel & Herbold 2017, sections 3.2-3.4), where the
+    target is one body: unlike :func:`variants`' single field, a striker or
+    platen is not welded to it, and only the crack faces' friction goes unused."""
     contact = scene.contact
     if contact is None or not contact.damage_gradient:
-        raise ValueError("a self-contact scene has partition = \"damage_gradient\"")
-    d = scene.to_dict()
-    single = {k: v for k, v in d.items() if k != "contact"}
-    multi = dict(d, contact={"friction": contact.friction,
-                             "pairs": [{"bodies": list(p.bodies), "friction": p.friction}
-                                       for p in contact.pairs]})
-    return {"single_field": Scene.from_dict(single), "multi_field": Scene.from_dict(multi),
-            "damage_gradient": scene}
+        raise ValueError("a damage-gradient scene has partition = \"damage_gradient\"")
+    return Scene.from_dict(dict(scene.to_dict(), contact={
+        "friction": contact.friction,
+        "pairs": [{"bodies": list(p.bodies), "friction": p.friction} for p in contact.pairs]}))
 
 
 def run_variants(scene: Scene, times: list[float], samples: int = 20,
