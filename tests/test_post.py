@@ -159,11 +159,14 @@ def kw_band(tip, angle_deg, r0, r1, spacing, width):
 
 
 def test_kalthoff_winkler_notch_tip_and_crack_angles():
-    from pfmpm.post.kalthoff_winkler import crack_angles, notch_tip
+    from pfmpm.post.kalthoff_winkler import crack_angles, from_face, notch_tip
 
     scene = Scene.from_toml(DEMOS / "kalthoff_winkler.toml")
-    tip, direction = notch_tip(scene)
-    assert tip.tolist() == [50.0, 26.0] and direction.tolist() == [1.0, 0.0]
+    tip, direction, half = notch_tip(scene)
+    assert tip.tolist() == [50.0, 26.0] and direction.tolist() == [1.0, 0.0] and half == 1.0
+    # From the tip face, the segment x = 50, 25 <= y <= 27: on it, beside it, ahead of it.
+    points = [[50.0, 25.5], [50.0, 28.0], [53.0, 26.0], [54.0, 30.0], [47.0, 29.0]]
+    assert from_face(points, tip, direction, half) == pytest.approx([0.0, 1.0, 3.0, 5.0, 3.6055512755])
     # One row of failed particles at 60 degrees, a second crack below the notch's
     # line (not the crack that leaves it upwards) and partial damage around.
     row = tip + np.outer(np.arange(1.0, 40.0, 1.3), [0.5, math.sqrt(3) / 2])
@@ -181,7 +184,7 @@ def test_kalthoff_winkler_notch_tip_and_crack_angles():
 
 
 def test_kalthoff_winkler_record_follows_the_band_from_the_notch_tip():
-    from pfmpm.post.kalthoff_winkler import CrackRecord, report
+    from pfmpm.post.kalthoff_winkler import CrackRecord, from_face, report
 
     scene = Scene.from_toml(DEMOS / "kalthoff_winkler.toml", KW_SMOKE)  # h = 2, tip (50, 27)
     tip = np.array([50.0, 27.0])
@@ -201,7 +204,8 @@ def test_kalthoff_winkler_record_follows_the_band_from_the_notch_tip():
     record.sample(10.0, x, d, 1.0 + 1e-12)
     assert record.rows[-1]["tip"] == pytest.approx(reach)
     assert record.rows[-1]["arms"] == [1, 1, 0]  # the band crosses 10 and 20 mm, not 30
-    assert record.first == {"t": 10.0, "distance": pytest.approx(float(np.hypot(*(band[axis] - tip).T).min()))}
+    face = from_face(band[axis], tip, [1.0, 0.0], 2.0)
+    assert record.first == {"t": 10.0, "distance": pytest.approx(float(face.min()))}
     # A branch from 12 mm at 110 degrees: two arms at 20 mm.
     fork = tip + 12.0 * np.array([0.5, math.sqrt(3) / 2])
     branch, _ = kw_band(fork, 110.0, 0.5, 15.0, 0.5, 2.0)

@@ -21,7 +21,7 @@ from pfmpm import scenes
 from pfmpm.output import read_csv
 from pfmpm.post import (closest_approach, cone_index, crack_rise, run_directions, run_fragments,
                         tip_report)
-from pfmpm.post.kalthoff_winkler import crack_angles, failed, notch_tip
+from pfmpm.post.kalthoff_winkler import crack_angles, failed, from_face, notch_tip
 from pfmpm.scene import Scene
 from pfmpm.simulation import Simulation
 
@@ -178,9 +178,9 @@ def check_kalthoff_winkler(scene, sim, out, e):
     summary = json.loads((out / "summary.json").read_text())["contact"]
     assert summary["violations"] == {"C1": 0, "C2": 0, "C3": 0, "C4": 0}
     assert summary["separable_nodes_last_step"] > 0
-    tip, direction = notch_tip(scene)
+    tip, direction, half = notch_tip(scene)
     broken = failed(p.damage) & (p.body == 0)
-    assert np.hypot(*(p.x[broken] - tip).T).min() <= 2.0 * scene.grid.h
+    assert from_face(p.x[broken], tip, direction, half).min() <= 2.0 * scene.grid.h
     bearing, line = crack_angles(p.x, p.damage, tip, direction)
     assert 45.0 < bearing < 75.0 and 40.0 < line < 75.0
 

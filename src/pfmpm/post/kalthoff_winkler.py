@@ -21,7 +21,7 @@ from ..scene import Rectangle, Scene
 from .arms import crack_arms, propagation_angle
 from .fragments import LINK, linked_sets
 
-__all__ = ["FULL_DAMAGE", "BAND_DAMAGE", "ANGLE_RING", "ARM_RADII", "failed", "notch_tip", "crack_angles",
+__all__ = ["FULL_DAMAGE", "BAND_DAMAGE", "ANGLE_RING", "ARM_RADII", "failed", "notch_tip", "from_face", "crack_angles",
            "CrackRecord", "run_crack", "speed", "report"]
 
 FULL_DAMAGE = _core.DamageGradient().full_damage
@@ -43,19 +43,29 @@ def failed(damage: np.ndarray) -> np.ndarray:
     return np.asarray(damage) >= FULL_DAMAGE
 
 
-def notch_tip(scene: Scene, body: str = "target") -> tuple[np.ndarray, np.ndarray]:
-    """(tip, unit direction) of the notch: the rectangular hole of ``body``
-    that reaches its edge, its tip the middle of the hole's far side."""
+def notch_tip(scene: Scene, body: str = "target") -> tuple[np.ndarray, np.ndarray, float]:
+    """(tip, unit direction, half-width) of the notch: the rectangular hole of
+    ``body`` that reaches its edge; its tip is the middle of the hole's far
+    side, which is ``2 half-width`` long."""
     b = scene.body(body)
     x0, _, x1, _ = b.shape.bounds()
     for hole in b.holes:
         if isinstance(hole, Rectangle):
             (a, lo), (c, hi) = hole.min, hole.max
             if a <= x0 < c:  # from the left edge, pointing +x
-                return np.array([c, 0.5 * (lo + hi)]), np.array([1.0, 0.0])
+                return np.array([c, 0.5 * (lo + hi)]), np.array([1.0, 0.0]), 0.5 * (hi - lo)
             if a < x1 <= c:
-                return np.array([a, 0.5 * (lo + hi)]), np.array([-1.0, 0.0])
+                return np.array([a, 0.5 * (lo + hi)]), np.array([-1.0, 0.0]), 0.5 * (hi - lo)
     raise ValueError(f"bodies.{body}: no rectangular hole reaching its left or right edge")
+
+
+def from_face(x: np.ndarray, tip, direction, half_width: float) -> np.ndarray:
+    """Distance of the points ``x`` from the notch's tip face: the segment of
+    length ``2 half_width`` across the notch at ``tip``."""
+    d = np.asarray(x, dtype=float) - tip
+    along = d @ np.asarray(direction)
+    across = np.abs(d @ np.array([-direction[1], direction[0]]))
+    return np.hypot(along, np.maximum(across - half_width, 0.0))
 
 
 def _left(x: np.ndarray, tip, direction) -> tuple[np.ndarray, np.ndarray]:
@@ -97,13 +107,14 @@ class CrackRecord:
     """The crack from the notch tip, sampled during a run.
 
     The crack's band is the particles of damage at least :data:`BAND_DAMAGE`
-    whose linked set reaches within ``2 h`` of the notch tip; damage elsewhere
+    whose linked set reaches within ``2 h`` of the notch's tip face
+    (:func:`from_face`); damage elsewhere
     (spalls) is not part of it. Each :meth:`sample` adds the time, the tip's
     distance from the notch tip (the failed particle of the band on the left
     of the notch's line farthest from it), the number of the band's arms
     crossing each circle of :data:`ARM_RADII` ahead of the notch tip, the
     crack angles (:func:`crack_angles`) and the x momentum. It keeps when each
-    particle first failed, the time and distance from the notch tip of the
+    particle first failed, the time and distance from the tip face of the
     first failure (``first``), and the time at which the tip first reached
     the outer radius of :data:`ANGLE_RING` with the crack angles then
     (``passed``: the crack's direction before any later crack reaches the ring).
@@ -117,7 +128,7 @@ class CrackRecord:
     """
 
     def __init__(self, scene: Scene, n: int):
-        self.tip, self.direction = notch_tip(scene)
+        self.tip, self.direction, self.half_width = notch_tip(scene)
         self.h = scene.grid.h
         self.link = LINK * min(b.spacing(self.h) for b in scene.bodies)
         self.failed_at = np.full(n, math.nan)
@@ -131,14 +142,15 @@ class CrackRecord:
         self.failed_at[broken & np.isnan(self.failed_at)] = t
         d, left = _left(x, self.tip, self.direction)
         r = np.hypot(d[:, 0], d[:, 1])
+        face = from_face(x, self.tip, self.direction, self.half_width)
         idx = np.flatnonzero(broken)
         if len(idx) and math.isnan(self.first["t"]):
-            self.first = {"t": t, "distance": float(r[idx].min())}
+            self.first = {"t": t, "distance": float(face[idx].min())}
         band = np.zeros(len(x), dtype=bool)
         if len(idx):
             damaged = np.flatnonzero(np.asarray(damage) >= BAND_DAMAGE)
             labels = linked_sets(x[damaged], self.link)
-            band[damaged[np.isin(labels, labels[r[damaged] <= 2.0 * self.h])]] = True
+            band[damaged[np.isin(labels, labels[face[damaged] <= 2.0 * self.h])]] = True
         crack = band & broken & left
         reach = float(r[crack].max()) if np.any(crack) else 0.0
         c = np.where(band & (d @ self.direction > -self.h), 0.0, 1.0)
@@ -163,7 +175,7 @@ def run_crack(scene: Scene, every: float = 0.5, progress=None) -> dict:
         tip passed the ring, :class:`CrackRecord`), ``x`` and ``damage`` at
         the end, ``body``, ``mass``, ``momentum_x0``, ``contact``
         (:meth:`~pfmpm.simulation.Simulation.contact_record`) and ``tip``,
-        ``direction`` (the notch).
+        ``direction``, ``half_width`` (the notch, :func:`notch_tip`).
     """
     from ..simulation import Simulation
 
@@ -184,7 +196,7 @@ def run_crack(scene: Scene, every: float = 0.5, progress=None) -> dict:
             "x": p.x.copy(),
             "damage": p.damage.copy(), "body": p.body.copy(), "mass": p.mass.copy(),
             "momentum_x0": momentum0, "contact": sim.contact_record(),
-            "tip": record.tip, "direction": record.direction}
+            "tip": record.tip, "direction": record.direction, "half_width": record.half_width}
 
 
 def speed(rows: list[dict], window: tuple[float, float]) -> float:
@@ -211,8 +223,8 @@ def report(run: dict, h: float, speed_window: tuple[float, float] = (40.0, 50.0)
         ``line_end`` at the end, when later cracks may have entered the
         ring), ``speed`` (K2, km/s over
         ``speed_window``), ``initiation`` (K3: the time of the first
-        failure and its distance from the notch tip; ``initiation_near_tip``
-        whether within ``2 h``), ``single_until`` (K3: the
+        failure and its distance from the notch's tip face;
+        ``initiation_near_tip`` whether within ``2 h``), ``single_until`` (K3: the
         last sample time up to which at most one arm crossed every circle of
         :data:`ARM_RADII`), ``arms_end`` (the arms at the end),
         ``single_crack`` (whether that holds to ``single_until``),
