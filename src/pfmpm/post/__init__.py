@@ -22,6 +22,11 @@ Each measure reads cracks with the scene's ``output.crack_threshold``.
     Damage-gradient self-contact against the multi-field and single-field
     runs (Homel & Herbold 2017, section 3.1): the billet's checks B1-B4 and
     the wedge's W1-W4 (:func:`~pfmpm.post.self_contact.run_variants`).
+``charpy``
+    The modified Charpy impact (Homel & Herbold 2017, section 3.3): the energy
+    the striker-bar system loses, split into damage, friction and the
+    scheme's loss (:func:`~pfmpm.post.charpy.energy_balance`), the crack band
+    (:func:`~pfmpm.post.charpy.crack_band`) and the momentum.
 
 ``pfmpm post crack-tip|crack-directions|fragments SCENE RUN_DIR`` prints the
 measures that read a finished run's output directory.
