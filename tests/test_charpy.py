@@ -6,7 +6,9 @@ import numpy as np
 import pytest
 
 from pfmpm import scenes
-from pfmpm.post.charpy import crack_band, energy_balance, fracture_energy, momentum_error
+from pfmpm.output import ParticleSeries
+from pfmpm.post.charpy import (contact_end, crack_band, energy_balance, fracture_energy,
+                               momentum_error)
 from pfmpm.scene import Scene
 
 
@@ -103,3 +105,22 @@ def test_crack_band_of_a_straight_crack(bar):
     assert not crack_band(scene, x, D, body)["from_root"]
     # Nothing failed.
     assert crack_band(scene, x, np.zeros(len(x)), body)["paths"] == 0
+
+
+def test_contact_end_is_when_the_strikers_momentum_settles(bar, tmp_path):
+    """Snapshots of the scene's particles whose striker slows down until t = 3
+    and then keeps its momentum (its particles still vibrating about it)."""
+    scene, x, body = bar
+    striker = body == 1
+    wobble = np.where(np.arange(len(x)) % 2 == 0, 1e-3, -1e-3)  # sums to zero over the striker
+    assert abs(wobble[striker].sum()) < 1e-12
+    series = ParticleSeries(tmp_path / "run")
+    for step, speed in enumerate([0.02, 0.015, 0.011, 0.01, 0.01, 0.01]):
+        v = np.zeros((len(x), 3))
+        v[striker, 0] = speed + (wobble[striker] if step > 3 else 0.0)
+        series.write(step, float(step), x, [("velocity", v, ""), ("body", body.astype(float), "")])
+    assert contact_end(scene, tmp_path / "run") == 3.0
+    # Still slowing at the last snapshot but one: contact has not ended.
+    series.write(6, 6.0, x, [("velocity", np.where(striker[:, None], [0.009, 0.0, 0.0], 0.0), ""),
+                             ("body", body.astype(float), "")])
+    assert contact_end(scene, tmp_path / "run") is None

@@ -70,8 +70,8 @@ def split(sim: Simulation, every: int) -> dict:
         power = stress_power(F, P.F, stress, P.stress, volume, P.volume)
         sums["kinematic"] += (e1["kinetic"] - e0["kinetic"] + e1.get("friction_dissipation", 0.0)
                               - e0.get("friction_dissipation", 0.0) + power)
-        sums["material"] += (e1["elastic"] - e0["elastic"] + e1["damage_dissipation"]
-                             - e0["damage_dissipation"] - power)
+        sums["material"] += (e1["elastic"] - e0["elastic"] + e1.get("damage_dissipation", 0.0)
+                             - e0.get("damage_dissipation", 0.0) - power)
         sums["total"] += e1["total"] - e0["total"]
         e0 = e1
         if sim.step % every == 0 or sim.step == sim.scene.steps():

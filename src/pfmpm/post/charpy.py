@@ -10,8 +10,8 @@ striker's kinetic energy KE0 and can only be lost: to the damage model
 loss, and in a single velocity field the "phantom" dissipation of the two
 sides of a crack dragged through each other). :func:`energy_balance` splits
 the loss dE = KE0 - E_final into these; :func:`crack_band` measures the
-fully damaged band (check C6) and :func:`momentum_error` the drift of the
-momentum (C7).
+damaged band (check C6), :func:`momentum_error` the drift of the momentum
+(C7), and :func:`contact_end` when the striker has left the bar (C1).
 """
 
 from __future__ import annotations
