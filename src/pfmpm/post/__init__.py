@@ -30,6 +30,11 @@ Each measure of a phase field reads cracks with the scene's
     Herbold 2017, section 3.2): its angle, tip speed and arms, checks K1-K4
     (:func:`~pfmpm.post.kalthoff_winkler.run_crack`); failure at full
     damage, not at ``output.crack_threshold``.
+``charpy``
+    The modified Charpy impact (Homel & Herbold 2017, section 3.3): the energy
+    the striker-bar system loses, split into damage, friction and the
+    scheme's loss (:func:`~pfmpm.post.charpy.energy_balance`), the crack band
+    (:func:`~pfmpm.post.charpy.crack_band`) and the momentum.
 
 ``pfmpm post crack-tip|crack-directions|fragments SCENE RUN_DIR`` prints the
 measures that read a finished run's output directory.

@@ -1,0 +1,225 @@
+"""Modified Charpy impact (Homel & Herbold 2017, section 3.3, Figs. 13-14): checks C1-C7.
+
+Runs the charpy scene (``pfmpm/scenes/charpy.toml``) as the cases below, one
+after the other, each into ``--out/<case>``, and measures each with
+:mod:`pfmpm.post.charpy`:
+
+- ``elastic_h1``: striker and bar elastic (the bar of the striker's
+  material), h = 1 mm (check C1);
+- ``dfg_h<h>`` and ``sf_h<h>``: the damage-gradient partition and the single
+  field (``contact.partition = "bodies"``) at h = 1, 0.5, 0.25 mm (C2, C3);
+- ``sep<D>_h0.5``: D-bar_min = 0.01 and 0.125 at h = 0.5 (with ``dfg_h0.5``,
+  0.25: C4);
+- ``lch<k>_h0.5``: l_ch = 0.5 and 2 cell diagonals at h = 0.5 (with
+  ``dfg_h0.5``: C5);
+- ``gf22.3_h1``: the damage-gradient run at h = 1 with Table III's printed
+  G_f = 22.3 mJ/mm^2.
+
+Each case chosen with ``--cases`` (default all) is run, and then every case
+that has a completed run in ``--out`` is measured (so cases can be run one
+at a time, and ``--cases`` alone measures what is there).
+
+At each resolution the striker starts one particle spacing (h / 2) from the
+bar. C6 (one crack band from the notch root, under 2 cells wide) is
+measured on the set D = 1 (``C6``) and on D >= 0.5 (``C6_half``), C7
+(momentum) on every run. The measures go to ``--out/results.json``, the
+checks to ``--out/checks.json`` and the energy histories to
+``--out/energy_histories.png`` (Fig. 13: E - KE0 against time, E = kinetic +
+stored, SF and DFG at the three resolutions, with -G_f A_f and C2's band).
+
+    .venv/bin/python benchmarks/charpy/study.py --out out/charpy
+    .venv/bin/python benchmarks/charpy/study.py --out out/charpy --cases dfg_h0.25 sf_h0.25
+    .venv/bin/python benchmarks/charpy/study.py --out out/charpy --cases   # measures only, no run
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from pfmpm import plots, scenes
+from pfmpm.output import read_csv
+from pfmpm.post.charpy import (crack_band, energy_balance, fracture_energy, momentum_error,
+                               contact_end)
+from pfmpm.post.frames import read_frame, series
+from pfmpm.scene import Scene
+from pfmpm.simulation import Simulation
+
+RESOLUTIONS = (1.0, 0.5, 0.25)
+"""Cell sizes h (mm) of the resolution study (benchmarks section 5, proposed)."""
+SWEEP_H = 0.5
+"""The sweeps' cell size (Fig. 14)."""
+CRACKED = 0.5
+"""C6 is also measured on the set D >= this: with the partition a crack's faces
+part (eq. 21) before most of its particles reach D = 1."""
+
+
+def at(h: float, *sets: str) -> list[str]:
+    """Overrides of a run at cell size ``h``: the striker one particle spacing
+    (h / 2) from the bar."""
+    return [f"grid.h={h}", f"bodies.striker.shape.center=[{-10.0 - h / 2}, 27.5]", *sets]
+
+
+def cases() -> dict[str, list[str]]:
+    """Every case of the study: name -> its overrides of the scene."""
+    out = {"elastic_h1": at(1.0, "bodies.target.material=striker", "output.every=20")}
+    for h in RESOLUTIONS:
+        out[f"dfg_h{h:g}"] = at(h)
+        out[f"sf_h{h:g}"] = at(h, "contact.partition=bodies")
+    for d in (0.01, 0.125):
+        out[f"sep{d:g}_h{SWEEP_H:g}"] = at(SWEEP_H, f"contact.separability={d}")
+    for k in (0.5, 2.0):
+        out[f"lch{k:g}_h{SWEEP_H:g}"] = at(SWEEP_H, f"materials.target.damage.l_ch={k * math.sqrt(2) * SWEEP_H}")
+    out["gf22.3_h1"] = at(1.0, "materials.target.damage.Gf=22.3")
+    return out
+
+
+def measure(scene: Scene, run: Path) -> dict:
+    """The measures of one finished run: its energy balance, momentum, crack
+    band (at the last snapshot, in the reference configuration) and contact checks."""
+    e = read_csv(run / "energies.csv")
+    summary = json.loads((run / "summary.json").read_text())
+    t_end, last = series(run)[-1]
+    frame = read_frame(t_end, last)
+    damaged = scene.material_of(scene.body("target")).damage is not None
+    after = None if damaged else contact_end(scene, run)
+    report = {"energy": energy_balance(e, after=after), "contact_end": after,
+              "momentum": momentum_error(e), "status": summary["status"], "steps": summary["steps"],
+              "wall_s": summary["wall_s"], "particles": len(frame.x),
+              "violations": summary["contact"]["violations"],
+              "GfAf": fracture_energy(scene) if damaged else None, "h": scene.grid.h,
+              "l_ch": scene.material_of(scene.body("target")).damage.length(scene.grid.h) if damaged else None,
+              "separability": scene.contact.separability}
+    if damaged:
+        x0 = frame.x - frame.data["displacement"][:, :2]
+        report["band"] = crack_band(scene, x0, frame.data["damage"], frame.data["body"])
+        report["band_half"] = crack_band(scene, x0, frame.data["damage"], frame.data["body"],
+                                         threshold=CRACKED)
+    return report
+
+
+def checks(results: dict) -> dict:
+    """Checks C1-C7 of benchmarks section 5 on the cases measured (a check whose
+    cases are missing is left out)."""
+    def dE(name):
+        return results[name]["energy"]["dE"]
+
+    out = {}
+    ga = fracture_energy(Scene.from_toml(scenes.path("charpy")))  # 354.1 mJ
+    if "elastic_h1" in results:
+        r = results["elastic_h1"]["energy"]
+        out["C1"] = {"loss": r["loss"], "overshoot": r["overshoot"],
+                     "pass": 0.005 <= r["loss"] <= 0.045 and r["overshoot"] < 0.01}
+    out["C7"] = {"momentum": {n: r["momentum"] for n, r in results.items()},
+                 "pass": all(r["momentum"] < 1e-9 for r in results.values())}
+    dfg = [f"dfg_h{h:g}" for h in RESOLUTIONS if f"dfg_h{h:g}" in results]
+    if dfg:
+        ke0 = results[dfg[0]]["energy"]["KE0"]
+        lo, hi = 0.9 * ga, 1.1 * ga + 0.025 * ke0
+        out["C2"] = {"dE": {n: dE(n) for n in dfg}, "range": [lo, hi],
+                     "pass": all(lo <= dE(n) <= hi for n in dfg)}
+    both = [h for h in RESOLUTIONS if f"dfg_h{h:g}" in results and f"sf_h{h:g}" in results]
+    if both:
+        diff = {f"h{h:g}": dE(f"sf_h{h:g}") - dE(f"dfg_h{h:g}") for h in both}
+        coarse, fine = diff[f"h{both[0]:g}"], diff[f"h{both[-1]:g}"]
+        out["C3"] = {"sf_minus_dfg": diff, "over_GfAf": {k: v / ga for k, v in diff.items()},
+                     "pass": coarse >= 0.05 * ga and (len(both) == 1 or abs(fine) < abs(coarse))}
+    sep = [n for n in (f"sep0.01_h{SWEEP_H:g}", f"sep0.125_h{SWEEP_H:g}", f"dfg_h{SWEEP_H:g}")
+           if n in results]
+    spread = None
+    if len(sep) == 3:
+        values = [dE(n) for n in sep]
+        spread = max(values) - min(values)
+        out["C4"] = {"dE": dict(zip(("0.01", "0.125", "0.25"), values)), "spread_over_GfAf": spread / ga,
+                     "pass": spread <= 0.02 * ga}
+    lch = [n for n in (f"lch0.5_h{SWEEP_H:g}", f"dfg_h{SWEEP_H:g}", f"lch2_h{SWEEP_H:g}") if n in results]
+    if len(lch) == 3:
+        values = [dE(n) for n in lch]
+        falls = values[0] > values[1] > values[2]
+        out["C5"] = {"dE": dict(zip(("0.5", "1", "2"), values)),
+                     "range_over_GfAf": (max(values) - min(values)) / ga,
+                     "pass": falls and (spread is None or max(values) - min(values) > spread)}
+    for key, band in (("C6", "band"), ("C6_half", "band_half")):
+        bands = {n: r[band] for n, r in results.items() if not n.startswith(("sf", "elastic"))}
+        if bands:
+            out[key] = {"bands": {n: {k: b[k] for k in ("paths", "from_root", "across", "width")}
+                                  for n, b in bands.items()},
+                        "pass": all(b["paths"] == 1 and b["from_root"] and b["across"] == 1.0
+                                    and b["width"] < 2.0 for b in bands.values())}
+    return dict(sorted(out.items()))
+
+
+def figure(results: dict, out: Path) -> None:
+    """Fig. 13: the system's energy E = kinetic + stored against time, SF and DFG
+    at each resolution, as E - KE0 (each run's own KE0), with -G_f A_f and the
+    band of check C2."""
+    plt = plots.plt
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    colours = dict(zip(RESOLUTIONS, ("tab:blue", "tab:orange", "tab:green")))
+    ga = fracture_energy(Scene.from_toml(scenes.path("charpy")))
+    for h in RESOLUTIONS:
+        for kind, style in (("dfg", "-"), ("sf", "--")):
+            name = f"{kind}_h{h:g}"
+            if name in results:
+                e = read_csv(out / name / "energies.csv")
+                energy = e["kinetic"] + e["elastic"]
+                ax.plot(e["t"], energy - energy[0], style, color=colours[h], lw=1,
+                        label=f"{kind.upper()}, h = {h:g} mm")
+    ke0 = next((r["energy"]["KE0"] for r in results.values()), 1005.3)
+    ax.axhline(-ga, color="k", lw=0.8, ls=":", label=f"-G_f A_f = -{ga:.1f} mJ")
+    ax.axhspan(-(1.1 * ga + 0.025 * ke0), -0.9 * ga, color="gold", alpha=0.3, lw=0, label="C2")
+    ax.set_xlabel("t (us)")
+    ax.set_ylabel("E - KE0 (mJ), E = kinetic + stored")
+    ax.set_title("Modified Charpy: the system's energy (H&H Fig. 13)")
+    ax.legend(fontsize=8, loc="lower left")
+    fig.tight_layout()
+    fig.savefig(out / "energy_histories.png", dpi=120)
+    plt.close(fig)
+
+
+def main(argv: list[str] | None = None) -> dict:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--cases", nargs="*", default=None, metavar="CASE",
+                        help="cases to run (default all; none: only measure the runs in --out)")
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                        help="more overrides of every case's scene, after its own")
+    parser.add_argument("--out", default="out/charpy")
+    args = parser.parse_args(argv)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    every = cases()
+    chosen = list(every) if args.cases is None else args.cases
+    unknown = [c for c in chosen if c not in every]
+    if unknown:
+        parser.error(f"unknown case {unknown[0]!r}: one of {', '.join(every)}")
+    for name in chosen:
+        scene = Scene.from_toml(scenes.path("charpy"), every[name] + args.set)
+        result = Simulation(scene).run(out / name, progress=False)
+        if result.status != "completed":
+            raise SystemExit(f"{name}: {result.status}: {result.error}")
+        print(f"{name}: {result.steps} steps in {result.wall_s:.0f} s", flush=True)
+    results = {}
+    for name, sets in every.items():
+        summary = out / name / "summary.json"
+        if summary.exists() and json.loads(summary.read_text())["status"] == "completed":
+            results[name] = measure(Scene.from_toml(scenes.path("charpy"), sets + args.set), out / name)
+            r = results[name]
+            print(f"{name}: dE = {r['energy']['dE']:.1f} mJ (damage {r['energy']['damage']:.1f}, "
+                  f"numerical {r['energy']['numerical']:.1f}), loss {r['energy']['loss']:.4f}, "
+                  f"momentum {r['momentum']:.2e}")
+    (out / "results.json").write_text(json.dumps(results, indent=1))
+    report = checks(results) if results else {}
+    (out / "checks.json").write_text(json.dumps(report, indent=1))
+    figure(results, out)
+    for key, value in report.items():
+        print(key, "pass" if value["pass"] else "FAIL",
+              json.dumps({k: v for k, v in value.items() if k != "pass"}))
+    return report
+
+
+if __name__ == "__main__":
+    main()
