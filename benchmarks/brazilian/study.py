@@ -319,10 +319,11 @@ def figures(records: list[dict], analysis: dict, out: Path) -> None:
             x, d, b = data[f"{key}_x"], data[f"{key}_damage"], data[f"{key}_body"]
             size = 0.5 * (r["h"] / 0.1875) ** 2
             ax.scatter(x[b != 0, 0], x[b != 0, 1], s=size, c="0.7", marker="s", lw=0)
-            ax.scatter(x[b == 0, 0], x[b == 0, 1], s=size, c=d[b == 0], cmap="inferno_r", vmin=0, vmax=1,
-                       marker="s", lw=0)
+            dots = ax.scatter(x[b == 0, 0], x[b == 0, 1], s=size, c=d[b == 0], cmap="YlOrRd", vmin=-0.2,
+                              vmax=1, marker="s", lw=0)
             ax.set_xlim(-6, 6)
             ax.set_ylim(-7.5, 7.5)
+            fig.colorbar(dots, ax=ax, shrink=0.6, label="damage D", ticks=[0.0, 0.5, 1.0])
     fig.tight_layout()
     fig.savefig(out / "brazilian_damage.png", dpi=120)
     plt.close(fig)
