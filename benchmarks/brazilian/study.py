@@ -303,12 +303,13 @@ def figures(records: list[dict], analysis: dict, out: Path) -> None:
             a = r["runs"][m]["analysis"].get(f"{t:g}")
             if a is None:
                 continue
+            color = None  # the resolution's colour, for both of its curves
             for intact, style in (("undamaged", "-"), ("unfailed", ":")):
                 s, f = a[intact]["sizes"], a[intact]["fractions"]
                 label = (f"h = {r['h']:g} mm ({r['paper_h']}): v = {a['mean_speed']:.3f} mm/us"
                          if intact == "undamaged" else None)
-                line = ax.step(s, f, style, where="post", label=label,
-                               color=None if intact == "undamaged" else line[0].get_color())
+                (line,) = ax.step(s, f, style, where="post", label=label, color=color)
+                color = line.get_color()
         ax.set_xscale("log")
         ax.set_xlabel("fragment size sqrt(4A/pi) (mm)")
         ax.set_title(f"{m.replace('_', ' ')}, t = {t:g} us")
