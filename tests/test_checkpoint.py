@@ -423,6 +423,19 @@ def test_unstable_step_is_reported():
     assert ok.step == scene.steps()
 
 
+def test_fastest_signal_is_what_the_stability_check_holds_dt_to():
+    scene = Scene.from_toml(BAR, ["time.end=1", "walls=[]"])
+    sim = Simulation(scene)
+    m = scene.materials[0]
+    c = wave_speed(m.E, m.nu, m.density, scene.plane)
+    # At rest the largest c_p + |v_p| is the P-wave speed, and dt is cfl kappa h over it.
+    assert sim.solver.fastest_signal() == pytest.approx(c, rel=1e-14)
+    assert scene.dt() * sim.solver.fastest_signal() / scene.critical_length() == pytest.approx(
+        scene.time.cfl, rel=1e-14)
+    sim.particles.v[7] = (3.0, 4.0)
+    assert sim.solver.fastest_signal() == pytest.approx(c + 5.0, rel=1e-14)
+
+
 def test_light_nodes_are_counted(tmp_path):
     scene = Scene.from_toml(BAR, ["time.end=0.2", "output.particles=false"])
     sim = Simulation(scene)

@@ -9,7 +9,10 @@ import pytest
 
 from pfmpm.post.arms import crack_directions, new_crack
 from pfmpm.post.disk_beam import cone_index, running_crack
-from pfmpm.post.fragments import closest_approach, count_fragments, fragments
+from pfmpm.post.brazilian import (contact_distance, disk_fragments, disk_speed, failed_fraction,
+                                  platen_penetration, wall_excursion)
+from pfmpm.post.fragments import (closest_approach, count_fragments, fragment_sizes, fragments,
+                                  mean_speed, median_size, size_distribution)
 from pfmpm.post.tip import CrackTip, tip_report
 from pfmpm.scene import Scene
 
@@ -18,6 +21,7 @@ DISK_BEAM = ["grid.h=1.0", "materials.beam.fracture.l0=2.0", "materials.disk.fra
              "bodies.beam.particles_per_cell=1", "bodies.disk.particles_per_cell=1"]
 RINGS = ["grid.h=2.5", "materials.steel.fracture.l0=2.5", "bodies.A.particles_per_cell=1",
          "bodies.B.particles_per_cell=1"]
+BRAZILIAN = ["grid.h=0.5"]
 BORDEN = ["grid.h=1.0", "materials.concrete.fracture.l0=2.0", "bodies.plate.particles_per_cell=1"]
 
 
@@ -94,6 +98,111 @@ def test_fragments_per_body_cut_at_the_scene_threshold_and_closest_approach():
     looser = Scene.from_toml(DEMOS / "two_rings.toml", RINGS + ["output.crack_threshold=0.1"])
     assert fragments(looser, x, body, c) == {"A": 1, "B": 1}
     assert closest_approach(scene, x, body) == pytest.approx(5.0)
+
+
+def test_fragment_sizes_are_equivalent_diameters_of_linked_sets():
+    # h = 1, 2 x 2 particles per cell (spacing 0.5, area 0.25, mass 0.5 each),
+    # linked within 0.75: lattice (0.5) and diagonal (0.707) neighbours join.
+    a = lattice(0.0, 2.0, 0.0, 2.0, 0.5)  # 16 particles: A = 4
+    b = lattice(3.0, 4.0, 0.0, 3.0, 0.5)  # 12, one empty column (1.0 apart) from a: A = 3
+    diagonal = np.array([[10.0, 0.0], [10.5, 0.5], [11.0, 1.0]])  # a chain of diagonal neighbours
+    single = np.array([[20.0, 0.0]])
+    x = np.vstack([a, b, diagonal, single])
+    sizes, masses = fragment_sizes(x, np.full(len(x), 0.25), np.full(len(x), 0.5), 0.75)
+    order = np.argsort(sizes)
+    expected = np.sqrt(4.0 * np.array([0.25, 0.75, 3.0, 4.0]) / math.pi)  # 0.564, 0.977, 1.954, 2.257
+    assert sizes[order] == pytest.approx(expected, rel=1e-14)
+    assert masses[order] == pytest.approx([0.5, 1.5, 6.0, 8.0], rel=1e-14)
+    # 0.7 no longer joins diagonal neighbours (0.707): the chain falls apart.
+    assert len(fragment_sizes(x, np.full(len(x), 0.25), np.ones(len(x)), 0.7)[0]) == 6
+    assert fragment_sizes(np.zeros((0, 2)), [], [], 0.75)[0].size == 0
+
+
+def test_size_distribution_and_mass_weighted_median():
+    sizes, masses = np.array([2.0, 0.5, 1.0, 0.01]), np.array([3.0, 1.0, 4.0, 100.0])
+    s, f = size_distribution(sizes, masses, 0.05)  # the 0.01 one is below the smallest size
+    assert s.tolist() == [0.5, 1.0, 2.0]
+    assert f == pytest.approx([1 / 8, 5 / 8, 1.0], rel=1e-15)
+    assert median_size(sizes, masses, 0.05) == 1.0  # 5/8 of the mass in sizes <= 1
+    assert median_size(sizes, np.array([3.0, 1.0, 3.0, 0.0]), 0.05) == 1.0  # exactly 1/2 at 1
+    assert median_size(sizes, np.array([5.0, 1.0, 3.0, 0.0]), 0.05) == 2.0
+    assert math.isnan(median_size(sizes, masses, 10.0))
+    assert median_size(sizes, masses, 0.0) == 0.01  # unfiltered, the dust holds most of the mass
+    v = np.array([[3.0, 4.0], [0.0, -1.0]])
+    assert mean_speed(v, [1.0, 3.0]) == pytest.approx((5.0 + 3.0) / 4.0, rel=1e-15)
+
+
+def brazilian_particles():
+    """The particles of the Brazilian disk scene at h = 0.5 (two per cell), at t = 0."""
+    from types import SimpleNamespace
+    from pfmpm.simulation import Simulation
+
+    scene = Scene.from_toml(DEMOS / "brazilian.toml", BRAZILIAN)
+    p = Simulation(scene).particles
+    cols = {k: np.array(getattr(p, k)) for k in ("x", "v", "mass", "volume", "damage", "body")}
+    return scene, SimpleNamespace(**cols)
+
+
+def test_disk_fragments_of_a_disk_cut_in_two():
+    scene, p = brazilian_particles()  # disk radius 5, spacing 0.25, thickness 2
+    disk = p.body == 0
+    area = p.volume[disk].sum() / 2.0
+    one = disk_fragments(scene, p)
+    assert one["fragments"] == 1 and one["intact"] == pytest.approx(1.0, rel=1e-14)
+    assert one["d50"] == pytest.approx(math.sqrt(4 * area / math.pi), rel=1e-14)
+    # A vertical crack one particle wide (D = 1) at x = -1.125, and a damaged
+    # (D = 0.5) column beside it: D <= 1e-6 gives two pieces, left of x = -1.25
+    # and right of -0.75; D < 1 joins the damaged column to the right one.
+    crack = disk & (np.abs(p.x[:, 0] + 1.125) < 0.01)
+    damaged = disk & (np.abs(p.x[:, 0] + 0.875) < 0.01)
+    p.damage[crack], p.damage[damaged] = 1.0, 0.5
+    left, right = disk & (p.x[:, 0] < -1.25), disk & (p.x[:, 0] > -0.75)
+    two = disk_fragments(scene, p)
+    sizes = np.sqrt(4 * np.array([p.volume[left].sum(), p.volume[right].sum()]) / 2.0 / math.pi)
+    assert two["fragments"] == 2 and two["sizes"] == pytest.approx(np.sort(sizes), rel=1e-14)
+    m = np.array([p.mass[left].sum(), p.mass[right].sum()])
+    assert two["fractions"][0] == pytest.approx(m.min() / m.sum(), rel=1e-14)
+    assert two["d50"] == pytest.approx(sizes[1], rel=1e-14)  # the right piece holds over half the mass
+    unfailed = disk_fragments(scene, p, intact="unfailed")
+    assert unfailed["fragments"] == 2
+    assert unfailed["sizes"][1] == pytest.approx(
+        math.sqrt(4 * p.volume[right | damaged].sum() / 2.0 / math.pi), rel=1e-14)
+    assert unfailed["intact"] == pytest.approx(1.0 - p.mass[crack].sum() / p.mass[disk].sum(), rel=1e-14)
+    # The fully damaged area fraction: the crack's particles over the disk's.
+    assert failed_fraction(scene, p) == pytest.approx(p.volume[crack].sum() / p.volume[disk].sum(), rel=1e-14)
+    # The mean speed counts every disk particle, the platens none.
+    p.v[disk] = [0.0, 2.0]
+    p.v[crack] = [0.0, 4.0]
+    p.v[~disk] = [100.0, 0.0]
+    expected = (2.0 * p.mass[disk & ~crack].sum() + 4.0 * p.mass[crack].sum()) / p.mass[disk].sum()
+    assert disk_speed(scene, p) == pytest.approx(expected, rel=1e-14)
+    assert two["mean_speed"] == 0.0
+    with pytest.raises(ValueError, match="intact"):
+        disk_fragments(scene, p, intact="cracked")
+
+
+def test_brazilian_contact_walls_and_platens():
+    scene, p = brazilian_particles()  # h = 0.5, spacing 0.25
+    assert contact_distance(scene, [[0.0, 5.0], [0.0, -5.0], [0.0, 0.0], [3.0, 1.0]]) == pytest.approx(
+        [0.0, 0.0, 5.0, 5.0], rel=1e-15)
+    # At t = 0 the outermost platen particles lie half a spacing inside the
+    # walls at x = -6, 6, and the disk's top and bottom particles half a
+    # spacing below (above) the platen faces: -1/4 cell each.
+    assert wall_excursion(scene, p.x) == pytest.approx(-0.25, rel=1e-12)
+    x0 = p.x.copy()
+    for name in ("top", "bottom"):
+        assert platen_penetration(scene, x0, p.x, p.body, name) == pytest.approx(-0.25, rel=1e-12)
+    x = x0.copy()
+    top = np.argmax(np.where(p.body == 0, x0[:, 1], -np.inf))  # the disk's highest particle
+    x[top, 1] += 0.25  # a quarter cell into the platen
+    assert platen_penetration(scene, x0, x, p.body, "top") == pytest.approx(0.25, rel=1e-12)
+    assert platen_penetration(scene, x0, x, p.body, "bottom") == pytest.approx(-0.25, rel=1e-12)
+    # The platen bends: its face follows its particles.
+    x[p.body == 1, 1] += 0.1 * x0[p.body == 1, 0] ** 2 / 36.0
+    assert platen_penetration(scene, x0, x, p.body, "top") == pytest.approx(0.25 - 0.1 * x0[top, 0] ** 2 / 36 / 0.5,
+                                                                            rel=1e-12)
+    x[0, 0] = 6.3  # 0.3 mm past the right wall
+    assert wall_excursion(scene, x) == pytest.approx(0.6, rel=1e-12)
 
 
 # -- crack directions ---------------------------------------------------------------

@@ -23,6 +23,7 @@ from pfmpm.post import (closest_approach, cone_index, crack_rise, run_directions
                         tip_report)
 from pfmpm.post.charpy import crack_band, energy_balance, fracture_energy, momentum_error
 from pfmpm.post.kalthoff_winkler import crack_angles, failed, from_face, notch_tip
+from pfmpm.post.brazilian import contact_distance, disk_fragments, platen_penetration, wall_excursion
 from pfmpm.scene import Scene
 from pfmpm.simulation import Simulation
 
@@ -52,11 +53,11 @@ def smoke_runs() -> dict[str, tuple[Path, list[str]]]:
 BALANCE = {
     # name: largest drift of ``total`` from t = 0 over the largest external work or
     # kinetic + elastic energy (measured: 0.030, 0.039, 0.016, 0.013, 0.0008, 0.026, 0.032;
-    # Kalthoff-Winkler 0.079).
+    # Kalthoff-Winkler 0.079; the Brazilian disk 0.0021).
     # The history field makes cracking dissipate more than the crack density
     # holds, most on coarse grids; the bar's traction step rings in the wave front.
-    # The Kalthoff-Winkler bar's impact and the closing crack faces are inelastic
-    # at the grid nodes (docs/verification.md).
+    # The Kalthoff-Winkler bar's first contact is inelastic at the grid nodes,
+    # and its crack faces part while stressed (docs/verification.md).
     "vibrating_bar": 0.04,
     "borden_plate": 0.05,
     "borden_cubic": 0.03,
@@ -71,6 +72,7 @@ BALANCE = {
     # stress and the scheme loses what they release (docs/verification.md,
     # "Modified Charpy").
     "charpy": 0.2,
+    "brazilian": 0.01,
 }
 """Energy-balance tolerances of the smoke runs."""
 
@@ -209,6 +211,33 @@ def check_charpy(scene, sim, out, e):
     assert band["width"] < 2.0
 
 
+def check_brazilian(scene, sim, out, e):
+    # The platens' loads are equal and opposite (the side walls take x momentum
+    # only): no net y momentum. The first particles fail next to a platen,
+    # about where the disk's edge leaves it, and open separable fields; no
+    # contact check fails, nothing passes a wall or into a platen, and the
+    # disk is still one fragment.
+    p = sim.particles
+    dp = np.abs(e["momentum_y"] - e["momentum_y"][0]).max()
+    assert dp < 1e-8 * np.sqrt(2.0 * p.mass.sum() * e["kinetic"].max())
+    summary = json.loads((out / "summary.json").read_text())["contact"]
+    assert summary["violations"] == {"C1": 0, "C2": 0, "C3": 0, "C4": 0}
+    assert summary["separable_node_steps"] > 0
+    x0 = Simulation(scene).particles.x
+    failed = np.flatnonzero(p.damage >= 1.0)
+    near = failed[np.argmin(contact_distance(scene, x0[failed]))]
+    # Measured: 14 failed particles, the nearest 1.47 mm from a contact point,
+    # 0.35 mm from the nearest platen particle.
+    assert 0 < len(failed) < 0.01 * np.count_nonzero(p.body == 0)
+    assert contact_distance(scene, x0[[near]])[0] < 1.6
+    assert np.hypot(*(p.x[p.body != 0] - p.x[near]).T).min() < 2.0 * scene.grid.h
+    assert wall_excursion(scene, p.x) < 0.0
+    for platen in ("top", "bottom"):
+        assert platen_penetration(scene, x0, p.x, p.body, platen) < 0.0
+    fragments = disk_fragments(scene, p)
+    assert fragments["fragments"] == 1 and fragments["intact"] > 0.99
+
+
 CHECKS = {
     "vibrating_bar": check_bar,
     "borden_plate": check_borden,
@@ -221,6 +250,7 @@ CHECKS = {
     "wedge_disk_block": check_wedge,
     "kalthoff_winkler": check_kalthoff_winkler,
     "charpy": check_charpy,
+    "brazilian": check_brazilian,
 }
 """The physics each smoke run must show, and its benchmark's measure."""
 
@@ -360,3 +390,31 @@ def test_charpy_energy_split(capsys):
     assert r["kinematic"] + r["material"] == pytest.approx(r["total"], abs=1e-9 * 1011.2)
     assert r["total"] < -100.0 and abs(r["material"]) < 0.1 * abs(r["kinematic"])
     assert "kinematic" in capsys.readouterr().out
+def test_brazilian_study_script(tmp_path):
+    """benchmarks/brazilian/study.py at two coarse resolutions to 2 us: the
+    damage-gradient and single-field runs are the same to round-off until the
+    first particle fails (Z2), which lies next to a platen (Z1); nothing
+    passes a wall or into a platen (Z6); the fragment measure and the report
+    run on what there is (one intact disk)."""
+    import runpy
+
+    script = runpy.run_path(str(ROOT / "benchmarks" / "brazilian" / "study.py"))
+    checks = script["main"](["--h", "0.5", "--h", "0.25", "--set", "time.end=2.0", "--set", "time.cfl=0.4",
+                             "--at", "1.5", "2.0", "--samples", "50", "--out", str(tmp_path)])
+    # Measured: differences up to the first D = 1 of 2.7e-15 mm, 3.3e-15 mm/us and
+    # 6.3e-10 MPa against stresses of about 1e4 MPa; damage the same bits.
+    for z2 in checks["Z2"].values():
+        assert z2["pass"] and z2["to_first_failure"]["damage"] == 0.0
+        assert z2["to_first_failure"]["x"] <= 1e-13 and z2["to_first_failure"]["stress"] <= 1e-8
+    # Measured: at h = 0.25 the first failure starts 1.59 mm from the contact
+    # point and lies 0.36 mm from a platen particle (0.5: 2.2 and 0.73 mm).
+    z1 = checks["Z1"]
+    assert z1["damage_gradient 0.25"] == z1["single_field 0.25"]
+    assert z1["damage_gradient 0.25"]["distance"] < 1.6 and z1["damage_gradient 0.25"]["to_platen"] < 0.5
+    assert all(z6["pass"] and z6["wall"] < 0 and z6["platen"] < 0 for z6 in checks["Z6"].values())
+    # No fragment yet: d50 is the disk's equivalent diameter, 10 mm (within the lattice's error).
+    assert checks["Z4"]["damage_gradient"]["d50"] == pytest.approx([10.0, 10.0], abs=0.05)
+    with open(tmp_path / "brazilian.csv") as f:
+        assert sum(1 for _ in f) == 1 + 4  # a header, two methods at two resolutions
+    assert (tmp_path / "brazilian_fragments.png").exists() and (tmp_path / "brazilian_damage.png").exists()
+    assert json.loads((tmp_path / "brazilian.json").read_text())["resolutions"] == [0.5, 0.25]

@@ -203,6 +203,9 @@ void bind_solver(py::module_& m)
            "the second-order model, multigrid for the fourth-order one)")
       .def("set_stability_length", &Solver::set_stability_length, py::arg("length"),
            "check dt (c_p + |v_p|) <= length after every step (0: no check)")
+      .def("fastest_signal", &Solver::fastest_signal,
+           "the largest c_p + |v_p| over the particles now (c_p the P-wave speed in the "
+           "particle's state): the speed the stability check holds dt to")
       .def_property_readonly("light_nodes", &Solver::light_nodes,
                              "slot-steps so far too light to divide by (given zero velocity)")
       .def(

@@ -553,13 +553,25 @@ double Solver::signal_speed(std::size_t p) const
   return _bound[_particles.material[p]]->wave_speed(p) + std::sqrt(vx * vx + vy * vy);
 }
 
-void Solver::check_stability_exactly() const
+double Solver::max_signal_speed() const
 {
   const auto n = static_cast<std::ptrdiff_t>(_particles.size());
   double fastest = 0.0;
 #pragma omp parallel for schedule(static) reduction(max : fastest)
   for (std::ptrdiff_t p = 0; p < n; ++p)
     fastest = std::max(fastest, signal_speed(p));
+  return fastest;
+}
+
+double Solver::fastest_signal()
+{
+  bind();
+  return max_signal_speed();
+}
+
+void Solver::check_stability_exactly() const
+{
+  const double fastest = max_signal_speed();
   if (_dt * fastest <= stability_limit())
     return;
   std::size_t p = 0; // the first particle that fast

@@ -140,6 +140,11 @@ public:
   /// switches the check off (the default).
   void set_stability_length(double length);
 
+  /// @brief The largest c_p + |v_p| over the particles in their present
+  /// state: the signal speed the stability check compares with
+  /// length / dt (so dt times it over kappa h is the step's Courant number).
+  double fastest_signal();
+
   /// @brief Slot-steps, summed over all steps so far, whose mass was positive
   /// but too small to divide by (below 1e-12 of the heaviest particle): they
   /// get zero velocity instead.
@@ -219,6 +224,8 @@ private:
   double stability_limit() const { return (1.0 + 1e-9) * _stability_length; }
   /// c_p + |v_p|: P-wave speed of the particle plus its speed.
   double signal_speed(std::size_t particle) const;
+  /// The largest signal_speed() over the particles (materials bound).
+  double max_signal_speed() const;
   bool has_external_force() const;
 
   /// Per particle, the field index its phase field is chosen by: the body

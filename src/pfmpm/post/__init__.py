@@ -12,7 +12,9 @@ Each measure of a phase field reads cracks with the scene's
     (:func:`~pfmpm.post.arms.crack_directions`).
 ``fragments``
     Fragments per body and the closest approach of different bodies
-    (:func:`~pfmpm.post.fragments.fragments`).
+    (:func:`~pfmpm.post.fragments.fragments`); fragment sizes, their
+    cumulative mass-fraction distribution and its median
+    (:func:`~pfmpm.post.fragments.fragment_sizes`).
 ``disk_beam``
     The disk-beam crack's rise through the beam, its fracture energy counted
     as the paper counts it (:func:`~pfmpm.post.disk_beam.running_crack`) and
@@ -35,6 +37,11 @@ Each measure of a phase field reads cracks with the scene's
     the striker-bar system loses, split into damage, friction and the
     scheme's loss (:func:`~pfmpm.post.charpy.energy_balance`), the crack band
     (:func:`~pfmpm.post.charpy.crack_band`) and the momentum.
+``brazilian``
+    The dynamic Brazilian disk (Homel & Herbold 2017, section 3.4): the
+    disk's fragment-size distribution and mean speed, its fully damaged
+    fraction, and how far particles pass a wall or into a platen (checks
+    Z1-Z6, :func:`~pfmpm.post.brazilian.disk_fragments`).
 
 ``pfmpm post crack-tip|crack-directions|fragments SCENE RUN_DIR`` prints the
 measures that read a finished run's output directory.

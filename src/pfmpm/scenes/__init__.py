@@ -2,7 +2,8 @@
 
 Kakouris & Triantafyllou (2019): the Borden plate (isotropic, cubic and
 orthotropic surface energy), the composite plate, the disk-beam impact and the
-two rings. Homel & Herbold (2017): the billet and the wedge, disk and block.  ``demos/<name>.toml`` in the repository are links to these files,
+two rings. Homel & Herbold (2017): the billet, the wedge, disk and block, and the
+dynamic Brazilian disk. ``demos/<name>.toml`` in the repository are links to these files,
 and ``benchmarks/<name>/`` holds each problem's measure and smoke settings.
 """
 
