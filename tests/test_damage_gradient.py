@@ -7,8 +7,9 @@ across it while the single field still carries tension (the velocity-field
 smearing of the paper's section 1.1.2); free bodies keep their momentum;
 nothing fully damaged runs with the single field's bits (U5); the phase
 field as damage (d = 1 - c) opens the Borden notch as two faces, on 1 or 2
-threads and across a restart with the same bits; the particle output and
-summary.json carry the partition.
+threads and across a restart with the same bits, and so does the contact of
+three fields at a node (the Charpy bar's two sides and the striker); the
+particle output and summary.json carry the partition.
 """
 
 import json
@@ -206,3 +207,39 @@ def test_damage_gradient_runs_repeat_bitwise_on_one_or_two_threads_and_resumed(t
     assert output_files(full) == output_files(part) == runs["two"]
     s, t = (json.loads((d / "summary.json").read_text())["contact"] for d in (full, part))
     assert {k: v for k, v in s.items() if k != "seconds"} == {k: v for k, v in t.items() if k != "seconds"}
+
+
+PREFAILED = """
+import runpy, sys
+script = runpy.run_path(sys.argv[1])
+sim = script["prefailed_simulation"](["time.end=8", "output.every=40"], -1.0)
+sim.run(sys.argv[2], progress=False, checkpoint_every=60)
+"""
+
+
+def test_three_field_contact_repeats_bitwise_on_one_or_two_threads_and_resumed(tmp_path):
+    """The Charpy bar's failed band reaching the struck face (diagnose.py
+    prefailed --start -1), where the bar's two sides and the striker meet at
+    nodes, to 8 us: the Gauss-Seidel sweeps over the pairs give the same bits
+    on 1 and 2 threads and after a restart."""
+    diagnose = ROOT / "benchmarks" / "charpy" / "diagnose.py"
+    runs = {}
+    for name, threads in (("one", 1), ("two", 2)):
+        env = {**os.environ, "OMP_NUM_THREADS": str(threads), "OMP_WAIT_POLICY": "passive"}
+        r = subprocess.run([sys.executable, "-c", PREFAILED, str(diagnose), str(tmp_path / name)],
+                           env=env, capture_output=True, text=True, timeout=300)
+        assert r.returncode == 0, r.stderr
+        runs[name] = output_files(tmp_path / name)
+    assert runs["one"] == runs["two"] and len(runs["one"]) >= 4
+    summary = json.loads((tmp_path / "two" / "summary.json").read_text())["contact"]
+    assert summary["active_node_pairs"] > 0
+    assert summary["violations"] == {"C1": 0, "C2": 0, "C3": 0, "C4": 0}
+    # Stopped after step 60 and resumed: the same files.
+    names = [p.name for p in checkpoint.list_checkpoints(tmp_path / "two" / "checkpoints")]
+    assert names[0] == "step_000000060.h5"
+    part = tmp_path / "part"
+    shutil.copytree(tmp_path / "two", part)
+    for name in names[1:]:
+        (part / "checkpoints" / name).unlink()
+    assert main(["run", "--resume", str(part), "--quiet"]) == 0
+    assert output_files(part) == runs["two"]

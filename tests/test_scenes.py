@@ -418,3 +418,18 @@ def test_brazilian_study_script(tmp_path):
         assert sum(1 for _ in f) == 1 + 4  # a header, two methods at two resolutions
     assert (tmp_path / "brazilian_fragments.png").exists() and (tmp_path / "brazilian_damage.png").exists()
     assert json.loads((tmp_path / "brazilian.json").read_text())["resolutions"] == [0.5, 0.25]
+
+
+def test_charpy_three_fields_create_no_energy():
+    """benchmarks/charpy/diagnose.py prefailed --start -1 (h = 1, 20 us): a
+    failed band from x = -1 to the notch root, so that the bar's two sides
+    and the striker, three fields, meet at nodes of the struck face. The
+    contact there makes no energy and passes C.1-C.4: ``total`` never rises
+    above its start (measured: at most -5.25 mJ; with the pair forces added
+    from the trial state it rose by 146.2 mJ with 458 C.3 violations)."""
+    import runpy
+
+    script = runpy.run_path(str(ROOT / "benchmarks" / "charpy" / "diagnose.py"))
+    r = script["main"](["prefailed", "--start", "-1"])
+    assert r["rise"] < 0.0
+    assert r["violations"] == {"C1": 0, "C2": 0, "C3": 0, "C4": 0}

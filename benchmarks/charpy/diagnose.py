@@ -80,13 +80,20 @@ def split(sim: Simulation, every: int) -> dict:
     return sums
 
 
-def prefailed(sets: list[str], start: float) -> dict:
-    """The pre-failed band run (see the module docstring)."""
+def prefailed_simulation(sets: list[str], start: float) -> Simulation:
+    """The charpy scene to 20 us (with ``sets``), its band of failed particles
+    from x = ``start`` set (see the module docstring)."""
     sim = Simulation(Scene.from_toml(scenes.path("charpy"), ["time.end=20", *sets]))
     P = sim.particles
     band = (P.body == 0) & (P.x[:, 1] > 27.0) & (P.x[:, 1] < 28.0) & (P.x[:, 0] > start) & (P.x[:, 0] < 8.0)
     P.damage[band] = 1.0
     P.sigma_f[~band] = 1e9
+    return sim
+
+
+def prefailed(sets: list[str], start: float) -> dict:
+    """The pre-failed band run (see the module docstring)."""
+    sim = prefailed_simulation(sets, start)
     e0 = sim.energies()["total"]
     rise = -math.inf
     while sim.step < sim.scene.steps():

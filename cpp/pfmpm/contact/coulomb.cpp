@@ -1,6 +1,8 @@
 /// @file coulomb.cpp
-/// @brief The pair contact law at a node (K&T eqs. 66-77) and checks C.1-C.4.
+/// @brief The pair contact law at a node (K&T eqs. 66-77), its projected
+/// Gauss-Seidel sweeps where three or more fields meet, and checks C.1-C.4.
 #include "pfmpm/contact/coulomb.h"
+#include "pfmpm/fields/fields.h"
 
 #include <algorithm>
 #include <cmath>
@@ -14,13 +16,80 @@ namespace
 constexpr double check_tol = 1e-9;
 
 double dot(const double* a, const double* b) { return a[0] * b[0] + a[1] * b[1]; }
+
+/// A pair of fields that touch at a node, and its contact frame.
+struct PairFrame
+{
+  int i, j;
+  double ni[2], nj[2], ti[2], tj[2]; ///< normals and tangents of each side (eq. 71)
+  double reduced;                    ///< reduced mass M_i M_j / (M_i + M_j)
+  double mu;                         ///< friction coefficient
+  double scale;                      ///< velocity scale of the round-off tolerance
+};
+
+/// The contact force on one side of a pair.
+struct SideForce
+{
+  double fn, ft; ///< normal force (eqs. 69, 72) and friction (eq. 75)
+  double fts;    ///< the stick force (eq. 74)
+};
+
+/// @brief The pair law on the velocities vi, vj of the pair's fields: the
+/// normal force that stops their relative normal velocity, with the
+/// non-tension cut (eqs. 69, 72), and the stick force (eq. 74) capped by
+/// Coulomb (eq. 75), on each side. With eq. 66, M_i (u_cm - u_i) =
+/// M_i M_j / (M_i + M_j) (u_j - u_i): eqs. 69 and 74 are evaluated in that
+/// form, which has no cancellation when one field's mass at the node is tiny.
+void pair_law(const PairFrame& c, const double* vi, const double* vj, double dt, SideForce& si,
+              SideForce& sj)
+{
+  const double ri[2] = {vj[0] - vi[0], vj[1] - vi[1]};
+  const double rj[2] = {vi[0] - vj[0], vi[1] - vj[1]};
+  si.fn = std::min(0.0, c.reduced / dt * dot(ri, c.ni));
+  sj.fn = std::min(0.0, c.reduced / dt * dot(rj, c.nj));
+  si.fts = c.reduced / dt * dot(ri, c.ti);
+  sj.fts = c.reduced / dt * dot(rj, c.tj);
+  si.ft = std::copysign(std::min(c.mu * std::abs(si.fn), std::abs(si.fts)), si.fts);
+  sj.ft = std::copysign(std::min(c.mu * std::abs(sj.fn), std::abs(sj.fts)), sj.fts);
+}
+
+/// Force vector of one side.
+void force_of(const SideForce& s, const double* n, const double* t, double* F)
+{
+  F[0] = s.fn * n[0] + s.ft * t[0];
+  F[1] = s.fn * n[1] + s.ft * t[1];
+}
+
+/// C.3 and C.4 of one pair on the velocities vn, with relative tolerance tol.
+void pair_checks(const ContactPair& c, const double (*vn)[2], double tol, bool& c3, bool& c4)
+{
+  const double g[2] = {vn[c.i][0] - vn[c.j][0], vn[c.i][1] - vn[c.j][1]};
+  const double gn = dot(g, c.n), gs = dot(g, c.s), vtol = tol * c.scale;
+  // eqs. 22c-22e: no tension, no approach, and no gap rate where a force acts.
+  c3 = c.fn > 0.0 || gn > vtol || (c.fn < 0.0 && std::abs(gn) > vtol);
+  // eqs. 23c-23e: stick has no slip; slip has friction at the cap, against the slip.
+  const bool stick = std::abs(c.fts) <= c.mu * std::abs(c.fn);
+  const double cap = c.mu * std::abs(c.fn);
+  c4 = stick ? std::abs(gs) > vtol
+             : (std::abs(std::abs(c.ft) - cap) > tol * cap || c.ft * gs > vtol * std::abs(c.ft));
+}
+
+/// The sweeps stop once every pair passes C.3 and C.4 to this relative
+/// tolerance, well inside the checks' own.
+constexpr double sweep_tol = 1e-2 * check_tol;
+/// At most this many sweeps (docs/contact.md, "Three or more fields at a node":
+/// on random nodes of three and four fields that all touch, the most needed was 3,724).
+constexpr int max_sweeps = 10000;
 } // namespace
 
 int coulomb_forces(int n, const TrialField* f, const bool* live, const std::int32_t* field,
                    const double* friction, int nfields, double full, double dt, double (*fn)[2],
                    double (*ft)[2], ContactPair* pairs, double* count)
 {
-  int active = 0;
+  // The pairs that touch and have a normal, in the order (i, j), i < j.
+  constexpr int max_pairs = BodyFields::max_fields * (BodyFields::max_fields - 1) / 2;
+  PairFrame frame[max_pairs];
+  int np = 0;
   for (int i = 0; i < n; ++i)
     for (int j = i + 1; j < n; ++j)
     {
@@ -46,51 +115,115 @@ int coulomb_forces(int n, const TrialField* f, const bool* live, const std::int3
       const double ldi = std::hypot(di[0], di[1]), ldj = std::hypot(dj[0], dj[1]);
       if (!(ldi > 0.0))
         continue; // no normal to push along
-      const double ni[2] = {di[0] / ldi, di[1] / ldi}, nj[2] = {dj[0] / ldj, dj[1] / ldj};
-      const double ti[2] = {-ni[1], ni[0]}, tj[2] = {-nj[1], nj[0]};
+      PairFrame& c = frame[np++];
+      c.i = i;
+      c.j = j;
+      c.ni[0] = di[0] / ldi;
+      c.ni[1] = di[1] / ldi;
+      c.nj[0] = dj[0] / ldj;
+      c.nj[1] = dj[1] / ldj;
+      c.ti[0] = -c.ni[1];
+      c.ti[1] = c.ni[0];
+      c.tj[0] = -c.nj[1];
+      c.tj[1] = c.nj[0];
       // C.1: n_i = -n_j, s_i = -s_j.
-      if (std::hypot(ni[0] + nj[0], ni[1] + nj[1]) > check_tol
-          || std::hypot(ti[0] + tj[0], ti[1] + tj[1]) > check_tol)
+      if (std::hypot(c.ni[0] + c.nj[0], c.ni[1] + c.nj[1]) > check_tol
+          || std::hypot(c.ti[0] + c.tj[0], c.ti[1] + c.tj[1]) > check_tol)
         count[count_c1] += 1.0;
-      // Centre-of-mass velocity of the pair (eq. 66). With it,
-      // M_i (u_cm - u_i) = M_i M_j / (M_i + M_j) (u_j - u_i): eqs. 69 and 74
-      // are evaluated in that form, which has no cancellation when one
-      // field's mass at the node is tiny.
-      const double m = si.m + sj.m, reduced = si.m * sj.m / m;
+      // Centre-of-mass velocity of the pair (eq. 66), for the tolerance's scale.
+      const double m = si.m + sj.m;
       const double vcm[2] = {(si.pt[0] + sj.pt[0]) / m, (si.pt[1] + sj.pt[1]) / m};
-      const double ri[2] = {sj.vt[0] - si.vt[0], sj.vt[1] - si.vt[1]};
-      const double rj[2] = {si.vt[0] - sj.vt[0], si.vt[1] - sj.vt[1]};
-      // Approach condition (eq. 77): field i moves into field j.
-      if (!(-dot(ri, ni) > 0.0))
-        continue;
-      count[count_active] += 1.0;
-      const double mu = friction[field[i] * nfields + field[j]];
-      // Each side: normal force (eq. 69) with the non-tension cut (eq. 72),
-      // stick force (eq. 74) capped by Coulomb (eq. 75).
-      const double fni = std::min(0.0, reduced / dt * dot(ri, ni));
-      const double fnj = std::min(0.0, reduced / dt * dot(rj, nj));
-      const double ftsi = reduced / dt * dot(ri, ti), ftsj = reduced / dt * dot(rj, tj);
-      const double fti = std::copysign(std::min(mu * std::abs(fni), std::abs(ftsi)), ftsi);
-      const double ftj = std::copysign(std::min(mu * std::abs(fnj), std::abs(ftsj)), ftsj);
-      if (mu * std::abs(fni) < std::abs(ftsi))
-        count[count_sliding] += 1.0;
-      // eq. 76 on both sides; C.2: equal and opposite.
-      const double Fi[2] = {fni * ni[0] + fti * ti[0], fni * ni[1] + fti * ti[1]};
-      const double Fj[2] = {fnj * nj[0] + ftj * tj[0], fnj * nj[1] + ftj * tj[1]};
-      if (std::hypot(Fi[0] + Fj[0], Fi[1] + Fj[1])
-          > check_tol * (std::hypot(Fi[0], Fi[1]) + std::hypot(Fj[0], Fj[1])))
-        count[count_c2] += 1.0;
-      for (int d = 0; d < 2; ++d)
-      {
-        fn[i][d] += fni * ni[d];
-        ft[i][d] += fti * ti[d];
-        fn[j][d] += fnj * nj[d];
-        ft[j][d] += ftj * tj[d];
-      }
-      const double scale = std::hypot(si.vt[0], si.vt[1]) + std::hypot(sj.vt[0], sj.vt[1])
-                           + std::hypot(vcm[0], vcm[1]);
-      pairs[active++] = ContactPair{i, j, {ni[0], ni[1]}, {ti[0], ti[1]}, fni, fti, ftsi, mu, scale};
+      c.reduced = si.m * sj.m / m;
+      c.mu = friction[field[i] * nfields + field[j]];
+      c.scale = std::hypot(si.vt[0], si.vt[1]) + std::hypot(sj.vt[0], sj.vt[1])
+                + std::hypot(vcm[0], vcm[1]);
     }
+  SideForce side[max_pairs][2];
+  int active = 0;
+  if (np == 1)
+  {
+    // One pair: K&T's algorithm, from the trial velocities. Where it does
+    // not approach (eq. 77), there is no contact force at all.
+    const PairFrame& c = frame[0];
+    const double ri[2] = {f[c.j].vt[0] - f[c.i].vt[0], f[c.j].vt[1] - f[c.i].vt[1]};
+    if (!(-dot(ri, c.ni) > 0.0))
+      return 0;
+    pair_law(c, f[c.i].vt, f[c.j].vt, dt, side[0][0], side[0][1]);
+  }
+  else if (np > 1)
+  {
+    // Three or more fields: projected Gauss-Seidel over the pairs in their
+    // order. Each pair's force is recomputed by the pair law from the
+    // velocities all the other pairs' current forces leave, and replaces its
+    // previous one; the sweeps stop when the velocities pass C.3 and C.4
+    // (docs/contact.md, "Three or more fields at a node").
+    double v[BodyFields::max_fields][2] = {}, Fi[max_pairs][2] = {}, Fj[max_pairs][2] = {};
+    for (int a = 0; a < n; ++a)
+      if (live[a])
+      {
+        v[a][0] = f[a].vt[0];
+        v[a][1] = f[a].vt[1];
+      }
+    for (int sweep = 0; sweep < max_sweeps; ++sweep)
+    {
+      for (int q = 0; q < np; ++q)
+      {
+        const PairFrame& c = frame[q];
+        const double mi = f[c.i].m, mj = f[c.j].m;
+        const double vi[2] = {v[c.i][0] - dt * Fi[q][0] / mi, v[c.i][1] - dt * Fi[q][1] / mi};
+        const double vj[2] = {v[c.j][0] - dt * Fj[q][0] / mj, v[c.j][1] - dt * Fj[q][1] / mj};
+        pair_law(c, vi, vj, dt, side[q][0], side[q][1]);
+        force_of(side[q][0], c.ni, c.ti, Fi[q]);
+        force_of(side[q][1], c.nj, c.tj, Fj[q]);
+        for (int d = 0; d < 2; ++d)
+        {
+          v[c.i][d] = vi[d] + dt * Fi[q][d] / mi;
+          v[c.j][d] = vj[d] + dt * Fj[q][d] / mj;
+        }
+      }
+      bool done = true;
+      for (int q = 0; q < np && done; ++q)
+      {
+        const PairFrame& c = frame[q];
+        const ContactPair p{c.i, c.j, {c.ni[0], c.ni[1]}, {c.ti[0], c.ti[1]}, side[q][0].fn,
+                            side[q][0].ft, side[q][0].fts, c.mu, c.scale};
+        bool c3, c4;
+        pair_checks(p, v, sweep_tol, c3, c4);
+        done = !c3 && !c4;
+      }
+      if (done)
+        break;
+    }
+  }
+  // The forces (eq. 76) of the pairs that push, and their record.
+  for (int q = 0; q < np; ++q)
+  {
+    const PairFrame& c = frame[q];
+    const SideForce &si = side[q][0], &sj = side[q][1];
+    // Every pair that pushed is checked (C.3, C.4), and with two or more
+    // pairs every pair, pushing or not.
+    pairs[active++] = ContactPair{c.i, c.j, {c.ni[0], c.ni[1]}, {c.ti[0], c.ti[1]}, si.fn, si.ft,
+                                  si.fts, c.mu, c.scale};
+    if (np > 1 && !(si.fn < 0.0))
+      continue;
+    count[count_active] += 1.0;
+    if (c.mu * std::abs(si.fn) < std::abs(si.fts))
+      count[count_sliding] += 1.0;
+    // eq. 76 on both sides; C.2: equal and opposite.
+    double Fi[2], Fj[2];
+    force_of(si, c.ni, c.ti, Fi);
+    force_of(sj, c.nj, c.tj, Fj);
+    if (std::hypot(Fi[0] + Fj[0], Fi[1] + Fj[1])
+        > check_tol * (std::hypot(Fi[0], Fi[1]) + std::hypot(Fj[0], Fj[1])))
+      count[count_c2] += 1.0;
+    for (int d = 0; d < 2; ++d)
+    {
+      fn[c.i][d] += si.fn * c.ni[d];
+      ft[c.i][d] += si.ft * c.ti[d];
+      fn[c.j][d] += sj.fn * c.nj[d];
+      ft[c.j][d] += sj.ft * c.tj[d];
+    }
+  }
   return active;
 }
 
@@ -98,18 +231,10 @@ void check_contact(int active, const ContactPair* pairs, const double (*vn)[2], 
 {
   for (int q = 0; q < active; ++q)
   {
-    const ContactPair& c = pairs[q];
-    const double g[2] = {vn[c.i][0] - vn[c.j][0], vn[c.i][1] - vn[c.j][1]};
-    const double gn = dot(g, c.n), gs = dot(g, c.s), tol = check_tol * c.scale;
-    // eqs. 22c-22e: no tension, no approach, and no gap rate where a force acts.
-    if (c.fn > 0.0 || gn > tol || (c.fn < 0.0 && std::abs(gn) > tol))
-      count[count_c3] += 1.0;
-    // eqs. 23c-23e: stick has no slip; slip has friction at the cap, against the slip.
-    const bool stick = std::abs(c.fts) <= c.mu * std::abs(c.fn);
-    const double cap = c.mu * std::abs(c.fn);
-    if (stick ? std::abs(gs) > tol
-              : (std::abs(std::abs(c.ft) - cap) > check_tol * cap || c.ft * gs > tol * std::abs(c.ft)))
-      count[count_c4] += 1.0;
+    bool c3, c4;
+    pair_checks(pairs[q], vn, check_tol, c3, c4);
+    count[count_c3] += c3 ? 1.0 : 0.0;
+    count[count_c4] += c4 ? 1.0 : 0.0;
   }
 }
 

@@ -69,15 +69,21 @@ enum ContactCount : int
 
 /// @brief Contact forces among the n fields at one node (eqs. 66-77).
 ///
-/// Fields meet in pairs (eq. 66 with the pair's centre of mass); for two
-/// fields this is the paper's algorithm. A pair acts only where the two
-/// touch (their volumes fill `touch_fill` of the node's volume `full`) and
-/// approach (eq. 77). Each side's force is computed and the two are checked
-/// to be equal and opposite (C.2), so momentum is conserved to round-off.
+/// Fields meet in pairs (eq. 66 with the pair's centre of mass). A pair can
+/// act only where the two touch (their volumes fill `touch_fill` of the
+/// node's volume `full`) and have a normal. With one such pair this is the
+/// paper's algorithm: a force where the pair approaches (eq. 77). With two
+/// or more (three or more fields), projected Gauss-Seidel sweeps over the
+/// pairs: each pair's force is the pair law applied to the velocities the
+/// other pairs' forces leave, until no pair approaches, none pulls, none
+/// pushes while parting and none slips against Coulomb (C.3, C.4). Each
+/// side's force is computed and the two are checked to be equal and
+/// opposite (C.2), so momentum is conserved to round-off.
 /// @param n Fields at the node; live[i] false for one too light to act.
 /// @param field Field index of each, into `friction` (nfields x nfields).
 /// @param[out] fn, ft Normal and friction force on each field (added to).
-/// @param[out] pairs The pairs that acted; returns how many.
+/// @param[out] pairs The pairs to check: with one pair, it if it pushed;
+///             with more, all of them. Returns how many.
 /// @param[in,out] count Counters, indexed by ContactCount.
 int coulomb_forces(int n, const TrialField* f, const bool* live, const std::int32_t* field,
                    const double* friction, int nfields, double full, double dt, double (*fn)[2],

@@ -333,8 +333,9 @@ void finish_slot(const NodeSums& s, const double* vo, double* vn, std::uint8_t w
 
 /// @brief The update of the n >= 2 fields at a contact node (K&T eqs. 63-77):
 /// trial momenta and velocities, Coulomb contact between every pair that
-/// touches and approaches (coulomb_forces), corrected velocities (eq. 65),
-/// walls, the work done, and the checks C.3 and C.4.
+/// touches and approaches (coulomb_forces; with two or more touching pairs,
+/// Gauss-Seidel sweeps over them), corrected velocities (eq. 65), walls,
+/// the work done, and the checks C.3 and C.4.
 /// @param field Field index of each slot, into `friction` (nfields x nfields).
 /// @param volume The node's volume, the integral of its basis function.
 void update_contact_node(int n, const NodeSums* sums, const SurfaceSums* surface,
