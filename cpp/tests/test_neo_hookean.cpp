@@ -200,6 +200,51 @@ TEST(Damage, WaveSpeedFallsWithDamageUnderTension)
   EXPECT_NEAR(a.bound->wave_speed(0), 10.0, 1e-12);
 }
 
+TEST(Damage, WaveSpeedOfADamagedParticleInShearIsTheCompressiveDirectionsWhereStiffer)
+{
+  // Simple shear F = [[1, g], [0, 1]] (J = 1 exactly under eq. 8): the larger
+  // principal stress is tensile, the smaller compressive. Eq. 26 scales the
+  // stress, and so the longitudinal stiffness, along the tensile direction by
+  // 1 - D and keeps it along the compressive one: c^2 rho = the larger of
+  // (1 - D)(mu b1 + lambda + mu) and mu b2 + lambda + mu.
+  Point a({{"E", E}, {"nu", nu}, {"density", rho}, {"sigma_f", 1.0}, {"c_f", 2.0}, {"l_ch", 0.5}},
+          {{"damage", "time_to_failure"}});
+  const double dt = 0.01;
+  auto shear = [&](double dg)
+  {
+    const double L[4] = {0.0, dg / dt, 0.0, 0.0};
+    a.step(L, dt);
+  };
+  auto principal = [&](double& b1, double& b2)
+  {
+    const double g = a.F()[1];
+    const double m = 1.0 + 0.5 * g * g, r = std::sqrt(0.25 * g * g * g * g + g * g);
+    b1 = m + r;
+    b2 = m - r;
+  };
+  for (int k = 0; k < 10; ++k)
+    shear(0.05); // g = 0.5; the trial stress exceeds sigma_f from the first step on
+  double b1, b2;
+  principal(b1, b2);
+  const double D = a.column("damage");
+  EXPECT_NEAR(D, 0.4, 1e-12);
+  EXPECT_NEAR(a.column("J"), 1.0, 1e-14);
+  const double along = (1.0 - D) * (mu * b1 + lam + mu), across = mu * b2 + lam + mu;
+  EXPECT_GT(across, along); // here the compressive direction is the stiffer
+  EXPECT_NEAR(a.bound->wave_speed(0), std::sqrt(across / rho), 1e-12);
+  EXPECT_LT(a.bound->wave_speed(0), std::sqrt((mu * b1 + lam + mu) / rho)); // the undamaged bound
+  // Drawn out to g = 30 (b1 = 901, as between two sliding fragments), failed:
+  // no stiffness along the stretch, the speed is the compressive direction's,
+  // a fifth of what mu b1 would give.
+  for (int k = 0; k < 59; ++k)
+    shear(0.5);
+  principal(b1, b2);
+  EXPECT_EQ(a.column("damage"), 1.0);
+  EXPECT_NEAR(b1, 901.0, 1.0);
+  EXPECT_NEAR(a.bound->wave_speed(0), std::sqrt((mu * b2 + lam + mu) / rho), 1e-12);
+  EXPECT_LT(a.bound->wave_speed(0), 0.2 * std::sqrt((mu * b1 + lam + mu) / rho));
+}
+
 namespace
 {
 /// Rankine softening, nu = 0 and uniaxial strain F = diag(l, 1): a 1D bar.

@@ -162,23 +162,34 @@ public:
     minus = 0.0;
   }
   /// @brief P-wave speed in the current state, for the stability check: the
-  /// largest longitudinal speed of the tangent of eq. 22 is c^2 = (mu b_max +
-  /// lambda + mu - lambda ln J) / rho_0, with b_max the largest in-plane
-  /// eigenvalue of B; we take its bound with -ln J <= max(1/J - 1, 0), equal
-  /// at J = 1 and within a few per cent for |ln J| < 0.1, which saves a
-  /// logarithm per particle and step. With damage, scaled by sqrt(1 - D)
-  /// when every in-plane trial principal stress is tensile (all of the
-  /// stiffness degraded).
+  /// largest longitudinal speed of the tangent of eq. 22, along the larger
+  /// principal stretch, is c^2 = (mu b_max + lambda + mu - lambda ln J) /
+  /// rho_0, with b_max the largest in-plane eigenvalue of B; we take its
+  /// bound with -ln J <= max(1/J - 1, 0), equal at J = 1 and within a few
+  /// per cent for |ln J| < 0.1, which saves a logarithm per particle and
+  /// step. With damage, eqs. 26-27 scale the stress along each tensile
+  /// principal direction by 1 - D and keep it along a compressive one, so
+  /// the longitudinal stiffness along each principal direction i is (1 - D)
+  /// (mu b_i + ...) where sigma_i > 0 and mu b_i + ... where not; the speed is
+  /// that of the stiffer. (A failed particle drawn out between two fragments,
+  /// b_1 ~ 1e9 with sigma_1 > 0 > sigma_2, has no stiffness along its
+  /// stretch: the speed is the compressive direction's, not mu b_1's.)
   double state_wave_speed(const View& v, std::size_t p) const
   {
     const double* F = &v.F[4 * p];
-    const Mohr b(F[0] * F[0] + F[1] * F[1], F[2] * F[2] + F[3] * F[3], F[0] * F[2] + F[1] * F[3]);
     const double J = v.J[p];
-    double c2 = (_mu * b.max() + _lambda + _mu + _lambda * std::max(1.0 / J - 1.0, 0.0)) / _density;
+    const double compression = _lambda * std::max(1.0 / J - 1.0, 0.0);
     if constexpr (damages)
-      if (v.damage[p] > 0.0 && Principal(*this, F, J).sigma2 > 0.0)
-        c2 *= 1.0 - v.damage[p];
-    return std::sqrt(c2);
+      if (v.damage[p] > 0.0)
+      {
+        const Principal s(*this, F, J);
+        const double kept = 1.0 - v.damage[p];
+        const double c1 = (_mu * s.b1 + _lambda + _mu + compression) * (s.sigma1 > 0.0 ? kept : 1.0);
+        const double c2 = (_mu * s.b2 + _lambda + _mu + compression) * (s.sigma2 > 0.0 ? kept : 1.0);
+        return std::sqrt(std::max(c1, c2) / _density);
+      }
+    const Mohr b(F[0] * F[0] + F[1] * F[1], F[2] * F[2] + F[3] * F[3], F[0] * F[2] + F[1] * F[3]);
+    return std::sqrt((_mu * b.max() + _lambda + _mu + compression) / _density);
   }
   /// @}
 
