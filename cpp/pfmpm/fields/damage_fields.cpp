@@ -298,7 +298,7 @@ void DamageFields::gradients(Particles& particles, const CellSort& sort)
 
   {
     Stopwatch clock{_timers.neighbours};
-    if (_neighbours.stale(particles.size(), _options.skin * _radius))
+    if (_neighbours.stale(_grid, sort, particles.x, _options.skin * _radius))
       _neighbours.build(_grid, sort, particles.x, (1.0 + 2.0 * _options.skin) * _radius);
   }
   Stopwatch clock{_timers.gradient};

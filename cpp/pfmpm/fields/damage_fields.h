@@ -37,7 +37,8 @@ struct DamageGradientOptions
   /// Kernel radius r_p of eqs. 17-19; 0: the cell diagonal (the paper's choice).
   double kernel_radius = 0.0;
   /// Verlet skin delta over r_p: neighbours are listed within r_p + 2 delta
-  /// and rebuilt once a particle has moved more than delta.
+  /// and rebuilt once two particles may have closed the gap between them by
+  /// more than 2 delta (NeighbourList::stale).
   double skin = 0.1;
   /// A damage model's particle is fully damaged at D_p >= this (the paper's D = 1).
   double full_damage = 1.0 - 1e-4;
