@@ -284,6 +284,18 @@ void bind_solver(py::module_& m)
           "S_bulk over each body's own particles, S_bulk from the body's lattice spacing; "
           "returns S / S_bulk per particle")
       .def(
+          "stage_seconds",
+          [](const Solver& s)
+          {
+            const StageTimers& t = s.timers();
+            return py::dict(py::arg("sort") = t.sort, py::arg("phase_field") = t.phase_field,
+                            py::arg("fields") = t.fields, py::arg("p2g") = t.p2g,
+                            py::arg("grid") = t.grid, py::arg("g2p") = t.g2p);
+          },
+          "wall seconds per stage of the steps so far: cell sort and active nodes, phase field, "
+          "the partition's build (fields; damage_partition()['seconds'] splits the damage "
+          "gradient's), P2G, grid update with contact, G2P with the materials' update")
+      .def(
           "damage_partition",
           [](const Solver& s) -> py::object
           {

@@ -2,6 +2,7 @@
 /// @brief The damage-field-gradient partition (H&H 2017 sections 2.1-2.4):
 /// particle damage, kernel field, Algorithms 1 and 2, slots, surface flags.
 #include "pfmpm/fields/damage_fields.h"
+#include "pfmpm/common/stopwatch.h"
 #include "pfmpm/common/strips.h"
 #include "pfmpm/fields/kernel.h"
 
@@ -17,14 +18,6 @@ namespace pfmpm
 
 namespace
 {
-/// Seconds since `start`, added to `total`.
-struct Stopwatch
-{
-  double& total;
-  double start = omp_get_wtime();
-  ~Stopwatch() { total += omp_get_wtime() - start; }
-};
-
 /// Group of each particle: its body's, or the body itself when `groups` is empty.
 std::vector<std::int32_t> particle_groups(const Particles& particles,
                                           const std::vector<std::int32_t>& groups, int n)
