@@ -40,7 +40,8 @@ def table(ratio=1.5, gradient_power=1.0, digest_of=lambda n, d, t: 7):
                         "g2p": 0.0, "damage": 0.0, "neighbours": 0.005 * seconds if d else 0.0,
                         "gradient": gradient,
                         "partition": 0.3 * seconds - gradient - 0.005 * seconds if d else 0.0,
-                        "neighbour_builds": 1, "digest": digest_of(n, d, t), "load": 1.0})
+                        "neighbour_builds": 1, "evaluated": 0.1 * n if d else 0.0,
+                        "digest": digest_of(n, d, t), "load": 1.0})
     return rows
 
 
@@ -51,6 +52,8 @@ def test_checks_of_a_table_that_passes():
     assert c["E2"]["value"] == pytest.approx(1.5) and c["E2"]["passed"]
     assert set(c["E2"]["per_size"]) == {10_000, 50_000, 100_000, 400_000}
     assert c["E3"]["value"] == pytest.approx(1.0) and c["E3"]["passed"]
+    assert c["E3"]["evaluated_slope"] == pytest.approx(1.0)
+    assert c["E3"]["per_evaluation_slope"] == pytest.approx(1.0)
     assert c["E4"]["value"] == pytest.approx(0.3) and c["E4"]["particles"] == 400_000
     assert c["E4"]["passed"]
     assert c["E5"] == {"value": 0, "limit": 0, "passed": True, "compared": 8}
@@ -62,6 +65,7 @@ def test_checks_of_a_table_that_fails():
                                 digest_of=lambda n, d, t: 8 if (n, d, t) == (50_000, 1, 2) else 7))
     assert c["E2"]["value"] == pytest.approx(1.7) and not c["E2"]["passed"]
     assert c["E3"]["value"] == pytest.approx(1.3) and not c["E3"]["passed"]
+    assert c["E3"]["per_evaluation_slope"] == pytest.approx(1.3)
     assert c["E5"]["value"] == 1 and not c["E5"]["passed"]
     # One thread count only: E5 cannot tell.
     one = [r for r in table() if r["threads"] == 1]
@@ -98,6 +102,7 @@ def test_smoke_study(tmp_path):
     dfg = rows["dfg"] == 1
     blocks = sum(rows[b] for b in efficiency.DFG_BLOCKS)
     assert np.all(blocks[~dfg] == 0.0) and np.all(rows["gradient"][dfg] > 0.0)
+    assert np.all(rows["evaluated"][~dfg] == 0.0) and np.all(rows["evaluated"][dfg] > 0.0)
     assert np.all(blocks[dfg] <= rows["fields"][dfg] * (1 + 1e-9))
     # E5: each size and partition ends with the same state on 1 and 2 threads.
     assert result["E5"] == {"value": 0, "limit": 0, "passed": True, "compared": 4}

@@ -70,11 +70,11 @@ def main(argv=None) -> dict:
     (a.out / "checks.json").write_text(json.dumps(result, indent=2, default=str) + "\n")
     efficiency.figure(rows, a.out / "fig19.png")
     print("\nmedians, ms per step: particles, method, threads: total | " + " ".join(efficiency.STAGES)
-          + " | " + " ".join(efficiency.DFG_BLOCKS))
+          + " | " + " ".join(efficiency.DFG_BLOCKS) + " | kernel fields per step")
     for (n, d, t), v in efficiency.medians(rows).items():
         print(f"{n:8d} {efficiency.METHODS[d]:3s} {t}: {1e3 * v['seconds']:8.3f} | "
               + " ".join(f"{1e3 * v[s]:.3f}" for s in efficiency.STAGES) + " | "
-              + " ".join(f"{1e3 * v[b]:.3f}" for b in efficiency.DFG_BLOCKS))
+              + " ".join(f"{1e3 * v[b]:.3f}" for b in efficiency.DFG_BLOCKS) + f" | {v['evaluated']:.0f}")
     for name in ("E1", "E2", "E3", "E4", "E5"):
         print(f"{name}: {result[name]}")
     print(f"slopes: {result['slopes']}")

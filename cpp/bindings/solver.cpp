@@ -311,6 +311,7 @@ void bind_solver(py::module_& m)
             out["nodal_gradient"] = G;
             out["radius"] = d->radius();
             out["neighbour_builds"] = d->neighbour_builds();
+            out["kernel_evaluations"] = d->kernel_evaluations();
             const DamageTimers& t = d->timers();
             out["seconds"] = py::dict(py::arg("damage") = t.damage,
                                       py::arg("neighbours") = t.neighbours,
@@ -321,7 +322,8 @@ void bind_solver(py::module_& m)
           "the damage-gradient partition of the last step (None without it): per particle the "
           "mask of its stencil nodes where it chose field B (bit i: stencil node i, x-major), "
           "per (active node, group) the nodal gradient (node, group, G_x, G_y) of Algorithm 1, "
-          "the kernel radius, the neighbour-list builds so far and the seconds spent per block")
+          "the kernel radius, the neighbour-list builds and kernel-field evaluations so far and the "
+          "seconds spent per block")
       .def(
           "nodal_mass_momentum",
           [](Solver& s)

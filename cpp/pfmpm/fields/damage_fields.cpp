@@ -267,23 +267,30 @@ void DamageFields::gradients(Particles& particles, const CellSort& sort)
   for (std::ptrdiff_t c = 0; c < ncells; ++c)
     for (std::int64_t k = start[c]; k < start[c + 1] && !full_cell[c]; ++k)
       full_cell[c] = _full[order[k]] != 0.0;
-  // Dilated by P cells along y, then along x (stride ncy, resp. 1).
+  // Dilated by P cells along y, then along x: each column of cells ORed
+  // with the columns' entries up to P cells away along the axis.
   auto dilate = [&](const std::vector<std::uint8_t>& in, std::vector<std::uint8_t>& out, int axis)
   {
-    const int n[2] = {ncx, ncy};
-    const std::ptrdiff_t stride = axis == 0 ? ncy : 1;
     out.assign(ncells, 0);
 #pragma omp parallel for schedule(static)
     for (int cx = 0; cx < ncx; ++cx)
-      for (int cy = 0; cy < ncy; ++cy)
+    {
+      std::uint8_t* o = &out[static_cast<std::size_t>(cx) * ncy];
+      if (axis == 1)
       {
-        const int i = axis == 0 ? cx : cy;
-        const std::ptrdiff_t cell = static_cast<std::ptrdiff_t>(cx) * ncy + cy;
-        std::uint8_t any = 0;
-        for (int d = std::max(i - P, 0); d <= std::min(i + P, n[axis] - 1) && !any; ++d)
-          any = in[cell + (d - i) * stride];
-        out[cell] = any;
+        const std::uint8_t* column = &in[static_cast<std::size_t>(cx) * ncy];
+        for (int d = -P; d <= P; ++d)
+          for (int cy = std::max(0, -d); cy < std::min(ncy, ncy - d); ++cy)
+            o[cy] |= column[cy + d];
       }
+      else
+        for (int d = std::max(-P, -cx); d <= std::min(P, ncx - 1 - cx); ++d)
+        {
+          const std::uint8_t* column = &in[static_cast<std::size_t>(cx + d) * ncy];
+          for (int cy = 0; cy < ncy; ++cy)
+            o[cy] |= column[cy];
+        }
+    }
   };
   std::vector<std::uint8_t> along_y;
   dilate(full_cell, along_y, 1);
@@ -313,7 +320,8 @@ void DamageFields::gradients(Particles& particles, const CellSort& sort)
         return false;
     return true;
   };
-#pragma omp parallel for schedule(dynamic, 64)
+  std::int64_t evaluated = 0;
+#pragma omp parallel for schedule(dynamic, 64) reduction(+ : evaluated)
   for (std::ptrdiff_t c = 0; c < ncells; ++c)
   {
     for (std::int64_t k = start[c]; k < start[c + 1]; ++k)
@@ -325,6 +333,7 @@ void DamageFields::gradients(Particles& particles, const CellSort& sort)
                                            damage, radius);
         grad[2 * p] = v.grad[0];
         grad[2 * p + 1] = v.grad[1];
+        ++evaluated;
       }
       else
       {
@@ -333,6 +342,7 @@ void DamageFields::gradients(Particles& particles, const CellSort& sort)
       }
     }
   }
+  _evaluated += evaluated;
 }
 
 namespace
@@ -489,9 +499,11 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
         CellSlots c;
         cell_slots(cx, cy, c);
         // Per group and node: G_i, and the position of its particle p*
-        // (none: G_i = 0, and every pair chooses A).
+        // (none: G_i = 0, and every pair chooses A); per group, whether
+        // some node's G_i is not zero (else all its pairs choose A: the
+        // sides below are +-0).
         double G[max_groups][K][2], star[max_groups][K][2];
-        bool has_star[max_groups][K];
+        bool has_star[max_groups][K], live[max_groups] = {};
         std::uint32_t chose_b[max_groups] = {};
         for (int f = 0; f < c.n; ++f)
           for (int i = 0; i < nk; ++i)
@@ -499,6 +511,7 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
             const std::int32_t s = c.slot[f][i], q = _best[s];
             G[f][i][0] = _G[2 * s];
             G[f][i][1] = _G[2 * s + 1];
+            live[f] |= G[f][i][0] != 0.0 || G[f][i][1] != 0.0;
             has_star[f][i] = q >= 0;
             star[f][i][0] = q >= 0 ? x[2 * q] : 0.0;
             star[f][i][1] = q >= 0 ? x[2 * q + 1] : 0.0;
@@ -508,6 +521,11 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
         {
           const std::int32_t p = order[k];
           const int f = c.local(group[p]);
+          if (!live[f])
+          {
+            mask[p] = 0;
+            continue;
+          }
           const bool flat = grad[2 * p] == 0.0 && grad[2 * p + 1] == 0.0;
           const std::int32_t near = !flat ? p : full[p] != 0.0 ? proxy(p) : -1;
           std::uint32_t m = 0;

@@ -189,6 +189,9 @@ public:
   const DamageTimers& timers() const { return _timers; }
   /// Neighbour-list builds so far.
   std::int64_t neighbour_builds() const { return _neighbours.builds(); }
+  /// Kernel fields evaluated so far (particles near full damage whose
+  /// neighbours' damage differs from theirs), summed over the builds.
+  std::int64_t kernel_evaluations() const { return _evaluated; }
   /// @brief Note that no particle moved more than `distance` in the step
   /// (for the neighbour lists' skin).
   void moved(double distance) { _neighbours.moved(distance); }
@@ -243,6 +246,7 @@ private:
   std::vector<std::int32_t> _slot_field; // per slot
   ContactStats _stats;
   DamageTimers _timers;
+  std::int64_t _evaluated = 0;
 };
 
 } // namespace pfmpm
