@@ -92,7 +92,8 @@ void NeighbourList::build(const Grid& grid, const CellSort& sort, const std::vec
     }
   }
   _built_at = x;
-  _drift = 0.0;
+  _drift = _drift_checked = 0.0;
+  _slack = -1.0; // the first look measures it
   _cutoff = cutoff;
   ++_builds;
 }
@@ -103,8 +104,8 @@ bool NeighbourList::stale(const Grid& grid, const CellSort& sort, const std::vec
   const std::size_t n = x.size() / 2;
   if (_builds == 0 || _start.size() != n + 1)
     return true;
-  if (_drift <= skin)
-    return false;
+  if (_drift - _drift_checked <= _slack)
+    return false; // no particle moved enough since the last look to use the slack up
   // Each pair's displacements differ by at most 2 skin (less a hair for
   // the rounding of x - X) in either of the two exact tests below.
   const double span = 2.0 * skin * (1.0 - 1e-9);
@@ -147,11 +148,10 @@ bool NeighbourList::stale(const Grid& grid, const CellSort& sort, const std::vec
         }
       }
   }
-  if (4.0 * largest <= span * span)
-    return false; // no particle displaced by more than skin
-  // The displacements of each occupied block and the blocks around it.
-  int wide = 0;
-#pragma omp parallel for schedule(static) reduction(| : wide)
+  // The widest box of the displacements of an occupied block and the
+  // blocks around it (its diagonal squared).
+  double widest = 0.0;
+#pragma omp parallel for schedule(static) reduction(max : widest)
   for (int bi = 0; bi < nbx; ++bi)
     for (int bj = 0; bj < nby; ++bj)
     {
@@ -168,9 +168,18 @@ bool NeighbourList::stale(const Grid& grid, const CellSort& sort, const std::vec
           hi[1] = std::max(hi[1], r[3]);
         }
       const double ex = hi[0] - lo[0], ey = hi[1] - lo[1];
-      wide |= ex * ex + ey * ey <= span * span ? 0 : 1;
+      widest = std::max(widest, ex * ex + ey * ey);
     }
-  return wide != 0;
+  // The slack of each test, in the distance any particle may move from now
+  // on: a displacement grows by at most that, a box's diagonal by 2 sqrt 2
+  // times it. The list stands while either test holds.
+  const double slack = std::max(0.5 * span - std::sqrt(largest),
+                                (span - std::sqrt(widest)) / (2.0 * std::sqrt(2.0)));
+  if (slack < 0.0)
+    return true;
+  _slack = slack;
+  _drift_checked = _drift;
+  return false;
 }
 
 } // namespace pfmpm

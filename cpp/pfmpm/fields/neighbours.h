@@ -20,14 +20,17 @@ namespace pfmpm
 /// (p, q) within r at positions x as long as the displacements u = x - X of
 /// the two differ by at most 2 delta: |X_p - X_q| <= |x_p - x_q| + |u_p - u_q|.
 /// That is the paper's re-sort rule with a Verlet skin, so that the sums
-/// between rebuilds are exact. stale() asks it in three ways, the cheaper
-/// first: the sum over the steps of the largest distance any particle moved
-/// in the step (moved(), which the step knows at no cost) is at most delta;
-/// or no particle is displaced by more than delta; or, per block of cells, the
-/// displacements of the particles in the block and the blocks around it (all
-/// that can be within r of them) span at most 2 delta in each direction
-/// together: a fragment or a platen that translates as a whole does not
-/// make the lists stale, only motion relative to the particles around.
+/// between rebuilds are exact. stale() looks at the displacements: the list
+/// stands if no particle is displaced by more than delta, or if per block of
+/// cells the displacements of the particles in the block and the blocks
+/// around it (all that can be within r of them) lie in a box whose diagonal
+/// is at most 2 delta: a fragment or a platen that translates as a whole
+/// does not make the lists stale, only motion relative to the particles
+/// around. Each look also gives its slack: how far any particle may move
+/// before either test could fail (a displacement grows by at most that
+/// distance, a box's diagonal by 2 sqrt 2 times it). Until the sum over the
+/// steps of the largest distance any particle moved in the step (moved(),
+/// which the step knows at no cost) uses the slack up, stale() does not look.
 /// Each particle's list is sorted by particle index, so a sum over the
 /// neighbours within r has an order fixed by the positions alone, whenever
 /// the list was built (a resumed run gives the bits of an uninterrupted one).
@@ -59,6 +62,8 @@ private:
   std::vector<std::int32_t> _index;
   std::vector<double> _built_at;    // positions at the build, N x 2
   double _drift = 0.0;              // bound on any particle's motion since the build
+  double _drift_checked = 0.0;      // _drift at the last look at the displacements
+  double _slack = -1.0;             // motion the last look allows (< 0: look)
   double _cutoff = 0.0;
   std::int64_t _builds = 0;
   // Scratch: per cell column the lists of its particles in sort order, and

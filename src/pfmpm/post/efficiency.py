@@ -96,12 +96,13 @@ def paint(sim, reference: dict) -> None:
     p.damage[:] = damage
 
 
-def time_run(scene: Scene, h: float, method: str, threads: int, steps: int, warmup: int,
-             reference: dict | None = None) -> dict:
+def time_run(scene: Scene, h: float, method: str, threads: int, steps: int | None, warmup: int,
+             reference: dict | None = None, until: float | None = None) -> dict:
     """Time ``steps`` steps of ``scene`` at spacing ``h`` with partition
     ``method`` on ``threads`` threads after ``warmup`` steps, from the painted
-    state of ``reference`` (or from t = 0 as the scene is); a row of
-    :data:`COLUMNS` without ``round``, ``k`` and ``load``."""
+    state of ``reference`` (or from t = 0 as the scene is); with ``until``
+    instead of ``steps``, the steps to that time (the whole run, as the paper
+    times it). A row of :data:`COLUMNS` without ``round``, ``k`` and ``load``."""
     from .. import _core
     from ..simulation import Simulation
 
@@ -110,6 +111,8 @@ def time_run(scene: Scene, h: float, method: str, threads: int, steps: int, warm
     if reference is not None:
         paint(sim, reference)
     sim.advance(warmup)
+    if until is not None:
+        steps = int(round(until / sim.dt)) - warmup
 
     def blocks():
         part = sim.solver.damage_partition()
@@ -136,14 +139,15 @@ def time_run(scene: Scene, h: float, method: str, threads: int, steps: int, warm
 
 def study(scene: Scene, ks, h0: float, steps: int = 200, warmup: int = 50, rounds: int = 3,
           threads=(1, 2), paint_time: float | None = 10.0, csv_path: Path | None = None,
-          progress=None) -> list[dict]:
+          progress=None, until: float | None = None) -> list[dict]:
     """Time every refinement k of ``ks`` (spacing ``h0 / k``), both partitions
     and every thread count of ``threads``, ``rounds`` times, the
     configurations alternating within a round (:func:`time_run`). With
     ``paint_time``, every run starts from the damage a damage-gradient run at
-    the coarsest spacing reached then (:func:`reference_damage`). Rows are
-    appended to ``csv_path`` as they come (if given); ``progress(row)`` is
-    called after each.
+    the coarsest spacing reached then (:func:`reference_damage`); with
+    ``until``, each run is timed from the warm-up to that time instead of for
+    ``steps`` steps. Rows are appended to ``csv_path`` as they come (if
+    given); ``progress(row)`` is called after each.
     """
     from ..output import CsvLog
 
@@ -159,7 +163,7 @@ def study(scene: Scene, ks, h0: float, steps: int = 200, warmup: int = 50, round
                     for method in METHODS:
                         load = os.getloadavg()[0]
                         row = {"round": r, "k": float(k), "load": load,
-                               **time_run(scene, h0 / k, method, n, steps, warmup, reference)}
+                               **time_run(scene, h0 / k, method, n, steps, warmup, reference, until)}
                         rows.append(row)
                         if log:
                             log.write(row)
@@ -197,10 +201,14 @@ def _slope(n: list[float], t: list[float]) -> float | None:
     return float(np.polyfit(np.log(n), np.log(t), 1)[0])
 
 
-def checks(table) -> dict:
+def checks(table, time: str = "seconds") -> dict:
     """Checks E1-E5 of ``shared/benchmarks-homel-herbold.md`` section 7 from
     the timing table (rows of :data:`COLUMNS`, or ``read_csv`` columns),
-    on medians over the rounds (:func:`medians`):
+    on medians over the rounds (:func:`medians`), with ``time`` the time per
+    step of E2 and of the slopes: ``"seconds"`` (wall) or ``"cpu_seconds"``
+    (the process's CPU time, which other processes on a busy machine inflate
+    less; on one thread only). The shares of E1 and E4 are of wall times
+    within a run.
 
     - E1: the neighbour lists (checks and builds) at most 1 % of the step, at
       every size, with damage-gradient fields (every thread count);
@@ -235,7 +243,9 @@ def checks(table) -> dict:
     out["E1"] = {"value": worst, "limit": 0.01, "passed": None if worst is None else worst <= 0.01,
                  "per_size": share}
 
-    ratio = {n: m[(n, 1, 1)]["seconds"] / m[(n, 0, 1)]["seconds"]
+    if time not in ("seconds", "cpu_seconds"):
+        raise ValueError(f"time = {time!r}: must be 'seconds' or 'cpu_seconds'")
+    ratio = {n: m[(n, 1, 1)][time] / m[(n, 0, 1)][time]
              for n in sizes if (n, 1, 1) in m and (n, 0, 1) in m}
     inside = {n: r for n, r in ratio.items() if E2_RANGE[0] < n < E2_RANGE[1]}
     worst = max(inside.values()) if inside else None
@@ -273,7 +283,7 @@ def checks(table) -> dict:
     for d in (0, 1):
         for t in sorted({t for _, dd, t in m if dd == d}):
             ns = [n for n in sizes if (n, d, t) in m]
-            out["slopes"][f"{METHODS[d]}_{t}"] = _slope(ns, [m[(n, d, t)]["seconds"] for n in ns])
+            out["slopes"][f"{METHODS[d]}_{t}"] = _slope(ns, [m[(n, d, t)][time] for n in ns])
     return out
 
 
