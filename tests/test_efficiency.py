@@ -91,8 +91,12 @@ def test_painting_at_the_reference_spacing_gives_the_reference_damage():
 
 def test_smoke_study(tmp_path):
     """tools/efficiency.py --smoke: two sizes x two partitions x 1 and 2 threads."""
+    from pfmpm import _core
+
+    threads = _core.num_threads()
     driver = runpy.run_path(str(ROOT / "tools" / "efficiency.py"))
     result = driver["main"]([str(DISK), "--smoke", "--out", str(tmp_path)])
+    assert _core.num_threads() == threads  # set back after the 2-thread runs
     rows = read_csv(tmp_path / "efficiency.csv")
     assert list(rows) == list(efficiency.COLUMNS) and len(rows["seconds"]) == 8
     n = rows["particles"]

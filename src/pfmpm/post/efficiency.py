@@ -102,11 +102,22 @@ def time_run(scene: Scene, h: float, method: str, threads: int, steps: int | Non
     ``method`` on ``threads`` threads after ``warmup`` steps, from the painted
     state of ``reference`` (or from t = 0 as the scene is); with ``until``
     instead of ``steps``, the steps to that time (the whole run, as the paper
-    times it). A row of :data:`COLUMNS` without ``round``, ``k`` and ``load``."""
+    times it). A row of :data:`COLUMNS` without ``round``, ``k`` and ``load``;
+    the thread count is set back as it was."""
     from .. import _core
+
+    before = _core.num_threads()
+    _core.set_num_threads(threads)
+    try:
+        return _time_run(scene, h, method, threads, steps, warmup, reference, until)
+    finally:
+        _core.set_num_threads(before)
+
+
+def _time_run(scene, h, method, threads, steps, warmup, reference, until) -> dict:
+    """:func:`time_run` on the threads set."""
     from ..simulation import Simulation
 
-    _core.set_num_threads(threads)
     sim = Simulation(scene_at(scene, h, method))
     if reference is not None:
         paint(sim, reference)
