@@ -13,6 +13,7 @@
 #include <pybind11/numpy.h>
 #include <pybind11/stl.h>
 
+#include <stdexcept>
 #include <string>
 
 namespace py = pybind11;
@@ -76,6 +77,15 @@ PYBIND11_MODULE(_core, m)
   m.doc() = "pfmpm C++ core: B-spline grid, particles, materials and explicit MPM stepping";
   py::register_exception<SimulationError>(m, "SimulationError", PyExc_RuntimeError);
   m.def("num_threads", &omp_get_max_threads, "OpenMP threads the kernels use");
+  m.def(
+      "set_num_threads",
+      [](int n)
+      {
+        if (n < 1)
+          throw std::invalid_argument("threads = " + std::to_string(n) + ": must be >= 1");
+        omp_set_num_threads(n);
+      },
+      py::arg("n"), "use n OpenMP threads from now on (as OMP_NUM_THREADS=n at the start)");
   pfmpm::bindings::bind_grid(m);
   pfmpm::bindings::bind_particles(m);
   pfmpm::bindings::bind_materials(m);

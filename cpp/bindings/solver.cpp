@@ -287,6 +287,18 @@ void bind_solver(py::module_& m)
           "S_bulk over each body's own particles, S_bulk from the body's lattice spacing; "
           "returns S / S_bulk per particle")
       .def(
+          "stage_seconds",
+          [](const Solver& s)
+          {
+            const StageTimers& t = s.timers();
+            return py::dict(py::arg("sort") = t.sort, py::arg("phase_field") = t.phase_field,
+                            py::arg("fields") = t.fields, py::arg("p2g") = t.p2g,
+                            py::arg("grid") = t.grid, py::arg("g2p") = t.g2p);
+          },
+          "wall seconds per stage of the steps so far: cell sort and active nodes, phase field, "
+          "the partition's build (fields; damage_partition()['seconds'] splits the damage "
+          "gradient's), P2G, grid update with contact, G2P with the materials' update")
+      .def(
           "damage_partition",
           [](const Solver& s) -> py::object
           {
@@ -302,6 +314,7 @@ void bind_solver(py::module_& m)
             out["nodal_gradient"] = G;
             out["radius"] = d->radius();
             out["neighbour_builds"] = d->neighbour_builds();
+            out["kernel_evaluations"] = d->kernel_evaluations();
             const DamageTimers& t = d->timers();
             out["seconds"] = py::dict(py::arg("damage") = t.damage,
                                       py::arg("neighbours") = t.neighbours,
@@ -312,7 +325,8 @@ void bind_solver(py::module_& m)
           "the damage-gradient partition of the last step (None without it): per particle the "
           "mask of its stencil nodes where it chose field B (bit i: stencil node i, x-major), "
           "per (active node, group) the nodal gradient (node, group, G_x, G_y) of Algorithm 1, "
-          "the kernel radius, the neighbour-list builds so far and the seconds spent per block")
+          "the kernel radius, the neighbour-list builds and kernel-field evaluations so far and the "
+          "seconds spent per block")
       .def(
           "nodal_mass_momentum",
           [](Solver& s)

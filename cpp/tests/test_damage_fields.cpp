@@ -4,7 +4,8 @@
 // at every node between them (U2), zero damage runs with the bits of one
 // field (U5), colliding bodies of one group conserve momentum with equal
 // and opposite contact forces, and results do not depend on the thread
-// count or on a restart.
+// count or on a restart; the neighbour lists hold every pair within the
+// kernel radius until they are stale.
 #include "disks.h"
 #include "helpers.h"
 #include "pfmpm/contact/coulomb.h"
@@ -15,6 +16,7 @@
 #include <gtest/gtest.h>
 #include <omp.h>
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <random>
@@ -134,6 +136,106 @@ TEST(KernelField, GradientPointsAtADamagedBand)
     ++seen;
   }
   EXPECT_GT(seen, 100);
+}
+
+namespace
+{
+/// Every pair within `cutoff` of positions x, by brute force: per particle, sorted.
+std::vector<std::vector<std::int32_t>> pairs_within(const std::vector<double>& x, double cutoff)
+{
+  const std::size_t n = x.size() / 2;
+  std::vector<std::vector<std::int32_t>> out(n);
+  for (std::size_t p = 0; p < n; ++p)
+    for (std::size_t q = 0; q < n; ++q)
+      if (q != p && std::hypot(x[2 * q] - x[2 * p], x[2 * q + 1] - x[2 * p + 1]) <= cutoff)
+        out[p].push_back(static_cast<std::int32_t>(q));
+  return out;
+}
+
+/// Whether every pair of `needed` is in `list`.
+bool holds(const NeighbourList& list, const std::vector<std::vector<std::int32_t>>& needed)
+{
+  for (std::size_t p = 0; p < needed.size(); ++p)
+  {
+    const auto* begin = &list.index()[list.start()[p]];
+    const auto* end = begin + (list.start()[p + 1] - list.start()[p]);
+    for (std::int32_t q : needed[p])
+      if (!std::binary_search(begin, end, q))
+        return false;
+  }
+  return true;
+}
+} // namespace
+
+TEST(NeighbourList, ListsEveryPairWithinTheCutoffSorted)
+{
+  // A jittered lattice, 2 per cell, and cutoffs below, at and above a cell.
+  const Grid grid(2, {20, 16}, 0.25, {0.0, 0.0});
+  Particles P = make_rectangle(0.5, 0.5, 4.5, 3.5, 0.25, 2);
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> jitter(-0.05, 0.05);
+  for (double& x : P.x)
+    x += jitter(rng);
+  CellSort sort;
+  ASSERT_EQ(sort.sort(grid, P.x), P.size());
+  for (double cutoff : {0.2, 0.25, 0.4243})
+  {
+    NeighbourList list;
+    list.build(grid, sort, P.x, cutoff);
+    const auto expected = pairs_within(P.x, cutoff);
+    for (std::size_t p = 0; p < P.size(); ++p)
+    {
+      const std::vector<std::int32_t> got(&list.index()[list.start()[p]],
+                                          &list.index()[list.start()[p + 1]]);
+      EXPECT_EQ(got, expected[p]) << "particle " << p << ", cutoff " << cutoff;
+    }
+  }
+}
+
+TEST(NeighbourList, StaysValidUnderCommonMotionOnly)
+{
+  // Built with cutoff r + 2 delta. A rigid translation far beyond the skin
+  // keeps the list (each block of cells moves as a whole); so does a
+  // displacement below delta everywhere. Relative motion of more than 2 delta
+  // makes it stale; whenever the list is not stale, it holds every pair now
+  // within r.
+  const Grid grid(2, {40, 16}, 0.25, {0.0, 0.0});
+  const Particles start = make_rectangle(1.0, 1.0, 5.0, 3.0, 0.25, 2);
+  const double r = std::sqrt(2.0) * 0.25, delta = 0.1 * r;
+  auto moved = [&](auto&& u)
+  {
+    std::vector<double> x = start.x;
+    for (std::size_t p = 0; p < start.size(); ++p)
+      u(&x[2 * p]);
+    return x;
+  };
+  CellSort sort;
+  ASSERT_EQ(sort.sort(grid, start.x), start.size());
+  auto check = [&](const std::vector<double>& x, bool expect_stale, const char* what)
+  {
+    NeighbourList list;
+    list.build(grid, sort, start.x, r + 2.0 * delta);
+    list.moved(1e3); // past the cheap bound: the exact tests decide
+    CellSort now;
+    ASSERT_EQ(now.sort(grid, x), start.size());
+    const bool stale = list.stale(grid, now, x, delta);
+    EXPECT_EQ(stale, expect_stale) << what;
+    if (!stale)
+      EXPECT_TRUE(holds(list, pairs_within(x, r))) << what;
+  };
+  check(moved([](double* x) { x[0] += 3.3; x[1] -= 0.4; }), false, "rigid translation");
+  check(moved([&](double* x) { x[0] += 0.9 * delta * std::sin(7.0 * x[1]); }), false,
+        "below the skin");
+  // Two halves translating apart or sliding past each other: only where
+  // they meet is the motion relative, by 2.5 delta.
+  check(moved([&](double* x) { x[0] += x[0] < 3.0 ? -1.25 * delta : 1.25 * delta; }), true,
+        "halves parting");
+  check(moved([&](double* x) { x[1] += x[0] < 3.0 ? -1.25 * delta : 1.25 * delta; }), true,
+        "halves sliding");
+  // A stretch of 4 % of the 4 mm block: its ends move by 2.3 delta, but
+  // two particles of a block of cells and the blocks around it (1.5 mm
+  // across) by under 2 delta relative to each other.
+  check(moved([](double* x) { x[0] = 3.0 + 1.04 * (x[0] - 3.0); }), false, "uniform stretch");
 }
 
 TEST(DamageFields, SurfaceFlagsOfARectangle)

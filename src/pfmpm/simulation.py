@@ -362,7 +362,7 @@ class Simulation:
 
     def summary_fields(self, result: RunResult) -> dict:
         """The MPM entries of ``summary.json``: sizes, speed, the parts of the method
-        switched on, phase-field and contact statistics."""
+        switched on, the seconds per stage of the step, phase-field and contact statistics."""
         fields = {
             "dt": self.solver.dt,
             "t_end": self.time,
@@ -373,6 +373,8 @@ class Simulation:
             "grid": {"cells": list(self.scene.grid.cells), "h": self.scene.grid.h, "degree": self.scene.grid.degree,
                      "shape": self.scene.grid.shape},
             "light_nodes": self.solver.light_nodes,
+            # Wall seconds per stage of the step (the damage-gradient blocks in contact.seconds).
+            "seconds": self.solver.stage_seconds(),
         }
         if self.cracks:
             stats = self.solver.phase_field_stats()

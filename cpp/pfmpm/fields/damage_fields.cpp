@@ -2,6 +2,7 @@
 /// @brief The damage-field-gradient partition (H&H 2017 sections 2.1-2.4):
 /// particle damage, kernel field, Algorithms 1 and 2, slots, surface flags.
 #include "pfmpm/fields/damage_fields.h"
+#include "pfmpm/common/stopwatch.h"
 #include "pfmpm/common/strips.h"
 #include "pfmpm/fields/kernel.h"
 
@@ -17,14 +18,6 @@ namespace pfmpm
 
 namespace
 {
-/// Seconds since `start`, added to `total`.
-struct Stopwatch
-{
-  double& total;
-  double start = omp_get_wtime();
-  ~Stopwatch() { total += omp_get_wtime() - start; }
-};
-
 /// Group of each particle: its body's, or the body itself when `groups` is empty.
 std::vector<std::int32_t> particle_groups(const Particles& particles,
                                           const std::vector<std::int32_t>& groups, int n)
@@ -274,23 +267,30 @@ void DamageFields::gradients(Particles& particles, const CellSort& sort)
   for (std::ptrdiff_t c = 0; c < ncells; ++c)
     for (std::int64_t k = start[c]; k < start[c + 1] && !full_cell[c]; ++k)
       full_cell[c] = _full[order[k]] != 0.0;
-  // Dilated by P cells along y, then along x (stride ncy, resp. 1).
+  // Dilated by P cells along y, then along x: each column of cells ORed
+  // with the columns' entries up to P cells away along the axis.
   auto dilate = [&](const std::vector<std::uint8_t>& in, std::vector<std::uint8_t>& out, int axis)
   {
-    const int n[2] = {ncx, ncy};
-    const std::ptrdiff_t stride = axis == 0 ? ncy : 1;
     out.assign(ncells, 0);
 #pragma omp parallel for schedule(static)
     for (int cx = 0; cx < ncx; ++cx)
-      for (int cy = 0; cy < ncy; ++cy)
+    {
+      std::uint8_t* o = &out[static_cast<std::size_t>(cx) * ncy];
+      if (axis == 1)
       {
-        const int i = axis == 0 ? cx : cy;
-        const std::ptrdiff_t cell = static_cast<std::ptrdiff_t>(cx) * ncy + cy;
-        std::uint8_t any = 0;
-        for (int d = std::max(i - P, 0); d <= std::min(i + P, n[axis] - 1) && !any; ++d)
-          any = in[cell + (d - i) * stride];
-        out[cell] = any;
+        const std::uint8_t* column = &in[static_cast<std::size_t>(cx) * ncy];
+        for (int d = -P; d <= P; ++d)
+          for (int cy = std::max(0, -d); cy < std::min(ncy, ncy - d); ++cy)
+            o[cy] |= column[cy + d];
       }
+      else
+        for (int d = std::max(-P, -cx); d <= std::min(P, ncx - 1 - cx); ++d)
+        {
+          const std::uint8_t* column = &in[static_cast<std::size_t>(cx + d) * ncy];
+          for (int cy = 0; cy < ncy; ++cy)
+            o[cy] |= column[cy];
+        }
+    }
   };
   std::vector<std::uint8_t> along_y;
   dilate(full_cell, along_y, 1);
@@ -298,7 +298,7 @@ void DamageFields::gradients(Particles& particles, const CellSort& sort)
 
   {
     Stopwatch clock{_timers.neighbours};
-    if (_neighbours.stale(particles.size(), _options.skin * _radius))
+    if (_neighbours.stale(_grid, sort, particles.x, _options.skin * _radius))
       _neighbours.build(_grid, sort, particles.x, (1.0 + 2.0 * _options.skin) * _radius);
   }
   Stopwatch clock{_timers.gradient};
@@ -315,12 +315,13 @@ void DamageFields::gradients(Particles& particles, const CellSort& sort)
   auto uniform = [&](std::int32_t p)
   {
     const double d = damage[p];
-    bool same = true;
     for (std::int64_t k = nstart[p]; k < nstart[p + 1]; ++k)
-      same &= damage[nindex[k]] == d;
-    return same;
+      if (damage[nindex[k]] != d)
+        return false;
+    return true;
   };
-#pragma omp parallel for schedule(dynamic, 64)
+  std::int64_t evaluated = 0;
+#pragma omp parallel for schedule(dynamic, 64) reduction(+ : evaluated)
   for (std::ptrdiff_t c = 0; c < ncells; ++c)
   {
     for (std::int64_t k = start[c]; k < start[c + 1]; ++k)
@@ -332,6 +333,7 @@ void DamageFields::gradients(Particles& particles, const CellSort& sort)
                                            damage, radius);
         grad[2 * p] = v.grad[0];
         grad[2 * p + 1] = v.grad[1];
+        ++evaluated;
       }
       else
       {
@@ -340,11 +342,33 @@ void DamageFields::gradients(Particles& particles, const CellSort& sort)
       }
     }
   }
+  _evaluated += evaluated;
 }
+
+namespace
+{
+/// The group slots of a cell's stencil nodes, per group of the cell.
+struct CellSlots
+{
+  static constexpr int K = (max_degree + 1) * (max_degree + 1);
+  int n = 0;                                       ///< groups in the cell
+  std::int32_t group[BodyFields::max_fields];      ///< their indices, sorted
+  std::int32_t slot[DamageFields::max_groups][K];  ///< slot of group f at stencil node i
+  /// Local index of group g (one of the cell's).
+  int local(std::int32_t g) const
+  {
+    int f = 0;
+    while (group[f] != g)
+      ++f;
+    return f;
+  }
+};
+} // namespace
 
 void DamageFields::sides(const Particles& particles, const CellSort& sort, const double* grad)
 {
-  const int P = _grid.degree(), width = P + 1;
+  constexpr int K = CellSlots::K;
+  const int P = _grid.degree(), width = P + 1, nk = width * width;
   const int ncx = _grid.cells()[0], ncy = _grid.cells()[1];
   const std::size_t ngs = _groups ? static_cast<std::size_t>(_groups->num_slots())
                                   : static_cast<std::size_t>(_grid.num_active());
@@ -356,46 +380,73 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
   const std::int32_t* order = sort.order().data();
   const std::int32_t* group = _group.data();
   const double* full = _full.data();
-  // The active nodes of a cell's stencil, in stencil order.
-  auto cell_nodes = [&](int cx, int cy, std::int32_t* out)
+  // The groups of cell (cx, cy) and their slots at its stencil nodes, in
+  // stencil order: looked up once per cell, not per particle and node.
+  auto cell_slots = [&](int cx, int cy, CellSlots& c)
   {
+    c.n = cell_groups(static_cast<std::size_t>(cx) * ncy + cy, c.group);
     for (int a = 0; a < width; ++a)
     {
       const std::int32_t row = _grid.active_index(cx + a, cy);
       for (int b = 0; b < width; ++b)
-        out[a * width + b] = row + b;
+        for (int f = 0; f < c.n; ++f)
+          c.slot[f][a * width + b] = group_slot(row + b, c.group[f]);
     }
   };
   // Algorithm 1: per node and group, the particle gradient of largest
   // magnitude, ties to the smaller particle index, and whether a fully
-  // damaged particle of the group maps there. Strips of one parity share no
-  // node, so the comparisons need no atomics.
-  for_each_cell_by_strips(ncx, ncy, sort.cell_start(),
-                          [&](int cx, int cy, std::int64_t begin, std::int64_t end)
-                          {
-                            if (!_near[static_cast<std::size_t>(cx) * ncy + cy])
-                              return;
-                            std::int32_t nodes[(max_degree + 1) * (max_degree + 1)];
-                            cell_nodes(cx, cy, nodes);
-                            for (std::int64_t k = begin; k < end; ++k)
-                            {
-                              const std::int32_t p = order[k];
-                              const double n2 = grad[2 * p] * grad[2 * p] + grad[2 * p + 1] * grad[2 * p + 1];
-                              if (n2 == 0.0 && full[p] == 0.0)
-                                continue; // nothing to note
-                              for (int i = 0; i < width * width; ++i)
-                              {
-                                const std::int32_t s = group_slot(nodes[i], group[p]);
-                                if (full[p] != 0.0)
-                                  _group_full[s] = 1;
-                                if (n2 > _best_norm[s] || (n2 > 0.0 && n2 == _best_norm[s] && p < _best[s]))
-                                {
-                                  _best_norm[s] = n2;
-                                  _best[s] = p;
-                                }
-                              }
-                            }
-                          });
+  // damaged particle of the group maps there. Each cell finds its own best
+  // per node first (the largest, ties to the smaller index, is the same in
+  // any order of comparison), then compares it with the node's. Strips of
+  // one parity share no node, so the comparisons need no atomics.
+  for_each_cell_by_strips(
+      ncx, ncy, sort.cell_start(),
+      [&](int cx, int cy, std::int64_t begin, std::int64_t end)
+      {
+        if (!_near[static_cast<std::size_t>(cx) * ncy + cy])
+          return;
+        CellSlots c;
+        cell_slots(cx, cy, c);
+        double norm[max_groups][K];
+        std::int32_t best[max_groups][K];
+        std::uint8_t any_full[max_groups] = {};
+        for (int f = 0; f < c.n; ++f)
+          for (int i = 0; i < nk; ++i)
+          {
+            norm[f][i] = 0.0;
+            best[f][i] = -1;
+          }
+        for (std::int64_t k = begin; k < end; ++k)
+        {
+          const std::int32_t p = order[k];
+          const double n2 = grad[2 * p] * grad[2 * p] + grad[2 * p + 1] * grad[2 * p + 1];
+          if (n2 == 0.0 && full[p] == 0.0)
+            continue; // nothing to note
+          const int f = c.local(group[p]);
+          any_full[f] |= full[p] != 0.0 ? 1 : 0;
+          if (n2 == 0.0)
+            continue;
+          for (int i = 0; i < nk; ++i)
+            if (n2 > norm[f][i] || (n2 == norm[f][i] && p < best[f][i]))
+            {
+              norm[f][i] = n2;
+              best[f][i] = p;
+            }
+        }
+        for (int f = 0; f < c.n; ++f)
+          for (int i = 0; i < nk; ++i)
+          {
+            const std::int32_t s = c.slot[f][i];
+            if (any_full[f])
+              _group_full[s] = 1;
+            const double n2 = norm[f][i];
+            if (n2 > _best_norm[s] || (n2 > 0.0 && n2 == _best_norm[s] && best[f][i] < _best[s]))
+            {
+              _best_norm[s] = n2;
+              _best[s] = best[f][i];
+            }
+          }
+      });
   // G_i, zero where no fully damaged particle of the group maps (there the
   // fields cannot be separable: one field).
   const auto ngs_signed = static_cast<std::ptrdiff_t>(ngs);
@@ -438,42 +489,76 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
     return best;
   };
   std::uint32_t* mask = _mask.data();
-  for_each_cell_by_strips(ncx, ncy, sort.cell_start(),
-                          [&](int cx, int cy, std::int64_t begin, std::int64_t end)
-                          {
-                            const std::size_t cell = static_cast<std::size_t>(cx) * ncy + cy;
-                            if (!_near[cell])
-                              return;
-                            std::int32_t nodes[(max_degree + 1) * (max_degree + 1)];
-                            cell_nodes(cx, cy, nodes);
-                            std::uint32_t any = 0;
-                            for (std::int64_t k = begin; k < end; ++k)
-                            {
-                              const std::int32_t p = order[k];
-                              const bool flat = grad[2 * p] == 0.0 && grad[2 * p + 1] == 0.0;
-                              const std::int32_t near = !flat ? p : full[p] != 0.0 ? proxy(p) : -1;
-                              std::uint32_t m = 0;
-                              for (int i = 0; i < width * width; ++i)
-                              {
-                                const std::int32_t s = group_slot(nodes[i], group[p]);
-                                const double* G = &_G[2 * s];
-                                const std::int32_t q = _best[s];
-                                double side = 0.0;
-                                if (near >= 0)
-                                  side = grad[2 * near] * G[0] + grad[2 * near + 1] * G[1];
-                                else if (full[p] == 0.0 && q >= 0)
-                                  side = (x[2 * q] - x[2 * p]) * G[0] + (x[2 * q + 1] - x[2 * p + 1]) * G[1];
-                                if (side < 0.0)
-                                {
-                                  m |= 1u << i;
-                                  _has_b[s] = 1;
-                                }
-                              }
-                              mask[p] = m;
-                              any |= m;
-                            }
-                            _split[cell] = any != 0;
-                          });
+  for_each_cell_by_strips(
+      ncx, ncy, sort.cell_start(),
+      [&](int cx, int cy, std::int64_t begin, std::int64_t end)
+      {
+        const std::size_t cell = static_cast<std::size_t>(cx) * ncy + cy;
+        if (!_near[cell])
+          return;
+        CellSlots c;
+        cell_slots(cx, cy, c);
+        // Per group and node: G_i, and the position of its particle p*
+        // (none: G_i = 0, and every pair chooses A); per group, whether
+        // some node's G_i is not zero (else all its pairs choose A: the
+        // sides below are +-0).
+        double G[max_groups][K][2], star[max_groups][K][2];
+        bool has_star[max_groups][K], live[max_groups] = {};
+        std::uint32_t chose_b[max_groups] = {};
+        for (int f = 0; f < c.n; ++f)
+          for (int i = 0; i < nk; ++i)
+          {
+            const std::int32_t s = c.slot[f][i], q = _best[s];
+            G[f][i][0] = _G[2 * s];
+            G[f][i][1] = _G[2 * s + 1];
+            live[f] |= G[f][i][0] != 0.0 || G[f][i][1] != 0.0;
+            has_star[f][i] = q >= 0;
+            star[f][i][0] = q >= 0 ? x[2 * q] : 0.0;
+            star[f][i][1] = q >= 0 ? x[2 * q + 1] : 0.0;
+          }
+        std::uint32_t any = 0;
+        for (std::int64_t k = begin; k < end; ++k)
+        {
+          const std::int32_t p = order[k];
+          const int f = c.local(group[p]);
+          if (!live[f])
+          {
+            mask[p] = 0;
+            continue;
+          }
+          const bool flat = grad[2 * p] == 0.0 && grad[2 * p + 1] == 0.0;
+          const std::int32_t near = !flat ? p : full[p] != 0.0 ? proxy(p) : -1;
+          std::uint32_t m = 0;
+          if (near >= 0)
+          {
+            const double gx = grad[2 * near], gy = grad[2 * near + 1];
+            for (int i = 0; i < nk; ++i)
+            {
+              const double side = gx * G[f][i][0] + gy * G[f][i][1];
+              m |= side < 0.0 ? 1u << i : 0u;
+            }
+          }
+          else if (full[p] == 0.0)
+          {
+            const double xp = x[2 * p], yp = x[2 * p + 1];
+            for (int i = 0; i < nk; ++i)
+            {
+              const double side = has_star[f][i] ? (star[f][i][0] - xp) * G[f][i][0]
+                                                       + (star[f][i][1] - yp) * G[f][i][1]
+                                                 : 0.0;
+              m |= side < 0.0 ? 1u << i : 0u;
+            }
+          }
+          mask[p] = m;
+          chose_b[f] |= m;
+          any |= m;
+        }
+        for (int f = 0; f < c.n; ++f)
+          for (int i = 0; i < nk; ++i)
+            if (chose_b[f] >> i & 1u)
+              _has_b[c.slot[f][i]] = 1;
+        _split[cell] = any != 0;
+      });
 }
 
 void DamageFields::layout(const CellSort& sort, bool any_split)

@@ -37,7 +37,8 @@ struct DamageGradientOptions
   /// Kernel radius r_p of eqs. 17-19; 0: the cell diagonal (the paper's choice).
   double kernel_radius = 0.0;
   /// Verlet skin delta over r_p: neighbours are listed within r_p + 2 delta
-  /// and rebuilt once a particle has moved more than delta.
+  /// and rebuilt once two particles may have closed the gap between them by
+  /// more than 2 delta (NeighbourList::stale).
   double skin = 0.1;
   /// A damage model's particle is fully damaged at D_p >= this (the paper's D = 1).
   double full_damage = 1.0 - 1e-4;
@@ -188,6 +189,9 @@ public:
   const DamageTimers& timers() const { return _timers; }
   /// Neighbour-list builds so far.
   std::int64_t neighbour_builds() const { return _neighbours.builds(); }
+  /// Kernel fields evaluated so far (particles near full damage whose
+  /// neighbours' damage differs from theirs), summed over the builds.
+  std::int64_t kernel_evaluations() const { return _evaluated; }
   /// @brief Note that no particle moved more than `distance` in the step
   /// (for the neighbour lists' skin).
   void moved(double distance) { _neighbours.moved(distance); }
@@ -242,6 +246,7 @@ private:
   std::vector<std::int32_t> _slot_field; // per slot
   ContactStats _stats;
   DamageTimers _timers;
+  std::int64_t _evaluated = 0;
 };
 
 } // namespace pfmpm

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace pfmpm
 {
@@ -12,55 +13,198 @@ void NeighbourList::build(const Grid& grid, const CellSort& sort, const std::vec
                           double cutoff)
 {
   const auto n = x.size() / 2;
-  const int ncx = grid.cells()[0], ncy = grid.cells()[1];
+  const BSpline1D& bx = grid.basis(0);
+  const BSpline1D& by = grid.basis(1);
+  const int ncx = bx.cells(), ncy = by.cells();
   const int reach = static_cast<int>(std::ceil(cutoff / grid.h()));
   const double c2 = cutoff * cutoff;
+  // The cutoff in cells, widened by a hair for the rounding of the cell
+  // coordinates: every cell that may hold a particle within it is searched.
+  const double rc = cutoff / grid.h() * (1.0 + 1e-9);
   const std::int32_t* order = sort.order().data();
   const std::int64_t* start = sort.cell_start().data();
-  // f(p, q) for every pair within the cutoff; a particle's pairs are visited
-  // by the thread of its cell alone.
-  auto visit = [&](auto&& f)
-  {
+  _columns.resize(static_cast<std::size_t>(ncx));
+  _count.resize(n);
+  // Each cell column lists its particles' neighbours, in sort order, into a
+  // buffer of its own: one pass over the pairs.
 #pragma omp parallel for schedule(dynamic, 1)
-    for (int cx = 0; cx < ncx; ++cx)
-      for (int cy = 0; cy < ncy; ++cy)
+  for (int cx = 0; cx < ncx; ++cx)
+  {
+    std::vector<std::int32_t>& out = _columns[cx];
+    out.clear();
+    for (int cy = 0; cy < ncy; ++cy)
+    {
+      const std::size_t cell = static_cast<std::size_t>(cx) * ncy + cy;
+      for (std::int64_t k = start[cell]; k < start[cell + 1]; ++k)
       {
-        const std::size_t cell = static_cast<std::size_t>(cx) * ncy + cy;
-        for (std::int64_t k = start[cell]; k < start[cell + 1]; ++k)
+        const std::int32_t p = order[k];
+        const double xp = x[2 * p], yp = x[2 * p + 1];
+        const double sx = bx.coordinate(xp), sy = by.coordinate(yp);
+        // The cells of row ay within the cutoff of p, columns [ax0, ax1]
+        // (in cells: p is `gap` from the row, and the columns within `half`
+        // of it); false if none. Rows outer, columns inner: with particles
+        // numbered along x first, as a body's lattice is, the candidates
+        // then come nearly in index order.
+        auto row = [&](int ay, int& ax0, int& ax1)
         {
-          const std::int32_t p = order[k];
-          const double xp = x[2 * p], yp = x[2 * p + 1];
-          for (int ax = std::max(cx - reach, 0); ax <= std::min(cx + reach, ncx - 1); ++ax)
-            for (int ay = std::max(cy - reach, 0); ay <= std::min(cy + reach, ncy - 1); ++ay)
+          const double gap = ay < cy ? sy - (ay + 1) : ay > cy ? ay - sy : 0.0;
+          const double left = rc * rc - gap * gap;
+          if (left < 0.0)
+            return false;
+          const double half = std::sqrt(left);
+          ax0 = std::max({cx - reach, 0, static_cast<int>(std::floor(sx - half))});
+          ax1 = std::min({cx + reach, ncx - 1, static_cast<int>(std::floor(sx + half))});
+          return true;
+        };
+        const int ay0 = std::max(cy - reach, 0), ay1 = std::min(cy + reach, ncy - 1);
+        int ax0, ax1;
+        std::int64_t candidates = 0;
+        for (int ay = ay0; ay <= ay1; ++ay)
+          if (row(ay, ax0, ax1))
+            for (int ax = ax0; ax <= ax1; ++ax)
             {
-              const std::size_t other = static_cast<std::size_t>(ax) * ncy + ay;
-              for (std::int64_t m = start[other]; m < start[other + 1]; ++m)
+              const std::size_t c = static_cast<std::size_t>(ax) * ncy + ay;
+              candidates += start[c + 1] - start[c];
+            }
+        // Every candidate is written, and kept when within the cutoff: no
+        // branch on the distance, which would be mispredicted about one
+        // time in two.
+        const std::size_t first = out.size();
+        out.resize(first + static_cast<std::size_t>(candidates));
+        std::size_t kept = first;
+        for (int ay = ay0; ay <= ay1; ++ay)
+          if (row(ay, ax0, ax1))
+            for (int ax = ax0; ax <= ax1; ++ax)
+            {
+              const std::size_t c = static_cast<std::size_t>(ax) * ncy + ay;
+              for (std::int64_t m = start[c]; m < start[c + 1]; ++m)
               {
                 const std::int32_t q = order[m];
                 const double dx = x[2 * q] - xp, dy = x[2 * q + 1] - yp;
-                if (q != p && dx * dx + dy * dy <= c2)
-                  f(p, q);
+                out[kept] = q;
+                kept += static_cast<std::size_t>((q != p) & (dx * dx + dy * dy <= c2));
               }
             }
+        out.resize(kept);
+        // By particle index (insertion: nearly in order already).
+        for (std::size_t i = first + 1; i < out.size(); ++i)
+        {
+          const std::int32_t q = out[i];
+          std::size_t j = i;
+          for (; j > first && out[j - 1] > q; --j)
+            out[j] = out[j - 1];
+          out[j] = q;
         }
+        _count[p] = static_cast<std::int32_t>(out.size() - first);
       }
-  };
-  _count.assign(n, 0);
-  visit([&](std::int32_t p, std::int32_t) { ++_count[p]; });
+    }
+  }
   _start.resize(n + 1);
   _start[0] = 0;
   for (std::size_t p = 0; p < n; ++p)
     _start[p + 1] = _start[p] + _count[p];
   _index.resize(static_cast<std::size_t>(_start[n]));
-  std::fill(_count.begin(), _count.end(), 0);
-  visit([&](std::int32_t p, std::int32_t q) { _index[_start[p] + _count[p]++] = q; });
-  const auto np = static_cast<std::ptrdiff_t>(n);
-#pragma omp parallel for schedule(static)
-  for (std::ptrdiff_t p = 0; p < np; ++p)
-    std::sort(&_index[_start[p]], &_index[_start[p + 1]]);
-  _drift = 0.0;
+#pragma omp parallel for schedule(dynamic, 1)
+  for (int cx = 0; cx < ncx; ++cx)
+  {
+    const std::int32_t* from = _columns[cx].data();
+    for (std::int64_t k = start[static_cast<std::size_t>(cx) * ncy];
+         k < start[static_cast<std::size_t>(cx + 1) * ncy]; ++k)
+    {
+      const std::int32_t p = order[k];
+      std::copy(from, from + _count[p], &_index[_start[p]]);
+      from += _count[p];
+    }
+  }
+  _built_at = x;
+  _drift = _drift_checked = 0.0;
+  _slack = -1.0; // the first look measures it
   _cutoff = cutoff;
   ++_builds;
+}
+
+bool NeighbourList::stale(const Grid& grid, const CellSort& sort, const std::vector<double>& x,
+                          double skin)
+{
+  const std::size_t n = x.size() / 2;
+  if (_builds == 0 || _start.size() != n + 1)
+    return true;
+  if (_drift - _drift_checked <= _slack)
+    return false; // no particle moved enough since the last look to use the slack up
+  // Each pair's displacements differ by at most 2 skin (less a hair for
+  // the rounding of x - X) in either of the two exact tests below.
+  const double span = 2.0 * skin * (1.0 - 1e-9);
+  const int ncx = grid.cells()[0], ncy = grid.cells()[1];
+  // Blocks of B x B cells, B at least the cells that the radius spans: two
+  // particles within the radius lie in one block or in two next to each other.
+  const double radius = _cutoff - 2.0 * skin;
+  const int B = static_cast<int>(std::floor(radius / grid.h() * (1.0 + 1e-9))) + 1;
+  const int nbx = (ncx + B - 1) / B, nby = (ncy + B - 1) / B;
+  constexpr double inf = std::numeric_limits<double>::infinity();
+  _range.resize(4 * static_cast<std::size_t>(nbx) * nby);
+  const std::int32_t* order = sort.order().data();
+  const std::int64_t* start = sort.cell_start().data();
+  const double* X = _built_at.data();
+  double largest = 0.0; // the largest |u|^2
+#pragma omp parallel for schedule(static) reduction(max : largest)
+  for (int bi = 0; bi < nbx; ++bi)
+  {
+    double* range = &_range[4 * static_cast<std::size_t>(bi) * nby];
+    for (int bj = 0; bj < nby; ++bj)
+    {
+      double* r = &range[4 * bj];
+      r[0] = r[2] = inf;
+      r[1] = r[3] = -inf;
+    }
+    for (int cx = bi * B; cx < std::min((bi + 1) * B, ncx); ++cx)
+      for (int cy = 0; cy < ncy; ++cy)
+      {
+        const std::size_t cell = static_cast<std::size_t>(cx) * ncy + cy;
+        double* r = &range[4 * (cy / B)];
+        for (std::int64_t k = start[cell]; k < start[cell + 1]; ++k)
+        {
+          const std::int32_t p = order[k];
+          const double ux = x[2 * p] - X[2 * p], uy = x[2 * p + 1] - X[2 * p + 1];
+          r[0] = std::min(r[0], ux);
+          r[1] = std::max(r[1], ux);
+          r[2] = std::min(r[2], uy);
+          r[3] = std::max(r[3], uy);
+          largest = std::max(largest, ux * ux + uy * uy);
+        }
+      }
+  }
+  // The widest box of the displacements of an occupied block and the
+  // blocks around it (its diagonal squared).
+  double widest = 0.0;
+#pragma omp parallel for schedule(static) reduction(max : widest)
+  for (int bi = 0; bi < nbx; ++bi)
+    for (int bj = 0; bj < nby; ++bj)
+    {
+      if (_range[4 * (static_cast<std::size_t>(bi) * nby + bj)] == inf)
+        continue; // no particle in the block
+      double lo[2] = {inf, inf}, hi[2] = {-inf, -inf};
+      for (int i = std::max(bi - 1, 0); i <= std::min(bi + 1, nbx - 1); ++i)
+        for (int j = std::max(bj - 1, 0); j <= std::min(bj + 1, nby - 1); ++j)
+        {
+          const double* r = &_range[4 * (static_cast<std::size_t>(i) * nby + j)];
+          lo[0] = std::min(lo[0], r[0]);
+          hi[0] = std::max(hi[0], r[1]);
+          lo[1] = std::min(lo[1], r[2]);
+          hi[1] = std::max(hi[1], r[3]);
+        }
+      const double ex = hi[0] - lo[0], ey = hi[1] - lo[1];
+      widest = std::max(widest, ex * ex + ey * ey);
+    }
+  // The slack of each test, in the distance any particle may move from now
+  // on: a displacement grows by at most that, a box's diagonal by 2 sqrt 2
+  // times it. The list stands while either test holds.
+  const double slack = std::max(0.5 * span - std::sqrt(largest),
+                                (span - std::sqrt(widest)) / (2.0 * std::sqrt(2.0)));
+  if (slack < 0.0)
+    return true;
+  _slack = slack;
+  _drift_checked = _drift;
+  return false;
 }
 
 } // namespace pfmpm

@@ -12,29 +12,36 @@
 namespace pfmpm
 {
 
-/// @brief Every particle's neighbours within a cutoff, kept while no particle
-/// can have moved more than a skin distance since the list was built.
+/// @brief Every particle's neighbours within a cutoff, kept while no pair of
+/// particles can have come within the radius r of the sums from outside the
+/// cutoff.
 ///
-/// Built with cutoff r + 2 delta, the list holds every pair within r as long
-/// as no particle has moved more than delta since (each of two particles
-/// closes the gap by at most delta): the paper's re-sort rule with a Verlet
-/// skin, so that the kernel sums between rebuilds are exact. How far
-/// particles have moved is bounded by the sum over the steps of the
-/// largest distance any particle moved in the step (moved()), which the
-/// step knows at no cost, rather than measured particle by particle. Each
-/// particle's list is sorted by particle index, so a sum over the neighbours
-/// within r has an order fixed by the positions alone, whenever the list was
-/// built (a resumed run gives the bits of an uninterrupted one).
+/// Built with cutoff r + 2 delta at positions X, the list holds every pair
+/// (p, q) within r at positions x as long as the displacements u = x - X of
+/// the two differ by at most 2 delta: |X_p - X_q| <= |x_p - x_q| + |u_p - u_q|.
+/// That is the paper's re-sort rule with a Verlet skin, so that the sums
+/// between rebuilds are exact. stale() looks at the displacements: the list
+/// stands if no particle is displaced by more than delta, or if per block of
+/// cells the displacements of the particles in the block and the blocks
+/// around it (all that can be within r of them) lie in a box whose diagonal
+/// is at most 2 delta: a fragment or a platen that translates as a whole
+/// does not make the lists stale, only motion relative to the particles
+/// around. Each look also gives its slack: how far any particle may move
+/// before either test could fail (a displacement grows by at most that
+/// distance, a box's diagonal by 2 sqrt 2 times it). Until the sum over the
+/// steps of the largest distance any particle moved in the step (moved(),
+/// which the step knows at no cost) uses the slack up, stale() does not look.
+/// Each particle's list is sorted by particle index, so a sum over the
+/// neighbours within r has an order fixed by the positions alone, whenever
+/// the list was built (a resumed run gives the bits of an uninterrupted one).
 class NeighbourList
 {
 public:
-  /// @brief Whether the list must be rebuilt: it was never built, the
-  /// particle count changed, or the particles may have moved more than
-  /// `skin` since the build.
-  bool stale(std::size_t particles, double skin) const
-  {
-    return _builds == 0 || _start.size() != particles + 1 || !(_drift <= skin);
-  }
+  /// @brief Whether the list must be rebuilt before sums within the radius
+  /// `cutoff() - 2 skin` are taken at positions `x`, sorted into the cells
+  /// of `grid` by `sort`: it was never built, the particle count changed, or
+  /// a pair may have come within that radius from beyond the cutoff.
+  bool stale(const Grid& grid, const CellSort& sort, const std::vector<double>& x, double skin);
   /// @brief Note that no particle moved more than `distance` in a step.
   void moved(double distance) { _drift += distance; }
 
@@ -53,10 +60,18 @@ public:
 private:
   std::vector<std::int64_t> _start; // per particle + 1
   std::vector<std::int32_t> _index;
-  std::vector<std::int32_t> _count; // scratch
+  std::vector<double> _built_at;    // positions at the build, N x 2
   double _drift = 0.0;              // bound on any particle's motion since the build
+  double _drift_checked = 0.0;      // _drift at the last look at the displacements
+  double _slack = -1.0;             // motion the last look allows (< 0: look)
   double _cutoff = 0.0;
   std::int64_t _builds = 0;
+  // Scratch: per cell column the lists of its particles in sort order, and
+  // per particle their lengths; per block of cells the range of the
+  // displacements (x min, x max, y min, y max).
+  std::vector<std::vector<std::int32_t>> _columns;
+  std::vector<std::int32_t> _count;
+  std::vector<double> _range;
 };
 
 } // namespace pfmpm

@@ -3,6 +3,7 @@
 /// update and G2P (Kakouris & Triantafyllou 2019, Algorithm 1).
 #include "pfmpm/solver/solver.h"
 #include "pfmpm/common/reduce.h"
+#include "pfmpm/common/stopwatch.h"
 #include "pfmpm/shape/stencil.h"
 #include "pfmpm/solver/momentum.h"
 #include "pfmpm/transfer/transfer.h"
@@ -350,11 +351,15 @@ template <class Shape, class Fields>
 void Solver::prepare(Fields& fields)
 {
   constexpr int P = Shape::degree;
-  if (const std::size_t outside = _sort.sort(_grid, _particles.x); outside < _particles.size())
-    throw SimulationError(where(outside) + " is outside the grid");
-  _grid.activate(_sort.cell_start());
+  {
+    Stopwatch clock{_timers.sort};
+    if (const std::size_t outside = _sort.sort(_grid, _particles.x); outside < _particles.size())
+      throw SimulationError(where(outside) + " is outside the grid");
+    _grid.activate(_sort.cell_start());
+  }
   for (std::size_t k = 0; k < _phase.size(); ++k)
   {
+    Stopwatch clock{_timers.phase_field};
     PhaseFieldGroup& g = _phase[k];
     if (g.select)
     {
@@ -392,7 +397,10 @@ void Solver::prepare(Fields& fields)
   // The velocity fields, after the phase field: damage-gradient fields read
   // the new c (Remark 4; H&H Algorithms 1 and 2).
   if constexpr (Fields::discrete)
+  {
+    Stopwatch clock{_timers.fields};
     fields.build(_particles, _sort);
+  }
   if constexpr (Shape::domains)
     check_domains();
 }
@@ -429,8 +437,15 @@ template <class Shape, class Fields>
 void Solver::step(Fields& fields)
 {
   prepare<Shape>(fields);
-  particle_to_grid<Shape>(fields);
-  const auto sums = update_grid(_grid, fields, _sums, _surface, _kinematics, _dt, _mass_tol);
+  {
+    Stopwatch clock{_timers.p2g};
+    particle_to_grid<Shape>(fields);
+  }
+  std::array<double, grid_update_sums> sums;
+  {
+    Stopwatch clock{_timers.grid};
+    sums = update_grid(_grid, fields, _sums, _surface, _kinematics, _dt, _mass_tol);
+  }
   _external_work += sums[sum_external_work];
   _wall_work += sums[sum_wall_work];
   _light_nodes += static_cast<std::int64_t>(sums[sum_light]);
@@ -447,7 +462,10 @@ void Solver::step(Fields& fields)
     c.separable = static_cast<std::int32_t>(sums[sum_contact + count_separable]);
     c.separable_total += c.separable;
   }
-  grid_to_particle<Shape>(fields);
+  {
+    Stopwatch clock{_timers.g2p};
+    grid_to_particle<Shape>(fields);
+  }
   _time += _dt;
   ++_step;
 }

@@ -59,6 +59,18 @@ struct SolverState
   std::map<std::string, std::vector<double>> arrays;
 };
 
+/// @brief Wall time of each stage of the steps, seconds summed since the
+/// solver was made (for the cost per stage; not part of the state).
+struct StageTimers
+{
+  double sort = 0.0;        ///< cell sort and active nodes
+  double phase_field = 0.0; ///< phase-field solves and the degraded stresses
+  double fields = 0.0;      ///< the partition's build (DamageFields::timers() splits the damage gradient's)
+  double p2g = 0.0;         ///< P2G of mass, momentum and forces
+  double grid = 0.0;        ///< grid update with walls and contact
+  double g2p = 0.0;         ///< G2P and the materials' update
+};
+
 /// @brief Explicit update-stress-last MPM in the momentum formulation, with
 /// a staggered phase-field solve for materials that can crack.
 ///
@@ -180,6 +192,8 @@ public:
   PhaseFieldSystem phase_field_system() const;
   /// The damage-gradient partition, or nullptr.
   const DamageFields* damage_fields() const { return std::get_if<DamageFields>(&_fields); }
+  /// Wall time per stage so far.
+  const StageTimers& timers() const { return _timers; }
 
   /// @brief Surface flags at t = 0 by the kernel sum over each body's own
   /// particles (DamageFields::detect_surfaces), into the `surface` column.
@@ -265,6 +279,7 @@ private:
   std::vector<NodeSums> _sums;             // per slot
   std::vector<SurfaceSums> _surface;       // per slot, at contact cells
   std::vector<NodeKinematics> _kinematics; // per slot
+  StageTimers _timers;
 };
 
 } // namespace pfmpm

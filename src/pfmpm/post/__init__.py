@@ -21,6 +21,11 @@ Each measure of a phase field reads cracks with the scene's
     the Hertzian cone index (:func:`~pfmpm.post.disk_beam.cone_index`).
 ``frames``
     The particle snapshots of a finished run.
+``efficiency``
+    The cost of damage-gradient partitioning against particle count, per
+    stage, and the checks E1-E5 of Homel & Herbold 2017, section 3.5
+    (:func:`~pfmpm.post.efficiency.study`, :func:`~pfmpm.post.efficiency.checks`;
+    the driver is ``tools/efficiency.py``).
 ``self_contact``
     Damage-gradient self-contact against the multi-field and single-field
     runs (Homel & Herbold 2017, section 3.1): the billet's checks B1-B4 and
