@@ -22,7 +22,8 @@ from pfmpm.output import read_csv
 from pfmpm.post import (closest_approach, cone_index, crack_rise, run_directions, run_fragments,
                         tip_report)
 from pfmpm.post.charpy import crack_band, energy_balance, fracture_energy, momentum_error
-from pfmpm.post.kalthoff_winkler import crack_angles, failed, from_face, notch_tip
+from pfmpm.post.fragments import failed
+from pfmpm.post.kalthoff_winkler import crack_angles, from_face, notch_tip
 from pfmpm.post.brazilian import contact_distance, disk_fragments, platen_penetration, wall_excursion
 from pfmpm.scene import Scene
 from pfmpm.simulation import Simulation

@@ -33,7 +33,8 @@ import json
 from pathlib import Path
 
 from pfmpm import scenes
-from pfmpm.post.kalthoff_winkler import failed, report, run_crack
+from pfmpm.post.fragments import failed
+from pfmpm.post.kalthoff_winkler import report, run_crack
 from pfmpm.post.self_contact import body_fields
 from pfmpm.scene import Scene
 

@@ -4,7 +4,7 @@ the measures of checks Z1-Z6 of ``shared/benchmarks-homel-herbold.md`` section 6
 A disk between two platens breaks into fragments that flow out to the side
 walls. :func:`disk_fragments` gives the fragment-size distribution of the
 disk's intact material (:func:`~pfmpm.post.fragments.fragment_sizes` with
-the card's choices: intact D_p <= 1e-6, or D_p < 1; linked within 0.75 cell
+the card's choices: intact D_p <= 1e-6, or not failed; linked within 0.75 cell
 in the current configuration; fragments below 50 um left out) and
 :func:`disk_speed` its mean speed; :func:`failed_fraction` the fully damaged area fraction (Z3);
 :func:`contact_distance` how far a particle starts from the platen-disk
@@ -20,14 +20,14 @@ import math
 import numpy as np
 
 from ..scene import Scene
-from .fragments import fragment_sizes, mean_speed, median_size, size_distribution
+from .fragments import FULL_DAMAGE, failed, fragment_sizes, mean_speed, median_size, size_distribution
 
 __all__ = ["INTACT", "LINK_CELLS", "SMALLEST", "disk_fragments", "disk_speed", "failed_fraction",
            "contact_distance", "wall_excursion", "platen_penetration"]
 
-INTACT = {"undamaged": 1e-6, "unfailed": 1.0}
+INTACT = {"undamaged": 1e-6, "unfailed": FULL_DAMAGE}
 """Intact particles: D_p at most 1e-6 (the literal "undamaged" of the paper),
-or D_p below 1 (not fully damaged)."""
+or not failed (D_p below :data:`~pfmpm.post.fragments.FULL_DAMAGE`)."""
 LINK_CELLS = 0.75
 """Connectivity radius in cells: joins lattice and diagonal neighbours of 2 x 2
 particles per cell, not particles across a one-particle crack."""
@@ -86,10 +86,10 @@ def disk_speed(scene: Scene, p, body: str = "disk") -> float:
 
 
 def failed_fraction(scene: Scene, p, body: str = "disk") -> float:
-    """Fully damaged (D_p = 1) fraction of the body's current area (check Z3)."""
+    """Failed (:func:`~pfmpm.post.fragments.failed`) fraction of the body's current area (check Z3)."""
     mine = np.asarray(p.body) == _index(scene, body)
     volume = np.asarray(p.volume)[mine]
-    return float(volume[np.asarray(p.damage)[mine] >= 1.0].sum() / volume.sum())
+    return float(volume[failed(np.asarray(p.damage)[mine])].sum() / volume.sum())
 
 
 def contact_distance(scene: Scene, x0: np.ndarray, body: str = "disk") -> np.ndarray:

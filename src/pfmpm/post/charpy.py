@@ -19,17 +19,14 @@ from __future__ import annotations
 import numpy as np
 
 from ..scene import Rectangle, Scene
-from .fragments import MIN_POINTS
+from .fragments import FULL_DAMAGE, MIN_POINTS
 
-__all__ = ["WINDOW", "FAILED", "SETTLED", "fracture_energy", "energy_balance", "momentum_error",
+__all__ = ["WINDOW", "SETTLED", "fracture_energy", "energy_balance", "momentum_error",
            "contact_end", "crack_band"]
 
 WINDOW = 0.3
 """The late window of :func:`energy_balance`: the last 30 % of the run (check C1)."""
 
-FAILED = 1.0 - 1e-4
-"""A particle with damage D at least this has failed: the D = 1 set (the
-damage-gradient partition's fully damaged test)."""
 
 
 SETTLED = 1e-9
@@ -135,11 +132,12 @@ def contact_end(scene: Scene, run_dir, name: str = "striker") -> float | None:
 
 
 def crack_band(scene: Scene, x0: np.ndarray, damage: np.ndarray, body: np.ndarray,
-               name: str = "target", threshold: float = FAILED) -> dict:
+               name: str = "target", threshold: float = FULL_DAMAGE) -> dict:
     """The failed particles of a notched rectangular bar, in the reference
     configuration (check C6).
 
-    The bar's particles with D >= ``threshold`` (default :data:`FAILED`,
+    The bar's particles with D >= ``threshold`` (default
+    :data:`~pfmpm.post.fragments.FULL_DAMAGE`,
     the D = 1 set) are marked on its particle
     lattice at their initial positions ``x0`` and labelled as 8-connected
     sets (``scipy.ndimage.label``); sets of fewer than

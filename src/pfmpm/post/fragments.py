@@ -15,10 +15,22 @@ import math
 
 import numpy as np
 
+from .. import _core
 from ..scene import Scene
 
-__all__ = ["LINK", "MIN_POINTS", "linked_sets", "count_fragments", "fragments", "closest_approach",
+__all__ = ["FULL_DAMAGE", "failed", "LINK", "MIN_POINTS", "linked_sets", "count_fragments", "fragments", "closest_approach",
            "run_fragments", "fragment_sizes", "size_distribution", "median_size", "mean_speed"]
+
+FULL_DAMAGE = _core.DamageGradient().full_damage
+"""Damage at which a particle has failed: the damage-gradient partition's
+"fully damaged" test (D >= 1 - 1e-4), the one threshold of every damage
+benchmark's measures."""
+
+
+def failed(damage: np.ndarray) -> np.ndarray:
+    """Which particles have failed: ``damage >= FULL_DAMAGE``."""
+    return np.asarray(damage) >= FULL_DAMAGE
+
 
 LINK = 1.5
 """Two intact particles belong to one fragment when closer than this many particle spacings."""

@@ -3,7 +3,8 @@ the notch tip, its angle, its tip's speed and whether it branched; checks
 K1-K4 of ``shared/benchmarks-homel-herbold.md`` section 4.
 
 A particle has failed when its damage is full (``D >= 1 - 1e-4``, the
-damage-gradient partition's own test, :data:`FULL_DAMAGE`). The crack of the
+damage-gradient partition's own test,
+:data:`pfmpm.post.fragments.FULL_DAMAGE`). The crack of the
 paper leaves the tip of the notch on the side away from the impacted
 ligament (the left of the notch's direction, +y in the half model), so its
 angle and its tip are measured among the failed particles on that side;
@@ -16,16 +17,13 @@ import math
 
 import numpy as np
 
-from .. import _core
 from ..scene import Rectangle, Scene
 from .arms import crack_arms, propagation_angle
-from .fragments import LINK, linked_sets
+from .fragments import LINK, failed, linked_sets
 
-__all__ = ["FULL_DAMAGE", "BAND_DAMAGE", "ANGLE_RING", "ARM_RADII", "failed", "notch_tip", "from_face", "crack_angles",
+__all__ = ["BAND_DAMAGE", "ANGLE_RING", "ARM_RADII", "notch_tip", "from_face", "crack_angles",
            "CrackRecord", "run_crack", "speed", "report"]
 
-FULL_DAMAGE = _core.DamageGradient().full_damage
-"""Damage at which a particle has failed (the damage-gradient partition's "fully damaged")."""
 BAND_DAMAGE = 0.5
 """Damage of the band that joins a crack's failed particles. A crack is a row
 of failed particles, often about one per cell and farther apart where its
@@ -36,11 +34,6 @@ ANGLE_RING = (5.0, 30.0)
 """Distances (mm) from the notch tip of the failed particles whose line is the crack angle (K1)."""
 ARM_RADII = (10.0, 20.0, 30.0)
 """Radii (mm) of the circles about the notch tip whose crossings count the crack's arms (K3)."""
-
-
-def failed(damage: np.ndarray) -> np.ndarray:
-    """Which particles have failed: ``damage >= FULL_DAMAGE``."""
-    return np.asarray(damage) >= FULL_DAMAGE
 
 
 def notch_tip(scene: Scene, body: str = "target") -> tuple[np.ndarray, np.ndarray, float]:
