@@ -463,9 +463,13 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
   // side of the node's gradient particle p* if it lies behind p* along G_i
   // (away from the damage), else on the other. A fully damaged one (inside
   // a flagged corner, where the kernel sees only flagged particles) takes
-  // the side of its nearest listed neighbour of the same body with a
-  // gradient, or A without one.
+  // the side of its nearest neighbour of the same body with a
+  // gradient within r_p, or A without one. Within r_p, not anywhere in
+  // the list: the list also holds pairs in its skin, which depend on when
+  // it was built, and a side taken from one of them made the run depend on
+  // contact.skin; every pair within r_p is always listed.
   const std::int32_t* body = particles.body.data();
+  const double reach2 = _radius * _radius;
   const double* x = particles.x.data();
   const std::int64_t* nstart = _neighbours.start().data();
   const std::int32_t* nindex = _neighbours.index().data();
@@ -480,7 +484,7 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
         continue;
       const double dx = x[2 * q] - x[2 * p], dy = x[2 * q + 1] - x[2 * p + 1];
       const double d2 = dx * dx + dy * dy;
-      if (best < 0 || d2 < closest)
+      if (d2 < reach2 && (best < 0 || d2 < closest))
       {
         best = q;
         closest = d2;

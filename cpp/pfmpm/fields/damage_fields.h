@@ -88,8 +88,8 @@ struct DamageTimers
 ///   a particle with zero gradient (no damage variation within r_p, which a
 ///   B-spline stencil reaches past) is, if intact, on A when it lies behind
 ///   the particle p* that gave G_i, (x_p* - x_p) . G_i >= 0, else on B, and
-///   if fully damaged on the side of its nearest listed neighbour of the
-///   same body that has a gradient (A without one);
+///   if fully damaged on the side of its nearest neighbour within r_p of
+///   the same body that has a gradient (A without one);
 /// - the slots: per node, for each group in its support, A and (if some pair
 ///   chose it) B. Field index 2 group + side.
 ///
