@@ -389,7 +389,8 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
   // The nodes of its cell's block a particle maps to: all of them with
   // B-splines (positive on the whole cell); with CPDI (the particles carry
   // domains) those where its averaged shape function is positive, the
-  // nodes of the cells its domain's corners lie in.
+  // nodes of the cells its domain's corners lie in (above round-off:
+  // cpdi_maps_to).
   const Column* domain_r1 = particles.find("domain_r1");
   const Column* domain_r2 = particles.find("domain_r2");
   const std::uint32_t all = nk >= 32 ? ~0u : (1u << nk) - 1u;
@@ -404,7 +405,7 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
                      &domain_r2->f64[2 * p]);
     std::uint32_t m = 0;
     for (int i = 0; i < CpdiStencil::size; ++i)
-      m |= stencil.n[i] > 0.0 ? 1u << i : 0u;
+      m |= stencil.n[i] > cpdi_maps_to ? 1u << i : 0u;
     return m;
   };
   // The groups of cell (cx, cy) and their slots at its stencil nodes, in
