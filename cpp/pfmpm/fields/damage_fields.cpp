@@ -438,7 +438,8 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
         cell_slots(cx, cy, c);
         double norm[max_groups][K];
         std::int32_t best[max_groups][K];
-        std::uint32_t any_full[max_groups] = {}; // per group, the nodes a fully damaged particle maps to
+        // Per group, the nodes a fully damaged particle maps to.
+        std::uint32_t any_full[max_groups] = {};
         for (int f = 0; f < c.n; ++f)
           for (int i = 0; i < nk; ++i)
           {
