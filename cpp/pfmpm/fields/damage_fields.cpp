@@ -257,7 +257,8 @@ bool DamageFields::particle_damage(const Particles& particles)
 void DamageFields::gradients(Particles& particles, const CellSort& sort)
 {
   // The cells whose block shares a node with a cell's are within P cells of
-  // it (the degree with B-splines, 4 with CPDI's 4 x 4 blocks: NodeBlock::reach).
+  // it (the degree with B-splines, up to 5 with CPDI's 4 x 4 blocks, which
+  // move inwards at the grid's ends: NodeBlock::reach).
   const int P = _grid.block().reach();
   const int ncx = _grid.cells()[0], ncy = _grid.cells()[1];
   const auto ncells = static_cast<std::ptrdiff_t>(_grid.num_cells());

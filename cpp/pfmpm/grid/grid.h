@@ -50,9 +50,10 @@ struct NodeBlock
     c1 = i >= nodes - width ? cells - 1 : std::min(i - lower, cells - 1);
   }
   /// @brief The farthest apart two cells whose blocks share a node may lie,
-  /// in cells: width - 1, and -lower more where a block at the grid's end
-  /// moves inwards (p for a B-spline of degree p, 4 for CPDI).
-  int reach() const { return width - 1 - lower; }
+  /// in cells: width - 1, and -lower more for each end of the line whose
+  /// blocks move inwards (p for a B-spline of degree p; for CPDI 4 next to
+  /// one end, 5 on a line of 6 cells, where the two ends' blocks meet).
+  int reach() const { return width - 1 - 2 * lower; }
 };
 
 /// @brief The nodes in the support of the occupied cells of a particle sort,
