@@ -33,6 +33,11 @@ def disks(offset: float, h: float = 0.0625, speed: float = 0.3, mu: float = 0.0)
                  materials=(m,), bodies=(a, b), plane="strain", contact=Contact(friction=mu))
 
 
+def cpdi(scene: Scene) -> Scene:
+    """The scene with CPDI1 on the degree-1 grid."""
+    return dataclasses.replace(scene, grid=dataclasses.replace(scene.grid, degree=1, shape="cpdi"))
+
+
 def min_distance(x: np.ndarray, body: np.ndarray) -> float:
     """Smallest distance between a particle of body 0 and one of body 1."""
     d, _ = cKDTree(x[body == 0]).query(x[body == 1])
@@ -41,10 +46,15 @@ def min_distance(x: np.ndarray, body: np.ndarray) -> float:
 
 # Energy after separation over the initial (docs/contact.md, "Energy"):
 # head-on 0.965 at h = R/16, oblique with friction 0.968 at h = R/25.
-@pytest.mark.parametrize("offset, mu, h", [(0.0, 0.0, 0.0625), (0.8, 0.5, 0.04)],
-                         ids=["head-on", "oblique"])
-def test_disks_collide_conserving_momentum_without_interpenetration(offset, mu, h):
+# With CPDI1 on the degree-1 grid, obliquely with friction at h = R/16: 0.959
+# (docs/contact.md, "Linear grids: CPDI only").
+@pytest.mark.parametrize("offset, mu, h, shape", [(0.0, 0.0, 0.0625, "bspline"), (0.8, 0.5, 0.04, "bspline"),
+                                                  (0.8, 0.5, 0.0625, "cpdi")],
+                         ids=["head-on", "oblique", "oblique-cpdi"])
+def test_disks_collide_conserving_momentum_without_interpenetration(offset, mu, h, shape):
     scene = disks(offset, h=h, mu=mu)
+    if shape == "cpdi":
+        scene = cpdi(scene)
     sim = Simulation(scene)
     p = sim.particles
     spacing = scene.grid.h / 2
@@ -221,6 +231,13 @@ def test_contact_table_is_read_from_a_dict():
 def test_bad_contact_input_is_refused(override, message):
     with pytest.raises(SceneError, match=message):
         Scene.from_dict(scene_dict(), [override])
+
+
+def test_contact_on_the_linear_grid_needs_cpdi():
+    """Single-point linear shape functions are refused with contact (two disks
+    blow up, with or without it: docs/contact.md); CPDI1 on the same grid is not."""
+    scene = Scene.from_dict(scene_dict(), ["grid.degree=1", "grid.shape=cpdi"])
+    assert scene.grid.degree == 1 and scene.contact is not None
 
 
 def test_duplicate_pair_is_refused():

@@ -39,27 +39,31 @@ COARSE = ["grid.h=1.0", "materials.concrete.fracture.l0=2.0", "bodies.plate.part
           "output.energies_every=5", "output.every=50", "contact.partition=damage_gradient"]
 
 
-def test_a_fully_damaged_band_carries_no_tension():
-    r = CHECKS["bar"]()
+# The intact bar's impulse and a single field's across the failed band,
+# measured: quadratic B-splines -0.1175 and -0.7200, CPDI1 -0.1158 and -0.0816.
+@pytest.mark.parametrize("shape, single_field", [("bspline", -0.1), ("cpdi", -0.05)])
+def test_a_fully_damaged_band_carries_no_tension(shape, single_field):
+    r = CHECKS["bar"](shape)
     # The intact bar's halves pull on each other; a single field carries the
     # tension across the failed band too (velocity-field smearing).
-    # Measured: -0.1175 and -0.7200.
-    assert r["intact"] < -0.1 and r["single_field"] < -0.1
+    assert r["intact"] < -0.1 and r["single_field"] < single_field
     # Split by the damage gradient, the halves part with no force between
-    # them: below 1e-6 of the intact bar's (measured: 0).
+    # them: below 1e-6 of the intact bar's (measured: 0 with B-splines,
+    # 1.3e-11 with CPDI).
     assert abs(r["damage_gradient"]) < 1e-6 * abs(r["intact"])
     assert r["separable_node_steps"] > 0 and r["active_pairs"] == 0
     # Momentum of the whole bar, to round-off.
     assert np.abs(r["momentum"]).max() < 1e-12
 
 
-def test_nothing_fully_damaged_runs_as_one_field():
+@pytest.mark.parametrize("shape", [[], ["grid.degree=1", "grid.shape=cpdi"]], ids=["bspline", "cpdi"])
+def test_nothing_fully_damaged_runs_as_one_field(shape):
     """U5 with the phase field as damage: d = 1 - c > 0 near the notch, but with
     a threshold below the smallest c no particle is fully damaged, and the run
-    has the single field's bits."""
+    has the single field's bits, with B-splines and with CPDI."""
     runs = []
     for extra in ([], COARSE[-1:] + ["contact.phase_field_threshold=0.0"]):
-        scene = Scene.from_toml(BORDEN, COARSE[:-1] + extra + ["time.end=12"])
+        scene = Scene.from_toml(BORDEN, COARSE[:-1] + shape + extra + ["time.end=12"])
         sim = Simulation(scene)
         assert sim.particles.c.min() > 0.0
         sim.advance(scene.steps())
@@ -83,11 +87,13 @@ def test_kernel_field_and_surface_flags():
     assert r["U4"]["two_outer_rows_exactly"] and r["U4"]["corner_ratio"] == pytest.approx(0.470, abs=5e-4)
 
 
-def test_free_bodies_keep_their_momentum():
+@pytest.mark.parametrize("shape", ["bspline", "cpdi"])
+def test_free_bodies_keep_their_momentum(shape):
     """Two free disks meet obliquely with friction, in one group through
-    surface flags and as two groups: momentum to 1e-10 of sum M_p |v_p|
-    (measured 1e-15), contact and friction act, no check C.1-C.4 fails."""
-    runs = CHECKS["momentum"]()
+    surface flags and as two groups, with quadratic B-splines and with CPDI1:
+    momentum to 1e-10 of sum M_p |v_p| (measured 1e-15), contact and friction
+    act, no check C.1-C.4 fails."""
+    runs = CHECKS["momentum"](shape)
     for run in runs.values():
         assert run["relative_change"] < 1e-10
         assert run["active_pairs"] > 0 and run["friction_work"] < 0.0

@@ -10,9 +10,13 @@ Homel & Herbold (2017), checks of ``../shared/benchmarks-homel-herbold.md``:
 - ``momentum``: two free disks meeting obliquely, in one group with surface
   flags and as two groups: the largest momentum change over sum M_p |v_p|.
 
+``bar`` and ``momentum`` run with quadratic B-splines, or with ``--shape cpdi``
+with CPDI1 on the degree-1 grid (the grids' ``SHAPES``).
+
 Prints the numbers as JSON; ``tests/test_damage_gradient.py`` asserts them.
 
     OMP_NUM_THREADS=1 PYTHONPATH=src .venv/bin/python tools/dfg_checks.py units bar momentum
+    OMP_NUM_THREADS=1 PYTHONPATH=src .venv/bin/python tools/dfg_checks.py --shape cpdi bar momentum
 """
 
 from __future__ import annotations
@@ -28,6 +32,8 @@ from pfmpm.scene import Body, Contact, Disk, Grid, Material, Rectangle, Scene, T
 from pfmpm.simulation import Simulation
 
 MATERIAL = Material("m", 100.0, 0.3, 1.0)
+SHAPES = {"bspline": {"degree": 2}, "cpdi": {"degree": 1, "shape": "cpdi"}}
+"""The grid keys of each shape: quadratic B-splines, or CPDI1 on the degree-1 grid."""
 
 
 def lattice(x0: float, x1: float, y0: float, y1: float, spacing: float) -> np.ndarray:
@@ -110,7 +116,8 @@ def units() -> dict:
     return {"U1": uniform_damage(), "U2": damaged_row(), "U3": curved_band(), "U4": rectangle_flags()}
 
 
-def bar_scene(partition: str | None, band: bool = True, h: float = 0.25) -> Scene:
+def bar_scene(partition: str | None, band: bool = True, h: float = 0.25,
+              shape: str = "bspline") -> Scene:
     """A 10 x 2 bar whose halves move apart at 0.05; with ``band``, a band one cell
     wide across its middle of a material 1e8 times softer (failed), flagged as fully
     damaged under the damage gradient."""
@@ -125,7 +132,7 @@ def bar_scene(partition: str | None, band: bool = True, h: float = 0.25) -> Scen
         flags = (Rectangle((6.0 - half, 0.0), (6.0 + half, 4.0)),) if band else ()
         contact = Contact(partition="damage_gradient", groups=(tuple(b.name for b in bodies),),
                           surfaces=flags)
-    return Scene(grid=Grid(size=(12.0, 4.0), h=h, degree=2), time=Time(end=4.0, cfl=0.5),
+    return Scene(grid=Grid(size=(12.0, 4.0), h=h, **SHAPES[shape]), time=Time(end=4.0, cfl=0.5),
                  materials=materials, bodies=tuple(bodies), plane="strain", contact=contact)
 
 
@@ -140,17 +147,17 @@ def impulse_across(scene: Scene) -> tuple[float, Simulation]:
     return float(np.sum(p.mass[right] * p.v[right, 0])) - before, sim
 
 
-def bar() -> dict:
-    intact, _ = impulse_across(bar_scene(None, band=False))
-    smeared, _ = impulse_across(bar_scene(None))
-    parted, sim = impulse_across(bar_scene("damage_gradient"))
+def bar(shape: str = "bspline") -> dict:
+    intact, _ = impulse_across(bar_scene(None, band=False, shape=shape))
+    smeared, _ = impulse_across(bar_scene(None, shape=shape))
+    parted, sim = impulse_across(bar_scene("damage_gradient", shape=shape))
     e, stats = sim.energies(), sim.solver.contact_stats()
     return {"intact": intact, "single_field": smeared, "damage_gradient": parted,
             "momentum": [e["momentum_x"], e["momentum_y"]],
             "separable_node_steps": stats["separable_total"], "active_pairs": stats["active"]}
 
 
-def momentum() -> dict:
+def momentum(shape: str = "bspline") -> dict:
     """Two free disks (R = 1, h = 0.25) meeting obliquely at 0.5, mu_f = 0.3, for 3
     time units: the largest |p - p_0| over sum M_p |v_p| after every 1/30 of the run."""
     bodies = (Body("a", "m", Disk((2.0, 2.0), 1.0), velocity=(0.5, 0.0)),
@@ -160,7 +167,7 @@ def momentum() -> dict:
             "two_groups": Contact(partition="damage_gradient", friction=0.3)}
     out = {}
     for name, contact in runs.items():
-        scene = Scene(grid=Grid(size=(8.0, 6.0), h=0.25, degree=2), time=Time(end=3.0, cfl=0.5),
+        scene = Scene(grid=Grid(size=(8.0, 6.0), h=0.25, **SHAPES[shape]), time=Time(end=3.0, cfl=0.5),
                       materials=(MATERIAL,), bodies=bodies, plane="strain", contact=contact)
         sim = Simulation(scene)
         p = sim.particles
@@ -185,8 +192,11 @@ CHECKS = {"units": units, "bar": bar, "momentum": momentum}
 def main(argv: list[str] | None = None) -> dict:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("checks", nargs="+", choices=sorted(CHECKS))
+    parser.add_argument("--shape", choices=sorted(SHAPES), default="bspline",
+                        help="shape functions of bar and momentum")
     args = parser.parse_args(argv)
-    report = {name: CHECKS[name]() for name in args.checks}
+    report = {name: CHECKS[name](**({} if name == "units" else {"shape": args.shape}))
+              for name in args.checks}
     print(json.dumps(report, indent=1))
     return report
 

@@ -23,12 +23,14 @@
     failed particles at its middle (the damage-gradient partition: its two
     sides part at once) and once without (released only at its free ends):
     the change of ``total`` by t = 1 (one P-wave transit of a half) and
-    t = 4, over the stored energy.
+    t = 4, over the stored energy. ``--set`` applies to its grid
+    (``grid.degree=1``, ``grid.shape=cpdi``).
 
     .venv/bin/python benchmarks/charpy/diagnose.py split
     .venv/bin/python benchmarks/charpy/diagnose.py split --set contact.partition=bodies
     .venv/bin/python benchmarks/charpy/diagnose.py prefailed --start -1
     .venv/bin/python benchmarks/charpy/diagnose.py release --h 0.5
+    .venv/bin/python benchmarks/charpy/diagnose.py release --h 0.5 --set grid.degree=1 --set grid.shape=cpdi
 """
 
 from __future__ import annotations
@@ -103,7 +105,7 @@ def prefailed(sets: list[str], start: float) -> dict:
     return {"rise": rise, "violations": {k: stats[k] for k in ("C1", "C2", "C3", "C4")}}
 
 
-def release(h: float, crack: bool) -> dict:
+def release(h: float, crack: bool, sets: tuple[str, ...] = ()) -> dict:
     """The released bar (see the module docstring): d total / W0 at t = 1 and 4."""
     E, s0, L = 100.0, 0.5, 20.0
     scene = Scene(name="release", grid=GridSpec(size=(L + 4.0, 10.0), h=h), time=Time(end=4.0, cfl=0.4),
@@ -112,6 +114,7 @@ def release(h: float, crack: bool) -> dict:
                   bodies=(Body(name="bar", material="m", shape=Rectangle((2.0, 4.0), (2.0 + L, 6.0)),
                                particles_per_cell=2),),
                   contact=Contact(partition="damage_gradient"))
+    scene = Scene.from_dict(scene.to_dict(), list(sets))
     sim = Simulation(scene)
     P = sim.particles
     mu = E / 2.0
@@ -134,7 +137,7 @@ def main(argv: list[str] | None = None) -> dict:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("diagnostic", choices=("split", "prefailed", "release"))
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                        help="overrides of the charpy scene (split, prefailed)")
+                        help="overrides of the charpy scene (split, prefailed), of the bar's grid (release)")
     parser.add_argument("--start", type=float, default=-1.0, help="prefailed: the band's start x (mm)")
     parser.add_argument("--h", type=float, default=0.5, help="release: the cell size")
     parser.add_argument("--every", type=int, default=200, help="split: print every this many steps")
@@ -145,7 +148,7 @@ def main(argv: list[str] | None = None) -> dict:
         r = prefailed(args.set, args.start)
         print(f"band from x = {args.start:g}: largest rise of total {r['rise']:.2f} mJ, {r['violations']}")
         return r
-    r = {"crack": release(args.h, True), "ends": release(args.h, False)}
+    r = {"crack": release(args.h, True, args.set), "ends": release(args.h, False, args.set)}
     for name, v in r.items():
         print(f"released at {'a failed line' if name == 'crack' else 'its free ends only'}, h = {args.h:g}: "
               + ", ".join(f"d total / W0 = {x:+.4f} at {k[1:]}" for k, x in v.items()))

@@ -12,6 +12,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -238,17 +239,51 @@ TEST(Cpdi, FailedDomainsAreScaledToACell)
 TEST(Cpdi, BadInputIsRefused)
 {
   Disk disk;
-  // Degree 2, and contact.
+  // Degree 2.
   Grid quadratic(2, {10, 10}, 0.5, {0.0, 0.0});
   Particles P(1);
   EXPECT_THROW(Solver(quadratic, P, elastic(1.0, 0.3, 1.0), 1e-3, {}, 1e-6, 1000, {},
                       std::nullopt, ShapeFunctions::cpdi),
                std::invalid_argument);
-  Grid linear(1, {10, 10}, 0.5, {0.0, 0.0});
-  EXPECT_THROW(Solver(linear, P, elastic(1.0, 0.3, 1.0), 1e-3, {}, 1e-6, 1000, {0, 0, 0, 0},
-                      std::nullopt, ShapeFunctions::cpdi),
-               std::invalid_argument);
   // A domain wider than a cell at t = 0.
   disk.P.f64("convected_r1")[0] = disk.P.f64("domain_r1")[0] = 0.2;
   EXPECT_THROW(disk.solver->advance(1), std::invalid_argument);
+}
+
+// The cells whose block holds a node (the node's support, NodeBlock::holders)
+// and the farthest apart two cells whose blocks share a node
+// (NodeBlock::reach), against every pair of cell and node, for the
+// B-splines' blocks and CPDI's on lines of 3 to 9 cells.
+TEST(Cpdi, NodeBlockHoldersAndReach)
+{
+  for (int degree = 1; degree <= 3; ++degree)
+    for (const bool cpdi : {false, true})
+    {
+      if (cpdi && degree != 1)
+        continue;
+      const NodeBlock block = cpdi ? NodeBlock{CpdiStencil::lower, CpdiStencil::width}
+                                   : NodeBlock{0, degree + 1};
+      int farthest = 0;
+      for (int cells = 3; cells <= 9; ++cells)
+      {
+        const int nodes = cells + degree;
+        auto holds = [&](int c, int i)
+        { return block.first(c, nodes) <= i && i < block.first(c, nodes) + block.width; };
+        for (int i = 0; i < nodes; ++i)
+        {
+          int c0, c1;
+          block.holders(i, cells, nodes, c0, c1);
+          for (int c = 0; c < cells; ++c)
+          {
+            EXPECT_EQ(holds(c, i), c0 <= c && c <= c1)
+                << "degree " << degree << (cpdi ? " CPDI" : "") << ", " << cells << " cells, node "
+                << i << ", cell " << c;
+            for (int d = 0; d < cells; ++d)
+              if (holds(c, i) && holds(d, i))
+                farthest = std::max(farthest, std::abs(c - d));
+          }
+        }
+      }
+      EXPECT_EQ(farthest, block.reach()) << "degree " << degree << (cpdi ? " CPDI" : "");
+    }
 }

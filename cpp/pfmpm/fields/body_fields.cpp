@@ -77,11 +77,14 @@ int BodyFields::cell_fields(std::size_t key, std::int32_t* out) const
 
 int BodyFields::node_fields(int ix, int iy, std::int32_t* out) const
 {
-  const int p = _grid.degree();
+  const NodeBlock& block = _grid.block();
   const int ncx = _grid.cells()[0], ncy = _grid.cells()[1];
+  int cx0, cx1, cy0, cy1;
+  block.holders(ix, ncx, _grid.nodes()[0], cx0, cx1);
+  block.holders(iy, ncy, _grid.nodes()[1], cy0, cy1);
   int n = 0;
-  for (int cx = std::max(ix - p, 0); cx <= std::min(ix, ncx - 1); ++cx)
-    for (int cy = std::max(iy - p, 0); cy <= std::min(iy, ncy - 1); ++cy)
+  for (int cx = cx0; cx <= cx1; ++cx)
+    for (int cy = cy0; cy <= cy1; ++cy)
     {
       const std::size_t key = static_cast<std::size_t>(cx) * ncy + cy;
       if (_cell_field[key] == -1)
@@ -97,9 +100,9 @@ int BodyFields::node_fields(int ix, int iy, std::int32_t* out) const
 
 void BodyFields::build(const Particles& particles, const CellSort& sort)
 {
-  const int p = _grid.degree();
+  const NodeBlock& block = _grid.block();
   const int ncx = _grid.cells()[0], ncy = _grid.cells()[1];
-  const int nny = _grid.nodes()[1];
+  const int nnx = _grid.nodes()[0], nny = _grid.nodes()[1];
   const auto ncells = static_cast<std::ptrdiff_t>(_grid.num_cells());
   const std::int32_t* body = _field ? _field : particles.body.data();
   const std::int32_t* order = sort.order().data();
@@ -187,11 +190,12 @@ void BodyFields::build(const Particles& particles, const CellSort& sort)
       const std::size_t cell = static_cast<std::size_t>(cx) * ncy + cy;
       if (start[cell + 1] == start[cell])
         continue;
+      const int x0 = block.first(cx, nnx), y0 = block.first(cy, nny);
       bool any = false;
-      for (int a = 0; a <= p && !any; ++a)
-        for (int b = 0; b <= p && !any; ++b)
+      for (int a = 0; a < block.width && !any; ++a)
+        for (int b = 0; b < block.width && !any; ++b)
         {
-          const std::int32_t n = _grid.active_index(cx + a, cy + b);
+          const std::int32_t n = _grid.active_index(x0 + a, y0 + b);
           any = _slot_start[n + 1] - _slot_start[n] >= 2;
         }
       _touches[cell] = any;

@@ -5,6 +5,7 @@
 #include "pfmpm/common/stopwatch.h"
 #include "pfmpm/common/strips.h"
 #include "pfmpm/fields/kernel.h"
+#include "pfmpm/shape/cpdi.h"
 
 #include <omp.h>
 
@@ -255,7 +256,10 @@ bool DamageFields::particle_damage(const Particles& particles)
 
 void DamageFields::gradients(Particles& particles, const CellSort& sort)
 {
-  const int P = _grid.degree();
+  // The cells whose block shares a node with a cell's are within P cells of
+  // it (the degree with B-splines, up to 5 with CPDI's 4 x 4 blocks, which
+  // move inwards at the grid's ends: NodeBlock::reach).
+  const int P = _grid.block().reach();
   const int ncx = _grid.cells()[0], ncy = _grid.cells()[1];
   const auto ncells = static_cast<std::ptrdiff_t>(_grid.num_cells());
   const std::int32_t* order = sort.order().data();
@@ -350,7 +354,8 @@ namespace
 /// The group slots of a cell's stencil nodes, per group of the cell.
 struct CellSlots
 {
-  static constexpr int K = (max_degree + 1) * (max_degree + 1);
+  /// Nodes of a cell's block: (degree + 1)^2 with B-splines, 16 with CPDI.
+  static constexpr int K = std::max((max_degree + 1) * (max_degree + 1), CpdiStencil::size);
   int n = 0;                                       ///< groups in the cell
   std::int32_t group[BodyFields::max_fields];      ///< their indices, sorted
   std::int32_t slot[DamageFields::max_groups][K];  ///< slot of group f at stencil node i
@@ -368,8 +373,10 @@ struct CellSlots
 void DamageFields::sides(const Particles& particles, const CellSort& sort, const double* grad)
 {
   constexpr int K = CellSlots::K;
-  const int P = _grid.degree(), width = P + 1, nk = width * width;
+  const NodeBlock& block = _grid.block();
+  const int width = block.width, nk = width * width;
   const int ncx = _grid.cells()[0], ncy = _grid.cells()[1];
+  const int nnx = _grid.nodes()[0], nny = _grid.nodes()[1];
   const std::size_t ngs = _groups ? static_cast<std::size_t>(_groups->num_slots())
                                   : static_cast<std::size_t>(_grid.num_active());
   _best_norm.assign(ngs, 0.0);
@@ -380,14 +387,37 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
   const std::int32_t* order = sort.order().data();
   const std::int32_t* group = _group.data();
   const double* full = _full.data();
+  // The nodes of its cell's block a particle maps to: all of them with
+  // B-splines (positive on the whole cell); with CPDI (the particles carry
+  // domains) those where its averaged shape function is positive, the
+  // nodes of the cells its domain's corners lie in (above round-off:
+  // cpdi_maps_to).
+  const Column* domain_r1 = particles.find("domain_r1");
+  const Column* domain_r2 = particles.find("domain_r2");
+  const std::uint32_t all = nk >= 32 ? ~0u : (1u << nk) - 1u;
+  const std::array<const BSpline1D*, 2> basis{&_grid.basis(0), &_grid.basis(1)};
+  auto reached = [&](std::int32_t p, int cx, int cy) -> std::uint32_t
+  {
+    if (!domain_r1)
+      return all;
+    CpdiStencil stencil;
+    const int cell[2] = {cx, cy};
+    stencil.evaluate(basis, cell, &particles.x[2 * p], &domain_r1->f64[2 * p],
+                     &domain_r2->f64[2 * p]);
+    std::uint32_t m = 0;
+    for (int i = 0; i < CpdiStencil::size; ++i)
+      m |= stencil.n[i] > cpdi_maps_to ? 1u << i : 0u;
+    return m;
+  };
   // The groups of cell (cx, cy) and their slots at its stencil nodes, in
   // stencil order: looked up once per cell, not per particle and node.
   auto cell_slots = [&](int cx, int cy, CellSlots& c)
   {
     c.n = cell_groups(static_cast<std::size_t>(cx) * ncy + cy, c.group);
+    const int x0 = block.first(cx, nnx), y0 = block.first(cy, nny);
     for (int a = 0; a < width; ++a)
     {
-      const std::int32_t row = _grid.active_index(cx + a, cy);
+      const std::int32_t row = _grid.active_index(x0 + a, y0);
       for (int b = 0; b < width; ++b)
         for (int f = 0; f < c.n; ++f)
           c.slot[f][a * width + b] = group_slot(row + b, c.group[f]);
@@ -409,7 +439,8 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
         cell_slots(cx, cy, c);
         double norm[max_groups][K];
         std::int32_t best[max_groups][K];
-        std::uint8_t any_full[max_groups] = {};
+        // Per group, the nodes a fully damaged particle maps to.
+        std::uint32_t any_full[max_groups] = {};
         for (int f = 0; f < c.n; ++f)
           for (int i = 0; i < nk; ++i)
           {
@@ -423,11 +454,12 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
           if (n2 == 0.0 && full[p] == 0.0)
             continue; // nothing to note
           const int f = c.local(group[p]);
-          any_full[f] |= full[p] != 0.0 ? 1 : 0;
+          const std::uint32_t nodes = reached(p, cx, cy);
+          any_full[f] |= full[p] != 0.0 ? nodes : 0u;
           if (n2 == 0.0)
             continue;
           for (int i = 0; i < nk; ++i)
-            if (n2 > norm[f][i] || (n2 == norm[f][i] && p < best[f][i]))
+            if ((nodes >> i & 1u) && (n2 > norm[f][i] || (n2 == norm[f][i] && p < best[f][i])))
             {
               norm[f][i] = n2;
               best[f][i] = p;
@@ -437,7 +469,7 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
           for (int i = 0; i < nk; ++i)
           {
             const std::int32_t s = c.slot[f][i];
-            if (any_full[f])
+            if (any_full[f] >> i & 1u)
               _group_full[s] = 1;
             const double n2 = norm[f][i];
             if (n2 > _best_norm[s] || (n2 > 0.0 && n2 == _best_norm[s] && best[f][i] < _best[s]))
@@ -553,6 +585,8 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
               m |= side < 0.0 ? 1u << i : 0u;
             }
           }
+          if (domain_r1)
+            m &= reached(p, cx, cy); // no side at a node the particle does not map to
           mask[p] = m;
           chose_b[f] |= m;
           any |= m;
@@ -568,8 +602,9 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
 void DamageFields::layout(const CellSort& sort, bool any_split)
 {
   const auto na = static_cast<std::ptrdiff_t>(_grid.num_active());
-  const int P = _grid.degree();
+  const NodeBlock& block = _grid.block();
   const int ncx = _grid.cells()[0], ncy = _grid.cells()[1];
+  const int nnx = _grid.nodes()[0], nny = _grid.nodes()[1];
   const std::int32_t* gstart = _groups ? _groups->slot_start().data() : nullptr;
   auto groups_of = [&](std::ptrdiff_t a, std::int32_t& g0, std::int32_t& g1)
   {
@@ -629,11 +664,12 @@ void DamageFields::layout(const CellSort& sort, bool any_split)
       const std::size_t cell = static_cast<std::size_t>(cx) * ncy + cy;
       if (start[cell + 1] == start[cell] || (near_only && !_near[cell]))
         continue;
+      const int x0 = block.first(cx, nnx), y0 = block.first(cy, nny);
       bool any = false;
-      for (int a = 0; a <= P && !any; ++a)
-        for (int b = 0; b <= P && !any; ++b)
+      for (int a = 0; a < block.width && !any; ++a)
+        for (int b = 0; b < block.width && !any; ++b)
         {
-          const std::int32_t n = _grid.active_index(cx + a, cy + b);
+          const std::int32_t n = _grid.active_index(x0 + a, y0 + b);
           any = _slot_start[n + 1] - _slot_start[n] >= 2;
         }
       _touches[cell] = any;

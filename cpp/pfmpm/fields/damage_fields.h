@@ -84,7 +84,11 @@ struct DamageTimers
 ///   (Algorithm 1), ties to the smaller particle index, so that the result
 ///   does not depend on the visiting order;
 /// - per (particle, node) pair the side: field A if grad D_p . G_i >= 0,
-///   else B (Algorithm 2), as a bit per stencil node in a per-particle mask;
+///   else B (Algorithm 2), as a bit per node of the particle's cell's block
+///   (Grid::block(): the B-spline's (degree + 1)^2 nodes, CPDI's 4 x 4) in a
+///   per-particle mask; a pair exists where the particle maps to the node
+///   (with B-splines every node of the block, with CPDI those where its
+///   averaged shape function exceeds cpdi_maps_to);
 ///   a particle with zero gradient (no damage variation within r_p, which a
 ///   B-spline stencil reaches past) is, if intact, on A when it lies behind
 ///   the particle p* that gave G_i, (x_p* - x_p) . G_i >= 0, else on B, and
@@ -227,7 +231,7 @@ private:
   std::vector<double> _damage;        // per particle: D~_p
   std::vector<double> _full;          // per particle: 0 or 1
   std::vector<std::uint32_t> _mask;   // per particle
-  std::vector<std::uint8_t> _near;    // per cell: a fully damaged particle within degree cells
+  std::vector<std::uint8_t> _near;    // per cell: a fully damaged particle within reach() cells
   std::vector<std::uint8_t> _split;   // per cell
   std::vector<std::uint8_t> _touches; // per cell
   bool _dirty = false;                // gradients or masks were set in an earlier step

@@ -119,7 +119,8 @@ public:
   const ContactStats& stats() const { return _stats; }
 
 private:
-  /// Distinct fields of the cells in node (ix, iy)'s support, sorted, into
+  /// Distinct fields of the cells whose block holds node (ix, iy) (its
+  /// support: NodeBlock::holders, with CPDI the cells whose 4 x 4 blocks hold it), sorted, into
   /// `out` (capacity max_fields); returns how many, or -1 past capacity.
   int node_fields(int ix, int iy, std::int32_t* out) const;
 

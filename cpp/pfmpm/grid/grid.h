@@ -41,6 +41,19 @@ struct NodeBlock
   int width;
   /// First node of the block of `cell` on a line of `nodes` nodes.
   int first(int cell, int nodes) const { return std::clamp(cell + lower, 0, nodes - width); }
+  /// @brief The cells [c0, c1] whose block holds node i, on a line of
+  /// `cells` cells and `nodes` nodes: [i - lower - width + 1, i - lower],
+  /// widened to the line's end where the blocks there move inwards.
+  void holders(int i, int cells, int nodes, int& c0, int& c1) const
+  {
+    c0 = i < width ? 0 : std::max(i - lower - width + 1, 0);
+    c1 = i >= nodes - width ? cells - 1 : std::min(i - lower, cells - 1);
+  }
+  /// @brief The farthest apart two cells whose blocks share a node may lie,
+  /// in cells: width - 1, and -lower more for each end of the line whose
+  /// blocks move inwards (p for a B-spline of degree p; for CPDI 4 next to
+  /// one end, 5 on a line of 6 cells, where the two ends' blocks meet).
+  int reach() const { return width - 1 - 2 * lower; }
 };
 
 /// @brief The nodes in the support of the occupied cells of a particle sort,

@@ -121,6 +121,12 @@ struct CpdiStencil
   }
 };
 
+/// A CPDI particle maps to a node (the damage-gradient partition: H&H
+/// Algorithms 1-2 and eq. 21) where its averaged shape function exceeds this:
+/// the functions sum to 1, and a corner on a cell face gives the far node of
+/// its cell a weight of round-off size.
+inline constexpr double cpdi_maps_to = 1e-12;
+
 /// @brief Which particles are failed, and whether their domains are scaled.
 struct DomainScaling
 {

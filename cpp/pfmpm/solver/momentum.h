@@ -176,7 +176,14 @@ template <class Shape, bool External, int F, bool Surface, bool Damage, class Se
               if constexpr (Damage)
               {
                 md[f][i] += w * mp * a.damage[p]; // H&H eq. 21, numerator
-                full[f][i] = std::max(full[f][i], a.full[p]);
+                // A fully damaged particle maps to the node where its shape
+                // function is positive: every node of the cell's with
+                // B-splines, part of the 4 x 4 block with CPDI (above
+                // round-off, cpdi_maps_to).
+                if constexpr (Shape::domains)
+                  full[f][i] = w > cpdi_maps_to ? std::max(full[f][i], a.full[p]) : full[f][i];
+                else
+                  full[f][i] = std::max(full[f][i], a.full[p]);
               }
             });
       });

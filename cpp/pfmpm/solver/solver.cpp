@@ -79,9 +79,6 @@ Solver::Solver(Grid& grid, Particles& particles,
     if (grid.degree() != 1)
       throw std::invalid_argument("CPDI runs on the degree-1 grid, not degree "
                                   + std::to_string(grid.degree()));
-    if (!friction.empty())
-      throw std::invalid_argument("CPDI has one velocity field: contact needs quadratic or cubic"
-                                  " B-splines");
     if (std::min(grid.cells()[0], grid.cells()[1]) < CpdiStencil::width - 1)
       throw std::invalid_argument("CPDI needs at least 3 cells a side");
     if (!(scaling.c_failed >= 0.0 && scaling.c_failed < 1.0))
@@ -281,9 +278,8 @@ void Solver::dispatch(F&& f)
   std::visit(
       [&](auto& fields)
       {
-        if constexpr (!std::decay_t<decltype(fields)>::discrete)
-          if (_domains)
-            return f(Tag<CpdiStencil>{}, fields);
+        if (_domains)
+          return f(Tag<CpdiStencil>{}, fields);
         switch (_grid.degree())
         {
         case 1:
@@ -394,6 +390,10 @@ void Solver::prepare(Fields& fields)
       throw SimulationError(msg.str());
     }
   }
+  // The integration domains, after the phase field (failed particles' are
+  // scaled), before the velocity fields, whose partition may read them.
+  if constexpr (Shape::domains)
+    check_domains();
   // The velocity fields, after the phase field: damage-gradient fields read
   // the new c (Remark 4; H&H Algorithms 1 and 2).
   if constexpr (Fields::discrete)
@@ -401,8 +401,6 @@ void Solver::prepare(Fields& fields)
     Stopwatch clock{_timers.fields};
     fields.build(_particles, _sort);
   }
-  if constexpr (Shape::domains)
-    check_domains();
 }
 
 void Solver::check_domains() const

@@ -115,7 +115,7 @@ public:
   ///        material's damage is its `damage` column if it has one, else
   ///        1 - c if it cracks by the phase field, else 0.
   /// @param shape The shape functions of the momentum transfers: B-splines,
-  ///        or CPDI1 on the degree-1 grid (one velocity field), which adds the
+  ///        or CPDI1 on the degree-1 grid (with any partition), which adds the
   ///        domain columns (ParticleDomains) and sets the grid's node block.
   ///        The phase field is assembled with B-splines either way.
   /// @param scaling With CPDI: which particles are failed, and whether their

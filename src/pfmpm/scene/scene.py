@@ -256,16 +256,17 @@ class Scene:
                 raise SceneError(f"cracks[{i}]", "no body's material has a fracture table")
 
     def _check_contact(self, bodies: Mapping[str, int]) -> None:
-        """Check the contact table: known bodies, quadratic or cubic grid, no overlap at t = 0."""
+        """Check the contact table: known bodies, quadratic or cubic grid or CPDI, no overlap at t = 0."""
         contact = self.contact
         if contact is None:
             return
         if not isinstance(contact, Contact):
             raise SceneError("contact", "must be a Contact", contact)
-        if self.grid.degree < 2:
-            raise SceneError("grid.degree", "contact needs quadratic or cubic B-splines"
-                                            " (a one-field node of tiny mass on a linear cell"
-                                            " is unstable)", self.grid.degree)
+        if self.grid.degree < 2 and self.grid.shape != "cpdi":
+            raise SceneError("grid.degree", "contact needs quadratic or cubic B-splines, or"
+                                            " shape = \"cpdi\" on the degree-1 grid (single-point"
+                                            " linear shape functions are unstable where a particle"
+                                            " enters a cell: docs/contact.md)", self.grid.degree)
         seen: dict[frozenset, int] = {}
         for i, pair in enumerate(contact.pairs):
             for k, name in enumerate(pair.bodies):
