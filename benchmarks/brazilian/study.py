@@ -48,6 +48,7 @@ import numpy as np
 from pfmpm import SimulationError, scenes
 from pfmpm.post.brazilian import (contact_distance, disk_fragments, disk_speed, failed_fraction,
                                   platen_penetration, wall_excursion)
+from pfmpm.post.fragments import failed
 from pfmpm.post.self_contact import body_fields
 from pfmpm.scene import Scene
 from pfmpm.simulation import Simulation
@@ -128,14 +129,14 @@ def run_resolution(h: float, sets: list[str], samples: int, out: Path, analysis:
             t = analysis_steps[sim.step]
             r["analysis"][f"{t:g}"] = analyse(variants[m], sim.particles)
             snapshots[f"{m}_{t:g}"] = copy_of(sim.particles)
-        if r["first_failure"] is None and sim.particles.damage.max() >= 1.0:
+        if r["first_failure"] is None and failed(sim.particles.damage).any():
             x, body = sim.particles.x, sim.particles.body
-            failed = np.flatnonzero(sim.particles.damage >= 1.0)
-            platens = x[body != body[failed[0]]]
-            r["first_failure"] = {"t": sim.time, "step": sim.step, "particles": failed.tolist(),
-                                  "x0": x0[failed].tolist(),
-                                  "distance": contact_distance(scene, x0[failed]).tolist(),
-                                  "to_platen": [float(np.hypot(*(platens - x[k]).T).min()) for k in failed]}
+            broken = np.flatnonzero(failed(sim.particles.damage))
+            platens = x[body != body[broken[0]]]
+            r["first_failure"] = {"t": sim.time, "step": sim.step, "particles": broken.tolist(),
+                                  "x0": x0[broken].tolist(),
+                                  "distance": contact_distance(scene, x0[broken]).tolist(),
+                                  "to_platen": [float(np.hypot(*(platens - x[k]).T).min()) for k in broken]}
 
     # Side by side, step by step, until both have a fully damaged particle (Z1, Z2).
     identity = {"first_damage_step": None, "to_first_damage": dict.fromkeys(STATE, 0.0),
