@@ -1,7 +1,7 @@
 """The cost of damage-gradient partitioning (Homel & Herbold 2017, section 3.5,
 Fig. 19): wall time per step against particle count, with the partition
-(``dfg``) and without it (``sf``: every body its own velocity field, as the
-multi-field variant of :func:`~pfmpm.post.self_contact.variants`), on one
+(``dfg``) and without it (``sf``: every body its own velocity field,
+:func:`~pfmpm.post.self_contact.body_fields`), on one
 and more threads, per stage of the step; the checks E1-E5 of
 ``shared/benchmarks-homel-herbold.md`` section 7 from the table of timings.
 
@@ -60,7 +60,7 @@ E2_RANGE = (3.2e4, 1.5e5)
 
 def scene_at(scene: Scene, h: float, method: str) -> Scene:
     """``scene`` at grid spacing ``h`` with partition ``method`` (:data:`METHODS`)."""
-    from .self_contact import variants
+    from .self_contact import body_fields
 
     if method not in METHODS:
         raise ValueError(f"method = {method!r}: must be one of {', '.join(METHODS)}")
@@ -68,7 +68,7 @@ def scene_at(scene: Scene, h: float, method: str) -> Scene:
     d["grid"] = dict(d["grid"], h=h)
     d.setdefault("output", {})["particles"] = False
     at = Scene.from_dict(d)
-    return at if method == "dfg" else variants(at)["multi_field"]
+    return at if method == "dfg" else body_fields(at)
 
 
 def reference_damage(scene: Scene, h: float, paint_time: float) -> dict:
