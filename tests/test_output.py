@@ -4,7 +4,7 @@ that writes positions in place."""
 import meshio
 import numpy as np
 
-from pfmpm.output import _BLOCK, write_vtu
+from pfmpm.output import _BLOCK, Rows, write_vtu
 from pfmpm.scene import Scene, seeding
 
 
@@ -30,9 +30,58 @@ def test_vtu_written_in_blocks_reads_back_exactly(tmp_path):
     assert np.array_equal(mesh.cells_dict["vertex"][:, 0], np.arange(n))
 
 
-def test_write_positions_is_positions_in_place():
+def test_position_batches_are_the_positions():
     scene = Scene.from_toml("demos/disk_beam.toml")
     xs = seeding.positions(scene)
-    out = np.full((sum(len(x) for x in xs), 2), np.nan)
-    seeding.write_positions(scene, out)
-    assert np.array_equal(out, np.concatenate(xs))
+    batches = list(seeding.position_batches(scene))
+    assert np.array_equal(np.concatenate(batches), np.concatenate(xs))
+
+
+def test_rows_are_written_as_the_array_they_make(tmp_path):
+    """A field given as Rows, in blocks of uneven length (one empty), writes
+    the same bytes as the array it adds up to."""
+    n = 2 * _BLOCK + 5
+    rng = np.random.default_rng(2)
+    x, u = rng.random((n, 2)), rng.random((n, 2))
+    cuts = [0, 7, 7, _BLOCK + 3, n]
+    rows = Rows(n, lambda: (u[a:b] for a, b in zip(cuts, cuts[1:])))
+    write_vtu(tmp_path / "a.vtu", x, iter([("u", u, ""), ("id", np.arange(n), "")]))
+    write_vtu(tmp_path / "b.vtu", x, iter([("u", rows, ""), ("id", Rows.of(n, np.arange, np.int64), "")]))
+    assert (tmp_path / "a.vtu").read_bytes() == (tmp_path / "b.vtu").read_bytes()
+
+
+def test_a_snapshot_holds_no_array_of_all_particles(tmp_path, monkeypatch):
+    """Issue 18 (memory of a whole run): writing a particle file, taking a
+    phase-field image and recording the crack tip make no copy of a particle
+    column. With blocks, seeding batches and image bands of about 1024
+    particles, everything they allocate at once is below 4 bytes per
+    particle (the masks of one comparison over all particles); one column
+    of doubles is 8, the displacement or a tree of every point 16 or more."""
+    import tracemalloc
+
+    import scipy.spatial  # noqa: F401 (imported before the count, as a run has)
+
+    from pfmpm import output, run
+    from pfmpm.simulation import Simulation
+
+    monkeypatch.setattr(output, "_BLOCK", 1024)
+    monkeypatch.setattr(seeding, "_CHUNK", 1024)
+    monkeypatch.setattr(run, "_QUERY_PIXELS", 1024)
+    scene = Scene.from_toml("demos/borden_plate.toml", ["grid.h=0.5", "materials.concrete.fracture.l0=1.0"])
+    sim = Simulation(scene)
+    n = len(sim.particles)
+    frames, snapshots = sim.open_frames(tmp_path), sim.new_snapshots()
+    tracemalloc.start()
+    try:
+        frames.write()
+        sim.offer_snapshot(snapshots)
+        sim.crack_tip_record()
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert n > 100_000 and len(snapshots.images) == 1
+    kept = snapshots.images[0][1].nbytes  # the image itself (at most SNAPSHOT_PIXELS of them)
+    assert peak - kept < 4 * n, f"{(peak - kept) / n:.1f} bytes per particle"
+    written = meshio.read(tmp_path / "particles_000000.vtu")
+    assert np.array_equal(written.point_data["displacement"], np.zeros((n, 3)))
+    assert np.array_equal(written.point_data["id"].ravel(), np.arange(n))

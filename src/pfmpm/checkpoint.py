@@ -8,7 +8,9 @@ as an uninterrupted one:
   ``pfmpm._core.Particles.columns()`` lists them (the core arrays ``x``, ``v``,
   ``mass``, ``volume``, ``stress``, ``fext``, ``body``, ``material``, then what
   the scene's models keep: ``strain``, and with a phase field ``c``,
-  ``history``, ``phi``, ``fracture_energy``);
+  ``history``, ``fracture_energy`` and, with its fourth-order term, ``phi``;
+  files written before 2026-12-02 have ``phi`` with every phase field, which
+  an isotropic run ignores);
 - ``/solver/<name>``: every array of the solver state
   (``pfmpm._core.Solver.state()``): each phase field's warm start, the nodal
   solutions of its last two solves (``phase_field/<k>/c``,
@@ -368,12 +370,17 @@ def restore(sim, ckpt: Checkpoint) -> None:
         If an array does not fit the simulation.
     """
     columns = [c["name"] for c in sim.particles.columns()]
-    if extra := sorted(ckpt.particles.keys() - set(columns)):
+    stored = dict(ckpt.particles)
+    if "phi" not in columns:
+        # Files before 2026-12-02 kept the orientation of every phase-field
+        # run; only the fourth-order term has it, and nothing else reads it.
+        stored.pop("phi", None)
+    if extra := sorted(stored.keys() - set(columns)):
         raise CheckpointError(f"checkpoint {ckpt.path}: particles/{extra[0]} is not a column of this scene")
     for name in columns:
-        if name not in ckpt.particles:
+        if name not in stored:
             raise CheckpointError(f"checkpoint {ckpt.path}: particles/{name} is missing")
-        target, value = getattr(sim.particles, name), ckpt.particles[name]
+        target, value = getattr(sim.particles, name), stored[name]
         if target.shape != value.shape or target.dtype != value.dtype:
             raise CheckpointError(f"checkpoint {ckpt.path}: particles/{name} has shape {value.shape},"
                                   f" the scene gives {target.shape}")

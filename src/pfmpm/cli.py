@@ -58,10 +58,13 @@ def _run(args: argparse.Namespace) -> int:
     where = f" from step {resume.step} ({resume.path})" if resume else ""
     print(f"{scene.name}: {len(sim.particles)} particles, {scene.steps()} steps of dt = {scene.dt():.6g}{where} -> {out}")
     try:
-        result = sim.run(out, progress=not args.quiet, checkpoint_every=every, keep=keep, resume=resume)
+        result = sim.run(out, progress=not args.quiet, checkpoint_every=every, keep=keep, resume=resume,
+                         draw=False)
     except checkpoint.CheckpointError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
+    del sim  # the figures need none of its state: draw them without it
+    result.figures.draw()
     light = (f"note: {result.light_nodes} grid node-steps had a mass too small to divide by"
              " (below 1e-12 of the heaviest particle) and were given zero velocity")
     if result.status == "failed":  # the error first: a failure's first line says what failed

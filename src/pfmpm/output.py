@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import base64
 import csv
+import itertools
 from collections.abc import Iterable
 from pathlib import Path
 from typing import BinaryIO
@@ -56,17 +57,41 @@ def vtk_values(values: np.ndarray, layout: str) -> np.ndarray:
     return values
 
 
+class Rows:
+    """A field of ``n`` rows that is made a block at a time as it is written,
+    never whole: ``blocks()`` yields arrays of consecutive rows, in order,
+    that add up to ``n``. :func:`write_vtu` takes one wherever it takes an
+    array (a particle's displacement, say, which would otherwise be a copy
+    of the positions)."""
+
+    def __init__(self, n: int, blocks):
+        self.n, self.blocks = n, blocks
+
+    def __len__(self) -> int:
+        return self.n
+
+    @classmethod
+    def of(cls, n: int, rows, dtype=np.float64) -> "Rows":
+        """The field whose rows ``[a, b)`` are ``rows(a, b)``, as ``dtype``."""
+        starts = range(0, max(n, 1), _BLOCK)  # an empty field still has a block, for its type
+        return cls(n, lambda: (np.asarray(rows(a, min(a + _BLOCK, n)), dtype=dtype) for a in starts))
+
+
 def _write_data_array(f: BinaryIO, name: str, values: np.ndarray, layout: str = "") -> None:
     """One binary ``DataArray`` of :func:`vtk_values`: base64 of a UInt64 byte
-    count and the values, converted and encoded ``_BLOCK`` rows at a time,
-    so that a snapshot holds neither its text nor a converted copy of a column."""
-    head = vtk_values(values[:1], layout)
+    count and the values, converted and encoded ``_BLOCK`` rows at a time
+    (a :class:`Rows` block at a time), so that a snapshot holds neither its
+    text nor a converted copy of a column."""
+    blocks = (values.blocks() if isinstance(values, Rows)
+              else (values[a:a + _BLOCK] for a in range(0, max(len(values), 1), _BLOCK)))
+    first = next(blocks)
+    head = vtk_values(first[:1], layout)
     ncomp = 1 if head.ndim == 1 else head.shape[1]
     f.write(f'<DataArray type="{_VTK_TYPES[head.dtype]}" Name="{name}" '
             f'NumberOfComponents="{ncomp}" format="binary">'.encode())
     pending = np.uint64(len(values) * ncomp * head.itemsize).tobytes()
-    for start in range(0, len(values), _BLOCK):
-        block = pending + np.ascontiguousarray(vtk_values(values[start:start + _BLOCK], layout)).tobytes()
+    for rows in itertools.chain([first], blocks):
+        block = pending + np.ascontiguousarray(vtk_values(rows, layout)).tobytes()
         whole = len(block) - len(block) % 3  # base64 of pieces of 3k bytes joins up
         f.write(base64.b64encode(block[:whole]))
         pending = block[whole:]
@@ -82,10 +107,11 @@ def write_vtu(path: Path, points: np.ndarray, point_data: Iterable[tuple[str, np
         File to write.
     points : (N, 2) ndarray
         Coordinates (z = 0 is added).
-    point_data : iterable of (name, (N,) or (N, k) ndarray, layout)
+    point_data : iterable of (name, (N,) or (N, k) ndarray or Rows, layout)
         Fields, written as :func:`vtk_values` of their layout (``""`` for
         none). The arrays are read, never copied whole, and may be made as
-        the iterable is walked: a snapshot then holds one at a time.
+        the iterable is walked: a snapshot then holds one at a time, or,
+        given as :class:`Rows`, none.
     """
     n = len(points)
     tmp = path.with_suffix(".tmp")
@@ -103,14 +129,11 @@ def write_vtu(path: Path, points: np.ndarray, point_data: Iterable[tuple[str, np
         f.write(b"</PointData>\n<Points>\n")
         _write_data_array(f, "Points", points)
         f.write(b"\n</Points>\n<Cells>\n")
-        cells = np.arange(n, dtype=np.int64)
-        _write_data_array(f, "connectivity", cells)
+        _write_data_array(f, "connectivity", Rows.of(n, np.arange, np.int64))
         f.write(b"\n")
-        cells += 1
-        _write_data_array(f, "offsets", cells)
+        _write_data_array(f, "offsets", Rows.of(n, lambda a, b: np.arange(a + 1, b + 1), np.int64))
         f.write(b"\n")
-        del cells
-        _write_data_array(f, "types", np.ones(n, dtype=np.int32))  # VTK_VERTEX
+        _write_data_array(f, "types", Rows.of(n, lambda a, b: np.ones(b - a), np.int32))  # VTK_VERTEX
         f.write(b"\n</Cells>\n</Piece>\n</UnstructuredGrid>\n</VTKFile>")
     tmp.replace(path)
 

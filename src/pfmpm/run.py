@@ -46,8 +46,8 @@ from .output import CsvLog, check_directory
 from .post.tip import CrackTip
 from .scene import Scene
 
-__all__ = ["ENERGY_COLUMNS", "WALL_COLUMNS", "CRACK_COLUMNS", "RunResult", "Snapshots", "nearest_image",
-           "run_to_end", "step_to_end"]
+__all__ = ["ENERGY_COLUMNS", "WALL_COLUMNS", "CRACK_COLUMNS", "RunResult", "Figures", "Snapshots",
+           "nearest_image", "run_to_end", "step_to_end"]
 
 ENERGY_COLUMNS = ["step", "t", "kinetic", "elastic", "fracture", "external_work", "total",
                   "momentum_x", "momentum_y"]
@@ -82,6 +82,8 @@ class RunResult:
     """The checkpoint the run continued from."""
     light_nodes: int = 0
     """Grid node-steps whose mass was too small to divide by (see ``Solver.light_nodes``)."""
+    figures: "Figures | None" = None
+    """The figures still to draw, from :func:`run_to_end` with ``draw=False``."""
 
     def write_summary(self, path: Path, fields: dict) -> None:
         """Write ``summary.json``: this result's status, steps and wall time, then ``fields``.
@@ -104,7 +106,7 @@ class RunResult:
 
 
 def run_to_end(sim, out_dir: Path | str, progress: bool = True, checkpoint_every: int = 0,
-               keep: int = 3, resume=None) -> RunResult:
+               keep: int = 3, resume=None, draw: bool = True) -> RunResult:
     """Run ``sim`` to ``scene.time.end``, writing its output to ``out_dir``.
 
     Writes ``energies.csv`` every ``output.energies_every`` steps, the field
@@ -129,6 +131,9 @@ def run_to_end(sim, out_dir: Path | str, progress: bool = True, checkpoint_every
         Continue from this checkpoint of a run of the same scene: its state
         and its output so far (``energies.csv``, the particle series, the
         crack-tip records, the phase-field images) are restored first.
+    draw : bool
+        Draw the figures (:class:`Figures`) before returning; if not, the
+        result's ``figures`` draws them when asked.
 
     Returns
     -------
@@ -228,23 +233,45 @@ def run_to_end(sim, out_dir: Path | str, progress: bool = True, checkpoint_every
         if root:
             result.write_summary(out / "summary.json", {"scene": sim.scene.name, "units": sim.scene.units,
                                                         **fields})
-    units = sim.scene.unit_system()
-    if result.status == "completed":
-        from . import plots
-
-        path = sim.crack_path_points() if sim.crack_tip is not None else None
-        if root:
-            plots.energies(out / "energies.csv", out / "energies.png", units)
-        if root and path is not None:
-            plots.crack_tip(out / "energies.csv", out / "crack_tip.png", sim.scene.crack_rayleigh_speed(),
-                            units)
-            plots.crack_path(out / "energies.csv", *path, out / "crack_path.png",
-                             _crackable_bounds(sim.scene), units)
-    if snapshots is not None and snapshots.images:
-        from . import plots
-
-        plots.phase_field(snapshots, out / "phase_field.png", _polar_overlay(sim.scene), units)
+    completed = result.status == "completed"
+    path = sim.crack_path_points() if completed and sim.crack_tip is not None else None
+    result.figures = Figures(out, sim.scene, completed and root, path, snapshots)
+    if draw:
+        result.figures.draw()
+        result.figures = None
     return result
+
+
+@dataclass
+class Figures:
+    """The plots of a run: ``energies.png``, ``crack_tip.png`` and
+    ``crack_path.png`` once it completes (the last two with an initial
+    crack), ``phase_field.png`` with snapshots. It holds only what they need
+    beyond the run's files, the cracked points and the phase-field images, so
+    they can be drawn after the simulation is gone (:func:`run_to_end` with
+    ``draw=False``), which ``pfmpm run`` does to keep its peak memory down."""
+
+    out: Path
+    scene: Scene
+    completed: bool
+    """Whether to draw the plots of a completed run (on the root rank)."""
+    crack_path: tuple[np.ndarray, np.ndarray] | None
+    """The points and their crack times of :meth:`crack_path_points`."""
+    snapshots: "Snapshots | None"
+
+    def draw(self) -> None:
+        """Write the figures into ``out``."""
+        from . import plots
+
+        out, scene, units = self.out, self.scene, self.scene.unit_system()
+        if self.completed:
+            plots.energies(out / "energies.csv", out / "energies.png", units)
+        if self.completed and self.crack_path is not None:
+            plots.crack_tip(out / "energies.csv", out / "crack_tip.png", scene.crack_rayleigh_speed(), units)
+            plots.crack_path(out / "energies.csv", *self.crack_path, out / "crack_path.png",
+                             _crackable_bounds(scene), units)
+        if self.snapshots is not None and self.snapshots.images:
+            plots.phase_field(self.snapshots, out / "phase_field.png", _polar_overlay(scene), units)
 
 
 def step_to_end(sim, total: int, every: list[int], record, bar, *, checkpoint=None,
@@ -372,7 +399,7 @@ class _OutputState:
         return list(self._snapshots.times), list(self._snapshots.images)
 
 
-_QUERY_PIXELS = 1 << 16  # pixel centres per nearest-point query
+_QUERY_PIXELS = 1 << 14  # pixel centres per nearest-point query (and tree of their points)
 
 
 class Snapshots:
@@ -452,16 +479,19 @@ def nearest_image(xy: np.ndarray, values: np.ndarray, origin, pixel: float, shap
 
     nx, ny = shape
     image = np.full((ny, nx), np.nan)
-    if not len(xy):
-        return image
+    xy, values = np.asarray(xy), np.asarray(values)
     gx = origin[0] + (np.arange(nx) + 0.5) * pixel
     gy = origin[1] + (np.arange(ny) + 0.5) * pixel
-    tree, values = cKDTree(xy), np.asarray(values)
     rows = max(1, _QUERY_PIXELS // nx)  # rows of pixels per query, to bound its arrays
     for r in range(0, ny, rows):
         cy = gy[r:r + rows]
-        _, nearest = tree.query(np.column_stack((np.tile(gx, len(cy)), np.repeat(cy, nx))),
-                                distance_upper_bound=reach)
-        found = nearest < len(xy)
-        image[r:r + len(cy)].reshape(-1)[found] = values[nearest[found]]
+        # Only points within reach of the band's centres can be shown in it: a
+        # tree over those alone holds a band's share of the points, not all.
+        near = np.flatnonzero((xy[:, 1] >= cy[0] - reach) & (xy[:, 1] <= cy[-1] + reach))
+        if not len(near):
+            continue
+        _, nearest = cKDTree(xy[near]).query(np.column_stack((np.tile(gx, len(cy)), np.repeat(cy, nx))),
+                                             distance_upper_bound=reach)
+        found = nearest < len(near)
+        image[r:r + len(cy)].reshape(-1)[found] = values[near[nearest[found]]]
     return image

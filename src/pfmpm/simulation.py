@@ -10,7 +10,7 @@ import numpy as np
 
 from . import _core
 from .crack import initial_history
-from .output import ParticleSeries
+from .output import ParticleSeries, Rows
 from .post.tip import CrackPath, CrackTip
 from .run import CRACK_COLUMNS, ENERGY_COLUMNS, WALL_COLUMNS, RunResult, Snapshots, run_to_end
 from .scene import Scene, SceneError, seeding
@@ -226,13 +226,15 @@ class Simulation:
         """Continue the crack path of a checkpoint: its crack times, or, from a
         file that has none, the checkpoint's time for the particles cracked by then."""
         if times is not None:
-            self.crack_path.times[...] = times
+            self.crack_path.restore(times)
         else:
             self.crack_path.update(self.time, self._of_crackable(self.particles.c))
 
     def crack_path_points(self) -> tuple[np.ndarray, np.ndarray]:
-        """The crackable particles now and the time each cracked (NaN: intact)."""
-        return self._of_crackable(self.particles.x), self.crack_path.times
+        """The cracked particles' positions now and the time each cracked, in
+        the order of the particles."""
+        index, times = self.crack_path.cracked()
+        return self._of_crackable(self.particles.x)[index], times
 
     def point_data(self) -> Iterator[tuple[str, np.ndarray, str]]:
         """The particle output as :func:`pfmpm.output.write_vtu` takes it, (name,
@@ -242,23 +244,30 @@ class Simulation:
         ``strain``, ``body``, ``material``, with a phase field ``c`` and
         ``history``), then ``displacement`` (:meth:`displacement`), ``damage``
         (``1 - c``, with a phase field) and ``id`` (the particle's index, which
-        the core keeps: it sorts an index, not the particles)."""
+        the core keeps: it sorts an index, not the particles), these three as
+        :class:`~pfmpm.output.Rows`, made a block at a time as they are written."""
         for c in self.particles.columns():
             if c["output"]:
                 yield c["output"], getattr(self.particles, c["name"]), c["layout"]
-        yield "displacement", self.displacement(), ""
+        n = len(self.particles)
+        yield "displacement", Rows(n, self._displacements), ""
         if self.cracks:
-            yield "damage", 1.0 - self.particles.c, ""
-        yield "id", np.arange(len(self.particles), dtype=np.int64), ""
+            c = self.particles.c
+            yield "damage", Rows.of(n, lambda a, b: 1.0 - c[a:b]), ""
+        yield "id", Rows.of(n, np.arange, np.int64), ""
 
     def displacement(self) -> np.ndarray:
         """Each particle's displacement from its seeded position. The seeding is
         deterministic, so it is seeded again rather than kept (a resumed run
         gets the same start)."""
-        u = np.empty_like(self.particles.x)
-        seeding.write_positions(self.scene, u)
-        np.subtract(self.particles.x, u, out=u)
-        return u
+        return np.concatenate(list(self._displacements()))
+
+    def _displacements(self) -> Iterator[np.ndarray]:
+        """:meth:`displacement` a batch of the seeding at a time, in order."""
+        x, start = self.particles.x, 0
+        for seeded in seeding.position_batches(self.scene):
+            yield x[start:start + len(seeded)] - seeded
+            start += len(seeded)
 
     def modules(self) -> list[str]:
         """The parts of the method this scene switches on."""
@@ -284,14 +293,14 @@ class Simulation:
         return active
 
     def run(self, out_dir: Path | str, progress: bool = True, checkpoint_every: int = 0,
-            keep: int = 3, resume=None) -> RunResult:
+            keep: int = 3, resume=None, draw: bool = True) -> RunResult:
         """Run to ``scene.time.end``, writing output to ``out_dir``: see
         :func:`pfmpm.run.run_to_end`, which takes the same parameters.
 
         The field series is ``particles.pvd`` with a VTU file per output
         step (with ``output.particles``).
         """
-        return run_to_end(self, out_dir, progress, checkpoint_every, keep, resume)
+        return run_to_end(self, out_dir, progress, checkpoint_every, keep, resume, draw)
 
     # -- what the run loop of pfmpm.run asks of a simulation -----------------
 

@@ -177,13 +177,16 @@ void PhaseField::restore(PhaseFieldState state)
   _stats = state.stats;
 }
 
-std::vector<ColumnSpec> PhaseField::columns()
+std::vector<ColumnSpec> PhaseField::columns(bool fourth_order)
 {
-  return {{"c", 1, DType::f64, {1.0}, "phase field: 1 intact, 0 broken (K&T eq. 53)", "", "c"},
-          {"history", 1, DType::f64, {0.0}, "history field H (K&T eq. 20)", "", "history"},
-          {"phi", 1, DType::f64, {0.0}, "principal material direction, radians clockwise from x",
-           "", ""},
-          {"fracture_energy", 1, DType::f64, {0.0}, "G_c V_p Z(c_p) (K&T eqs. 3-4)", "", ""}};
+  std::vector<ColumnSpec> columns{
+      {"c", 1, DType::f64, {1.0}, "phase field: 1 intact, 0 broken (K&T eq. 53)", "", "c"},
+      {"history", 1, DType::f64, {0.0}, "history field H (K&T eq. 20)", "", "history"},
+      {"fracture_energy", 1, DType::f64, {0.0}, "G_c V_p Z(c_p) (K&T eqs. 3-4)", "", ""}};
+  if (fourth_order) // only the fourth-order term turns with the material (section 4.3.4)
+    columns.push_back({"phi", 1, DType::f64, {0.0},
+                       "principal material direction, radians clockwise from x", "", ""});
+  return columns;
 }
 
 PhaseFieldSystem PhaseField::system() const
@@ -267,7 +270,7 @@ void PhaseField::assemble(const Particles& particles, const CellSort& sort)
   const auto na = static_cast<std::size_t>(_nodes.size());
   const double* volume = particles.volume.data();
   const double* history = particles.f64("history").data();
-  const double* phi = particles.f64("phi").data();
+  const double* phi = Fourth ? particles.f64("phi").data() : nullptr;
   const std::int32_t* material = particles.material.data();
 
   _stencil.resize(_c.size() * H);
@@ -923,7 +926,7 @@ void PhaseField::map_to_particles(Particles& particles, const CellSort& sort)
   using Shape = BSplineStencil<2, P, Fourth ? 2 : 1>;
   constexpr int K = Shape::size;
   const double* volume = particles.volume.data();
-  const double* phi = particles.f64("phi").data();
+  const double* phi = Fourth ? particles.f64("phi").data() : nullptr;
   const std::int32_t* material = particles.material.data();
   double* c = particles.f64("c").data();
   double* energy = particles.f64("fracture_energy").data();

@@ -168,9 +168,9 @@ public:
   PhaseField(const Grid& grid, std::vector<std::optional<Fracture>> fracture, double tol,
              int max_iterations);
 
-  /// The particle columns of the phase field: c, history H, orientation phi
-  /// and fracture energy G_c V_p Z(c_p).
-  static std::vector<ColumnSpec> columns();
+  /// The particle columns of the phase field: c, history H and fracture
+  /// energy G_c V_p Z(c_p); with the fourth-order term also the orientation phi.
+  static std::vector<ColumnSpec> columns(bool fourth_order);
 
   /// Whether any material can crack.
   bool active() const { return _active; }

@@ -63,8 +63,10 @@ Solver::Solver(Grid& grid, Particles& particles,
       particles.add(c);
   const bool cracks = std::any_of(_fracture.begin(), _fracture.end(),
                                   [](const auto& f) { return f.has_value(); });
+  const bool fourth = std::any_of(_fracture.begin(), _fracture.end(),
+                                  [](const auto& f) { return f && f->fourth_order(); });
   if (cracks)
-    for (const ColumnSpec& c : PhaseField::columns())
+    for (const ColumnSpec& c : PhaseField::columns(fourth))
       particles.add(c);
 
   const double max_mass = particles.size() == 0

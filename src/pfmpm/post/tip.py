@@ -94,8 +94,11 @@ class CrackTip:
     def farthest(self, xy: np.ndarray, c: np.ndarray) -> dict[str, tuple[float, float, float] | None]:
         """Per track, ``(distance, x, y)`` of its farthest point among ``xy`` with
         phase field ``c`` (of equals, the least ``(y, x)``), or ``None`` if it has none."""
+        # Only cracked points can be a tip: the arithmetic is on those alone.
+        cracked = np.flatnonzero(c < self.threshold)
+        xy = xy[cracked]
         rel = xy - self.origin
-        ahead = (c < self.threshold) & (rel @ self.direction > 0)
+        ahead = rel @ self.direction > 0
         across = rel @ self.normal
         sets = {"crack_tip": ahead, "left_tip": ahead & (across >= -BRANCH_OFFSET),
                 "right_tip": ahead & (across <= BRANCH_OFFSET)}
@@ -165,7 +168,9 @@ class CrackTip:
 
 class CrackPath:
     """When each point cracked: the time of the first record at which its phase
-    field was below ``threshold`` (NaN while intact), for the crack-path plot.
+    field was below ``threshold``, for the crack-path plot. It keeps a flag per
+    point and the times of the cracked ones only, since a crack is a thin band
+    of a body's points.
 
     Parameters
     ----------
@@ -176,13 +181,36 @@ class CrackPath:
     """
 
     def __init__(self, n: int, threshold: float):
-        self.times = np.full(n, np.nan)
         self.threshold = threshold
+        self._cracked = np.zeros(n, dtype=bool)
+        self._index = np.empty(0, dtype=np.int64)
+        self._time = np.empty(0)
 
     def update(self, t: float, c: np.ndarray) -> None:
         """Note time ``t`` for the points that crack now, given the phase field ``c`` of all."""
-        new = np.isnan(self.times) & (c < self.threshold)
-        self.times[new] = t
+        new = np.flatnonzero(~self._cracked & (c < self.threshold))
+        if len(new):
+            self._cracked[new] = True
+            self._index = np.concatenate((self._index, new))
+            self._time = np.concatenate((self._time, np.full(len(new), t)))
+
+    @property
+    def times(self) -> np.ndarray:
+        """(n,) the time each point cracked, NaN while intact."""
+        times = np.full(len(self._cracked), np.nan)
+        times[self._index] = self._time
+        return times
+
+    def restore(self, times: np.ndarray) -> None:
+        """Continue from :attr:`times` (of a checkpoint)."""
+        self._cracked = np.isfinite(times)
+        self._index = np.flatnonzero(self._cracked)
+        self._time = np.asarray(times)[self._index]
+
+    def cracked(self) -> tuple[np.ndarray, np.ndarray]:
+        """The indices of the cracked points, ascending, and the time each cracked."""
+        order = np.argsort(self._index)
+        return self._index[order], self._time[order]
 
 
 def read_columns(csv_or_columns) -> Mapping[str, np.ndarray]:

@@ -15,7 +15,7 @@ from .loads import Traction
 if TYPE_CHECKING:
     from .scene import Scene
 
-__all__ = ["cell_range", "lattice", "count", "positions", "write_positions", "fill", "particles"]
+__all__ = ["cell_range", "lattice", "count", "positions", "position_batches", "fill", "particles"]
 
 _CHUNK = 1 << 16  # candidate particles examined per vectorised batch
 _EDGE_TOL = 0.51  # edge layer thickness in particle spacings
@@ -65,15 +65,11 @@ def positions(scene: "Scene") -> list[np.ndarray]:
             for body in scene.bodies]
 
 
-def write_positions(scene: "Scene", out: np.ndarray) -> None:
-    """Write all bodies' particle positions into ``out`` (N, 2), in the order of
-    :func:`positions`, a batch of :func:`lattice` at a time (so without an
-    array of them all on the way)."""
-    start = 0
+def position_batches(scene: "Scene") -> Iterator[np.ndarray]:
+    """All bodies' particle positions in the order of :func:`positions`, a
+    batch of :func:`lattice` at a time (so without an array of them all)."""
     for body in scene.bodies:
-        for x in lattice(body, scene.grid, *cell_range(body, scene.grid)):
-            out[start:start + len(x)] = x
-            start += len(x)
+        yield from lattice(body, scene.grid, *cell_range(body, scene.grid))
 
 
 def fill(scene: "Scene", xs: list[np.ndarray], columns: Mapping[str, np.ndarray]) -> None:
