@@ -1,32 +1,52 @@
 """Process CPU time of the bench block's steps, which a busy machine inflates
 less than wall time (docs/performance.md).
 
-    OMP_NUM_THREADS=1 python -P tools/cputime.py PHYSICS PARTICLES STEPS [PER_CELL [BANDS]]
+    OMP_NUM_THREADS=1 python -P tools/cputime.py PHYSICS PARTICLES STEPS [PER_CELL [BANDS]] [--order cells]
 
 prints M particle-steps per CPU second, the median of 3 runs of STEPS steps
 after 2 warm-up steps, for the block of ``pfmpm bench`` (pfmpm.bench.block_scene,
 PER_CELL particles per cell and direction, 3 by default, and BANDS damaged
 bands with PHYSICS damage_gradient, 1 by default) set vibrating as the bench
-sets it.
+sets it. ``--order cells`` first permutes every particle column into the
+order in which the transfers visit the cells (column by column, a cell's
+particles in their seeded order) instead of the seeding's row-by-row order:
+the measurement behind the cost growth of docs/performance.md (not with
+``damage_gradient``, whose neighbour lists are built before it).
 """
 
+import argparse
 import resource
 import statistics
-import sys
 
 import numpy as np
 
 from pfmpm.bench import block_scene
 from pfmpm.simulation import Simulation
 
-physics, n, steps = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
-per_cell, bands = (int(a) for a in (sys.argv[4:] + ["3", "1"][len(sys.argv[4:]):])[:2])
-sim = Simulation(block_scene(n, 2, per_cell, physics=physics, bands=bands))
-x = sim.particles.x
+parser = argparse.ArgumentParser()
+parser.add_argument("physics")
+parser.add_argument("particles", type=int)
+parser.add_argument("steps", type=int)
+parser.add_argument("per_cell", type=int, nargs="?", default=3)
+parser.add_argument("bands", type=int, nargs="?", default=1)
+parser.add_argument("--order", choices=("seeding", "cells"), default="seeding")
+args = parser.parse_args()
+if args.order == "cells" and args.physics == "damage_gradient":
+    parser.error("--order cells: not with damage_gradient, whose neighbour lists hold particle indices")
+sim = Simulation(block_scene(args.particles, 2, args.per_cell, physics=args.physics, bands=args.bands))
+P = sim.particles
+if args.order == "cells":
+    g = sim.scene.grid
+    cx, cy = (np.floor((P.x[:, k] - g.origin[k]) / g.h).astype(np.int64) for k in (0, 1))
+    perm = np.lexsort((np.arange(len(P)), cy, cx))
+    for column in P.columns():
+        values = getattr(P, column["name"])
+        values[...] = values[perm]
+x = P.x
 lo, hi = x.min(axis=0), x.max(axis=0)
 s = (x - lo) / (hi - lo)
-sim.particles.v[:, 0] = 1e-3 * np.sin(np.pi * s[:, 1])
-sim.particles.v[:, 1] = 1e-3 * np.sin(np.pi * s[:, 0])
+P.v[:, 0] = 1e-3 * np.sin(np.pi * s[:, 1])
+P.v[:, 1] = 1e-3 * np.sin(np.pi * s[:, 0])
 sim.advance(2)
 
 
@@ -37,6 +57,6 @@ def cpu() -> float:
 times = []
 for _ in range(3):
     t = cpu()
-    sim.advance(steps)
+    sim.advance(args.steps)
     times.append(cpu() - t)
-print(f"{len(sim.particles) * steps / statistics.median(times) / 1e6:.2f}")
+print(f"{len(P) * args.steps / statistics.median(times) / 1e6:.2f}")
