@@ -41,7 +41,8 @@ class Body:
         from x (the paper's convention): turns the anisotropy tensor of the
         body's material, so that a crack along phi has ``gamma_n = gamma_1111``.
         Per-particle orientations can be set on ``Simulation.particles.phi``
-        (radians) before the first step.
+        (radians) before the first step; only a material with the
+        fourth-order term reads it, and only its runs have the column.
     """
 
     name: str
