@@ -77,7 +77,7 @@ class Rows:
         return cls(n, lambda: (np.asarray(rows(a, min(a + _BLOCK, n)), dtype=dtype) for a in starts))
 
 
-def _write_data_array(f: BinaryIO, name: str, values: np.ndarray, layout: str = "") -> None:
+def _write_data_array(f: BinaryIO, name: str, values: "np.ndarray | Rows", layout: str = "") -> None:
     """One binary ``DataArray`` of :func:`vtk_values`: base64 of a UInt64 byte
     count and the values, converted and encoded ``_BLOCK`` rows at a time
     (a :class:`Rows` block at a time), so that a snapshot holds neither its

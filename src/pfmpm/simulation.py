@@ -252,8 +252,8 @@ class Simulation:
         n = len(self.particles)
         yield "displacement", Rows(n, self._displacements), ""
         if self.cracks:
-            c = self.particles.c
-            yield "damage", Rows.of(n, lambda a, b: 1.0 - c[a:b]), ""
+            phase = self.particles.c
+            yield "damage", Rows.of(n, lambda a, b: 1.0 - phase[a:b]), ""
         yield "id", Rows.of(n, np.arange, np.int64), ""
 
     def displacement(self) -> np.ndarray:
