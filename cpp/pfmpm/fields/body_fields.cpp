@@ -100,9 +100,7 @@ int BodyFields::node_fields(int ix, int iy, std::int32_t* out) const
 
 void BodyFields::build(const Particles& particles, const CellSort& sort)
 {
-  const NodeBlock& block = _grid.block();
-  const int ncx = _grid.cells()[0], ncy = _grid.cells()[1];
-  const int nnx = _grid.nodes()[0], nny = _grid.nodes()[1];
+  const int nny = _grid.nodes()[1];
   const auto ncells = static_cast<std::ptrdiff_t>(_grid.num_cells());
   const std::int32_t* body = _field ? _field : particles.body.data();
   const std::int32_t* order = sort.order().data();
@@ -180,25 +178,36 @@ void BodyFields::build(const Particles& particles, const CellSort& sort)
     else
       node_fields(nodes[a] / nny, nodes[a] % nny, &_slot_field[_slot_start[a]]);
 
-  _touches.assign(ncells, 0);
-  if (contact == 0)
+  mark_contact_cells(_grid, sort, _slot_start, contact, nullptr, _touches);
+}
+
+void mark_contact_cells(const Grid& grid, const CellSort& sort,
+                        const std::vector<std::int32_t>& slot_start, std::int32_t contact_nodes,
+                        const std::uint8_t* only, std::vector<std::uint8_t>& touches)
+{
+  const NodeBlock& block = grid.block();
+  const int ncx = grid.cells()[0], ncy = grid.cells()[1];
+  const int nnx = grid.nodes()[0], nny = grid.nodes()[1];
+  const std::int64_t* start = sort.cell_start().data();
+  touches.assign(grid.num_cells(), 0);
+  if (contact_nodes == 0)
     return;
 #pragma omp parallel for schedule(static)
   for (int cx = 0; cx < ncx; ++cx)
     for (int cy = 0; cy < ncy; ++cy)
     {
       const std::size_t cell = static_cast<std::size_t>(cx) * ncy + cy;
-      if (start[cell + 1] == start[cell])
+      if (start[cell + 1] == start[cell] || (only && !only[cell]))
         continue;
       const int x0 = block.first(cx, nnx), y0 = block.first(cy, nny);
       bool any = false;
       for (int a = 0; a < block.width && !any; ++a)
         for (int b = 0; b < block.width && !any; ++b)
         {
-          const std::int32_t n = _grid.active_index(x0 + a, y0 + b);
-          any = _slot_start[n + 1] - _slot_start[n] >= 2;
+          const std::int32_t n = grid.active_index(x0 + a, y0 + b);
+          any = slot_start[n + 1] - slot_start[n] >= 2;
         }
-      _touches[cell] = any;
+      touches[cell] = any;
     }
 }
 

@@ -602,9 +602,6 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
 void DamageFields::layout(const CellSort& sort, bool any_split)
 {
   const auto na = static_cast<std::ptrdiff_t>(_grid.num_active());
-  const NodeBlock& block = _grid.block();
-  const int ncx = _grid.cells()[0], ncy = _grid.cells()[1];
-  const int nnx = _grid.nodes()[0], nny = _grid.nodes()[1];
   const std::int32_t* gstart = _groups ? _groups->slot_start().data() : nullptr;
   auto groups_of = [&](std::ptrdiff_t a, std::int32_t& g0, std::int32_t& g1)
   {
@@ -649,31 +646,11 @@ void DamageFields::layout(const CellSort& sort, bool any_split)
     }
   }
 
-  const auto ncells = static_cast<std::ptrdiff_t>(_grid.num_cells());
-  _touches.assign(ncells, 0);
-  if (contact == 0)
-    return;
-  const std::int64_t* start = sort.cell_start().data();
   // With one group, only a split node has two slots, and only cells near
   // full damage have one among their nodes.
   const bool near_only = !_groups && any_split;
-#pragma omp parallel for schedule(static)
-  for (int cx = 0; cx < ncx; ++cx)
-    for (int cy = 0; cy < ncy; ++cy)
-    {
-      const std::size_t cell = static_cast<std::size_t>(cx) * ncy + cy;
-      if (start[cell + 1] == start[cell] || (near_only && !_near[cell]))
-        continue;
-      const int x0 = block.first(cx, nnx), y0 = block.first(cy, nny);
-      bool any = false;
-      for (int a = 0; a < block.width && !any; ++a)
-        for (int b = 0; b < block.width && !any; ++b)
-        {
-          const std::int32_t n = _grid.active_index(x0 + a, y0 + b);
-          any = _slot_start[n + 1] - _slot_start[n] >= 2;
-        }
-      _touches[cell] = any;
-    }
+  mark_contact_cells(_grid, sort, _slot_start, contact, near_only ? _near.data() : nullptr,
+                     _touches);
 }
 
 std::vector<std::array<double, 4>> DamageFields::nodal_gradients() const

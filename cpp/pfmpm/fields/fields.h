@@ -53,6 +53,15 @@ struct NodeKinematics
 ///         fields and finite, >= 0 and symmetric entries.
 int friction_fields(const std::vector<double>& friction, int at_least);
 
+/// @brief Per cell of `sort`, whether a node of its block has two or more
+/// slots (a contact node), where P2G sums the surface quantities: into
+/// `touches`, 0 for every cell when there are no `contact_nodes`, and for
+/// the empty cells and, given `only`, the cells where it is 0.
+/// @param slot_start Slots of active node a: [slot_start[a], slot_start[a + 1]).
+void mark_contact_cells(const Grid& grid, const CellSort& sort,
+                        const std::vector<std::int32_t>& slot_start, std::int32_t contact_nodes,
+                        const std::uint8_t* only, std::vector<std::uint8_t>& touches);
+
 /// @brief One velocity field: node a's only slot is a.
 struct SingleField
 {
