@@ -7,6 +7,7 @@
 
 #include "pfmpm/grid/grid.h"
 #include "pfmpm/particles/particles.h"
+#include "pfmpm/shape/stencil.h"
 
 #include <algorithm>
 #include <array>
@@ -70,6 +71,13 @@ struct CpdiStencil
 
   double N(int i) const { return n[i]; }
   double dN(int k, int i) const { return dn[k][i]; }
+
+  /// The values and gradients of Q nodal quantities (interpolate_by_nodes).
+  template <int Q>
+  void interpolate(const double (*nodal)[Q], double (&value)[Q], double (&grad)[dim][Q]) const
+  {
+    interpolate_by_nodes<Q>(*this, nodal, value, grad);
+  }
 
   /// f(i, Sbar_i, grad Sbar_i) for every node i in order.
   template <class F>

@@ -13,6 +13,32 @@ namespace pfmpm
 /// Number of second derivatives of a function of `dim` variables (xx, yy, xy in 2D).
 constexpr int hessian_size(int dim) { return dim * (dim + 1) / 2; }
 
+/// @brief value[q] = sum_i N_i nodal[i][q] and grad[k][q] = sum_i dN_i/dx_k
+/// nodal[i][q] for Q nodal quantities, node by node in stencil order (the
+/// form of any stencil; BSplineStencil::interpolate factors it).
+template <int Q, class Shape>
+void interpolate_by_nodes(const Shape& s, const double (*nodal)[Q], double (&value)[Q],
+                          double (&grad)[Shape::dim][Q])
+{
+  for (int q = 0; q < Q; ++q)
+  {
+    value[q] = 0.0;
+    for (int k = 0; k < Shape::dim; ++k)
+      grad[k][q] = 0.0;
+  }
+  s.each_node(
+      [&](int i, double w, const double* g)
+      {
+#pragma omp simd
+        for (int q = 0; q < Q; ++q)
+        {
+          value[q] += w * nodal[i][q];
+          for (int k = 0; k < Shape::dim; ++k)
+            grad[k][q] += g[k] * nodal[i][q];
+        }
+      });
+}
+
 /// @brief Tensor-product B-spline stencil of degree P in `Dim` dimensions.
 ///
 /// A particle in cell (c_0, .., c_{Dim-1}) sees the width^Dim nodes
@@ -28,7 +54,7 @@ constexpr int hessian_size(int dim) { return dim * (dim + 1) / 2; }
 ///
 /// CPDI (CpdiStencil, shape/cpdi.h) provides the same members: `dim`,
 /// `degree`, `width`, `lower`, `size`, `domains`, `offset`, `first`, `N`,
-/// `dN`, `each_node` and `evaluate`.
+/// `dN`, `each_node`, `interpolate` and `evaluate`.
 template <int Dim, int P, int Order = 1>
 struct BSplineStencil
 {
@@ -115,6 +141,56 @@ struct BSplineStencil
           g[k] = dN(k, i);
         f(i, N(i), g);
       }
+  }
+
+  /// @brief The values and gradients at the point of Q quantities given at
+  /// the stencil's nodes (`nodal[i][q]`), as interpolate_by_nodes. In 2D by
+  /// the tensor product: along y within each column of the stencil first,
+  /// t_a = sum_b N_b(y) nodal[a, b] and u_a = sum_b N_b'(y) nodal[a, b], then
+  /// along x, value = sum_a N_a(x) t_a, d/dx = sum_a N_a'(x) t_a and
+  /// d/dy = sum_a N_a(x) u_a: 3 (P + 1)(P + 2) multiply-adds of Q-vectors
+  /// (27 for P = 2) instead of 3 (P + 1)^2 per quantity, and no products of
+  /// the factors formed.
+  template <int Q>
+  void interpolate(const double (*nodal)[Q], double (&value)[Q], double (&grad)[Dim][Q]) const
+  {
+    if constexpr (Dim == 2)
+    {
+      double t[width][Q], u[width][Q];
+      for (int a = 0; a < width; ++a)
+      {
+#pragma omp simd
+        for (int q = 0; q < Q; ++q)
+        {
+          t[a][q] = n[1][0] * nodal[a * width][q];
+          u[a][q] = dn[1][0] * nodal[a * width][q];
+        }
+        for (int b = 1; b < width; ++b)
+#pragma omp simd
+          for (int q = 0; q < Q; ++q)
+          {
+            t[a][q] += n[1][b] * nodal[a * width + b][q];
+            u[a][q] += dn[1][b] * nodal[a * width + b][q];
+          }
+      }
+#pragma omp simd
+      for (int q = 0; q < Q; ++q)
+      {
+        value[q] = n[0][0] * t[0][q];
+        grad[0][q] = dn[0][0] * t[0][q];
+        grad[1][q] = n[0][0] * u[0][q];
+      }
+      for (int a = 1; a < width; ++a)
+#pragma omp simd
+        for (int q = 0; q < Q; ++q)
+        {
+          value[q] += n[0][a] * t[a][q];
+          grad[0][q] += dn[0][a] * t[a][q];
+          grad[1][q] += n[0][a] * u[a][q];
+        }
+    }
+    else
+      interpolate_by_nodes<Q>(*this, nodal, value, grad);
   }
 
   /// @brief Evaluate at x, a point of cell `cell` (per direction).

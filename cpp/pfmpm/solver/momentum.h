@@ -411,11 +411,12 @@ std::array<double, grid_update_sums> update_grid(const Grid& grid, Fields& field
       });
 }
 
-/// The nodal velocities and accelerations of a cell, per local field.
+/// The nodal velocities and accelerations of a cell, per local field and
+/// stencil node: vx, vy, ax, ay (NodeKinematics' order).
 template <int F, int K>
 struct G2PBlock
 {
-  double vx[F][K], vy[F][K], ax[F][K], ay[F][K];
+  double nodal[F][K][4];
 };
 
 /// The particle arrays that G2P moves.
@@ -433,8 +434,11 @@ struct G2PArrays
 /// largest |v_p|^2 in `speed2` and the largest squared nodal velocity a
 /// particle moved with in `drift2`.
 ///
-/// Not inlined, on purpose: every partition runs this same compiled
-/// arithmetic (see sum_cell).
+/// The four nodal quantities are interpolated together (Shape::interpolate).
+/// With more than one field a particle first gathers the values of its
+/// fields into one block, so that every partition runs the same arithmetic
+/// on the values it reads; not inlined, on purpose, for the same reason (see
+/// sum_cell).
 template <class Shape, int F, class Select>
 [[gnu::noinline]] void move_cell(const detail::EachParticle<Shape>& each, const G2PArrays& a,
                                  const Select& select, const G2PBlock<F, Shape::size>& block,
@@ -442,34 +446,29 @@ template <class Shape, int F, class Select>
                                  double& drift2)
 {
   constexpr int K = Shape::size;
-  // Restrict: the nodal values are apart from the particle arrays. (Copying
-  // them instead cost a store-forwarding stall per cell: the block was just
-  // written a double at a time, and the copy reads it 32 bytes at a time.)
-  const double(*__restrict nvx)[K] = block.vx;
-  const double(*__restrict nvy)[K] = block.vy;
-  const double(*__restrict nax)[K] = block.ax;
-  const double(*__restrict nay)[K] = block.ay;
   double *x = a.x, *v = a.v, *volume = a.volume;
   each(
       [&](std::size_t p, const Shape& s)
       {
-        const auto fp = select.particle(p);
-        double vx = 0, vy = 0, ax = 0, ay = 0, Lxx = 0, Lxy = 0, Lyx = 0, Lyy = 0;
-        s.each_node([&](int i, double w, const double* g)
+        double value[4], grad[2][4]; // (vx, vy, ax, ay) and their x and y derivatives
+        if constexpr (F == 1)
+          s.template interpolate<4>(block.nodal[0], value, grad);
+        else
         {
-          const int f = Select::at(fp, i);
-          const double gx = g[0], gy = g[1];
-          vx += w * nvx[f][i];
-          vy += w * nvy[f][i];
-          ax += w * nax[f][i];
-          ay += w * nay[f][i];
-          Lxx += nvx[f][i] * gx; // velocity gradient, L_ij = dv_i/dx_j
-          Lxy += nvx[f][i] * gy;
-          Lyx += nvy[f][i] * gx;
-          Lyy += nvy[f][i] * gy;
-        });
-        v[2 * p] += dt * ax; // eq. 80
-        v[2 * p + 1] += dt * ay;
+          const auto fp = select.particle(p);
+          double mine[K][4];
+          for (int i = 0; i < K; ++i)
+          {
+            const int f = Select::at(fp, i);
+            for (int q = 0; q < 4; ++q)
+              mine[i][q] = block.nodal[f][i][q];
+          }
+          s.template interpolate<4>(mine, value, grad);
+        }
+        const double vx = value[0], vy = value[1];
+        const double Lxx = grad[0][0], Lxy = grad[1][0], Lyx = grad[0][1], Lyy = grad[1][1];
+        v[2 * p] += dt * value[2]; // eq. 80
+        v[2 * p + 1] += dt * value[3];
         x[2 * p] += dt * vx; // eq. 82
         x[2 * p + 1] += dt * vy;
         volume[p] *= (1.0 + dt * Lxx) * (1.0 + dt * Lyy) - dt * dt * Lxy * Lyx;
@@ -560,10 +559,8 @@ struct KinematicsG2P
       {
         const std::int32_t slot = slot_of(fields, active[i], fields_of, f);
         const NodeKinematics k = slot < 0 ? NodeKinematics{} : kinematics[slot];
-        nodes.vx[f][i] = k.vx;
-        nodes.vy[f][i] = k.vy;
-        nodes.ax[f][i] = k.ax;
-        nodes.ay[f][i] = k.ay;
+        static_assert(sizeof k == sizeof nodes.nodal[f][i]);
+        std::memcpy(nodes.nodal[f][i], &k, sizeof k);
       }
     local.L.resize(4 * static_cast<std::size_t>(cell.end - cell.begin));
     const G2PArrays arrays{particles.x.data(), particles.v.data(), particles.volume.data()};
