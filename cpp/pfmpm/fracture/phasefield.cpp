@@ -936,30 +936,30 @@ void PhaseField::map_to_particles(Particles& particles, const CellSort& sort)
       unreduced(
           [&](const Cell& cell, const auto& each)
           {
-            double nodal[K];
+            double nodal[K][1];
             [[maybe_unused]] RotatedGamma rotated;
             for (int i = 0; i < K; ++i)
-              nodal[i] = _c[padded(cell.cx + Shape::offset(i, 0), cell.cy + Shape::offset(i, 1))];
+              nodal[i][0] = _c[padded(cell.cx + Shape::offset(i, 0), cell.cy + Shape::offset(i, 1))];
             each(
                 [&](std::size_t p, const Shape& s)
                 {
                   const Fracture& fr = *fracture(material[p]);
-                  double cp = 0.0, gx = 0.0, gy = 0.0;
-                  [[maybe_unused]] double kappa[3] = {0.0, 0.0, 0.0};
-                  for (int i = 0; i < K; ++i)
-                  {
-                    cp += s.N(i) * nodal[i];     // eq. 53
-                    gx += s.dN(0, i) * nodal[i]; // eq. 54
-                    gy += s.dN(1, i) * nodal[i];
-                    if constexpr (Fourth)
-                      for (int h = 0; h < 3; ++h)
-                        kappa[h] += s.d2N(h, i) * nodal[i]; // eq. 55, per component
-                  }
-                  c[p] = cp;
+                  // c_p (eq. 53) and its gradient (eq. 54), with the fourth
+                  // order its second derivatives kappa (eq. 55).
+                  double cp[1], g[2][1];
+                  [[maybe_unused]] double kappa[3][1];
+                  if constexpr (Fourth)
+                    s.template interpolate<1>(nodal, cp, g, kappa);
+                  else
+                    s.template interpolate<1>(nodal, cp, g);
+                  c[p] = cp[0];
                   // G_c V Z with Z of eq. 4 (AT1: Fracture::crack_density).
-                  double Z = fr.crack_density(cp, gx * gx + gy * gy);
+                  double Z = fr.crack_density(cp[0], g[0][0] * g[0][0] + g[1][0] * g[1][0]);
                   if constexpr (Fourth) // zero for a material with gamma = 0
-                    Z += fr.l0 * fr.l0 * fr.l0 * curvature_energy(rotated(fr, phi[p]), kappa);
+                  {
+                    const double k[3] = {kappa[0][0], kappa[1][0], kappa[2][0]};
+                    Z += fr.l0 * fr.l0 * fr.l0 * curvature_energy(rotated(fr, phi[p]), k);
+                  }
                   energy[p] = fr.Gc * volume[p] * Z;
                 });
           }));

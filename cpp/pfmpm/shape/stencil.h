@@ -155,42 +155,20 @@ struct BSplineStencil
   void interpolate(const double (*nodal)[Q], double (&value)[Q], double (&grad)[Dim][Q]) const
   {
     if constexpr (Dim == 2)
-    {
-      double t[width][Q], u[width][Q];
-      for (int a = 0; a < width; ++a)
-      {
-#pragma omp simd
-        for (int q = 0; q < Q; ++q)
-        {
-          t[a][q] = n[1][0] * nodal[a * width][q];
-          u[a][q] = dn[1][0] * nodal[a * width][q];
-        }
-        for (int b = 1; b < width; ++b)
-#pragma omp simd
-          for (int q = 0; q < Q; ++q)
-          {
-            t[a][q] += n[1][b] * nodal[a * width + b][q];
-            u[a][q] += dn[1][b] * nodal[a * width + b][q];
-          }
-      }
-#pragma omp simd
-      for (int q = 0; q < Q; ++q)
-      {
-        value[q] = n[0][0] * t[0][q];
-        grad[0][q] = dn[0][0] * t[0][q];
-        grad[1][q] = n[0][0] * u[0][q];
-      }
-      for (int a = 1; a < width; ++a)
-#pragma omp simd
-        for (int q = 0; q < Q; ++q)
-        {
-          value[q] += n[0][a] * t[a][q];
-          grad[0][q] += dn[0][a] * t[a][q];
-          grad[1][q] += n[0][a] * u[a][q];
-        }
-    }
+      by_columns<Q, false>(nodal, value, grad, nullptr);
     else
       interpolate_by_nodes<Q>(*this, nodal, value, grad);
+  }
+  /// @brief interpolate with the second derivatives too (`hessian[h][q]`, in
+  /// d2N's order xx, yy, xy); only for Order 2, only in 2D. By the same
+  /// columns: with v_a = sum_b N_b''(y) nodal[a, b], d2/dx2 = sum_a N_a''(x)
+  /// t_a, d2/dy2 = sum_a N_a(x) v_a and d2/dxdy = sum_a N_a'(x) u_a.
+  template <int Q>
+  void interpolate(const double (*nodal)[Q], double (&value)[Q], double (&grad)[Dim][Q],
+                   double (&hessian)[hessian_size(Dim)][Q]) const
+  {
+    static_assert(Order == 2 && Dim == 2, "second derivatives: Order 2, in 2D");
+    by_columns<Q, true>(nodal, value, grad, hessian);
   }
 
   /// @brief Evaluate at x, a point of cell `cell` (per direction).
@@ -200,6 +178,62 @@ struct BSplineStencil
   }
 
 private:
+  /// interpolate in 2D: the sums along y per column of the stencil, then along x.
+  template <int Q, bool Second>
+  void by_columns(const double (*nodal)[Q], double (&value)[Q], double (&grad)[Dim][Q],
+                  double (*hessian)[Q]) const
+  {
+    double t[width][Q], u[width][Q];
+    [[maybe_unused]] double w[Second ? width : 1][Q];
+    for (int a = 0; a < width; ++a)
+    {
+#pragma omp simd
+      for (int q = 0; q < Q; ++q)
+      {
+        t[a][q] = n[1][0] * nodal[a * width][q];
+        u[a][q] = dn[1][0] * nodal[a * width][q];
+        if constexpr (Second)
+          w[a][q] = ddn[1][0] * nodal[a * width][q];
+      }
+      for (int b = 1; b < width; ++b)
+#pragma omp simd
+        for (int q = 0; q < Q; ++q)
+        {
+          t[a][q] += n[1][b] * nodal[a * width + b][q];
+          u[a][q] += dn[1][b] * nodal[a * width + b][q];
+          if constexpr (Second)
+            w[a][q] += ddn[1][b] * nodal[a * width + b][q];
+        }
+    }
+#pragma omp simd
+    for (int q = 0; q < Q; ++q)
+    {
+      value[q] = n[0][0] * t[0][q];
+      grad[0][q] = dn[0][0] * t[0][q];
+      grad[1][q] = n[0][0] * u[0][q];
+      if constexpr (Second)
+      {
+        hessian[0][q] = ddn[0][0] * t[0][q];
+        hessian[1][q] = n[0][0] * w[0][q];
+        hessian[2][q] = dn[0][0] * u[0][q];
+      }
+    }
+    for (int a = 1; a < width; ++a)
+#pragma omp simd
+      for (int q = 0; q < Q; ++q)
+      {
+        value[q] += n[0][a] * t[a][q];
+        grad[0][q] += dn[0][a] * t[a][q];
+        grad[1][q] += n[0][a] * u[a][q];
+        if constexpr (Second)
+        {
+          hessian[0][q] += ddn[0][a] * t[a][q];
+          hessian[1][q] += n[0][a] * w[a][q];
+          hessian[2][q] += dn[0][a] * u[a][q];
+        }
+      }
+  }
+
   /// The values of direction D, then of the next ones (unrolled at compile time).
   template <int D>
   void direction(const std::array<const BSpline1D*, Dim>& basis, const int* cell, const double* x)
