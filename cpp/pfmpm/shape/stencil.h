@@ -178,60 +178,47 @@ struct BSplineStencil
   }
 
 private:
-  /// interpolate in 2D: the sums along y per column of the stencil, then along x.
+  /// interpolate in 2D: the sums along y in column a of the stencil, then
+  /// their terms of the sums along x, column by column (each column's sums
+  /// used as soon as they are formed: kept in registers, not stored and read
+  /// back).
   template <int Q, bool Second>
   void by_columns(const double (*nodal)[Q], double (&value)[Q], double (&grad)[Dim][Q],
                   double (*hessian)[Q]) const
   {
-    double t[width][Q], u[width][Q];
-    [[maybe_unused]] double w[Second ? width : 1][Q];
-    for (int a = 0; a < width; ++a)
-    {
-#pragma omp simd
-      for (int q = 0; q < Q; ++q)
-      {
-        t[a][q] = n[1][0] * nodal[a * width][q];
-        u[a][q] = dn[1][0] * nodal[a * width][q];
-        if constexpr (Second)
-          w[a][q] = ddn[1][0] * nodal[a * width][q];
-      }
-      for (int b = 1; b < width; ++b)
-#pragma omp simd
-        for (int q = 0; q < Q; ++q)
-        {
-          t[a][q] += n[1][b] * nodal[a * width + b][q];
-          u[a][q] += dn[1][b] * nodal[a * width + b][q];
-          if constexpr (Second)
-            w[a][q] += ddn[1][b] * nodal[a * width + b][q];
-        }
-    }
-#pragma omp simd
     for (int q = 0; q < Q; ++q)
     {
-      value[q] = n[0][0] * t[0][q];
-      grad[0][q] = dn[0][0] * t[0][q];
-      grad[1][q] = n[0][0] * u[0][q];
+      value[q] = 0.0;
+      grad[0][q] = 0.0;
+      grad[1][q] = 0.0;
       if constexpr (Second)
-      {
-        hessian[0][q] = ddn[0][0] * t[0][q];
-        hessian[1][q] = n[0][0] * w[0][q];
-        hessian[2][q] = dn[0][0] * u[0][q];
-      }
+        hessian[0][q] = hessian[1][q] = hessian[2][q] = 0.0;
     }
-    for (int a = 1; a < width; ++a)
+    for (int a = 0; a < width; ++a)
+    {
+      const double* column = nodal[a * width];
 #pragma omp simd
       for (int q = 0; q < Q; ++q)
       {
-        value[q] += n[0][a] * t[a][q];
-        grad[0][q] += dn[0][a] * t[a][q];
-        grad[1][q] += n[0][a] * u[a][q];
+        double t = 0.0, u = 0.0, w = 0.0;
+        for (int b = 0; b < width; ++b)
+        {
+          t += n[1][b] * column[b * Q + q];
+          u += dn[1][b] * column[b * Q + q];
+          if constexpr (Second)
+            w += ddn[1][b] * column[b * Q + q];
+        }
+        value[q] += n[0][a] * t;
+        grad[0][q] += dn[0][a] * t;
+        grad[1][q] += n[0][a] * u;
         if constexpr (Second)
         {
-          hessian[0][q] += ddn[0][a] * t[a][q];
-          hessian[1][q] += n[0][a] * w[a][q];
-          hessian[2][q] += dn[0][a] * u[a][q];
+          hessian[0][q] += ddn[0][a] * t;
+          hessian[1][q] += n[0][a] * w;
+          hessian[2][q] += dn[0][a] * u;
         }
       }
+    }
   }
 
   /// The values of direction D, then of the next ones (unrolled at compile time).
