@@ -19,14 +19,14 @@ namespace
 {
 std::string text(double v) { return std::to_string(v); }
 
-/// kappa^T G kappa for a symmetric Voigt G; times l0^3, the fourth-order part of eq. 4.
-double curvature_energy(const Voigt& G, const double kappa[3])
+/// kappa^T G kappa for a symmetric Voigt G and kappa = (xx, yy, xy); times
+/// l0^3, the fourth-order part of eq. 4. (Scalars, not an array: the
+/// interpolation has just written them one by one, and reading them back as
+/// a vector would wait for the stores.)
+double curvature_energy(const Voigt& G, double kxx, double kyy, double kxy)
 {
-  double sum = 0.0;
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j)
-      sum += kappa[i] * G[3 * i + j] * kappa[j];
-  return sum;
+  return kxx * (G[0] * kxx + G[1] * kyy + G[2] * kxy) + kyy * (G[3] * kxx + G[4] * kyy + G[5] * kxy)
+         + kxy * (G[6] * kxx + G[7] * kyy + G[8] * kxy);
 }
 
 /// A material's gamma in the global frame (Fracture::rotated), recomputed only
@@ -340,18 +340,27 @@ void PhaseField::assemble(const Particles& particles, const CellSort& sort)
                   kxy[i] = s.d2N(2, i);
                 }
                 const double e = 4.0 * fr.l0 * fr.l0 * fr.l0 * fr.l0 * V;
+                // Per node i, as vectors: a w_i, b grad w_i and u_i = e G kappa_i,
+                // so that the fourth-order term of entry (i, j) is u_i . kappa_j.
+                alignas(32) double aw[R], bx[R], by[R], u0[R], u1[R], u2[R];
+                for (int i = 0; i < R; ++i)
+                {
+                  aw[i] = a * w[i];
+                  bx[i] = b * gx[i];
+                  by[i] = b * gy[i];
+                  u0[i] = e * (G[0] * kxx[i] + G[1] * kyy[i] + G[2] * kxy[i]);
+                  u1[i] = e * (G[3] * kxx[i] + G[4] * kyy[i] + G[5] * kxy[i]);
+                  u2[i] = e * (G[6] * kxx[i] + G[7] * kyy[i] + G[8] * kxy[i]);
+                }
                 for (int i = 0; i < K; ++i)
                 {
                   f[i] += src * w[i]; // eq. 52
-                  const double aw = a * w[i], bx_ = b * gx[i], by_ = b * gy[i];
-                  // e G kappa_i, so that the fourth-order term is u . kappa_j
-                  const double u0 = e * (G[0] * kxx[i] + G[1] * kyy[i] + G[2] * kxy[i]);
-                  const double u1 = e * (G[3] * kxx[i] + G[4] * kyy[i] + G[5] * kxy[i]);
-                  const double u2 = e * (G[6] * kxx[i] + G[7] * kyy[i] + G[8] * kxy[i]);
                   double* __restrict row = block[i];
-                  for (int j = 0; j < R; ++j) // eq. 57 with its fourth-order term
-                    row[j] += aw * w[j] + bx_ * gx[j] + by_ * gy[j] + u0 * kxx[j] + u1 * kyy[j]
-                              + u2 * kxy[j];
+                  // Only j >= i lands in the stored upper half: from the
+                  // 4-entry group that holds i on.
+                  for (int j = i / 4 * 4; j < R; ++j) // eq. 57 with its fourth-order term
+                    row[j] += aw[i] * w[j] + bx[i] * gx[j] + by[i] * gy[j] + u0[i] * kxx[j]
+                              + u1[i] * kyy[j] + u2[i] * kxy[j];
                 }
               }
               else
@@ -956,10 +965,9 @@ void PhaseField::map_to_particles(Particles& particles, const CellSort& sort)
                   // G_c V Z with Z of eq. 4 (AT1: Fracture::crack_density).
                   double Z = fr.crack_density(cp[0], g[0][0] * g[0][0] + g[1][0] * g[1][0]);
                   if constexpr (Fourth) // zero for a material with gamma = 0
-                  {
-                    const double k[3] = {kappa[0][0], kappa[1][0], kappa[2][0]};
-                    Z += fr.l0 * fr.l0 * fr.l0 * curvature_energy(rotated(fr, phi[p]), k);
-                  }
+                    Z += fr.l0 * fr.l0 * fr.l0
+                         * curvature_energy(rotated(fr, phi[p]), kappa[0][0], kappa[1][0],
+                                            kappa[2][0]);
                   energy[p] = fr.Gc * volume[p] * Z;
                 });
           }));
