@@ -74,7 +74,8 @@ struct CpdiStencil
 
   /// The values and gradients of Q nodal quantities (interpolate_by_nodes).
   template <int Q>
-  void interpolate(const double (*nodal)[Q], double (&value)[Q], double (&grad)[dim][Q]) const
+  [[gnu::always_inline]] void interpolate(const double (*nodal)[Q], double (&value)[Q],
+                                          double (&grad)[dim][Q]) const
   {
     interpolate_by_nodes<Q>(*this, nodal, value, grad);
   }

@@ -15,9 +15,10 @@ constexpr int hessian_size(int dim) { return dim * (dim + 1) / 2; }
 
 /// @brief value[q] = sum_i N_i nodal[i][q] and grad[k][q] = sum_i dN_i/dx_k
 /// nodal[i][q] for Q nodal quantities, node by node in stencil order (the
-/// form of any stencil; BSplineStencil::interpolate factors it).
+/// form of any stencil; BSplineStencil::interpolate factors it). Always
+/// inlined: called per particle, its sums stay in registers.
 template <int Q, class Shape>
-void interpolate_by_nodes(const Shape& s, const double (*nodal)[Q], double (&value)[Q],
+[[gnu::always_inline]] inline void interpolate_by_nodes(const Shape& s, const double (*nodal)[Q], double (&value)[Q],
                           double (&grad)[Shape::dim][Q])
 {
   for (int q = 0; q < Q; ++q)
