@@ -948,7 +948,8 @@ void PhaseField::map_to_particles(Particles& particles, const CellSort& sort)
             double nodal[K][1];
             [[maybe_unused]] RotatedGamma rotated;
             for (int i = 0; i < K; ++i)
-              nodal[i][0] = _c[padded(cell.cx + Shape::offset(i, 0), cell.cy + Shape::offset(i, 1))];
+              nodal[i][0] =
+                  _c[padded(cell.cx + Shape::offset(i, 0), cell.cy + Shape::offset(i, 1))];
             each(
                 [&](std::size_t p, const Shape& s)
                 {

@@ -18,8 +18,9 @@ constexpr int hessian_size(int dim) { return dim * (dim + 1) / 2; }
 /// form of any stencil; BSplineStencil::interpolate factors it). Always
 /// inlined: called per particle, its sums stay in registers.
 template <int Q, class Shape>
-[[gnu::always_inline]] inline void interpolate_by_nodes(const Shape& s, const double (*nodal)[Q], double (&value)[Q],
-                          double (&grad)[Shape::dim][Q])
+[[gnu::always_inline]] inline void interpolate_by_nodes(const Shape& s, const double (*nodal)[Q],
+                                                        double (&value)[Q],
+                                                        double (&grad)[Shape::dim][Q])
 {
   for (int q = 0; q < Q; ++q)
   {
@@ -149,7 +150,7 @@ struct BSplineStencil
   /// the tensor product: along y within each column of the stencil first,
   /// t_a = sum_b N_b(y) nodal[a, b] and u_a = sum_b N_b'(y) nodal[a, b], then
   /// along x, value = sum_a N_a(x) t_a, d/dx = sum_a N_a'(x) t_a and
-  /// d/dy = sum_a N_a(x) u_a: 3 (P + 1)(P + 2) multiply-adds of Q-vectors
+  /// d/dy = sum_a N_a(x) u_a: (P + 1)(2 P + 5) multiply-adds of Q-vectors
   /// (27 for P = 2) instead of 3 (P + 1)^2 per quantity, and no products of
   /// the factors formed.
   template <int Q>
