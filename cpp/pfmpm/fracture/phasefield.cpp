@@ -3,6 +3,7 @@
 /// and map-back to the particles (eqs. 53-55, 4).
 #include "pfmpm/fracture/phasefield.h"
 #include "pfmpm/common/reduce.h"
+#include "pfmpm/fracture/moments.h"
 #include "pfmpm/shape/stencil.h"
 #include "pfmpm/transfer/transfer.h"
 
@@ -70,15 +71,16 @@ Voigt Fracture::rotated(double phi) const
   const double T[3][3] = {{e1x * e1x, e1y * e1y, 2.0 * e1x * e1y},
                           {e2x * e2x, e2y * e2y, 2.0 * e2x * e2y},
                           {e1x * e2x, e1y * e2y, e1x * e2y + e1y * e2x}};
+  // Formed for b >= a and mirrored: exactly symmetric.
   Voigt out{};
   for (int a = 0; a < 3; ++a)
-    for (int b = 0; b < 3; ++b)
+    for (int b = a; b < 3; ++b)
     {
       double sum = 0.0;
       for (int i = 0; i < 3; ++i)
         for (int j = 0; j < 3; ++j)
           sum += T[i][a] * 0.5 * (gamma[3 * i + j] + gamma[3 * j + i]) * T[j][b];
-      out[3 * a + b] = sum;
+      out[3 * a + b] = out[3 * b + a] = sum;
     }
   return out;
 }
@@ -133,6 +135,8 @@ PhaseField::PhaseField(const Grid& grid, std::vector<std::optional<Fracture>> fr
     _c.assign(padded_nx * _padded_ny, 1.0);
     _c_previous = _c;
     _search.assign(_c.size(), 0.0);
+    for (int d = 0; d < 2; ++d)
+      _products.emplace_back(grid.basis(d), _fourth ? 2 : 1);
   }
   set_preconditioner(Preconditioner::automatic);
 }
@@ -260,8 +264,10 @@ bool PhaseField::solve(Particles& particles, const CellSort& sort)
 template <int P, bool Fourth>
 void PhaseField::assemble(const Particles& particles, const CellSort& sort)
 {
-  using Shape = BSplineStencil<2, P, Fourth ? 2 : 1>;
+  using Shape = BSplineStencil<2, P>;
+  using Moments = CellMoments<P, Fourth>;
   constexpr int K = Shape::size;      // nodes of one cell
+  constexpr int W = Shape::width;     // nodes of one cell per direction
   constexpr int H = Stencil<P>::size; // stored entries per node
   const int nny = _grid.nodes()[1];
   // The system's unknowns: the nodes in the support of the sort's particles
@@ -300,87 +306,53 @@ void PhaseField::assemble(const Particles& particles, const CellSort& sort)
       slot[i][j] = Stencil<P>::slot(Shape::offset(j, 0) - Shape::offset(i, 0),
                                     Shape::offset(j, 1) - Shape::offset(i, 1));
 
-  // Per cell, a local K x K block of eq. 57 and K entries of eq. 52, summed
-  // over the cell's particles in sorted order, then added to the stencil rows.
-  particle_to_grid<Shape>(
+  // Per cell, the moments of its particles in sorted order (moments.h), and
+  // from them its K x K block of eq. 57 and K entries of eq. 52, added to the
+  // stencil rows.
+  const CellProducts& along_x = _products[0];
+  const CellProducts& along_y = _products[1];
+  particle_to_grid<CellPowers<P>>(
       _grid, sort, Points{particles.x.data()},
       [&](const Cell& cell, const auto& each)
       {
-        // Rows padded to a multiple of 4 so the inner loop vectorises; each
-        // row is a restrict pointer, without which GCC keeps it scalar (the
-        // block is the enclosing lambda's, as far as it knows shared with w).
-        constexpr int R = (K + 3) / 4 * 4;
-        alignas(32) double block[K][R]{};
-        double f[K]{};
+        Moments moments;
         [[maybe_unused]] RotatedGamma rotated;
         each(
-            [&](std::size_t p, const Shape& s)
+            [&](std::size_t p, const CellPowers<P>& s)
             {
               const Fracture& fr = *fracture(material[p]);
               const double V = volume[p];
-              const double a = fr.reaction(history[p]) * V; // eq. 49 (AT1: Fracture::reaction)
-              const double b = fr.diffusion() * V;
-              const double src = fr.source() * V;
-              alignas(32) double w[R]{}, gx[R]{}, gy[R]{};
-              for (int i = 0; i < K; ++i)
-              {
-                w[i] = s.N(i);
-                gx[i] = s.dN(0, i);
-                gy[i] = s.dN(1, i);
-              }
+              double w[Moments::weights];
+              w[moments::reaction] = fr.reaction(history[p]) * V; // eq. 49 (AT1: Fracture::reaction)
+              w[moments::diffusion] = fr.diffusion() * V;
               if constexpr (Fourth)
               {
+                // kappa_i^T gamma kappa_j (eq. 57), gamma turned to the particle
+                // (symmetric: one weight per pair of components).
                 const Voigt& G = rotated(fr, phi[p]);
-                // Curvatures of the basis, kappa = (N_,xx, N_,yy, N_,xy) (eq. 55).
-                alignas(32) double kxx[R]{}, kyy[R]{}, kxy[R]{};
-                for (int i = 0; i < K; ++i)
-                {
-                  kxx[i] = s.d2N(0, i);
-                  kyy[i] = s.d2N(1, i);
-                  kxy[i] = s.d2N(2, i);
-                }
                 const double e = 4.0 * fr.l0 * fr.l0 * fr.l0 * fr.l0 * V;
-                // Per node i, as vectors: a w_i, b grad w_i and u_i = e G kappa_i,
-                // so that the fourth-order term of entry (i, j) is u_i . kappa_j.
-                alignas(32) double aw[R], bx[R], by[R], u0[R], u1[R], u2[R];
-                for (int i = 0; i < R; ++i)
-                {
-                  aw[i] = a * w[i];
-                  bx[i] = b * gx[i];
-                  by[i] = b * gy[i];
-                  u0[i] = e * (G[0] * kxx[i] + G[1] * kyy[i] + G[2] * kxy[i]);
-                  u1[i] = e * (G[3] * kxx[i] + G[4] * kyy[i] + G[5] * kxy[i]);
-                  u2[i] = e * (G[6] * kxx[i] + G[7] * kyy[i] + G[8] * kxy[i]);
-                }
-                for (int i = 0; i < K; ++i)
-                {
-                  f[i] += src * w[i]; // eq. 52
-                  double* __restrict row = block[i];
-                  // Only j >= i lands in the stored upper half: from the
-                  // 4-entry group that holds i on.
-                  for (int j = i / 4 * 4; j < R; ++j) // eq. 57 with its fourth-order term
-                    row[j] += aw[i] * w[j] + bx[i] * gx[j] + by[i] * gy[j] + u0[i] * kxx[j]
-                              + u1[i] * kyy[j] + u2[i] * kxy[j];
-                }
+                w[2] = e * G[0]; // xx xx
+                w[3] = e * G[4]; // yy yy
+                w[4] = e * G[8]; // xy xy
+                w[5] = e * G[1]; // xx yy
+                w[6] = e * G[2]; // xx xy
+                w[7] = e * G[5]; // yy xy
               }
-              else
-                for (int i = 0; i < K; ++i)
-                {
-                  f[i] += src * w[i]; // eq. 52
-                  const double aw = a * w[i], bx_ = b * gx[i], by_ = b * gy[i];
-                  double* __restrict row = block[i];
-                  for (int j = 0; j < R; ++j)
-                    row[j] += aw * w[j] + bx_ * gx[j] + by_ * gy[j]; // eq. 57, gamma = 0
-                }
+              moments.add(s, w, fr.source() * V);
             });
+        alignas(64) double block[W * W][CellProducts::row(P)];
+        double f[K];
+        moments.block(along_x.products(cell.cx), along_y.products(cell.cy), block);
+        moments.rhs(along_x.values(cell.cx), along_y.values(cell.cy), f);
         for (int i = 0; i < K; ++i)
         {
-          const int ix = cell.cx + Shape::offset(i, 0), iy = cell.cy + Shape::offset(i, 1);
+          const int ai = Shape::offset(i, 0), bi = Shape::offset(i, 1);
+          const int ix = cell.cx + ai, iy = cell.cy + bi;
           _rhs[_nodes.index(ix, iy)] += f[i];
           double* row = &_stencil[padded(ix, iy) * H];
           for (int j = 0; j < K; ++j)
-            if (slot[i][j] >= 0)
-              row[slot[i][j]] += block[i][j];
+            if (slot[i][j] >= 0) // the upper half: node j's a' >= a
+              row[slot[i][j]] += block[ai * W + Shape::offset(j, 0)][bi * W + Shape::offset(j, 1)];
         }
       });
 

@@ -7,6 +7,7 @@
 #include "pfmpm/grid/grid.h"
 #include "pfmpm/particles/cell_sort.h"
 #include "pfmpm/particles/particles.h"
+#include "pfmpm/fracture/moments.h"
 #include "pfmpm/fracture/multigrid.h"
 #include "pfmpm/fracture/symmetric_stencil.h"
 
@@ -282,6 +283,7 @@ private:
   const Grid& _grid;
   ActiveNodes _nodes; // the unknowns: the nodes the solve's particles touch
   std::vector<std::optional<Fracture>> _fracture;
+  std::vector<CellProducts> _products; // x and y: the basis's products on each cell (moments.h)
   bool _active;
   bool _fourth; // some material has gamma != 0
   bool _bounded; // second order and some material bounded: 0 <= c <= 1 is imposed

@@ -65,6 +65,14 @@ public:
     return s < 0.0 ? 0 : s >= _cells ? _cells - 1 : static_cast<int>(s);
   }
 
+  /// @brief The coefficients of basis function cell + k on `cell` as a
+  /// polynomial in xi = coordinate(x) - cell: entry j multiplies xi^j, j = 0
+  /// .. max_degree (zero above the degree).
+  const double* polynomial(int cell, int k) const
+  {
+    return &_coeffs[static_cast<std::size_t>(cell) * stride + k * (max_degree + 1)];
+  }
+
   /// @brief Values and derivatives of the degree+1 functions nonzero on `cell`.
   ///
   /// Entry k of each output array belongs to basis function cell + k.

@@ -1,0 +1,280 @@
+/// @file moments.h
+/// @brief A cell's share of the phase-field system (K&T eqs. 57 and 52) from
+/// moments of its particles.
+///
+/// On one cell every B-spline is a polynomial of degree P in the local
+/// coordinate, so N_i N_j, grad N_i . grad N_j and the products of second
+/// derivatives of the fourth-order term are, for i = (a, b) and j = (a', b'),
+/// products X(xi) Y(eta) of two polynomials of degree at most 2P. The cell's
+/// sum over its particles, sum_p w_p X(xi_p) Y(eta_p), is then a fixed
+/// combination of the particles' weighted moments
+/// M_mn = sum_p w_p xi_p^m eta_p^n: per particle (2P + 1)^2 multiply-adds per
+/// weight instead of a product per pair of nodes, and per cell one
+/// contraction of the moments with the basis's product polynomials, the same
+/// for every interior cell.
+#pragma once
+
+#include "pfmpm/grid/bspline.h"
+
+#include <array>
+#include <cstddef>
+#include <utility>
+#include <vector>
+
+namespace pfmpm
+{
+
+/// @brief The powers 1, xi, .., xi^2P of a particle's local coordinates in
+/// its cell, for particle_to_grid in place of a stencil (it evaluates no
+/// shape function).
+template <int P>
+struct CellPowers
+{
+  static constexpr int dim = 2;
+  static constexpr int degree = P;
+  static constexpr int width = P + 1;
+  static constexpr int lower = 0;
+  static constexpr int size = width * width;
+  static constexpr bool domains = false;
+  static constexpr int count = 2 * P + 1;           ///< powers 0 .. 2P
+  static constexpr int padded = (count + 3) / 4 * 4; ///< y's length: whole vectors
+
+  double x[count];  ///< xi^m, xi = (x - origin) / h - cx, as BSpline1D evaluates
+  double y[padded]; ///< eta^n, zero above 2P
+
+  void evaluate(const std::array<const BSpline1D*, 2>& basis, const int* cell, const double* point)
+  {
+    const double xi = basis[0]->coordinate(point[0]) - cell[0];
+    const double eta = basis[1]->coordinate(point[1]) - cell[1];
+    x[0] = y[0] = 1.0;
+    for (int m = 1; m < count; ++m)
+    {
+      x[m] = x[m - 1] * xi;
+      y[m] = y[m - 1] * eta;
+    }
+    for (int m = count; m < padded; ++m)
+      y[m] = 0.0;
+  }
+};
+
+/// @brief Along one axis of the grid, per cell: the products of the
+/// B-splines nonzero there and of their derivatives, as polynomials in the
+/// local coordinate, and the B-splines' own coefficients.
+///
+/// Only the P cells at each end of an open knot vector have their own
+/// polynomials; the interior cells share one table.
+class CellProducts
+{
+public:
+  /// @param basis The axis's B-splines (kept by reference).
+  /// @param derivatives The highest derivative in a product: 1, or 2 with the
+  /// fourth-order term.
+  CellProducts(const BSpline1D& basis, int derivatives);
+
+  /// Entries of a product row: the (P + 1)^2 node pairs (a, a'), padded to a
+  /// multiple of 4.
+  static constexpr int row(int degree) { return ((degree + 1) * (degree + 1) + 3) / 4 * 4; }
+
+  /// @brief Coefficient of xi^m in d^d1 N_a/dx^d1 d^d2 N_a'/dx^d2 on `cell`
+  /// is table(cell)[((d1 (D + 1) + d2) (2P + 1) + m) row + a (P + 1) + a'],
+  /// with D = derivatives() and row = row(P).
+  const double* products(int cell) const { return &_table[kind(cell) * _stride]; }
+  /// @brief Coefficient of xi^m in N_a on `cell` is values(cell)[m (P + 1) + a].
+  const double* values(int cell) const { return &_table[kind(cell) * _stride + _values]; }
+  int derivatives() const { return _derivatives; }
+
+private:
+  /// The table of `cell`: its own near the ends, the interior one elsewhere.
+  std::size_t kind(int cell) const
+  {
+    const int p = _degree, cells = _cells;
+    if (cells <= 2 * p + 1 || cell < p)
+      return static_cast<std::size_t>(cell);
+    if (cell >= cells - p)
+      return static_cast<std::size_t>(cell - (cells - (2 * p + 1)));
+    return static_cast<std::size_t>(p);
+  }
+
+  int _degree, _cells, _derivatives;
+  std::size_t _values, _stride;
+  std::vector<double> _table;
+};
+
+namespace moments
+{
+/// @brief One term of K_ij (eq. 57): the x derivatives of N_i and N_j, their
+/// y derivatives, and the particle weight (CellMoments' moment array) it
+/// carries.
+struct Term
+{
+  int xi, xj, yi, yj, weight;
+};
+
+/// Weights: reaction(H) V (eq. 49), diffusion V, and with the fourth-order
+/// term 4 l0^4 V gamma_rs for the pairs (xx, xx), (yy, yy), (xy, xy), (xx, yy),
+/// (xx, xy), (yy, xy) of the curvature kappa = (N_,xx, N_,yy, N_,xy).
+inline constexpr int reaction = 0, diffusion = 1;
+
+/// The second-order terms, grouped by their x derivatives.
+inline constexpr std::array<Term, 3> second_order{
+    {{0, 0, 0, 0, reaction}, {0, 0, 1, 1, diffusion}, {1, 1, 0, 0, diffusion}}};
+
+/// @brief With the fourth-order term e kappa_i^T gamma kappa_j (eq. 57)
+/// written out: kappa component s of N_i against component r of N_j carries
+/// gamma_rs (gamma symmetric), with xx = (2, 0), yy = (0, 2) and xy = (1, 1)
+/// derivatives in (x, y). Grouped by the x derivatives.
+inline constexpr std::array<Term, 12> fourth_order{{
+    {0, 0, 0, 0, reaction}, {0, 0, 1, 1, diffusion}, {0, 0, 2, 2, 3}, // yy yy
+    {1, 1, 0, 0, diffusion}, {1, 1, 1, 1, 4},                         // xy xy
+    {2, 2, 0, 0, 2},                                                  // xx xx
+    {0, 2, 2, 0, 5}, {2, 0, 0, 2, 5},                                 // yy xx, xx yy
+    {0, 1, 2, 1, 7}, {1, 0, 1, 2, 7},                                 // yy xy, xy yy
+    {1, 2, 1, 0, 6}, {2, 1, 0, 1, 6}}};                               // xy xx, xx xy
+
+/// The terms of the second-order (false) or fourth-order (true) functional.
+template <bool Fourth>
+constexpr auto terms()
+{
+  if constexpr (Fourth)
+    return fourth_order;
+  else
+    return second_order;
+}
+
+template <class F, std::size_t... I>
+void unrolled(F&& f, std::index_sequence<I...>)
+{
+  (f(std::integral_constant<int, static_cast<int>(I)>{}), ...);
+}
+} // namespace moments
+
+/// @brief The weighted moments of one cell's particles, and the cell's block
+/// of K and entries of F from them, for degree P with (Fourth) or without the
+/// fourth-order term.
+template <int P, bool Fourth>
+struct CellMoments
+{
+  static constexpr int W = P + 1, Q = 2 * P + 1, D = Fourth ? 2 : 1;
+  static constexpr int weights = Fourth ? 8 : 2;
+  static constexpr int R = CellProducts::row(P); // padded (b, b') pairs
+  static constexpr auto terms = moments::terms<Fourth>();
+  static constexpr int term_count = static_cast<int>(terms.size());
+
+  /// Highest power of xi (x) or eta (y) that weight k's terms need.
+  static constexpr int highest(int k, bool y)
+  {
+    int h = 0;
+    for (const moments::Term& t : terms)
+      if (t.weight == k)
+      {
+        const int e = 2 * P - (y ? t.yi + t.yj : t.xi + t.xj);
+        h = e > h ? e : h;
+      }
+    return h;
+  }
+
+  double moment[weights][Q][CellPowers<P>::padded] = {}; ///< sum_p w_p xi^m eta^n
+  double source[W][W] = {};                              ///< sum_p s_p xi^m eta^n, m, n <= P
+
+  /// Add a particle at `s` with weights `w` (in the order of moments'
+  /// weights) and F's coefficient `src` (eq. 52).
+  void add(const CellPowers<P>& s, const double (&w)[weights], double src)
+  {
+    moments::unrolled(
+        [&](auto k)
+        {
+          constexpr int K = decltype(k)::value;
+          for (int m = 0; m <= highest(K, false); ++m)
+          {
+            const double t = w[K] * s.x[m];
+#pragma omp simd
+            for (int n = 0; n < CellPowers<P>::padded; ++n) // one vector; zero above 2P
+              moment[K][m][n] += t * s.y[n];
+          }
+        },
+        std::make_index_sequence<weights>{});
+    for (int m = 0; m <= P; ++m)
+    {
+      const double t = src * s.x[m];
+      for (int n = 0; n <= P; ++n)
+        source[m][n] += t * s.y[n];
+    }
+  }
+
+  /// @brief The cell's K_ij (eq. 57) for i = (a, b), j = (a', b') with
+  /// a' >= a (all that the upper-half stencil stores) as
+  /// block[a W + a'][b W + b'], from the x and y tables of its cell
+  /// (CellProducts::products): per term, U_m = sum_n Y_n M_mn along y, then
+  /// sum_m X_m U_m along x, the terms that share their x polynomial summed
+  /// in U first. The rows a' < a are zero.
+  void block(const double* x, const double* y, double (&out)[W * W][R]) const
+  {
+    for (auto& row : out)
+      for (double& v : row)
+        v = 0.0;
+    alignas(64) double U[Q][R] = {};
+    moments::unrolled(
+        [&](auto index)
+        {
+          constexpr int T = decltype(index)::value;
+          constexpr moments::Term t = terms[T];
+          constexpr int DX = 2 * P - t.xi - t.xj, DY = 2 * P - t.yi - t.yj;
+          const double* Y = &y[std::size_t((t.yi * (D + 1) + t.yj) * Q) * R];
+          // Each sum in a register over its terms, stored once (a vector read
+          // back soon after partial stores of it would wait for them).
+          for (int m = 0; m <= DX; ++m)
+          {
+            const double* M = moment[t.weight][m];
+#pragma omp simd
+            for (int e = 0; e < R; ++e)
+            {
+              double sum = U[m][e];
+              for (int n = 0; n <= DY; ++n)
+                sum += M[n] * Y[n * R + e];
+              U[m][e] = sum;
+            }
+          }
+          constexpr bool last = T + 1 == term_count || terms[T + 1].xi != t.xi
+                                || terms[T + 1].xj != t.xj;
+          if constexpr (last)
+          {
+            const double* X = &x[std::size_t((t.xi * (D + 1) + t.xj) * Q) * R];
+            for (int a = 0; a < W; ++a)
+              for (int aa = a * W + a; aa < (a + 1) * W; ++aa) // a' >= a
+              {
+#pragma omp simd
+                for (int e = 0; e < R; ++e)
+                {
+                  double sum = out[aa][e];
+                  for (int m = 0; m <= DX; ++m)
+                    sum += X[m * R + aa] * U[m][e];
+                  out[aa][e] = sum;
+                }
+              }
+            for (auto& row : U)
+              for (double& v : row)
+                v = 0.0;
+          }
+        },
+        std::make_index_sequence<term_count>{});
+  }
+
+  /// @brief The cell's F_i (eq. 52) for i = (a, b) as f[a W + b], from the
+  /// value tables of its cell (CellProducts::values).
+  void rhs(const double* x, const double* y, double (&f)[W * W]) const
+  {
+    double T[W][W] = {}; // [m][b]
+    for (int m = 0; m <= P; ++m)
+      for (int n = 0; n <= P; ++n)
+        for (int b = 0; b < W; ++b)
+          T[m][b] += source[m][n] * y[n * W + b];
+    for (int i = 0; i < W * W; ++i)
+      f[i] = 0.0;
+    for (int m = 0; m <= P; ++m)
+      for (int a = 0; a < W; ++a)
+        for (int b = 0; b < W; ++b)
+          f[a * W + b] += x[m * W + a] * T[m][b];
+  }
+};
+
+} // namespace pfmpm
