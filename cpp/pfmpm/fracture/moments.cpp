@@ -8,7 +8,7 @@ namespace pfmpm
 {
 
 CellProducts::CellProducts(const BSpline1D& basis, int derivatives)
-    : _degree(basis.degree()), _cells(basis.cells()), _derivatives(derivatives)
+    : _degree(basis.degree()), _cells(basis.cells())
 {
   const int p = _degree, W = p + 1, Q = 2 * p + 1, D = derivatives, R = row(p);
   _values = static_cast<std::size_t>((D + 1) * (D + 1) * Q * R);

@@ -8,10 +8,10 @@
 /// products X(xi) Y(eta) of two polynomials of degree at most 2P. The cell's
 /// sum over its particles, sum_p w_p X(xi_p) Y(eta_p), is then a fixed
 /// combination of the particles' weighted moments
-/// M_mn = sum_p w_p xi_p^m eta_p^n: per particle (2P + 1)^2 multiply-adds per
-/// weight instead of a product per pair of nodes, and per cell one
-/// contraction of the moments with the basis's product polynomials, the same
-/// for every interior cell.
+/// M_mn = sum_p w_p xi_p^m eta_p^n: per particle and weight a row of powers
+/// of eta per power of xi (a vector multiply-add each) instead of a product
+/// per pair of nodes, and per cell one contraction of the moments with the
+/// basis's product polynomials, the same for every interior cell.
 #pragma once
 
 #include "pfmpm/grid/bspline.h"
@@ -26,15 +26,12 @@ namespace pfmpm
 
 /// @brief The powers 1, xi, .., xi^2P of a particle's local coordinates in
 /// its cell, for particle_to_grid in place of a stencil (it evaluates no
-/// shape function).
+/// shape function; its block is the B-spline stencil's).
 template <int P>
 struct CellPowers
 {
-  static constexpr int dim = 2;
-  static constexpr int degree = P;
   static constexpr int width = P + 1;
   static constexpr int lower = 0;
-  static constexpr int size = width * width;
   static constexpr bool domains = false;
   static constexpr int count = 2 * P + 1;           ///< powers 0 .. 2P
   static constexpr int padded = (count + 3) / 4 * 4; ///< y's length: whole vectors
@@ -66,7 +63,7 @@ struct CellPowers
 class CellProducts
 {
 public:
-  /// @param basis The axis's B-splines (kept by reference).
+  /// @param basis The axis's B-splines (their polynomials are read here).
   /// @param derivatives The highest derivative in a product: 1, or 2 with the
   /// fourth-order term.
   CellProducts(const BSpline1D& basis, int derivatives);
@@ -76,12 +73,11 @@ public:
   static constexpr int row(int degree) { return ((degree + 1) * (degree + 1) + 3) / 4 * 4; }
 
   /// @brief Coefficient of xi^m in d^d1 N_a/dx^d1 d^d2 N_a'/dx^d2 on `cell`
-  /// is table(cell)[((d1 (D + 1) + d2) (2P + 1) + m) row + a (P + 1) + a'],
-  /// with D = derivatives() and row = row(P).
+  /// is products(cell)[((d1 (D + 1) + d2) (2P + 1) + m) row + a (P + 1) + a'],
+  /// with D = `derivatives` and row = row(P).
   const double* products(int cell) const { return &_table[kind(cell) * _stride]; }
   /// @brief Coefficient of xi^m in N_a on `cell` is values(cell)[m (P + 1) + a].
   const double* values(int cell) const { return &_table[kind(cell) * _stride + _values]; }
-  int derivatives() const { return _derivatives; }
 
 private:
   /// The table of `cell`: its own near the ends, the interior one elsewhere.
@@ -95,7 +91,7 @@ private:
     return static_cast<std::size_t>(p);
   }
 
-  int _degree, _cells, _derivatives;
+  int _degree, _cells;
   std::size_t _values, _stride;
   std::vector<double> _table;
 };
@@ -160,16 +156,13 @@ struct CellMoments
   static constexpr auto terms = moments::terms<Fourth>();
   static constexpr int term_count = static_cast<int>(terms.size());
 
-  /// Highest power of xi (x) or eta (y) that weight k's terms need.
-  static constexpr int highest(int k, bool y)
+  /// Highest power of xi that weight k's terms need.
+  static constexpr int highest(int k)
   {
     int h = 0;
     for (const moments::Term& t : terms)
-      if (t.weight == k)
-      {
-        const int e = 2 * P - (y ? t.yi + t.yj : t.xi + t.xj);
-        h = e > h ? e : h;
-      }
+      if (t.weight == k && 2 * P - t.xi - t.xj > h)
+        h = 2 * P - t.xi - t.xj;
     return h;
   }
 
@@ -184,7 +177,7 @@ struct CellMoments
         [&](auto k)
         {
           constexpr int K = decltype(k)::value;
-          for (int m = 0; m <= highest(K, false); ++m)
+          for (int m = 0; m <= highest(K); ++m)
           {
             const double t = w[K] * s.x[m];
 #pragma omp simd

@@ -298,14 +298,6 @@ void PhaseField::assemble(const Particles& particles, const CellSort& sort)
   for (std::ptrdiff_t k = 0; k < static_cast<std::ptrdiff_t>(_stencil.size()); ++k)
     _stencil[k] = 0.0;
 
-  // Where each pair of a cell's nodes lands in the upper-half stencil (-1: the
-  // lower half, added through the symmetric pair).
-  int slot[K][K];
-  for (int i = 0; i < K; ++i)
-    for (int j = 0; j < K; ++j)
-      slot[i][j] = Stencil<P>::slot(Shape::offset(j, 0) - Shape::offset(i, 0),
-                                    Shape::offset(j, 1) - Shape::offset(i, 1));
-
   // Per cell, the moments of its particles in sorted order (moments.h), and
   // from them its K x K block of eq. 57 and K entries of eq. 52, added to the
   // stencil rows.
@@ -349,10 +341,12 @@ void PhaseField::assemble(const Particles& particles, const CellSort& sort)
           const int ai = Shape::offset(i, 0), bi = Shape::offset(i, 1);
           const int ix = cell.cx + ai, iy = cell.cy + bi;
           _rhs[_nodes.index(ix, iy)] += f[i];
+          // The upper half of row i: the nodes j = (a', b') after i, a' > a or
+          // a' = a and b' >= b.
           double* row = &_stencil[padded(ix, iy) * H];
-          for (int j = 0; j < K; ++j)
-            if (slot[i][j] >= 0) // the upper half: node j's a' >= a
-              row[slot[i][j]] += block[ai * W + Shape::offset(j, 0)][bi * W + Shape::offset(j, 1)];
+          for (int aj = ai; aj < W; ++aj)
+            for (int bj = aj == ai ? bi : 0; bj < W; ++bj)
+              row[Stencil<P>::slot(aj - ai, bj - bi)] += block[ai * W + aj][bi * W + bj];
         }
       });
 
