@@ -7,6 +7,8 @@
 #include "pfmpm/shape/stencil.h"
 #include "pfmpm/transfer/transfer.h"
 
+#include <omp.h>
+
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
@@ -31,8 +33,10 @@ double curvature_energy(const Voigt& G, double kxx, double kyy, double kxy)
 }
 
 /// A material's gamma in the global frame (Fracture::rotated), recomputed only
-/// when the material or the orientation differs from the last call's.
-class RotatedGamma
+/// when the material or the orientation differs from the last call's. One per
+/// thread for a transfer (`per_thread`), so that a body of one orientation
+/// pays once per thread, not once per cell.
+class alignas(64) RotatedGamma
 {
 public:
   const Voigt& operator()(const Fracture& fracture, double phi)
@@ -51,6 +55,13 @@ private:
   const Fracture* _fracture = nullptr;
   double _phi = 0.0;
 };
+
+/// A RotatedGamma per thread of the transfers, or none without the
+/// fourth-order term.
+std::vector<RotatedGamma> per_thread(bool fourth)
+{
+  return std::vector<RotatedGamma>(fourth ? static_cast<std::size_t>(omp_get_max_threads()) : 0);
+}
 } // namespace
 
 bool Fracture::fourth_order() const
@@ -303,12 +314,13 @@ void PhaseField::assemble(const Particles& particles, const CellSort& sort)
   // stencil rows.
   const CellProducts& along_x = _products[0];
   const CellProducts& along_y = _products[1];
+  [[maybe_unused]] std::vector<RotatedGamma> rotated = per_thread(Fourth);
   particle_to_grid<CellPowers<P>>(
       _grid, sort, Points{particles.x.data()},
       [&](const Cell& cell, const auto& each)
       {
         Moments moments;
-        [[maybe_unused]] RotatedGamma rotated;
+        [[maybe_unused]] RotatedGamma* mine = Fourth ? &rotated[omp_get_thread_num()] : nullptr;
         each(
             [&](std::size_t p, const CellPowers<P>& s)
             {
@@ -321,7 +333,7 @@ void PhaseField::assemble(const Particles& particles, const CellSort& sort)
               {
                 // kappa_i^T gamma kappa_j (eq. 57), gamma turned to the particle
                 // (symmetric: one weight per pair of components).
-                const Voigt& G = rotated(fr, phi[p]);
+                const Voigt& G = (*mine)(fr, phi[p]);
                 const double e = 4.0 * fr.l0 * fr.l0 * fr.l0 * fr.l0 * V;
                 w[2] = e * G[0]; // xx xx
                 w[3] = e * G[4]; // yy yy
@@ -905,6 +917,7 @@ void PhaseField::map_to_particles(Particles& particles, const CellSort& sort)
   const std::int32_t* material = particles.material.data();
   double* c = particles.f64("c").data();
   double* energy = particles.f64("fracture_energy").data();
+  [[maybe_unused]] std::vector<RotatedGamma> rotated = per_thread(Fourth);
 
   grid_to_particle<Shape>(
       _grid, sort, Points{particles.x.data()},
@@ -912,7 +925,7 @@ void PhaseField::map_to_particles(Particles& particles, const CellSort& sort)
           [&](const Cell& cell, const auto& each)
           {
             double nodal[K][1];
-            [[maybe_unused]] RotatedGamma rotated;
+            [[maybe_unused]] RotatedGamma* mine = Fourth ? &rotated[omp_get_thread_num()] : nullptr;
             for (int i = 0; i < K; ++i)
               nodal[i][0] =
                   _c[padded(cell.cx + Shape::offset(i, 0), cell.cy + Shape::offset(i, 1))];
@@ -933,7 +946,7 @@ void PhaseField::map_to_particles(Particles& particles, const CellSort& sort)
                   double Z = fr.crack_density(cp[0], g[0][0] * g[0][0] + g[1][0] * g[1][0]);
                   if constexpr (Fourth) // zero for a material with gamma = 0
                     Z += fr.l0 * fr.l0 * fr.l0
-                         * curvature_energy(rotated(fr, phi[p]), kappa[0][0], kappa[1][0],
+                         * curvature_energy((*mine)(fr, phi[p]), kappa[0][0], kappa[1][0],
                                             kappa[2][0]);
                   energy[p] = fr.Gc * volume[p] * Z;
                 });
