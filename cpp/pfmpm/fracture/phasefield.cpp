@@ -319,7 +319,7 @@ void PhaseField::assemble(const Particles& particles, const CellSort& sort)
       _grid, sort, Points{particles.x.data()},
       [&](const Cell& cell, const auto& each)
       {
-        Moments moments;
+        Moments sums; // the cell's moments
         [[maybe_unused]] RotatedGamma* mine = Fourth ? &rotated[omp_get_thread_num()] : nullptr;
         each(
             [&](std::size_t p, const CellPowers<P>& s)
@@ -342,12 +342,12 @@ void PhaseField::assemble(const Particles& particles, const CellSort& sort)
                 w[6] = e * G[2]; // xx xy
                 w[7] = e * G[5]; // yy xy
               }
-              moments.add(s, w, fr.source() * V);
+              sums.add(s, w, fr.source() * V);
             });
         alignas(64) double block[W * W][CellProducts::row(P)];
         double f[K];
-        moments.block(along_x.products(cell.cx), along_y.products(cell.cy), block);
-        moments.rhs(along_x.values(cell.cx), along_y.values(cell.cy), f);
+        sums.block(along_x.products(cell.cx), along_y.products(cell.cy), block);
+        sums.rhs(along_x.values(cell.cx), along_y.values(cell.cy), f);
         for (int i = 0; i < K; ++i)
         {
           const int ai = Shape::offset(i, 0), bi = Shape::offset(i, 1);
