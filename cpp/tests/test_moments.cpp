@@ -25,9 +25,9 @@ void check_cells()
   const int cells = 9;
   const BSpline1D bx(P, cells, 0.5, -1.0), by(P, cells, 0.25, 2.0);
   const std::array<const BSpline1D*, 2> basis{&bx, &by};
-  const CellProducts tx(bx, Fourth ? 2 : 1), ty(by, Fourth ? 2 : 1);
+  const CellProducts tx(bx), ty(by);
   std::mt19937 random(7);
-  std::uniform_real_distribution<double> unit(0.0, 1.0), weight(0.5, 2.0), signed_unit(-1.0, 1.0);
+  std::uniform_real_distribution<double> unit(0.0, 1.0), weight(0.5, 2.0);
   // A symmetric gamma (Voigt, kappa = xx, yy, xy).
   const double g[9] = {1.0, 0.3, -0.2, 0.3, 74.0, 0.5, -0.2, 0.5, 2.0};
   for (const int cx : {0, 1, P, cells / 2, cells - 2, cells - 1})

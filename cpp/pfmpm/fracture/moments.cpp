@@ -7,7 +7,7 @@
 namespace pfmpm
 {
 
-CellProducts::CellProducts(const BSpline1D& basis, int derivatives)
+CellProducts::CellProducts(const BSpline1D& basis)
     : _degree(basis.degree()), _cells(basis.cells())
 {
   const int p = _degree, W = p + 1, Q = 2 * p + 1, D = derivatives, R = row(p);
@@ -22,7 +22,7 @@ CellProducts::CellProducts(const BSpline1D& basis, int derivatives)
     const int cell = _cells <= 2 * p + 1 || k <= p ? k : k + _cells - (2 * p + 1);
     double* table = &_table[kind(cell) * _stride];
     // poly[d][a][j]: coefficient of xi^j in d^d N_a / dx^d on the cell.
-    double poly[3][max_degree + 1][max_degree + 1] = {};
+    double poly[derivatives + 1][max_degree + 1][max_degree + 1] = {};
     for (int a = 0; a < W; ++a)
     {
       const double* c = basis.polynomial(cell, a);

@@ -63,10 +63,12 @@ struct CellPowers
 class CellProducts
 {
 public:
+  /// The highest derivative in a product: 2, for the fourth-order term (the
+  /// second-order one reads the first derivatives' entries only).
+  static constexpr int derivatives = 2;
+
   /// @param basis The axis's B-splines (their polynomials are read here).
-  /// @param derivatives The highest derivative in a product: 1, or 2 with the
-  /// fourth-order term.
-  CellProducts(const BSpline1D& basis, int derivatives);
+  explicit CellProducts(const BSpline1D& basis);
 
   /// Entries of a product row: the (P + 1)^2 node pairs (a, a'), padded to a
   /// multiple of 4.
@@ -74,7 +76,7 @@ public:
 
   /// @brief Coefficient of xi^m in d^d1 N_a/dx^d1 d^d2 N_a'/dx^d2 on `cell`
   /// is products(cell)[((d1 (D + 1) + d2) (2P + 1) + m) row + a (P + 1) + a'],
-  /// with D = `derivatives` and row = row(P).
+  /// with D = derivatives and row = row(P).
   const double* products(int cell) const { return &_table[kind(cell) * _stride]; }
   /// @brief Coefficient of xi^m in N_a on `cell` is values(cell)[m (P + 1) + a].
   const double* values(int cell) const { return &_table[kind(cell) * _stride + _values]; }
@@ -150,7 +152,7 @@ void unrolled(F&& f, std::index_sequence<I...>)
 template <int P, bool Fourth>
 struct CellMoments
 {
-  static constexpr int W = P + 1, Q = 2 * P + 1, D = Fourth ? 2 : 1;
+  static constexpr int W = P + 1, Q = 2 * P + 1, D = CellProducts::derivatives;
   static constexpr int weights = Fourth ? 8 : 2;
   static constexpr int R = CellProducts::row(P); // padded (b, b') pairs
   static constexpr auto terms = moments::terms<Fourth>();

@@ -147,7 +147,7 @@ PhaseField::PhaseField(const Grid& grid, std::vector<std::optional<Fracture>> fr
     _c_previous = _c;
     _search.assign(_c.size(), 0.0);
     for (int d = 0; d < 2; ++d)
-      _products.emplace_back(grid.basis(d), _fourth ? 2 : 1);
+      _products.emplace_back(grid.basis(d));
   }
   set_preconditioner(Preconditioner::automatic);
 }
