@@ -36,16 +36,17 @@ def lattice(body: Body, grid: GridSpec, i_range: tuple[int, int],
 
     Particles sit at the centres of an ``n x n`` sub-cell lattice in each
     cell, kept if inside the body's shape and outside its holes.  Candidates
-    are numbered by cell (row-major, y outer) then sub-position (row-major)
-    and examined ``_CHUNK`` at a time, so memory stays bounded; each yielded
-    (k, 2) array keeps that order.
+    are numbered by cell, column by column (x outer: the order in which the
+    transfers visit the cells, so that a column's particles lie together in
+    memory), then by sub-position (row-major), and examined ``_CHUNK`` at a
+    time, so memory stays bounded; each yielded (k, 2) array keeps that order.
     """
     (i0, i1), (j0, j1) = i_range, j_range
-    cols, n, h, (ox, oy) = i1 - i0, body.particles_per_cell, grid.h, grid.origin
-    total = max(cols, 0) * max(j1 - j0, 0) * n * n
+    rows, n, h, (ox, oy) = j1 - j0, body.particles_per_cell, grid.h, grid.origin
+    total = max(i1 - i0, 0) * max(rows, 0) * n * n
     for start in range(0, total, _CHUNK):
         cell, sub = np.divmod(np.arange(start, min(start + _CHUNK, total)), n * n)
-        j, i = np.divmod(cell, cols)
+        i, j = np.divmod(cell, rows)
         b, a = np.divmod(sub, n)
         x = ox + (i0 + i + (a + 0.5) / n) * h
         y = oy + (j0 + j + (b + 0.5) / n) * h
@@ -135,7 +136,7 @@ def fill(scene: "Scene", xs: list[np.ndarray], columns: Mapping[str, np.ndarray]
 def particles(scene: "Scene") -> dict[str, np.ndarray]:
     """The particles of all bodies of a scene as new arrays, named as in
     :func:`fill`. Bodies come in order; within a body particles are sorted
-    by cell (row-major, y outer) then by sub-position (see :func:`lattice`)."""
+    by cell (column by column, x outer) then by sub-position (see :func:`lattice`)."""
     xs = positions(scene)
     n = sum(len(x) for x in xs)
     out = {"x": np.empty((n, 2)), "v": np.empty((n, 2)), "mass": np.empty(n), "volume": np.empty(n),
