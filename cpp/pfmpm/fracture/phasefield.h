@@ -227,11 +227,9 @@ private:
   template <int P, bool Fourth>
   bool conjugate_gradient();
   /// @brief The iterations of conjugate_gradient from r = F - K c with
-  /// q = K c given: Jacobi-preconditioned, preconditioned by symmetric
-  /// Gauss-Seidel with Eisenstat's trick, or by a multigrid V-cycle. Set
-  /// `residual` = ||r|| and count iterations in `it`.
-  template <int P>
-  void jacobi_iterations(double norm_f, double stop, double& residual, int& it);
+  /// q = K c given, preconditioned by symmetric Gauss-Seidel with
+  /// Eisenstat's trick or by a multigrid V-cycle (Jacobi: free_set_iterations
+  /// with every node free). Set `residual` = ||r|| and count iterations in `it`.
   template <int P>
   void ssor_iterations(double norm_f, double stop, double& residual, int& it);
   template <int P>
@@ -250,13 +248,20 @@ private:
   /// the active set did not settle within max_iterations passes.
   template <int P>
   bool bounded_solve();
-  /// @brief One active-set update from c and r = F - K c (in _q as K c):
+  /// @brief (K c)_a into _q[a] at the nodes held on a bound, the only rows
+  /// update_active_set reads (a free node's state follows from c alone).
+  template <int P>
+  void held_products();
+  /// @brief One active-set update from c and r = F - K c (in _q as K c, read
+  /// at the held nodes only):
   /// a node at a bound is released when its multiplier pulls it into the box
   /// by at least `margin` K_II (a negative margin: unless it pushes it
   /// outwards by more than -margin K_II), a free node outside [0, 1] is put
   /// on the bound it crossed (and c set to it). Rebuilds the free list `_free`.
   /// @return how many nodes changed their state.
   std::int64_t update_active_set(double margin);
+  /// The free nodes (`_bound` 0) into `_free`, `_free_node` and `_free_diagonal`.
+  void list_free();
   /// @brief Jacobi-preconditioned CG on the free nodes (`_free`), the others
   /// held at their values: the rows of the held nodes are identity rows.
   /// Sets `start` and `residual` to ||r|| over the free nodes before and
@@ -307,10 +312,14 @@ private:
   std::vector<std::size_t> _column_start;
   std::vector<double> _inverse;
   std::vector<double> _forward, _v, _g;
-  // Bounded solve only: per active node -1 (held at c = 0), 0 (free) or +1
-  // (held at c = 1), and the free active nodes in ascending order.
+  // Jacobi-preconditioned CG (free_set_iterations): per active node -1 (held
+  // at c = 0), 0 (free) or +1 (held at c = 1), all 0 unbounded; the free
+  // active nodes in ascending order, and for the iterations their padded
+  // positions and K_II, read without indirection.
   std::vector<std::int8_t> _bound;
   std::vector<std::size_t> _free;
+  std::vector<std::uint32_t> _free_node;
+  std::vector<double> _free_diagonal;
   Preconditioner _preconditioner = Preconditioner::automatic;
   std::unique_ptr<Multigrid> _multigrid; // with Preconditioner::multigrid
   PhaseFieldStats _stats;
