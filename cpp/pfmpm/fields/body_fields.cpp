@@ -98,7 +98,7 @@ int BodyFields::node_fields(int ix, int iy, std::int32_t* out) const
   return n;
 }
 
-void BodyFields::build(const Particles& particles, const CellSort& sort)
+void BodyFields::build(const Particles& particles, const CellSort& sort, bool mark_touches)
 {
   const int nny = _grid.nodes()[1];
   const auto ncells = static_cast<std::ptrdiff_t>(_grid.num_cells());
@@ -178,7 +178,8 @@ void BodyFields::build(const Particles& particles, const CellSort& sort)
     else
       node_fields(nodes[a] / nny, nodes[a] % nny, &_slot_field[_slot_start[a]]);
 
-  mark_contact_cells(_grid, sort, _slot_start, contact, nullptr, _touches);
+  if (mark_touches)
+    mark_contact_cells(_grid, sort, _slot_start, contact, nullptr, _touches);
 }
 
 void mark_contact_cells(const Grid& grid, const CellSort& sort,
@@ -189,26 +190,28 @@ void mark_contact_cells(const Grid& grid, const CellSort& sort,
   const int ncx = grid.cells()[0], ncy = grid.cells()[1];
   const int nnx = grid.nodes()[0], nny = grid.nodes()[1];
   const std::int64_t* start = sort.cell_start().data();
+  const std::int32_t* nodes = grid.active_nodes().data();
   touches.assign(grid.num_cells(), 0);
   if (contact_nodes == 0)
     return;
-#pragma omp parallel for schedule(static)
-  for (int cx = 0; cx < ncx; ++cx)
-    for (int cy = 0; cy < ncy; ++cy)
-    {
-      const std::size_t cell = static_cast<std::size_t>(cx) * ncy + cy;
-      if (start[cell + 1] == start[cell] || (only && !only[cell]))
-        continue;
-      const int x0 = block.first(cx, nnx), y0 = block.first(cy, nny);
-      bool any = false;
-      for (int a = 0; a < block.width && !any; ++a)
-        for (int b = 0; b < block.width && !any; ++b)
-        {
-          const std::int32_t n = grid.active_index(x0 + a, y0 + b);
-          any = slot_start[n + 1] - slot_start[n] >= 2;
-        }
-      touches[cell] = any;
-    }
+  // From the contact nodes, which are few, to the cells whose blocks hold
+  // them (NodeBlock::holders), rather than from every cell to its nodes.
+  const auto na = static_cast<std::ptrdiff_t>(grid.num_active());
+  for (std::ptrdiff_t a = 0; a < na; ++a)
+  {
+    if (slot_start[a + 1] - slot_start[a] < 2)
+      continue;
+    int cx0, cx1, cy0, cy1;
+    block.holders(nodes[a] / nny, ncx, nnx, cx0, cx1);
+    block.holders(nodes[a] % nny, ncy, nny, cy0, cy1);
+    for (int cx = cx0; cx <= cx1; ++cx)
+      for (int cy = cy0; cy <= cy1; ++cy)
+      {
+        const std::size_t cell = static_cast<std::size_t>(cx) * ncy + cy;
+        if (start[cell + 1] > start[cell] && (!only || only[cell]))
+          touches[cell] = 1;
+      }
+  }
 }
 
 } // namespace pfmpm

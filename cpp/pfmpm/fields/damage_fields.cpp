@@ -675,7 +675,7 @@ std::vector<std::array<double, 4>> DamageFields::nodal_gradients() const
 void DamageFields::build(Particles& particles, const CellSort& sort)
 {
   if (_groups)
-    _groups->build(particles, sort);
+    _groups->build(particles, sort, false);
   const auto ncells = static_cast<std::size_t>(_grid.num_cells());
   _mask.resize(particles.size());
   _split.assign(ncells, 0);

@@ -100,8 +100,9 @@ public:
   const std::vector<double>& friction() const { return _friction; }
 
   /// @brief Tag the cells and lay out the slots for this step's sort and
-  /// active nodes (Remark 4).
-  void build(const Particles& particles, const CellSort& sort);
+  /// active nodes (Remark 4). Without `mark_touches`, touches() is left as
+  /// it was (DamageFields, which splits these slots, marks its own cells).
+  void build(const Particles& particles, const CellSort& sort, bool mark_touches = true);
 
   /// Slots of active node a: [slot_start()[a], slot_start()[a + 1]).
   const std::vector<std::int32_t>& slot_start() const { return _slot_start; }
