@@ -40,50 +40,45 @@ void NeighbourList::build(const Grid& grid, const CellSort& sort, const std::vec
         const std::int32_t p = order[k];
         const double xp = x[2 * p], yp = x[2 * p + 1];
         const double sx = bx.coordinate(xp), sy = by.coordinate(yp);
-        // The cells of row ay within the cutoff of p, columns [ax0, ax1]
-        // (in cells: p is `gap` from the row, and the columns within `half`
-        // of it); false if none. Rows outer, columns inner: with particles
-        // numbered along x first, as a body's lattice is, the candidates
-        // then come nearly in index order.
-        auto row = [&](int ay, int& ax0, int& ax1)
+        // The cells of column ax within the cutoff of p, rows [ay0, ay1]
+        // (in cells: p is `gap` from the column, and the rows within `half`
+        // of it); false if none. Columns outer, rows inner: with particles
+        // numbered by cell column by column, as the seeding numbers a body's
+        // lattice, the candidates then come nearly in index order.
+        auto column = [&](int ax, int& ay0, int& ay1)
         {
-          const double gap = ay < cy ? sy - (ay + 1) : ay > cy ? ay - sy : 0.0;
+          const double gap = ax < cx ? sx - (ax + 1) : ax > cx ? ax - sx : 0.0;
           const double left = rc * rc - gap * gap;
           if (left < 0.0)
             return false;
           const double half = std::sqrt(left);
-          ax0 = std::max({cx - reach, 0, static_cast<int>(std::floor(sx - half))});
-          ax1 = std::min({cx + reach, ncx - 1, static_cast<int>(std::floor(sx + half))});
+          ay0 = std::max({cy - reach, 0, static_cast<int>(std::floor(sy - half))});
+          ay1 = std::min({cy + reach, ncy - 1, static_cast<int>(std::floor(sy + half))});
           return true;
         };
-        const int ay0 = std::max(cy - reach, 0), ay1 = std::min(cy + reach, ncy - 1);
-        int ax0, ax1;
+        const int ax0 = std::max(cx - reach, 0), ax1 = std::min(cx + reach, ncx - 1);
+        int ay0, ay1;
         std::int64_t candidates = 0;
-        for (int ay = ay0; ay <= ay1; ++ay)
-          if (row(ay, ax0, ax1))
-            for (int ax = ax0; ax <= ax1; ++ax)
-            {
-              const std::size_t c = static_cast<std::size_t>(ax) * ncy + ay;
-              candidates += start[c + 1] - start[c];
-            }
+        for (int ax = ax0; ax <= ax1; ++ax)
+          if (column(ax, ay0, ay1))
+            candidates += start[static_cast<std::size_t>(ax) * ncy + ay1 + 1]
+                          - start[static_cast<std::size_t>(ax) * ncy + ay0];
         // Every candidate is written, and kept when within the cutoff: no
         // branch on the distance, which would be mispredicted about one
         // time in two.
         const std::size_t first = out.size();
         out.resize(first + static_cast<std::size_t>(candidates));
         std::size_t kept = first;
-        for (int ay = ay0; ay <= ay1; ++ay)
-          if (row(ay, ax0, ax1))
-            for (int ax = ax0; ax <= ax1; ++ax)
+        for (int ax = ax0; ax <= ax1; ++ax)
+          if (column(ax, ay0, ay1))
+            // The cells ay0..ay1 of a column are consecutive in the sort.
+            for (std::int64_t m = start[static_cast<std::size_t>(ax) * ncy + ay0];
+                 m < start[static_cast<std::size_t>(ax) * ncy + ay1 + 1]; ++m)
             {
-              const std::size_t c = static_cast<std::size_t>(ax) * ncy + ay;
-              for (std::int64_t m = start[c]; m < start[c + 1]; ++m)
-              {
-                const std::int32_t q = order[m];
-                const double dx = x[2 * q] - xp, dy = x[2 * q + 1] - yp;
-                out[kept] = q;
-                kept += static_cast<std::size_t>((q != p) & (dx * dx + dy * dy <= c2));
-              }
+              const std::int32_t q = order[m];
+              const double dx = x[2 * q] - xp, dy = x[2 * q + 1] - yp;
+              out[kept] = q;
+              kept += static_cast<std::size_t>((q != p) & (dx * dx + dy * dy <= c2));
             }
         out.resize(kept);
         // By particle index (insertion: nearly in order already).
