@@ -611,7 +611,6 @@ void DamageFields::layout(const CellSort& sort, bool any_split)
   const std::size_t ngs = gstart ? static_cast<std::size_t>(gstart[na]) : static_cast<std::size_t>(na);
   if (!any_split)
     _has_b.assign(ngs, 0);
-  _first.resize(ngs);
   _slot_start.resize(na + 1);
   _slot_start[0] = 0;
 #pragma omp parallel for schedule(static)
@@ -639,7 +638,6 @@ void DamageFields::layout(const CellSort& sort, bool any_split)
     for (std::int32_t g = g0; g < g1; ++g)
     {
       const std::int32_t group = _groups ? _groups->field(g) : 0;
-      _first[g] = s;
       _slot_field[s++] = 2 * group;
       if (_has_b[g])
         _slot_field[s++] = 2 * group + 1;

@@ -159,10 +159,17 @@ public:
   const std::vector<std::int32_t>& slot_field() const { return _slot_field; }
   /// @brief Slot of (group, side) at active node a, or -1 when that field
   /// has no particle there.
+  /// (A node's slots lie in group order, each group's B right after its
+  /// A: a scan of the node's few slots, without going through the groups.)
   std::int32_t slot(std::int32_t a, std::int32_t group, int side) const
   {
-    const std::int32_t g = group_slot(a, group);
-    return side == 0 ? _first[g] : (_has_b[g] ? _first[g] + 1 : -1);
+    const std::int32_t field = 2 * group;
+    std::int32_t s = _slot_start[a];
+    while (_slot_field[s] != field) // A is there: the group is in the node's support
+      ++s;
+    if (side == 0)
+      return s;
+    return s + 1 < _slot_start[a + 1] && _slot_field[s + 1] == field + 1 ? s + 1 : -1;
   }
   /// @brief The groups of occupied cell `key`, sorted, into out[0, n); returns n.
   int cell_groups(std::size_t key, std::int32_t* out) const
@@ -238,13 +245,12 @@ private:
 
   // Per group slot: Algorithm 1's best particle (|grad|^2, index), whether
   // a fully damaged particle maps there, the nodal gradient, whether some
-  // pair chose B, and its first slot.
+  // pair chose B.
   std::vector<double> _best_norm;
   std::vector<std::int32_t> _best;
   std::vector<std::uint8_t> _group_full;
   std::vector<double> _G;
   std::vector<std::uint8_t> _has_b;
-  std::vector<std::int32_t> _first;
 
   std::vector<std::int32_t> _slot_start; // per active node + 1
   std::vector<std::int32_t> _slot_field; // per slot
