@@ -348,5 +348,9 @@ def test_body_fields_keeps_the_bodies_apart_without_partitioning():
     assert sf.bodies == scene.bodies and sf.materials == scene.materials
     assert variants(Scene.from_toml(DEMOS / "billet.toml"))["multi_field"] == body_fields(
         Scene.from_toml(DEMOS / "billet.toml"))
+    # The reference meets by the scene's contact rule (the wedge's: the paper's,
+    # on approach alone).
+    wedge = Scene.from_toml(DEMOS / "wedge_disk_block.toml")
+    assert wedge.contact.touch_fill == 0.0 and body_fields(wedge).contact.touch_fill == 0.0
     with pytest.raises(ValueError, match="damage_gradient"):
         body_fields(sf)

@@ -165,14 +165,16 @@ def check_billet(scene, sim, out, e):
 
 def check_wedge(scene, sim, out, e):
     # The wedge has met the disk: contact acts, the bodies stay apart, and
-    # until the disk meets the block the x momentum is the load's impulse.
+    # until the disk meets the block (the first half of the run, as W4) the x
+    # momentum is the load's impulse.
     summary = json.loads((out / "summary.json").read_text())["contact"]
     assert summary["active_node_pairs"] > 0
     assert summary["violations"] == {"C1": 0, "C2": 0, "C3": 0, "C4": 0}
     assert closest_approach(scene, sim.particles.x, sim.particles.body) > 0.4
     m = sim.particles.mass[sim.particles.body == 0].sum()
-    impulse = m * scene.loads[0].acceleration[0] * e["t"][1:]
-    assert np.abs(e["momentum_x"][1:] - impulse).max() <= 1e-9 * impulse.max()
+    early = (e["t"] > 0.0) & (e["t"] <= 0.5 * scene.time.end)
+    impulse = m * scene.loads[0].acceleration[0] * e["t"][early]
+    assert np.abs(e["momentum_x"][early] - impulse).max() <= 1e-9 * impulse.max()
 
 
 def check_kalthoff_winkler(scene, sim, out, e):
@@ -344,8 +346,8 @@ def test_self_contact_measure_scripts(tmp_path):
     """benchmarks/billet/compare.py and benchmarks/wedge_disk_block/compare.py at
     their smoke settings: the damage-gradient run is far closer to the
     multi-field reference than the single field (checks B1, B2, W1, W2), no
-    contact check fails (B3), nothing passes into anything (B4) and the wedge's
-    momentum is the load's impulse (W4)."""
+    contact check fails (B3), nothing passes into anything (B4, W3) and the
+    wedge's momentum is the load's impulse (W4)."""
     import runpy
 
     def run(name):
@@ -368,12 +370,13 @@ def test_self_contact_measure_scripts(tmp_path):
     assert all(v == {"C1": 0, "C2": 0, "C3": 0, "C4": 0} for v in billet["B3"].values())
     assert min(billet["B4"].values()) >= 0.8
     wedge = run("wedge_disk_block")
-    # Measured: W2 0.089 (single field) and 0.0057; W1 0.126 of the single
-    # field's rotation error. On this coarse grid W1 follows the round-off
-    # of the particle gradients (summing the kernel in two interleaved
-    # chains gave 0.19), so its bound here is looser than the check's 0.15.
+    # The checks' own tolerances. Measured: W1 0.0048 of the single field's
+    # rotation error and 0.011 of the multi-field rotation; W2 0.144 (single
+    # field) and 0.0111; closest approach 1.19 (multi-field) and 1.22
+    # spacings.
+    assert wedge["W1"]["dfg_over_sf"] <= 0.15 and wedge["W1"]["dfg_over_mf"] <= 0.10
     assert wedge["W2"]["damage_gradient"] <= 0.2 * wedge["W2"]["single_field"]
-    assert wedge["W1"]["dfg_over_sf"] <= 0.25
+    assert min(wedge["W3"]["multi_field"], wedge["W3"]["damage_gradient"]) >= 0.8
     assert max(wedge["W4"].values()) <= 1e-9
     assert all(v == {"C1": 0, "C2": 0, "C3": 0, "C4": 0} for v in wedge["contact"].values())
 

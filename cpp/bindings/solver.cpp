@@ -203,6 +203,9 @@ void bind_solver(py::module_& m)
            "the second-order model, multigrid for the fourth-order one)")
       .def("set_stability_length", &Solver::set_stability_length, py::arg("length"),
            "check dt (c_p + |v_p|) <= length after every step (0: no check)")
+      .def("set_touch_fill", &Solver::set_touch_fill, py::arg("fill"),
+           "with contact, fields touch at a node where their volumes fill this fraction of "
+           "its volume (0: on approach alone)")
       .def("fastest_signal", &Solver::fastest_signal,
            "the largest c_p + |v_p| over the particles now (c_p the P-wave speed in the "
            "particle's state): the speed the stability check holds dt to")

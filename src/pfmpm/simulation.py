@@ -104,6 +104,8 @@ class Simulation:
                                    _core.ShapeFunctions.__members__[g.shape], g.scale_failed,
                                    g.failed_c)
         self.solver.set_phase_field_preconditioner(_core.Preconditioner.__members__[pf.preconditioner])
+        if self.contact:
+            self.solver.set_touch_fill(contact.touch_fill)
         columns = self._fill(xs, done=core)  # the models' columns the seeding sets: orientation, CPDI domains
         del xs
         self._initial_columns()

@@ -83,8 +83,8 @@ constexpr int max_sweeps = 10000;
 } // namespace
 
 int coulomb_forces(int n, const TrialField* f, const bool* live, const std::int32_t* field,
-                   const double* friction, int nfields, double full, double dt, double (*fn)[2],
-                   double (*ft)[2], ContactPair* pairs, double* count)
+                   const double* friction, int nfields, double touch_volume, double dt,
+                   double (*fn)[2], double (*ft)[2], ContactPair* pairs, double* count)
 {
   // The pairs that touch and have a normal, in the order (i, j), i < j.
   constexpr int max_pairs = BodyFields::max_fields * (BodyFields::max_fields - 1) / 2;
@@ -100,7 +100,7 @@ int coulomb_forces(int n, const TrialField* f, const bool* live, const std::int3
       const TrialField& sj = f[j];
       // Only bodies that touch: their volumes must fill the node's support
       // (docs/contact.md, "Touching").
-      if (si.V + sj.V < touch_fill * full)
+      if (si.V + sj.V < touch_volume)
         continue;
       // Outward normals from the mass gradients (eq. 70), made collinear as
       // in eq. 71 but from the gradients before they are normalised:

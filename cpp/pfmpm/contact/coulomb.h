@@ -70,8 +70,8 @@ enum ContactCount : int
 /// @brief Contact forces among the n fields at one node (eqs. 66-77).
 ///
 /// Fields meet in pairs (eq. 66 with the pair's centre of mass). A pair can
-/// act only where the two touch (their volumes fill `touch_fill` of the
-/// node's volume `full`) and have a normal. With one such pair this is the
+/// act only where the two touch (their volumes at the node add up to at
+/// least `touch_volume`) and have a normal. With one such pair this is the
 /// paper's algorithm: a force where the pair approaches (eq. 77). With two
 /// or more (three or more fields), projected Gauss-Seidel sweeps over the
 /// pairs: each pair's force is the pair law applied to the velocities the
@@ -81,23 +81,27 @@ enum ContactCount : int
 /// opposite (C.2), so momentum is conserved to round-off.
 /// @param n Fields at the node; live[i] false for one too light to act.
 /// @param field Field index of each, into `friction` (nfields x nfields).
+/// @param touch_volume The volume two fields fill between them where they
+///        touch: a touch fraction of the node's volume (default_touch_fill).
 /// @param[out] fn, ft Normal and friction force on each field (added to).
 /// @param[out] pairs The pairs to check: with one pair, it if it pushed;
 ///             with more, all of them. Returns how many.
 /// @param[in,out] count Counters, indexed by ContactCount.
 int coulomb_forces(int n, const TrialField* f, const bool* live, const std::int32_t* field,
-                   const double* friction, int nfields, double full, double dt, double (*fn)[2],
-                   double (*ft)[2], ContactPair* pairs, double* count);
+                   const double* friction, int nfields, double touch_volume, double dt,
+                   double (*fn)[2], double (*ft)[2], ContactPair* pairs, double* count);
 
 /// @brief C.3 and C.4 on the corrected velocities vn of the fields.
 void check_contact(int active, const ContactPair* pairs, const double (*vn)[2], double* count);
 
 /// Two fields touch at a node when their volumes there, sum_p N_I V_p, add up
-/// to at least this fraction of the node's volume (the integral of N_I);
-/// bodies with a gap between them fill less. Without this check the
-/// approach condition (eq. 77) alone acts between bodies up to three cells
-/// apart. Of 0.9, 0.95 and 0.97, 0.9 is the largest that kept colliding
-/// disks apart by half a particle spacing (docs/contact.md, "Touching").
-inline constexpr double touch_fill = 0.9;
+/// to at least a fraction of the node's volume (the integral of N_I), by
+/// default this one (`contact.touch_fill` of a scene); bodies with a gap
+/// between them fill less. Without this check (a fraction of 0: the
+/// paper's contact) the approach condition (eq. 77) alone acts between
+/// bodies up to three cells apart. Of 0.9, 0.95 and 0.97, 0.9 is the largest
+/// that kept colliding disks apart by half a particle spacing
+/// (docs/contact.md, "Touching").
+inline constexpr double default_touch_fill = 0.9;
 
 } // namespace pfmpm

@@ -45,7 +45,7 @@ void finish_slot(const NodeSums& s, const double* vo, double* vn, std::uint8_t w
 
 void update_contact_node(int n, const NodeSums* sums, const SurfaceSums* surface,
                          const std::int32_t* field, const double* friction, int nfields,
-                         double volume, std::uint8_t walls, double dt, double mass_tol,
+                         double touch_volume, std::uint8_t walls, double dt, double mass_tol,
                          NodeKinematics* k, double* acc)
 {
   constexpr int F = BodyFields::max_fields;
@@ -72,8 +72,8 @@ void update_contact_node(int n, const NodeSums* sums, const SurfaceSums* surface
                           u.V};
   }
   ContactPair pairs[F * (F - 1) / 2];
-  const int active = coulomb_forces(n, trial, live, field, friction, nfields, volume, dt, fn, ft,
-                                    pairs, &acc[sum_contact]);
+  const int active = coulomb_forces(n, trial, live, field, friction, nfields, touch_volume, dt, fn,
+                                    ft, pairs, &acc[sum_contact]);
   // Corrected velocities (eq. 65), checked (C.3, C.4) before the walls act
   // on them; walls, and the work done.
   double vn[F][2]{}, vc[F][2]{};
@@ -93,8 +93,8 @@ void update_contact_node(int n, const NodeSums* sums, const SurfaceSums* surface
 
 void update_damage_node(int n, const NodeSums* sums, const SurfaceSums* surface,
                         const std::int32_t* field, const double* friction, int groups,
-                        double separability, double volume, std::uint8_t walls, double dt,
-                        double mass_tol, NodeKinematics* k, double* acc)
+                        double separability, double touch_volume, std::uint8_t walls,
+                        double dt, double mass_tol, NodeKinematics* k, double* acc)
 {
   constexpr int F = BodyFields::max_fields;
   // The fields that act: a separable side on its own, the two sides of a
@@ -143,8 +143,8 @@ void update_damage_node(int n, const NodeSums* sums, const SurfaceSums* surface,
   if (units == 1)
     update_free_slot(unit[0], walls, dt, mass_tol, kin[0], acc);
   else
-    update_contact_node(units, unit, usurf, group, friction, groups, volume, walls, dt, mass_tol,
-                        kin, acc);
+    update_contact_node(units, unit, usurf, group, friction, groups, touch_volume, walls, dt,
+                        mass_tol, kin, acc);
   for (int j = 0; j < n; ++j)
     k[j] = kin[of[j]];
 }

@@ -344,10 +344,10 @@ void finish_slot(const NodeSums& s, const double* vo, double* vn, std::uint8_t w
 /// Gauss-Seidel sweeps over them), corrected velocities (eq. 65), walls,
 /// the work done, and the checks C.3 and C.4.
 /// @param field Field index of each slot, into `friction` (nfields x nfields).
-/// @param volume The node's volume, the integral of its basis function.
+/// @param touch_volume What two fields fill where they touch (coulomb_forces).
 void update_contact_node(int n, const NodeSums* sums, const SurfaceSums* surface,
                          const std::int32_t* field, const double* friction, int nfields,
-                         double volume, std::uint8_t walls, double dt, double mass_tol,
+                         double touch_volume, std::uint8_t walls, double dt, double mass_tol,
                          NodeKinematics* k, double* acc);
 
 /// @brief The update of the n >= 2 damage-gradient fields at a node (H&H
@@ -361,20 +361,21 @@ void update_contact_node(int n, const NodeSums* sums, const SurfaceSums* surface
 /// @param field Field index of each slot, 2 group + side, sorted.
 void update_damage_node(int n, const NodeSums* sums, const SurfaceSums* surface,
                         const std::int32_t* field, const double* friction, int groups,
-                        double separability, double volume, std::uint8_t walls, double dt,
-                        double mass_tol, NodeKinematics* k, double* acc);
+                        double separability, double touch_volume, std::uint8_t walls,
+                        double dt, double mass_tol, NodeKinematics* k, double* acc);
 
 /// @brief The grid update (K&T eqs. 63-65): trial momentum and velocity of
 /// every slot, frictional contact among the slots of a contact node
 /// (eqs. 66-77; with damage fields H&H Algorithm 3), walls, and the nodal
-/// accelerations that G2P reads.
+/// accelerations that G2P reads. Two fields touch at a node where their
+/// volumes there fill `touch_fill` of its volume (coulomb_forces).
 /// @return The sums of GridUpdateSum.
 template <class Fields>
 std::array<double, grid_update_sums> update_grid(const Grid& grid, Fields& fields,
                                                  const std::vector<NodeSums>& sums,
                                                  const std::vector<SurfaceSums>& surface,
                                                  std::vector<NodeKinematics>& kinematics, double dt,
-                                                 double mass_tol)
+                                                 double mass_tol, double touch_fill)
 {
   const std::vector<std::uint8_t>& constrained = grid.constraints();
   const bool walls = !constrained.empty();
@@ -395,17 +396,19 @@ std::array<double, grid_update_sums> update_grid(const Grid& grid, Fields& field
           return update_free_slot(sums[s0], wall, dt, mass_tol, kinematics[s0], acc.data());
         if constexpr (Fields::discrete)
         {
-          // The node's volume, the integral of its basis function.
+          // The volume of two touching fields: a fraction of the node's, the
+          // integral of its basis function.
           const std::int32_t id = grid.active_nodes()[a], ny = grid.nodes()[1];
-          const double full = grid.basis(0).integral(id / ny) * grid.basis(1).integral(id % ny);
+          const double touch = touch_fill * (grid.basis(0).integral(id / ny)
+                                             * grid.basis(1).integral(id % ny));
           if constexpr (Fields::per_pair)
             update_damage_node(n, &sums[s0], &surface[s0], &fields.slot_field()[s0],
                                fields.friction().data(), fields.size(),
-                               fields.options().separability, full, wall, dt, mass_tol,
+                               fields.options().separability, touch, wall, dt, mass_tol,
                                &kinematics[s0], acc.data());
           else
             update_contact_node(n, &sums[s0], &surface[s0], &fields.slot_field()[s0],
-                                fields.friction().data(), fields.size(), full, wall, dt,
+                                fields.friction().data(), fields.size(), touch, wall, dt,
                                 mass_tol, &kinematics[s0], acc.data());
         }
       });

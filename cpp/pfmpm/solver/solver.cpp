@@ -154,6 +154,13 @@ void Solver::set_stability_length(double length)
   _stability_length = length;
 }
 
+void Solver::set_touch_fill(double fill)
+{
+  if (!(fill >= 0.0 && fill <= 1.0))
+    throw std::invalid_argument("touch_fill = " + std::to_string(fill) + ": must lie in [0, 1]");
+  _touch_fill = fill;
+}
+
 SolverState Solver::state() const
 {
   SolverState s;
@@ -444,7 +451,7 @@ void Solver::step(Fields& fields)
   std::array<double, grid_update_sums> sums;
   {
     Stopwatch clock{_timers.grid};
-    sums = update_grid(_grid, fields, _sums, _surface, _kinematics, _dt, _mass_tol);
+    sums = update_grid(_grid, fields, _sums, _surface, _kinematics, _dt, _mass_tol, _touch_fill);
   }
   _external_work += sums[sum_external_work];
   _wall_work += sums[sum_wall_work];

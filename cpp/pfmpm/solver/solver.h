@@ -3,6 +3,7 @@
 #pragma once
 
 #include "pfmpm/common/error.h"
+#include "pfmpm/contact/coulomb.h"
 #include "pfmpm/fields/damage_fields.h"
 #include "pfmpm/fields/fields.h"
 #include "pfmpm/fracture/phasefield.h"
@@ -151,6 +152,12 @@ public:
   /// initial body speeds; the check follows the speeds as they grow. 0
   /// switches the check off (the default).
   void set_stability_length(double length);
+  /// @brief With contact, two fields touch at a node, and may push or rub,
+  /// where their volumes there add up to at least `fill` of the node's
+  /// volume (coulomb_forces): default_touch_fill unless set; 0 is the
+  /// paper's contact, on approach alone.
+  /// @throws std::invalid_argument unless 0 <= fill <= 1.
+  void set_touch_fill(double fill);
 
   /// @brief The largest c_p + |v_p| over the particles in their present
   /// state: the signal speed the stability check compares with
@@ -270,6 +277,7 @@ private:
   double _mass_tol;
   std::int64_t _light_nodes = 0;
   double _stability_length = 0.0; // 0: no check
+  double _touch_fill = default_touch_fill;
   bool _external = false; // some particle carries an external force
   std::variant<SingleField, BodyFields, DamageFields> _fields;
   std::optional<ParticleDomains> _domains; // with CPDI

@@ -42,12 +42,13 @@ def body_fields(scene: Scene) -> Scene:
     reference of :func:`variants`, and the single-field ("SF") run of the
     impact problems (Homel & Herbold 2017, sections 3.2-3.4), where the
     target is one body: unlike :func:`variants`' single field, a striker or
-    platen is not welded to it, and only the crack faces' friction goes unused."""
+    platen is not welded to it, and only the crack faces' friction goes unused.
+    The touch check (``touch_fill``) is the scene's."""
     contact = scene.contact
     if contact is None or not contact.damage_gradient:
         raise ValueError("a damage-gradient scene has partition = \"damage_gradient\"")
     return Scene.from_dict(dict(scene.to_dict(), contact={
-        "friction": contact.friction,
+        "friction": contact.friction, "touch_fill": contact.touch_fill,
         "pairs": [{"bodies": list(p.bodies), "friction": p.friction} for p in contact.pairs]}))
 
 

@@ -76,6 +76,11 @@ class Contact:
         groups with the damage gradient).
     partition : str
         ``"bodies"`` or ``"damage_gradient"``.
+    touch_fill : float
+        Two fields touch at a node, and may push or rub there, where their
+        volumes at the node fill at least this fraction of its volume, in
+        [0, 1]; 0 is the paper's contact, acting wherever the fields
+        approach (docs/contact.md, "Touching").
     groups : sequence of sequences of str
         Damage gradient only: bodies that share a contact group (and meet
         through its two fields, surfaces and cracks); a body in no entry is
@@ -106,6 +111,7 @@ class Contact:
     friction: float = 0.0
     pairs: tuple[ContactPair, ...] = ()
     partition: str = "bodies"
+    touch_fill: float = 0.9
     groups: tuple[tuple[str, ...], ...] = ()
     separability: float = 0.25
     kernel_radius: float | None = None
@@ -123,6 +129,7 @@ class Contact:
                 raise SceneError(f"pairs[{i}]", "must be a ContactPair", pair)
         store(self, "pairs", pairs)
         store(self, "partition", choice("partition", self.partition, PARTITIONS))
+        store(self, "touch_fill", real("touch_fill", self.touch_fill, ge=0, le=1))
         groups = seq("groups", self.groups, "lists of body names")
         checked = []
         for i, group in enumerate(groups):
