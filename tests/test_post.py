@@ -3,6 +3,7 @@ must, and reads cracks with the scene's ``output.crack_threshold``."""
 
 import math
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -11,8 +12,9 @@ from pfmpm.post.arms import crack_directions, new_crack
 from pfmpm.post.disk_beam import cone_index, running_crack
 from pfmpm.post.brazilian import (contact_distance, disk_fragments, disk_speed, failed_fraction,
                                   platen_penetration, wall_excursion)
-from pfmpm.post.fragments import (closest_approach, count_fragments, fragment_sizes, fragments,
-                                  mean_speed, median_size, size_distribution)
+from pfmpm.post.fragments import (closest_approach, count_fragments, domain_gap, fragment_sizes,
+                                  fragments, mean_speed, median_size, particle_domains,
+                                  size_distribution)
 from pfmpm.post.tip import CrackTip, tip_report
 from pfmpm.scene import Scene
 
@@ -98,6 +100,44 @@ def test_fragments_per_body_cut_at_the_scene_threshold_and_closest_approach():
     looser = Scene.from_toml(DEMOS / "two_rings.toml", RINGS + ["output.crack_threshold=0.1"])
     assert fragments(looser, x, body, c) == {"A": 1, "B": 1}
     assert closest_approach(scene, x, body) == pytest.approx(5.0)
+
+
+def test_domain_gap_of_deformed_particle_domains():
+    """The interpenetration measure of checks B4 and W3: 0 for domains that
+    touch (face to face, offset along the face, or compressed), the depth
+    of an overlap, in cells, and the domains of F = I + epsilon."""
+    scene = Scene.from_toml(DEMOS / "two_rings.toml", RINGS)  # h = spacing = 2.5 mm
+    s = 2.5
+    below = lattice(0.0, 25.0, 0.0, 10.0, s)
+    top = below[:, 1].max()
+    above = below + [0.0, top + s]  # ring B's bottom row one spacing above A's top row
+    body = np.repeat(np.array([0, 1], dtype=np.int32), len(below))
+    square = (np.tile([0.5 * s, 0.0], (2 * len(below), 1)), np.tile([0.0, 0.5 * s], (2 * len(below), 1)))
+
+    def gap(x, r1=square[0], r2=square[1]):
+        return domain_gap(scene, x, body, r1, r2)
+
+    assert gap(np.vstack([below, above])) == pytest.approx(0.0, abs=1e-12)
+    assert gap(np.vstack([below, above + [0.5 * s, 0.0]])) == pytest.approx(0.0, abs=1e-12)
+    assert gap(np.vstack([below, above - [0.0, 0.1 * s]])) == pytest.approx(-0.1)
+    assert gap(np.vstack([below, above + [0.3 * s, 0.2 * s]])) == pytest.approx(0.2)
+    # A's particles squeezed to half their height: its top face comes down
+    # by s / 4, so B's particles may come s / 4 nearer before they touch,
+    # which closest_approach reads as a quarter-spacing overlap.
+    squeezed = square[1].copy()
+    squeezed[body == 0] *= 0.5
+    x = np.vstack([below, above - [0.0, 0.25 * s]])
+    assert gap(x, square[0], squeezed) == pytest.approx(0.0, abs=1e-12)
+    assert closest_approach(scene, x, body) == pytest.approx(0.75)
+    assert gap(x) == pytest.approx(-0.25)
+    # The domains of a small strain: r_1 = s/2 (1 + e_xx, e_xy), r_2 = s/2 (e_xy, 1 + e_yy).
+    strain = np.tile([0.02, -0.5, 0.01], (len(body), 1))
+    r1, r2 = particle_domains(scene, SimpleNamespace(body=body, material=np.zeros(len(body), np.int32),
+                                                     strain=strain))
+    assert np.allclose(r1, [0.5 * s * 1.02, 0.5 * s * 0.01]) and np.allclose(r2, [0.5 * s * 0.01, 0.25 * s])
+    # B raised by 1 mm: half-height domains leave s + 1 - 2 (s / 4) between the rows.
+    assert domain_gap(scene, np.vstack([below, above + [0.0, 1.0]]), body, r1, r2) == pytest.approx(
+        (0.5 * s + 1.0) / s, rel=1e-3)
 
 
 def test_fragment_sizes_are_equivalent_diameters_of_linked_sets():

@@ -368,15 +368,16 @@ def test_self_contact_measure_scripts(tmp_path):
         assert abs(dfg - mf) <= 0.1 * abs(mf)
         assert abs(sf) <= (0.2 if k == 0 else 0.1) * abs(mf)
     assert all(v == {"C1": 0, "C2": 0, "C3": 0, "C4": 0} for v in billet["B3"].values())
-    assert min(billet["B4"].values()) >= 0.8
+    # The gap between the deformed domains of billet and platen, in cells
+    # (measured 0 single field, -0.013 multi-field and damage gradient).
+    assert min(billet["B4"].values()) >= -0.1
     wedge = run("wedge_disk_block")
     # The checks' own tolerances. Measured: W1 0.0048 of the single field's
     # rotation error and 0.011 of the multi-field rotation; W2 0.144 (single
-    # field) and 0.0111; closest approach 1.19 (multi-field) and 1.22
-    # spacings.
+    # field) and 0.0111; domain gap 0.152 (multi-field) and 0.131 cells.
     assert wedge["W1"]["dfg_over_sf"] <= 0.15 and wedge["W1"]["dfg_over_mf"] <= 0.10
     assert wedge["W2"]["damage_gradient"] <= 0.2 * wedge["W2"]["single_field"]
-    assert min(wedge["W3"]["multi_field"], wedge["W3"]["damage_gradient"]) >= 0.8
+    assert min(wedge["W3"]["multi_field"], wedge["W3"]["damage_gradient"]) >= -0.1
     assert max(wedge["W4"].values()) <= 1e-9
     assert all(v == {"C1": 0, "C2": 0, "C3": 0, "C4": 0} for v in wedge["contact"].values())
 

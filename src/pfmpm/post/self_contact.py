@@ -16,7 +16,7 @@ import math
 import numpy as np
 
 from ..scene import Scene
-from .fragments import closest_approach
+from .fragments import closest_approach, domain_gap, particle_domains
 
 __all__ = ["VARIANTS", "variants", "body_fields", "run_variants", "relative_difference",
            "interface_slip", "rigid_rotation"]
@@ -59,7 +59,9 @@ def run_variants(scene: Scene, times: list[float], samples: int = 20,
     Returns, per variant: ``x0`` (initial positions), ``body``, ``mass``,
     ``states`` (per time of ``times``: the time, positions and velocities),
     ``closest`` (the smallest distance between particles of different bodies,
-    in particle spacings, over ``samples`` even times and those of ``times``),
+    in particle spacings) and ``gap`` (the smallest gap between their
+    deformed domains, in cells: :func:`~pfmpm.post.fragments.domain_gap`),
+    each over ``samples`` even times and those of ``times``,
     ``momentum`` (total momentum at each of them), ``contact`` (the contact
     record, or None) and ``steps``.
     """
@@ -74,10 +76,11 @@ def run_variants(scene: Scene, times: list[float], samples: int = 20,
                        | {steps * k // samples for k in range(1, samples + 1)})
         want = {min(steps, int(round(t / s.dt()))) for t in times}
         record = {"x0": p.x.copy(), "body": p.body.copy(), "mass": p.mass.copy(), "states": [],
-                  "closest": math.inf, "momentum": [], "steps": steps}
+                  "closest": math.inf, "gap": math.inf, "momentum": [], "steps": steps}
         for mark in marks:
             sim.advance(mark - sim.step)
             record["closest"] = min(record["closest"], closest_approach(s, p.x, p.body))
+            record["gap"] = min(record["gap"], domain_gap(s, p.x, p.body, *particle_domains(s, p)))
             e = sim.energies()
             record["momentum"].append((sim.time, e["momentum_x"], e["momentum_y"]))
             if mark in want:
