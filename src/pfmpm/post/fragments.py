@@ -193,10 +193,11 @@ def domain_gap(scene: Scene, x: np.ndarray, body: np.ndarray, r1: np.ndarray,
         if not len(mine) or not len(others):
             continue
         near = cKDTree(x[mine]).query_ball_tree(cKDTree(x[others]), 2.0 * reach.max())
-        a = np.repeat(mine, [len(q) for q in near])
-        b = others[np.concatenate([np.asarray(q, dtype=np.int64) for q in near])] if len(a) else a
-        if not len(a):
+        counts = [len(q) for q in near]
+        if not sum(counts):
             continue
+        a = np.repeat(mine, counts)
+        b = others[np.concatenate([q for q in near if q]).astype(np.int64)]
         d = x[b] - x[a]
         separation = np.full(len(a), -np.inf)
         for e in (r1[a], r2[a], r1[b], r2[b]):
