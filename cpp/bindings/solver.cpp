@@ -199,7 +199,7 @@ void bind_solver(py::module_& m)
           "(nodes, row_start, column, value, rhs) and its solution (one velocity field only)")
       .def("set_phase_field_preconditioner", &Solver::set_phase_field_preconditioner,
            py::arg("preconditioner"),
-           "the phase-field CG preconditioner from the next solve on (automatic: jacobi for "
+           "the phase-field CG preconditioner from the next solve on (automatic: ssor for "
            "the second-order model, multigrid for the fourth-order one)")
       .def("set_stability_length", &Solver::set_stability_length, py::arg("length"),
            "check dt (c_p + |v_p|) <= length after every step (0: no check)")

@@ -56,7 +56,7 @@ Particles make_plate(double d, int n, double l0)
 
 /// The Borden plate's orthotropic gamma (g1111 = 1, g2222 = 80, g1212 = 74),
 /// or zero; without the bound, so that the second-order model is solved by
-/// the preconditioned CG (the bounded solve runs Jacobi CG on its free nodes).
+/// the preconditioned CG (the bounded solve refuses the multigrid).
 Fracture fracture(double l0, bool fourth)
 {
   Fracture f{1.0, l0, 0.0, {}, Model::AT2, false};

@@ -158,6 +158,9 @@ PhaseField::PhaseField(const Grid& grid, std::vector<std::optional<Fracture>> fr
 
 void PhaseField::set_preconditioner(Preconditioner preconditioner)
 {
+  if (_bounded && preconditioner == Preconditioner::multigrid)
+    throw std::invalid_argument(
+        "phase_field.preconditioner = multigrid: the bounded second-order solve takes jacobi or ssor");
   _preconditioner = preconditioner;
   _multigrid.reset();
   if (!_active)
@@ -172,7 +175,7 @@ Preconditioner PhaseField::preconditioner() const
 {
   if (_preconditioner != Preconditioner::automatic)
     return _preconditioner;
-  return _fourth ? Preconditioner::multigrid : Preconditioner::jacobi;
+  return _fourth ? Preconditioner::multigrid : Preconditioner::ssor;
 }
 
 PhaseFieldState PhaseField::state() const
@@ -391,7 +394,7 @@ void PhaseField::multiply(const std::vector<double>& in, std::vector<double>& ou
 }
 
 template <int P>
-void PhaseField::ssor_iterations(double norm_f, double stop, double& residual, int& it)
+void PhaseField::ssor_iterations(double stop, double& start, double& residual, int& it)
 {
   constexpr int H = Stencil<P>::size;
   const Stencil<P> stencil(_padded_ny);
@@ -436,6 +439,8 @@ void PhaseField::ssor_iterations(double norm_f, double stop, double& residual, i
     }
   };
   // f(a, left, right, even) for the nodes of strip s, forward or backward.
+  // The held nodes are skipped: t and w stay 0 there.
+  const std::int8_t* held = _bound.data();
   auto strip = [&](std::ptrdiff_t s, bool forward, auto&& f)
   {
     const int begin = _strip_column[s], end = _strip_column[s + 1];
@@ -445,23 +450,37 @@ void PhaseField::ssor_iterations(double norm_f, double stop, double& residual, i
       const int ix = forward ? begin + n : end - 1 - n;
       const int left = ix - begin, right = end - 1 - ix;
       if (forward)
+      {
         for (std::size_t a = _column_start[ix]; a < _column_start[ix + 1]; ++a)
-          f(a, left, right, even);
+          if (held[a] == 0)
+            f(a, left, right, even);
+      }
       else
         for (std::size_t a = _column_start[ix + 1]; a-- > _column_start[ix];)
-          f(a, left, right, even);
+          if (held[a] == 0)
+            f(a, left, right, even);
     }
   };
   using yes = std::true_type;
   using no = std::false_type;
 
+  // r = F - K c on the free nodes (eq. 50), 0 on the held ones, as are
+  // t, w, v, g and q, so that every update below leaves them 0.
   residual = std::sqrt(deterministic_sum<1>(na,
                                             [&](std::size_t a, std::array<double, 1>& acc)
                                             {
-                                              _r[a] = _rhs[a] - _q[a];
+                                              const std::size_t i = _position[a];
+                                              t[i] = 0.0;
+                                              w[i] = 0.0;
+                                              _q[a] = 0.0;
+                                              _r[a] = held[a] == 0
+                                                          ? _rhs[a] - row_product(stencil, a, _c.data())
+                                                          : 0.0;
                                               acc[0] += _r[a] * _r[a];
                                             })[0]);
-  _stats.start_residual = norm_f > 0.0 ? residual / norm_f : 0.0;
+  start = residual;
+  if (residual <= stop)
+    return;
 
   // Strips of one parity share no entry of K (they are >= p columns apart),
   // so they are swept in parallel, in any order.
@@ -612,32 +631,6 @@ void PhaseField::multigrid_iterations(double norm_f, double stop, double& residu
   }
 }
 
-/// Preconditioned conjugate gradients for K c = F (eq. 50), from the warm
-/// start until ||F - K c|| <= tol ||F||, with the preconditioner of
-/// set_preconditioner().
-///
-/// By default the second-order model is solved by bounded_solve (Jacobi CG
-/// on the free nodes); without the bound (Fracture::bound false) it keeps
-/// the Jacobi preconditioner z = D^-1 r, the same iterations with every
-/// node free (free_set_iterations): 12-28 per step.
-///
-/// The fourth-order model, whose condition number grows like
-/// gamma_n (l0/h)^4, takes the multigrid V-cycle by default (below); with
-/// Preconditioner::ssor it takes symmetric Gauss-Seidel (SSOR with
-/// omega = 1, ssor_iterations): with K = L + D + U in the Gauss-Seidel order,
-/// M = (D + L) D^-1 (D + U), symmetric positive definite since D > 0. The
-/// order: strips of 32 grid columns, the even strips first, then the odd ones,
-/// each strip column by column; strips of one parity share no entry of K, so
-/// they are swept in parallel and the result does not depend on the number of
-/// threads. It is applied with Eisenstat's trick (Eisenstat 1981): CG on
-/// K~ = E^-1 K E^-T, E = (D + L) D^-1/2, whose product is one backward and one
-/// forward sweep, about the cost of one product with K, instead of two sweeps
-/// and a product; c and the true residual r = F - K c are updated alongside.
-/// The CG scalars are those of PCG with M; about a third of the Jacobi
-/// iterations (docs/performance.md).
-///
-/// The multigrid V-cycle (multigrid_iterations, Multigrid) takes a few
-/// iterations for either order (docs/performance.md).
 double PhaseField::rhs_norm() const
 {
   return std::sqrt(deterministic_sum<1>(_rhs.size(), [&](std::size_t a, std::array<double, 1>& acc)
@@ -653,6 +646,31 @@ double PhaseField::warm_start(std::size_t i)
   return guess;
 }
 
+/// Preconditioned conjugate gradients for K c = F (eq. 50), from the warm
+/// start until ||F - K c|| <= tol ||F||, with the preconditioner of
+/// set_preconditioner(). (The second-order model with the bound, its
+/// default, is solved by bounded_solve, whose passes run the same Jacobi or
+/// Gauss-Seidel iterations on the free nodes; here every node is free.)
+///
+/// By default the second-order model takes symmetric Gauss-Seidel (SSOR with
+/// omega = 1, ssor_iterations): with K = L + D + U in the Gauss-Seidel order,
+/// M = (D + L) D^-1 (D + U), symmetric positive definite since D > 0. The
+/// order: strips of 32 grid columns, the even strips first, then the odd ones,
+/// each strip column by column; strips of one parity share no entry of K, so
+/// they are swept in parallel and the result does not depend on the number of
+/// threads. It is applied with Eisenstat's trick (Eisenstat 1981): CG on
+/// K~ = E^-1 K E^-T, E = (D + L) D^-1/2, whose product is one backward and one
+/// forward sweep, about the cost of one product with K, instead of two sweeps
+/// and a product; c and the true residual r = F - K c are updated alongside.
+/// The CG scalars are those of PCG with M: 4.6 iterations per solve on the
+/// default Borden plate against 12.8 with Jacobi, z = D^-1 r
+/// (free_set_iterations), and 8.7 against 29.9 at the paper's resolution
+/// (docs/performance.md).
+///
+/// The fourth-order model, whose condition number grows like
+/// gamma_n (l0/h)^4, takes the multigrid V-cycle by default
+/// (multigrid_iterations, Multigrid), a few iterations where Gauss-Seidel
+/// takes hundreds (docs/performance.md).
 template <int P, bool Fourth>
 bool PhaseField::conjugate_gradient()
 {
@@ -667,25 +685,18 @@ bool PhaseField::conjugate_gradient()
 
   double residual = 0.0;
   int it = 0;
-  switch (preconditioner())
+  if (preconditioner() == Preconditioner::multigrid)
   {
-  case Preconditioner::ssor:
     multiply<P>(_c, _q); // the residual of the warm start, r = F - K c (eq. 50)
-    prepare_ssor();
-    ssor_iterations<P>(norm_f, stop, residual, it);
-    break;
-  case Preconditioner::multigrid:
-    multiply<P>(_c, _q);
     multigrid_iterations<P>(norm_f, stop, residual, it);
-    break;
-  default: // Jacobi: the bounded solve's CG with every node free
+  }
+  else // the bounded solve's CG with every node free
   {
     _bound.assign(na, 0);
     list_free();
     double start = 0.0;
-    free_set_iterations<P>(stop, start, residual, it);
+    free_set_solve<P>(stop, start, residual, it);
     _stats.start_residual = norm_f > 0.0 ? start / norm_f : 0.0;
-  }
   }
   _stats.solves += 1;
   _stats.iterations += it;
@@ -715,7 +726,9 @@ bool PhaseField::conjugate_gradient()
 ///    free, so a cold start does not release the nodes one layer per pass;
 /// 2. update_active_set with r at the current c;
 /// 3. CG on the free nodes, the held ones as identity rows with their bound
-///    as right-hand side (free_set_iterations), to ||r_free|| <= tol ||F||;
+///    as right-hand side (free_set_solve: preconditioned by symmetric
+///    Gauss-Seidel or Jacobi, the held nodes skipped by the sweeps), to
+///    ||r_free|| <= tol ||F||;
 /// 4. r = F - K c and update_active_set again; stop when no node changes,
 ///    else back to 3.
 /// The updates of steps 1 and 4 read r only at the held nodes (a free node
@@ -759,7 +772,7 @@ bool PhaseField::bounded_solve()
     ++passes;
     double start = 0.0;
     int pass_it = 0;
-    free_set_iterations<P>(stop, start, residual, pass_it);
+    free_set_solve<P>(stop, start, residual, pass_it);
     it += pass_it;
     if (passes == 1)
       _stats.start_residual = norm_f > 0.0 ? start / norm_f : 0.0;
@@ -836,6 +849,18 @@ void PhaseField::list_free()
       _free_node.push_back(static_cast<std::uint32_t>(_position[a]));
       _free_diagonal.push_back(_diagonal[a]);
     }
+}
+
+template <int P>
+void PhaseField::free_set_solve(double stop, double& start, double& residual, int& it)
+{
+  if (preconditioner() == Preconditioner::ssor)
+  {
+    prepare_ssor();
+    ssor_iterations<P>(stop, start, residual, it);
+  }
+  else
+    free_set_iterations<P>(stop, start, residual, it);
 }
 
 template <int P>

@@ -147,8 +147,8 @@ struct PhaseFieldState
 /// (padded by p nodes on each side, zero away from active nodes); only particles of
 /// materials that can crack contribute. Nodes that no such particle touches
 /// keep c = 1. The solve is preconditioned conjugate gradients (by default
-/// Jacobi for the second-order model, symmetric Gauss-Seidel for the
-/// fourth-order one; either, or a multigrid V-cycle, by set_preconditioner),
+/// symmetric Gauss-Seidel for the second-order model, a multigrid V-cycle for
+/// the fourth-order one; either, or Jacobi, by set_preconditioner),
 /// started from the last two steps' nodal values extrapolated in time, stopped when
 /// ||F - K c|| <= tol ||F||. Sums over particles and nodes, and the
 /// Gauss-Seidel sweeps, are taken in an order that does not depend on the
@@ -176,6 +176,8 @@ public:
   /// Whether any material can crack.
   bool active() const { return _active; }
   /// @brief Choose the CG preconditioner for the following solves.
+  /// @throws std::invalid_argument multigrid for the bounded solve, whose
+  /// held nodes the V-cycle does not know.
   void set_preconditioner(Preconditioner preconditioner);
   /// The preconditioner the solves use (never automatic).
   Preconditioner preconditioner() const;
@@ -226,12 +228,14 @@ private:
   double warm_start(std::size_t i);
   template <int P, bool Fourth>
   bool conjugate_gradient();
-  /// @brief The iterations of conjugate_gradient from r = F - K c with
-  /// q = K c given, preconditioned by symmetric Gauss-Seidel with
-  /// Eisenstat's trick or by a multigrid V-cycle (Jacobi: free_set_iterations
-  /// with every node free). Set `residual` = ||r|| and count iterations in `it`.
+  /// @brief CG on the free nodes (`_bound` 0), the held ones fixed at their
+  /// values, preconditioned by symmetric Gauss-Seidel with Eisenstat's trick;
+  /// the arguments as free_set_iterations.
   template <int P>
-  void ssor_iterations(double norm_f, double stop, double& residual, int& it);
+  void ssor_iterations(double stop, double& start, double& residual, int& it);
+  /// @brief The iterations of conjugate_gradient from r = F - K c with
+  /// q = K c given, preconditioned by a multigrid V-cycle. Set `residual` =
+  /// ||r|| and count iterations in `it`.
   template <int P>
   void multigrid_iterations(double norm_f, double stop, double& residual, int& it);
   /// The Gauss-Seidel order and 1 / K_II of ssor_iterations, for this step's
@@ -242,8 +246,8 @@ private:
   template <int P>
   void multiply(const std::vector<double>& padded, std::vector<double>& out) const;
   /// @brief K c = F (eq. 50) with the bound 0 <= c <= 1 on every active
-  /// node, by a primal-dual active-set method around Jacobi-preconditioned
-  /// CG (see the definition).
+  /// node, by a primal-dual active-set method around CG on the free nodes
+  /// (free_set_solve; see the definition).
   /// @return false if a CG pass did not reach tol within max_iterations or
   /// the active set did not settle within max_iterations passes.
   template <int P>
@@ -262,6 +266,10 @@ private:
   std::int64_t update_active_set(double margin);
   /// The free nodes (`_bound` 0) into `_free`, `_free_node` and `_free_diagonal`.
   void list_free();
+  /// @brief CG on the free nodes with the preconditioner of
+  /// set_preconditioner: ssor_iterations, else free_set_iterations (Jacobi).
+  template <int P>
+  void free_set_solve(double stop, double& start, double& residual, int& it);
   /// @brief Jacobi-preconditioned CG on the free nodes (`_free`), the others
   /// held at their values: the rows of the held nodes are identity rows.
   /// Sets `start` and `residual` to ||r|| over the free nodes before and
@@ -312,10 +320,10 @@ private:
   std::vector<std::size_t> _column_start;
   std::vector<double> _inverse;
   std::vector<double> _forward, _v, _g;
-  // Jacobi-preconditioned CG (free_set_iterations): per active node -1 (held
+  // CG on the free nodes (free_set_solve): per active node -1 (held
   // at c = 0), 0 (free) or +1 (held at c = 1), all 0 unbounded; the free
-  // active nodes in ascending order, and for the iterations their padded
-  // positions and K_II, read without indirection.
+  // active nodes in ascending order, and for the Jacobi iterations their
+  // padded positions and K_II, read without indirection.
   std::vector<std::int8_t> _bound;
   std::vector<std::size_t> _free;
   std::vector<std::uint32_t> _free_node;

@@ -196,8 +196,9 @@ class PhaseFieldSpec:
     preconditioner : str
         Of the conjugate gradients: ``"jacobi"``, ``"ssor"`` (symmetric
         Gauss-Seidel), ``"multigrid"`` (a geometric V-cycle on the B-spline
-        grid), or ``"automatic"``: jacobi for the second-order model, multigrid
-        for the fourth-order one.
+        grid), or ``"automatic"``: ssor for the second-order model, multigrid
+        for the fourth-order one. The bounded second-order solve
+        (``fracture.bound``, the default) takes ``"jacobi"`` or ``"ssor"``.
     """
 
     tol: float = 1e-6

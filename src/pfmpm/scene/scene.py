@@ -236,6 +236,11 @@ class Scene:
                                  "the fourth-order term needs second derivatives of C1 splines:"
                                  f" grid.degree must be 2 or 3, not {self.grid.degree}",
                                  anisotropy.symmetry)
+        fractures = [m.fracture for m in self.materials if m.fracture is not None]
+        fourth = any(f.anisotropy is not None and f.anisotropy.fourth_order for f in fractures)
+        if self.phase_field.preconditioner == "multigrid" and not fourth and any(f.bound for f in fractures):
+            raise SceneError("phase_field.preconditioner", "the bounded second-order solve takes"
+                             " 'jacobi' or 'ssor' (or set fracture.bound = false)", "multigrid")
         crackable = [b.name for b in self.bodies if self.fracture_of(b) is not None]
         if self.output.snapshots and not crackable:
             raise SceneError("output.snapshots", "draws the phase field, but no body's material"
