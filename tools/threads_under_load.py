@@ -2,7 +2,9 @@
 each shipped paper scene on 1 and 2 threads, alternating, 3 rounds, with two
 ``yes > /dev/null`` running, and a Markdown table of the medians.
 
-    python tools/threads_under_load.py [STEPS]
+    python tools/threads_under_load.py [STEPS [SCENE ...]]
+
+with the named scenes only if any are given.
 """
 
 import json
@@ -14,11 +16,12 @@ import sys
 from pfmpm import scenes
 
 steps = sys.argv[1] if len(sys.argv) > 1 else "10"
+names = sys.argv[2:] or scenes.names()
 load = [subprocess.Popen(["yes"], stdout=subprocess.DEVNULL) for _ in range(2)]
 rates: dict[tuple[str, int], list[float]] = {}
 try:
     for round_ in range(3):
-        for name in scenes.names():
+        for name in names:
             for threads in (1, 2) if round_ % 2 == 0 else (2, 1):
                 out = subprocess.run([sys.executable, "-m", "pfmpm.cli", "bench", "--scenes",
                                       str(scenes.path(name)), "--steps", steps, "--json"],
@@ -37,6 +40,6 @@ def cell(values: list[float]) -> str:
 
 
 print("| scene | 1 thread | 2 threads | 2 / 1 |\n|---|---|---|---|")
-for name in scenes.names():
+for name in names:
     one, two = rates[(name, 1)], rates[(name, 2)]
     print(f"| {name} | {cell(one)} | {cell(two)} | {statistics.median(two) / statistics.median(one):.2f} |")

@@ -66,8 +66,8 @@ struct Refinement
 ///
 /// Smoother: one Gauss-Seidel sweep before the coarse correction and one in
 /// the reverse order after it, so that B is symmetric; the order is that of
-/// PhaseField's symmetric Gauss-Seidel (strips of 32 grid columns, the even
-/// strips first, each column by column). Strips of one parity share no matrix
+/// PhaseField's symmetric Gauss-Seidel (strips, here of 32 grid columns
+/// exactly, the even strips first, each column by column). Strips of one parity share no matrix
 /// entry, so each half-sweep runs them in parallel; every other kernel writes
 /// each node from a sum in a fixed order. B, and so the CG iterates, have the
 /// same bits for any number of threads.
