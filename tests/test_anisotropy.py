@@ -195,7 +195,8 @@ def test_ssor_cg_is_bitwise_the_same_with_one_or_two_threads():
               "print(hashlib.sha256(sim.particles.c.tobytes()).hexdigest(), "
               "sim.solver.phase_field_stats()['iterations'])")
     runs = [subprocess.run([sys.executable, "-c", script, str(Path(__file__).parent)],
-                           env={**os.environ, "OMP_NUM_THREADS": str(n), "OMP_WAIT_POLICY": "passive"},
+                           env={**os.environ, "OMP_NUM_THREADS": str(n), "OMP_WAIT_POLICY": "passive",
+                                "PFMPM_ADAPTIVE_THREADS": "0"},
                            capture_output=True, text=True, timeout=300) for n in (1, 2)]
     assert all(r.returncode == 0 for r in runs), runs[0].stderr + runs[1].stderr
     assert runs[0].stdout == runs[1].stdout

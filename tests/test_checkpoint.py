@@ -169,7 +169,8 @@ def run_threads(tmp_path, threads, name, model):
     out = tmp_path / name
     # Passive waiting: on a busy machine, spinning OpenMP threads only slow
     # each other down (the results do not depend on it).
-    env = {**os.environ, "OMP_NUM_THREADS": str(threads), "OMP_WAIT_POLICY": "passive"}
+    env = {**os.environ, "OMP_NUM_THREADS": str(threads), "OMP_WAIT_POLICY": "passive",
+           "PFMPM_ADAPTIVE_THREADS": "0"}  # every step on the count asked for
     r = pfmpm("run", *coarse_args(15), "--set", f"materials.concrete.fracture.model={model}",
               "--out", out, env=env, timeout=300)
     assert r.returncode == 0, r.stderr

@@ -192,7 +192,7 @@ def test_phase_field_damage_opens_the_notch_as_two_faces(tmp_path):
 
 
 def test_damage_gradient_runs_repeat_bitwise_on_one_or_two_threads_and_resumed(tmp_path):
-    env = {**os.environ, "OMP_WAIT_POLICY": "passive"}
+    env = {**os.environ, "OMP_WAIT_POLICY": "passive", "PFMPM_ADAPTIVE_THREADS": "0"}
     runs = {}
     for name, threads in (("one", 1), ("two", 2)):
         r = run_borden(tmp_path / name, 30, env={**env, "OMP_NUM_THREADS": str(threads)})
@@ -231,7 +231,8 @@ def test_three_field_contact_repeats_bitwise_on_one_or_two_threads_and_resumed(t
     diagnose = ROOT / "benchmarks" / "charpy" / "diagnose.py"
     runs = {}
     for name, threads in (("one", 1), ("two", 2)):
-        env = {**os.environ, "OMP_NUM_THREADS": str(threads), "OMP_WAIT_POLICY": "passive"}
+        env = {**os.environ, "OMP_NUM_THREADS": str(threads), "OMP_WAIT_POLICY": "passive",
+               "PFMPM_ADAPTIVE_THREADS": "0"}
         r = subprocess.run([sys.executable, "-c", PREFAILED, str(diagnose), str(tmp_path / name)],
                            env=env, capture_output=True, text=True, timeout=300)
         assert r.returncode == 0, r.stderr

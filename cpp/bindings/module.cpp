@@ -8,6 +8,7 @@
 #include "pfmpm/common/error.h"
 #include "pfmpm/grid/bspline.h"
 #include "pfmpm/grid/grid.h"
+#include "pfmpm/solver/threads.h"
 
 #include <omp.h>
 #include <pybind11/numpy.h>
@@ -86,6 +87,8 @@ PYBIND11_MODULE(_core, m)
         omp_set_num_threads(n);
       },
       py::arg("n"), "use n OpenMP threads from now on (as OMP_NUM_THREADS=n at the start)");
+  m.attr("thread_warmup_steps") =
+      pfmpm::ThreadGovernor::warmup();
   pfmpm::bindings::bind_grid(m);
   pfmpm::bindings::bind_particles(m);
   pfmpm::bindings::bind_materials(m);

@@ -165,7 +165,13 @@ void bind_solver(py::module_& m)
            "scale the domains of failed particles (damage D = 1, or phase field c < failed_c) to "
            "a diagonal of at most a cell. Adds the models' particle columns.")
       .def("advance", &Solver::advance, py::arg("steps"),
-           py::call_guard<py::gil_scoped_release>())
+           py::call_guard<py::gil_scoped_release>(),
+           "take `steps` steps, each on the thread count the solver's ThreadGovernor chooses "
+           "(at most num_threads(), restored on return) unless adaptive_threads is False")
+      .def_property("adaptive_threads", &Solver::adaptive_threads, &Solver::set_adaptive_threads,
+                    "whether advance adapts the thread count to the machine's load (default True)")
+      .def_property_readonly("reduced_thread_steps", &Solver::reduced_thread_steps,
+                             "steps run on fewer threads than num_threads() so far")
       .def("prepare", [](Solver& s) { s.prepare(); }, py::call_guard<py::gil_scoped_release>(),
            "sort, activate and solve the phase field for the current state")
       .def("phase_field_stats",

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -22,6 +23,16 @@ out since t = 0, then ``fracture_<body>`` per body."""
 DAMAGE_COLUMNS = ["damage_dissipation"]
 """Extra ``energies.csv`` column of scenes whose models dissipate by damage (a core column
 ``dissipated``): the work dissipated since t = 0, part of ``total``."""
+
+
+def adaptive_threads() -> bool:
+    """Whether the solver adapts each step's thread count to the machine's load
+    (the C++ ThreadGovernor; docs/performance.md, "Threads on a busy machine"):
+    yes unless the environment sets ``PFMPM_ADAPTIVE_THREADS=0``."""
+    value = os.environ.get("PFMPM_ADAPTIVE_THREADS", "1")
+    if value not in ("0", "1"):
+        raise SceneError("PFMPM_ADAPTIVE_THREADS", "must be 0 or 1", value)
+    return value == "1"
 
 
 def core_materials(scene: Scene) -> tuple[list, list]:
@@ -103,6 +114,7 @@ class Simulation:
                                    pf.tol, pf.max_iterations, friction, damage,
                                    _core.ShapeFunctions.__members__[g.shape], g.scale_failed,
                                    g.failed_c)
+        self.solver.adaptive_threads = adaptive_threads()
         self.solver.set_phase_field_preconditioner(_core.Preconditioner.__members__[pf.preconditioner])
         if self.contact:
             self.solver.set_touch_fill(contact.touch_fill)
@@ -380,6 +392,8 @@ class Simulation:
             "particles": len(self.particles),
             "particle_steps_per_s": len(self.particles) * result.steps / max(result.wall_s, 1e-12),
             "threads": _core.num_threads(),
+            # Steps the solver ran on fewer threads, finding them faster (ThreadGovernor).
+            "reduced_thread_steps": self.solver.reduced_thread_steps,
             "modules": self.modules(),
             "grid": {"cells": list(self.scene.grid.cells), "h": self.scene.grid.h, "degree": self.scene.grid.degree,
                      "shape": self.scene.grid.shape},

@@ -168,27 +168,30 @@ bool NeighbourList::stale(const Grid& grid, const CellSort& sort, const std::vec
         }
       }
   }
-  // The widest box of the displacements of an occupied block and the
-  // blocks around it (its diagonal squared).
+  // The widest box of the displacements of an occupied block alone and of
+  // it with each block next to it (its diagonal squared): two particles
+  // within the radius lie in one block or in two next to each other.
   double widest = 0.0;
 #pragma omp parallel for schedule(static) reduction(max : widest)
   for (int bi = 0; bi < nbx; ++bi)
     for (int bj = 0; bj < nby; ++bj)
     {
-      if (_range[4 * (static_cast<std::size_t>(bi) * nby + bj)] == inf)
+      const double* own = &_range[4 * (static_cast<std::size_t>(bi) * nby + bj)];
+      if (own[0] == inf)
         continue; // no particle in the block
-      double lo[2] = {inf, inf}, hi[2] = {-inf, -inf};
-      for (int i = std::max(bi - 1, 0); i <= std::min(bi + 1, nbx - 1); ++i)
-        for (int j = std::max(bj - 1, 0); j <= std::min(bj + 1, nby - 1); ++j)
-        {
-          const double* r = &_range[4 * (static_cast<std::size_t>(i) * nby + j)];
-          lo[0] = std::min(lo[0], r[0]);
-          hi[0] = std::max(hi[0], r[1]);
-          lo[1] = std::min(lo[1], r[2]);
-          hi[1] = std::max(hi[1], r[3]);
-        }
-      const double ex = hi[0] - lo[0], ey = hi[1] - lo[1];
-      widest = std::max(widest, ex * ex + ey * ey);
+      // The block itself and the four after it (the other four pairs are
+      // those of the blocks before it); an empty block widens nothing.
+      constexpr int next[5][2] = {{0, 0}, {0, 1}, {1, -1}, {1, 0}, {1, 1}};
+      for (const auto& [di, dj] : next)
+      {
+        const int i = bi + di, j = bj + dj;
+        if (i >= nbx || j < 0 || j >= nby)
+          continue;
+        const double* r = &_range[4 * (static_cast<std::size_t>(i) * nby + j)];
+        const double ex = std::max(own[1], r[1]) - std::min(own[0], r[0]);
+        const double ey = std::max(own[3], r[3]) - std::min(own[2], r[2]);
+        widest = std::max(widest, ex * ex + ey * ey);
+      }
     }
   // The slack of each test, in the distance any particle may move from now
   // on: a displacement grows by at most that, a box's diagonal by 2 sqrt 2

@@ -21,10 +21,11 @@ namespace pfmpm
 /// the two differ by at most 2 delta: |X_p - X_q| <= |x_p - x_q| + |u_p - u_q|.
 /// That is the paper's re-sort rule with a Verlet skin, so that the sums
 /// between rebuilds are exact. stale() looks at the displacements: the list
-/// stands if no particle is displaced by more than delta, or if per block of
-/// cells the displacements of the particles in the block and the blocks
-/// around it (all that can be within r of them) lie in a box whose diagonal
-/// is at most 2 delta: a fragment or a platen that translates as a whole
+/// stands if no particle is displaced by more than delta, or if, with the
+/// cells in blocks as wide as r, the displacements of the particles of each
+/// block, and of each block with any one next to it (two particles within r
+/// lie in one block or in two such), lie in a box whose diagonal is at most
+/// 2 delta: a fragment or a platen that translates as a whole
 /// does not make the lists stale, only motion relative to the particles
 /// around. Each look also gives its slack: how far any particle may move
 /// before either test could fail (a displacement grows by at most that

@@ -668,10 +668,10 @@ double PhaseField::warm_start(std::size_t i)
 /// K~ = E^-1 K E^-T, E = (D + L) D^-1/2, whose product is one backward and one
 /// forward sweep, about the cost of one product with K, instead of two sweeps
 /// and a product; c and the true residual r = F - K c are updated alongside.
-/// The CG scalars are those of PCG with M: 4.6 iterations per solve on the
-/// default Borden plate against 12.8 with Jacobi, z = D^-1 r
-/// (free_set_iterations), and 8.7 against 29.9 at the paper's resolution
-/// (docs/performance.md).
+/// The CG scalars are those of PCG with M: 4.65 iterations per solve on the
+/// default Borden plate to 40 us against 12.8 with Jacobi, z = D^-1 r
+/// (free_set_iterations), and 7.8 against 25.7 over the whole
+/// paper-resolution run (docs/performance.md).
 ///
 /// The fourth-order model, whose condition number grows like
 /// gamma_n (l0/h)^4, takes the multigrid V-cycle by default

@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <omp.h>
 #include <sstream>
 #include <type_traits>
 
@@ -317,11 +318,27 @@ void Solver::advance(std::int64_t steps)
   // between calls).
   _external = has_external_force();
   bind();
+  // The user's thread count, restored on return (also when a step throws).
+  struct Restore
+  {
+    int threads;
+    ~Restore() { omp_set_num_threads(threads); }
+  } restore{omp_get_max_threads()};
   dispatch(
       [&](auto shape, auto& fields)
       {
         for (std::int64_t k = 0; k < steps; ++k)
+        {
+          if (!_adaptive_threads)
+          {
+            step<typename decltype(shape)::type>(fields);
+            continue;
+          }
+          omp_set_num_threads(_threads.next(restore.threads));
+          const double start = omp_get_wtime();
           step<typename decltype(shape)::type>(fields);
+          _threads.record(omp_get_wtime() - start);
+        }
       });
 }
 

@@ -12,6 +12,7 @@
 #include "pfmpm/particles/cell_sort.h"
 #include "pfmpm/particles/particles.h"
 #include "pfmpm/shape/cpdi.h"
+#include "pfmpm/solver/threads.h"
 #include "pfmpm/transfer/transfer.h"
 
 #include <array>
@@ -127,7 +128,9 @@ public:
          std::optional<DamageGradientOptions> damage = std::nullopt,
          ShapeFunctions shape = ShapeFunctions::bspline, DomainScaling scaling = {});
 
-  /// @brief Take `steps` explicit steps.
+  /// @brief Take `steps` explicit steps, each on the OpenMP thread count
+  /// that ThreadGovernor chooses (at most omp_get_max_threads(), which is
+  /// as it was on return), unless set_adaptive_threads(false).
   /// @throws SimulationError when a particle leaves the grid, a value turns
   ///         non-finite or the step becomes unstable.
   void advance(std::int64_t steps);
@@ -201,6 +204,12 @@ public:
   const DamageFields* damage_fields() const { return std::get_if<DamageFields>(&_fields); }
   /// Wall time per stage so far.
   const StageTimers& timers() const { return _timers; }
+  /// @brief Whether advance() adapts the thread count to the machine
+  /// (ThreadGovernor; the default), or runs every step on all threads.
+  void set_adaptive_threads(bool adaptive) { _adaptive_threads = adaptive; }
+  bool adaptive_threads() const { return _adaptive_threads; }
+  /// Steps run on fewer threads than the user's count so far.
+  std::int64_t reduced_thread_steps() const { return _threads.reduced_steps(); }
 
   /// @brief Surface flags at t = 0 by the kernel sum over each body's own
   /// particles (DamageFields::detect_surfaces), into the `surface` column.
@@ -288,6 +297,8 @@ private:
   std::vector<SurfaceSums> _surface;       // per slot, at contact cells
   std::vector<NodeKinematics> _kinematics; // per slot
   StageTimers _timers;
+  bool _adaptive_threads = true;
+  ThreadGovernor _threads;
 };
 
 } // namespace pfmpm

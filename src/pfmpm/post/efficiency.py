@@ -119,6 +119,7 @@ def _time_run(scene, h, method, threads, steps, warmup, reference, until) -> dic
     from ..simulation import Simulation
 
     sim = Simulation(scene_at(scene, h, method))
+    sim.solver.adaptive_threads = False  # the count asked for, every step: a thread-count study
     if reference is not None:
         paint(sim, reference)
     sim.advance(warmup)
