@@ -204,7 +204,8 @@ std::vector<ColumnSpec> PhaseField::columns(bool fourth_order)
   std::vector<ColumnSpec> columns{
       {"c", 1, DType::f64, {1.0}, "phase field: 1 intact, 0 broken (K&T eq. 53)", "", "c"},
       {"history", 1, DType::f64, {0.0}, "history field H (K&T eq. 20)", "", "history"},
-      {"fracture_energy", 1, DType::f64, {0.0}, "G_c V_p Z(c_p) (K&T eqs. 3-4)", "", ""}};
+      {"fracture_energy", 1, DType::f64, {0.0},
+       "G_c V_p Z(c_p) (K&T eqs. 3-4), as of the last step of an advance()", "", ""}};
   if (fourth_order) // only the fourth-order term turns with the material (section 4.3.4)
     columns.push_back({"phi", 1, DType::f64, {0.0},
                        "principal material direction, radians clockwise from x", "", ""});
@@ -259,7 +260,7 @@ PhaseFieldSystem PhaseField::compressed_rows() const
 }
 
 template <int P>
-bool PhaseField::solve(Particles& particles, const CellSort& sort)
+bool PhaseField::solve(Particles& particles, const CellSort& sort, bool energy)
 {
   auto run = [&](auto fourth)
   {
@@ -270,7 +271,10 @@ bool PhaseField::solve(Particles& particles, const CellSort& sort)
       converged = conjugate_gradient<P, true>();
     else
       converged = _bounded ? bounded_solve<P>() : conjugate_gradient<P, false>();
-    map_to_particles<P, Fourth>(particles, sort);
+    if (energy)
+      map_to_particles<P, Fourth, true>(particles, sort);
+    else
+      map_to_particles<P, Fourth, false>(particles, sort);
     return converged;
   };
   if constexpr (P >= 2) // degree 1 with gamma != 0 is refused by the constructor
@@ -929,17 +933,20 @@ void PhaseField::free_set_iterations(double stop, double& start, double& residua
   }
 }
 
-template <int P, bool Fourth>
+/// c_p (eq. 53) at the particles; with Energy their fracture energy too,
+/// which the step reads nowhere: the solver asks for it in the last step of
+/// each advance(), after which energies and output read it.
+template <int P, bool Fourth, bool Energy>
 void PhaseField::map_to_particles(Particles& particles, const CellSort& sort)
 {
-  using Shape = BSplineStencil<2, P, Fourth ? 2 : 1>;
+  using Shape = BSplineStencil<2, P, Fourth && Energy ? 2 : 1>;
   constexpr int K = Shape::size;
   const double* volume = particles.volume.data();
   const double* phi = Fourth ? particles.f64("phi").data() : nullptr;
   const std::int32_t* material = particles.material.data();
   double* c = particles.f64("c").data();
   double* energy = particles.f64("fracture_energy").data();
-  [[maybe_unused]] std::vector<RotatedGamma> rotated = per_thread(Fourth);
+  [[maybe_unused]] std::vector<RotatedGamma> rotated = per_thread(Fourth && Energy);
 
   grid_to_particle<Shape>(
       _grid, sort, Points{particles.x.data()},
@@ -947,36 +954,46 @@ void PhaseField::map_to_particles(Particles& particles, const CellSort& sort)
           [&](const Cell& cell, const auto& each)
           {
             double nodal[K][1];
-            [[maybe_unused]] RotatedGamma* mine = Fourth ? &rotated[omp_get_thread_num()] : nullptr;
+            [[maybe_unused]] RotatedGamma* mine =
+                Fourth && Energy ? &rotated[omp_get_thread_num()] : nullptr;
             for (int i = 0; i < K; ++i)
               nodal[i][0] =
                   _c[padded(cell.cx + Shape::offset(i, 0), cell.cy + Shape::offset(i, 1))];
             each(
                 [&](std::size_t p, const Shape& s)
                 {
-                  const Fracture& fr = *fracture(material[p]);
-                  // c_p (eq. 53) and its gradient (eq. 54), with the fourth
-                  // order its second derivatives kappa (eq. 55).
-                  double cp[1], g[2][1];
-                  [[maybe_unused]] double kappa[3][1];
-                  if constexpr (Fourth)
-                    s.template interpolate<1>(nodal, cp, g, kappa);
+                  if constexpr (!Energy)
+                  {
+                    double cp[1];
+                    s.template interpolate<1>(nodal, cp); // eq. 53
+                    c[p] = cp[0];
+                  }
                   else
-                    s.template interpolate<1>(nodal, cp, g);
-                  c[p] = cp[0];
-                  // G_c V Z with Z of eq. 4 (AT1: Fracture::crack_density).
-                  double Z = fr.crack_density(cp[0], g[0][0] * g[0][0] + g[1][0] * g[1][0]);
-                  if constexpr (Fourth) // zero for a material with gamma = 0
-                    Z += fr.l0 * fr.l0 * fr.l0
-                         * curvature_energy((*mine)(fr, phi[p]), kappa[0][0], kappa[1][0],
-                                            kappa[2][0]);
-                  energy[p] = fr.Gc * volume[p] * Z;
+                  {
+                    const Fracture& fr = *fracture(material[p]);
+                    // c_p (eq. 53) and its gradient (eq. 54), with the fourth
+                    // order its second derivatives kappa (eq. 55).
+                    double cp[1], g[2][1];
+                    [[maybe_unused]] double kappa[3][1];
+                    if constexpr (Fourth)
+                      s.template interpolate<1>(nodal, cp, g, kappa);
+                    else
+                      s.template interpolate<1>(nodal, cp, g);
+                    c[p] = cp[0];
+                    // G_c V Z with Z of eq. 4 (AT1: Fracture::crack_density).
+                    double Z = fr.crack_density(cp[0], g[0][0] * g[0][0] + g[1][0] * g[1][0]);
+                    if constexpr (Fourth) // zero for a material with gamma = 0
+                      Z += fr.l0 * fr.l0 * fr.l0
+                           * curvature_energy((*mine)(fr, phi[p]), kappa[0][0], kappa[1][0],
+                                              kappa[2][0]);
+                    energy[p] = fr.Gc * volume[p] * Z;
+                  }
                 });
           }));
 }
 
-template bool PhaseField::solve<1>(Particles&, const CellSort&);
-template bool PhaseField::solve<2>(Particles&, const CellSort&);
-template bool PhaseField::solve<3>(Particles&, const CellSort&);
+template bool PhaseField::solve<1>(Particles&, const CellSort&, bool);
+template bool PhaseField::solve<2>(Particles&, const CellSort&, bool);
+template bool PhaseField::solve<3>(Particles&, const CellSort&, bool);
 
 } // namespace pfmpm

@@ -191,14 +191,14 @@ public:
     return _fracture[material] ? &*_fracture[material] : nullptr;
   }
 
-  /// @brief Assemble with the current history, solve, and set c and the
-  /// fracture energy at the particles of `sort`.
+  /// @brief Assemble with the current history, solve, and set c at the
+  /// particles of `sort`, with `energy` their fracture energy too.
   ///
   /// `sort` holds the particles that take part, all of crackable materials,
   /// sorted by cell; its unknowns are the nodes these particles touch.
   /// @return false if CG did not reach tol within max_iterations.
   template <int P>
-  bool solve(Particles& particles, const CellSort& sort);
+  bool solve(Particles& particles, const CellSort& sort, bool energy);
 
   const PhaseFieldStats& stats() const { return _stats; }
 
@@ -276,7 +276,7 @@ private:
   /// after and `it` to the iterations; stops at `stop` or max_iterations.
   template <int P>
   void free_set_iterations(double stop, double& start, double& residual, int& it);
-  template <int P, bool Fourth>
+  template <int P, bool Fourth, bool Energy>
   void map_to_particles(Particles& particles, const CellSort& sort);
   /// K's stencil storage (symmetric_stencil.h).
   template <int P>

@@ -161,6 +161,28 @@ struct BSplineStencil
     else
       interpolate_by_nodes<Q>(*this, nodal, value, grad);
   }
+  /// @brief The values alone at the point of Q quantities given at the
+  /// stencil's nodes, by the same columns: (P + 1)(P + 2) multiply-adds of
+  /// Q-vectors (12 for P = 2).
+  template <int Q>
+  void interpolate(const double (*nodal)[Q], double (&value)[Q]) const
+  {
+    static_assert(Dim == 2, "values alone: in 2D");
+    for (int q = 0; q < Q; ++q)
+      value[q] = 0.0;
+    for (int a = 0; a < width; ++a)
+    {
+      const double* column = nodal[a * width];
+#pragma omp simd
+      for (int q = 0; q < Q; ++q)
+      {
+        double t = 0.0;
+        for (int b = 0; b < width; ++b)
+          t += n[1][b] * column[b * Q + q];
+        value[q] += n[0][a] * t;
+      }
+    }
+  }
   /// @brief interpolate with the second derivatives too (`hessian[h][q]`, in
   /// d2N's order xx, yy, xy); only for Order 2, only in 2D. By the same
   /// columns: with v_a = sum_b N_b''(y) nodal[a, b], d2/dx2 = sum_a N_a''(x)

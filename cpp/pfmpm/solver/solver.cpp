@@ -329,14 +329,15 @@ void Solver::advance(std::int64_t steps)
       {
         for (std::int64_t k = 0; k < steps; ++k)
         {
+          const bool last = k + 1 == steps;
           if (!_adaptive_threads)
           {
-            step<typename decltype(shape)::type>(fields);
+            step<typename decltype(shape)::type>(fields, last);
             continue;
           }
           omp_set_num_threads(_threads.next(restore.threads));
           const double start = omp_get_wtime();
-          step<typename decltype(shape)::type>(fields);
+          step<typename decltype(shape)::type>(fields, last);
           _threads.record(omp_get_wtime() - start);
         }
       });
@@ -345,7 +346,7 @@ void Solver::advance(std::int64_t steps)
 void Solver::prepare()
 {
   bind();
-  dispatch([&](auto shape, auto& fields) { prepare<typename decltype(shape)::type>(fields); });
+  dispatch([&](auto shape, auto& fields) { prepare<typename decltype(shape)::type>(fields, true); });
 }
 
 void Solver::bind()
@@ -370,7 +371,7 @@ void Solver::bind()
 }
 
 template <class Shape, class Fields>
-void Solver::prepare(Fields& fields)
+void Solver::prepare(Fields& fields, bool energy)
 {
   constexpr int P = Shape::degree;
   {
@@ -391,7 +392,7 @@ void Solver::prepare(Fields& fields)
                     { return _fracture[material[p]] && (g.body < 0 || body[p] == g.body); });
     }
     const CellSort& sort = g.select ? g.sort : _sort;
-    const bool converged = g.field.template solve<P>(_particles, sort);
+    const bool converged = g.field.template solve<P>(_particles, sort, energy);
     // The materials degrade their stresses with the new phase field (eqs. 14-16).
     const std::int32_t* order = sort.order().data();
     const std::int64_t* start = sort.cell_start().data();
@@ -458,9 +459,9 @@ void Solver::check_domains() const
 }
 
 template <class Shape, class Fields>
-void Solver::step(Fields& fields)
+void Solver::step(Fields& fields, bool energy)
 {
-  prepare<Shape>(fields);
+  prepare<Shape>(fields, energy);
   {
     Stopwatch clock{_timers.p2g};
     particle_to_grid<Shape>(fields);
@@ -791,7 +792,7 @@ std::vector<std::array<double, 4>> Solver::nodal_mass_momentum()
         using Fields = std::decay_t<decltype(fields)>;
         using Shape = typename decltype(shape)::type;
         bind();
-        prepare<Shape>(fields);
+        prepare<Shape>(fields, true);
         particle_to_grid<Shape>(fields);
         const auto na = static_cast<std::size_t>(_grid.num_active());
         out.assign(na, {});

@@ -225,10 +225,12 @@ public:
   std::vector<std::array<double, 4>> nodal_mass_momentum();
 
 private:
+  /// One step; `energy`: the particles' fracture energy too (the last step
+  /// of an advance(), whose state energies and output read).
   template <class Shape, class Fields>
-  void step(Fields& fields);
+  void step(Fields& fields, bool energy);
   template <class Shape, class Fields>
-  void prepare(Fields& fields);
+  void prepare(Fields& fields, bool energy);
   template <class Shape, class Fields>
   void particle_to_grid(Fields& fields);
   template <class Shape, class Fields>
