@@ -87,8 +87,7 @@ PYBIND11_MODULE(_core, m)
         omp_set_num_threads(n);
       },
       py::arg("n"), "use n OpenMP threads from now on (as OMP_NUM_THREADS=n at the start)");
-  m.attr("thread_warmup_steps") =
-      pfmpm::ThreadGovernor::warmup();
+  m.attr("thread_warmup_steps") = pfmpm::ThreadGovernor::warmup();
   pfmpm::bindings::bind_grid(m);
   pfmpm::bindings::bind_particles(m);
   pfmpm::bindings::bind_materials(m);

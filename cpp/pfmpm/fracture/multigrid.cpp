@@ -13,10 +13,6 @@ namespace pfmpm
 
 namespace
 {
-/// Grid columns per strip of the Gauss-Seidel order. Strips of one parity
-/// share no stencil entry while this is at least the degree.
-constexpr int sweep_strip = 32;
-static_assert(sweep_strip >= 3, "a strip must be at least as wide as the stencil's reach p");
 /// Loops over fewer nodes than this run on one thread: the coarse levels are
 /// too small to pay for a parallel region.
 constexpr std::size_t parallel_nodes = 8192;

@@ -14,6 +14,13 @@
 namespace pfmpm
 {
 
+/// Grid columns per strip of the Gauss-Seidel order: exactly this in the
+/// multigrid smoother, about this in PhaseField's preconditioner
+/// (PhaseField::prepare_ssor). Strips of one parity share no stencil entry
+/// while a strip is at least the degree wide.
+constexpr int sweep_strip = 32;
+static_assert(sweep_strip >= 3, "a strip must be at least as wide as the stencil's reach p");
+
 /// @brief The two-scale relation of an open-knot-vector B-spline basis:
 /// with `fine` cells of size h and ceil(fine / 2) cells of size 2h on the
 /// same origin, each coarse function is a combination of fine ones,
@@ -66,9 +73,10 @@ struct Refinement
 ///
 /// Smoother: one Gauss-Seidel sweep before the coarse correction and one in
 /// the reverse order after it, so that B is symmetric; the order is that of
-/// PhaseField's symmetric Gauss-Seidel (strips, here of 32 grid columns
-/// exactly, the even strips first, each column by column). Strips of one parity share no matrix
-/// entry, so each half-sweep runs them in parallel; every other kernel writes
+/// PhaseField's symmetric Gauss-Seidel (strips, here of sweep_strip grid
+/// columns exactly, the even strips first, each column by column). Strips of
+/// one parity share no matrix entry, so each half-sweep runs them in
+/// parallel; every other kernel writes
 /// each node from a sum in a fixed order. B, and so the CG iterates, have the
 /// same bits for any number of threads.
 class Multigrid

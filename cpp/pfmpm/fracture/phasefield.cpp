@@ -568,13 +568,13 @@ void PhaseField::prepare_ssor()
 {
   const std::vector<std::int32_t>& nodes = _nodes.nodes();
   const auto na = static_cast<std::ptrdiff_t>(_rhs.size());
-  // About 32 columns per strip, the number of strips a multiple of 4, so
-  // that two or four threads get as many strips of each parity, and each
-  // strip at least p columns wide (strips of one parity must not touch);
-  // widths differ by at most one column.
-  constexpr int width = 32, multiple = 4;
+  // About sweep_strip columns per strip, the number of strips a multiple of
+  // 4, so that two or four threads get as many strips of each parity, and
+  // each strip at least p columns wide (strips of one parity must not
+  // touch); widths differ by at most one column.
+  constexpr int multiple = 4;
   const int nx = _grid.nodes()[0], nny = _grid.nodes()[1];
-  const int wanted = ((nx + width - 1) / width + multiple - 1) / multiple * multiple;
+  const int wanted = ((nx + sweep_strip - 1) / sweep_strip + multiple - 1) / multiple * multiple;
   const int strips = std::max(1, std::min(wanted, nx / _grid.degree()));
   _strip_column.resize(strips + 1);
   for (int s = 0; s <= strips; ++s)
@@ -665,13 +665,13 @@ double PhaseField::warm_start(std::size_t i)
 /// By default the second-order model takes symmetric Gauss-Seidel (SSOR with
 /// omega = 1, ssor_iterations): with K = L + D + U in the Gauss-Seidel order,
 /// M = (D + L) D^-1 (D + U), symmetric positive definite since D > 0. The
-/// order: strips of about 32 grid columns (prepare_ssor), the even strips
-/// first, then the odd ones, each strip column by column; strips of one
-/// parity share no entry of K, so they are swept in parallel and the result
-/// does not depend on the number of threads. It is applied with Eisenstat's trick (Eisenstat 1981): CG on
-/// K~ = E^-1 K E^-T, E = (D + L) D^-1/2, whose product is one backward and one
-/// forward sweep, about the cost of one product with K, instead of two sweeps
-/// and a product; c and the true residual r = F - K c are updated alongside.
+/// order: strips of about sweep_strip (32) grid columns (prepare_ssor), the
+/// even strips first, then the odd ones, each strip column by column; strips
+/// of one parity share no entry of K, so they are swept in parallel and the
+/// result does not depend on the number of threads. It is applied with
+/// Eisenstat's trick (Eisenstat 1981): CG on K~ = E^-1 K E^-T, E = (D + L)
+/// D^-1/2, whose product is one backward and one forward sweep, about the
+/// cost of one product with K, instead of two sweeps and a product; c and the true residual r = F - K c are updated alongside.
 /// The CG scalars are those of PCG with M: 4.65 iterations per solve on the
 /// default Borden plate to 40 us against 12.8 with Jacobi, z = D^-1 r
 /// (free_set_iterations), and 7.8 against 25.7 over the whole

@@ -157,7 +157,7 @@ struct BSplineStencil
   void interpolate(const double (*nodal)[Q], double (&value)[Q], double (&grad)[Dim][Q]) const
   {
     if constexpr (Dim == 2)
-      by_columns<Q, false>(nodal, value, grad, nullptr);
+      by_columns<Q, 1>(nodal, value, grad, nullptr);
     else
       interpolate_by_nodes<Q>(*this, nodal, value, grad);
   }
@@ -168,20 +168,7 @@ struct BSplineStencil
   void interpolate(const double (*nodal)[Q], double (&value)[Q]) const
   {
     static_assert(Dim == 2, "values alone: in 2D");
-    for (int q = 0; q < Q; ++q)
-      value[q] = 0.0;
-    for (int a = 0; a < width; ++a)
-    {
-      const double* column = nodal[a * width];
-#pragma omp simd
-      for (int q = 0; q < Q; ++q)
-      {
-        double t = 0.0;
-        for (int b = 0; b < width; ++b)
-          t += n[1][b] * column[b * Q + q];
-        value[q] += n[0][a] * t;
-      }
-    }
+    by_columns<Q, 0>(nodal, value, nullptr, nullptr);
   }
   /// @brief interpolate with the second derivatives too (`hessian[h][q]`, in
   /// d2N's order xx, yy, xy); only for Order 2, only in 2D. By the same
@@ -192,7 +179,7 @@ struct BSplineStencil
                    double (&hessian)[hessian_size(Dim)][Q]) const
   {
     static_assert(Order == 2 && Dim == 2, "second derivatives: Order 2, in 2D");
-    by_columns<Q, true>(nodal, value, grad, hessian);
+    by_columns<Q, 2>(nodal, value, grad, hessian);
   }
 
   /// @brief Evaluate at x, a point of cell `cell` (per direction).
@@ -202,20 +189,21 @@ struct BSplineStencil
   }
 
 private:
-  /// interpolate in 2D: the sums along y in column a of the stencil, then
-  /// their terms of the sums along x, column by column (each column's sums
-  /// used as soon as they are formed: kept in registers, not stored and read
-  /// back).
-  template <int Q, bool Second>
-  void by_columns(const double (*nodal)[Q], double (&value)[Q], double (&grad)[Dim][Q],
+  /// interpolate in 2D, with the derivatives up to order Derivatives (0, 1
+  /// or 2; `grad` and `hessian` are written only for the orders asked for):
+  /// the sums along y in column a of the stencil, then their terms of the
+  /// sums along x, column by column (each column's sums used as soon as they
+  /// are formed: kept in registers, not stored and read back).
+  template <int Q, int Derivatives>
+  void by_columns(const double (*nodal)[Q], double (&value)[Q], double (*grad)[Q],
                   double (*hessian)[Q]) const
   {
     for (int q = 0; q < Q; ++q)
     {
       value[q] = 0.0;
-      grad[0][q] = 0.0;
-      grad[1][q] = 0.0;
-      if constexpr (Second)
+      if constexpr (Derivatives >= 1)
+        grad[0][q] = grad[1][q] = 0.0;
+      if constexpr (Derivatives == 2)
         hessian[0][q] = hessian[1][q] = hessian[2][q] = 0.0;
     }
     for (int a = 0; a < width; ++a)
@@ -228,14 +216,18 @@ private:
         for (int b = 0; b < width; ++b)
         {
           t += n[1][b] * column[b * Q + q];
-          u += dn[1][b] * column[b * Q + q];
-          if constexpr (Second)
+          if constexpr (Derivatives >= 1)
+            u += dn[1][b] * column[b * Q + q];
+          if constexpr (Derivatives == 2)
             w += ddn[1][b] * column[b * Q + q];
         }
         value[q] += n[0][a] * t;
-        grad[0][q] += dn[0][a] * t;
-        grad[1][q] += n[0][a] * u;
-        if constexpr (Second)
+        if constexpr (Derivatives >= 1)
+        {
+          grad[0][q] += dn[0][a] * t;
+          grad[1][q] += n[0][a] * u;
+        }
+        if constexpr (Derivatives == 2)
         {
           hessian[0][q] += ddn[0][a] * t;
           hessian[1][q] += n[0][a] * w;

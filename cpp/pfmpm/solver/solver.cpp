@@ -329,16 +329,12 @@ void Solver::advance(std::int64_t steps)
       {
         for (std::int64_t k = 0; k < steps; ++k)
         {
-          const bool last = k + 1 == steps;
-          if (!_adaptive_threads)
-          {
-            step<typename decltype(shape)::type>(fields, last);
-            continue;
-          }
-          omp_set_num_threads(_threads.next(restore.threads));
+          if (_adaptive_threads)
+            omp_set_num_threads(_threads.next(restore.threads));
           const double start = omp_get_wtime();
-          step<typename decltype(shape)::type>(fields, last);
-          _threads.record(omp_get_wtime() - start);
+          step<typename decltype(shape)::type>(fields, k + 1 == steps); // energy in the last
+          if (_adaptive_threads)
+            _threads.record(omp_get_wtime() - start);
         }
       });
 }

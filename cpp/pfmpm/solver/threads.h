@@ -37,7 +37,7 @@ class ThreadGovernor
 public:
   static constexpr int settle = 2;       ///< steps on all threads first
   static constexpr int window = 8;       ///< steps timed on each count
-  static constexpr int shortest = 50;    ///< steps of the first period
+  static constexpr int shortest = 50;    ///< steps of a period after a change
   static constexpr int longest = 800;    ///< and of the longest
   static constexpr double margin = 0.95; ///< m kept if its mean step < margin x n's
 
