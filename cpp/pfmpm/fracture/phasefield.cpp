@@ -360,17 +360,25 @@ void PhaseField::assemble(const Particles& particles, const CellSort& sort)
         sums.block(along_x.products(cell.cx), along_y.products(cell.cy), block);
         sums.rhs(along_x.values(cell.cx), along_y.values(cell.cy), f);
         for (int i = 0; i < K; ++i)
-        {
-          const int ai = Shape::offset(i, 0), bi = Shape::offset(i, 1);
-          const int ix = cell.cx + ai, iy = cell.cy + bi;
-          _rhs[_nodes.index(ix, iy)] += f[i];
-          // The upper half of row i: the nodes j = (a', b') after i, a' > a or
-          // a' = a and b' >= b.
-          double* row = &_stencil[padded(ix, iy) * H];
-          for (int aj = ai; aj < W; ++aj)
-            for (int bj = aj == ai ? bi : 0; bj < W; ++bj)
-              row[Stencil<P>::slot(aj - ai, bj - bi)] += block[ai * W + aj][bi * W + bj];
-        }
+          _rhs[_nodes.index(cell.cx + i / W, cell.cy + i % W)] += f[i];
+        // Node i = (a, b) of the cell, row a W + b of the block, has its
+        // stored row at padded(cx, cy) + a padded_ny + b; the row takes its
+        // upper half, the nodes j = (a', b') after i (a' > a, or a' = a and
+        // b' >= b). The bounds are constants: the loops unroll to a straight
+        // run of additions.
+        double* corner = &_stencil[padded(cell.cx, cell.cy) * H];
+#pragma GCC unroll 4
+        for (int ai = 0; ai < W; ++ai)
+#pragma GCC unroll 4
+          for (int bi = 0; bi < W; ++bi)
+          {
+            double* row = corner + (ai * _padded_ny + bi) * H;
+#pragma GCC unroll 4
+            for (int aj = ai; aj < W; ++aj)
+#pragma GCC unroll 4
+              for (int bj = aj == ai ? bi : 0; bj < W; ++bj)
+                row[Stencil<P>::slot(aj - ai, bj - bi)] += block[ai * W + aj][bi * W + bj];
+          }
       });
 
   // Nodes that no crackable particle touches keep c = 1: an identity row.
