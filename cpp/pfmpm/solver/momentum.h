@@ -162,11 +162,6 @@ template <class Shape, bool External, int F, bool Surface, bool Damage, class Se
               py[f][i] += w * mvy;
               fx[f][i] -= sxx * g[0] + sxy * g[1]; // eq. 62
               fy[f][i] -= sxy * g[0] + syy * g[1];
-              if constexpr (External)
-              {
-                ex[f][i] += w * fext[2 * p]; // eq. 42
-                ey[f][i] += w * fext[2 * p + 1];
-              }
               if constexpr (Surface)
               {
                 gx[f][i] += g[0] * mp; // eq. 70, before normalisation
@@ -186,6 +181,17 @@ template <class Shape, bool External, int F, bool Surface, bool Damage, class Se
                   full[f][i] = std::max(full[f][i], a.full[p]);
               }
             });
+        // eq. 42, from the loaded particles alone (few: a load on an edge):
+        // a zero force adds zeros, which leave the sums as they are.
+        if constexpr (External)
+          if (fext[2 * p] != 0.0 || fext[2 * p + 1] != 0.0)
+            s.each_node(
+                [&](int i, double w, const double*)
+                {
+                  const int f = Select::at(fp, i);
+                  ex[f][i] += w * fext[2 * p];
+                  ey[f][i] += w * fext[2 * p + 1];
+                });
       });
   std::memcpy(block.m, m, sizeof m);
   std::memcpy(block.px, px, sizeof px);
