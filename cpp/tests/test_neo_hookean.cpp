@@ -38,7 +38,7 @@ struct Point
   void step(const double* L, double dt)
   {
     P.volume[0] *= (1.0 + dt * L[0]) * (1.0 + dt * L[3]) - dt * dt * L[1] * L[2];
-    bound->update(Batch{nullptr, 0, 1}, L, dt, nullptr);
+    bound->update(Batch{nullptr, 0, 1}, L, dt, nullptr, true);
   }
   /// One step of eq. 8 that takes a diagonal F to diag(lx, ly).
   void stretch_to(double lx, double ly)

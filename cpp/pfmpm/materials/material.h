@@ -74,7 +74,7 @@ private:
 struct UpdateResult
 {
   double wave = 0.0;        ///< largest P-wave speed in the batch after the update
-  std::size_t bad = SIZE_MAX; ///< smallest particle with a non-finite stress, or SIZE_MAX
+  std::size_t bad = SIZE_MAX; ///< smallest particle with a non-finite state, or SIZE_MAX
 };
 
 /// @brief A constitutive model: its particle state and the stress it gives.
@@ -105,9 +105,13 @@ public:
     virtual ~Bound() = default;
     /// @brief Advance the batch's kinematic measure by dt with L (2 x 2 per
     /// particle, in batch order) and set its stress; with `degradation`, the
-    /// stress of eq. 16 with g(c) and the history raised to psi+ (eq. 20).
+    /// stress of eq. 16 with g(c) and the history raised to psi+ (eq. 20),
+    /// and the stress only when `stress` is set: a cracking particle's stress
+    /// is set again from the next phase field before a step reads it
+    /// (Material::Bound::stress), so only the state an advance() leaves,
+    /// which output reads, needs it.
     virtual UpdateResult update(const Batch& b, const double* L, double dt,
-                                const Degradation* degradation) const = 0;
+                                const Degradation* degradation, bool stress) const = 0;
     /// @brief Set the stress of the batch from its current state and phase
     /// field (after the phase-field solve changed c; eqs. 14-16).
     virtual void stress(const Batch& b, const Degradation& degradation) const = 0;
@@ -180,14 +184,14 @@ private:
     }
 
     UpdateResult update(const Batch& b, const double* L, double dt,
-                        const Degradation* degradation) const override
+                        const Degradation* degradation, bool stress) const override
     {
       UpdateResult r;
       if constexpr (Model::constant_wave_speed)
         r.wave = _model.wave_speed();
       each(b, [&](auto at)
            {
-             if (degradation)
+             if (degradation && stress)
                for (std::size_t k = 0; k < b.n; ++k)
                {
                  const std::size_t p = at(k);
@@ -196,7 +200,18 @@ private:
                  // the largest tensile energy so far (eq. 20, Kuhn-Tucker conditions).
                  const double plus = _model.degraded(_view, p, degradation->g(degradation->c[p]));
                  degradation->history[p] = std::max(degradation->history[p], plus);
-                 note(r, p, degradation->history[p]);
+                 note(r, p, stress_sum(p) + degradation->history[p]);
+               }
+             else if (degradation)
+               for (std::size_t k = 0; k < b.n; ++k)
+               {
+                 const std::size_t p = at(k);
+                 _model.advance(_view, p, &L[4 * k], dt);
+                 // eq. 20 as above, psi+ without the stress
+                 double plus, minus;
+                 _model.split(_view, p, plus, minus);
+                 degradation->history[p] = std::max(degradation->history[p], plus);
+                 note(r, p, plus + minus);
                }
              else
                for (std::size_t k = 0; k < b.n; ++k)
@@ -204,7 +219,7 @@ private:
                  const std::size_t p = at(k);
                  _model.advance(_view, p, &L[4 * k], dt);
                  _model.undegraded(_view, p);
-                 note(r, p, 0.0);
+                 note(r, p, stress_sum(p));
                }
            });
       return r;
@@ -250,12 +265,18 @@ private:
     }
 
   private:
-    /// The checks of particle p after its update: a finite stress (and
-    /// history), and its wave speed when that follows the state.
-    void note(UpdateResult& r, std::size_t p, double history) const
+    /// The sum of particle p's stress components (finite when each is).
+    double stress_sum(std::size_t p) const
     {
       const double* sig = &_stress[4 * p];
-      if (!std::isfinite(sig[0] + sig[1] + sig[2] + sig[3] + history))
+      return sig[0] + sig[1] + sig[2] + sig[3];
+    }
+    /// The checks of particle p after its update: `state`, a sum of its new
+    /// state's numbers, is finite, and its wave speed when that follows the
+    /// state.
+    void note(UpdateResult& r, std::size_t p, double state) const
+    {
+      if (!std::isfinite(state))
         r.bad = std::min(r.bad, p);
       if constexpr (!Model::constant_wave_speed)
         r.wave = std::max(r.wave, _model.state_wave_speed(_view, p));

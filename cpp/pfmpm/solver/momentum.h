@@ -496,7 +496,8 @@ template <class Shape, int F, class Select>
 /// @brief G2P (K&T eqs. 80, 82, 78): move each cell's particles (move_cell),
 /// each (particle, node) pair reading its slot; then each run of the cell's
 /// particles of one material advances its state with the velocity gradient
-/// and sets its stress (Material::update), and with CPDI the particle
+/// and sets its stress (Material::Bound::update; a cracking particle's only
+/// with `stress`), and with CPDI the particle
 /// domains are convected (ParticleDomains::convect). Non-finite values and
 /// the largest speed are noted for the checks of the step.
 template <class Shape, class Fields>
@@ -511,6 +512,8 @@ struct KinematicsG2P
   const ParticleDomains* domains; ///< with CPDI, else null
   double dt;
   const std::int32_t* field_of; ///< per particle: its body (discrete) or group (damage fields)
+  /// Whether cracking particles get their stress too (Material::Bound::update).
+  bool stress;
 
   struct Local
   {
@@ -580,7 +583,7 @@ struct KinematicsG2P
     auto update = [&](std::int32_t m, const Batch& b)
     {
       const double* L = &local.L[4 * static_cast<std::size_t>(b.index - (each.order + cell.begin))];
-      const UpdateResult r = materials[m]->update(b, L, dt, degradation[m]);
+      const UpdateResult r = materials[m]->update(b, L, dt, degradation[m], stress);
       local.wave = std::max(local.wave, r.wave);
       local.bad = std::min(local.bad, r.bad);
     };

@@ -485,7 +485,7 @@ void Solver::step(Fields& fields, bool energy)
   }
   {
     Stopwatch clock{_timers.g2p};
-    grid_to_particle<Shape>(fields);
+    grid_to_particle<Shape>(fields, energy);
   }
   _time += _dt;
   ++_step;
@@ -540,7 +540,7 @@ void Solver::particle_to_grid(Fields& fields)
 }
 
 template <class Shape, class Fields>
-void Solver::grid_to_particle(Fields& fields)
+void Solver::grid_to_particle(Fields& fields, bool stress)
 {
   const bool check_stability = _stability_length > 0.0;
   const ParticleDomains* domains = _domains ? &*_domains : nullptr;
@@ -553,6 +553,7 @@ void Solver::grid_to_particle(Fields& fields)
                                       domains,
                                       _dt,
                                       field_of_particles(fields, _particles),
+                                      stress,
                                       _particles.size()};
   pfmpm::grid_to_particle<Shape>(_grid, _sort, points(), kernel);
   if (kernel.bad < _particles.size())
@@ -582,7 +583,7 @@ void Solver::non_finite(std::size_t p) const
   const char* what = !finite(s.v, 2 * p, 2)        ? "velocity"
                      : !finite(s.x, 2 * p, 2)      ? "position"
                      : !finite(s.stress, 4 * p, 4) ? "stress"
-                                                   : "history";
+                                                   : "material state (strain, history)";
   throw SimulationError(std::string(what) + " of " + where(p) + " is not finite");
 }
 

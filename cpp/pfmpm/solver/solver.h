@@ -225,8 +225,9 @@ public:
   std::vector<std::array<double, 4>> nodal_mass_momentum();
 
 private:
-  /// One step; `energy`: the particles' fracture energy too (the last step
-  /// of an advance(), whose state energies and output read).
+  /// One step; `energy`: the particles' fracture energy and the cracking
+  /// particles' stress too (the last step of an advance(), whose state
+  /// energies and output read).
   template <class Shape, class Fields>
   void step(Fields& fields, bool energy);
   template <class Shape, class Fields>
@@ -234,7 +235,7 @@ private:
   template <class Shape, class Fields>
   void particle_to_grid(Fields& fields);
   template <class Shape, class Fields>
-  void grid_to_particle(Fields& fields);
+  void grid_to_particle(Fields& fields, bool stress);
   /// With CPDI: at t = 0, that no domain is wider than a cell; then set the
   /// step's integration domains and check that each fits its stencil.
   void check_domains() const;
