@@ -475,51 +475,6 @@ void Multigrid::strips(const Level& level, bool forward, F&& f) const
 
 namespace
 {
-/// sum_j K_ij x_j over the neighbours j != i of padded node i that come
-/// before it in the forward Gauss-Seidel order (Multigrid::strips), after it,
-/// or both, with K stored in `rows`. Within i's strip the order is the node
-/// order; a neighbour in the next or the last strip comes after i iff i's
-/// strip is even. The terms are summed per column offset |dx| and the sums
-/// added from the farthest column to i's own, which comes last: in a sweep its
-/// terms are the ones that wait for the node just updated.
-template <int P, bool Before, bool After>
-double neighbours(const SymmetricStencil<P>& stencil, const double* rows, std::size_t i, int left,
-                  int right, bool even, const double* x)
-{
-  constexpr int H = SymmetricStencil<P>::size;
-  const double* row = &rows[i * H];
-  double column[P + 1] = {};
-  if (left >= P && right >= P) // away from the strip's edges: the upper half comes after i
-  {
-#pragma GCC unroll 32
-    for (int k = 1; k < H; ++k)
-    {
-      const std::ptrdiff_t o = stencil.offset[k];
-      if constexpr (After)
-        column[SymmetricStencil<P>::column(k)] += row[k] * x[i + o];
-      if constexpr (Before)
-        column[SymmetricStencil<P>::column(k)] += rows[(i - o) * H + k] * x[i - o];
-    }
-  }
-  else
-  {
-#pragma GCC unroll 32
-    for (int k = 1; k < H; ++k)
-    {
-      const std::ptrdiff_t o = stencil.offset[k];
-      const int dx = SymmetricStencil<P>::column(k);
-      if (dx <= right || even ? After : Before) // i + o
-        column[dx] += row[k] * x[i + o];
-      if (dx > left && even ? After : Before) // i - o
-        column[dx] += rows[(i - o) * H + k] * x[i - o];
-    }
-  }
-  double sum = column[P];
-  for (int dx = P - 1; dx >= 0; --dx)
-    sum += column[dx];
-  return sum;
-}
-
 /// sum_a wx[a] sum_e wy[e] v[index(x0 + a, y0 + e)] over a < nx, e < ny: one
 /// node of a transfer, P^T r or P x_2h, with the tensor-product weights of R.
 template <class Index>
@@ -578,7 +533,7 @@ void Multigrid::cycle(std::size_t l, double* kx)
                [&](std::size_t u, int left, int right, bool even)
                {
                  const std::size_t i = f.live[u];
-                 x[i] = (b[i] - neighbours<P, true, false>(stencil, rows, i, left, right, even, x))
+                 x[i] = subtract_neighbours<P, true, false>(stencil, rows, i, left, right, even, b[i], x)
                         * f.inverse[u];
                });
   // The residual at the coupled nodes (zero elsewhere, from setup).
@@ -586,7 +541,7 @@ void Multigrid::cycle(std::size_t l, double* kx)
                 [&](std::size_t u, int left, int right, bool even)
                 {
                   if (const std::size_t i = f.live[u]; f.coupled[i])
-                    f.r[i] = -neighbours<P, false, true>(stencil, rows, i, left, right, even, x);
+                    f.r[i] = subtract_neighbours<P, false, true>(stencil, rows, i, left, right, even, 0.0, x);
                 });
 
   // Restriction b_2h = P^T r.
@@ -623,7 +578,7 @@ void Multigrid::cycle(std::size_t l, double* kx)
                {
                  const std::size_t i = f.live[u];
                  const double next
-                     = (b[i] - neighbours<P, true, true>(stencil, rows, i, left, right, even, x))
+                     = subtract_neighbours<P, true, true>(stencil, rows, i, left, right, even, b[i], x)
                        * f.inverse[u];
                  if (kx)
                    delta[i] = next - x[i];
@@ -635,7 +590,8 @@ void Multigrid::cycle(std::size_t l, double* kx)
                 [&](std::size_t u, int left, int right, bool even)
                 {
                   const std::size_t i = f.live[u];
-                  kx[u] = b[i] + neighbours<P, true, false>(stencil, rows, i, left, right, even, delta);
+                  // b + sum_{j before i} K_ij delta_j
+                  kx[u] = b[i] - subtract_neighbours<P, true, false>(stencil, rows, i, left, right, even, 0.0, delta);
                 });
 }
 

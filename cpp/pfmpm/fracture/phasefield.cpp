@@ -408,48 +408,13 @@ void PhaseField::multiply(const std::vector<double>& in, std::vector<double>& ou
 template <int P>
 void PhaseField::ssor_iterations(double stop, double& start, double& residual, int& it)
 {
-  constexpr int H = Stencil<P>::size;
   const Stencil<P> stencil(_padded_ny);
   const std::size_t na = _rhs.size();
   const auto strips = static_cast<std::ptrdiff_t>(_strip_column.size()) - 1;
   double* t = _search.data();  // the search direction p
   double* w = _forward.data(); // (D + L)^-1 (v - D t)
+  const double* rows = _stencil.data();
 
-  // Sums over the neighbours j of node a that come after it (Later) or before
-  // it in the order: K_aj x_j, and K_aj y_j when Two. `left` and `right`: the
-  // columns of a's strip on either side of a's, `even` whether the strip is.
-  auto neighbours = [&](auto later, auto two, std::size_t a, int left, int right, bool even,
-                        const double* x, const double* y, double& sx, double& sy)
-  {
-    constexpr bool Later = decltype(later)::value, Two = decltype(two)::value;
-    const std::size_t i = _position[a];
-    const double* row = &_stencil[i * H];
-    const bool inside = left >= P && right >= P;
-    sx = 0.0;
-    sy = 0.0;
-    // The other columns first, then the node's own column: its neighbours
-    // there were updated just before it, so their terms come last.
-    for (int n = 1; n < H; ++n)
-    {
-      const int k = n <= H - 1 - P ? n + P : n - (H - 1 - P);
-      const std::ptrdiff_t o = stencil.offset[k];
-      // i + o: after a within the strip; in the next strip: after a iff a's strip is even.
-      if (inside ? Later : (even || stencil.dx[k] <= right) == Later)
-      {
-        sx += row[k] * x[i + o];
-        if constexpr (Two)
-          sy += row[k] * y[i + o];
-      }
-      // i - o: before a within the strip; in the last strip: after a iff a's strip is even.
-      if (inside ? !Later : (even && stencil.dx[k] > left) == Later)
-      {
-        const double e = _stencil[(i - o) * H + k];
-        sx += e * x[i - o];
-        if constexpr (Two)
-          sy += e * y[i - o];
-      }
-    }
-  };
   // f(a, left, right, even) for the nodes of strip s, forward or backward.
   // The held nodes are skipped: t and w stay 0 there.
   const std::int8_t* held = _bound.data();
@@ -473,8 +438,6 @@ void PhaseField::ssor_iterations(double stop, double& start, double& residual, i
             f(a, left, right, even);
     }
   };
-  using yes = std::true_type;
-  using no = std::false_type;
 
   // r = F - K c on the free nodes (eq. 50), 0 on the held ones, as are
   // t, w, v, g and q, so that every update below leaves them 0.
@@ -504,9 +467,9 @@ void PhaseField::ssor_iterations(double stop, double& start, double& residual, i
     for (std::ptrdiff_t s = parity; s < strips; s += 2)
       strip(s, true, [&](std::size_t a, int left, int right, bool even)
             {
-              double sx, sy;
-              neighbours(no{}, no{}, a, left, right, even, w, nullptr, sx, sy);
-              w[_position[a]] = (_r[a] - sx) * _inverse[a];
+              const std::size_t i = _position[a];
+              w[i] = subtract_neighbours<P, true, false>(stencil, rows, i, left, right, even, _r[a], w)
+                     * _inverse[a];
             });
   }
   double rz = deterministic_sum<1>(na,
@@ -531,9 +494,9 @@ void PhaseField::ssor_iterations(double stop, double& start, double& residual, i
           strip(s, false, [&](std::size_t a, int left, int right, bool even)
                 {
                   _v[a] = _diagonal[a] * _g[a] + beta * _v[a]; // p~ = r~ + beta p~
-                  double sx, sy;
-                  neighbours(yes{}, no{}, a, left, right, even, t, nullptr, sx, sy);
-                  t[_position[a]] = (_v[a] - sx) * _inverse[a];
+                  const std::size_t i = _position[a];
+                  t[i] = subtract_neighbours<P, false, true>(stencil, rows, i, left, right, even, _v[a], t)
+                         * _inverse[a];
                 });
       }
       for (int parity = 0; parity < 2; ++parity)
@@ -543,10 +506,11 @@ void PhaseField::ssor_iterations(double stop, double& start, double& residual, i
           strip(s, true, [&](std::size_t a, int left, int right, bool even)
                 {
                   const std::size_t i = _position[a];
-                  double sw, st;
-                  neighbours(no{}, yes{}, a, left, right, even, w, t, sw, st);
-                  w[i] = (_v[a] - _diagonal[a] * t[i] - sw) * _inverse[a];
-                  _q[a] = st + _v[a];
+                  // v - D t - (L w)_a and -(L t)_a
+                  double b[2] = {_v[a] - _diagonal[a] * t[i], 0.0};
+                  subtract_neighbours<P, true, false, 2>(stencil, rows, i, left, right, even, {w, t}, b);
+                  w[i] = b[0] * _inverse[a];
+                  _q[a] = _v[a] - b[1];
                 });
       }
     }

@@ -47,6 +47,89 @@ struct SymmetricStencil
   }
 };
 
+/// @brief b_q - sum_j K_ij x_q[j], into b[q], for each of Q vectors x_q,
+/// over the neighbours j != i of padded node i that come before it in the
+/// forward Gauss-Seidel order of strips of grid columns (Before), after it
+/// (After), or both, with K stored in `rows`; `left` and `right` are the
+/// columns of i's strip on either side of i's, `even` whether that strip
+/// is. Within i's strip the order is the node order; a neighbour in the next
+/// or the last strip comes after i iff i's strip is even.
+///
+/// The order of the terms serves the sweeps: the other columns' terms are
+/// summed per column offset |dx| (independent chains) and subtracted from the
+/// farthest column in; then i's own column's, each subtracted alone, those
+/// before i and then those after, from the farthest row in. So in a sweep the
+/// term of the node updated just before i (i - 1 forward, i + 1 backward)
+/// comes last, and what waits for that node is one multiply-add.
+template <int P, bool Before, bool After, int Q>
+[[gnu::always_inline]] inline void subtract_neighbours(const SymmetricStencil<P>& stencil,
+                                                       const double* rows, std::size_t i,
+                                                       int left, int right, bool even,
+                                                       const double* const (&x)[Q],
+                                                       double (&b)[Q])
+{
+  constexpr int H = SymmetricStencil<P>::size;
+  const double* row = &rows[i * H];
+  double column[P + 1][Q] = {}; // per column offset dx = 1 .. P
+  if (left >= P && right >= P) // away from the strip's edges: the upper half comes after i
+  {
+#pragma GCC unroll 32
+    for (int k = P + 1; k < H; ++k)
+    {
+      const std::ptrdiff_t o = stencil.offset[k];
+      double* c = column[SymmetricStencil<P>::column(k)];
+      for (int q = 0; q < Q; ++q)
+      {
+        if constexpr (After)
+          c[q] += row[k] * x[q][i + o];
+        if constexpr (Before)
+          c[q] += rows[(i - o) * H + k] * x[q][i - o];
+      }
+    }
+  }
+  else
+  {
+#pragma GCC unroll 32
+    for (int k = P + 1; k < H; ++k)
+    {
+      const std::ptrdiff_t o = stencil.offset[k];
+      const int dx = SymmetricStencil<P>::column(k);
+      for (int q = 0; q < Q; ++q)
+      {
+        if (dx <= right || even ? After : Before) // i + o
+          column[dx][q] += row[k] * x[q][i + o];
+        if (dx > left && even ? After : Before) // i - o
+          column[dx][q] += rows[(i - o) * H + k] * x[q][i - o];
+      }
+    }
+  }
+  for (int q = 0; q < Q; ++q)
+    for (int dx = P; dx >= 1; --dx)
+      b[q] -= column[dx][q];
+  // The own column (slots 1 .. P, dy = k): i - dy before i, i + dy after it.
+  if constexpr (Before)
+    for (int k = P; k >= 1; --k)
+      for (int q = 0; q < Q; ++q)
+        b[q] -= rows[(i - k) * H + k] * x[q][i - k];
+  if constexpr (After)
+    for (int k = P; k >= 1; --k)
+      for (int q = 0; q < Q; ++q)
+        b[q] -= row[k] * x[q][i + k];
+}
+
+/// subtract_neighbours for one vector x: b - sum_j K_ij x_j.
+template <int P, bool Before, bool After>
+[[gnu::always_inline]] inline double subtract_neighbours(const SymmetricStencil<P>& stencil,
+                                                         const double* rows, std::size_t i,
+                                                         int left, int right, bool even,
+                                                         double b, const double* x)
+{
+  const double* const v[1] = {x};
+  double out[1] = {b};
+  subtract_neighbours<P, Before, After, 1>(stencil, rows, i, left, right, even, v, out);
+  return out[0];
+}
+
 /// @brief Row i (padded index) of the matrix stored in `rows` (SymmetricStencil<P>::size
 /// entries per padded node) times the padded vector `v`.
 template <int P>
