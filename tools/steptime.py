@@ -44,8 +44,10 @@ if args.stages:
     scale = 1e9 / (len(sim.particles) * args.steps)
     stages = ", ".join(f"{name} {scale * (after - seconds[name]):.1f}"
                        for name, after in sim.solver.stage_seconds().items())
-    print(f"ns per particle-step ({len(sim.particles)} particles): all {scale * wall:.1f}; {stages}")
+    print(f"ns per particle-step ({len(sim.particles)} particles): "
+          f"all {scale * wall:.1f}; {stages}")
     if solves:
         now = sim.solver.phase_field_stats()
-        per_solve = (now["iterations"] - solves["iterations"]) / max(now["solves"] - solves["solves"], 1)
+        solved = max(now["solves"] - solves["solves"], 1)
+        per_solve = (now["iterations"] - solves["iterations"]) / solved
         print(f"CG iterations per solve: {per_solve:.2f}")

@@ -533,7 +533,8 @@ void Multigrid::cycle(std::size_t l, double* kx)
                [&](std::size_t u, int left, int right, bool even)
                {
                  const std::size_t i = f.live[u];
-                 x[i] = subtract_neighbours<P, true, false>(stencil, rows, i, left, right, even, b[i], x)
+                 x[i] = subtract_neighbours<P, true, false>(stencil, rows, i, left, right, even,
+                                                            b[i], x)
                         * f.inverse[u];
                });
   // The residual at the coupled nodes (zero elsewhere, from setup).
@@ -541,7 +542,8 @@ void Multigrid::cycle(std::size_t l, double* kx)
                 [&](std::size_t u, int left, int right, bool even)
                 {
                   if (const std::size_t i = f.live[u]; f.coupled[i])
-                    f.r[i] = subtract_neighbours<P, false, true>(stencil, rows, i, left, right, even, 0.0, x);
+                    f.r[i] = subtract_neighbours<P, false, true>(stencil, rows, i, left, right,
+                                                                 even, 0.0, x);
                 });
 
   // Restriction b_2h = P^T r.
@@ -578,7 +580,8 @@ void Multigrid::cycle(std::size_t l, double* kx)
                {
                  const std::size_t i = f.live[u];
                  const double next
-                     = subtract_neighbours<P, true, true>(stencil, rows, i, left, right, even, b[i], x)
+                     = subtract_neighbours<P, true, true>(stencil, rows, i, left, right, even,
+                                                         b[i], x)
                        * f.inverse[u];
                  if (kx)
                    delta[i] = next - x[i];
@@ -591,7 +594,8 @@ void Multigrid::cycle(std::size_t l, double* kx)
                 {
                   const std::size_t i = f.live[u];
                   // b + sum_{j before i} K_ij delta_j
-                  kx[u] = b[i] - subtract_neighbours<P, true, false>(stencil, rows, i, left, right, even, 0.0, delta);
+                  kx[u] = b[i] - subtract_neighbours<P, true, false>(stencil, rows, i, left,
+                                                                     right, even, 0.0, delta);
                 });
 }
 

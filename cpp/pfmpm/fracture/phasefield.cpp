@@ -468,7 +468,8 @@ void PhaseField::ssor_iterations(double stop, double& start, double& residual, i
       strip(s, true, [&](std::size_t a, int left, int right, bool even)
             {
               const std::size_t i = _position[a];
-              w[i] = subtract_neighbours<P, true, false>(stencil, rows, i, left, right, even, _r[a], w)
+              w[i] = subtract_neighbours<P, true, false>(stencil, rows, i, left, right, even,
+                                                         _r[a], w)
                      * _inverse[a];
             });
   }
@@ -495,7 +496,8 @@ void PhaseField::ssor_iterations(double stop, double& start, double& residual, i
                 {
                   _v[a] = _diagonal[a] * _g[a] + beta * _v[a]; // p~ = r~ + beta p~
                   const std::size_t i = _position[a];
-                  t[i] = subtract_neighbours<P, false, true>(stencil, rows, i, left, right, even, _v[a], t)
+                  t[i] = subtract_neighbours<P, false, true>(stencil, rows, i, left, right,
+                                                             even, _v[a], t)
                          * _inverse[a];
                 });
       }
@@ -508,7 +510,8 @@ void PhaseField::ssor_iterations(double stop, double& start, double& residual, i
                   const std::size_t i = _position[a];
                   // v - D t - (L w)_a and -(L t)_a
                   double b[2] = {_v[a] - _diagonal[a] * t[i], 0.0};
-                  subtract_neighbours<P, true, false, 2>(stencil, rows, i, left, right, even, {w, t}, b);
+                  subtract_neighbours<P, true, false, 2>(stencil, rows, i, left, right, even,
+                                                         {w, t}, b);
                   w[i] = b[0] * _inverse[a];
                   _q[a] = _v[a] - b[1];
                 });
