@@ -220,6 +220,28 @@ def test_straight_crack_energy_is_gc_times_area(degree):
     assert sim.energies()["fracture"] == pytest.approx(2.5 * length * thickness, rel=0.02)
 
 
+@pytest.mark.parametrize("steps", (1, 3))
+def test_stress_after_advance_is_the_degraded_stress_of_the_state(steps):
+    # The steps inside an advance() leave a cracking particle's stress to the
+    # next step's phase field; the state an advance() returns must carry the
+    # stress of eq. 16 for its own strain and phase field. The strip is
+    # stretched, so the strain changes in every step.
+    scene = crack_strip(h=0.25, l0=1.0, n=2)
+    sim = Simulation(scene)
+    P = sim.particles
+    P.v[:, 0] = 1e-3 * P.x[:, 0]
+    sim.advance(2)
+    before = P.strain.copy()
+    sim.advance(steps)
+    assert np.abs(P.strain - before).max() > 1e-6 * np.abs(before).max()
+    c = P.c
+    g = c * c  # g(c) of eq. 15 with k_f = 0
+    m = _core.LinearElastic(1.0, 0.2, 1.0, _core.Plane.strain, _core.Split.spectral)
+    expected = m.stresses(P.strain, g)
+    np.testing.assert_allclose(P.stress, expected, rtol=1e-14, atol=1e-14 * np.abs(expected).max())
+    assert g.min() < 0.5  # the crack is there: the degradation matters
+
+
 def test_materials_that_cannot_crack_take_no_part():
     scene = crack_strip(h=0.25, l0=1.0, n=2)
     plain = Material("rigid", 1.0, 0.2, 1.0)
