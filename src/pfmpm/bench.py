@@ -171,10 +171,12 @@ def _rss_bytes() -> int:
 
 
 def scene_bench(path: Path | str, steps: int = 20, overrides: list[str] | tuple[str, ...] = ()) -> dict:
-    """Time ``steps`` steps of a scene file after two warm-up steps, in this process.
+    """Time ``steps`` steps of a scene file after the warm-up steps
+    (``_core.thread_warmup_steps``), in this process.
 
-    Returns particle-steps per second, CG iterations per phase-field solve and
-    the peak memory per particle: the process's peak resident size
+    Returns particle-steps per second, CG iterations per phase-field solve,
+    how many of the timed steps the thread governor ran on fewer threads than
+    the user's count, and the peak memory per particle: the process's peak resident size
     (``ru_maxrss``) less its size before the scene was built, over the
     particle count, so it holds the core's arrays, the solver's grid and
     phase-field storage and the Python copies the set-up makes. Run one scene
@@ -190,6 +192,7 @@ def scene_bench(path: Path | str, steps: int = 20, overrides: list[str] | tuple[
     # the timed steps run as a long run's do.
     sim.advance(_core.thread_warmup_steps)
     solves, iterations = (sim.solver.phase_field_stats()[k] for k in ("solves", "iterations"))
+    reduced = sim.solver.reduced_thread_steps
     start = time.perf_counter()
     sim.advance(steps)
     seconds = time.perf_counter() - start
@@ -202,7 +205,7 @@ def scene_bench(path: Path | str, steps: int = 20, overrides: list[str] | tuple[
         "particles": n,
         "steps": steps,
         "threads": _core.num_threads(),
-        "reduced_thread_steps": sim.solver.reduced_thread_steps,
+        "reduced_thread_steps": sim.solver.reduced_thread_steps - reduced,  # of the timed steps
         "seconds": seconds,
         "particle_steps_per_s": n * steps / seconds,
         "cg_iterations_per_solve": (stats["iterations"] - iterations) / solved if solved else 0.0,

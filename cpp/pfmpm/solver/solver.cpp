@@ -324,6 +324,7 @@ void Solver::advance(std::int64_t steps)
     int threads;
     ~Restore() { omp_set_num_threads(threads); }
   } restore{omp_get_max_threads()};
+  const RunQueueWait waits;
   dispatch(
       [&](auto shape, auto& fields)
       {
@@ -331,10 +332,10 @@ void Solver::advance(std::int64_t steps)
         {
           if (_adaptive_threads)
             omp_set_num_threads(_threads.next(restore.threads));
-          const double start = omp_get_wtime();
+          const double start = omp_get_wtime(), waited = waits.seconds();
           step<typename decltype(shape)::type>(fields, k + 1 == steps); // energy in the last
           if (_adaptive_threads)
-            _threads.record(omp_get_wtime() - start);
+            _threads.record(omp_get_wtime() - start, waits.seconds() - waited);
         }
       });
 }
