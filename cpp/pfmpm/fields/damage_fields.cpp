@@ -266,34 +266,59 @@ void DamageFields::gradients(Particles& particles, const CellSort& sort)
   const std::int64_t* start = sort.cell_start().data();
   // Cells within P cells of a fully damaged particle: only their particles'
   // stencils reach a node where the fields may separate.
+  // Marked from the fully damaged particles alone, by the cell the sort
+  // found for each (a pass in index order, not through the sort's order).
   std::vector<std::uint8_t> full_cell(ncells, 0);
+  {
+    const double* full = _full.data();
+    const double* x = particles.x.data();
+    const BSpline1D& bx = _grid.basis(0);
+    const BSpline1D& by = _grid.basis(1);
+    const auto n = static_cast<std::ptrdiff_t>(particles.size());
 #pragma omp parallel for schedule(static)
-  for (std::ptrdiff_t c = 0; c < ncells; ++c)
-    for (std::int64_t k = start[c]; k < start[c + 1] && !full_cell[c]; ++k)
-      full_cell[c] = _full[order[k]] != 0.0;
+    for (std::ptrdiff_t p = 0; p < n; ++p)
+      if (full[p] != 0.0)
+      {
+        std::uint8_t& cell = full_cell[static_cast<std::size_t>(bx.cell(x[2 * p])) * ncy +
+                                       by.cell(x[2 * p + 1])];
+#pragma omp atomic write
+        cell = 1;
+      }
+  }
   // Dilated by P cells along y, then along x: each column of cells ORed
-  // with the columns' entries up to P cells away along the axis.
-  auto dilate = [&](const std::vector<std::uint8_t>& in, std::vector<std::uint8_t>& out, int axis)
+  // with the columns' entries up to P cells away along the axis. (The
+  // bounds are local values: a byte store may alias anything the lambda
+  // reads through a reference, and would stop the loops from vectorising.)
+  auto dilate = [ncells, ncx, ncy, P](const std::vector<std::uint8_t>& in,
+                                      std::vector<std::uint8_t>& out, int axis)
   {
     out.assign(ncells, 0);
+    const std::uint8_t* from = in.data();
+    std::uint8_t* to = out.data();
 #pragma omp parallel for schedule(static)
     for (int cx = 0; cx < ncx; ++cx)
     {
-      std::uint8_t* o = &out[static_cast<std::size_t>(cx) * ncy];
+      std::uint8_t* o = to + static_cast<std::size_t>(cx) * ncy;
       if (axis == 1)
       {
-        const std::uint8_t* column = &in[static_cast<std::size_t>(cx) * ncy];
+        const std::uint8_t* column = from + static_cast<std::size_t>(cx) * ncy;
         for (int d = -P; d <= P; ++d)
-          for (int cy = std::max(0, -d); cy < std::min(ncy, ncy - d); ++cy)
+        {
+          const int first = std::max(0, -d), last = std::min(ncy, ncy - d);
+          for (int cy = first; cy < last; ++cy)
             o[cy] |= column[cy + d];
+        }
       }
       else
-        for (int d = std::max(-P, -cx); d <= std::min(P, ncx - 1 - cx); ++d)
+      {
+        const int first = std::max(-P, -cx), last = std::min(P, ncx - 1 - cx);
+        for (int d = first; d <= last; ++d)
         {
-          const std::uint8_t* column = &in[static_cast<std::size_t>(cx + d) * ncy];
+          const std::uint8_t* column = from + static_cast<std::size_t>(cx + d) * ncy;
           for (int cy = 0; cy < ncy; ++cy)
             o[cy] |= column[cy];
         }
+      }
     }
   };
   std::vector<std::uint8_t> along_y;
