@@ -106,7 +106,7 @@ public:
   double seconds() const;
 
 private:
-  int _fd; // the file, open for the thread's life of this object; -1 if none
+  int _fd; // the statistics file, open while this object lives; -1 if none
 };
 
 } // namespace pfmpm
