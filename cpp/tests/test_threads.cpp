@@ -19,8 +19,7 @@ namespace
 {
 /// Steps on the counts the governor chooses, step k taking time(n, k) on n
 /// threads, of which the calling thread waited for a core a fraction
-/// wait(n, k); the steps
-/// run on each count from step `from` on.
+/// wait(n, k); the steps run on each count from step `from` on.
 using Of = std::function<double(int, int)>;
 std::map<int, int> run(ThreadGovernor& g, int most, int steps, const Of& time, int from = 0,
                        const Of& wait = [](int, int) { return 0.0; })
@@ -111,11 +110,11 @@ TEST(ThreadGovernor, LoadArrivingDuringAPeriodEndsIt)
 {
   // Quiet (two threads 1.5 times as fast as one) but from step 500 to 1500,
   // where two threads become three times as slow as one and the calling
-  // thread waits for a core 40 % of the time. The period under way (200 steps by then)
-  // ends at once with a probe down, which keeps one thread; no step runs on
-  // two threads while the load lasts, and two threads come back at the end
-  // of the first period of `shortest` steps with no crowded window: at most
-  // two periods and a window after the load.
+  // thread waits for a core 40 % of the time. The period under way (200
+  // steps by then) ends at once with a probe down, which keeps one thread;
+  // no step runs on two threads while the load lasts, and two threads come
+  // back at the end of the first period of `shortest` steps with no crowded
+  // window: at most two periods and a window after the load.
   ThreadGovernor g;
   const auto loaded = [](int k) { return k >= 500 && k < 1500; };
   int on_two_loaded = 0, back = -1;

@@ -324,7 +324,10 @@ void Solver::advance(std::int64_t steps)
     int threads;
     ~Restore() { omp_set_num_threads(threads); }
   } restore{omp_get_max_threads()};
+  // The calling thread's wait for a core so far: read once a step, its end
+  // the next step's start.
   const RunQueueWait waits;
+  double waited = _adaptive_threads ? waits.seconds() : 0.0;
   dispatch(
       [&](auto shape, auto& fields)
       {
@@ -332,10 +335,14 @@ void Solver::advance(std::int64_t steps)
         {
           if (_adaptive_threads)
             omp_set_num_threads(_threads.next(restore.threads));
-          const double start = omp_get_wtime(), waited = waits.seconds();
+          const double start = omp_get_wtime();
           step<typename decltype(shape)::type>(fields, k + 1 == steps); // energy in the last
           if (_adaptive_threads)
-            _threads.record(omp_get_wtime() - start, waits.seconds() - waited);
+          {
+            const double now = waits.seconds();
+            _threads.record(omp_get_wtime() - start, now - waited);
+            waited = now;
+          }
         }
       });
 }
