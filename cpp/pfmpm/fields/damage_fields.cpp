@@ -6,6 +6,7 @@
 #include "pfmpm/common/strips.h"
 #include "pfmpm/fields/kernel.h"
 #include "pfmpm/shape/cpdi.h"
+#include "pfmpm/shape/stencil.h"
 
 #include <omp.h>
 
@@ -104,7 +105,7 @@ DamageFields::DamageFields(const Grid& grid, Particles& particles, std::vector<d
     _groups.emplace(grid, particles, _friction, _group.data());
   particles.add({"damage_gradient", 2, DType::f64, {0.0},
                  "gradient of the normalised kernel damage field at the particle (H&H eqs. 17-19), "
-                 "where it partitions the fields (near fully damaged particles), else 0",
+                 "where it partitions the fields (near nodes whose fields may separate), else 0",
                  "x,y", "damage_gradient"});
   particles.add({"surface", 1, DType::i32, {0.0},
                  "surface flag s_p (H&H section 2.4): 1 on a surface, damage max(s_p, D_p)", "",
@@ -254,20 +255,200 @@ bool DamageFields::particle_damage(const Particles& particles)
   return any != 0;
 }
 
+namespace
+{
+/// The group slots of a cell's stencil nodes, per group of the cell.
+struct CellSlots
+{
+  /// Nodes of a cell's block: (degree + 1)^2 with B-splines, 16 with CPDI.
+  static constexpr int K = std::max((max_degree + 1) * (max_degree + 1), CpdiStencil::size);
+  int n = 0;                                       ///< groups in the cell
+  std::int32_t group[BodyFields::max_fields];      ///< their indices, sorted
+  std::int32_t slot[DamageFields::max_groups][K];  ///< slot of group f at stencil node i
+  /// Local index of group g (one of the cell's).
+  int local(std::int32_t g) const
+  {
+    int f = 0;
+    while (group[f] != g)
+      ++f;
+    return f;
+  }
+};
+
+/// The groups of cell (cx, cy) and their slots at its stencil nodes, in
+/// stencil order (Grid::block()): looked up once per cell, not per particle
+/// and node. `groups`: the group slots, or none with one group (the slot of
+/// a node is then its active index).
+void cell_slots(const Grid& grid, const DamageFields& fields, const std::optional<BodyFields>& groups,
+                int cx, int cy, CellSlots& c)
+{
+  const NodeBlock& block = grid.block();
+  const int width = block.width, ncy = grid.cells()[1];
+  c.n = fields.cell_groups(static_cast<std::size_t>(cx) * ncy + cy, c.group);
+  const int x0 = block.first(cx, grid.nodes()[0]), y0 = block.first(cy, grid.nodes()[1]);
+  for (int a = 0; a < width; ++a)
+  {
+    const std::int32_t row = grid.active_index(x0 + a, y0);
+    for (int b = 0; b < width; ++b)
+      for (int f = 0; f < c.n; ++f)
+        c.slot[f][a * width + b] = groups ? groups->slot(row + b, c.group[f]) : row + b;
+  }
+}
+
+/// Cells within `reach` cells (along each axis) of a marked cell of `in`:
+/// dilated along y, then along x, each column of cells ORed with the
+/// columns' entries up to `reach` cells away along the axis.
+std::vector<std::uint8_t> dilate(const std::vector<std::uint8_t>& in, int ncx, int ncy, int reach)
+{
+  const auto ncells = static_cast<std::size_t>(ncx) * ncy;
+  std::vector<std::uint8_t> along_y(ncells, 0), out(ncells, 0);
+  for (int axis = 1; axis >= 0; --axis)
+  {
+    // Local pointers: a byte store may alias anything read through a
+    // reference, and would stop the loops from vectorising.
+    const std::uint8_t* from = axis == 1 ? in.data() : along_y.data();
+    std::uint8_t* to = axis == 1 ? along_y.data() : out.data();
+#pragma omp parallel for schedule(static)
+    for (int cx = 0; cx < ncx; ++cx)
+    {
+      std::uint8_t* o = to + static_cast<std::size_t>(cx) * ncy;
+      if (axis == 1)
+      {
+        const std::uint8_t* column = from + static_cast<std::size_t>(cx) * ncy;
+        for (int d = -reach; d <= reach; ++d)
+        {
+          const int first = std::max(0, -d), last = std::min(ncy, ncy - d);
+          for (int cy = first; cy < last; ++cy)
+            o[cy] |= column[cy + d];
+        }
+      }
+      else
+      {
+        const int first = std::max(-reach, -cx), last = std::min(reach, ncx - 1 - cx);
+        for (int d = first; d <= last; ++d)
+        {
+          const std::uint8_t* column = from + static_cast<std::size_t>(cx + d) * ncy;
+          for (int cy = 0; cy < ncy; ++cy)
+            o[cy] |= column[cy];
+        }
+      }
+    }
+  }
+  return out;
+}
+} // namespace
+
+template <class Stencil>
+void DamageFields::open_nodes(const Particles& particles, const CellSort& sort)
+{
+  constexpr int K = Stencil::size;
+  const int ncx = _grid.cells()[0], ncy = _grid.cells()[1];
+  const std::size_t ngs = _groups ? static_cast<std::size_t>(_groups->num_slots())
+                                  : static_cast<std::size_t>(_grid.num_active());
+  _mass.assign(ngs, 0.0);
+  _mass_damage.assign(ngs, 0.0);
+  _group_full.assign(ngs, 0);
+  _open_slot.resize(ngs);
+  const std::array<const BSpline1D*, 2> basis{&_grid.basis(0), &_grid.basis(1)};
+  const std::int32_t* order = sort.order().data();
+  const std::int32_t* group = _group.data();
+  const double* x = particles.x.data();
+  const double* mass = particles.mass.data();
+  const double* damage = _damage.data();
+  const double* full = _full.data();
+  const Column* r1 = particles.find("domain_r1");
+  const Column* r2 = particles.find("domain_r2");
+  // The sums of eq. 21 over A and B together, with the terms P2G adds into
+  // its md and full, cell by cell; strips of one parity share no node.
+  for_each_cell_by_strips(
+      ncx, ncy, sort.cell_start(),
+      [&](int cx, int cy, std::int64_t begin, std::int64_t end)
+      {
+        if (!_near[static_cast<std::size_t>(cx) * ncy + cy])
+          return;
+        CellSlots c;
+        cell_slots(_grid, *this, _groups, cx, cy, c);
+        double m[max_groups][K] = {}, md[max_groups][K] = {};
+        std::uint32_t any_full[max_groups] = {};
+        const int cell[2] = {cx, cy};
+        for (std::int64_t k = begin; k < end; ++k)
+        {
+          const std::int32_t p = order[k];
+          Stencil s;
+          if constexpr (Stencil::domains)
+            s.evaluate(basis, cell, &x[2 * p], &r1->f64[2 * p], &r2->f64[2 * p]);
+          else
+            s.evaluate(basis, cell, &x[2 * p]);
+          const int f = c.local(group[p]);
+          const double mp = mass[p], Dp = damage[p];
+          const bool failed = full[p] != 0.0;
+          s.each_node(
+              [&](int i, double w, const double*)
+              {
+                m[f][i] += w * mp;
+                md[f][i] += w * mp * Dp;
+                // Where its shape function is positive (CPDI: above round-off).
+                const bool maps = Stencil::domains ? w > cpdi_maps_to : true;
+                any_full[f] |= failed && maps ? 1u << i : 0u;
+              });
+        }
+        for (int f = 0; f < c.n; ++f)
+          for (int i = 0; i < K; ++i)
+          {
+            const std::int32_t slot = c.slot[f][i];
+            _mass[slot] += m[f][i];
+            _mass_damage[slot] += md[f][i];
+            _group_full[slot] |= static_cast<std::uint8_t>(any_full[f] >> i & 1u);
+          }
+      });
+  // Open: a fully damaged particle maps there and the mean damage of both
+  // sides together exceeds D-bar_min, less a margin far above the rounding
+  // of sums of positive terms taken in another order than P2G's.
+  const double threshold = _options.separability * (1.0 - 1e-9);
+  const auto ngs_signed = static_cast<std::ptrdiff_t>(ngs);
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t g = 0; g < ngs_signed; ++g)
+    _open_slot[g] = _group_full[g] && _mass_damage[g] > threshold * _mass[g] ? 1 : 0;
+  // The open cells: the occupied cells whose block holds an open node, found
+  // from those nodes, which are few (NodeBlock::holders).
+  const NodeBlock& block = _grid.block();
+  const int nnx = _grid.nodes()[0], nny = _grid.nodes()[1];
+  const std::int32_t* nodes = _grid.active_nodes().data();
+  const std::int32_t* gstart = _groups ? _groups->slot_start().data() : nullptr;
+  const std::int64_t* start = sort.cell_start().data();
+  _open.assign(_grid.num_cells(), 0);
+  const std::int32_t na = _grid.num_active();
+  for (std::int32_t a = 0; a < na; ++a)
+  {
+    std::uint8_t open = 0;
+    for (std::int32_t g = gstart ? gstart[a] : a; g < (gstart ? gstart[a + 1] : a + 1); ++g)
+      open |= _open_slot[g];
+    if (!open)
+      continue;
+    int cx0, cx1, cy0, cy1;
+    block.holders(nodes[a] / nny, ncx, nnx, cx0, cx1);
+    block.holders(nodes[a] % nny, ncy, nny, cy0, cy1);
+    for (int cx = cx0; cx <= cx1; ++cx)
+      for (int cy = cy0; cy <= cy1; ++cy)
+      {
+        const std::size_t cell = static_cast<std::size_t>(cx) * ncy + cy;
+        _open[cell] = start[cell + 1] > start[cell] ? 1 : 0;
+      }
+  }
+}
+
 void DamageFields::gradients(Particles& particles, const CellSort& sort)
 {
-  // The cells whose block shares a node with a cell's are within P cells of
-  // it (the degree with B-splines, up to 5 with CPDI's 4 x 4 blocks, which
-  // move inwards at the grid's ends: NodeBlock::reach).
-  const int P = _grid.block().reach();
   const int ncx = _grid.cells()[0], ncy = _grid.cells()[1];
   const auto ncells = static_cast<std::ptrdiff_t>(_grid.num_cells());
   const std::int32_t* order = sort.order().data();
   const std::int64_t* start = sort.cell_start().data();
-  // Cells within P cells of a fully damaged particle: only their particles'
-  // stencils reach a node where the fields may separate.
-  // Marked from the fully damaged particles alone, by the cell the sort
-  // found for each (a pass in index order, not through the sort's order).
+  // Cells within reach() cells of a fully damaged particle: only their
+  // particles' stencils reach a node where one maps (the cells whose block
+  // shares a node with a cell's are within reach() of it: the degree with
+  // B-splines, up to 5 with CPDI's 4 x 4 blocks, which move inwards at the
+  // grid's ends). Marked from the fully damaged particles alone, by the
+  // cell the sort found for each (a pass in index order).
   std::vector<std::uint8_t> full_cell(ncells, 0);
   {
     const double* full = _full.data();
@@ -285,46 +466,16 @@ void DamageFields::gradients(Particles& particles, const CellSort& sort)
         cell = 1;
       }
   }
-  // Dilated by P cells along y, then along x: each column of cells ORed
-  // with the columns' entries up to P cells away along the axis. (The
-  // bounds are local values: a byte store may alias anything the lambda
-  // reads through a reference, and would stop the loops from vectorising.)
-  auto dilate = [ncells, ncx, ncy, P](const std::vector<std::uint8_t>& in,
-                                      std::vector<std::uint8_t>& out, int axis)
-  {
-    out.assign(ncells, 0);
-    const std::uint8_t* from = in.data();
-    std::uint8_t* to = out.data();
-#pragma omp parallel for schedule(static)
-    for (int cx = 0; cx < ncx; ++cx)
-    {
-      std::uint8_t* o = to + static_cast<std::size_t>(cx) * ncy;
-      if (axis == 1)
-      {
-        const std::uint8_t* column = from + static_cast<std::size_t>(cx) * ncy;
-        for (int d = -P; d <= P; ++d)
-        {
-          const int first = std::max(0, -d), last = std::min(ncy, ncy - d);
-          for (int cy = first; cy < last; ++cy)
-            o[cy] |= column[cy + d];
-        }
-      }
-      else
-      {
-        const int first = std::max(-P, -cx), last = std::min(P, ncx - 1 - cx);
-        for (int d = first; d <= last; ++d)
-        {
-          const std::uint8_t* column = from + static_cast<std::size_t>(cx + d) * ncy;
-          for (int cy = 0; cy < ncy; ++cy)
-            o[cy] |= column[cy];
-        }
-      }
-    }
-  };
-  std::vector<std::uint8_t> along_y;
-  dilate(full_cell, along_y, 1);
-  dilate(along_y, _near, 0);
-
+  _near = dilate(full_cell, ncx, ncy, _grid.block().reach());
+  // The open nodes, with the transfers' shape functions.
+  if (particles.find("domain_r1"))
+    open_nodes<CpdiStencil>(particles, sort);
+  else if (_grid.degree() == 1)
+    open_nodes<BSplineStencil<2, 1>>(particles, sort);
+  else if (_grid.degree() == 2)
+    open_nodes<BSplineStencil<2, 2>>(particles, sort);
+  else
+    open_nodes<BSplineStencil<2, 3>>(particles, sort);
   {
     Stopwatch clock{_timers.neighbours};
     if (_neighbours.stale(_grid, sort, particles.x, _options.skin * _radius))
@@ -349,51 +500,72 @@ void DamageFields::gradients(Particles& particles, const CellSort& sort)
         return false;
     return true;
   };
+  const double reach2 = radius * radius;
+  const double* full = _full.data();
+  const std::int32_t* body = particles.body.data();
+  const BSpline1D& bx = _grid.basis(0);
+  const BSpline1D& by = _grid.basis(1);
   std::int64_t evaluated = 0;
-#pragma omp parallel for schedule(dynamic, 64) reduction(+ : evaluated)
+  int proxies = 0;
+  _proxy.assign(particles.size(), 0);
+  std::uint8_t* proxy = _proxy.data();
+  // The particles of the open cells, whose stencils reach an open node.
+#pragma omp parallel for schedule(dynamic, 64) reduction(+ : evaluated) reduction(| : proxies)
   for (std::ptrdiff_t c = 0; c < ncells; ++c)
   {
     for (std::int64_t k = start[c]; k < start[c + 1]; ++k)
     {
       const std::int32_t p = order[k];
-      if (_near[c] && !uniform(p))
+      mask[p] = 0;
+      if (_open[c] && !uniform(p))
       {
         const KernelValue v = kernel_field(p, &nindex[nstart[p]], nstart[p + 1] - nstart[p], x,
                                            damage, radius);
         grad[2 * p] = v.grad[0];
         grad[2 * p + 1] = v.grad[1];
         ++evaluated;
+        continue;
       }
-      else
+      grad[2 * p] = grad[2 * p + 1] = 0.0;
+      if (!_open[c] || full[p] == 0.0)
+        continue;
+      // A fully damaged particle without a gradient takes its side from its
+      // nearest neighbour of the same body with one within r_p (sides()):
+      // those of them outside the open cells need theirs too.
+      for (std::int64_t m = nstart[p]; m < nstart[p + 1]; ++m)
       {
-        grad[2 * p] = grad[2 * p + 1] = 0.0;
-        mask[p] = 0;
+        const std::int32_t q = nindex[m];
+        const double dx = x[2 * q] - x[2 * p], dy = x[2 * q + 1] - x[2 * p + 1];
+        if (body[q] != body[p] || dx * dx + dy * dy >= reach2)
+          continue;
+        const std::size_t cell = static_cast<std::size_t>(bx.cell(x[2 * q])) * ncy + by.cell(x[2 * q + 1]);
+        if (!_open[cell] && _near[cell])
+        {
+#pragma omp atomic write
+          proxy[q] = 1;
+          proxies = 1;
+        }
       }
     }
   }
+  // Those neighbours, evaluated where their damage varies (as in a near
+  // cell of their own).
+  if (proxies)
+  {
+    const auto n = static_cast<std::ptrdiff_t>(particles.size());
+#pragma omp parallel for schedule(dynamic, 256) reduction(+ : evaluated)
+    for (std::ptrdiff_t q = 0; q < n; ++q)
+      if (proxy[q] && !uniform(static_cast<std::int32_t>(q)))
+      {
+        const KernelValue v = kernel_field(q, &nindex[nstart[q]], nstart[q + 1] - nstart[q], x,
+                                           damage, radius);
+        grad[2 * q] = v.grad[0];
+        grad[2 * q + 1] = v.grad[1];
+        ++evaluated;
+      }
+  }
   _evaluated += evaluated;
 }
-
-namespace
-{
-/// The group slots of a cell's stencil nodes, per group of the cell.
-struct CellSlots
-{
-  /// Nodes of a cell's block: (degree + 1)^2 with B-splines, 16 with CPDI.
-  static constexpr int K = std::max((max_degree + 1) * (max_degree + 1), CpdiStencil::size);
-  int n = 0;                                       ///< groups in the cell
-  std::int32_t group[BodyFields::max_fields];      ///< their indices, sorted
-  std::int32_t slot[DamageFields::max_groups][K];  ///< slot of group f at stencil node i
-  /// Local index of group g (one of the cell's).
-  int local(std::int32_t g) const
-  {
-    int f = 0;
-    while (group[f] != g)
-      ++f;
-    return f;
-  }
-};
-} // namespace
 
 void DamageFields::sides(const Particles& particles, const CellSort& sort, const double* grad)
 {
@@ -401,12 +573,10 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
   const NodeBlock& block = _grid.block();
   const int width = block.width, nk = width * width;
   const int ncx = _grid.cells()[0], ncy = _grid.cells()[1];
-  const int nnx = _grid.nodes()[0], nny = _grid.nodes()[1];
   const std::size_t ngs = _groups ? static_cast<std::size_t>(_groups->num_slots())
                                   : static_cast<std::size_t>(_grid.num_active());
   _best_norm.assign(ngs, 0.0);
   _best.assign(ngs, -1);
-  _group_full.assign(ngs, 0);
   _has_b.assign(ngs, 0);
   _G.resize(2 * ngs);
   const std::int32_t* order = sort.order().data();
@@ -434,38 +604,22 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
       m |= stencil.n[i] > cpdi_maps_to ? 1u << i : 0u;
     return m;
   };
-  // The groups of cell (cx, cy) and their slots at its stencil nodes, in
-  // stencil order: looked up once per cell, not per particle and node.
-  auto cell_slots = [&](int cx, int cy, CellSlots& c)
-  {
-    c.n = cell_groups(static_cast<std::size_t>(cx) * ncy + cy, c.group);
-    const int x0 = block.first(cx, nnx), y0 = block.first(cy, nny);
-    for (int a = 0; a < width; ++a)
-    {
-      const std::int32_t row = _grid.active_index(x0 + a, y0);
-      for (int b = 0; b < width; ++b)
-        for (int f = 0; f < c.n; ++f)
-          c.slot[f][a * width + b] = group_slot(row + b, c.group[f]);
-    }
-  };
-  // Algorithm 1: per node and group, the particle gradient of largest
-  // magnitude, ties to the smaller particle index, and whether a fully
-  // damaged particle of the group maps there. Each cell finds its own best
-  // per node first (the largest, ties to the smaller index, is the same in
-  // any order of comparison), then compares it with the node's. Strips of
-  // one parity share no node, so the comparisons need no atomics.
+  // Algorithm 1, over the open cells (every cell whose block holds an open
+  // node): per node and group, the particle gradient of largest magnitude,
+  // ties to the smaller particle index. Each cell finds its own best per
+  // node first (the largest, ties to the smaller index, is the same in any
+  // order of comparison), then compares it with the node's. Strips of one
+  // parity share no node, so the comparisons need no atomics.
   for_each_cell_by_strips(
       ncx, ncy, sort.cell_start(),
       [&](int cx, int cy, std::int64_t begin, std::int64_t end)
       {
-        if (!_near[static_cast<std::size_t>(cx) * ncy + cy])
+        if (!_open[static_cast<std::size_t>(cx) * ncy + cy])
           return;
         CellSlots c;
-        cell_slots(cx, cy, c);
+        cell_slots(_grid, *this, _groups, cx, cy, c);
         double norm[max_groups][K];
         std::int32_t best[max_groups][K];
-        // Per group, the nodes a fully damaged particle maps to.
-        std::uint32_t any_full[max_groups] = {};
         for (int f = 0; f < c.n; ++f)
           for (int i = 0; i < nk; ++i)
           {
@@ -476,13 +630,10 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
         {
           const std::int32_t p = order[k];
           const double n2 = grad[2 * p] * grad[2 * p] + grad[2 * p + 1] * grad[2 * p + 1];
-          if (n2 == 0.0 && full[p] == 0.0)
+          if (n2 == 0.0)
             continue; // nothing to note
           const int f = c.local(group[p]);
           const std::uint32_t nodes = reached(p, cx, cy);
-          any_full[f] |= full[p] != 0.0 ? nodes : 0u;
-          if (n2 == 0.0)
-            continue;
           for (int i = 0; i < nk; ++i)
             if ((nodes >> i & 1u) && (n2 > norm[f][i] || (n2 == norm[f][i] && p < best[f][i])))
             {
@@ -494,8 +645,6 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
           for (int i = 0; i < nk; ++i)
           {
             const std::int32_t s = c.slot[f][i];
-            if (any_full[f] >> i & 1u)
-              _group_full[s] = 1;
             const double n2 = norm[f][i];
             if (n2 > _best_norm[s] || (n2 > 0.0 && n2 == _best_norm[s] && best[f][i] < _best[s]))
             {
@@ -504,13 +653,13 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
             }
           }
       });
-  // G_i, zero where no fully damaged particle of the group maps (there the
-  // fields cannot be separable: one field).
+  // G_i, zero where the node is not open (there the fields cannot be
+  // separable: one field).
   const auto ngs_signed = static_cast<std::ptrdiff_t>(ngs);
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t s = 0; s < ngs_signed; ++s)
   {
-    const bool live = _group_full[s] && _best[s] >= 0;
+    const bool live = _open_slot[s] && _best[s] >= 0;
     _G[2 * s] = live ? grad[2 * _best[s]] : 0.0;
     _G[2 * s + 1] = live ? grad[2 * _best[s] + 1] : 0.0;
   }
@@ -555,10 +704,10 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
       [&](int cx, int cy, std::int64_t begin, std::int64_t end)
       {
         const std::size_t cell = static_cast<std::size_t>(cx) * ncy + cy;
-        if (!_near[cell])
+        if (!_open[cell])
           return;
         CellSlots c;
-        cell_slots(cx, cy, c);
+        cell_slots(_grid, *this, _groups, cx, cy, c);
         // Per group and node: G_i, and the position of its particle p*
         // (none: G_i = 0, and every pair chooses A); per group, whether
         // some node's G_i is not zero (else all its pairs choose A: the
@@ -669,10 +818,10 @@ void DamageFields::layout(const CellSort& sort, bool any_split)
     }
   }
 
-  // With one group, only a split node has two slots, and only cells near
-  // full damage have one among their nodes.
-  const bool near_only = !_groups && any_split;
-  mark_contact_cells(_grid, sort, _slot_start, contact, near_only ? _near.data() : nullptr,
+  // With one group, only a split node has two slots, and only open cells
+  // have one among their nodes.
+  const bool open_only = !_groups && any_split;
+  mark_contact_cells(_grid, sort, _slot_start, contact, open_only ? _open.data() : nullptr,
                      _touches);
 }
 

@@ -76,10 +76,11 @@ struct DamageTimers
 /// build() computes, every step:
 /// - the particle damage D~_p = max(s_p, D_p) with the surface flag s_p
 ///   (section 2.4) and whether the particle is fully damaged;
-/// - at particles near a fully damaged one, the normalised kernel field and
-///   its gradient grad D_p (eqs. 17-19, `damage_gradient`), neighbours from
-///   the Verlet list;
-/// - per node and group, the nodal gradient G_i: the particle gradient of
+/// - the open nodes, where the fields may separate (below);
+/// - at the particles whose stencil reaches an open node, the normalised
+///   kernel field and its gradient grad D_p (eqs. 17-19, `damage_gradient`),
+///   neighbours from the Verlet list;
+/// - per open node and group, the nodal gradient G_i: the particle gradient of
 ///   largest magnitude among the group's particles mapping to the node
 ///   (Algorithm 1), ties to the smaller particle index, so that the result
 ///   does not depend on the visiting order;
@@ -98,11 +99,16 @@ struct DamageTimers
 ///   chose it) B. Field index 2 group + side.
 ///
 /// Exact shortcut: a group's fields at a node are separable only if a fully
-/// damaged particle of the group maps to it (eq. 21, condition i), and a
-/// non-separable node acts as one field (Algorithm 3). So G_i is taken as
-/// zero there, every pair chooses A, and the node has one slot: the single
-/// field's sums, without a split that would be merged again. Only particles
-/// whose stencil reaches such a node need their gradient.
+/// damaged particle of the group maps to it (eq. 21, condition i) and the
+/// mass-weighted mean damage of both sides exceeds D-bar_min (condition
+/// ii), which needs that of the two together to exceed it (a mean of the
+/// two means); a non-separable node acts as one field (Algorithm 3). So
+/// where either fails for the group's particles taken together (`open`
+/// nodes pass both), G_i is taken as zero, every pair chooses A, and the
+/// node has one slot: the single field's sums, without a split that would
+/// be merged again. Only particles whose stencil reaches an open node need
+/// their gradient, and the neighbours within r_p of the fully damaged ones
+/// among them without one (whose side is such a neighbour's).
 class DamageFields
 {
 public:
@@ -200,23 +206,27 @@ public:
   const DamageTimers& timers() const { return _timers; }
   /// Neighbour-list builds so far.
   std::int64_t neighbour_builds() const { return _neighbours.builds(); }
-  /// Kernel fields evaluated so far (particles near full damage whose
-  /// neighbours' damage differs from theirs), summed over the builds.
+  /// Kernel fields evaluated so far (particles whose stencil reaches an open
+  /// node, and their neighbours that give a side, whose neighbours' damage
+  /// differs from theirs), summed over the builds.
   std::int64_t kernel_evaluations() const { return _evaluated; }
   /// @brief Note that no particle moved more than `distance` in the step
   /// (for the neighbour lists' skin).
   void moved(double distance) { _neighbours.moved(distance); }
 
 private:
-  /// Group slot of `group` at active node a.
-  std::int32_t group_slot(std::int32_t a, std::int32_t group) const
-  {
-    return _groups ? _groups->slot(a, group) : a;
-  }
   /// D~_p and the fully damaged flags; returns whether some particle is.
   bool particle_damage(const Particles& particles);
-  /// The kernel-field gradient at the particles of cells near full damage.
-  /// Particles of the other cells get zero gradient and all pairs A.
+  /// The open nodes and cells (class comment; H&H eq. 21 for the two sides
+  /// together): per group slot the sums of N_ip m_p and N_ip m_p D~_p over
+  /// the cells near full damage, with the shape functions of `Stencil`, the
+  /// transfers' own.
+  template <class Stencil>
+  void open_nodes(const Particles& particles, const CellSort& sort);
+  /// The kernel-field gradient at the particles whose stencil reaches an
+  /// open node and at their neighbours. The other particles get zero
+  /// gradient, and every particle all pairs A (sides() sets the masks of
+  /// the open cells).
   void gradients(Particles& particles, const CellSort& sort);
   /// Algorithms 1 and 2 from the particle gradients `grad`: nodal
   /// gradients, the pairs' sides, the split cells.
@@ -239,16 +249,21 @@ private:
   std::vector<double> _full;          // per particle: 0 or 1
   std::vector<std::uint32_t> _mask;   // per particle
   std::vector<std::uint8_t> _near;    // per cell: a fully damaged particle within reach() cells
+  std::vector<std::uint8_t> _open;    // per cell: its block holds an open node
+  std::vector<std::uint8_t> _proxy;   // per particle: its gradient gives a side (gradients())
   std::vector<std::uint8_t> _split;   // per cell
   std::vector<std::uint8_t> _touches; // per cell
   bool _dirty = false;                // gradients or masks were set in an earlier step
 
-  // Per group slot: Algorithm 1's best particle (|grad|^2, index), whether
-  // a fully damaged particle maps there, the nodal gradient, whether some
-  // pair chose B.
+  // Per group slot: the sums of N_ip m_p and N_ip m_p D~_p over the group's
+  // particles, whether a fully damaged one maps there, whether the node is
+  // open; Algorithm 1's best particle (|grad|^2, index), the nodal
+  // gradient, whether some pair chose B.
+  std::vector<double> _mass, _mass_damage;
+  std::vector<std::uint8_t> _group_full;
+  std::vector<std::uint8_t> _open_slot;
   std::vector<double> _best_norm;
   std::vector<std::int32_t> _best;
-  std::vector<std::uint8_t> _group_full;
   std::vector<double> _G;
   std::vector<std::uint8_t> _has_b;
 
