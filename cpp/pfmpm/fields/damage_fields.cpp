@@ -368,8 +368,14 @@ void DamageFields::open_nodes(const Particles& particles, const CellSort& sort)
           return;
         CellSlots c;
         cell_slots(_grid, *this, _groups, cx, cy, c);
-        double m[max_groups][K] = {}, md[max_groups][K] = {};
-        std::uint32_t any_full[max_groups] = {};
+        double m[max_groups][K], md[max_groups][K];
+        std::uint32_t any_full[max_groups];
+        for (int f = 0; f < c.n; ++f) // the cell's groups only
+        {
+          std::fill_n(m[f], K, 0.0);
+          std::fill_n(md[f], K, 0.0);
+          any_full[f] = 0;
+        }
         const int cell[2] = {cx, cy};
         for (std::int64_t k = begin; k < end; ++k)
         {
