@@ -30,8 +30,12 @@ void NeighbourList::build(const Grid& grid, const CellSort& sort, const std::vec
 #pragma omp parallel for schedule(dynamic, 1)
   for (int cx = 0; cx < ncx; ++cx)
   {
+    // The column's lists, out[0, used); out keeps its size from build to
+    // build, so that only its growth is zero-filled.
     std::vector<std::int32_t>& out = _columns[cx];
-    out.clear();
+    std::size_t used = 0;
+    // Per column within reach: the candidates' range in the sort.
+    std::vector<std::int64_t> from(2 * reach + 1), to(2 * reach + 1);
     for (int cy = 0; cy < ncy; ++cy)
     {
       const std::size_t cell = static_cast<std::size_t>(cx) * ncy + cy;
@@ -40,49 +44,48 @@ void NeighbourList::build(const Grid& grid, const CellSort& sort, const std::vec
         const std::int32_t p = order[k];
         const double xp = x[2 * p], yp = x[2 * p + 1];
         const double sx = bx.coordinate(xp), sy = by.coordinate(yp);
-        // The cells of column ax within the cutoff of p, rows [ay0, ay1]
-        // (in cells: p is `gap` from the column, and the rows within `half`
-        // of it); false if none. Columns outer, rows inner: with particles
+        // The cells of each column ax within the cutoff of p, rows
+        // [ay0, ay1] (in cells: p is `gap` from the column, and the rows
+        // within `half` of it). Columns outer, rows inner: with particles
         // numbered by cell column by column, as the seeding numbers a body's
         // lattice, the candidates then come nearly in index order.
-        auto column = [&](int ax, int& ay0, int& ay1)
+        const int ax0 = std::max(cx - reach, 0), ax1 = std::min(cx + reach, ncx - 1);
+        std::int64_t candidates = 0;
+        for (int ax = ax0; ax <= ax1; ++ax)
         {
           const double gap = ax < cx ? sx - (ax + 1) : ax > cx ? ax - sx : 0.0;
           const double left = rc * rc - gap * gap;
+          std::int64_t& m0 = from[ax - ax0];
+          std::int64_t& m1 = to[ax - ax0];
+          m0 = m1 = 0;
           if (left < 0.0)
-            return false;
+            continue;
           const double half = std::sqrt(left);
-          ay0 = std::max({cy - reach, 0, static_cast<int>(std::floor(sy - half))});
-          ay1 = std::min({cy + reach, ncy - 1, static_cast<int>(std::floor(sy + half))});
-          return true;
-        };
-        const int ax0 = std::max(cx - reach, 0), ax1 = std::min(cx + reach, ncx - 1);
-        int ay0, ay1;
-        std::int64_t candidates = 0;
-        for (int ax = ax0; ax <= ax1; ++ax)
-          if (column(ax, ay0, ay1))
-            candidates += start[static_cast<std::size_t>(ax) * ncy + ay1 + 1]
-                          - start[static_cast<std::size_t>(ax) * ncy + ay0];
+          const int ay0 = std::max({cy - reach, 0, static_cast<int>(std::floor(sy - half))});
+          const int ay1 = std::min({cy + reach, ncy - 1, static_cast<int>(std::floor(sy + half))});
+          // The cells ay0..ay1 of a column are consecutive in the sort.
+          m0 = start[static_cast<std::size_t>(ax) * ncy + ay0];
+          m1 = start[static_cast<std::size_t>(ax) * ncy + ay1 + 1];
+          candidates += m1 - m0;
+        }
         // Every candidate is written, and kept when within the cutoff: no
         // branch on the distance, which would be mispredicted about one
         // time in two.
-        const std::size_t first = out.size();
-        out.resize(first + static_cast<std::size_t>(candidates));
+        const std::size_t first = used;
+        if (out.size() < first + static_cast<std::size_t>(candidates))
+          out.resize(std::max(2 * out.size(), first + static_cast<std::size_t>(candidates)));
         std::size_t kept = first;
         for (int ax = ax0; ax <= ax1; ++ax)
-          if (column(ax, ay0, ay1))
-            // The cells ay0..ay1 of a column are consecutive in the sort.
-            for (std::int64_t m = start[static_cast<std::size_t>(ax) * ncy + ay0];
-                 m < start[static_cast<std::size_t>(ax) * ncy + ay1 + 1]; ++m)
-            {
-              const std::int32_t q = order[m];
-              const double dx = x[2 * q] - xp, dy = x[2 * q + 1] - yp;
-              out[kept] = q;
-              kept += static_cast<std::size_t>((q != p) & (dx * dx + dy * dy <= c2));
-            }
-        out.resize(kept);
+          for (std::int64_t m = from[ax - ax0]; m < to[ax - ax0]; ++m)
+          {
+            const std::int32_t q = order[m];
+            const double dx = x[2 * q] - xp, dy = x[2 * q + 1] - yp;
+            out[kept] = q;
+            kept += static_cast<std::size_t>((q != p) & (dx * dx + dy * dy <= c2));
+          }
+        used = kept;
         // By particle index (insertion: nearly in order already).
-        for (std::size_t i = first + 1; i < out.size(); ++i)
+        for (std::size_t i = first + 1; i < used; ++i)
         {
           const std::int32_t q = out[i];
           std::size_t j = i;
@@ -90,7 +93,7 @@ void NeighbourList::build(const Grid& grid, const CellSort& sort, const std::vec
             out[j] = out[j - 1];
           out[j] = q;
         }
-        _count[p] = static_cast<std::int32_t>(out.size() - first);
+        _count[p] = static_cast<std::int32_t>(used - first);
       }
     }
   }
