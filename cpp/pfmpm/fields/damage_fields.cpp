@@ -443,12 +443,10 @@ void DamageFields::open_nodes(const Particles& particles, const CellSort& sort)
   }
 }
 
-void DamageFields::gradients(Particles& particles, const CellSort& sort)
+void DamageFields::open_cells(const Particles& particles, const CellSort& sort)
 {
   const int ncx = _grid.cells()[0], ncy = _grid.cells()[1];
   const auto ncells = static_cast<std::ptrdiff_t>(_grid.num_cells());
-  const std::int32_t* order = sort.order().data();
-  const std::int64_t* start = sort.cell_start().data();
   // Cells within reach() cells of a fully damaged particle: only their
   // particles' stencils reach a node where one maps (the cells whose block
   // shares a node with a cell's are within reach() of it: the degree with
@@ -456,22 +454,20 @@ void DamageFields::gradients(Particles& particles, const CellSort& sort)
   // grid's ends). Marked from the fully damaged particles alone, by the
   // cell the sort found for each (a pass in index order).
   std::vector<std::uint8_t> full_cell(ncells, 0);
-  {
-    const double* full = _full.data();
-    const double* x = particles.x.data();
-    const BSpline1D& bx = _grid.basis(0);
-    const BSpline1D& by = _grid.basis(1);
-    const auto n = static_cast<std::ptrdiff_t>(particles.size());
+  const double* full = _full.data();
+  const double* x = particles.x.data();
+  const BSpline1D& bx = _grid.basis(0);
+  const BSpline1D& by = _grid.basis(1);
+  const auto n = static_cast<std::ptrdiff_t>(particles.size());
 #pragma omp parallel for schedule(static)
-    for (std::ptrdiff_t p = 0; p < n; ++p)
-      if (full[p] != 0.0)
-      {
-        std::uint8_t& cell = full_cell[static_cast<std::size_t>(bx.cell(x[2 * p])) * ncy +
-                                       by.cell(x[2 * p + 1])];
+  for (std::ptrdiff_t p = 0; p < n; ++p)
+    if (full[p] != 0.0)
+    {
+      std::uint8_t& cell = full_cell[static_cast<std::size_t>(bx.cell(x[2 * p])) * ncy +
+                                     by.cell(x[2 * p + 1])];
 #pragma omp atomic write
-        cell = 1;
-      }
-  }
+      cell = 1;
+    }
   _near = dilate(full_cell, ncx, ncy, _grid.block().reach());
   // The open nodes, with the transfers' shape functions.
   if (particles.find("domain_r1"))
@@ -482,6 +478,14 @@ void DamageFields::gradients(Particles& particles, const CellSort& sort)
     open_nodes<BSplineStencil<2, 2>>(particles, sort);
   else
     open_nodes<BSplineStencil<2, 3>>(particles, sort);
+}
+
+void DamageFields::gradients(Particles& particles, const CellSort& sort)
+{
+  const int ncy = _grid.cells()[1];
+  const auto ncells = static_cast<std::ptrdiff_t>(_grid.num_cells());
+  const std::int32_t* order = sort.order().data();
+  const std::int64_t* start = sort.cell_start().data();
   {
     Stopwatch clock{_timers.neighbours};
     if (_neighbours.stale(_grid, sort, particles.x, _options.skin * _radius))
@@ -491,7 +495,6 @@ void DamageFields::gradients(Particles& particles, const CellSort& sort)
   const double* x = particles.x.data();
   const double* damage = _damage.data();
   double* grad = particles.f64("damage_gradient").data();
-  std::uint32_t* mask = _mask.data();
   const std::int64_t* nstart = _neighbours.start().data();
   const std::int32_t* nindex = _neighbours.index().data();
   const double radius = _radius;
@@ -515,15 +518,20 @@ void DamageFields::gradients(Particles& particles, const CellSort& sort)
   int proxies = 0;
   _proxy.assign(particles.size(), 0);
   std::uint8_t* proxy = _proxy.data();
+  // Every particle: zero gradient and all pairs A, unless set below (and
+  // the masks of the open cells by sides()).
+  std::fill(_mask.begin(), _mask.end(), 0u);
+  std::fill(grad, grad + 2 * particles.size(), 0.0);
   // The particles of the open cells, whose stencils reach an open node.
 #pragma omp parallel for schedule(dynamic, 64) reduction(+ : evaluated) reduction(| : proxies)
   for (std::ptrdiff_t c = 0; c < ncells; ++c)
   {
+    if (!_open[c])
+      continue;
     for (std::int64_t k = start[c]; k < start[c + 1]; ++k)
     {
       const std::int32_t p = order[k];
-      mask[p] = 0;
-      if (_open[c] && !uniform(p))
+      if (!uniform(p))
       {
         const KernelValue v = kernel_field(p, &nindex[nstart[p]], nstart[p + 1] - nstart[p], x,
                                            damage, radius);
@@ -532,8 +540,7 @@ void DamageFields::gradients(Particles& particles, const CellSort& sort)
         ++evaluated;
         continue;
       }
-      grad[2 * p] = grad[2 * p + 1] = 0.0;
-      if (!_open[c] || full[p] == 0.0)
+      if (full[p] == 0.0)
         continue;
       // A fully damaged particle without a gradient takes its side from its
       // nearest neighbour of the same body with one within r_p (sides()):
@@ -861,6 +868,8 @@ void DamageFields::build(Particles& particles, const CellSort& sort)
   {
     Stopwatch clock{_timers.damage};
     any_full = particle_damage(particles);
+    if (any_full)
+      open_cells(particles, sort);
   }
   if (any_full)
   {

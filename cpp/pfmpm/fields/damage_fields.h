@@ -63,7 +63,7 @@ KernelField kernel_damage_field(const Grid& grid, const std::vector<double>& x,
 /// Per-block wall time of the partition, seconds since construction.
 struct DamageTimers
 {
-  double damage = 0.0;     ///< the particle damage and its fully damaged cells
+  double damage = 0.0;     ///< the particle damage, the cells near full damage, the open nodes
   double neighbours = 0.0; ///< staleness check and rebuilds of the neighbour list
   double gradient = 0.0;   ///< the kernel field and its gradient (eqs. 17-19)
   double partition = 0.0;  ///< Algorithm 1, Algorithm 2 and the slot layout
@@ -217,6 +217,8 @@ public:
 private:
   /// D~_p and the fully damaged flags; returns whether some particle is.
   bool particle_damage(const Particles& particles);
+  /// The cells near full damage, then the open nodes and cells.
+  void open_cells(const Particles& particles, const CellSort& sort);
   /// The open nodes and cells (class comment; H&H eq. 21 for the two sides
   /// together): per group slot the sums of N_ip m_p and N_ip m_p D~_p over
   /// the cells near full damage, with the shape functions of `Stencil`, the

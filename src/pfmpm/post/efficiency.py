@@ -41,9 +41,10 @@ STAGES = ("sort", "phase_field", "fields", "p2g", "grid", "g2p")
 """The stages of the step (``Solver.stage_seconds``)."""
 DFG_BLOCKS = ("damage", "neighbours", "gradient", "partition")
 """The damage-gradient partition's blocks, inside the ``fields`` stage
-(``Solver.damage_partition()["seconds"]``): particle damage, neighbour lists
-(staleness checks and builds), the kernel field's gradient (the particle DFG
-of the paper) and Algorithms 1-2 with the slots."""
+(``Solver.damage_partition()["seconds"]``): particle damage with the open
+nodes (where the fields may separate), neighbour lists (staleness checks and
+builds), the kernel field's gradient (the particle DFG of the paper) and
+Algorithms 1-2 with the slots."""
 COLUMNS = ("round", "k", "h", "particles", "dfg", "threads", "steps", "warmup", "seconds",
            "cpu_seconds", *STAGES, *DFG_BLOCKS, "neighbour_builds", "evaluated", "digest", "load")
 """Per timed run: round, refinement k (spacing h = h0 / k), particles, partition
