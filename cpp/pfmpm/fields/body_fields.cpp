@@ -182,36 +182,38 @@ void BodyFields::build(const Particles& particles, const CellSort& sort, bool ma
     mark_contact_cells(_grid, sort, _slot_start, contact, nullptr, _touches);
 }
 
-void mark_contact_cells(const Grid& grid, const CellSort& sort,
-                        const std::vector<std::int32_t>& slot_start, std::int32_t contact_nodes,
-                        const std::uint8_t* only, std::vector<std::uint8_t>& touches)
+void mark_holders(const Grid& grid, const CellSort& sort, std::int32_t a,
+                  const std::uint8_t* only, std::uint8_t* cells)
 {
   const NodeBlock& block = grid.block();
   const int ncx = grid.cells()[0], ncy = grid.cells()[1];
   const int nnx = grid.nodes()[0], nny = grid.nodes()[1];
   const std::int64_t* start = sort.cell_start().data();
-  const std::int32_t* nodes = grid.active_nodes().data();
+  const std::int32_t node = grid.active_nodes()[a];
+  int cx0, cx1, cy0, cy1;
+  block.holders(node / nny, ncx, nnx, cx0, cx1);
+  block.holders(node % nny, ncy, nny, cy0, cy1);
+  for (int cx = cx0; cx <= cx1; ++cx)
+    for (int cy = cy0; cy <= cy1; ++cy)
+    {
+      const std::size_t cell = static_cast<std::size_t>(cx) * ncy + cy;
+      if (start[cell + 1] > start[cell] && (!only || only[cell]))
+        cells[cell] = 1;
+    }
+}
+
+void mark_contact_cells(const Grid& grid, const CellSort& sort,
+                        const std::vector<std::int32_t>& slot_start, std::int32_t contact_nodes,
+                        const std::uint8_t* only, std::vector<std::uint8_t>& touches)
+{
   touches.assign(grid.num_cells(), 0);
   if (contact_nodes == 0)
     return;
-  // From the contact nodes, which are few, to the cells whose blocks hold
-  // them (NodeBlock::holders), rather than from every cell to its nodes.
-  const auto na = static_cast<std::ptrdiff_t>(grid.num_active());
-  for (std::ptrdiff_t a = 0; a < na; ++a)
-  {
-    if (slot_start[a + 1] - slot_start[a] < 2)
-      continue;
-    int cx0, cx1, cy0, cy1;
-    block.holders(nodes[a] / nny, ncx, nnx, cx0, cx1);
-    block.holders(nodes[a] % nny, ncy, nny, cy0, cy1);
-    for (int cx = cx0; cx <= cx1; ++cx)
-      for (int cy = cy0; cy <= cy1; ++cy)
-      {
-        const std::size_t cell = static_cast<std::size_t>(cx) * ncy + cy;
-        if (start[cell + 1] > start[cell] && (!only || only[cell]))
-          touches[cell] = 1;
-      }
-  }
+  // From the contact nodes, which are few, to the cells whose blocks hold them.
+  const std::int32_t na = grid.num_active();
+  for (std::int32_t a = 0; a < na; ++a)
+    if (slot_start[a + 1] - slot_start[a] >= 2)
+      mark_holders(grid, sort, a, only, touches.data());
 }
 
 } // namespace pfmpm

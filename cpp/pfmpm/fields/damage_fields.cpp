@@ -295,6 +295,27 @@ void cell_slots(const Grid& grid, const DamageFields& fields, const std::optiona
   }
 }
 
+/// f(cx, cy, begin, end, slots) for each occupied cell (cx, cy) whose entry
+/// of `flag` is set, its particles order[begin, end) of the sort and its
+/// group slots: cells of one strip parity in parallel
+/// (for_each_cell_by_strips), so that f may add into its cell's nodes.
+template <class F>
+void for_each_flagged_cell(const Grid& grid, const DamageFields& fields,
+                           const std::optional<BodyFields>& groups, const CellSort& sort,
+                           const std::uint8_t* flag, F&& f)
+{
+  const int ncy = grid.cells()[1];
+  for_each_cell_by_strips(grid.cells()[0], ncy, sort.cell_start(),
+                          [&](int cx, int cy, std::int64_t begin, std::int64_t end)
+                          {
+                            if (!flag[static_cast<std::size_t>(cx) * ncy + cy])
+                              return;
+                            CellSlots c;
+                            cell_slots(grid, fields, groups, cx, cy, c);
+                            f(cx, cy, begin, end, c);
+                          });
+}
+
 /// Cells within `reach` cells (along each axis) of a marked cell of `in`:
 /// dilated along y, then along x, each column of cells ORed with the
 /// columns' entries up to `reach` cells away along the axis.
@@ -342,7 +363,6 @@ template <class Stencil>
 void DamageFields::open_nodes(const Particles& particles, const CellSort& sort)
 {
   constexpr int K = Stencil::size;
-  const int ncx = _grid.cells()[0], ncy = _grid.cells()[1];
   const std::size_t ngs = _groups ? static_cast<std::size_t>(_groups->num_slots())
                                   : static_cast<std::size_t>(_grid.num_active());
   _mass.assign(ngs, 0.0);
@@ -360,14 +380,10 @@ void DamageFields::open_nodes(const Particles& particles, const CellSort& sort)
   const Column* r2 = particles.find("domain_r2");
   // The sums of eq. 21 over A and B together, with the terms P2G adds into
   // its md and full, cell by cell; strips of one parity share no node.
-  for_each_cell_by_strips(
-      ncx, ncy, sort.cell_start(),
-      [&](int cx, int cy, std::int64_t begin, std::int64_t end)
+  for_each_flagged_cell(
+      _grid, *this, _groups, sort, _near.data(),
+      [&](int cx, int cy, std::int64_t begin, std::int64_t end, const CellSlots& c)
       {
-        if (!_near[static_cast<std::size_t>(cx) * ncy + cy])
-          return;
-        CellSlots c;
-        cell_slots(_grid, *this, _groups, cx, cy, c);
         double m[max_groups][K], md[max_groups][K];
         std::uint32_t any_full[max_groups];
         for (int f = 0; f < c.n; ++f) // the cell's groups only
@@ -416,12 +432,8 @@ void DamageFields::open_nodes(const Particles& particles, const CellSort& sort)
   for (std::ptrdiff_t g = 0; g < ngs_signed; ++g)
     _open_slot[g] = _group_full[g] && _mass_damage[g] > threshold * _mass[g] ? 1 : 0;
   // The open cells: the occupied cells whose block holds an open node, found
-  // from those nodes, which are few (NodeBlock::holders).
-  const NodeBlock& block = _grid.block();
-  const int nnx = _grid.nodes()[0], nny = _grid.nodes()[1];
-  const std::int32_t* nodes = _grid.active_nodes().data();
+  // from those nodes, which are few.
   const std::int32_t* gstart = _groups ? _groups->slot_start().data() : nullptr;
-  const std::int64_t* start = sort.cell_start().data();
   _open.assign(_grid.num_cells(), 0);
   const std::int32_t na = _grid.num_active();
   for (std::int32_t a = 0; a < na; ++a)
@@ -429,17 +441,8 @@ void DamageFields::open_nodes(const Particles& particles, const CellSort& sort)
     std::uint8_t open = 0;
     for (std::int32_t g = gstart ? gstart[a] : a; g < (gstart ? gstart[a + 1] : a + 1); ++g)
       open |= _open_slot[g];
-    if (!open)
-      continue;
-    int cx0, cx1, cy0, cy1;
-    block.holders(nodes[a] / nny, ncx, nnx, cx0, cx1);
-    block.holders(nodes[a] % nny, ncy, nny, cy0, cy1);
-    for (int cx = cx0; cx <= cx1; ++cx)
-      for (int cy = cy0; cy <= cy1; ++cy)
-      {
-        const std::size_t cell = static_cast<std::size_t>(cx) * ncy + cy;
-        _open[cell] = start[cell + 1] > start[cell] ? 1 : 0;
-      }
+    if (open)
+      mark_holders(_grid, sort, a, nullptr, _open.data());
   }
 }
 
@@ -585,7 +588,7 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
   constexpr int K = CellSlots::K;
   const NodeBlock& block = _grid.block();
   const int width = block.width, nk = width * width;
-  const int ncx = _grid.cells()[0], ncy = _grid.cells()[1];
+  const int ncy = _grid.cells()[1];
   const std::size_t ngs = _groups ? static_cast<std::size_t>(_groups->num_slots())
                                   : static_cast<std::size_t>(_grid.num_active());
   _best_norm.assign(ngs, 0.0);
@@ -623,14 +626,10 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
   // node first (the largest, ties to the smaller index, is the same in any
   // order of comparison), then compares it with the node's. Strips of one
   // parity share no node, so the comparisons need no atomics.
-  for_each_cell_by_strips(
-      ncx, ncy, sort.cell_start(),
-      [&](int cx, int cy, std::int64_t begin, std::int64_t end)
+  for_each_flagged_cell(
+      _grid, *this, _groups, sort, _open.data(),
+      [&](int cx, int cy, std::int64_t begin, std::int64_t end, const CellSlots& c)
       {
-        if (!_open[static_cast<std::size_t>(cx) * ncy + cy])
-          return;
-        CellSlots c;
-        cell_slots(_grid, *this, _groups, cx, cy, c);
         double norm[max_groups][K];
         std::int32_t best[max_groups][K];
         for (int f = 0; f < c.n; ++f)
@@ -712,15 +711,11 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
     return best;
   };
   std::uint32_t* mask = _mask.data();
-  for_each_cell_by_strips(
-      ncx, ncy, sort.cell_start(),
-      [&](int cx, int cy, std::int64_t begin, std::int64_t end)
+  for_each_flagged_cell(
+      _grid, *this, _groups, sort, _open.data(),
+      [&](int cx, int cy, std::int64_t begin, std::int64_t end, const CellSlots& c)
       {
         const std::size_t cell = static_cast<std::size_t>(cx) * ncy + cy;
-        if (!_open[cell])
-          return;
-        CellSlots c;
-        cell_slots(_grid, *this, _groups, cx, cy, c);
         // Per group and node: G_i, and the position of its particle p*
         // (none: G_i = 0, and every pair chooses A); per group, whether
         // some node's G_i is not zero (else all its pairs choose A: the

@@ -53,6 +53,13 @@ struct NodeKinematics
 ///         fields and finite, >= 0 and symmetric entries.
 int friction_fields(const std::vector<double>& friction, int at_least);
 
+/// @brief Set the entries of `cells` (per cell of `grid`) of the occupied
+/// cells of `sort` whose block holds active node a (NodeBlock::holders),
+/// given `only`, of those where it is not 0: from a node, which is cheaper
+/// than from every cell to its nodes where such nodes are few.
+void mark_holders(const Grid& grid, const CellSort& sort, std::int32_t a,
+                  const std::uint8_t* only, std::uint8_t* cells);
+
 /// @brief Per cell of `sort`, whether a node of its block has two or more
 /// slots (a contact node), where P2G sums the surface quantities: into
 /// `touches`, 0 for every cell when there are no `contact_nodes`, and for
