@@ -363,8 +363,7 @@ template <class Stencil>
 void DamageFields::open_nodes(const Particles& particles, const CellSort& sort)
 {
   constexpr int K = Stencil::size;
-  const std::size_t ngs = _groups ? static_cast<std::size_t>(_groups->num_slots())
-                                  : static_cast<std::size_t>(_grid.num_active());
+  const std::size_t ngs = num_group_slots();
   _mass.assign(ngs, 0.0);
   _mass_damage.assign(ngs, 0.0);
   _group_full.assign(ngs, 0);
@@ -433,13 +432,13 @@ void DamageFields::open_nodes(const Particles& particles, const CellSort& sort)
     _open_slot[g] = _group_full[g] && _mass_damage[g] > threshold * _mass[g] ? 1 : 0;
   // The open cells: the occupied cells whose block holds an open node, found
   // from those nodes, which are few.
-  const std::int32_t* gstart = _groups ? _groups->slot_start().data() : nullptr;
   _open.assign(_grid.num_cells(), 0);
   const std::int32_t na = _grid.num_active();
   for (std::int32_t a = 0; a < na; ++a)
   {
+    const auto [g0, g1] = group_slots(a);
     std::uint8_t open = 0;
-    for (std::int32_t g = gstart ? gstart[a] : a; g < (gstart ? gstart[a + 1] : a + 1); ++g)
+    for (std::int32_t g = g0; g < g1; ++g)
       open |= _open_slot[g];
     if (open)
       mark_holders(_grid, sort, a, nullptr, _open.data());
@@ -517,6 +516,14 @@ void DamageFields::gradients(Particles& particles, const CellSort& sort)
   const std::int32_t* body = particles.body.data();
   const BSpline1D& bx = _grid.basis(0);
   const BSpline1D& by = _grid.basis(1);
+  // The kernel field's gradient at particle p into its column.
+  auto evaluate = [&](std::int32_t p)
+  {
+    const KernelValue v =
+        kernel_field(p, &nindex[nstart[p]], nstart[p + 1] - nstart[p], x, damage, radius);
+    grad[2 * p] = v.grad[0];
+    grad[2 * p + 1] = v.grad[1];
+  };
   std::int64_t evaluated = 0;
   int proxies = 0;
   _proxy.assign(particles.size(), 0);
@@ -536,10 +543,7 @@ void DamageFields::gradients(Particles& particles, const CellSort& sort)
       const std::int32_t p = order[k];
       if (!uniform(p))
       {
-        const KernelValue v = kernel_field(p, &nindex[nstart[p]], nstart[p + 1] - nstart[p], x,
-                                           damage, radius);
-        grad[2 * p] = v.grad[0];
-        grad[2 * p + 1] = v.grad[1];
+        evaluate(p);
         ++evaluated;
         continue;
       }
@@ -573,10 +577,7 @@ void DamageFields::gradients(Particles& particles, const CellSort& sort)
     for (std::ptrdiff_t q = 0; q < n; ++q)
       if (proxy[q] && !uniform(static_cast<std::int32_t>(q)))
       {
-        const KernelValue v = kernel_field(q, &nindex[nstart[q]], nstart[q + 1] - nstart[q], x,
-                                           damage, radius);
-        grad[2 * q] = v.grad[0];
-        grad[2 * q + 1] = v.grad[1];
+        evaluate(static_cast<std::int32_t>(q));
         ++evaluated;
       }
   }
@@ -589,8 +590,7 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
   const NodeBlock& block = _grid.block();
   const int width = block.width, nk = width * width;
   const int ncy = _grid.cells()[1];
-  const std::size_t ngs = _groups ? static_cast<std::size_t>(_groups->num_slots())
-                                  : static_cast<std::size_t>(_grid.num_active());
+  const std::size_t ngs = num_group_slots();
   _best_norm.assign(ngs, 0.0);
   _best.assign(ngs, -1);
   _has_b.assign(ngs, 0);
@@ -784,22 +784,15 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
 void DamageFields::layout(const CellSort& sort, bool any_split)
 {
   const auto na = static_cast<std::ptrdiff_t>(_grid.num_active());
-  const std::int32_t* gstart = _groups ? _groups->slot_start().data() : nullptr;
-  auto groups_of = [&](std::ptrdiff_t a, std::int32_t& g0, std::int32_t& g1)
-  {
-    g0 = gstart ? gstart[a] : static_cast<std::int32_t>(a);
-    g1 = gstart ? gstart[a + 1] : static_cast<std::int32_t>(a + 1);
-  };
-  const std::size_t ngs = gstart ? static_cast<std::size_t>(gstart[na]) : static_cast<std::size_t>(na);
   if (!any_split)
-    _has_b.assign(ngs, 0);
+    _has_b.assign(num_group_slots(), 0);
   _slot_start.resize(na + 1);
   _slot_start[0] = 0;
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t a = 0; a < na; ++a)
   {
-    std::int32_t g0, g1, n = 0;
-    groups_of(a, g0, g1);
+    const auto [g0, g1] = group_slots(static_cast<std::int32_t>(a));
+    std::int32_t n = 0;
     for (std::int32_t g = g0; g < g1; ++g)
       n += 1 + _has_b[g];
     _slot_start[a + 1] = n;
@@ -815,8 +808,8 @@ void DamageFields::layout(const CellSort& sort, bool any_split)
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t a = 0; a < na; ++a)
   {
-    std::int32_t g0, g1, s = _slot_start[a];
-    groups_of(a, g0, g1);
+    const auto [g0, g1] = group_slots(static_cast<std::int32_t>(a));
+    std::int32_t s = _slot_start[a];
     for (std::int32_t g = g0; g < g1; ++g)
     {
       const std::int32_t group = _groups ? _groups->field(g) : 0;
@@ -839,8 +832,7 @@ std::vector<std::array<double, 4>> DamageFields::nodal_gradients() const
   const std::int32_t na = _grid.num_active();
   for (std::int32_t a = 0; a < na; ++a)
   {
-    const std::int32_t g0 = _groups ? _groups->slot_start()[a] : a;
-    const std::int32_t g1 = _groups ? _groups->slot_start()[a + 1] : a + 1;
+    const auto [g0, g1] = group_slots(a);
     for (std::int32_t g = g0; g < g1; ++g)
     {
       const bool set = 2 * static_cast<std::size_t>(g) + 1 < _G.size() && _dirty;

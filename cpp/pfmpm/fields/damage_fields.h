@@ -14,6 +14,7 @@
 #include <array>
 #include <cstdint>
 #include <optional>
+#include <utility>
 #include <vector>
 
 namespace pfmpm
@@ -215,6 +216,20 @@ public:
   void moved(double distance) { _neighbours.moved(distance); }
 
 private:
+  /// Group slots: with two or more groups their BodyFields slots, else one
+  /// per active node (its index).
+  std::size_t num_group_slots() const
+  {
+    return _groups ? static_cast<std::size_t>(_groups->num_slots())
+                   : static_cast<std::size_t>(_grid.num_active());
+  }
+  /// The group slots of active node a: [first, second).
+  std::pair<std::int32_t, std::int32_t> group_slots(std::int32_t a) const
+  {
+    if (_groups)
+      return {_groups->slot_start()[a], _groups->slot_start()[a + 1]};
+    return {a, a + 1};
+  }
   /// D~_p and the fully damaged flags; returns whether some particle is.
   bool particle_damage(const Particles& particles);
   /// The cells near full damage, then the open nodes and cells.
