@@ -211,11 +211,14 @@ std::vector<double> DamageFields::detect_surfaces(Particles& particles, const Ce
   return ratio;
 }
 
-bool DamageFields::particle_damage(const Particles& particles)
+bool DamageFields::particle_damage(const Particles& particles, const CellSort& sort)
 {
   const auto n = static_cast<std::ptrdiff_t>(particles.size());
   _damage.resize(n);
   _full.resize(n);
+  _full_cell.assign(_grid.num_cells(), 0);
+  std::uint8_t* full_cell = _full_cell.data();
+  const std::int32_t* cell = sort.cell().data();
   const Column* column = particles.find("damage");
   const Column* phase = particles.find("c");
   const double* damage = column ? column->f64.data() : nullptr;
@@ -250,6 +253,11 @@ bool DamageFields::particle_damage(const Particles& particles)
     }
     _damage[p] = D;
     _full[p] = full ? 1.0 : 0.0;
+    if (full)
+    {
+#pragma omp atomic write
+      full_cell[cell[p]] = 1;
+    }
     any |= full ? 1 : 0;
   }
   return any != 0;
@@ -316,46 +324,44 @@ void for_each_flagged_cell(const Grid& grid, const DamageFields& fields,
                           });
 }
 
-/// Cells within `reach` cells (along each axis) of a marked cell of `in`:
-/// dilated along y, then along x, each column of cells ORed with the
-/// columns' entries up to `reach` cells away along the axis.
-std::vector<std::uint8_t> dilate(const std::vector<std::uint8_t>& in, int ncx, int ncy, int reach)
+/// o[0, n) |= c[0, n), for byte flags: a function of its own, whose
+/// arguments alias nothing, so that the loop vectorises (in the parallel
+/// loop below, a byte store may alias the bounds it shares, which are then
+/// read again at every element).
+void or_into(std::uint8_t* __restrict o, const std::uint8_t* __restrict c, int n)
+{
+  for (int i = 0; i < n; ++i)
+    o[i] |= c[i];
+}
+
+/// Into `out`, the cells within `reach` cells (along each axis) of a marked
+/// cell of `in`: dilated along y into `along_y`, then along x, each column
+/// of cells ORed with the columns' entries up to `reach` cells away along
+/// the axis.
+void dilate(const std::vector<std::uint8_t>& in, int ncx, int ncy, int reach,
+            std::vector<std::uint8_t>& along_y, std::vector<std::uint8_t>& out)
 {
   const auto ncells = static_cast<std::size_t>(ncx) * ncy;
-  std::vector<std::uint8_t> along_y(ncells, 0), out(ncells, 0);
-  for (int axis = 1; axis >= 0; --axis)
-  {
-    // Local pointers: a byte store may alias anything read through a
-    // reference, and would stop the loops from vectorising.
-    const std::uint8_t* from = axis == 1 ? in.data() : along_y.data();
-    std::uint8_t* to = axis == 1 ? along_y.data() : out.data();
+  along_y.assign(ncells, 0);
+  out.assign(ncells, 0);
+  const std::uint8_t* from = in.data();
+  std::uint8_t* mid = along_y.data();
+  std::uint8_t* to = out.data();
 #pragma omp parallel for schedule(static)
-    for (int cx = 0; cx < ncx; ++cx)
+  for (int cx = 0; cx < ncx; ++cx)
+  {
+    const std::size_t column = static_cast<std::size_t>(cx) * ncy;
+    for (int d = -reach; d <= reach; ++d)
     {
-      std::uint8_t* o = to + static_cast<std::size_t>(cx) * ncy;
-      if (axis == 1)
-      {
-        const std::uint8_t* column = from + static_cast<std::size_t>(cx) * ncy;
-        for (int d = -reach; d <= reach; ++d)
-        {
-          const int first = std::max(0, -d), last = std::min(ncy, ncy - d);
-          for (int cy = first; cy < last; ++cy)
-            o[cy] |= column[cy + d];
-        }
-      }
-      else
-      {
-        const int first = std::max(-reach, -cx), last = std::min(reach, ncx - 1 - cx);
-        for (int d = first; d <= last; ++d)
-        {
-          const std::uint8_t* column = from + static_cast<std::size_t>(cx + d) * ncy;
-          for (int cy = 0; cy < ncy; ++cy)
-            o[cy] |= column[cy];
-        }
-      }
+      const int first = std::max(0, -d), last = std::min(ncy, ncy - d);
+      or_into(mid + column + first, from + column + first + d, last - first);
     }
   }
-  return out;
+#pragma omp parallel for schedule(static)
+  for (int cx = 0; cx < ncx; ++cx)
+    for (int d = std::max(-reach, -cx); d <= std::min(reach, ncx - 1 - cx); ++d)
+      or_into(to + static_cast<std::size_t>(cx) * ncy, mid + static_cast<std::size_t>(cx + d) * ncy,
+              ncy);
 }
 } // namespace
 
@@ -447,30 +453,12 @@ void DamageFields::open_nodes(const Particles& particles, const CellSort& sort)
 
 void DamageFields::open_cells(const Particles& particles, const CellSort& sort)
 {
-  const int ncx = _grid.cells()[0], ncy = _grid.cells()[1];
-  const auto ncells = static_cast<std::ptrdiff_t>(_grid.num_cells());
   // Cells within reach() cells of a fully damaged particle: only their
   // particles' stencils reach a node where one maps (the cells whose block
   // shares a node with a cell's are within reach() of it: the degree with
   // B-splines, up to 5 with CPDI's 4 x 4 blocks, which move inwards at the
-  // grid's ends). Marked from the fully damaged particles alone, by the
-  // cell the sort found for each (a pass in index order).
-  std::vector<std::uint8_t> full_cell(ncells, 0);
-  const double* full = _full.data();
-  const double* x = particles.x.data();
-  const BSpline1D& bx = _grid.basis(0);
-  const BSpline1D& by = _grid.basis(1);
-  const auto n = static_cast<std::ptrdiff_t>(particles.size());
-#pragma omp parallel for schedule(static)
-  for (std::ptrdiff_t p = 0; p < n; ++p)
-    if (full[p] != 0.0)
-    {
-      std::uint8_t& cell = full_cell[static_cast<std::size_t>(bx.cell(x[2 * p])) * ncy +
-                                     by.cell(x[2 * p + 1])];
-#pragma omp atomic write
-      cell = 1;
-    }
-  _near = dilate(full_cell, ncx, ncy, _grid.block().reach());
+  // grid's ends).
+  dilate(_full_cell, _grid.cells()[0], _grid.cells()[1], _grid.block().reach(), _dilated_y, _near);
   // The open nodes, with the transfers' shape functions.
   if (particles.find("domain_r1"))
     open_nodes<CpdiStencil>(particles, sort);
@@ -854,7 +842,7 @@ void DamageFields::build(Particles& particles, const CellSort& sort)
   bool any_full;
   {
     Stopwatch clock{_timers.damage};
-    any_full = particle_damage(particles);
+    any_full = particle_damage(particles, sort);
     if (any_full)
       open_cells(particles, sort);
   }

@@ -230,8 +230,9 @@ private:
       return {_groups->slot_start()[a], _groups->slot_start()[a + 1]};
     return {a, a + 1};
   }
-  /// D~_p and the fully damaged flags; returns whether some particle is.
-  bool particle_damage(const Particles& particles);
+  /// D~_p, the fully damaged flags and the cells holding a fully damaged
+  /// particle; returns whether some particle is.
+  bool particle_damage(const Particles& particles, const CellSort& sort);
   /// The cells near full damage, then the open nodes and cells.
   void open_cells(const Particles& particles, const CellSort& sort);
   /// The open nodes and cells (class comment; H&H eq. 21 for the two sides
@@ -265,6 +266,8 @@ private:
   std::vector<double> _damage;        // per particle: D~_p
   std::vector<double> _full;          // per particle: 0 or 1
   std::vector<std::uint32_t> _mask;   // per particle
+  std::vector<std::uint8_t> _full_cell; // per cell: it holds a fully damaged particle
+  std::vector<std::uint8_t> _dilated_y; // per cell: _full_cell dilated along y (scratch)
   std::vector<std::uint8_t> _near;    // per cell: a fully damaged particle within reach() cells
   std::vector<std::uint8_t> _open;    // per cell: its block holds an open node
   std::vector<std::uint8_t> _proxy;   // per particle: its gradient gives a side (gradients())

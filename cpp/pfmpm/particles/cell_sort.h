@@ -31,11 +31,13 @@ public:
 
   const std::vector<std::int32_t>& order() const { return _order; }
   const std::vector<std::int64_t>& cell_start() const { return _cell_start; }
+  /// Per particle: the key of its cell, from the last sort() (not select()).
+  const std::vector<std::int32_t>& cell() const { return _cell; }
   /// Particles in the sort.
   std::size_t size() const { return _order.size(); }
 
 private:
-  std::vector<std::int32_t> _cell;       // per particle: cell key (sort only)
+  std::vector<std::int32_t> _cell;       // per particle: cell key (sort() only)
   std::vector<std::int32_t> _order;      // particles sorted by cell, stable
   std::vector<std::int64_t> _cell_start; // offsets into _order, per cell + 1
   std::vector<std::int64_t> _histogram;  // threads x cells, scratch
