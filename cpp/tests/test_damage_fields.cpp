@@ -394,6 +394,53 @@ TEST(DamageFields, CollisionConservesMomentum)
     EXPECT_EQ(s.violations[c], 0) << "C." << c + 1;
 }
 
+TEST(DamageFields, GradientsAndMasksAwayFromOpenNodesAreZero)
+{
+  // Each build zeroes the gradients and masks that the one before set, and
+  // after a restore (forget()) every particle's: where no node is open
+  // within a particle's stencil, its gradient and mask are zero.
+  BandedBlock b;
+  b.solver->prepare();
+  const std::vector<double>& grad = b.P.f64("damage_gradient");
+  auto far_from = [&](double band, double margin)
+  {
+    int nonzero = 0, far = 0;
+    for (std::size_t p = 0; p < b.P.size(); ++p)
+      if (std::abs(b.P.x[2 * p] - band) > margin)
+      {
+        ++far;
+        nonzero += grad[2 * p] != 0.0 || grad[2 * p + 1] != 0.0
+                   || b.solver->damage_fields()->masks()[p] != 0u;
+      }
+    EXPECT_GT(far, 100);
+    return nonzero;
+  };
+  auto near_count = [&](double band)
+  {
+    int n = 0;
+    for (std::size_t p = 0; p < b.P.size(); ++p)
+      n += std::abs(b.P.x[2 * p] - band) < 0.5 && (grad[2 * p] != 0.0 || grad[2 * p + 1] != 0.0);
+    return n;
+  };
+  EXPECT_GT(near_count(3.0), 20);
+  EXPECT_EQ(far_from(3.0, 1.0), 0);
+  // The band moves to x = 2: nothing is left of the gradients at x = 3.
+  std::vector<std::int32_t>& surface = b.P.i32("surface");
+  for (std::size_t p = 0; p < b.P.size(); ++p)
+    surface[p] = std::abs(b.P.x[2 * p] - 2.0) < 0.125 ? 1 : 0;
+  b.solver->prepare();
+  EXPECT_GT(near_count(2.0), 20);
+  EXPECT_EQ(near_count(3.0), 0);
+  EXPECT_EQ(far_from(2.0, 1.0), 0);
+  // A restored state whose columns hold gradients everywhere.
+  std::vector<double>& written = b.P.f64("damage_gradient");
+  std::fill(written.begin(), written.end(), 1.0);
+  b.solver->restore(b.solver->state());
+  b.solver->prepare();
+  EXPECT_GT(near_count(2.0), 20);
+  EXPECT_EQ(far_from(2.0, 1.0), 0);
+}
+
 TEST(DamageFields, ThreadCountDoesNotChangeBits)
 {
   auto run = [](int threads)

@@ -505,21 +505,21 @@ void DamageFields::gradients(Particles& particles, const CellSort& sort)
   const BSpline1D& bx = _grid.basis(0);
   const BSpline1D& by = _grid.basis(1);
   // The kernel field's gradient at particle p into its column.
+  std::uint8_t* set = _set.data();
   auto evaluate = [&](std::int32_t p)
   {
     const KernelValue v =
         kernel_field(p, &nindex[nstart[p]], nstart[p + 1] - nstart[p], x, damage, radius);
     grad[2 * p] = v.grad[0];
     grad[2 * p + 1] = v.grad[1];
+    set[p] = 1;
   };
   std::int64_t evaluated = 0;
   int proxies = 0;
   _proxy.assign(particles.size(), 0);
   std::uint8_t* proxy = _proxy.data();
-  // Every particle: zero gradient and all pairs A, unless set below (and
-  // the masks of the open cells by sides()).
-  std::fill(_mask.begin(), _mask.end(), 0u);
-  std::fill(grad, grad + 2 * particles.size(), 0.0);
+  // Every particle has zero gradient and all pairs A (clear()), unless set
+  // below (and the masks of the open cells by sides()).
   // The particles of the open cells, whose stencils reach an open node.
 #pragma omp parallel for schedule(dynamic, 64) reduction(+ : evaluated) reduction(| : proxies)
   for (std::ptrdiff_t c = 0; c < ncells; ++c)
@@ -699,6 +699,7 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
     return best;
   };
   std::uint32_t* mask = _mask.data();
+  std::uint8_t* set = _set.data();
   for_each_flagged_cell(
       _grid, *this, _groups, sort, _open.data(),
       [&](int cx, int cy, std::int64_t begin, std::int64_t end, const CellSlots& c)
@@ -758,6 +759,7 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
           if (domain_r1)
             m &= reached(p, cx, cy); // no side at a node the particle does not map to
           mask[p] = m;
+          set[p] |= m != 0u ? 1 : 0;
           chose_b[f] |= m;
           any |= m;
         }
@@ -832,13 +834,38 @@ std::vector<std::array<double, 4>> DamageFields::nodal_gradients() const
   return out;
 }
 
+void DamageFields::clear(Particles& particles)
+{
+  const auto n = static_cast<std::ptrdiff_t>(particles.size());
+  double* grad = particles.f64("damage_gradient").data();
+  if (_clear_all || _mask.size() != particles.size())
+  {
+    _mask.assign(n, 0u);
+    _set.assign(n, 0);
+    std::fill(grad, grad + 2 * n, 0.0);
+    _clear_all = false;
+    return;
+  }
+  std::uint32_t* mask = _mask.data();
+  std::uint8_t* set = _set.data();
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t p = 0; p < n; ++p)
+    if (set[p])
+    {
+      grad[2 * p] = 0.0;
+      grad[2 * p + 1] = 0.0;
+      mask[p] = 0u;
+      set[p] = 0;
+    }
+}
+
 void DamageFields::build(Particles& particles, const CellSort& sort)
 {
   if (_groups)
     _groups->build(particles, sort, false);
   const auto ncells = static_cast<std::size_t>(_grid.num_cells());
-  _mask.resize(particles.size());
   _split.assign(ncells, 0);
+  clear(particles);
   bool any_full;
   {
     Stopwatch clock{_timers.damage};
@@ -853,15 +880,8 @@ void DamageFields::build(Particles& particles, const CellSort& sort)
     sides(particles, sort, particles.f64("damage_gradient").data());
     _dirty = true;
   }
-  else if (_dirty)
-  {
-    // No particle is fully damaged now (a restored state): clear what an
-    // earlier step set.
-    std::fill(_mask.begin(), _mask.end(), 0u);
-    std::vector<double>& grad = particles.f64("damage_gradient");
-    std::fill(grad.begin(), grad.end(), 0.0);
+  else
     _dirty = false;
-  }
   Stopwatch clock{_timers.partition};
   layout(sort, any_full);
 }

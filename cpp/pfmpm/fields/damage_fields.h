@@ -214,6 +214,10 @@ public:
   /// @brief Note that no particle moved more than `distance` in the step
   /// (for the neighbour lists' skin).
   void moved(double distance) { _neighbours.moved(distance); }
+  /// @brief Note that the particles' columns were replaced (a restored
+  /// state): the next build clears every gradient and mask, not only those
+  /// it set itself.
+  void forget() { _clear_all = true; }
 
 private:
   /// Group slots: with two or more groups their BodyFields slots, else one
@@ -246,6 +250,9 @@ private:
   /// gradient, and every particle all pairs A (sides() sets the masks of
   /// the open cells).
   void gradients(Particles& particles, const CellSort& sort);
+  /// Zero the gradients and masks that the last build set (all of them
+  /// after forget()).
+  void clear(Particles& particles);
   /// Algorithms 1 and 2 from the particle gradients `grad`: nodal
   /// gradients, the pairs' sides, the split cells.
   void sides(const Particles& particles, const CellSort& sort, const double* grad);
@@ -271,9 +278,11 @@ private:
   std::vector<std::uint8_t> _near;    // per cell: a fully damaged particle within reach() cells
   std::vector<std::uint8_t> _open;    // per cell: its block holds an open node
   std::vector<std::uint8_t> _proxy;   // per particle: its gradient gives a side (gradients())
+  std::vector<std::uint8_t> _set;     // per particle: its gradient or mask may be non-zero
+  bool _clear_all = true;             // clear() zeroes every particle's (first build, forget())
   std::vector<std::uint8_t> _split;   // per cell
   std::vector<std::uint8_t> _touches; // per cell
-  bool _dirty = false;                // gradients or masks were set in an earlier step
+  bool _dirty = false;                // the nodal gradients are this build's
 
   // Per group slot: the sums of N_ip m_p and N_ip m_p D~_p over the group's
   // particles, whether a fully damaged one maps there, whether the node is

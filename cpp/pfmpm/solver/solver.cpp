@@ -248,6 +248,8 @@ void Solver::restore(const SolverState& state)
     _phase[k].field.restore(PhaseFieldState{state.arrays.at(phase_key(k, "c")),
                                             state.arrays.at(phase_key(k, "c_previous")), stats});
   }
+  if (auto* fields = std::get_if<DamageFields>(&_fields))
+    fields->forget(); // the particles' gradients were restored beside this state
   if (const ContactStats* stats = contact_stats())
   {
     ContactStats& c = const_cast<ContactStats&>(*stats);
