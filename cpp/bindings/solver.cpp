@@ -316,7 +316,7 @@ void bind_solver(py::module_& m)
               return py::none();
             py::dict out;
             out["mask"] = copy_of(d->masks());
-            const auto rows = d->nodal_gradients();
+            const auto rows = d->nodal_gradients(s.particles());
             py::array_t<double> G({py::ssize_t(rows.size()), py::ssize_t(4)});
             const auto* flat = reinterpret_cast<const double*>(rows.data());
             std::copy(flat, flat + 4 * rows.size(), G.mutable_data());

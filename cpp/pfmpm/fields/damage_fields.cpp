@@ -582,7 +582,6 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
   _best_norm.assign(ngs, 0.0);
   _best.assign(ngs, -1);
   _has_b.assign(ngs, 0);
-  _G.resize(2 * ngs);
   const std::int32_t* order = sort.order().data();
   const std::int32_t* group = _group.data();
   const double* full = _full.data();
@@ -653,16 +652,6 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
             }
           }
       });
-  // G_i, zero where the node is not open (there the fields cannot be
-  // separable: one field).
-  const auto ngs_signed = static_cast<std::ptrdiff_t>(ngs);
-#pragma omp parallel for schedule(static)
-  for (std::ptrdiff_t s = 0; s < ngs_signed; ++s)
-  {
-    const bool live = _open_slot[s] && _best[s] >= 0;
-    _G[2 * s] = live ? grad[2 * _best[s]] : 0.0;
-    _G[2 * s + 1] = live ? grad[2 * _best[s] + 1] : 0.0;
-  }
   // Algorithm 2: field A where grad D_p . G_i >= 0, else B. A particle
   // whose kernel sees no damage variation (zero gradient), which a B-spline
   // stencil reaches past r_p, is placed by position if it is intact: on the
@@ -716,8 +705,9 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
           for (int i = 0; i < nk; ++i)
           {
             const std::int32_t s = c.slot[f][i], q = _best[s];
-            G[f][i][0] = _G[2 * s];
-            G[f][i][1] = _G[2 * s + 1];
+            const std::array<double, 2> Gi = nodal_gradient(s, grad);
+            G[f][i][0] = Gi[0];
+            G[f][i][1] = Gi[1];
             live[f] |= G[f][i][0] != 0.0 || G[f][i][1] != 0.0;
             has_star[f][i] = q >= 0;
             star[f][i][0] = q >= 0 ? x[2 * q] : 0.0;
@@ -816,19 +806,21 @@ void DamageFields::layout(const CellSort& sort, bool any_split)
                      _touches);
 }
 
-std::vector<std::array<double, 4>> DamageFields::nodal_gradients() const
+std::vector<std::array<double, 4>> DamageFields::nodal_gradients(const Particles& particles) const
 {
   std::vector<std::array<double, 4>> out;
   const std::int32_t na = _grid.num_active();
+  const double* grad = particles.find("damage_gradient")->f64.data();
   for (std::int32_t a = 0; a < na; ++a)
   {
     const auto [g0, g1] = group_slots(a);
     for (std::int32_t g = g0; g < g1; ++g)
     {
-      const bool set = 2 * static_cast<std::size_t>(g) + 1 < _G.size() && _dirty;
+      const std::array<double, 2> G =
+          _dirty && static_cast<std::size_t>(g) < _best.size() ? nodal_gradient(g, grad)
+                                                                : std::array<double, 2>{0.0, 0.0};
       out.push_back({static_cast<double>(_grid.active_nodes()[a]),
-                     static_cast<double>(_groups ? _groups->field(g) : 0),
-                     set ? _G[2 * g] : 0.0, set ? _G[2 * g + 1] : 0.0});
+                     static_cast<double>(_groups ? _groups->field(g) : 0), G[0], G[1]});
     }
   }
   return out;

@@ -199,8 +199,9 @@ public:
   /// Per particle: the masks of the last build.
   const std::vector<std::uint32_t>& masks() const { return _mask; }
   /// @brief The nodal gradients G_i of the last build (Algorithm 1): per
-  /// active node and group in its support, (node, group, G_x, G_y).
-  std::vector<std::array<double, 4>> nodal_gradients() const;
+  /// active node and group in its support, (node, group, G_x, G_y), from the
+  /// `damage_gradient` column of `particles` as that build left it.
+  std::vector<std::array<double, 4>> nodal_gradients(const Particles& particles) const;
 
   ContactStats& stats() { return _stats; }
   const ContactStats& stats() const { return _stats; }
@@ -253,6 +254,16 @@ private:
   /// Zero the gradients and masks that the last build set (all of them
   /// after forget()).
   void clear(Particles& particles);
+  /// G_i of group slot s: the gradient (in `grad`) of the particle that
+  /// Algorithm 1 chose, zero where the node is not open (there the fields
+  /// cannot be separable: one field) or no particle there has a gradient.
+  std::array<double, 2> nodal_gradient(std::int32_t s, const double* grad) const
+  {
+    const std::int32_t q = _best[s];
+    if (!_open_slot[s] || q < 0)
+      return {0.0, 0.0};
+    return {grad[2 * q], grad[2 * q + 1]};
+  }
   /// Algorithms 1 and 2 from the particle gradients `grad`: nodal
   /// gradients, the pairs' sides, the split cells.
   void sides(const Particles& particles, const CellSort& sort, const double* grad);
@@ -282,18 +293,17 @@ private:
   bool _clear_all = true;             // clear() zeroes every particle's (first build, forget())
   std::vector<std::uint8_t> _split;   // per cell
   std::vector<std::uint8_t> _touches; // per cell
-  bool _dirty = false;                // the nodal gradients are this build's
+  bool _dirty = false;                // the nodal gradients are this build's (_best is set)
 
   // Per group slot: the sums of N_ip m_p and N_ip m_p D~_p over the group's
   // particles, whether a fully damaged one maps there, whether the node is
-  // open; Algorithm 1's best particle (|grad|^2, index), the nodal
-  // gradient, whether some pair chose B.
+  // open; Algorithm 1's best particle (|grad|^2, index; nodal_gradient()),
+  // whether some pair chose B.
   std::vector<double> _mass, _mass_damage;
   std::vector<std::uint8_t> _group_full;
   std::vector<std::uint8_t> _open_slot;
   std::vector<double> _best_norm;
   std::vector<std::int32_t> _best;
-  std::vector<double> _G;
   std::vector<std::uint8_t> _has_b;
 
   std::vector<std::int32_t> _slot_start; // per active node + 1

@@ -202,6 +202,8 @@ public:
   PhaseFieldSystem phase_field_system() const;
   /// The damage-gradient partition, or nullptr.
   const DamageFields* damage_fields() const { return std::get_if<DamageFields>(&_fields); }
+  /// The particles the solver advances.
+  const Particles& particles() const { return _particles; }
   /// Wall time per stage so far.
   const StageTimers& timers() const { return _timers; }
   /// @brief Whether advance() adapts the thread count to the machine
