@@ -115,3 +115,17 @@ def test_smoke_study(tmp_path):
     assert result["E5"] == {"value": 0, "limit": 0, "passed": True, "compared": 4}
     assert json.loads((tmp_path / "checks.json").read_text())["wall"]["E5"]["passed"] is True
     assert (tmp_path / "fig19.png").stat().st_size > 0
+
+
+def test_interleaved_runs_end_as_whole_runs():
+    """time_runs with chunk: the two partitions' runs advanced a few steps at a
+    time in turn end in the states of runs timed whole, one after the other."""
+    scene = Scene.from_toml(DISK)
+    reference = efficiency.reference_damage(scene, 0.375, 4.0)
+    whole = efficiency.time_runs(scene, 0.375, efficiency.METHODS, 1, 7, 2, reference)
+    turns = efficiency.time_runs(scene, 0.375, efficiency.METHODS, 1, 7, 2, reference, chunk=3)
+    assert [r["dfg"] for r in turns] == [0, 1]
+    assert [r["steps"] for r in turns] == [7, 7]
+    assert [r["digest"] for r in turns] == [r["digest"] for r in whole]
+    assert turns[0]["digest"] != turns[1]["digest"]  # the partitions differ
+    assert turns[1]["evaluated"] == whole[1]["evaluated"] > 0

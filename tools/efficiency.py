@@ -41,6 +41,9 @@ def parse(argv):
     p.add_argument("--until", type=float,
                    help="time from the warm-up to this time instead of --steps steps (with --no-paint: "
                         "the whole run, the paper's measure)")
+    p.add_argument("--interleave", type=int, metavar="N",
+                   help="advance the two partitions' runs N steps at a time in turn, in one "
+                        "process (a slow drift of the machine then falls on both)")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="scene override")
     p.add_argument("--out", type=Path, default=Path("out/efficiency"))
     p.add_argument("--smoke", action="store_true",
@@ -68,7 +71,8 @@ def main(argv=None) -> dict:
 
     rows = efficiency.study(scene, a.k, h0, steps=a.steps, warmup=a.warmup, rounds=a.rounds,
                             threads=a.threads, paint_time=None if a.no_paint else a.paint_time,
-                            csv_path=a.out / "efficiency.csv", progress=progress, until=a.until)
+                            csv_path=a.out / "efficiency.csv", progress=progress, until=a.until,
+                            chunk=a.interleave)
     result = efficiency.checks(rows)
     cpu = efficiency.checks(rows, time="cpu_seconds")
     (a.out / "checks.json").write_text(json.dumps({"wall": result, "cpu": cpu}, indent=2, default=str) + "\n")

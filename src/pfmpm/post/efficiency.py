@@ -33,7 +33,7 @@ import numpy as np
 from ..scene import Scene
 
 __all__ = ["METHODS", "STAGES", "DFG_BLOCKS", "COLUMNS", "scene_at", "reference_damage", "paint",
-           "time_run", "study", "medians", "checks", "figure"]
+           "time_run", "time_runs", "study", "medians", "checks", "figure"]
 
 METHODS = ("sf", "dfg")
 """Every body its own field (0 in the table's ``dfg`` column) and damage-gradient fields (1)."""
@@ -105,62 +105,86 @@ def time_run(scene: Scene, h: float, method: str, threads: int, steps: int | Non
     instead of ``steps``, the steps to that time (the whole run, as the paper
     times it). A row of :data:`COLUMNS` without ``round``, ``k`` and ``load``;
     the thread count is set back as it was."""
+    return time_runs(scene, h, (method,), threads, steps, warmup, reference, until)[0]
+
+
+def time_runs(scene: Scene, h: float, methods, threads: int, steps: int | None, warmup: int,
+              reference: dict | None = None, until: float | None = None,
+              chunk: int | None = None) -> list[dict]:
+    """:func:`time_run` for each partition of ``methods``, one row each. With
+    ``chunk``, the runs advance ``chunk`` steps at a time in turn, in one
+    process, so that a slow drift of a shared machine's speed falls on all
+    of them alike; without, each run is timed whole, one after the other."""
     from .. import _core
 
     before = _core.num_threads()
     _core.set_num_threads(threads)
     try:
-        return _time_run(scene, h, method, threads, steps, warmup, reference, until)
+        return _time_runs(scene, h, methods, threads, steps, warmup, reference, until, chunk)
     finally:
         _core.set_num_threads(before)
 
 
-def _time_run(scene, h, method, threads, steps, warmup, reference, until) -> dict:
-    """:func:`time_run` on the threads set."""
+def _time_runs(scene, h, methods, threads, steps, warmup, reference, until, chunk) -> list[dict]:
+    """:func:`time_runs` on the threads set."""
     from ..simulation import Simulation
 
-    sim = Simulation(scene_at(scene, h, method))
-    sim.solver.adaptive_threads = False  # the count asked for, every step: a thread-count study
-    if reference is not None:
-        paint(sim, reference)
-    sim.advance(warmup)
-    if until is not None:
-        steps = int(round(until / sim.dt)) - warmup
-
-    def blocks():
+    def blocks(sim):
         part = sim.solver.damage_partition()
         seconds = dict(part["seconds"]) if part else dict.fromkeys(DFG_BLOCKS, 0.0)
         return {**sim.solver.stage_seconds(), **seconds,
                 "neighbour_builds": part["neighbour_builds"] if part else 0,
                 "evaluated": part["kernel_evaluations"] if part else 0}
 
-    before = blocks()
-    wall, cpu = time.perf_counter(), time.process_time()
-    sim.advance(steps)
-    wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
-    after = blocks()
-    state = np.concatenate([sim.particles.x.ravel(), sim.particles.v.ravel()])
-    row = {"h": h, "particles": len(sim.particles), "dfg": METHODS.index(method), "threads": threads,
-           "steps": steps, "warmup": warmup, "seconds": wall / steps, "cpu_seconds": cpu / steps,
-           "digest": int(hashlib.sha256(state.tobytes()).hexdigest()[:13], 16)}
-    for key in (*STAGES, *DFG_BLOCKS):
-        row[key] = (after[key] - before[key]) / steps
-    row["neighbour_builds"] = after["neighbour_builds"] - before["neighbour_builds"]
-    row["evaluated"] = (after["evaluated"] - before["evaluated"]) / steps
-    return row
+    runs = []
+    for method in methods:
+        sim = Simulation(scene_at(scene, h, method))
+        sim.solver.adaptive_threads = False  # the count asked for, every step: a thread-count study
+        if reference is not None:
+            paint(sim, reference)
+        sim.advance(warmup)
+        n = int(round(until / sim.dt)) - warmup if until is not None else steps
+        runs.append({"sim": sim, "method": method, "steps": n, "done": 0, "wall": 0.0, "cpu": 0.0,
+                     "before": blocks(sim)})
+    while any(r["done"] < r["steps"] for r in runs):
+        for r in runs:
+            n = min(chunk or r["steps"], r["steps"] - r["done"])
+            if n <= 0:
+                continue
+            wall, cpu = time.perf_counter(), time.process_time()
+            r["sim"].advance(n)
+            r["wall"] += time.perf_counter() - wall
+            r["cpu"] += time.process_time() - cpu
+            r["done"] += n
+    rows = []
+    for r in runs:
+        sim, n, before, after = r["sim"], r["steps"], r["before"], blocks(r["sim"])
+        state = np.concatenate([sim.particles.x.ravel(), sim.particles.v.ravel()])
+        row = {"h": h, "particles": len(sim.particles), "dfg": METHODS.index(r["method"]),
+               "threads": threads, "steps": n, "warmup": warmup, "seconds": r["wall"] / n,
+               "cpu_seconds": r["cpu"] / n,
+               "digest": int(hashlib.sha256(state.tobytes()).hexdigest()[:13], 16)}
+        for key in (*STAGES, *DFG_BLOCKS):
+            row[key] = (after[key] - before[key]) / n
+        row["neighbour_builds"] = after["neighbour_builds"] - before["neighbour_builds"]
+        row["evaluated"] = (after["evaluated"] - before["evaluated"]) / n
+        rows.append(row)
+    return rows
 
 
 def study(scene: Scene, ks, h0: float, steps: int = 200, warmup: int = 50, rounds: int = 3,
           threads=(1, 2), paint_time: float | None = 10.0, csv_path: Path | None = None,
-          progress=None, until: float | None = None) -> list[dict]:
+          progress=None, until: float | None = None, chunk: int | None = None) -> list[dict]:
     """Time every refinement k of ``ks`` (spacing ``h0 / k``), both partitions
     and every thread count of ``threads``, ``rounds`` times, the
     configurations alternating within a round (:func:`time_run`). With
     ``paint_time``, every run starts from the damage a damage-gradient run at
     the coarsest spacing reached then (:func:`reference_damage`); with
     ``until``, each run is timed from the warm-up to that time instead of for
-    ``steps`` steps. Rows are appended to ``csv_path`` as they come (if
-    given); ``progress(row)`` is called after each.
+    ``steps`` steps; with ``chunk``, the two partitions' runs advance
+    ``chunk`` steps at a time in turn (:func:`time_runs`). Rows are appended
+    to ``csv_path`` as they come (if given); ``progress(row)`` is called
+    after each.
     """
     from ..output import CsvLog
 
@@ -173,10 +197,10 @@ def study(scene: Scene, ks, h0: float, steps: int = 200, warmup: int = 50, round
         for r in range(rounds):
             for k in ks:
                 for n in threads:
-                    for method in METHODS:
-                        load = os.getloadavg()[0]
-                        row = {"round": r, "k": float(k), "load": load,
-                               **time_run(scene, h0 / k, method, n, steps, warmup, reference, until)}
+                    load = os.getloadavg()[0]
+                    for timed in time_runs(scene, h0 / k, METHODS, n, steps, warmup, reference,
+                                           until, chunk):
+                        row = {"round": r, "k": float(k), "load": load, **timed}
                         rows.append(row)
                         if log:
                             log.write(row)
