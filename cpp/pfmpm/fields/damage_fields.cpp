@@ -12,6 +12,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <stdexcept>
 #include <string>
 
@@ -227,6 +228,9 @@ bool DamageFields::particle_damage(const Particles& particles, const CellSort& s
   const std::int32_t* material = particles.material.data();
   const DamageSource* source = _source.data();
   const double full_damage = _options.full_damage, full_c = _options.phase_field_threshold;
+  // Local pointers: the byte store below may alias the vectors' own.
+  double* out_damage = _damage.data();
+  double* out_full = _full.data();
   int any = 0;
 #pragma omp parallel for schedule(static) reduction(| : any)
   for (std::ptrdiff_t p = 0; p < n; ++p)
@@ -251,8 +255,8 @@ bool DamageFields::particle_damage(const Particles& particles, const CellSort& s
       D = 1.0;
       full = true;
     }
-    _damage[p] = D;
-    _full[p] = full ? 1.0 : 0.0;
+    out_damage[p] = D;
+    out_full[p] = full ? 1.0 : 0.0;
     if (full)
     {
 #pragma omp atomic write
@@ -840,15 +844,25 @@ void DamageFields::clear(Particles& particles)
   }
   std::uint32_t* mask = _mask.data();
   std::uint8_t* set = _set.data();
+  // Eight flags at a time: the set ones are few, near the damage.
+  const std::ptrdiff_t words = (n + 7) / 8;
 #pragma omp parallel for schedule(static)
-  for (std::ptrdiff_t p = 0; p < n; ++p)
-    if (set[p])
-    {
-      grad[2 * p] = 0.0;
-      grad[2 * p + 1] = 0.0;
-      mask[p] = 0u;
-      set[p] = 0;
-    }
+  for (std::ptrdiff_t w = 0; w < words; ++w)
+  {
+    const std::ptrdiff_t first = 8 * w, last = std::min(first + 8, n);
+    std::uint64_t any = 0;
+    std::memcpy(&any, set + first, static_cast<std::size_t>(last - first));
+    if (any == 0)
+      continue;
+    for (std::ptrdiff_t p = first; p < last; ++p)
+      if (set[p])
+      {
+        grad[2 * p] = 0.0;
+        grad[2 * p + 1] = 0.0;
+        mask[p] = 0u;
+        set[p] = 0;
+      }
+  }
 }
 
 void DamageFields::build(Particles& particles, const CellSort& sort)
