@@ -44,4 +44,31 @@ void for_each_cell_by_strips(int ncx, int ncy, const std::vector<std::int64_t>& 
   }
 }
 
+/// @brief for_each_cell_by_strips over the occupied cells among `cells`
+/// alone (keys in increasing order): the same strips, parities and order,
+/// without a look at every cell of the grid.
+template <class F>
+void for_each_listed_cell_by_strips(int ncx, int ncy, const std::vector<std::int64_t>& cell_start,
+                                    const std::vector<std::int32_t>& cells, F&& f)
+{
+  const int nstrips = (ncx + strip_width - 1) / strip_width;
+  const std::int64_t strip_cells = static_cast<std::int64_t>(strip_width) * ncy;
+  for (int parity = 0; parity < 2; ++parity)
+  {
+#pragma omp parallel for schedule(dynamic, 1)
+    for (int s = parity; s < nstrips; s += 2)
+    {
+      const auto first = std::lower_bound(cells.begin(), cells.end(), s * strip_cells);
+      const auto last = std::lower_bound(first, cells.end(), (s + 1) * strip_cells);
+      for (auto it = first; it != last; ++it)
+      {
+        const std::size_t cell = static_cast<std::size_t>(*it);
+        if (cell_start[cell + 1] > cell_start[cell])
+          f(static_cast<int>(cell / ncy), static_cast<int>(cell % ncy), cell_start[cell],
+            cell_start[cell + 1]);
+      }
+    }
+  }
+}
+
 } // namespace pfmpm

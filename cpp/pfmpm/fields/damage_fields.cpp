@@ -307,25 +307,34 @@ void cell_slots(const Grid& grid, const DamageFields& fields, const std::optiona
   }
 }
 
-/// f(cx, cy, begin, end, slots) for each occupied cell (cx, cy) whose entry
-/// of `flag` is set, its particles order[begin, end) of the sort and its
-/// group slots: cells of one strip parity in parallel
-/// (for_each_cell_by_strips), so that f may add into its cell's nodes.
+/// f(cx, cy, begin, end, slots) for each occupied cell (cx, cy) of `cells`
+/// (keys in increasing order), its particles order[begin, end) of the sort
+/// and its group slots: cells of one strip parity in parallel
+/// (for_each_listed_cell_by_strips), so that f may add into its cell's nodes.
 template <class F>
-void for_each_flagged_cell(const Grid& grid, const DamageFields& fields,
-                           const std::optional<BodyFields>& groups, const CellSort& sort,
-                           const std::uint8_t* flag, F&& f)
+void for_each_listed_cell(const Grid& grid, const DamageFields& fields,
+                          const std::optional<BodyFields>& groups, const CellSort& sort,
+                          const std::vector<std::int32_t>& cells, F&& f)
 {
-  const int ncy = grid.cells()[1];
-  for_each_cell_by_strips(grid.cells()[0], ncy, sort.cell_start(),
-                          [&](int cx, int cy, std::int64_t begin, std::int64_t end)
-                          {
-                            if (!flag[static_cast<std::size_t>(cx) * ncy + cy])
-                              return;
-                            CellSlots c;
-                            cell_slots(grid, fields, groups, cx, cy, c);
-                            f(cx, cy, begin, end, c);
-                          });
+  for_each_listed_cell_by_strips(grid.cells()[0], grid.cells()[1], sort.cell_start(), cells,
+                                 [&](int cx, int cy, std::int64_t begin, std::int64_t end)
+                                 {
+                                   CellSlots c;
+                                   cell_slots(grid, fields, groups, cx, cy, c);
+                                   f(cx, cy, begin, end, c);
+                                 });
+}
+
+/// The occupied cells whose entry of `flag` is set, in key order, into `out`.
+void list_cells(const std::vector<std::uint8_t>& flag, const CellSort& sort,
+                std::vector<std::int32_t>& out)
+{
+  out.clear();
+  const std::int64_t* start = sort.cell_start().data();
+  const auto ncells = static_cast<std::int32_t>(flag.size());
+  for (std::int32_t c = 0; c < ncells; ++c)
+    if (flag[c] && start[c + 1] > start[c])
+      out.push_back(c);
 }
 
 /// o[0, n) |= c[0, n), for byte flags: a function of its own, whose
@@ -389,8 +398,9 @@ void DamageFields::open_nodes(const Particles& particles, const CellSort& sort)
   const Column* r2 = particles.find("domain_r2");
   // The sums of eq. 21 over A and B together, with the terms P2G adds into
   // its md and full, cell by cell; strips of one parity share no node.
-  for_each_flagged_cell(
-      _grid, *this, _groups, sort, _near.data(),
+  list_cells(_near, sort, _near_cells);
+  for_each_listed_cell(
+      _grid, *this, _groups, sort, _near_cells,
       [&](int cx, int cy, std::int64_t begin, std::int64_t end, const CellSlots& c)
       {
         double m[max_groups][K], md[max_groups][K];
@@ -453,6 +463,7 @@ void DamageFields::open_nodes(const Particles& particles, const CellSort& sort)
     if (open)
       mark_holders(_grid, sort, a, nullptr, _open.data());
   }
+  list_cells(_open, sort, _open_cells);
 }
 
 void DamageFields::open_cells(const Particles& particles, const CellSort& sort)
@@ -477,7 +488,6 @@ void DamageFields::open_cells(const Particles& particles, const CellSort& sort)
 void DamageFields::gradients(Particles& particles, const CellSort& sort)
 {
   const int ncy = _grid.cells()[1];
-  const auto ncells = static_cast<std::ptrdiff_t>(_grid.num_cells());
   const std::int32_t* order = sort.order().data();
   const std::int64_t* start = sort.cell_start().data();
   {
@@ -525,11 +535,11 @@ void DamageFields::gradients(Particles& particles, const CellSort& sort)
   // Every particle has zero gradient and all pairs A (clear()), unless set
   // below (and the masks of the open cells by sides()).
   // The particles of the open cells, whose stencils reach an open node.
-#pragma omp parallel for schedule(dynamic, 64) reduction(+ : evaluated) reduction(| : proxies)
-  for (std::ptrdiff_t c = 0; c < ncells; ++c)
+  const auto nopen = static_cast<std::ptrdiff_t>(_open_cells.size());
+#pragma omp parallel for schedule(dynamic, 16) reduction(+ : evaluated) reduction(| : proxies)
+  for (std::ptrdiff_t i = 0; i < nopen; ++i)
   {
-    if (!_open[c])
-      continue;
+    const std::int32_t c = _open_cells[i];
     for (std::int64_t k = start[c]; k < start[c + 1]; ++k)
     {
       const std::int32_t p = order[k];
@@ -617,8 +627,8 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
   // node first (the largest, ties to the smaller index, is the same in any
   // order of comparison), then compares it with the node's. Strips of one
   // parity share no node, so the comparisons need no atomics.
-  for_each_flagged_cell(
-      _grid, *this, _groups, sort, _open.data(),
+  for_each_listed_cell(
+      _grid, *this, _groups, sort, _open_cells,
       [&](int cx, int cy, std::int64_t begin, std::int64_t end, const CellSlots& c)
       {
         double norm[max_groups][K];
@@ -693,8 +703,8 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
   };
   std::uint32_t* mask = _mask.data();
   std::uint8_t* set = _set.data();
-  for_each_flagged_cell(
-      _grid, *this, _groups, sort, _open.data(),
+  for_each_listed_cell(
+      _grid, *this, _groups, sort, _open_cells,
       [&](int cx, int cy, std::int64_t begin, std::int64_t end, const CellSlots& c)
       {
         const std::size_t cell = static_cast<std::size_t>(cx) * ncy + cy;
