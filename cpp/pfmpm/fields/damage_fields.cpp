@@ -325,15 +325,14 @@ void for_each_listed_cell(const Grid& grid, const DamageFields& fields,
                                  });
 }
 
-/// The occupied cells whose entry of `flag` is set, in key order, into `out`.
-void list_cells(const std::vector<std::uint8_t>& flag, const CellSort& sort,
-                std::vector<std::int32_t>& out)
+/// The cells whose entry of `flag` is set, in key order, into `out` (the
+/// passes over them skip the empty ones).
+void list_cells(const std::vector<std::uint8_t>& flag, std::vector<std::int32_t>& out)
 {
   out.clear();
-  const std::int64_t* start = sort.cell_start().data();
   const auto ncells = static_cast<std::int32_t>(flag.size());
   for (std::int32_t c = 0; c < ncells; ++c)
-    if (flag[c] && start[c + 1] > start[c])
+    if (flag[c])
       out.push_back(c);
 }
 
@@ -398,7 +397,7 @@ void DamageFields::open_nodes(const Particles& particles, const CellSort& sort)
   const Column* r2 = particles.find("domain_r2");
   // The sums of eq. 21 over A and B together, with the terms P2G adds into
   // its md and full, cell by cell; strips of one parity share no node.
-  list_cells(_near, sort, _near_cells);
+  list_cells(_near, _near_cells);
   for_each_listed_cell(
       _grid, *this, _groups, sort, _near_cells,
       [&](int cx, int cy, std::int64_t begin, std::int64_t end, const CellSlots& c)
@@ -463,7 +462,7 @@ void DamageFields::open_nodes(const Particles& particles, const CellSort& sort)
     if (open)
       mark_holders(_grid, sort, a, nullptr, _open.data());
   }
-  list_cells(_open, sort, _open_cells);
+  list_cells(_open, _open_cells);
 }
 
 void DamageFields::open_cells(const Particles& particles, const CellSort& sort)
@@ -532,9 +531,9 @@ void DamageFields::gradients(Particles& particles, const CellSort& sort)
   int proxies = 0;
   _proxy.assign(particles.size(), 0);
   std::uint8_t* proxy = _proxy.data();
-  // Every particle has zero gradient and all pairs A (clear()), unless set
-  // below (and the masks of the open cells by sides()).
-  // The particles of the open cells, whose stencils reach an open node.
+  // The particles of the open cells, whose stencils reach an open node
+  // (clear() left every particle zero gradient and all pairs A; sides()
+  // sets the open cells' masks).
   const auto nopen = static_cast<std::ptrdiff_t>(_open_cells.size());
 #pragma omp parallel for schedule(dynamic, 16) reduction(+ : evaluated) reduction(| : proxies)
   for (std::ptrdiff_t i = 0; i < nopen; ++i)

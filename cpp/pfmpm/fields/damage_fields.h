@@ -288,7 +288,7 @@ private:
   std::vector<std::uint8_t> _dilated_y; // per cell: _full_cell dilated along y (scratch)
   std::vector<std::uint8_t> _near;    // per cell: a fully damaged particle within reach() cells
   std::vector<std::uint8_t> _open;    // per cell: its block holds an open node
-  std::vector<std::int32_t> _near_cells, _open_cells; // the occupied ones of each, in key order
+  std::vector<std::int32_t> _near_cells, _open_cells; // the cells of each, in key order
   std::vector<std::uint8_t> _proxy;   // per particle: its gradient gives a side (gradients())
   std::vector<std::uint8_t> _set;     // per particle: its gradient or mask may be non-zero
   bool _clear_all = true;             // clear() zeroes every particle's (first build, forget())
