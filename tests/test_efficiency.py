@@ -119,7 +119,8 @@ def test_smoke_study(tmp_path):
 
 def test_interleaved_runs_end_as_whole_runs():
     """time_runs with chunk: the two partitions' runs advanced a few steps at a
-    time in turn end in the states of runs timed whole, one after the other."""
+    time in turn end in the states of runs timed whole, one after the other;
+    a chunk of no step is refused (it would never end)."""
     scene = Scene.from_toml(DISK)
     reference = efficiency.reference_damage(scene, 0.375, 4.0)
     whole = efficiency.time_runs(scene, 0.375, efficiency.METHODS, 1, 7, 2, reference)
@@ -129,3 +130,5 @@ def test_interleaved_runs_end_as_whole_runs():
     assert [r["digest"] for r in turns] == [r["digest"] for r in whole]
     assert turns[0]["digest"] != turns[1]["digest"]  # the partitions differ
     assert turns[1]["evaluated"] == whole[1]["evaluated"] > 0
+    with pytest.raises(ValueError, match="chunk = 0: must be at least 1 step"):
+        efficiency.time_runs(scene, 0.375, efficiency.METHODS, 1, 7, 2, reference, chunk=0)

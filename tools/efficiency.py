@@ -49,6 +49,8 @@ def parse(argv):
     p.add_argument("--smoke", action="store_true",
                    help="k = 1 and 1.5, 2 + 3 steps, one round, paint at 4 us")
     a = p.parse_args(argv)
+    if a.interleave is not None and a.interleave < 1:
+        p.error(f"--interleave = {a.interleave}: must be at least 1 step")
     if a.smoke:
         a.k, a.warmup, a.steps, a.rounds, a.paint_time = [1.0, 1.5], 2, 3, 1, 4.0
     return a

@@ -117,6 +117,8 @@ def time_runs(scene: Scene, h: float, methods, threads: int, steps: int | None, 
     of them alike; without, each run is timed whole, one after the other."""
     from .. import _core
 
+    if chunk is not None and chunk < 1:
+        raise ValueError(f"chunk = {chunk}: must be at least 1 step")
     before = _core.num_threads()
     _core.set_num_threads(threads)
     try:
