@@ -12,7 +12,7 @@ from pathlib import Path
 import meshio
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from scipy import stats
 
@@ -96,6 +96,7 @@ KEYS = ["model", "sigma_f", "Gf", "c_f", "l_ch", "weibull.m", "weibull.V_ref", "
 
 @settings(deadline=None, database=None, max_examples=150)
 @given(st.sampled_from([RANKINE, TTF]), st.lists(st.tuples(st.sampled_from(KEYS), VALUES), max_size=3))
+@example(TTF, [("E", 4.345847379899e-311)])  # one step outlasted the run (test_scene.py)
 def test_mutated_damage_tables_run_or_name_the_key(damage, changes):
     # Any value at any key of a damage material: the scene runs two steps, or
     # is refused by one SceneError line whose path names a key of the material,

@@ -517,6 +517,19 @@ def test_too_many_steps_are_refused_without_declared_units():
     assert scene.steps() == 1523810
 
 
+def test_too_few_steps_are_refused():
+    """A modulus so small (here subnormal) that one stable step outlasts the
+    run is refused by the step count too; it used to run its one step to
+    t = 5e154 and stop on a velocity that was not finite."""
+    with pytest.raises(SceneError) as err:
+        Scene.from_toml(BORDEN, ["units=''", "materials.concrete.E=4.345847379899e-311"])
+    message = str(err.value)
+    assert message.startswith("time.end = 80.0: needs ") and ", less than one: the P-wave speed" in message
+    steps = float(message.split("needs ")[1].split(" steps")[0])
+    assert 0 < steps < 1e-150  # the wave speed scales as sqrt(E): 1e-155 of the concrete's
+    assert message.endswith("check the units of E and density")
+
+
 def test_units_must_be_known():
     with pytest.raises(SceneError, match=r"^units = 'mm-ms': must be one of '', 'm-s-Pa', "):
         Scene.from_toml(BORDEN, ["units='mm-ms'"])

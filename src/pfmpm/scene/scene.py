@@ -351,13 +351,15 @@ class Scene:
             raise SceneError("time.dt", f"exceeds the stability limit {limit:.4g}"
                                         " (cfl * kappa * h / (max wave speed + max body speed))", dt)
         steps = self.time.end / self.dt()
-        if steps > self.time.max_steps:
+        if steps > self.time.max_steps or steps < 1:
             c = max(m.wave_speed(self.plane) for m in self.materials)
             crossings = self.time.end * c / max(self.grid.size)
-            raise SceneError("time.end", f"needs {steps:.3g} steps of dt = {self.dt():.4g}, more than"
-                                         f" time.max_steps = {self.time.max_steps}: the P-wave speed"
-                                         f" {c:.3g} crosses the grid {crossings:.3g} times; check the"
-                                         " units of E and density, or raise time.max_steps",
+            bound = (f"more than time.max_steps = {self.time.max_steps}" if steps > 1 else
+                     "less than one")
+            advice = ", or raise time.max_steps" if steps > 1 else ""
+            raise SceneError("time.end", f"needs {steps:.3g} steps of dt = {self.dt():.4g}, {bound}:"
+                                         f" the P-wave speed {c:.3g} crosses the grid {crossings:.3g}"
+                                         f" times; check the units of E and density{advice}",
                              self.time.end)
         if not steps <= _MAX_STEPS:
             raise SceneError("time.end", f"needs {steps:.3g} steps of dt = {self.dt():.4g}"
