@@ -158,8 +158,8 @@ bool holds(const NeighbourList& list, const std::vector<std::vector<std::int32_t
 {
   for (std::size_t p = 0; p < needed.size(); ++p)
   {
-    const auto* begin = &list.index()[list.start()[p]];
-    const auto* end = begin + (list.start()[p + 1] - list.start()[p]);
+    const auto* begin = list.list(p);
+    const auto* end = begin + list.count(p);
     for (std::int32_t q : needed[p])
       if (!std::binary_search(begin, end, q))
         return false;
@@ -186,8 +186,7 @@ TEST(NeighbourList, ListsEveryPairWithinTheCutoffSorted)
     const auto expected = pairs_within(P.x, cutoff);
     for (std::size_t p = 0; p < P.size(); ++p)
     {
-      const std::vector<std::int32_t> got(&list.index()[list.start()[p]],
-                                          &list.index()[list.start()[p + 1]]);
+      const std::vector<std::int32_t> got(list.list(p), list.list(p) + list.count(p));
       EXPECT_EQ(got, expected[p]) << "particle " << p << ", cutoff " << cutoff;
     }
   }

@@ -70,9 +70,8 @@ KernelField kernel_damage_field(const Grid& grid, const std::vector<double>& x,
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t p = 0; p < np; ++p)
   {
-    const std::int64_t begin = list.start()[p], end = list.start()[p + 1];
     const KernelValue v =
-        kernel_field(p, &list.index()[begin], end - begin, x.data(), damage.data(), radius);
+        kernel_field(p, list.list(p), list.count(p), x.data(), damage.data(), radius);
     out.S[p] = v.S;
     out.D[p] = v.D;
     out.grad[2 * p] = v.grad[0];
@@ -179,8 +178,6 @@ std::vector<double> DamageFields::detect_surfaces(Particles& particles, const Ce
     return k;
   };
   std::vector<double> ratio(particles.size());
-  const std::int64_t* start = list.start().data();
-  const std::int32_t* index = list.index().data();
   const double inv_r = 1.0 / _radius;
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t p = 0; p < n; ++p)
@@ -199,9 +196,9 @@ std::vector<double> DamageFields::detect_surfaces(Particles& particles, const Ce
         S += kernel_weight(std::hypot(xp[0] - image[i][0], xp[1] - image[i][1]) * inv_r);
     };
     add(xp, true);
-    for (std::int64_t k = start[p]; k < start[p + 1]; ++k)
+    for (std::int32_t k = 0; k < list.count(p); ++k)
     {
-      const std::int32_t q = index[k];
+      const std::int32_t q = list.list(p)[k];
       if (body[q] == body[p])
         add(&x[2 * q], false);
     }
@@ -498,8 +495,7 @@ void DamageFields::gradients(Particles& particles, const CellSort& sort)
   const double* x = particles.x.data();
   const double* damage = _damage.data();
   double* grad = particles.f64("damage_gradient").data();
-  const std::int64_t* nstart = _neighbours.start().data();
-  const std::int32_t* nindex = _neighbours.index().data();
+  const NeighbourList& list = _neighbours;
   const double radius = _radius;
   // Where every listed neighbour has p's damage, the kernel field is flat
   // and its gradient exactly zero (the sums of differences in kernel_field
@@ -507,8 +503,9 @@ void DamageFields::gradients(Particles& particles, const CellSort& sort)
   auto uniform = [&](std::int32_t p)
   {
     const double d = damage[p];
-    for (std::int64_t k = nstart[p]; k < nstart[p + 1]; ++k)
-      if (damage[nindex[k]] != d)
+    const std::int32_t* q = list.list(p);
+    for (std::int32_t k = 0; k < list.count(p); ++k)
+      if (damage[q[k]] != d)
         return false;
     return true;
   };
@@ -522,7 +519,7 @@ void DamageFields::gradients(Particles& particles, const CellSort& sort)
   auto evaluate = [&](std::int32_t p)
   {
     const KernelValue v =
-        kernel_field(p, &nindex[nstart[p]], nstart[p + 1] - nstart[p], x, damage, radius);
+        kernel_field(p, list.list(p), list.count(p), x, damage, radius);
     grad[2 * p] = v.grad[0];
     grad[2 * p + 1] = v.grad[1];
     set[p] = 1;
@@ -553,9 +550,9 @@ void DamageFields::gradients(Particles& particles, const CellSort& sort)
       // A fully damaged particle without a gradient takes its side from its
       // nearest neighbour of the same body with one within r_p (sides()):
       // those of them outside the open cells need theirs too.
-      for (std::int64_t m = nstart[p]; m < nstart[p + 1]; ++m)
+      for (std::int32_t m = 0; m < list.count(p); ++m)
       {
-        const std::int32_t q = nindex[m];
+        const std::int32_t q = list.list(p)[m];
         const double dx = x[2 * q] - x[2 * p], dy = x[2 * q + 1] - x[2 * p + 1];
         if (body[q] != body[p] || dx * dx + dy * dy >= reach2)
           continue;
@@ -679,15 +676,14 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
   const std::int32_t* body = particles.body.data();
   const double reach2 = _radius * _radius;
   const double* x = particles.x.data();
-  const std::int64_t* nstart = _neighbours.start().data();
-  const std::int32_t* nindex = _neighbours.index().data();
+  const NeighbourList& list = _neighbours;
   auto proxy = [&](std::int32_t p)
   {
     std::int32_t best = -1;
     double closest = 0.0;
-    for (std::int64_t k = nstart[p]; k < nstart[p + 1]; ++k)
+    for (std::int32_t k = 0; k < list.count(p); ++k)
     {
-      const std::int32_t q = nindex[k];
+      const std::int32_t q = list.list(p)[k];
       if (body[q] != body[p] || (grad[2 * q] == 0.0 && grad[2 * q + 1] == 0.0))
         continue;
       const double dx = x[2 * q] - x[2 * p], dy = x[2 * q + 1] - x[2 * p + 1];

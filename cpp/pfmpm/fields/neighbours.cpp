@@ -25,83 +25,91 @@ void NeighbourList::build(const Grid& grid, const CellSort& sort, const std::vec
   const std::int64_t* start = sort.cell_start().data();
   _columns.resize(static_cast<std::size_t>(ncx));
   _count.resize(n);
+  _first.resize(n);
   // Each cell column lists its particles' neighbours, in sort order, into a
-  // buffer of its own: one pass over the pairs.
-#pragma omp parallel for schedule(dynamic, 1)
-  for (int cx = 0; cx < ncx; ++cx)
+  // buffer of its own: one pass over the pairs. The candidates are those of
+  // the cells within the cutoff of the particle's cell, gathered once per
+  // cell and sorted by particle index there, so that every particle of the
+  // cell keeps its neighbours in that order by one pass over them.
+#pragma omp parallel
   {
-    // The column's lists, out[0, used); out keeps its size from build to
-    // build, so that only its growth is zero-filled.
-    std::vector<std::int32_t>& out = _columns[cx];
-    std::size_t used = 0;
-    // Per column within reach: the candidates' range in the sort.
-    std::vector<std::int64_t> from(2 * reach + 1), to(2 * reach + 1);
-    for (int cy = 0; cy < ncy; ++cy)
+    std::vector<std::int32_t> candidate; // of the cell, by particle index
+    std::vector<double> cxy;             // their positions
+    std::vector<std::uint8_t> keep;      // within the cutoff of the particle
+#pragma omp for schedule(dynamic, 1)
+    for (int cx = 0; cx < ncx; ++cx)
     {
-      const std::size_t cell = static_cast<std::size_t>(cx) * ncy + cy;
-      for (std::int64_t k = start[cell]; k < start[cell + 1]; ++k)
+      // The column's lists, out[0, used); out keeps its size from build to
+      // build, so that only its growth is zero-filled.
+      std::vector<std::int32_t>& out = _columns[cx];
+      std::size_t used = 0;
+      for (int cy = 0; cy < ncy; ++cy)
       {
-        const std::int32_t p = order[k];
-        const double xp = x[2 * p], yp = x[2 * p + 1];
-        const double sx = bx.coordinate(xp), sy = by.coordinate(yp);
-        // The cells of each column ax within the cutoff of p, rows
-        // [ay0, ay1] (in cells: p is `gap` from the column, and the rows
-        // within `half` of it). Columns outer, rows inner: with particles
-        // numbered by cell column by column, as the seeding numbers a body's
-        // lattice, the candidates then come nearly in index order.
-        const int ax0 = std::max(cx - reach, 0), ax1 = std::min(cx + reach, ncx - 1);
-        std::int64_t candidates = 0;
-        for (int ax = ax0; ax <= ax1; ++ax)
+        const std::size_t cell = static_cast<std::size_t>(cx) * ncy + cy;
+        if (start[cell] == start[cell + 1])
+          continue;
+        // The cells of each column ax within the cutoff of the cell, rows
+        // [ay0, ay1], consecutive in the sort (the cell is `gap` cells from
+        // the column, and the rows within `half` of it).
+        candidate.clear();
+        for (int ax = std::max(cx - reach, 0); ax <= std::min(cx + reach, ncx - 1); ++ax)
         {
-          const double gap = ax < cx ? sx - (ax + 1) : ax > cx ? ax - sx : 0.0;
+          const int gap = std::max(std::abs(ax - cx) - 1, 0);
           const double left = rc * rc - gap * gap;
-          std::int64_t& m0 = from[ax - ax0];
-          std::int64_t& m1 = to[ax - ax0];
-          m0 = m1 = 0;
           if (left < 0.0)
             continue;
-          const double half = std::sqrt(left);
-          const int ay0 = std::max({cy - reach, 0, static_cast<int>(std::floor(sy - half))});
-          const int ay1 = std::min({cy + reach, ncy - 1, static_cast<int>(std::floor(sy + half))});
-          // The cells ay0..ay1 of a column are consecutive in the sort.
-          m0 = start[static_cast<std::size_t>(ax) * ncy + ay0];
-          m1 = start[static_cast<std::size_t>(ax) * ncy + ay1 + 1];
-          candidates += m1 - m0;
+          const int half = static_cast<int>(std::floor(std::sqrt(left))) + 1;
+          const int ay0 = std::max(cy - half, 0), ay1 = std::min(cy + half, ncy - 1);
+          candidate.insert(candidate.end(), order + start[static_cast<std::size_t>(ax) * ncy + ay0],
+                           order + start[static_cast<std::size_t>(ax) * ncy + ay1 + 1]);
         }
-        // Every candidate is written, and kept when within the cutoff: no
-        // branch on the distance, which would be mispredicted about one
-        // time in two.
-        const std::size_t first = used;
-        if (out.size() < first + static_cast<std::size_t>(candidates))
-          out.resize(std::max(2 * out.size(), first + static_cast<std::size_t>(candidates)));
-        std::size_t kept = first;
-        for (int ax = ax0; ax <= ax1; ++ax)
-          for (std::int64_t m = from[ax - ax0]; m < to[ax - ax0]; ++m)
-          {
-            const std::int32_t q = order[m];
-            const double dx = x[2 * q] - xp, dy = x[2 * q + 1] - yp;
-            out[kept] = q;
-            kept += static_cast<std::size_t>((q != p) & (dx * dx + dy * dy <= c2));
-          }
-        used = kept;
-        // By particle index (insertion: nearly in order already).
-        for (std::size_t i = first + 1; i < used; ++i)
+        // By particle index (insertion: the cells' runs are in order each).
+        const std::size_t nc = candidate.size();
+        for (std::size_t i = 1; i < nc; ++i)
         {
-          const std::int32_t q = out[i];
+          const std::int32_t q = candidate[i];
           std::size_t j = i;
-          for (; j > first && out[j - 1] > q; --j)
-            out[j] = out[j - 1];
-          out[j] = q;
+          for (; j > 0 && candidate[j - 1] > q; --j)
+            candidate[j] = candidate[j - 1];
+          candidate[j] = q;
         }
-        _count[p] = static_cast<std::int32_t>(used - first);
+        cxy.resize(2 * nc);
+        keep.resize(nc);
+        for (std::size_t i = 0; i < nc; ++i)
+        {
+          cxy[2 * i] = x[2 * static_cast<std::size_t>(candidate[i])];
+          cxy[2 * i + 1] = x[2 * static_cast<std::size_t>(candidate[i]) + 1];
+        }
+        if (out.size() < used + nc * static_cast<std::size_t>(start[cell + 1] - start[cell]))
+          out.resize(std::max(2 * out.size(),
+                              used + nc * static_cast<std::size_t>(start[cell + 1] - start[cell])));
+        for (std::int64_t k = start[cell]; k < start[cell + 1]; ++k)
+        {
+          const std::int32_t p = order[k];
+          const double xp = x[2 * p], yp = x[2 * p + 1];
+          // The tests first, each on its own; then every candidate is
+          // written and kept when within the cutoff: no branch on the
+          // distance, which would be mispredicted about one time in two.
+          std::uint8_t* in = keep.data();
+          const double* c = cxy.data();
+          for (std::size_t i = 0; i < nc; ++i)
+          {
+            const double dx = c[2 * i] - xp, dy = c[2 * i + 1] - yp;
+            in[i] = static_cast<std::uint8_t>(dx * dx + dy * dy <= c2);
+          }
+          std::int32_t* o = out.data();
+          const std::size_t first = used;
+          for (std::size_t i = 0; i < nc; ++i)
+          {
+            o[used] = candidate[i];
+            used += in[i] & static_cast<std::uint8_t>(candidate[i] != p);
+          }
+          _count[p] = static_cast<std::int32_t>(used - first);
+        }
       }
     }
   }
-  _start.resize(n + 1);
-  _start[0] = 0;
-  for (std::size_t p = 0; p < n; ++p)
-    _start[p + 1] = _start[p] + _count[p];
-  _index.resize(static_cast<std::size_t>(_start[n]));
+  // Each particle's list where its column wrote it.
 #pragma omp parallel for schedule(dynamic, 1)
   for (int cx = 0; cx < ncx; ++cx)
   {
@@ -110,7 +118,7 @@ void NeighbourList::build(const Grid& grid, const CellSort& sort, const std::vec
          k < start[static_cast<std::size_t>(cx + 1) * ncy]; ++k)
     {
       const std::int32_t p = order[k];
-      std::copy(from, from + _count[p], &_index[_start[p]]);
+      _first[p] = from;
       from += _count[p];
     }
   }
@@ -125,7 +133,7 @@ bool NeighbourList::stale(const Grid& grid, const CellSort& sort, const std::vec
                           double skin)
 {
   const std::size_t n = x.size() / 2;
-  if (_builds == 0 || _start.size() != n + 1)
+  if (_builds == 0 || _count.size() != n)
     return true;
   if (_drift - _drift_checked <= _slack)
     return false; // no particle moved enough since the last look to use the slack up
@@ -154,21 +162,32 @@ bool NeighbourList::stale(const Grid& grid, const CellSort& sort, const std::vec
       r[0] = r[2] = inf;
       r[1] = r[3] = -inf;
     }
+    // Per block of the column, its cells' particles in one run of the sort
+    // per cell column; the range in locals (stores through r could alias x).
     for (int cx = bi * B; cx < std::min((bi + 1) * B, ncx); ++cx)
-      for (int cy = 0; cy < ncy; ++cy)
+      for (int bj = 0; bj < nby; ++bj)
       {
-        const std::size_t cell = static_cast<std::size_t>(cx) * ncy + cy;
-        double* r = &range[4 * (cy / B)];
-        for (std::int64_t k = start[cell]; k < start[cell + 1]; ++k)
+        const std::size_t col = static_cast<std::size_t>(cx) * ncy;
+        const std::int64_t k0 = start[col + bj * B], k1 = start[col + std::min((bj + 1) * B, ncy)];
+        if (k0 == k1)
+          continue;
+        double* r = &range[4 * bj];
+        double x0 = r[0], x1 = r[1], y0 = r[2], y1 = r[3], u2 = largest;
+        for (std::int64_t k = k0; k < k1; ++k)
         {
           const std::int32_t p = order[k];
           const double ux = x[2 * p] - X[2 * p], uy = x[2 * p + 1] - X[2 * p + 1];
-          r[0] = std::min(r[0], ux);
-          r[1] = std::max(r[1], ux);
-          r[2] = std::min(r[2], uy);
-          r[3] = std::max(r[3], uy);
-          largest = std::max(largest, ux * ux + uy * uy);
+          x0 = std::min(x0, ux);
+          x1 = std::max(x1, ux);
+          y0 = std::min(y0, uy);
+          y1 = std::max(y1, uy);
+          u2 = std::max(u2, ux * ux + uy * uy);
         }
+        r[0] = x0;
+        r[1] = x1;
+        r[2] = y0;
+        r[3] = y1;
+        largest = u2;
       }
   }
   // The widest box of the displacements of an occupied block alone and of

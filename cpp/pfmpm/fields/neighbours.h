@@ -38,6 +38,14 @@ namespace pfmpm
 class NeighbourList
 {
 public:
+  NeighbourList() = default;
+  // The lists point into the column buffers: a copy would point into the
+  // original's. A move keeps the buffers, and so the lists.
+  NeighbourList(const NeighbourList&) = delete;
+  NeighbourList& operator=(const NeighbourList&) = delete;
+  NeighbourList(NeighbourList&&) = default;
+  NeighbourList& operator=(NeighbourList&&) = default;
+
   /// @brief Whether the list must be rebuilt before sums within the radius
   /// `cutoff() - 2 skin` are taken at positions `x`, sorted into the cells
   /// of `grid` by `sort`: it was never built, the particle count changed, or
@@ -50,28 +58,28 @@ public:
   /// the cells of `sort` around its own.
   void build(const Grid& grid, const CellSort& sort, const std::vector<double>& x, double cutoff);
 
-  /// The neighbours of particle p: index()[start()[p] .. start()[p + 1]).
-  const std::vector<std::int64_t>& start() const { return _start; }
-  const std::vector<std::int32_t>& index() const { return _index; }
+  /// The neighbours of particle p, by index: list(p)[0 .. count(p)).
+  const std::int32_t* list(std::size_t p) const { return _first[p]; }
+  std::int32_t count(std::size_t p) const { return _count[p]; }
   /// Builds so far.
   std::int64_t builds() const { return _builds; }
   /// Cutoff of the last build.
   double cutoff() const { return _cutoff; }
 
 private:
-  std::vector<std::int64_t> _start; // per particle + 1
-  std::vector<std::int32_t> _index;
+  // Per particle: its list, in the buffer of its cell column, and its length.
+  std::vector<const std::int32_t*> _first;
+  std::vector<std::int32_t> _count;
   std::vector<double> _built_at;    // positions at the build, N x 2
   double _drift = 0.0;              // bound on any particle's motion since the build
   double _drift_checked = 0.0;      // _drift at the last look at the displacements
   double _slack = -1.0;             // motion the last look allows (< 0: look)
   double _cutoff = 0.0;
   std::int64_t _builds = 0;
-  // Scratch: per cell column the lists of its particles in sort order, and
-  // per particle their lengths; per block of cells the range of the
-  // displacements (x min, x max, y min, y max).
+  // Per cell column the lists of its particles in sort order (the lists'
+  // storage); scratch: per block of cells the range of the displacements
+  // (x min, x max, y min, y max).
   std::vector<std::vector<std::int32_t>> _columns;
-  std::vector<std::int32_t> _count;
   std::vector<double> _range;
 };
 
