@@ -43,29 +43,42 @@ inline KernelValue kernel_field(std::size_t p, const std::int32_t* q, std::int64
   const double inv_r = 1.0 / radius, inv_r2 = inv_r * inv_r;
   const double xp = x[2 * p], yp = x[2 * p + 1], dp = damage[p];
   double S = 1.0, dS[2] = {0.0, 0.0}, Dw = 0.0, dD[2] = {0.0, 0.0};
-  for (std::int64_t k = 0; k < n; ++k)
+  // A chunk of the list at a time: first the neighbours within the radius,
+  // in list order, found without a branch (one in three is beyond it, in
+  // the list's skin, and would be mispredicted); then their terms. Those
+  // beyond would add w = g = 0, so leaving them out keeps the sums' bits
+  // (but for the sign of a sum that is exactly zero).
+  constexpr int chunk = 64;
+  double rx[chunk], ry[chunk], r2[chunk];
+  std::int32_t j[chunk];
+  for (std::int64_t k0 = 0; k0 < n; k0 += chunk)
   {
-    const std::size_t j = static_cast<std::size_t>(q[k]);
-    const double rx = xp - x[2 * j], ry = yp - x[2 * j + 1];
-    // r at most 1: a neighbour beyond the radius (the list's skin) adds
-    // w = g = 0, exact zeros that leave the sums' bits as they are, without
-    // a branch, which in a deformed body is mispredicted one time in three.
-    // (The empty asm hides that r2 may be 1, so that the compiler does not
-    // bring the branch back as a shortcut for that case.)
-    double r2 = std::min((rx * rx + ry * ry) * inv_r2, 1.0);
-#if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
-    asm("" : "+x"(r2));
-#endif
-    const double r = std::sqrt(r2);
-    const double w = 1.0 - r * r * (3.0 - 2.0 * r); // kernel_weight(r)
-    const double g = 6.0 * (r - 1.0) * inv_r2;       // grad w = g (x_p - x_q)
-    const double d = damage[j] - dp;
-    S += w;
-    dS[0] += g * rx;
-    dS[1] += g * ry;
-    Dw += d * w;
-    dD[0] += d * g * rx;
-    dD[1] += d * g * ry;
+    const int m = static_cast<int>(std::min<std::int64_t>(chunk, n - k0));
+    int within = 0;
+    for (int k = 0; k < m; ++k)
+    {
+      const std::size_t i = static_cast<std::size_t>(q[k0 + k]);
+      const double ex = xp - x[2 * i], ey = yp - x[2 * i + 1];
+      const double s2 = (ex * ex + ey * ey) * inv_r2;
+      rx[within] = ex;
+      ry[within] = ey;
+      r2[within] = s2;
+      j[within] = q[k0 + k];
+      within += s2 < 1.0;
+    }
+    for (int k = 0; k < within; ++k)
+    {
+      const double r = std::sqrt(r2[k]);
+      const double w = 1.0 - r * r * (3.0 - 2.0 * r); // kernel_weight(r)
+      const double g = 6.0 * (r - 1.0) * inv_r2;       // grad w = g (x_p - x_q)
+      const double d = damage[j[k]] - dp;
+      S += w;
+      dS[0] += g * rx[k];
+      dS[1] += g * ry[k];
+      Dw += d * w;
+      dD[0] += d * g * rx[k];
+      dD[1] += d * g * ry[k];
+    }
   }
   const double inv_S = 1.0 / S;
   KernelValue out;
