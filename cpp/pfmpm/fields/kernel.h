@@ -46,8 +46,8 @@ inline KernelValue kernel_field(std::size_t p, const std::int32_t* q, std::int64
   // A chunk of the list at a time: first the neighbours within the radius,
   // in list order, found without a branch (one in three is beyond it, in
   // the list's skin, and would be mispredicted); then their terms. Those
-  // beyond would add w = g = 0, so leaving them out keeps the sums' bits
-  // (but for the sign of a sum that is exactly zero).
+  // beyond add nothing (w = g = 0), so the sums stay a function of the
+  // positions alone, whenever the list was built.
   constexpr int chunk = 64;
   double rx[chunk], ry[chunk], r2[chunk];
   std::int32_t j[chunk];
