@@ -158,10 +158,9 @@ bool holds(const NeighbourList& list, const std::vector<std::vector<std::int32_t
 {
   for (std::size_t p = 0; p < needed.size(); ++p)
   {
-    const auto* begin = list.list(p);
-    const auto* end = begin + list.count(p);
+    const auto listed = list.of(p);
     for (std::int32_t q : needed[p])
-      if (!std::binary_search(begin, end, q))
+      if (!std::binary_search(listed.begin(), listed.end(), q))
         return false;
   }
   return true;
@@ -186,7 +185,7 @@ TEST(NeighbourList, ListsEveryPairWithinTheCutoffSorted)
     const auto expected = pairs_within(P.x, cutoff);
     for (std::size_t p = 0; p < P.size(); ++p)
     {
-      const std::vector<std::int32_t> got(list.list(p), list.list(p) + list.count(p));
+      const std::vector<std::int32_t> got(list.of(p).begin(), list.of(p).end());
       EXPECT_EQ(got, expected[p]) << "particle " << p << ", cutoff " << cutoff;
     }
   }

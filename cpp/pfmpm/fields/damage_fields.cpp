@@ -70,8 +70,9 @@ KernelField kernel_damage_field(const Grid& grid, const std::vector<double>& x,
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t p = 0; p < np; ++p)
   {
+    const auto listed = list.of(p);
     const KernelValue v =
-        kernel_field(p, list.list(p), list.count(p), x.data(), damage.data(), radius);
+        kernel_field(p, listed.first, listed.size, x.data(), damage.data(), radius);
     out.S[p] = v.S;
     out.D[p] = v.D;
     out.grad[2 * p] = v.grad[0];
@@ -196,9 +197,8 @@ std::vector<double> DamageFields::detect_surfaces(Particles& particles, const Ce
         S += kernel_weight(std::hypot(xp[0] - image[i][0], xp[1] - image[i][1]) * inv_r);
     };
     add(xp, true);
-    for (std::int32_t k = 0; k < list.count(p); ++k)
+    for (const std::int32_t q : list.of(p))
     {
-      const std::int32_t q = list.list(p)[k];
       if (body[q] == body[p])
         add(&x[2 * q], false);
     }
@@ -503,9 +503,8 @@ void DamageFields::gradients(Particles& particles, const CellSort& sort)
   auto uniform = [&](std::int32_t p)
   {
     const double d = damage[p];
-    const std::int32_t* q = list.list(p);
-    for (std::int32_t k = 0; k < list.count(p); ++k)
-      if (damage[q[k]] != d)
+    for (const std::int32_t q : list.of(p))
+      if (damage[q] != d)
         return false;
     return true;
   };
@@ -518,8 +517,8 @@ void DamageFields::gradients(Particles& particles, const CellSort& sort)
   std::uint8_t* set = _set.data();
   auto evaluate = [&](std::int32_t p)
   {
-    const KernelValue v =
-        kernel_field(p, list.list(p), list.count(p), x, damage, radius);
+    const auto listed = list.of(p);
+    const KernelValue v = kernel_field(p, listed.first, listed.size, x, damage, radius);
     grad[2 * p] = v.grad[0];
     grad[2 * p + 1] = v.grad[1];
     set[p] = 1;
@@ -550,9 +549,8 @@ void DamageFields::gradients(Particles& particles, const CellSort& sort)
       // A fully damaged particle without a gradient takes its side from its
       // nearest neighbour of the same body with one within r_p (sides()):
       // those of them outside the open cells need theirs too.
-      for (std::int32_t m = 0; m < list.count(p); ++m)
+      for (const std::int32_t q : list.of(p))
       {
-        const std::int32_t q = list.list(p)[m];
         const double dx = x[2 * q] - x[2 * p], dy = x[2 * q + 1] - x[2 * p + 1];
         if (body[q] != body[p] || dx * dx + dy * dy >= reach2)
           continue;
@@ -681,9 +679,8 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
   {
     std::int32_t best = -1;
     double closest = 0.0;
-    for (std::int32_t k = 0; k < list.count(p); ++k)
+    for (const std::int32_t q : list.of(p))
     {
-      const std::int32_t q = list.list(p)[k];
       if (body[q] != body[p] || (grad[2 * q] == 0.0 && grad[2 * q + 1] == 0.0))
         continue;
       const double dx = x[2 * q] - x[2 * p], dy = x[2 * q + 1] - x[2 * p + 1];

@@ -13,9 +13,7 @@ void NeighbourList::build(const Grid& grid, const CellSort& sort, const std::vec
                           double cutoff)
 {
   const auto n = x.size() / 2;
-  const BSpline1D& bx = grid.basis(0);
-  const BSpline1D& by = grid.basis(1);
-  const int ncx = bx.cells(), ncy = by.cells();
+  const int ncx = grid.cells()[0], ncy = grid.cells()[1];
   const int reach = static_cast<int>(std::ceil(cutoff / grid.h()));
   const double c2 = cutoff * cutoff;
   // The cutoff in cells, widened by a hair for the rounding of the cell
@@ -80,9 +78,9 @@ void NeighbourList::build(const Grid& grid, const CellSort& sort, const std::vec
           cxy[2 * i] = x[2 * static_cast<std::size_t>(candidate[i])];
           cxy[2 * i + 1] = x[2 * static_cast<std::size_t>(candidate[i]) + 1];
         }
-        if (out.size() < used + nc * static_cast<std::size_t>(start[cell + 1] - start[cell]))
-          out.resize(std::max(2 * out.size(),
-                              used + nc * static_cast<std::size_t>(start[cell + 1] - start[cell])));
+        const std::size_t most = used + nc * static_cast<std::size_t>(start[cell + 1] - start[cell]);
+        if (out.size() < most)
+          out.resize(std::max(2 * out.size(), most));
         for (std::int64_t k = start[cell]; k < start[cell + 1]; ++k)
         {
           const std::int32_t p = order[k];

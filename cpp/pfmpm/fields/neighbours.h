@@ -58,9 +58,15 @@ public:
   /// the cells of `sort` around its own.
   void build(const Grid& grid, const CellSort& sort, const std::vector<double>& x, double cutoff);
 
-  /// The neighbours of particle p, by index: list(p)[0 .. count(p)).
-  const std::int32_t* list(std::size_t p) const { return _first[p]; }
-  std::int32_t count(std::size_t p) const { return _count[p]; }
+  /// The neighbours of particle p, by index.
+  struct Range
+  {
+    const std::int32_t* first;
+    std::int32_t size;
+    const std::int32_t* begin() const { return first; }
+    const std::int32_t* end() const { return first + size; }
+  };
+  Range of(std::size_t p) const { return {_first[p], _count[p]}; }
   /// Builds so far.
   std::int64_t builds() const { return _builds; }
   /// Cutoff of the last build.
