@@ -675,21 +675,22 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
   const double reach2 = _radius * _radius;
   const double* x = particles.x.data();
   const NeighbourList& list = _neighbours;
+  // The nearest, the first in the list (the smallest index) among equals;
+  // without a branch per neighbour (which of them qualify is unpredictable
+  // inside a fragment).
   auto proxy = [&](std::int32_t p)
   {
     std::int32_t best = -1;
-    double closest = 0.0;
+    double closest = reach2;
+    const std::int32_t bp = body[p];
+    const double xp = x[2 * p], yp = x[2 * p + 1];
     for (const std::int32_t q : list.of(p))
     {
-      if (body[q] != body[p] || (grad[2 * q] == 0.0 && grad[2 * q + 1] == 0.0))
-        continue;
-      const double dx = x[2 * q] - x[2 * p], dy = x[2 * q + 1] - x[2 * p + 1];
-      const double d2 = dx * dx + dy * dy;
-      if (d2 < reach2 && (best < 0 || d2 < closest))
-      {
-        best = q;
-        closest = d2;
-      }
+      const double dx = x[2 * q] - xp, dy = x[2 * q + 1] - yp;
+      const bool sloped = grad[2 * q] != 0.0 || grad[2 * q + 1] != 0.0;
+      const double d2 = body[q] == bp && sloped ? dx * dx + dy * dy : reach2;
+      best = d2 < closest ? q : best;
+      closest = d2 < closest ? d2 : closest;
     }
     return best;
   };
