@@ -1,7 +1,9 @@
 // The damage-field-gradient partition (Homel & Herbold 2017): the kernel
 // field's gradient vanishes for uniform damage and points at a damaged band
 // (U1, U2), surface flags of a rectangle (U4), a band splits its two sides
-// at every node between them (U2), zero damage runs with the bits of one
+// at every node between them (U2), a fully damaged particle without a
+// gradient takes the side of its nearest neighbour with one, zero damage
+// runs with the bits of one
 // field (U5), and so do fully damaged particles too few to make a node
 // separable, colliding bodies of one group conserve momentum with equal
 // and opposite contact forces, and results do not depend on the thread
@@ -57,15 +59,17 @@ double momentum_scale(const Particles& P)
 }
 
 /// A block [1, 5] x [1, 3] (h = 0.25, 2 per cell) with a fully damaged band
-/// one cell wide across x = 3 (surface-flagged particles), its halves pulled
-/// apart and sheared, with one group of friction 0.3.
+/// across x = 3, |x - 3| < `band` (surface-flagged particles; one cell wide
+/// by default), its halves pulled apart and sheared, with one group of
+/// friction 0.3.
 struct BandedBlock
 {
   Grid grid{2, {24, 16}, 0.25, {0.0, 0.0}};
   Particles P = make_rectangle(1.0, 1.0, 5.0, 3.0, 0.25, 2);
   std::unique_ptr<Solver> solver;
 
-  explicit BandedBlock(std::optional<DamageGradientOptions> options = DamageGradientOptions{})
+  explicit BandedBlock(std::optional<DamageGradientOptions> options = DamageGradientOptions{},
+                       double band = 0.125)
   {
     add_model_columns(P, false);
     for (std::size_t p = 0; p < P.size(); ++p)
@@ -83,7 +87,7 @@ struct BandedBlock
                                       friction, options);
     if (options)
       for (std::size_t p = 0; p < P.size(); ++p)
-        if (std::abs(P.x[2 * p] - 3.0) < 0.125)
+        if (std::abs(P.x[2 * p] - 3.0) < band)
           P.i32("surface")[p] = 1;
   }
 };
@@ -289,6 +293,58 @@ TEST(DamageFields, BandSplitsItsTwoSides)
           << "node " << node.first << ", " << node.second;
   }
   EXPECT_GT(straddling, 10);
+}
+
+TEST(DamageFields, FlatFailedParticlesTakeTheSideOfTheirNearestSlopedNeighbour)
+{
+  // A band three cells wide (particle columns x = 2.6875 ... 3.3125): the
+  // two middle columns, x = 2.9375 and 3.0625, see only fully damaged
+  // particles within r_p = 0.354 (zero gradient). Each takes the side of
+  // its nearest neighbour with a gradient: the band's edge column on its
+  // own side, 0.125 away (the other edge is 0.25 away), in the same cell,
+  // so the two have the same mask. The edges' gradients point opposite
+  // ways, so at the nodes both middle columns map to, away from the
+  // block's top and bottom, the two columns are in different fields.
+  BandedBlock b(DamageGradientOptions{}, 0.375);
+  b.solver->prepare();
+  const DamageFields& fields = *b.solver->damage_fields();
+  const std::vector<std::uint32_t>& mask = fields.masks();
+  const std::vector<double>& grad = b.P.f64("damage_gradient");
+  std::map<std::pair<long, long>, std::size_t> at; // (x, y) in 1/16 -> particle
+  for (std::size_t p = 0; p < b.P.size(); ++p)
+    at[{std::lround(16 * b.P.x[2 * p]), std::lround(16 * b.P.x[2 * p + 1])}] = p;
+  const NodeBlock& block = b.grid.block();
+  const int width = block.width;
+  auto node = [&](std::size_t p, int i)
+  {
+    const int cx = static_cast<int>(b.P.x[2 * p] / 0.25), cy = static_cast<int>(b.P.x[2 * p + 1] / 0.25);
+    return std::pair<int, int>{block.first(cx, b.grid.nodes()[0]) + i / width,
+                               block.first(cy, b.grid.nodes()[1]) + i % width};
+  };
+  int rows = 0, opposite = 0;
+  for (long y = 17; y < 48; y += 2) // y = 1.0625 ... 2.9375
+  {
+    const std::size_t left = at.at({47, y}), right = at.at({49, y});         // x = 2.9375, 3.0625
+    const std::size_t left_edge = at.at({45, y}), right_edge = at.at({51, y}); // x = 2.8125, 3.1875
+    for (const std::size_t p : {left, right})
+      EXPECT_TRUE(grad[2 * p] == 0.0 && grad[2 * p + 1] == 0.0) << "y = " << y / 16.0;
+    EXPECT_NE(grad[2 * left_edge], 0.0);
+    EXPECT_EQ(mask[left], mask[left_edge]) << "y = " << y / 16.0;
+    EXPECT_EQ(mask[right], mask[right_edge]) << "y = " << y / 16.0;
+    ++rows;
+    if (y < 24 || y > 40)
+      continue; // near the block's top and bottom the nodal gradients tilt
+    for (int i = 0; i < width * width; ++i)
+      for (int j = 0; j < width * width; ++j)
+        if (node(left, i) == node(right, j))
+        {
+          EXPECT_NE(mask[left] >> i & 1u, mask[right] >> j & 1u)
+              << "node " << node(left, i).first << ", " << node(left, i).second;
+          ++opposite;
+        }
+  }
+  EXPECT_EQ(rows, 16);
+  EXPECT_GT(opposite, 10);
 }
 
 TEST(DamageFields, ZeroDamageRunsAsOneField)
