@@ -3,12 +3,11 @@
 // (U1, U2), surface flags of a rectangle (U4), a band splits its two sides
 // at every node between them (U2), a fully damaged particle without a
 // gradient takes the side of its nearest neighbour with one, zero damage
-// runs with the bits of one
-// field (U5), and so do fully damaged particles too few to make a node
-// separable, colliding bodies of one group conserve momentum with equal
-// and opposite contact forces, and results do not depend on the thread
-// count or on a restart; the neighbour lists hold every pair within the
-// kernel radius until they are stale.
+// runs with the bits of one field (U5), and so do fully damaged particles
+// too few to make a node separable, colliding bodies of one group conserve
+// momentum with equal and opposite contact forces, and results do not
+// depend on the thread count or on a restart; the neighbour lists hold
+// every pair within the kernel radius until they are stale.
 #include "disks.h"
 #include "helpers.h"
 #include "pfmpm/contact/coulomb.h"
@@ -317,7 +316,8 @@ TEST(DamageFields, FlatFailedParticlesTakeTheSideOfTheirNearestSlopedNeighbour)
   const int width = block.width;
   auto node = [&](std::size_t p, int i)
   {
-    const int cx = static_cast<int>(b.P.x[2 * p] / 0.25), cy = static_cast<int>(b.P.x[2 * p + 1] / 0.25);
+    const int cx = static_cast<int>(b.P.x[2 * p] / b.grid.h()),
+              cy = static_cast<int>(b.P.x[2 * p + 1] / b.grid.h());
     return std::pair<int, int>{block.first(cx, b.grid.nodes()[0]) + i / width,
                                block.first(cy, b.grid.nodes()[1]) + i % width};
   };
@@ -329,6 +329,7 @@ TEST(DamageFields, FlatFailedParticlesTakeTheSideOfTheirNearestSlopedNeighbour)
     for (const std::size_t p : {left, right})
       EXPECT_TRUE(grad[2 * p] == 0.0 && grad[2 * p + 1] == 0.0) << "y = " << y / 16.0;
     EXPECT_NE(grad[2 * left_edge], 0.0);
+    EXPECT_NE(grad[2 * right_edge], 0.0);
     EXPECT_EQ(mask[left], mask[left_edge]) << "y = " << y / 16.0;
     EXPECT_EQ(mask[right], mask[right_edge]) << "y = " << y / 16.0;
     ++rows;

@@ -105,19 +105,15 @@ void NeighbourList::build(const Grid& grid, const CellSort& sort, const std::vec
           _count[p] = static_cast<std::int32_t>(used - first);
         }
       }
-    }
-  }
-  // Each particle's list where its column wrote it.
-#pragma omp parallel for schedule(dynamic, 1)
-  for (int cx = 0; cx < ncx; ++cx)
-  {
-    const std::int32_t* from = _columns[cx].data();
-    for (std::int64_t k = start[static_cast<std::size_t>(cx) * ncy];
-         k < start[static_cast<std::size_t>(cx + 1) * ncy]; ++k)
-    {
-      const std::int32_t p = order[k];
-      _first[p] = from;
-      from += _count[p];
+      // Each particle's list where the column wrote it (out has stopped growing).
+      const std::int32_t* from = out.data();
+      for (std::int64_t k = start[static_cast<std::size_t>(cx) * ncy];
+           k < start[static_cast<std::size_t>(cx + 1) * ncy]; ++k)
+      {
+        const std::int32_t p = order[k];
+        _first[p] = from;
+        from += _count[p];
+      }
     }
   }
   _built_at = x;
