@@ -45,6 +45,7 @@ py::dict stats_dict(const PhaseFieldStats& st)
   d["passes"] = st.passes;
   d["last_passes"] = st.last_passes;
   d["at_bound"] = st.at_bound;
+  d["handovers"] = st.handovers;
   return d;
 }
 

@@ -10,6 +10,8 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Dense>
+
 #include <algorithm>
 #include <cmath>
 #include <tuple>
@@ -218,4 +220,45 @@ TEST(BoundedSolve, BelowTheThresholdNothingIsDamaged)
   EXPECT_NEAR(hi2, 0.5, 1e-6);
   EXPECT_GT(fracture2, 0.0);
   EXPECT_LT(stats2.at_bound, stats2.unknowns);
+}
+
+TEST(BoundedSolve, NodesWithinTheRoundOffOfTheMomentsAreUncoupled)
+{
+  // A block of intact particles and one of huge history, 1e-6 cells from
+  // the end of node (J, .)'s support: that node's entries are of order
+  // 1e-25 of its neighbours', below the round-off of the moments (which
+  // gave such a node K_II = -5e-11 beside 3e5 in a two-body impact). It is
+  // uncoupled, an identity row, and K stays positive semi-definite.
+  const int J = 3;
+  Grid grid(2, {12, 12}, 1.0, {0.0, 0.0});
+  Particles P = test::make_disks({{8.0, 6.0, 1.5, 0.0, 0.0}, {0.0, 0.0, 0.1, 0.0, 0.0}}, 0.5);
+  test::add_model_columns(P, true);
+  const std::size_t last = P.size() - 1;
+  P.x[2 * last] = J + 1 - 1e-6; // in cell J, whose nodes are J, J + 1, J + 2 along x
+  P.x[2 * last + 1] = 6.25;
+  std::vector<double>& history = P.f64("history");
+  std::fill(history.begin(), history.end(), 1.0);
+  history[last] = 1e12;
+  Solver solver(grid, P, test::elastic(100.0, 0.3, 1.0), 1e-3, {Fracture{1.0, 0.5, 0.0}}, 1e-8, 1000);
+  solver.prepare();
+  const PhaseFieldSystem k = solver.phase_field_system();
+  const auto n = static_cast<int>(k.rhs.size());
+  Eigen::MatrixXd K = Eigen::MatrixXd::Zero(n, n);
+  for (int a = 0; a < n; ++a)
+    for (std::int64_t e = k.row_start[a]; e < k.row_start[a + 1]; ++e)
+      K(a, k.column[e]) = k.value[e];
+  const int nny = grid.nodes()[1];
+  int uncoupled = 0;
+  for (int a = 0; a < n; ++a)
+    if (k.nodes[a] / nny == J)
+    {
+      ++uncoupled;
+      EXPECT_EQ(K(a, a), 1.0);
+      EXPECT_EQ(k.rhs[a], 1.0);
+      EXPECT_EQ(k.solution[a], 1.0);
+      EXPECT_EQ(K.row(a).cwiseAbs().sum(), 1.0) << "node " << k.nodes[a];
+    }
+  EXPECT_EQ(uncoupled, 3); // (J, 5), (J, 6), (J, 7): the particle's support along y
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(K, Eigen::EigenvaluesOnly);
+  EXPECT_GT(eigen.eigenvalues().minCoeff(), -1e-12 * eigen.eigenvalues().maxCoeff());
 }

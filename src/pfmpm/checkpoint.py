@@ -276,6 +276,9 @@ def read(path: Path | str) -> Checkpoint:
             raise CheckpointError(f"checkpoint {path}: written before the work of the walls was"
                                   " recorded, which this scene's energy balance needs; start the run again")
         solver["scalars"]["wall_work"] = 0.0
+    for key in [k for k in solver["scalars"] if k.startswith("phase_field/") and k.endswith("/passes")]:
+        # Files from before the bounded solve could hand over to MPRGP: none did.
+        solver["scalars"].setdefault(key.removesuffix("passes") + "handovers", 0)
     images = [(t, arrays[f"output/snapshot_{k}"]) for k, t in enumerate(meta["snapshot_image_times"])]
     return Checkpoint(
         path=path, scene=meta["scene"], step=meta["step"], time=meta["time"], status=meta["status"],

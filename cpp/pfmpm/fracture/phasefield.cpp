@@ -4,6 +4,7 @@
 #include "pfmpm/fracture/phasefield.h"
 #include "pfmpm/common/reduce.h"
 #include "pfmpm/fracture/moments.h"
+#include "pfmpm/fracture/mprgp.h"
 #include "pfmpm/shape/stencil.h"
 #include "pfmpm/transfer/transfer.h"
 
@@ -382,18 +383,49 @@ void PhaseField::assemble(const Particles& particles, const CellSort& sort)
       });
 
   // Nodes that no crackable particle touches keep c = 1: an identity row.
+  // So do nodes that one touches so little that their diagonal is within
+  // the round-off of the moments (moments.h), whose error scales with the
+  // cell's heaviest particle: K_II <= 1e-10 of the largest diagonal of the
+  // node's stencil. Round-off there can be larger than the entry itself,
+  // of either sign, and a negative K_II makes K indefinite (seen at
+  // -5e-11 beside 3e5, next to a particle of huge history). Such a node
+  // moves a particle's c by at most its B-spline value there, about
+  // 1e-5, so it is uncoupled: its row and column are zeroed.
+  // (Only a node below the bound set by the largest diagonal of all looks
+  // at its stencil.)
+  const Stencil<P> stencil(_padded_ny);
+  const double* rows = _stencil.data();
+  double heaviest = 0.0;
+#pragma omp parallel for schedule(static) reduction(max : heaviest)
+  for (std::ptrdiff_t a = 0; a < static_cast<std::ptrdiff_t>(na); ++a)
+    heaviest = std::max(heaviest, rows[_position[a] * H]);
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t a = 0; a < static_cast<std::ptrdiff_t>(na); ++a)
   {
-    double& d = _stencil[_position[a] * H]; // the centre entry
-    if (d == 0.0)
+    const std::size_t i = _position[a];
+    const double d = rows[i * H];
+    double largest = heaviest;
+    if (!(d > negligible_diagonal * heaviest))
     {
-      d = 1.0;
+      largest = 0.0;
+      for (int k = 1; k < H; ++k)
+        largest = std::max({largest, rows[(i + stencil.offset[k]) * H], rows[(i - stencil.offset[k]) * H]});
+    }
+    _diagonal[a] = d > negligible_diagonal * largest ? d : 0.0; // 0: uncoupled below
+  }
+  for (std::size_t a = 0; a < na; ++a) // few nodes, in order: no two write one entry at once
+    if (_diagonal[a] == 0.0)
+    {
+      const std::size_t i = _position[a];
+      double* row = &_stencil[i * H];
+      for (int k = 1; k < H; ++k)
+      {
+        row[k] = 0.0;
+        _stencil[(i - stencil.offset[k]) * H + k] = 0.0;
+      }
+      row[0] = _diagonal[a] = 1.0;
       _rhs[a] = 1.0;
     }
-    _diagonal[a] = d;
-  }
-
 }
 
 template <int P>
@@ -725,10 +757,22 @@ bool PhaseField::conjugate_gradient()
 /// the last step's solution, so after the first steps one or two passes
 /// suffice; a cold start (an initial crack at t = 0) takes about one pass
 /// per two grid spacings of the AT1 band's half-width 4 l0, as each pass
-/// releases the nodes next to the damaged ones. Every update is per node and
-/// every sum is a deterministic_sum, so the result has the same bits on any
-/// number of threads. The CG iterations of each pass, and the passes, are
-/// each limited to max_iterations.
+/// releases the nodes next to the damaged ones.
+///
+/// The passes converge for an M-matrix, which K is not: the B-spline mass
+/// term has positive off-diagonal entries, and at a node that a particle
+/// barely touches K_II is 1e-16 of its neighbours'. There the passes can
+/// cycle, a node's multiplier changing sign each time it is held or freed
+/// (two bodies in contact, where particles sit anywhere in their cells, do
+/// this: docs/performance.md). So the solve hands the current c over to
+/// MPRGP (mprgp.h), which lowers the energy at every step and provably
+/// converges, when a pass returns to an active set that an earlier pass of
+/// this solve had, when CG on the free nodes does not reach the tolerance,
+/// or after max_passes passes.
+///
+/// Every update is per node and every sum is a deterministic_sum, so the
+/// result has the same bits on any number of threads. The CG iterations of
+/// each pass, and those of MPRGP, are each limited to max_iterations.
 template <int P>
 bool PhaseField::bounded_solve()
 {
@@ -749,10 +793,23 @@ bool PhaseField::bounded_solve()
   held_products<P>();
   update_active_set(-_tol);
 
+  // The active sets of this solve's passes, by their hashes (a collision
+  // only hands over to MPRGP early).
+  auto active_set = [&]()
+  {
+    std::uint64_t h = 14695981039346656037ull; // FNV-1a
+    for (const std::int8_t b : _bound)
+    {
+      h ^= static_cast<std::uint8_t>(b);
+      h *= 1099511628211ull;
+    }
+    return h;
+  };
+  std::vector<std::uint64_t> seen{active_set()};
   double residual = 0.0;
   int it = 0, passes = 0;
   bool settled = false;
-  while (passes < _max_iterations)
+  while (!settled)
   {
     ++passes;
     double start = 0.0;
@@ -764,11 +821,32 @@ bool PhaseField::bounded_solve()
     if (residual > stop)
       break; // CG ran out of iterations
     held_products<P>();
-    if (update_active_set(_tol) == 0)
+    settled = update_active_set(_tol) == 0;
+    if (!settled)
     {
-      settled = true;
-      break;
+      const std::uint64_t h = active_set();
+      if (passes == max_passes || std::find(seen.begin(), seen.end(), h) != seen.end())
+        break; // cycling, or no end in sight
+      seen.push_back(h);
     }
+  }
+  if (!settled) // MPRGP from here
+  {
+    std::fill(_search.begin(), _search.end(), 0.0);
+    const StencilSystem<P> system{Stencil<P>(_padded_ny), _stencil.data(), _position.data(),
+                                  _diagonal.data(), _rhs.data(), na};
+    const MprgpResult r = mprgp<P>(system, _c.data(), _search.data(), _r, _q, stop, _tol, _max_iterations);
+    it += r.iterations;
+    residual = r.residual;
+    settled = r.converged;
+    _stats.handovers += 1;
+#pragma omp parallel for schedule(static)
+    for (std::ptrdiff_t a = 0; a < static_cast<std::ptrdiff_t>(na); ++a)
+    {
+      const double c = _c[_position[a]];
+      _bound[a] = c == 1.0 ? 1 : c == 0.0 ? -1 : 0;
+    }
+    list_free();
   }
   _stats.solves += 1;
   _stats.iterations += it;

@@ -107,6 +107,7 @@ struct PhaseFieldStats
   std::int64_t passes = 0;           ///< active-set passes over all bounded solves
   std::int32_t last_passes = 0;      ///< active-set passes of the last bounded solve
   std::int32_t at_bound = 0;         ///< nodes held at c = 0 or 1 by the last bounded solve
+  std::int64_t handovers = 0;        ///< bounded solves finished by MPRGP (mprgp.h)
 };
 
 /// @brief The last assembled phase-field system K c = F (eqs. 56-57, 52) in
@@ -247,11 +248,17 @@ private:
   void multiply(const std::vector<double>& padded, std::vector<double>& out) const;
   /// @brief K c = F (eq. 50) with the bound 0 <= c <= 1 on every active
   /// node, by a primal-dual active-set method around CG on the free nodes
-  /// (free_set_solve; see the definition).
-  /// @return false if a CG pass did not reach tol within max_iterations or
-  /// the active set did not settle within max_iterations passes.
+  /// (free_set_solve), handed over to MPRGP (mprgp.h) when its passes do not
+  /// settle (see the definition).
+  /// @return false if MPRGP did not reach tol within max_iterations.
   template <int P>
   bool bounded_solve();
+  /// The most active-set passes of a bounded solve before MPRGP takes over
+  /// (a cold start with l0 = 8 h takes about 16).
+  static constexpr int max_passes = 50;
+  /// A node whose K_II is at most this fraction of the largest diagonal in
+  /// its stencil is uncoupled, c = 1 (see assemble).
+  static constexpr double negligible_diagonal = 1e-10;
   /// @brief (K c)_a into _q[a] at the nodes held on a bound, the only rows
   /// update_active_set reads (a free node's state follows from c alone).
   template <int P>

@@ -4,6 +4,7 @@
 /// conjugate gradients and the multigrid levels built from it.
 #pragma once
 
+#include <cmath>
 #include <cstddef>
 
 namespace pfmpm
@@ -143,6 +144,23 @@ double row_product(const SymmetricStencil<P>& stencil, const double* rows, std::
   {
     const std::ptrdiff_t o = stencil.offset[k];
     sum += row[k] * v[i + o] + rows[(i - o) * H + k] * v[i - o];
+  }
+  return sum;
+}
+
+/// @brief Row i (padded index) of |K|, the entries' magnitudes, times the
+/// padded vector `v` (row_product with |K_ij|): a Gershgorin bound's row sum.
+template <int P>
+double row_magnitude_product(const SymmetricStencil<P>& stencil, const double* rows, std::size_t i,
+                             const double* v)
+{
+  constexpr int H = SymmetricStencil<P>::size;
+  const double* row = &rows[i * H];
+  double sum = std::abs(row[0]) * v[i];
+  for (int k = 1; k < H; ++k)
+  {
+    const std::ptrdiff_t o = stencil.offset[k];
+    sum += std::abs(row[k]) * v[i + o] + std::abs(rows[(i - o) * H + k]) * v[i - o];
   }
   return sum;
 }

@@ -184,6 +184,7 @@ SolverState Solver::state() const
     s.scalars[phase_key(k, "passes")] = static_cast<double>(pf.stats.passes);
     s.scalars[phase_key(k, "last_passes")] = pf.stats.last_passes;
     s.scalars[phase_key(k, "at_bound")] = pf.stats.at_bound;
+    s.scalars[phase_key(k, "handovers")] = static_cast<double>(pf.stats.handovers);
   }
   if (const ContactStats* c = contact_stats())
   {
@@ -245,6 +246,7 @@ void Solver::restore(const SolverState& state)
     stats.passes = static_cast<std::int64_t>(at("passes"));
     stats.last_passes = static_cast<std::int32_t>(at("last_passes"));
     stats.at_bound = static_cast<std::int32_t>(at("at_bound"));
+    stats.handovers = static_cast<std::int64_t>(at("handovers"));
     _phase[k].field.restore(PhaseFieldState{state.arrays.at(phase_key(k, "c")),
                                             state.arrays.at(phase_key(k, "c_previous")), stats});
   }
@@ -413,12 +415,10 @@ void Solver::prepare(Fields& fields, bool energy)
       const PhaseFieldStats& s = g.field.stats();
       std::ostringstream msg;
       msg << "phase field" << (g.body >= 0 ? " of body " + std::to_string(g.body) : std::string());
-      if (s.last_residual <= g.field.tol()) // only the bounded solve fails this way
-        msg << ": the active set of the bounded solve did not settle in " << s.last_passes
-            << " passes";
-      else
-        msg << ": conjugate gradients stopped at relative residual " << s.last_residual
-            << " > tol = " << g.field.tol() << " after " << s.last_iterations << " iterations";
+      msg << (g.field.bounded() ? ": the bounded solve (MPRGP after the active-set passes)"
+                                : ": conjugate gradients")
+          << " stopped at relative residual " << s.last_residual << " > tol = " << g.field.tol()
+          << " after " << s.last_iterations << " iterations";
       msg << ", at the start of the step after step " << _step << " (t = " << _time << ")";
       throw SimulationError(msg.str());
     }
@@ -760,6 +760,7 @@ PhaseFieldStats Solver::phase_field_stats() const
     total.passes += s.passes;
     total.last_passes = std::max(total.last_passes, s.last_passes);
     total.at_bound += s.at_bound;
+    total.handovers += s.handovers;
   }
   return total;
 }
