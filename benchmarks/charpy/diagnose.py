@@ -14,10 +14,10 @@
     A band of failed particles (D = 1) at t = 0 along the notch's line, the
     box y in [27, 28], x in [``--start``, 8] (the notch root) of the bar's
     ``[[initial_damage]]``, the strength of every other particle raised so
-    that nothing else fails: the largest rise
-    of ``total`` over 20 us, and the contact-check counts. From x < 0 the
-    band reaches the face the striker presses, where three fields (the
-    bar's two sides and the striker) share nodes.
+    that nothing else fails: the largest rise of ``total`` over 20 us, and
+    the contact-check counts. From x < 0 the band reaches the face the
+    striker presses, where three fields (the bar's two sides and the
+    striker) share nodes.
 ``release``
     A free bar 20 x 2 (E = 100, nu = 0, rho = 1, 2 particles per cell)
     stretched to sigma_xx = 0.5 and released at t = 0, once with a line of
