@@ -2,9 +2,13 @@
 the scene tables and their errors, the Weibull strength field (eq. 25),
 Rankine softening dissipating G_f per unit crack area (eq. 23), the energy
 balance with the work dissipated by damage, time-to-failure cracks (eq. 24),
-the output columns and resuming. Single-point closed forms are in
-cpp/tests/test_neo_hookean.cpp."""
+the output columns and resuming; initial damage (``[[initial_damage]]``):
+the particles its regions select, its one-line errors, a pre-broken bar
+parting with no force across its band, the first step and the CPDI domains
+seeing it, and a resumed run taking the checkpoint's damage. Single-point
+closed forms are in cpp/tests/test_neo_hookean.cpp."""
 
+import dataclasses
 import json
 import math
 from pathlib import Path
@@ -19,8 +23,8 @@ from scipy import stats
 from pfmpm import Scene, SceneError, Simulation, checkpoint
 from pfmpm.cli import main
 from pfmpm.output import read_csv
-from pfmpm.scene import (Body, GridSpec, NeoHookeanSpec, RankineSpec, Rectangle, Time,
-                         TimeToFailureSpec, WallSpec, WeibullSpec)
+from pfmpm.scene import (Body, Contact, GridSpec, InitialDamage, NeoHookeanSpec, RankineSpec,
+                         Rectangle, Time, TimeToFailureSpec, WallSpec, WeibullSpec)
 
 
 def plate(damage: dict | None = None, **material) -> dict:
@@ -375,3 +379,334 @@ def test_runs_write_damage_strength_and_J_and_resume_bitwise(tmp_path: Path):
     assert main(["run", "--resume", str(part), "--quiet"]) == 0
     for name in ("energies.csv", last.name):
         assert (part / name).read_bytes() == (full / name).read_bytes()
+
+
+# -- initial damage ([[initial_damage]]) ---------------------------------------------
+
+
+def damaged_plate(*entries: dict, **extra) -> dict:
+    """The plate scene (Rankine) with ``[[initial_damage]]`` entries."""
+    return {**plate(RANKINE), "initial_damage": list(entries), **extra}
+
+
+BOX = {"min": [2.0, 1.0], "max": [3.0, 2.0]}
+# A polyline with a bend: along y = 2 from x = 1 to 5, then up x = 5 to y = 3.
+BAND = {"points": [[1.0, 2.0], [5.0, 2.0], [5.0, 3.0]], "half_width": 0.3}
+
+
+def test_regions_select_the_particles_of_the_lattice():
+    # The plate [1, 9] x [1, 3], h = 0.5, 2 x 2 particles per cell: particles
+    # at 1.125 + 0.25 i, 1.125 + 0.25 j (32 x 8 = 256 of them).
+    #   The box [2, 3] x [1, 2]: 4 columns (2.125 to 2.875) x 4 rows = 16.
+    #   The band, half width 0.3: the rows y = 1.875, 2.125 (d = 0.125) from x =
+    # 1.125 to 4.875, and 5.125 (the corner, d = 0.177; 5.375 lies 0.395 away):
+    # 2 x 17; the columns x = 4.875, 5.125 from y = 1.875 (the corner) to 2.875:
+    # 2 x 5; 4 in both. 34 + 10 - 4 = 40, 4 of them (y = 1.875, x = 2.125 to
+    # 2.875) in the box too.
+    #   Particles 0, 5, 7: the first cell's (1.125, 1.125), the next cell up's
+    # (1.375, 1.625) and (1.375, 1.875), the last in the band.
+    sim = Simulation(Scene.from_dict(damaged_plate(
+        BOX, {**BAND, "D": 0.5}, {"body": "plate", "particles": [0, 5, 7], "D": 0.25})))
+    P = sim.particles
+    assert len(P) == 256
+    assert np.count_nonzero(P.damage == 1.0) == 16
+    assert np.count_nonzero(P.damage == 0.5) == 40 - 4
+    assert np.flatnonzero(P.damage == 0.25).tolist() == [0, 5]  # the largest D where they overlap
+    assert P.damage[7] == 0.5
+    box = (P.x >= BOX["min"]).all(axis=1) & (P.x <= BOX["max"]).all(axis=1)
+    assert np.all(P.damage[box] == 1.0)
+    x, y = P.x.T
+    band = ((np.abs(y - 2.0) <= 0.3) & (x <= 5.0)) | ((np.abs(x - 5.0) <= 0.3) & (y >= 2.0)) | (
+        np.hypot(x - 5.0, y - 2.0) <= 0.3)
+    assert np.count_nonzero(band) == 40 and np.all(P.damage[band & ~box] == 0.5)
+    # Nothing else is damaged, nothing dissipated.
+    assert np.count_nonzero(P.damage) == 16 + 36 + 2
+    assert sim.energies()["damage_dissipation"] == 0.0
+    assert "initial_damage" in sim.modules()
+
+
+def test_a_mask_or_indices_from_python_damage_those_particles():
+    scene = Scene.from_dict(plate(TTF))
+    p = scene.particles()
+    right = p["x"][:, 0] > 5.0
+    masked = dataclasses.replace(scene, initial_damage=(InitialDamage(body="plate", particles=right, D=0.5),))
+    indexed = dataclasses.replace(scene, initial_damage=(InitialDamage(particles=np.flatnonzero(right)),))
+    assert masked.initial_damage[0].particles == tuple(right.tolist())
+    assert indexed.initial_damage[0].particles == tuple(np.flatnonzero(right).tolist())
+    assert Scene.from_dict(masked.to_dict()) == masked
+    for s, D in ((masked, 0.5), (indexed, 1.0)):
+        damage = Simulation(s).particles.damage
+        assert np.array_equal(damage, np.where(right, D, 0.0))
+    # Weibull strengths are drawn as without the damage.
+    assert np.array_equal(Simulation(masked).particles.sigma_f, Simulation(scene).particles.sigma_f)
+
+
+def test_initial_damage_is_read_from_toml_and_written_back(tmp_path: Path):
+    path = tmp_path / "pre.toml"
+    path.write_text(TTF_SCENE + """
+[[initial_damage]]
+body = "block"
+points = [[8.0, 2.0], [8.0, 6.0]]
+half_width = 0.4
+
+[[initial_damage]]
+min = [3.0, 2.0]
+max = [4.0, 6.0]
+D = 0.5
+
+[[initial_damage]]
+particles = [0, 1, 2]
+""")
+    scene = Scene.from_toml(path)
+    band, box, listed = scene.initial_damage
+    assert band == InitialDamage(body="block", points=((8.0, 2.0), (8.0, 6.0)), half_width=0.4)
+    assert (band.region, box.region, listed.region) == ("band", "box", "particles")
+    assert box.D == 0.5 and listed.particles == (0, 1, 2) and listed.body is None
+    d = scene.to_dict()
+    assert d["initial_damage"][1] == {"D": 0.5, "min": [3.0, 2.0], "max": [4.0, 6.0]}
+    assert Scene.from_dict(d) == scene
+    over = Scene.from_toml(path, ["initial_damage.1.D=0.25", "initial_damage.0.half_width=0.6"])
+    assert over.initial_damage[1].D == 0.25 and over.initial_damage[0].half_width == 0.6
+    assert Scene.from_toml(path, ["initial_damage=[]"]).initial_damage == ()
+
+
+NEO = {"name": "rock", "model": "neo_hookean", "E": 100.0, "nu": 0.3, "density": 1.0, "damage": RANKINE}
+GLASS = {"name": "glass", "E": 100.0, "nu": 0.3, "density": 1.0, "fracture": {"Gc": 1.0, "l0": 1.0}}
+STEEL = {"name": "steel", "E": 100.0, "nu": 0.3, "density": 1.0}
+
+
+def three_bodies(*entries: dict, rock: dict = NEO) -> dict:
+    """A damage body, a phase-field body and an elastic one, with ``[[initial_damage]]``."""
+    def body(name, material, x0, x1):
+        return {"name": name, "material": material,
+                "shape": {"type": "rectangle", "min": [x0, 1.0], "max": [x1, 3.0]}}
+    return {"grid": {"size": [10.0, 4.0], "h": 0.5}, "time": {"end": 1.0},
+            "materials": [rock, GLASS, STEEL],
+            "bodies": [body("plate", rock["name"], 1.0, 5.0), body("pane", "glass", 5.5, 7.0),
+                       body("bolt", "steel", 7.5, 9.0)],
+            "initial_damage": list(entries)}
+
+
+@pytest.mark.parametrize("entry, message", [
+    ({**BOX, "body": "ghost"},
+     "initial_damage[0].body = 'ghost': no body with that name (have: 'plate', 'pane', 'bolt')"),
+    ({**BOX, "body": "pane"}, "initial_damage[0].body = 'pane': its material 'glass' cracks by the phase"
+                              " field, not by damage: give it [[cracks]]"),
+    ({**BOX, "body": "bolt"}, "initial_damage[0].body = 'bolt': its material 'steel' has no damage table"),
+    ({**BOX, "D": 0.0}, "initial_damage[0].D = 0.0: must be > 0 and <= 1"),
+    ({**BOX, "D": 1.5}, "initial_damage[0].D = 1.5: must be > 0 and <= 1"),
+    ({**BOX, "D": "1"}, "initial_damage[0].D = '1': must be a number"),
+    ({"min": [2.0, 1.0], "max": [3.0, 1.0]},
+     "initial_damage[0].max = [3.0, 1.0]: must exceed min = [2.0, 1.0] componentwise"),
+    ({"min": [2.0, 1.0]}, "initial_damage[0].max: missing required key (a box needs min and max)"),
+    ({"points": [[1.0, 2.0]], "half_width": 0.2},
+     "initial_damage[0].points = [[1.0, 2.0]]: needs at least two points"),
+    ({"points": [[1.0, 2.0], [1.0, 2.0]], "half_width": 0.2},
+     "initial_damage[0].points[1] = [1.0, 2.0]: segment from points[0] = [1.0, 2.0] must have a"
+     " positive finite length"),
+    ({"points": [[1.0, 2.0], [3.0, 2.0]], "half_width": 0.0},
+     "initial_damage[0].half_width = 0.0: must be > 0"),
+    ({"points": [[1.0, 2.0], [3.0, 2.0]]},
+     "initial_damage[0].half_width: missing required key (a band needs points and half_width)"),
+    ({**BOX, "points": [[1.0, 2.0], [3.0, 2.0]], "half_width": 0.1},
+     "initial_damage[0].points = [[1.0, 2.0], [3.0, 2.0]]: a second region: the entry has a box"
+     " already (min and max); give one region per entry"),
+    ({}, "initial_damage[0]: needs a region: min and max (a box), points and half_width (a band along"
+         " a polyline), or particles"),
+    ({"min": [20.0, 10.0], "max": [30.0, 20.0]},
+     "initial_damage[0]: the box min = [20.0, 10.0], max = [30.0, 20.0] selects no particle of body"
+     " 'plate' (at their positions at t = 0)"),
+    ({"min": [5.5, 1.0], "max": [7.0, 3.0]},  # the pane's particles, not the plate's
+     "initial_damage[0]: the box min = [5.5, 1.0], max = [7.0, 3.0] selects no particle of body"
+     " 'plate' (at their positions at t = 0)"),
+    ({"points": [[1.0, 3.6], [3.0, 3.6]], "half_width": 0.1},
+     "initial_damage[0]: the band of half_width = 0.1 along points = [[1.0, 3.6], [3.0, 3.6]] selects"
+     " no particle of body 'plate' (at their positions at t = 0)"),
+    ({"particles": [0, 128]},
+     "initial_damage[0].particles[1] = 128: out of range: body 'plate' has 128 particles (0 to 127)"),
+    ({"particles": [0, -1]}, "initial_damage[0].particles[1] = -1: must be >= 0"),
+    ({"particles": [0, 3, 0]}, "initial_damage[0].particles[2] = 0: duplicate index (also particles[0])"),
+    ({"particles": []}, "initial_damage[0].particles = []: selects no particle"),
+    ({"particles": [False, False]}, "initial_damage[0].particles = [false, false]: selects no particle"),
+    ({"particles": [True, False]},
+     "initial_damage[0].particles: a mask of 2 entries, but body 'plate' has 128 particles"),
+    ({"particles": [True, 1]},
+     "initial_damage[0].particles[1] = 1: must be true or false, as the mask's other entries"),
+    ({"particles": [0.5]}, "initial_damage[0].particles[0] = 0.5: must be an integer index"),
+    ({"particles": 3}, "initial_damage[0].particles = 3: must be a list of particle indices or a boolean mask"),
+    ({**BOX, "radius": 1.0},
+     "initial_damage[0].radius: unknown key (allowed: body, D, min, max, points, half_width, particles)"),
+])
+def test_bad_initial_damage_is_one_line_naming_the_key(entry, message):
+    with pytest.raises(SceneError) as err:
+        Scene.from_dict(three_bodies(entry))
+    assert str(err.value) == message
+
+
+def test_initial_damage_needs_a_damage_material_and_cracks_a_fracture_one():
+    only_glass = {**three_bodies(BOX), "materials": [GLASS],
+                  "bodies": [{"name": "pane", "material": "glass",
+                              "shape": {"type": "rectangle", "min": [1.0, 1.0], "max": [7.0, 3.0]}}]}
+    with pytest.raises(SceneError) as err:
+        Scene.from_dict(only_glass)
+    assert str(err.value) == ("initial_damage[0]: no body's material has a damage table; a phase-field"
+                              " material takes [[cracks]]")
+    # Two damage bodies: indices need the body they count in.
+    two = three_bodies({"particles": [0]})
+    two["materials"][1] = {**NEO, "name": "glass"}
+    with pytest.raises(SceneError) as err:
+        Scene.from_dict(two)
+    assert str(err.value) == ("initial_damage[0].body: missing required key: particle indices are into"
+                              " one body's particles, and 'plate' and 'pane' have damage tables")
+    # A region that selects particles of either is fine without a body.
+    assert len(Scene.from_dict(three_bodies({"min": [5.5, 1.0], "max": [7.0, 3.0]}) | {
+        "materials": two["materials"]}).initial_damage) == 1
+    # And [[cracks]] on a damage body points at [[initial_damage]].
+    with pytest.raises(SceneError) as err:
+        Scene.from_dict({**three_bodies(), "cracks": [{"points": [[1.0, 2.0], [3.0, 2.0]], "body": "plate"}]})
+    assert str(err.value) == ("cracks[0].body = 'plate': its material has no fracture table; a damage"
+                              " material starts cracked with [[initial_damage]]")
+
+
+def stretched_bar(band: dict | None, partition: str | None = "damage_gradient", ppc: int = 2,
+                  **grid) -> Scene:
+    """A free bar [1, 11] x [1, 3] stretched from t = 0 by v_x = 0.01 (x - 6), too
+    strong to fail (sigma_f = 1e6), with ``band``: an initial damage along x = 6."""
+    return Scene(grid=GridSpec(size=(12.0, 4.0), h=0.25, **grid), time=Time(end=4.0, cfl=0.5),
+                 materials=(NeoHookeanSpec(name="m", E=100.0, nu=0.3, density=1.0,
+                                           damage=TimeToFailureSpec(sigma_f=1e6, c_f=1.0)),),
+                 bodies=(Body("bar", "m", Rectangle((1.0, 1.0), (11.0, 3.0)), particles_per_cell=ppc,
+                              velocity=(-0.06, 0.0), velocity_gradient=((0.01, 0.0), (0.0, 0.0))),),
+                 initial_damage=(InitialDamage(**band),) if band else (),
+                 contact=Contact(partition=partition) if partition else None)
+
+
+ACROSS = {"points": ((6.0, 0.0), (6.0, 4.0)), "half_width": 0.1}
+"""A band across the bar at x = 6: its two particle columns x = 5.9375 and 6.0625 (32 particles)."""
+
+
+def impulse_across(scene: Scene) -> tuple[float, Simulation]:
+    """The x impulse the bar's right half (x > 6 at t = 0) takes over the run: the
+    change of its momentum; the left half takes the opposite."""
+    sim = Simulation(scene)
+    P = sim.particles
+    right = P.x[:, 0] > 6.0
+    before = float(np.sum(P.mass[right] * P.v[right, 0]))
+    sim.advance(scene.steps())
+    return float(np.sum(P.mass[right] * P.v[right, 0])) - before, sim
+
+
+@pytest.mark.parametrize("grid", [{}, {"degree": 1, "shape": "cpdi"}], ids=["bspline", "cpdi"])
+def test_a_prebroken_band_parts_the_bar_with_no_force_across_it(grid):
+    # Intact, the halves pull on each other: the right half loses x momentum
+    # (measured -0.0367 with quadratic B-splines, -0.0398 with CPDI1).
+    intact, _ = impulse_across(stretched_bar(None, **grid))
+    assert intact < -0.03
+    # Failed at t = 0 along x = 6 and split by the damage gradient, they part
+    # with no force between them (measured 5.6e-17 and 1.1e-11).
+    parted, sim = impulse_across(stretched_bar(ACROSS, **grid))
+    assert abs(parted) < 1e-6 * abs(intact)
+    assert np.count_nonzero(sim.particles.damage == 1.0) == 32 and sim.particles.damage.sum() == 32
+    assert abs(sim.energies()["momentum_x"]) < 1e-14
+    # Half damaged (D = 0.5), the band still carries tension (measured -0.0139
+    # with B-splines).
+    if not grid:
+        half, _ = impulse_across(stretched_bar({**ACROSS, "D": 0.5}))
+        assert -0.02 < half < -0.01
+
+
+def test_the_first_step_sees_the_initial_damage():
+    # After one step, the failed particles carry no stress (all their principal
+    # stresses are tensile, eqs. 26-27) while the rest are in tension, and the
+    # damage-gradient partition splits and separates the nodes at the band.
+    sim = Simulation(stretched_bar(ACROSS))
+    sim.advance(1)
+    P = sim.particles
+    failed = P.damage == 1.0
+    assert np.all(P.stress[failed] == 0.0)
+    assert P.stress[~failed, 0].min() > 0.0
+    stats = sim.solver.contact_stats()
+    assert stats["split"] > 0 and stats["separable"] == stats["split"]
+    # Without the band no node is split.
+    intact = Simulation(stretched_bar(None))
+    intact.advance(1)
+    assert intact.solver.contact_stats()["split"] == 0
+
+
+@pytest.mark.parametrize("scale_failed", [True, False])
+def test_initially_failed_cpdi_domains_are_scaled_as_in_a_run(scale_failed):
+    # One particle per cell: a lattice square of side h, half-diagonals h / sqrt(2)
+    # > h / 2, so a failed particle's domain shrinks to half-diagonals h / 2
+    # (H&H §2.6): r1 = (h / 2 sqrt(2), 0), as the core does for a particle that
+    # fails in the run; with scale_failed = false it stays the square.
+    h = 0.25
+    sim = Simulation(stretched_bar({**ACROSS, "half_width": 0.15}, partition=None, ppc=1, degree=1,
+                                   shape="cpdi", scale_failed=scale_failed))
+    P = sim.particles
+    failed = P.damage == 1.0
+    assert np.count_nonzero(failed) == 16  # x = 5.875 and 6.125, 8 rows
+    r = h / (2 * math.sqrt(2)) if scale_failed else h / 2
+    for _ in range(2):  # at set-up and after the first step
+        assert np.allclose(P.domain_r1[failed], (r, 0.0), rtol=1e-3, atol=0)
+        assert np.allclose(P.domain_r2[failed], (0.0, r), rtol=1e-3, atol=0)
+        assert np.allclose(P.domain_r1[~failed, 0], h / 2, rtol=1e-3)
+        sim.advance(1)
+
+
+PREBROKEN_SCENE = """
+name = "prebroken"
+[grid]
+size = [12.0, 4.0]
+h = 0.25
+[time]
+end = 3.0
+cfl = 0.5
+[output]
+every = 40
+energies_every = 10
+[contact]
+partition = "damage_gradient"
+[[materials]]
+name = "rock"
+model = "neo_hookean"
+E = 100.0
+nu = 0.3
+density = 1.0
+damage = { model = "time_to_failure", sigma_f = 0.3, c_f = 1.0 }
+[[bodies]]
+name = "bar"
+material = "rock"
+shape = { type = "rectangle", min = [1.0, 1.0], max = [11.0, 3.0] }
+velocity = [-0.06, 0.0]
+velocity_gradient = [[0.01, 0.0], [0.0, 0.0]]
+[[initial_damage]]
+points = [[6.0, 0.0], [6.0, 4.0]]
+half_width = 0.1
+D = 0.5
+"""
+
+
+def test_initial_damage_grows_and_resumes_bitwise(tmp_path: Path):
+    # The bar's band starts half damaged, fails by the first checkpoint (step
+    # 120, t = 1.3) and damage spreads after it; the run resumed from there
+    # takes the checkpoint's damage, not the initial one, and ends with the
+    # same bits.
+    scene = tmp_path / "prebroken.toml"
+    scene.write_text(PREBROKEN_SCENE)
+    full = tmp_path / "full"
+    assert main(["run", str(scene), "--out", str(full), "--quiet", "--checkpoint-every", "120"]) == 0
+    first = checkpoint.list_checkpoints(full / "checkpoints")[0]
+    assert first.name == "step_000000120.h5"
+    at_first = checkpoint.read(first).particles["damage"]
+    assert np.count_nonzero(at_first == 1.0) == 32 and at_first.min() == 0.0
+    last = sorted(full.glob("particles_*.vtu"))[-1]
+    end = meshio.read(last).point_data["damage"]
+    assert np.count_nonzero(end == 1.0) > 32 and np.count_nonzero(end == 0.5) == 0
+    part = tmp_path / "part"
+    (part / "checkpoints").mkdir(parents=True)
+    (part / "checkpoints" / first.name).write_bytes(first.read_bytes())
+    assert main(["run", "--resume", str(part), "--quiet"]) == 0
+    for name in ("energies.csv", last.name):
+        assert (part / name).read_bytes() == (full / name).read_bytes()
+    summary = json.loads((full / "summary.json").read_text())
+    assert "initial_damage" in summary["modules"]

@@ -10,20 +10,9 @@ from __future__ import annotations
 import numpy as np
 
 from .scene import Crack, FractureSpec
+from .scene.shapes import distance_to_polyline
 
 __all__ = ["distance_to_polyline", "initial_history"]
-
-
-def distance_to_polyline(xy: np.ndarray, points) -> np.ndarray:
-    """Distance from each row of ``xy`` (N, 2) to the polyline through ``points``."""
-    xy = np.asarray(xy, dtype=float)
-    pts = np.asarray(points, dtype=float)
-    d = np.full(len(xy), np.inf)
-    for a, b in zip(pts[:-1], pts[1:]):
-        ab = b - a
-        t = np.clip(((xy - a) @ ab) / max(ab @ ab, np.finfo(float).tiny), 0.0, 1.0)
-        d = np.minimum(d, np.hypot(*(xy - a - t[:, None] * ab).T))
-    return d
 
 
 def initial_history(xy: np.ndarray, crack: Crack, fracture: FractureSpec) -> np.ndarray:

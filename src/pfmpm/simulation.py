@@ -121,6 +121,7 @@ class Simulation:
         columns = self._fill(xs, done=core)  # the models' columns the seeding sets: orientation, CPDI domains
         del xs
         self._initial_columns()
+        self._impose_damage()
         self.damage = "dissipated" in columns
         if self.damage_gradient:
             self._flag_surfaces()
@@ -134,8 +135,9 @@ class Simulation:
         self.crack_tip = CrackTip.for_scene(scene) if scene.cracks else None
         self.crack_path = (CrackPath(int(self._crackable.sum()), scene.output.crack_threshold)
                            if scene.cracks else None)
-        if self.cracks or self.damage_gradient:
-            # The phase field of the initial cracks; the damage-gradient fields.
+        if self.cracks or self.damage_gradient or scene.initial_damage:
+            # The phase field of the initial cracks; the damage-gradient fields;
+            # the CPDI domains of initially failed particles.
             self.solver.prepare()
 
     def _flag_surfaces(self) -> None:
@@ -167,6 +169,21 @@ class Simulation:
                 values = m.initial_columns(self.scene, self.particles.volume[sel])
             for name, value in values.items():
                 getattr(self.particles, name)[sel] = value
+
+    def _impose_damage(self) -> None:
+        """Set the damage of every ``[[initial_damage]]`` entry on the particles its
+        region selects at t = 0, the largest D where entries overlap; before the
+        first step and the set-up's solver preparation, so that the stresses, the
+        damage-gradient fields and the CPDI domains see it from the start. A
+        resumed run sets it too, then takes the checkpoint's ``damage`` column."""
+        damage = self.particles.damage if self.scene.initial_damage else None
+        for entry in self.scene.initial_damage:
+            for b in self.scene.initial_damage_bodies(entry):
+                sel = np.flatnonzero(self.particles.body == b)
+                for start in range(0, len(sel), _BLOCK):  # a block at a time: no copies of all
+                    part = sel[start:start + _BLOCK]
+                    hit = part[entry.select(self.particles.x[part], start)]
+                    damage[hit] = np.maximum(damage[hit], entry.D)
 
     def _impose_cracks(self) -> None:
         """Set the initial history of every crack on the particles of its bodies."""
@@ -296,6 +313,8 @@ class Simulation:
             active.append("fourth_order_phase_field")
         if self.scene.cracks:
             active.append("initial_cracks")
+        if self.scene.initial_damage:
+            active.append("initial_damage")
         if self.contact:
             active.append("contact")
         if self.damage:

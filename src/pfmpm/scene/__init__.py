@@ -35,7 +35,9 @@ The modules, one concern each:
     with its :class:`Anisotropy`.
 ``damage``
     The damage tables of the neo-Hookean model: :class:`RankineSpec`,
-    :class:`TimeToFailureSpec`, with a :class:`WeibullSpec` strength field.
+    :class:`TimeToFailureSpec`, with a :class:`WeibullSpec` strength field;
+    and the scene's damage at t = 0, :class:`InitialDamage`
+    (``[[initial_damage]]``: a box, a band along a polyline, or particles).
 ``validation``
     :class:`SceneError` and the value checkers.
 ``seeding``, ``stability``
@@ -53,7 +55,8 @@ from .bodies import Body
 from .components import DEGREES, GridSpec, Output, PhaseFieldSpec, Time
 from .contact import Contact, ContactPair
 from .loads import EDGES, LOADS, SIDES, WALL_TYPES, BodyForce, Crack, Traction, WallSpec
-from .damage import DAMAGE_MODELS, DamageSpec, RankineSpec, TimeToFailureSpec, WeibullSpec
+from .damage import (DAMAGE_MODELS, DamageSpec, InitialDamage, RankineSpec, TimeToFailureSpec,
+                     WeibullSpec)
 from .materials import (DEFAULT_MODEL, MATERIALS, PLANES, SPLITS, SYMMETRIES, Anisotropy,
                         FractureSpec, LinearElasticSpec, MaterialSpec, NeoHookeanSpec,
                         material_class, rayleigh_speed, register_material, wave_speed)
@@ -89,6 +92,7 @@ __all__ = [
     "RankineSpec",
     "TimeToFailureSpec",
     "WeibullSpec",
+    "InitialDamage",
     "FractureSpec",
     "Anisotropy",
     "Shape",

@@ -11,21 +11,27 @@ tensile principal stresses (eqs. 26-27).
 
 Either takes an optional ``weibull`` table (:class:`WeibullSpec`): a strength
 drawn per particle (eq. 25).
+
+The scene's ``[[initial_damage]]`` tables (:class:`InitialDamage`) give
+particles of such materials a damage D at t = 0: pre-failed surfaces and
+pre-broken parts (a box, a band along a polyline, or a set of particles).
 """
 
 from __future__ import annotations
 
 import abc
 import math
+import numbers
 from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
 
-from .validation import SceneError, integer, real, store
+from .shapes import distance_to_polyline
+from .validation import MAX_COUNT, SceneError, fmt, integer, real, seq, store, text, vec2
 
 __all__ = ["DAMAGE_MODELS", "damage_class", "DamageSpec", "RankineSpec", "TimeToFailureSpec",
-           "WeibullSpec", "cell_diagonal"]
+           "WeibullSpec", "cell_diagonal", "InitialDamage"]
 
 DAMAGE_MODELS: dict[str, type["DamageSpec"]] = {}
 """Damage classes by the ``model`` name of a ``damage`` table."""
@@ -235,3 +241,183 @@ class TimeToFailureSpec(DamageSpec):
 
     def core_parameters(self, h: float) -> dict[str, float | str]:
         return {"damage": self.model, "sigma_f": self.sigma_f, "c_f": self.c_f, "l_ch": self.length(h)}
+
+
+# -- initial damage (the scene's [[initial_damage]]) -------------------------------
+
+_REGIONS = {"box": ("min", "max"), "band": ("points", "half_width"), "particles": ("particles",)}
+"""The regions of an :class:`InitialDamage` by name, each with its keys."""
+
+
+@dataclass(frozen=True)
+class InitialDamage:
+    """Damage D at t = 0 on a region of the particles of bodies whose material
+    has a damage model (``[[initial_damage]]``): pre-failed surfaces and
+    pre-broken parts (Homel & Herbold 2017: the billet's, the bars').
+
+    One region per entry, given by its keys:
+
+    - a box, ``min`` and ``max``: the particles whose position at t = 0 lies
+      in the closed box ``min <= (x, y) <= max``;
+    - a band, ``points`` and ``half_width``: those within ``half_width``
+      (closed) of the polyline through ``points``;
+    - ``particles``: indices into the body's particles (0 to n - 1, in the
+      order of the seeding: the body's rows of ``Scene.particles()`` and of
+      ``Simulation.particles``), or a boolean mask over them, one entry per
+      particle.  A mask is built from a scene without the entry, e.g.
+      ``x = scene.particles()["x"][scene.particles()["body"] == 0]``, then
+      ``dataclasses.replace(scene, initial_damage=(InitialDamage(body="bar",
+      particles=x[:, 0] > 5.0),))``.
+
+    The selected particles start with damage ``max(D, ...)`` over the entries
+    that select them; the damage model grows it from there (it never
+    decreases), and it dissipates nothing at t = 0.  A particle with D = 1 is
+    failed from the first step on: its tensile stresses are zero (eqs.
+    26-27), the damage-gradient partition splits the velocity field at it,
+    and with CPDI (``grid.scale_failed``) its domain is scaled, as for a
+    particle that fails during the run.
+
+    Parameters
+    ----------
+    body : str or None
+        The body whose particles are damaged; ``None``: every body whose
+        material has a damage model (with ``particles``, there must be one).
+    D : float
+        The damage, in ``(0, 1]``; 1 is failed.
+    min, max : (float, float) or None
+        A box: its lower-left and upper-right corners, ``min < max``
+        componentwise.
+    points : sequence of (float, float) or None
+        A band: its polyline, at least two points, each segment of positive
+        length.
+    half_width : float or None
+        The band's half width, > 0.
+    particles : sequence of int, or of bool, or None
+        Indices into the body's particles (each once), or a boolean mask
+        over them.
+
+    Raises
+    ------
+    SceneError
+        On a missing, second or invalid region, or a bad ``D``.  That the
+        body exists, that its material has a damage model, and that the
+        region selects a particle within the body's range are checked by
+        :class:`~pfmpm.scene.Scene`.
+    """
+
+    body: str | None = None
+    D: float = 1.0
+    min: tuple[float, float] | None = None
+    max: tuple[float, float] | None = None
+    points: tuple[tuple[float, float], ...] | None = None
+    half_width: float | None = None
+    particles: tuple[int, ...] | tuple[bool, ...] | None = None
+
+    def __post_init__(self):
+        if self.body is not None:
+            store(self, "body", text("body", self.body))
+        store(self, "D", real("D", self.D, gt=0, le=1))
+        given = [name for name, keys in _REGIONS.items() if any(getattr(self, k) is not None for k in keys)]
+        if not given:
+            raise SceneError("", "needs a region: min and max (a box), points and half_width"
+                                 " (a band along a polyline), or particles")
+        if len(given) > 1:
+            first, second = given[0], given[1]
+            key = next(k for k in _REGIONS[second] if getattr(self, k) is not None)
+            raise SceneError(key, f"a second region: the entry has a {first} already"
+                                  f" ({' and '.join(_REGIONS[first])}); give one region per entry",
+                             getattr(self, key))
+        region = given[0]
+        for key in _REGIONS[region]:
+            if getattr(self, key) is None:
+                raise SceneError(key, f"missing required key (a {region} needs"
+                                      f" {' and '.join(_REGIONS[region])})")
+        if region == "box":
+            store(self, "min", vec2("min", self.min))
+            store(self, "max", vec2("max", self.max))
+            if not (self.min[0] < self.max[0] and self.min[1] < self.max[1]):
+                raise SceneError("max", f"must exceed min = {fmt(self.min)} componentwise", self.max)
+        elif region == "band":
+            points = seq("points", self.points, "[x, y] points")
+            if len(points) < 2:
+                raise SceneError("points", "needs at least two points", self.points)
+            store(self, "points", tuple(vec2(f"points[{i}]", p) for i, p in enumerate(points)))
+            for i in range(1, len(self.points)):
+                (ax, ay), (bx, by) = self.points[i - 1], self.points[i]
+                if not 0 < math.hypot(bx - ax, by - ay) < math.inf:
+                    raise SceneError(f"points[{i}]", f"segment from points[{i - 1}] ="
+                                     f" {fmt(self.points[i - 1])} must have a positive finite length",
+                                     self.points[i])
+            store(self, "half_width", real("half_width", self.half_width, gt=0))
+        else:
+            self._check_particles()
+
+    def _check_particles(self) -> None:
+        """Normalise ``particles`` to a tuple of ints or of bools, kept also as an array."""
+        value = self.particles
+        what = "particle indices or a boolean mask"
+        if isinstance(value, np.ndarray):
+            if value.ndim != 1 or not (value.dtype == bool or np.issubdtype(value.dtype, np.integer)):
+                raise SceneError("particles", f"must be a list of {what}", value)
+            items = tuple(value.tolist())
+        else:
+            items = seq("particles", value, what)
+            mask = bool(items) and isinstance(items[0], (bool, np.bool_))
+            for k, item in enumerate(items):
+                is_bool = isinstance(item, (bool, np.bool_))
+                if is_bool != mask or not (is_bool or isinstance(item, numbers.Integral)):
+                    raise SceneError(f"particles[{k}]", "must be " + ("true or false, as the mask's"
+                                     " other entries" if mask else "an integer index"), item)
+            items = tuple(bool(v) for v in items) if mask else tuple(int(v) for v in items)
+        store(self, "particles", items)
+        if not self.is_mask and items and max(items) > MAX_COUNT:
+            k = items.index(max(items))
+            raise SceneError(f"particles[{k}]", f"must be <= {MAX_COUNT}", items[k])
+        array = np.asarray(items, dtype=bool if self.is_mask else np.int64)
+        if not (array.any() if self.is_mask else len(array)):
+            raise SceneError("particles", "selects no particle", self.particles)
+        if not self.is_mask:
+            if array.min() < 0:
+                k = int(np.argmax(array < 0))
+                raise SceneError(f"particles[{k}]", "must be >= 0", items[k])
+            order = np.argsort(array, kind="stable")
+            same = np.flatnonzero(array[order][1:] == array[order][:-1])
+            if len(same):
+                k, first = int(order[same[0] + 1]), int(order[same[0]])
+                raise SceneError(f"particles[{k}]", f"duplicate index (also particles[{first}])", items[k])
+        object.__setattr__(self, "_array", array)
+
+    @property
+    def region(self) -> str:
+        """``"box"``, ``"band"`` or ``"particles"``."""
+        return next(name for name, keys in _REGIONS.items() if getattr(self, keys[0]) is not None)
+
+    @property
+    def is_mask(self) -> bool:
+        """Whether ``particles`` is a boolean mask (not indices)."""
+        return bool(self.particles) and isinstance(self.particles[0], bool)
+
+    def describe(self) -> str:
+        """The region in words, for messages."""
+        if self.region == "box":
+            return f"the box min = {fmt(self.min)}, max = {fmt(self.max)}"
+        if self.region == "band":
+            return f"the band of half_width = {self.half_width:g} along points = {fmt(self.points)}"
+        return f"particles = {fmt(self.particles)}"
+
+    def select(self, x: np.ndarray, first: int = 0) -> np.ndarray:
+        """Which of a body's particles ``first`` to ``first + len(x)``, at
+        positions ``x`` (k, 2) at t = 0, the region holds (a boolean array)."""
+        x = np.asarray(x, dtype=float).reshape(-1, 2)
+        if self.region == "box":
+            return np.all((x >= self.min) & (x <= self.max), axis=1)
+        if self.region == "band":
+            return distance_to_polyline(x, self.points) <= self.half_width
+        out = np.zeros(len(x), dtype=bool)
+        if self.is_mask:
+            part = self._array[first:first + len(x)]
+            out[:len(part)] = part
+        else:
+            index = self._array[(self._array >= first) & (self._array < first + len(x))]
+            out[index - first] = True
+        return out

@@ -15,6 +15,7 @@ from . import seeding, stability
 from .bodies import Body
 from .components import GridSpec, Output, PhaseFieldSpec, Time
 from .contact import Contact
+from .damage import DamageSpec, InitialDamage
 from .loads import BodyForce, Crack, Traction, WallSpec
 from .materials import PLANES, FractureSpec, MaterialSpec
 from .toml import build_scene, plain, read_toml
@@ -64,6 +65,9 @@ class Scene:
         ``""``: undeclared.  Declared units label the plots, and every
         material's P-wave speed must then be a solid's
         (:data:`~pfmpm.scene.units.SOLID_WAVE_SPEEDS`).
+    initial_damage : sequence of InitialDamage
+        Damage at t = 0 on regions of bodies whose material has a damage
+        model; each region selects at least one particle.
 
     Raises
     ------
@@ -86,6 +90,7 @@ class Scene:
     phase_field: PhaseFieldSpec = field(default_factory=PhaseFieldSpec)
     contact: Contact | None = None
     units: str = ""
+    initial_damage: tuple[InitialDamage, ...] = ()
 
     def __post_init__(self):
         self.validate()
@@ -114,6 +119,7 @@ class Scene:
         store(self, "loads", self._items("loads", (Traction, BodyForce)))
         store(self, "walls", self._items("walls", (WallSpec,)))
         store(self, "cracks", self._items("cracks", (Crack,)))
+        store(self, "initial_damage", self._items("initial_damage", (InitialDamage,)))
         materials = self._unique("materials", "name", "duplicate name")
         bodies = self._unique("bodies", "name", "duplicate name")
         self._unique("walls", "side", "duplicate wall on this side")
@@ -131,6 +137,7 @@ class Scene:
         for i, material in enumerate(self.materials):
             with at(f"materials[{i}]"):
                 material.check_scene(self)
+        self._check_initial_damage(bodies)
         self._check_contact(bodies)
         self._check_time()
 
@@ -255,10 +262,63 @@ class Scene:
             if crack.body is not None:
                 reference(f"cracks[{i}].body", crack.body, bodies, "body")
                 if crack.body not in crackable:
-                    raise SceneError(f"cracks[{i}].body", "its material has no fracture table",
+                    hint = ("; a damage material starts cracked with [[initial_damage]]"
+                            if self.damage_of(self.body(crack.body)) is not None else "")
+                    raise SceneError(f"cracks[{i}].body", f"its material has no fracture table{hint}",
                                      crack.body)
             elif not crackable:
                 raise SceneError(f"cracks[{i}]", "no body's material has a fracture table")
+
+    def _check_initial_damage(self, bodies: Mapping[str, int]) -> None:
+        """Check the initial damage: bodies that exist and whose material has a damage
+        model, and a region that selects particles of them, within their range."""
+        for i, entry in enumerate(self.initial_damage):
+            key = f"initial_damage[{i}]"
+            if entry.body is not None:
+                reference(f"{key}.body", entry.body, bodies, "body")
+                material = self.material_of(self.body(entry.body))
+                if self.damage_of(self.body(entry.body)) is None:
+                    reason = (f"its material {material.name!r} cracks by the phase field, not by"
+                              " damage: give it [[cracks]]" if material.fracture is not None else
+                              f"its material {material.name!r} has no damage table")
+                    raise SceneError(f"{key}.body", reason, entry.body)
+            elif not any(self.damage_of(b) is not None for b in self.bodies):
+                hint = ("; a phase-field material takes [[cracks]]"
+                        if any(self.fracture_of(b) is not None for b in self.bodies) else "")
+                raise SceneError(key, f"no body's material has a damage table{hint}")
+            targets = self.initial_damage_bodies(entry)
+            if entry.region == "particles" and len(targets) > 1:
+                names = " and ".join(repr(self.bodies[b].name) for b in targets)
+                raise SceneError(f"{key}.body", f"missing required key: particle indices are into"
+                                                f" one body's particles, and {names} have damage tables")
+            selected = 0
+            for b in targets:
+                body = self.bodies[b]
+                count = 0
+                for x in seeding.lattice(body, self.grid, *seeding.cell_range(body, self.grid)):
+                    selected += int(np.count_nonzero(entry.select(x, count)))
+                    count += len(x)
+                if entry.region == "particles":
+                    self._check_particle_range(f"{key}.particles", entry, body, count)
+            if not selected:
+                names = ("body " if len(targets) == 1 else "bodies ") + " or ".join(
+                    repr(self.bodies[b].name) for b in targets)
+                raise SceneError(key, f"{entry.describe()} selects no particle of {names}"
+                                      " (at their positions at t = 0)")
+
+    @staticmethod
+    def _check_particle_range(key: str, entry: InitialDamage, body: Body, count: int) -> None:
+        """Check that a particle set fits a body of ``count`` particles."""
+        if entry.is_mask:
+            if len(entry.particles) != count:
+                raise SceneError(key, f"a mask of {len(entry.particles)} entries, but body"
+                                      f" {body.name!r} has {count} particles")
+            return
+        index = np.asarray(entry.particles)
+        if index.max() >= count:
+            k = int(np.argmax(index >= count))
+            raise SceneError(f"{key}[{k}]", f"out of range: body {body.name!r} has {count}"
+                                            f" particles (0 to {count - 1})", entry.particles[k])
 
     def _check_contact(self, bodies: Mapping[str, int]) -> None:
         """Check the contact table: known bodies, quadratic or cubic grid or CPDI, no overlap at t = 0."""
@@ -375,9 +435,19 @@ class Scene:
         """The fracture parameters of a body's material, or ``None``."""
         return self.material_of(body).fracture
 
+    def damage_of(self, body: Body) -> DamageSpec | None:
+        """The damage model of a body's material, or ``None``."""
+        return getattr(self.material_of(body), "damage", None)
+
     def body(self, name: str) -> Body:
         """The body called ``name``."""
         return next(b for b in self.bodies if b.name == name)
+
+    def initial_damage_bodies(self, entry: InitialDamage) -> list[int]:
+        """The indices of the bodies an initial damage entry acts on: its body, or
+        every body whose material has a damage model."""
+        return [b for b, body in enumerate(self.bodies)
+                if (body.name == entry.body if entry.body is not None else self.damage_of(body) is not None)]
 
     def crack_rayleigh_speed(self) -> float:
         """Rayleigh speed of the first crackable body's material."""

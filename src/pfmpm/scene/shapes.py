@@ -13,7 +13,20 @@ import numpy as np
 from .validation import SceneError, fmt, integer, real, seq, store, text, vec2
 
 __all__ = ["Shape", "Rectangle", "Disk", "Ring", "Polygon", "MeshShape", "ImageShape", "SHAPES",
-           "image_colors"]
+           "image_colors", "distance_to_polyline"]
+
+
+def distance_to_polyline(xy: np.ndarray, points) -> np.ndarray:
+    """Distance from each row of ``xy`` (N, 2) to the polyline through ``points``
+    (the bands of initial cracks and of initial damage)."""
+    xy = np.asarray(xy, dtype=float)
+    pts = np.asarray(points, dtype=float)
+    d = np.full(len(xy), np.inf)
+    for a, b in zip(pts[:-1], pts[1:]):
+        ab = b - a
+        t = np.clip(((xy - a) @ ab) / max(ab @ ab, np.finfo(float).tiny), 0.0, 1.0)
+        d = np.minimum(d, np.hypot(*(xy - a - t[:, None] * ab).T))
+    return d
 
 
 class Shape:

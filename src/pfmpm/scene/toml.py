@@ -14,7 +14,7 @@ from .bodies import Body
 from .components import GridSpec, Output, PhaseFieldSpec, Time
 from .contact import Contact, ContactPair
 from .loads import LOADS, Crack, WallSpec
-from .damage import DamageSpec, WeibullSpec, damage_class
+from .damage import DamageSpec, InitialDamage, WeibullSpec, damage_class
 from .materials import DEFAULT_MODEL, Anisotropy, FractureSpec, MaterialSpec, material_class
 from .shapes import SHAPES
 from .validation import SceneError, at, fmt, key_text
@@ -50,6 +50,7 @@ def build_scene(cls: type, d: Any, overrides: list[str] | tuple[str, ...] = ()) 
         "loads": lambda v: _tables(v, lambda t: _typed(t, LOADS)),
         "walls": lambda v: _tables(v, lambda t: _build(WallSpec, t)),
         "cracks": lambda v: _tables(v, lambda t: _build(Crack, t)),
+        "initial_damage": lambda v: _tables(v, lambda t: _build(InitialDamage, t)),
         "phase_field": lambda t: _build(PhaseFieldSpec, t),
         "contact": lambda t: _build(Contact, t, {
             "pairs": lambda v: _tables(v, lambda p: _build(ContactPair, p)),

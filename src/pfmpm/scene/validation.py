@@ -88,7 +88,9 @@ def key_text(key: Any) -> str:
 def fmt(value: Any, limit: int = 80) -> str:
     """Format a value TOML-like on one line, shortened to ``limit`` characters
     by leaving out its middle, so that a long file path keeps its file name."""
-    if isinstance(value, bool):
+    if isinstance(value, np.ndarray):
+        return fmt(value.tolist(), limit)  # one line, as a list
+    if isinstance(value, (bool, np.bool_)):
         out = "true" if value else "false"
     elif isinstance(value, (list, tuple)):
         out = "[" + ", ".join(fmt(v, limit) for v in value) + "]"
