@@ -70,7 +70,9 @@ def test_fracture_energy_of_the_scene(bar):
     scene, _, _ = bar
     # G_f A_f = 22.13 mJ/mm^2 x 8 mm x 2 mm (benchmarks section 5).
     assert fracture_energy(scene) == pytest.approx(354.08)
-    assert math.isclose(scene.material_of(scene.body("target")).damage.length(1.0), math.sqrt(2))
+    # l_ch: the default, 2 h (H&H's cell diagonal, 1.414 mm, gave 1.44 G_f per unit area
+    # in a bar: docs/verification.md, "The crack band").
+    assert scene.material_of(scene.body("target")).damage.length(scene.grid) == 2.0
 
 
 def test_crack_band_of_a_straight_crack(bar):

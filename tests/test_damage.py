@@ -51,12 +51,17 @@ def test_damage_tables_are_read_checked_and_written_back():
     (rock,) = scene.materials
     assert isinstance(rock, NeoHookeanSpec) and isinstance(rock.damage, TimeToFailureSpec)
     assert rock.damage.weibull == WeibullSpec(m=6.0, V_ref=1.0, seed=7)
-    assert rock.damage.length(scene.grid.h) == pytest.approx(math.sqrt(2) * 0.5)  # the cell diagonal
+    assert rock.damage.length(scene.grid) == pytest.approx(math.sqrt(2) * 0.5)  # the cell diagonal
     d = scene.to_dict()
     assert d["materials"][0]["damage"]["model"] == "time_to_failure"
     assert Scene.from_dict(d) == scene
     rankine = Scene.from_dict(plate(RANKINE, integration="exponential")).materials[0]
     assert isinstance(rankine.damage, RankineSpec) and rankine.damage.l_ch is None
+    # Rankine's default l_ch: the band the grid localises a crack in.
+    grid = Scene.from_dict(plate(RANKINE)).grid
+    assert rankine.damage.length(grid) == 2 * grid.h
+    assert rankine.damage.length(dataclasses.replace(grid, degree=3)) == 3 * grid.h
+    assert rankine.damage.length(dataclasses.replace(grid, degree=1, shape="cpdi")) == 2 * grid.h
 
 
 @pytest.mark.parametrize("damage, extra, message", [
@@ -69,8 +74,8 @@ def test_damage_tables_are_read_checked_and_written_back():
      "materials[0].damage.l_ch = 2.5: must be < 2 E Gf / sigma_f^2 = 2, or the softening of eq. 23"
      " snaps back"),
     ({**RANKINE, "Gf": 0.003}, {},
-     "materials[0].damage.l_ch = 0.7071067811865476: must be < 2 E Gf / sigma_f^2 = 0.6, or the"
-     " softening of eq. 23 snaps back (the default, the cell diagonal)"),
+     "materials[0].damage.l_ch = 1.0: must be < 2 E Gf / sigma_f^2 = 0.6, or the"
+     " softening of eq. 23 snaps back (the default, the grid's localisation width)"),
     ({**RANKINE, "model": "mazars"}, {},
      "materials[0].damage.model = 'mazars': must be one of 'rankine', 'time_to_failure'"),
     ({"sigma_f": 1.0}, {}, "materials[0].damage.model: missing required key"),
@@ -195,19 +200,24 @@ def test_same_seed_gives_bitwise_the_same_field():
 # -- Rankine softening in a run (eq. 23) ----------------------------------------
 
 
-def prestressed_bar(h: float, band_cells: int = 2, Gf: float = 0.02, cfl: float = 0.5):
+def prestressed_bar(h: float, band_cells: float = 2, Gf: float = 0.02, cfl: float = 0.5,
+                    shape: str = "bspline", partition: str | None = None):
     """A bar 20 x 2 between fixed walls, nu = 0, pre-stretched to sigma_xx =
-    0.85 sigma_f, with a band `band_cells` cells wide at its middle whose
-    strength is 0.8: it softens, the two halves spring back from it, and
-    l_ch is the band's width. Returns the simulation and the band."""
+    0.85 sigma_f, with a band `band_cells` cells wide at its middle (on a
+    node line) whose strength is 0.8: it softens, and the two halves spring
+    back from it. l_ch is the default, the grid's localisation width (2 h
+    here). Quadratic B-splines, or CPDI1 on the linear grid; one velocity
+    field, or `partition`. Returns the simulation and the band."""
     L, H, y0, mu = 20.0, 2.0, 4.0, 50.0
     w = band_cells * h
-    scene = Scene(name="bar", grid=GridSpec(size=(L, H + 8.0), h=h), time=Time(end=4.0, cfl=cfl),
+    grid = GridSpec(size=(L, H + 8.0), h=h, degree=1 if shape == "cpdi" else 2, shape=shape)
+    scene = Scene(name="bar", grid=grid, time=Time(end=4.0, cfl=cfl),
                   materials=(NeoHookeanSpec(name="m", E=100.0, nu=0.0, density=1.0,
-                                            damage=RankineSpec(sigma_f=1.0, Gf=Gf, l_ch=w)),),
+                                            damage=RankineSpec(sigma_f=1.0, Gf=Gf)),),
                   bodies=(Body(name="bar", material="m", shape=Rectangle((0.0, y0), (L, y0 + H)),
                                particles_per_cell=2),),
-                  walls=(WallSpec(side="left", type="fixed"), WallSpec(side="right", type="fixed")))
+                  walls=(WallSpec(side="left", type="fixed"), WallSpec(side="right", type="fixed")),
+                  contact=Contact(partition=partition) if partition else None)
     sim = Simulation(scene)
     P = sim.particles
     s0 = 0.85  # sigma = mu (l^2 - 1) / l with nu = 0
@@ -221,12 +231,18 @@ def prestressed_bar(h: float, band_cells: int = 2, Gf: float = 0.02, cfl: float 
     return sim, band
 
 
-@pytest.mark.parametrize("h", [1.0, 0.5])
-def test_bar_pulled_apart_dissipates_gf_per_unit_crack_area(h):
-    # The band (l_ch = its width, 2 cells) fails completely and nothing else
-    # is damaged; it dissipates G_f per unit area of the crack, H x thickness.
+@pytest.mark.parametrize("h, shape, partition", [
+    (1.0, "bspline", None), (0.5, "bspline", None),
+    (0.5, "cpdi", None), (0.25, "cpdi", None),
+    (0.5, "cpdi", "damage_gradient"), (0.25, "cpdi", "damage_gradient")])
+def test_bar_pulled_apart_dissipates_gf_per_unit_crack_area(h, shape, partition):
+    # With the default l_ch the band dissipates G_f per unit area of the
+    # crack, H x thickness: a band 2 cells wide fails completely and nothing
+    # else is damaged (docs/verification.md, "The crack band": quadratic
+    # B-splines at h = 0.25 and with the damage-gradient partition are
+    # measured there, outside these 5 %).
     Gf, H = 0.02, 2.0
-    sim, band = prestressed_bar(h, Gf=Gf)
+    sim, band = prestressed_bar(h, Gf=Gf, shape=shape, partition=partition)
     P = sim.particles
     before = P.damage.copy()
     while sim.step < sim.scene.steps():
@@ -234,6 +250,21 @@ def test_bar_pulled_apart_dissipates_gf_per_unit_crack_area(h):
         assert np.all(P.damage >= before)  # damage never decreases
         before = P.damage.copy()
     assert np.all(P.damage[band] == 1.0) and np.all(P.damage[~band] == 0.0)
+    assert sim.energies()["damage_dissipation"] == pytest.approx(Gf * H, rel=0.05)
+
+
+def test_quadratic_b_splines_localise_a_crack_in_two_cells():
+    # A weak band one cell wide (two particle columns) fails in a band of
+    # four columns, two cells: the band of the default l_ch, so it dissipates
+    # G_f per unit crack area (the cell diagonal, H&H's l_ch, gave 1.44 G_f).
+    Gf, H, h = 0.02, 2.0, 0.5
+    sim, band = prestressed_bar(h, band_cells=1, Gf=Gf)
+    assert len(np.unique(sim.particles.x[band, 0])) == 2
+    sim.advance(sim.scene.steps())
+    x, D = sim.particles.x[:, 0], sim.particles.damage
+    failed = np.abs(x - 10.0) < h
+    assert len(np.unique(np.round(x[failed], 9))) == 4
+    assert np.all(D[failed] == 1.0) and np.all(D[~failed] == 0.0)
     assert sim.energies()["damage_dissipation"] == pytest.approx(Gf * H, rel=0.05)
 
 

@@ -10,7 +10,7 @@ after the other, each into ``--out/<case>``, and measures each with
   field (``contact.partition = "bodies"``) at h = 1, 0.5, 0.25 mm (C2, C3);
 - ``sep<D>_h0.5``: D-bar_min = 0.01 and 0.125 at h = 0.5 (with ``dfg_h0.5``,
   0.25: C4);
-- ``lch<k>_h0.5``: l_ch = 0.5 and 2 cell diagonals at h = 0.5 (with
+- ``lch<k>_h0.5``: l_ch = 0.5 and 2 times the default (2 h) at h = 0.5 (with
   ``dfg_h0.5``: C5);
 - ``gf22.3_h1``: the damage-gradient run at h = 1 with Table III's printed
   G_f = 22.3 mJ/mm^2.
@@ -73,7 +73,7 @@ def cases() -> dict[str, list[str]]:
     for d in (0.01, 0.125):
         out[f"sep{d:g}_h{SWEEP_H:g}"] = at(SWEEP_H, f"contact.separability={d}")
     for k in (0.5, 2.0):
-        out[f"lch{k:g}_h{SWEEP_H:g}"] = at(SWEEP_H, f"materials.target.damage.l_ch={k * math.sqrt(2) * SWEEP_H}")
+        out[f"lch{k:g}_h{SWEEP_H:g}"] = at(SWEEP_H, f"materials.target.damage.l_ch={k * 2 * SWEEP_H}")
     out["gf22.3_h1"] = at(1.0, "materials.target.damage.Gf=22.3")
     return out
 
@@ -92,7 +92,7 @@ def measure(scene: Scene, run: Path) -> dict:
               "wall_s": summary["wall_s"], "particles": len(frame.x),
               "violations": summary["contact"]["violations"],
               "GfAf": fracture_energy(scene) if damaged else None, "h": scene.grid.h,
-              "l_ch": scene.material_of(scene.body("target")).damage.length(scene.grid.h) if damaged else None,
+              "l_ch": scene.material_of(scene.body("target")).damage.length(scene.grid) if damaged else None,
               "separability": scene.contact.separability}
     if damaged:
         x0 = frame.x - frame.data["displacement"][:, :2]

@@ -31,7 +31,7 @@ from .shapes import distance_to_polyline
 from .validation import MAX_COUNT, SceneError, fmt, integer, real, seq, store, text, vec2
 
 __all__ = ["DAMAGE_MODELS", "damage_class", "DamageSpec", "RankineSpec", "TimeToFailureSpec",
-           "WeibullSpec", "cell_diagonal", "InitialDamage"]
+           "WeibullSpec", "cell_diagonal", "localisation_width", "InitialDamage"]
 
 DAMAGE_MODELS: dict[str, type["DamageSpec"]] = {}
 """Damage classes by the ``model`` name of a ``damage`` table."""
@@ -57,8 +57,26 @@ def damage_class(model) -> type["DamageSpec"]:
 
 
 def cell_diagonal(h: float) -> float:
-    """The cell diagonal sqrt(2) h of the 2D grid: the default l_ch (H&H §2.7)."""
+    """The cell diagonal sqrt(2) h of the 2D grid: H&H's l_ch (§2.7, Table III)
+    and the default length of time-to-failure damage (eq. 24)."""
     return math.sqrt(2.0) * h
+
+
+def localisation_width(grid) -> float:
+    """The width of the band in which the grid's shape functions localise a
+    crack: the default l_ch of Rankine softening, so that a crack dissipates
+    G_f per unit area (docs/method.md, "The crack band").
+
+    A displacement jump across a line of nodes is, on the grid, a sum of
+    whole shape functions, which ramps over the support of one: the strain
+    of the particles within that support carries the jump, and they soften
+    together. So the band is ``degree`` cells wide for quadratic and cubic
+    B-splines (between knot lines), and 2 cells for linear B-splines and
+    CPDI1 when the crack lies on a node line (one cell when it runs through
+    the middle of a cell: it then dissipates G_f / 2). A band of width w
+    dissipates G_f w / l_ch per unit crack area (eq. 23 in one dimension).
+    """
+    return max(grid.degree, 2) * grid.h
 
 
 @dataclass(frozen=True)
@@ -130,7 +148,8 @@ class DamageSpec(abc.ABC):
     sigma_f : float
         Tensile strength, > 0 (the reference strength with ``weibull``).
     l_ch : float or None
-        Characteristic length; ``None``: the cell diagonal.
+        Characteristic length; ``None``: the model's default for the grid
+        (:meth:`default_length`).
     weibull : WeibullSpec or None
         A strength per particle (eq. 25); ``None``: ``sigma_f`` everywhere.
     """
@@ -140,15 +159,20 @@ class DamageSpec(abc.ABC):
     l_ch: float | None
     weibull: WeibullSpec | None
 
-    def length(self, h: float) -> float:
-        """l_ch, or the cell diagonal of a grid of spacing ``h``."""
-        return self.l_ch if self.l_ch is not None else cell_diagonal(h)
+    def length(self, grid) -> float:
+        """l_ch, or the model's default for ``grid`` (a GridSpec)."""
+        return self.l_ch if self.l_ch is not None else self.default_length(grid)
+
+    @staticmethod
+    @abc.abstractmethod
+    def default_length(grid) -> float:
+        """l_ch when the table does not give it."""
 
     @abc.abstractmethod
-    def core_parameters(self, h: float) -> dict[str, float | str]:
-        """The damage parameters of the core's ``neo_hookean`` model."""
+    def core_parameters(self, grid) -> dict[str, float | str]:
+        """The damage parameters of the core's ``neo_hookean`` model on ``grid``."""
 
-    def check(self, E: float, h: float, strongest: float | None = None) -> None:
+    def check(self, E: float, grid, strongest: float | None = None) -> None:
         """Check the parameters against the grid (and the strongest particle's
         strength of a Weibull field); nothing to check by default."""
 
@@ -182,8 +206,11 @@ class RankineSpec(DamageSpec):
     Gf : float
         Fracture energy, > 0.
     l_ch : float or None
-        Characteristic length, > 0 and < 2 E Gf / sigma_f^2; default the cell
-        diagonal.
+        Characteristic length, > 0 and < 2 E Gf / sigma_f^2; default the
+        width of the band the grid's shape functions localise a crack in
+        (:func:`localisation_width`: 2 h for quadratic B-splines and CPDI,
+        3 h for cubic ones). H&H take the cell diagonal (1.414 mm at h = 1
+        mm, their Table III); give ``l_ch`` to run theirs.
     weibull : WeibullSpec or None
     """
 
@@ -197,17 +224,21 @@ class RankineSpec(DamageSpec):
         self._check_common()
         store(self, "Gf", real("Gf", self.Gf, gt=0))
 
-    def core_parameters(self, h: float) -> dict[str, float | str]:
-        return {"damage": self.model, "sigma_f": self.sigma_f, "Gf": self.Gf, "l_ch": self.length(h)}
+    @staticmethod
+    def default_length(grid) -> float:
+        return localisation_width(grid)
 
-    def check(self, E: float, h: float, strongest: float | None = None) -> None:
+    def core_parameters(self, grid) -> dict[str, float | str]:
+        return {"damage": self.model, "sigma_f": self.sigma_f, "Gf": self.Gf, "l_ch": self.length(grid)}
+
+    def check(self, E: float, grid, strongest: float | None = None) -> None:
         """l_ch < 2 E Gf / sigma_f^2 for the strongest particle, or the softening snaps back."""
         sigma = self.sigma_f if strongest is None else strongest
         limit = 2.0 * E * self.Gf / sigma / sigma  # sigma**2 would overflow
-        length = self.length(h)
+        length = self.length(grid)
         if not length < limit:
             what = "" if strongest is None else f" of the strongest particle (sigma_f = {sigma:.6g})"
-            default = " (the default, the cell diagonal)" if self.l_ch is None else ""
+            default = " (the default, the grid's localisation width)" if self.l_ch is None else ""
             raise SceneError("l_ch", f"must be < 2 E Gf / sigma_f^2 = {limit:.6g}{what}, or the"
                              f" softening of eq. 23 snaps back{default}", length)
 
@@ -239,8 +270,12 @@ class TimeToFailureSpec(DamageSpec):
         self._check_common()
         store(self, "c_f", real("c_f", self.c_f, gt=0))
 
-    def core_parameters(self, h: float) -> dict[str, float | str]:
-        return {"damage": self.model, "sigma_f": self.sigma_f, "c_f": self.c_f, "l_ch": self.length(h)}
+    @staticmethod
+    def default_length(grid) -> float:
+        return cell_diagonal(grid.h)
+
+    def core_parameters(self, grid) -> dict[str, float | str]:
+        return {"damage": self.model, "sigma_f": self.sigma_f, "c_f": self.c_f, "l_ch": self.length(grid)}
 
 
 # -- initial damage (the scene's [[initial_damage]]) -------------------------------

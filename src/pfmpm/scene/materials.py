@@ -404,7 +404,7 @@ class NeoHookeanSpec(MaterialSpec):
                              self.model)
         if self.damage is not None:
             with at("damage"):
-                self.damage.check(self.E, scene.grid.h)
+                self.damage.check(self.E, scene.grid)
 
     def core_parameters(self, scene: "Scene") -> dict[str, float | str]:
         """E, nu, density, the integration of F and the damage parameters."""
@@ -412,7 +412,7 @@ class NeoHookeanSpec(MaterialSpec):
                                        "integration": self.integration,
                                        "substeps": float(self.substeps)}
         if self.damage is not None:
-            out.update(self.damage.core_parameters(scene.grid.h))
+            out.update(self.damage.core_parameters(scene.grid))
         return out
 
     def initial_columns(self, scene: "Scene", volume: np.ndarray) -> dict[str, np.ndarray]:
@@ -431,7 +431,7 @@ class NeoHookeanSpec(MaterialSpec):
         with at("damage"):
             strength = self.damage.strengths(volume)
             if self.damage.weibull is not None and len(strength):
-                self.damage.check(self.E, scene.grid.h, strongest=float(strength.max()))
+                self.damage.check(self.E, scene.grid, strongest=float(strength.max()))
         return {"sigma_f": strength}
 
 
