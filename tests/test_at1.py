@@ -84,10 +84,12 @@ def test_mpm_profile_density_and_band():
 
 
 def test_fem_profile_density_and_band():
-    """The FEM strip of test_fem's AT2 profile (h = l0/40, B = 1e5, band h/2 wide) with AT1.
+    """The FEM strip of test_fem's AT2 profile (h = l0/40, B = 1e6, band h/2 wide) with AT1.
 
-    Measured: relative L2 error 0.49 %, crack density 0.9997; the vertices
-    beyond the first past |x| = 4 l0 keep c = 1 exactly.
+    Measured: relative L2 error 0.047 %, crack density 0.9995 (with the
+    history at the cell centroids, which held the cells beside the crack
+    too: 1.2 % and 1.006); the vertices beyond the first past |x| = 4 l0
+    keep c = 1 exactly.
     """
     l0, gc, thickness = 0.5, 0.003, 2.0
     h, half = l0 / 40, 6 * l0
@@ -99,7 +101,7 @@ def test_fem_profile_density_and_band():
         time=Time(end=1.0), materials=(material,), thickness=thickness,
         bodies=(Body(name="strip", material="m", particles_per_cell=1,
                      shape=Rectangle((-half, 0.0), (half, height))),),
-        cracks=(Crack(points=((0.0, -1.0), (0.0, height + 1.0)), B=1e5, half_width=0.5 * h),),
+        cracks=(Crack(points=((0.0, -1.0), (0.0, height + 1.0)), B=1e6, half_width=0.5 * h),),
         phase_field=PhaseField(tol=1e-10),
     )
     sim = FemSimulation(scene)
@@ -108,9 +110,9 @@ def test_fem_profile_density_and_band():
     m = sim.lumped_mass
     d = at1_profile(x, l0)
     error = math.sqrt((m @ (c - 1 + d) ** 2) / (m @ d ** 2))
-    assert error < 0.01  # 0.0049
+    assert error < 0.002
     density = sim.energies()["fracture"] / (gc * height * thickness)
-    assert density == pytest.approx(1.0, abs=0.01)  # 0.9997
+    assert density == pytest.approx(1.0, abs=0.002)
     assert np.all(c[np.abs(x) > 4 * l0 + 0.5 * h] == 1.0)
     assert np.any(c[np.abs(x) < 4 * l0 - 2 * h] < 1 - 1e-3)
     assert c.min() >= 0.0 and c.max() <= 1.0

@@ -24,7 +24,7 @@ def initial_history(xy: np.ndarray, crack: Crack, fracture: FractureSpec) -> np.
     Parameters
     ----------
     xy : ndarray (N, 2)
-        Points (particles or cell centroids).
+        Points (particles, or the FEM's edge midpoints).
     crack : Crack
     fracture : FractureSpec
         The material's parameters (G_c, l0).

@@ -18,8 +18,28 @@ Mesh
     (0.80 against 0.69 h / c_p for nu = 0.2, lumped mass).
 Fields
     Displacement ``u`` and phase field ``c`` are continuous P1.  Strain and
-    stress are constant per triangle, and so are the history ``H`` (DG0)
-    and the cell degradation, the exact cell mean of ``g(c)``.
+    stress are constant per triangle, and so is the cell degradation, the
+    exact cell mean of ``g(c)``.
+History
+    ``H`` (eq. 20) lives at the three edge midpoints of each triangle, the
+    points of the degree-2 midpoint rule, and the reaction term
+    ``(F c, q)`` of eq. (57) is integrated with that rule (see
+    :class:`_PhaseFieldSolver`).  The strain is constant per triangle, so
+    ``H = max(H, psi+)`` raises a cell's three points alike; without an
+    initial crack ``H`` is constant per cell, where the rule is exact (the
+    matrix of a cell-wise ``H`` integrated exactly).  An initial crack is
+    Borden's history (:func:`pfmpm.crack.initial_history`) sampled at the
+    midpoints, a quadrature of the band that converges at second order as
+    the mesh resolves it.  A band narrower than a cell around a crack along
+    mesh edges holds only the midpoints of those edges, where the basis
+    functions of the vertices off the crack vanish: the crack's vertices go
+    to ``c = 0`` and the next ones keep the free profile.  A value per cell
+    (at its centroid, or its mean) or at interior Gauss points instead puts
+    the band's large reaction on every vertex of the cells beside the crack,
+    which the Galerkin solution then holds near 0 too: the crack came out a
+    cell too wide on each side (1D profile, band h/2: max error
+    0.45-0.48 h / l0 with the centroids, 0.003-0.006 h / l0 with the
+    midpoints; tests/test_fem.py, docs/method.md).
 Elastodynamics
     Row-sum lumped mass; internal force from the cell stresses (eq. 62 with
     cells in place of particles); tractions as consistent edge forces
@@ -29,8 +49,8 @@ Elastodynamics
 Phase field
     Eq. (47) without the fourth-order term, Galerkin on P1: the matrix
     ``K^c = L + M_F`` of eq. (57) with ``L = 4 l0^2 (grad c, grad q)``
-    assembled once and ``M_F = (F c, q)``, ``F`` of eq. (49) per cell,
-    reassembled each step (about 25 % cheaper than reassembling the whole
+    assembled once and ``M_F = (F c, q)``, ``F`` of eq. (49) at the history
+    points, reassembled each step (about 25 % cheaper than reassembling the whole
     form: 16 against 21 ms for 128,000 cells); right-hand side
     ``F^c = (1, q)`` (eq. 52).  AT1 (``fracture.model``, docs/method.md)
     changes ``F`` and ``F^c`` (:func:`_reaction`).  Both models are solved
@@ -80,6 +100,7 @@ import warnings
 from contextlib import contextmanager
 from pathlib import Path
 
+import basix.ufl_wrapper
 import numpy as np
 import ufl
 from scipy import sparse
@@ -106,6 +127,11 @@ MESH_DIAGONAL = mesh.DiagonalType.left_right
 _REF_GRAD = np.array([[-1.0, -1.0], [1.0, 0.0], [0.0, 1.0]])
 _ON_LINE = 1e-6  # a vertex lies on a line within this fraction of h
 _WHOLE = 1e-9  # relative tolerance of "a whole number of cells"
+#: The edge-midpoint rule on the reference triangle (degree 2), point k on the
+#: edge opposite vertex k: the history points and the reaction's quadrature.
+_MIDPOINT_RULE = {"quadrature_rule": "custom", "quadrature_degree": 2,
+                  "quadrature_points": ((0.5, 0.5), (0.0, 0.5), (0.5, 0.0)),
+                  "quadrature_weights": (1 / 6, 1 / 6, 1 / 6)}
 
 
 class FemSimulation:
@@ -138,8 +164,9 @@ class FemSimulation:
         Scene time step ``scene.dt()``; one :meth:`advance` step is one dt.
     substeps : int
         Elastodynamic sub-steps per step.
-    history : ndarray (cells,)
-        History field ``H`` on the local cells.
+    history : ndarray (cells, 3)
+        History field ``H`` at the edge midpoints of the local cells, the
+        midpoint of the edge opposite each vertex in the cell's vertex order.
     crack_tip : CrackTip or None
         Tracks the tip of the first initial crack, if any.
 
@@ -199,7 +226,9 @@ class FemSimulation:
         self._gx, self._gy = grad[..., 0].copy(), grad[..., 1].copy()
         self._area = 0.5 * np.abs(det)
         self._volume = self._area * self._thickness
-        self._centroids = corners.mean(axis=1)
+        # Where the history lives: the midpoint of the edge opposite each vertex,
+        # the order of the Crouzeix-Raviart dofs that carry the reaction.
+        self._midpoints = 0.5 * (corners[:, [1, 2, 0]] + corners[:, [2, 0, 1]])  # (cells, 3, 2)
         # d/dx and d/dy of a P1 field on each cell as sparse (cells x vertices)
         # matrices, and their transposes, which gather cell fluxes to vertices.
         rows = np.repeat(np.arange(n_cells), 3)
@@ -225,20 +254,35 @@ class FemSimulation:
         self.substeps = self._substeps()
 
     def _build_phase_field(self) -> None:
-        """Phase field, initial history and, if the material can crack, its solver."""
+        """Phase field, initial history and, if the material can crack, its solver.
+
+        Raises
+        ------
+        SceneError
+            If an initial crack's band holds no edge midpoint of the mesh, so
+            that it would not be imposed at all.
+        """
         self.c = fem.Function(self.V, name="c")
         self.c.x.array[:] = 1.0
         self._g = np.ones(len(self._dofs))
-        self.history = np.zeros(len(self._dofs))
+        self.history = np.zeros((len(self._dofs), 3))
         self._pf = None
         self.crack_tip = None
         self.crack_path = None
         if self._fracture is None:
             return
-        for crack in self.scene.cracks:
-            if crack.body in (None, self._body.name):
-                np.maximum(self.history, initial_history(self._centroids, crack, self._fracture),
-                           out=self.history)
+        points = self._midpoints.reshape(-1, 2)
+        for index, crack in enumerate(self.scene.cracks):
+            if crack.body not in (None, self._body.name):
+                continue
+            seed = initial_history(points, crack, self._fracture).reshape(-1, 3)
+            if not self.comm.allreduce(bool(np.any(seed > 0.0)), op=MPI.LOR):
+                w = crack.half_width if crack.half_width is not None else 0.5 * self._fracture.l0
+                h = self.scene.grid.h
+                raise SceneError(f"cracks[{index}].half_width", "the crack's band holds no edge"
+                                 f" midpoint of the FEM mesh (h = {h:g}), so it would not be"
+                                 " imposed: widen it or move the crack onto the body", w)
+            np.maximum(self.history, seed, out=self.history)
         self._pf = _PhaseFieldSolver(self.c, self._fracture, self.scene.phase_field, len(self._dofs))
         if self.scene.cracks:
             self.crack_tip = CrackTip.for_scene(self.scene)
@@ -442,7 +486,7 @@ class FemSimulation:
         self._eps = self._strain()
         if self._pf is not None:
             psi_plus, _ = self._elastic.split_energies(self._eps)
-            np.maximum(self.history, psi_plus, out=self.history)
+            np.maximum(self.history, psi_plus[:, None], out=self.history)  # eq. (20)
 
     # -- diagnostics ----------------------------------------------------------
 
@@ -602,7 +646,8 @@ class _XdmfFrames:
     current time, the phase field ``c``, the displacement and the velocity
     (vertex values), and the in-plane stress (a 2 x 2 tensor, which XDMF pads
     to 3 x 3 with zeros), its out-of-plane entry ``stress_zz`` and the
-    history field ``H`` (cell values).  (DOLFINx 0.5 writes a cell-wise
+    history field ``H`` (cell values: the mean of a cell's three edge-midpoint
+    values, the midpoint rule's cell mean).  (DOLFINx 0.5 writes a cell-wise
     tensor as cell data only if it is gdim x gdim, hence zz apart.)"""
 
     def __init__(self, sim: FemSimulation, path: Path):
@@ -634,7 +679,7 @@ class _XdmfFrames:
         for k, dofs in enumerate(self._stress_dofs):
             self._stress.x.array[dofs] = sigma[:, k, None]
         self._zz.x.array[self._cell_dof] = sigma[:, 3]
-        self._history.x.array[self._cell_dof] = sim.history
+        self._history.x.array[self._cell_dof] = sim.history.mean(axis=1)
         for function in (sim.c, self._u, self._v, self._stress, self._zz, self._history):
             self._file.write_function(function, t)
 
@@ -647,10 +692,15 @@ class _PhaseFieldSolver:
 
     ``K^c c = F^c`` (eq. 56) with ``K^c = L + M_F`` (eq. 57, cells for
     particles): ``L_IJ = 4 l0^2 (grad N_J, grad N_I)``,
-    ``M_F,IJ = (F N_J, N_I)`` with the per-cell reaction ``F`` of
-    :func:`_reaction`, and ``F^c_I = s (1, N_I)`` (eq. 52) with ``s = 1``
-    (AT2) or ``1/2`` (AT1).  ``L`` and ``F^c`` are assembled once; each solve
-    reassembles ``M_F`` into the same sparsity pattern and adds ``L``.
+    ``M_F,IJ = (F N_J, N_I)`` with the reaction ``F`` of :func:`_reaction`
+    at the history points, and ``F^c_I = s (1, N_I)`` (eq. 52) with
+    ``s = 1`` (AT2) or ``1/2`` (AT1).  ``M_F`` is integrated with the edge
+    midpoint rule (``sum_k A/3 F_k N_I(m_k) N_J(m_k)`` over the midpoints
+    ``m_k`` of a cell of area ``A``), exact for ``F`` constant per cell;
+    ``F`` is held by a discontinuous Crouzeix-Raviart function, whose dofs
+    are its values at the edge midpoints.  ``L`` and ``F^c`` are assembled
+    once; each solve reassembles ``M_F`` into the same sparsity pattern and
+    adds ``L``.
 
     With ``fracture.bound`` (the default, and always for AT1) it is solved
     with the bound ``0 <= c <= 1`` by PETSc's variational-inequality Newton
@@ -671,7 +721,7 @@ class _PhaseFieldSolver:
         Tolerance on ``||F^c - K^c c|| / ||F^c||`` and the iteration limit
         (of the CG iterations of one solve, and of its Newton steps).
     n_cells : int
-        Number of local cells (the history array's length).
+        Number of local cells (the history array's rows).
     """
 
     def __init__(self, c: fem.Function, fracture, settings, n_cells: int):
@@ -680,15 +730,18 @@ class _PhaseFieldSolver:
         self.c = c
         self._fracture = fracture
         self._tol = settings.tol
-        W = fem.FunctionSpace(msh, ("DG", 0))
-        self._cell_dof = W.dofmap.list.array[:n_cells]
+        # Discontinuous Crouzeix-Raviart: dof k of a cell is the value at the
+        # midpoint of the edge opposite vertex k.
+        W = fem.FunctionSpace(msh, basix.ufl_wrapper.create_element("CR", "triangle", 1,
+                                                                    discontinuous=True))
+        self._point_dof = W.dofmap.list.array.reshape(-1, 3)[:n_cells]
         self._reaction = fem.Function(W)
         p, q = ufl.TrialFunction(V), ufl.TestFunction(V)
         ell2 = fem.Constant(msh, PETSc.ScalarType(4.0 * fracture.l0 ** 2))
         laplace = fem.form(ell2 * ufl.inner(ufl.grad(p), ufl.grad(q)) * ufl.dx)
         self._L = fem_petsc.assemble_matrix(laplace)
         self._L.assemble()
-        self._mass_form = fem.form(self._reaction * p * q * ufl.dx)
+        self._mass_form = fem.form(self._reaction * p * q * ufl.dx(metadata=_MIDPOINT_RULE))
         self._M = fem_petsc.create_matrix(self._mass_form)
         self._A = self._L.duplicate(copy=True)
         self._b = fem_petsc.assemble_vector(fem.form(q * ufl.dx))
@@ -764,8 +817,9 @@ class _PhaseFieldSolver:
         return f"{self._snes.getType()}: {inner}" if self.bounded else inner
 
     def solve(self, history: np.ndarray, step: int, t: float) -> None:
-        """Solve for ``c`` with the cell history ``H``; raise if the solver fails."""
-        self._reaction.x.array[self._cell_dof] = _reaction(self._fracture, history)
+        """Solve for ``c`` with the history ``H`` (cells, 3) at the edge
+        midpoints; raise if the solver fails."""
+        self._reaction.x.array[self._point_dof] = _reaction(self._fracture, history)
         self._M.zeroEntries()
         fem_petsc.assemble_matrix(self._M, self._mass_form)
         self._M.assemble()
@@ -810,7 +864,7 @@ class _BelowWarning(logging.Filter):
 
 
 def _reaction(fracture, history: np.ndarray) -> np.ndarray:
-    """Per cell, the coefficient of ``c q`` in eq. (57) (the C++ ``Fracture::reaction``).
+    """Per history point, the coefficient of ``c q`` in eq. (57) (C++ ``Fracture::reaction``).
 
     AT2: ``F = 4 l0 (1 - k_f) H / G_c + 1`` (eq. 49); AT1:
     ``16 l0 (1 - k_f) H / (3 G_c)``, no constant term.
