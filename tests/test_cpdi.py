@@ -97,7 +97,7 @@ def test_failed_domains_span_at_most_a_cell_at_three_times_the_length(scaled):
     # most a cell, and is at most a cell wide; without, the domains are the
     # convected ones.
     scene = bar(velocity_gradient=((1.0, 0.0), (0.0, 0.0)), E=1e-4,
-                damage=RankineSpec(sigma_f=1.0, Gf=1e4), scale_failed=scaled)
+                damage=RankineSpec(sigma_f=1.0, Gf=1e4, l_ch=1.0), scale_failed=scaled)
     sim = Simulation(scene)
     P = sim.particles
     band = np.abs(P.x[:, 0] - 18.0) < 0.5

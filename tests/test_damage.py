@@ -233,14 +233,17 @@ def prestressed_bar(h: float, band_cells: float = 2, Gf: float = 0.02, cfl: floa
 
 @pytest.mark.parametrize("h, shape, partition", [
     (1.0, "bspline", None), (0.5, "bspline", None),
+    (1.0, "bspline", "damage_gradient"), (0.5, "bspline", "damage_gradient"),
     (0.5, "cpdi", None), (0.25, "cpdi", None),
     (0.5, "cpdi", "damage_gradient"), (0.25, "cpdi", "damage_gradient")])
 def test_bar_pulled_apart_dissipates_gf_per_unit_crack_area(h, shape, partition):
     # With the default l_ch the band dissipates G_f per unit area of the
     # crack, H x thickness: a band 2 cells wide fails completely and nothing
-    # else is damaged (docs/verification.md, "The crack band": quadratic
-    # B-splines at h = 0.25 and with the damage-gradient partition are
-    # measured there, outside these 5 %).
+    # else is damaged. With the damage-gradient partition the faces part
+    # only once the band has softened (contact.parting_stress): before, they
+    # parted when its first column failed, and the band dissipated 0.78 G_f
+    # with quadratic B-splines. (Quadratic B-splines at h = 0.25 are
+    # measured in docs/verification.md, "The crack band", outside these 5 %.)
     Gf, H = 0.02, 2.0
     sim, band = prestressed_bar(h, Gf=Gf, shape=shape, partition=partition)
     P = sim.particles
@@ -249,7 +252,8 @@ def test_bar_pulled_apart_dissipates_gf_per_unit_crack_area(h, shape, partition)
         sim.advance(5)
         assert np.all(P.damage >= before)  # damage never decreases
         before = P.damage.copy()
-    assert np.all(P.damage[band] == 1.0) and np.all(P.damage[~band] == 0.0)
+    # (With the partition at h = 0.5, four particles next to the band reach D = 4e-4.)
+    assert np.all(P.damage[band] == 1.0) and P.damage[~band].max() < 1e-3
     assert sim.energies()["damage_dissipation"] == pytest.approx(Gf * H, rel=0.05)
 
 
@@ -654,7 +658,7 @@ def test_the_first_step_sees_the_initial_damage():
     sim.advance(1)
     P = sim.particles
     failed = P.damage == 1.0
-    assert np.all(P.stress[failed] == 0.0)
+    assert np.abs(P.stress[failed]).max() <= 1e-15 * np.abs(P.stress).max()  # round-off of eqs. 26-27
     assert P.stress[~failed, 0].min() > 0.0
     stats = sim.solver.contact_stats()
     assert stats["split"] > 0 and stats["separable"] == stats["split"]
@@ -719,15 +723,16 @@ D = 0.5
 
 def test_initial_damage_grows_and_resumes_bitwise(tmp_path: Path):
     # The bar's band starts half damaged, fails by the first checkpoint (step
-    # 120, t = 1.3) and damage spreads after it; the run resumed from there
+    # 80, t = 0.5; it fails at t = 0.37) and damage spreads after it (t = 0.6);
+    # the run resumed from there
     # takes the checkpoint's damage, not the initial one, and ends with the
     # same bits.
     scene = tmp_path / "prebroken.toml"
     scene.write_text(PREBROKEN_SCENE)
     full = tmp_path / "full"
-    assert main(["run", str(scene), "--out", str(full), "--quiet", "--checkpoint-every", "120"]) == 0
+    assert main(["run", str(scene), "--out", str(full), "--quiet", "--checkpoint-every", "80", "--keep", "10"]) == 0
     first = checkpoint.list_checkpoints(full / "checkpoints")[0]
-    assert first.name == "step_000000120.h5"
+    assert first.name == "step_000000080.h5"
     at_first = checkpoint.read(first).particles["damage"]
     assert np.count_nonzero(at_first == 1.0) == 32 and at_first.min() == 0.0
     last = sorted(full.glob("particles_*.vtu"))[-1]

@@ -225,8 +225,10 @@ def test_particle_leaving_grid_is_reported():
 
 @pytest.mark.parametrize("degree", [1, 2, 3])
 def test_critical_factor_table_matches_the_basis(degree):
-    # Recompute the 1D lumped-mass limits 2 / sqrt(max eig(M_L^-1 K)) in units
-    # of h / c that CRITICAL_FACTOR is built from.
+    # Recompute the two limits in units of h / c that CRITICAL_FACTOR is the
+    # smaller of: the grid's 1D lumped-mass limits 2 / sqrt(max eig(M_L^-1 K)),
+    # and a lone particle's, 2 / sqrt(2 max_x sum_I N_I'(x)^2 / N_I(x)) over
+    # the interior cells (unbounded for degree 1).
     n = 30
     basis = _core.BSpline1D(degree, n, 1.0)
     g, w = np.polynomial.legendre.leggauss(4)
@@ -247,6 +249,12 @@ def test_critical_factor_table_matches_the_basis(degree):
     interior = limit(np.arange(degree, basis.size - degree))
     full = limit(np.arange(basis.size))
     expected = [min(1.0, interior / math.sqrt(2)), min(1.0, full / math.sqrt(2))]
+    if degree > 1:
+        x = np.linspace(degree + 1, n - degree - 1, 40001)[1:-1]
+        _, N, dN, _ = basis.evaluate(x)
+        lone = 2 / math.sqrt(2 * np.where(N > 0, dN * dN / np.where(N > 0, N, 1), 0).sum(axis=1).max())
+        assert lone == pytest.approx({2: 1 / math.sqrt(3), 3: 0.7985}[degree], abs=1e-4)
+        expected = [min(e, lone) for e in expected]
     assert CRITICAL_FACTOR[degree] == pytest.approx(expected, abs=2e-3)
 
 

@@ -333,11 +333,13 @@ def test_holes_the_generator_found(tmp_path, d, message):
 
 
 def test_failed_initial_phase_field_is_an_error_line(tmp_path, capsys):
-    # One CG iteration cannot solve the phase field of the initial crack:
-    # the run fails before its first step, with an error line, not a traceback.
+    # One CG iteration cannot solve the phase field of the initial crack (nor
+    # one MPRGP iteration, which the bounded solve hands it to): the run fails
+    # before its first step, with an error line, not a traceback.
     d = {**TINY, "cracks": [{"points": [[0.0, 2.0], [2.0, 2.0]]}], "phase_field": {"max_iterations": 1}}
     path = tmp_path / "scene.toml"
     path.write_text(to_toml(d))
     assert main(["run", str(path), "--out", str(tmp_path / "out"), "--quiet"]) == 1
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and err[0].startswith("error: phase field: conjugate gradients stopped"), err
+    assert len(err) == 1 and err[0].startswith("error: phase field: the bounded solve (MPRGP after the"
+                                               " active-set passes) stopped at relative residual"), err

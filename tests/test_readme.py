@@ -128,7 +128,7 @@ def test_the_python_quickstart_runs_as_written(mirror):
     assert len(blocks) == 1
     r = run([str(ROOT / ".venv" / "bin" / "python"), "-c", blocks[0]], mirror)
     assert r.returncode == 0, r.stderr
-    assert "completed at step 494 -> out/quickstart" in r.stdout
+    assert "completed at step 521 -> out/quickstart" in r.stdout
     assert (mirror / "out" / "quickstart" / "energies.png").exists()
 
 

@@ -195,25 +195,28 @@ def check_kalthoff_winkler(scene, sim, out, e):
     assert 45.0 < bearing < 75.0 and 40.0 < line < 75.0
 
 
-def check_charpy(scene, sim, out, e, crossed=False):
+def check_charpy(scene, sim, out, e, crossed=False, damage=(0.6, 1.0)):
     # Free-free: the momentum is the striker's to round-off. To 40 us the crack
     # has run from the notch root into the ligament (the fields of its faces
     # separable), short of the striker's face, so at most two fields meet at
     # a node and no contact check fails. The system only loses energy: to
-    # damage (measured 157.8 mJ = 0.45 G_f A_f) and to the scheme (119.0 mJ).
+    # damage (measured 287.2 mJ = 0.81 G_f A_f) and to the scheme (51.0 mJ;
+    # 119.0 mJ, with 0.45 G_f A_f of damage, when the faces parted before
+    # their band had softened: contact.parting_stress).
     assert momentum_error(e) < 1e-9
     summary = json.loads((out / "summary.json").read_text())["contact"]
     assert summary["violations"] == {"C1": 0, "C2": 0, "C3": 0, "C4": 0}
     assert summary["separable_node_steps"] > 0
     r = energy_balance(e)
     assert r["overshoot"] < 0.0
-    assert 0.3 < r["damage"] / fracture_energy(scene) < 0.6 and 0.0 < r["numerical"] < r["damage"]
+    assert damage[0] < r["damage"] / fracture_energy(scene) < damage[1]
+    assert 0.0 < r["numerical"] < 0.35 * r["damage"]  # measured 0.18, with CPDI 0.31
     p = sim.particles
     band = crack_band(scene, p.x - sim.displacement(), p.damage, p.body, threshold=0.5)
     assert band["paths"] == 1 and band["from_root"]
     # With ``crossed`` (CPDI) the band has crossed the whole ligament by 40 us.
     assert band["across"] == 1.0 if crossed else 0.5 < band["across"] < 1.0
-    assert band["width"] < 2.0
+    assert band["width"] < 3.0  # measured 2.56 cells (quadratic B-splines at h = 1), 2 with CPDI
 
 
 def check_brazilian(scene, sim, out, e):
@@ -283,9 +286,10 @@ def test_benchmark_with_cpdi_in_smoke_mode(name, tmp_path):
     """The Kalthoff-Winkler and Charpy smoke runs with CPDI1 on the degree-1
     grid, contact and the damage-gradient partition (docs/verification.md,
     "CPDI against B-splines"): the same checks as with B-splines, but the
-    Charpy band has crossed the whole ligament by 40 us. Measured: balance
-    0.074 (KW) and 0.102 (Charpy); KW bearing 70.8, line 50.7 degrees;
-    Charpy damage 0.33 G_f A_f, numerical loss 86.5 mJ."""
+    Charpy band has crossed the whole ligament by 40 us, and its band is one
+    cell wide, as the crack line y = 27.5 runs through the middle of the
+    degree-1 grid's cells: half of l_ch, so about half the damage (measured
+    0.37 G_f A_f; docs/verification.md, "The crack band")."""
     path, overrides = smoke_runs()[name]
     scene = Scene.from_toml(path, overrides + ["grid.degree=1", "grid.shape=cpdi"])
     sim = Simulation(scene)
@@ -295,7 +299,7 @@ def test_benchmark_with_cpdi_in_smoke_mode(name, tmp_path):
     scale = max(np.abs(e["external_work"]).max(), (e["kinetic"] + e["elastic"]).max())
     assert np.abs(e["total"] - e["total"][0]).max() <= BALANCE[name] * scale
     if name == "charpy":
-        check_charpy(scene, sim, tmp_path, e, crossed=True)
+        check_charpy(scene, sim, tmp_path, e, crossed=True, damage=(0.25, 0.5))
     else:
         CHECKS[name](scene, sim, tmp_path, e)
 
@@ -385,9 +389,10 @@ def test_self_contact_measure_scripts(tmp_path):
 def test_charpy_study_script(tmp_path):
     """benchmarks/charpy/study.py on three cases at h = 1 to 30 us: the
     damage-gradient and single-field runs are the same to round-off until the
-    crack's first separable node (measured 2e-13 of KE0 to 24 us; compared
-    to 22 us, by which the damage has dissipated 24.5 mJ), every run keeps its momentum (C7), the
-    elastic striker is still in contact at 30 us, and the figure is drawn."""
+    crack's first separable node (11.84 us, by which the damage has
+    dissipated 34.3 mJ; compared to 11.5 us), every run keeps its momentum
+    (C7), the elastic striker is still in contact at 30 us, and the figure
+    is drawn."""
     import runpy
 
     sets = [arg for s in manifests()["charpy"]["smoke"] for arg in ("--set", s)]
@@ -399,8 +404,8 @@ def test_charpy_study_script(tmp_path):
     assert results["elastic_h1"]["contact_end"] is None
     assert results["elastic_h1"]["GfAf"] is None and results["dfg_h1"]["GfAf"] == pytest.approx(354.08)
     dfg, sf = (read_csv(tmp_path / name / "energies.csv") for name in ("dfg_h1", "sf_h1"))
-    early = dfg["t"] <= 22.0
-    assert dfg["damage_dissipation"][early][-1] > 20.0  # measured 24.5 mJ
+    early = dfg["t"] <= 11.5
+    assert dfg["damage_dissipation"][early][-1] > 20.0  # measured 31.2 mJ
     for column in ("kinetic", "elastic", "damage_dissipation"):
         assert np.abs(dfg[column] - sf[column])[early].max() < 1e-9 * dfg["kinetic"][0]
     assert (tmp_path / "energy_histories.png").exists()
@@ -409,15 +414,16 @@ def test_charpy_study_script(tmp_path):
 def test_charpy_energy_split(capsys):
     """benchmarks/charpy/diagnose.py split at the smoke settings: the kinematic
     and material parts add up to the change of ``total`` (to round-off), and
-    the loss is the kinematic part's (measured -185.3 and +9.1 mJ of -176.1
-    by 40 us: the material closes its balance to 5 % of the loss)."""
+    the loss is the kinematic part's (measured -57.38 and +0.13 mJ of -57.25
+    by 40 us: the material closes its balance to 0.3 % of the loss; -185.3
+    and +9.1 mJ when the faces parted before their band had softened)."""
     import runpy
 
     sets = [arg for s in manifests()["charpy"]["smoke"] for arg in ("--set", s)]
     script = runpy.run_path(str(ROOT / "benchmarks" / "charpy" / "diagnose.py"))
     r = script["main"](["split", *sets, "--every", "1000"])
     assert r["kinematic"] + r["material"] == pytest.approx(r["total"], abs=1e-9 * 1011.2)
-    assert r["total"] < -100.0 and abs(r["material"]) < 0.1 * abs(r["kinematic"])
+    assert r["total"] < -40.0 and abs(r["material"]) < 0.1 * abs(r["kinematic"])
     assert "kinematic" in capsys.readouterr().out
 def test_brazilian_study_script(tmp_path):
     """benchmarks/brazilian/study.py at two coarse resolutions to 2 us: the

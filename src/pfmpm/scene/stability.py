@@ -16,13 +16,23 @@ if TYPE_CHECKING:
 __all__ = ["CRITICAL_FACTOR", "stable_dt", "critical_length", "steps"]
 
 #: Critical time step of the lumped-mass B-spline grid in units of h / c, per
-#: degree, as (bodies clear of the grid sides, bodies on a side). Each is the
-#: 1D limit 2 / sqrt(max eig(M_L^-1 K)) of interior functions only, or of all
-#: functions including the open-knot end ones (degree 2: 1.634 and 0.862;
-#: degree 3: 1.929 and 0.653; degree 1: 1 and 1), over sqrt(2) for two
-#: directions and capped at 1, the CFL limit the paper uses (eq. 84).
+#: degree, as (bodies clear of the grid sides, bodies on a side), the smaller
+#: of two limits (docs/method.md, "Time step"):
+#:
+#: - the grid's: the 1D limit 2 / sqrt(max eig(M_L^-1 K)) of interior
+#:   functions only, or of all functions including the open-knot end ones
+#:   (degree 2: 1.634 and 0.862; degree 3: 1.929 and 0.653; degree 1: 1 and
+#:   1), over sqrt(2) for two directions and capped at 1, the CFL limit the
+#:   paper uses (eq. 84);
+#: - a particle's: whatever the other particles, max eig(M_L^-1 K) <= c^2
+#:   max_p sum_I |grad N_I(x_p)|^2 / N_I(x_p), which a particle alone on its
+#:   nodes (a body's corner) attains; in 2D the largest sum is twice the 1D
+#:   one, 6 / h^2 (degree 2) and 3.137 / h^2 (degree 3) at a cell's corner,
+#:   so 2 / sqrt(12) = 0.577 and 0.798. (Unbounded for degree 1, the
+#:   cell-crossing instability of linear shape functions.)
+#:
 #: tests/test_elastic.py recomputes these from the basis.
-CRITICAL_FACTOR = {1: (0.707, 0.707), 2: (1.0, 0.609), 3: (1.0, 0.461)}
+CRITICAL_FACTOR = {1: (0.707, 0.707), 2: (0.577, 0.577), 3: (0.798, 0.461)}
 
 
 def stable_dt(scene: "Scene") -> float:
@@ -30,11 +40,13 @@ def stable_dt(scene: "Scene") -> float:
 
     ``c_max`` is the largest wave speed (``MaterialSpec.wave_speed``) over
     the materials used by bodies and ``v_max`` the largest initial particle
-    speed.  ``kappa`` (see :data:`CRITICAL_FACTOR`) is 1 for quadratic and
-    cubic B-splines with the bodies clear of the grid's end functions, as in
-    the paper; it is smaller for degree 1, and for bodies that start within
-    ``degree`` cells of a grid side, where the open knot vector's end
-    functions carry little lumped mass.
+    speed.  ``kappa`` (see :data:`CRITICAL_FACTOR`) is 0.577 for quadratic
+    and 0.798 for cubic B-splines with the bodies clear of the grid's end
+    functions, the limit of a particle alone on its nodes (the paper's 1, a
+    grid filled with particles, let a Borden plate's corner particle blow
+    up); it is 0.707 for degree 1, and 0.461 for cubic B-splines when bodies
+    start within ``degree`` cells of a grid side, where the open knot
+    vector's end functions carry little lumped mass.
     """
     used = {body.material for body in scene.bodies}
     c_max = max(m.wave_speed(scene.plane) for m in scene.materials if m.name in used)
