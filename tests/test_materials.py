@@ -68,8 +68,9 @@ def test_a_registered_model_is_read_checked_and_written_by_name(acoustic):
     scene = Scene.from_dict(d)
     (air,) = scene.materials
     assert isinstance(air, acoustic) and air.fracture.l0 == 1.0
-    # Its wave speed sets the step: cfl 0.8 x h 0.5 / speed 2 (bodies clear of the grid sides).
-    assert scene.stable_dt() == pytest.approx(0.8 * 0.5 / 2.0)
+    # Its wave speed sets the step: cfl 0.8 x kappa 0.577 x h 0.5 / speed 2 (bodies clear of
+    # the grid sides).
+    assert scene.stable_dt() == pytest.approx(0.8 * 0.577 * 0.5 / 2.0)
     assert scene.crack_rayleigh_speed() == 1.0
     assert Scene.from_dict(scene.to_dict()) == scene
     with pytest.raises(SceneError, match=r"^materials\[0\]\.speed = -1\.0: must be > 0$"):

@@ -1,6 +1,7 @@
 """Tests of pfmpm.scene: loading, validation, overrides and particle generation."""
 
 import copy
+import dataclasses
 import math
 
 import numpy as np
@@ -9,8 +10,10 @@ from hypothesis import given, settings, strategies as st
 
 from pfmpm import scenes
 
+from pfmpm.scene import stability
 from pfmpm.scene import (
     CRITICAL_FACTOR,
+    LONE_PARTICLE_FACTOR,
     Body,
     BodyForce,
     Disk,
@@ -140,14 +143,21 @@ def test_stable_dt_borden():
     c = wave_speed(32000.0, 0.2, 2450.0, "strain")
     assert c == pytest.approx(math.sqrt(32000 * 0.8 / (2450 * 1.2 * 0.6)))
     assert c == pytest.approx(3.8095, abs=1e-4)
-    # Body clear of the grid sides, as the paper's plate: the CFL limit h / c.
+    # Body clear of the grid sides, as the paper's plate: the grid's CFL limit
+    # h / c, which is the largest fixed dt (the paper's 0.02625 us), and
+    # below it a lone particle's, 0.577 h / c, the default step.
     s = scene_with(Rectangle((1.0, 1.0), (9.0, 3.0)), h=0.125)
-    assert s.stable_dt() == pytest.approx(0.8 * 0.125 / c, rel=1e-12)
-    assert s.stable_dt() == pytest.approx(0.02625, abs=1e-5)
+    assert s.stable_dt() == pytest.approx(0.8 * 0.577 * 0.125 / c, rel=1e-12)
+    assert stability.grid_dt(s) == pytest.approx(0.02625, abs=1e-5)
     assert s.dt() == s.stable_dt()
+    paper = dataclasses.replace(s, time=dataclasses.replace(s.time, dt=stability.grid_dt(s)))
+    assert paper.dt() == pytest.approx(0.02625, abs=1e-5)
+    with pytest.raises(SceneError, match="^time.dt = .*: exceeds the stability limit"):
+        dataclasses.replace(s, time=dataclasses.replace(s.time, dt=1.001 * stability.grid_dt(s)))
     # A body on the grid sides meets the open knot vector's end functions.
     touching = Scene.from_dict(base(), ["grid.h=0.125"])
-    assert touching.stable_dt() == pytest.approx(CRITICAL_FACTOR[2][1] * 0.8 * 0.125 / c, rel=1e-12)
+    assert touching.stable_dt() == pytest.approx(min(CRITICAL_FACTOR[2][1], 0.577) * 0.8 * 0.125 / c,
+                                                 rel=1e-12)
     assert Scene.from_dict(base(), ["time.dt=0.02"]).dt() == 0.02
     stress = wave_speed(32000.0, 0.2, 2450.0, "stress")
     assert stress == pytest.approx(math.sqrt(32000 / (2450 * 0.96)))
@@ -155,7 +165,7 @@ def test_stable_dt_borden():
 
 def test_stable_dt_includes_body_speed():
     s = Scene.from_dict(base(), ["bodies.plate.velocity=[3.0, 4.0]", "time.cfl=0.5"])
-    kappa = CRITICAL_FACTOR[2][1]
+    kappa = min(CRITICAL_FACTOR[2][1], LONE_PARTICLE_FACTOR[2])
     assert s.stable_dt() == pytest.approx(kappa * 0.5 * 0.5 / (wave_speed(32000.0, 0.2, 2450.0, "strain") + 5.0))
 
 
@@ -167,7 +177,8 @@ def test_velocity_gradient_sets_the_initial_velocity_and_the_step():
     np.testing.assert_allclose(p["v"][:, 1], 0.25 * p["x"][:, 0], rtol=0, atol=1e-15)
     # The fastest point is the corner (10, 4): v = (3, 2.5).
     c = wave_speed(32000.0, 0.2, 2450.0, "strain")
-    assert s.stable_dt() == pytest.approx(CRITICAL_FACTOR[2][1] * 0.8 * 0.5 / (c + math.hypot(3.0, 2.5)))
+    kappa = min(CRITICAL_FACTOR[2][1], LONE_PARTICLE_FACTOR[2])
+    assert s.stable_dt() == pytest.approx(kappa * 0.8 * 0.5 / (c + math.hypot(3.0, 2.5)))
 
 
 def test_orientation_is_stored_per_particle_in_radians():
@@ -510,11 +521,11 @@ def test_too_many_steps_are_refused_without_declared_units():
     with pytest.raises(SceneError) as err:
         Scene.from_toml(BORDEN, ["units=''", "materials.concrete.E=32e9"])
     message = str(err.value)
-    assert message.startswith("time.end = 80.0: needs 1.52e+06 steps of dt = 5.25e-05, more than"
+    assert message.startswith("time.end = 80.0: needs 2.64e+06 steps of dt = 3.029e-05, more than"
                               " time.max_steps = 1000000")
     assert "crosses the grid 2.99e+03 times" in message and "raise time.max_steps" in message
-    scene = Scene.from_toml(BORDEN, ["units=''", "materials.concrete.E=32e9", "time.max_steps=2000000"])
-    assert scene.steps() == 1523810
+    scene = Scene.from_toml(BORDEN, ["units=''", "materials.concrete.E=32e9", "time.max_steps=3000000"])
+    assert scene.steps() == 2640918
 
 
 def test_too_few_steps_are_refused():

@@ -46,6 +46,8 @@ from pathlib import Path
 import numpy as np
 
 from .post.tip import CrackTip
+from .scene import Scene
+from .scene.stability import grid_dt
 
 FORMAT = "pfmpm-checkpoint"
 VERSION = 4
@@ -191,8 +193,8 @@ def write(directory: Path | str, sim, run, *, every: int, keep: int, status: str
     directory.mkdir(parents=True, exist_ok=True)
     attrs, arrays = _state_of(sim, run)
     attrs.update(format=FORMAT, version=VERSION, scene=sim.scene.to_dict(), step=int(sim.step),
-                 time=float(sim.time), status=status, error=error, checkpoint_every=int(every),
-                 keep=int(keep))
+                 time=float(sim.time), dt=float(sim.dt), status=status, error=error,
+                 checkpoint_every=int(every), keep=int(keep))
     digest = _digest(attrs, arrays)
     path = directory / file_name(sim.step, failed=status != "ok")
     tmp = directory / f".{path.name}.tmp"
@@ -276,6 +278,11 @@ def read(path: Path | str) -> Checkpoint:
             raise CheckpointError(f"checkpoint {path}: written before the work of the walls was"
                                   " recorded, which this scene's energy balance needs; start the run again")
         solver["scalars"]["wall_work"] = 0.0
+    if "dt" not in meta and meta["scene"].get("time", {}).get("dt") is None:
+        # Files from before the default step kept below a lone particle's
+        # limit (issue 49): the run goes on with the step it ran with, the
+        # grid's limit, as a fixed time.dt.
+        meta["scene"].setdefault("time", {})["dt"] = grid_dt(Scene.from_dict(meta["scene"]))
     for key in [k for k in solver["scalars"] if k.startswith("phase_field/") and k.endswith("/passes")]:
         # Files from before the bounded solve could hand over to MPRGP: none did.
         solver["scalars"].setdefault(key.removesuffix("passes") + "handovers", 0)

@@ -62,7 +62,7 @@ from .materials import (DEFAULT_MODEL, MATERIALS, PLANES, SPLITS, SYMMETRIES, An
                         material_class, rayleigh_speed, register_material, wave_speed)
 from .scene import Scene
 from .shapes import SHAPES, Disk, ImageShape, MeshShape, Polygon, Rectangle, Ring, Shape, image_colors
-from .stability import CRITICAL_FACTOR
+from .stability import CRITICAL_FACTOR, LONE_PARTICLE_FACTOR
 from .toml import apply_overrides
 from .validation import SceneError
 
@@ -116,6 +116,7 @@ __all__ = [
     "wave_speed",
     "rayleigh_speed",
     "CRITICAL_FACTOR",
+    "LONE_PARTICLE_FACTOR",
     "PLANES",
     "DEGREES",
     "SPLITS",

@@ -403,7 +403,7 @@ class Scene:
                                      f" = {c * units.speed_si:.3g} m/s is no solid's ({lo:g} to"
                                      f" {hi:g} m/s): check its moduli ({units.stress}) and density"
                                      f" ({units.density}) against units = {self.units!r}")
-        limit = self.stable_dt()
+        limit = stability.grid_dt(self)
         if not 0 < limit < math.inf:
             raise SceneError("time", f"the stability limit {limit:g} is not a positive finite step")
         dt = self.time.dt

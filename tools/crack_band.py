@@ -1,0 +1,80 @@
+"""The crack band of Rankine softening (docs/verification.md, "The crack band"):
+the energy a bar pulled apart dissipates per unit crack area, over G_f, with
+the default l_ch (the grid's localisation width) or a given one.
+
+The bar of tests/test_damage.py (``prestressed_bar``): 20 x 2 between fixed
+walls, nu = 0, pre-stretched to 0.85 sigma_f, a weak band (0.8 sigma_f) at its
+middle, on a node line or (``--offset 0.5``) in the middle of a cell. Prints
+one row per case: the dissipation over G_f H, and the particle columns that
+failed (D = 1) and that were damaged without failing.
+
+    OMP_NUM_THREADS=1 .venv/bin/python tools/crack_band.py
+    OMP_NUM_THREADS=1 .venv/bin/python tools/crack_band.py --h 0.5 --shape bspline --l_ch 0.7071
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+import numpy as np
+
+from pfmpm import Simulation
+from pfmpm.scene import (Body, Contact, GridSpec, NeoHookeanSpec, RankineSpec, Rectangle, Scene,
+                         Time, WallSpec)
+
+SHAPES = {"bspline": (2, "bspline"), "cubic": (3, "bspline"), "cpdi": (1, "cpdi")}
+"""Stencils by name: (grid degree, shape)."""
+
+
+def bar(h: float, shape: str, partition: str | None, l_ch: float | None, band_cells: float = 2.0,
+        offset: float = 0.0, cfl: float = 0.5, end: float = 4.0, Gf: float = 0.02) -> dict:
+    """Run the bar to ``end`` and measure its band."""
+    L, H, y0, mu, s0 = 20.0, 2.0, 4.0, 50.0, 0.85
+    degree, kind = SHAPES[shape]
+    scene = Scene(name="bar", grid=GridSpec(size=(L, H + 8.0), h=h, degree=degree, shape=kind),
+                  time=Time(end=end, cfl=cfl),
+                  materials=(NeoHookeanSpec(name="m", E=100.0, nu=0.0, density=1.0,
+                                            damage=RankineSpec(sigma_f=1.0, Gf=Gf, l_ch=l_ch)),),
+                  bodies=(Body(name="bar", material="m", shape=Rectangle((0.0, y0), (L, y0 + H)),
+                               particles_per_cell=2),),
+                  walls=(WallSpec(side="left", type="fixed"), WallSpec(side="right", type="fixed")),
+                  contact=Contact(partition=partition) if partition else None)
+    sim = Simulation(scene)
+    P = sim.particles
+    stretch = (s0 + math.sqrt(s0 * s0 + 4 * mu * mu)) / (2 * mu)  # sigma = mu (l^2 - 1) / l
+    P.F[:] = (stretch, 0.0, 0.0, 1.0)
+    P.J[:] = stretch
+    P.mass[:] /= stretch
+    P.stress[:] = (s0, 0.0, 0.0, 0.0)
+    x0 = P.x[:, 0].copy()
+    P.sigma_f[np.abs(x0 - L / 2 - offset * h) < band_cells * h / 2] = 0.8
+    sim.advance(scene.steps())
+    D = P.damage
+    columns = lambda sel: len(np.unique(np.round(x0[sel], 9)))  # noqa: E731
+    return {"dissipation": sim.energies()["damage_dissipation"] / (Gf * H),
+            "failed_columns": columns(D == 1.0), "damaged_columns": columns((D > 1e-3) & (D < 1.0)),
+            "l_ch": scene.materials[0].damage.length(scene.grid)}
+
+
+def main(argv=None) -> None:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--h", type=float, nargs="+", default=[1.0, 0.5, 0.25])
+    p.add_argument("--shape", nargs="+", default=list(SHAPES), choices=list(SHAPES))
+    p.add_argument("--partition", nargs="+", default=["single", "damage_gradient"],
+                   choices=["single", "damage_gradient"])
+    p.add_argument("--l_ch", type=float, help="l_ch (default: the grid's localisation width)")
+    p.add_argument("--offset", type=float, default=0.0, help="the band's centre off the node line, in cells")
+    args = p.parse_args(argv)
+    print("| stencil | partition | h | l_ch | dissipation / G_f A | failed columns | damaged columns |")
+    print("|---|---|---|---|---|---|---|")
+    for shape in args.shape:
+        for partition in args.partition:
+            for h in args.h:
+                r = bar(h, shape, None if partition == "single" else partition, args.l_ch, offset=args.offset)
+                print(f"| {shape} | {partition} | {h:g} | {r['l_ch']:.4g} | {r['dissipation']:.3f} | "
+                      f"{r['failed_columns']} | {r['damaged_columns']} |", flush=True)
+
+
+if __name__ == "__main__":
+    main()
