@@ -4,6 +4,7 @@ critical length the core checks after every step (docs/method.md, "Time step")."
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from .bodies import Body
@@ -13,7 +14,7 @@ from .validation import WHOLE_TOL
 if TYPE_CHECKING:
     from .scene import Scene
 
-__all__ = ["CRITICAL_FACTOR", "stable_dt", "critical_length", "steps"]
+__all__ = ["CRITICAL_FACTOR", "StepLimit", "step_limit", "stable_dt", "critical_length", "steps"]
 
 #: Critical time step of the lumped-mass B-spline grid in units of h / c, per
 #: degree, as (bodies clear of the grid sides, bodies on a side). Each is the
@@ -25,28 +26,78 @@ __all__ = ["CRITICAL_FACTOR", "stable_dt", "critical_length", "steps"]
 CRITICAL_FACTOR = {1: (0.707, 0.707), 2: (1.0, 0.609), 3: (1.0, 0.461)}
 
 
+@dataclass(frozen=True)
+class StepLimit:
+    """The stability limit ``cfl * kappa * h / (c_max + v_max)`` and what sets it.
+
+    Attributes
+    ----------
+    limit : float
+        The stable step.
+    cfl, kappa, h : float
+        ``time.cfl``, the critical factor (:data:`CRITICAL_FACTOR`) and the grid spacing.
+    wave_speed : float
+        ``c_max``, the largest P-wave speed of a body's material.
+    wave_body : str
+        The first body whose material has it.
+    speed : float
+        ``v_max``, the largest initial particle speed.
+    speed_body : str or None
+        The first body that has it; ``None`` if every body starts at rest.
+    side_body : str or None
+        The first body that starts within ``grid.degree`` cells of a grid side,
+        which lowers ``kappa``; ``None`` if none does.
+    """
+
+    limit: float
+    cfl: float
+    kappa: float
+    h: float
+    wave_speed: float
+    wave_body: str
+    speed: float
+    speed_body: str | None
+    side_body: str | None
+
+
+def step_limit(scene: "Scene") -> StepLimit:
+    """The stability limit of :func:`stable_dt` and the bodies that set it."""
+    waves = [scene.material_of(b).wave_speed(scene.plane) for b in scene.bodies]
+    speeds = [b.max_speed() for b in scene.bodies]
+    c_max, v_max = max(waves), max(speeds)
+    kappa, side = _kappa(scene)
+    return StepLimit(limit=scene.time.cfl * (kappa * scene.grid.h) / (c_max + v_max), cfl=scene.time.cfl,
+                     kappa=kappa, h=scene.grid.h, wave_speed=c_max,
+                     wave_body=scene.bodies[waves.index(c_max)].name, speed=v_max,
+                     speed_body=scene.bodies[speeds.index(v_max)].name if v_max > 0 else None,
+                     side_body=side)
+
+
 def stable_dt(scene: "Scene") -> float:
     """Stability limit ``cfl * kappa * h / (c_max + v_max)`` (eqs. 83-84).
 
     ``c_max`` is the largest wave speed (``MaterialSpec.wave_speed``) over
-    the materials used by bodies and ``v_max`` the largest initial particle
+    the materials of the bodies and ``v_max`` the largest initial particle
     speed.  ``kappa`` (see :data:`CRITICAL_FACTOR`) is 1 for quadratic and
     cubic B-splines with the bodies clear of the grid's end functions, as in
     the paper; it is smaller for degree 1, and for bodies that start within
     ``degree`` cells of a grid side, where the open knot vector's end
-    functions carry little lumped mass.
+    functions carry little lumped mass. :func:`step_limit` says which
+    bodies set each.
     """
-    used = {body.material for body in scene.bodies}
-    c_max = max(m.wave_speed(scene.plane) for m in scene.materials if m.name in used)
-    v_max = max(body.max_speed() for body in scene.bodies)
-    return scene.time.cfl * critical_length(scene) / (c_max + v_max)
+    return step_limit(scene).limit
 
 
 def critical_length(scene: "Scene") -> float:
     """``kappa * h`` of :func:`stable_dt`: a step is stable while ``dt (c + |v|)`` stays below it."""
+    return _kappa(scene)[0] * scene.grid.h
+
+
+def _kappa(scene: "Scene") -> tuple[float, str | None]:
+    """``kappa`` of :data:`CRITICAL_FACTOR`, and the first body near a grid side that lowers it (or ``None``)."""
     interior, boundary = CRITICAL_FACTOR[scene.grid.degree]
-    kappa = boundary if any(_near_side(scene, b) for b in scene.bodies) else interior
-    return kappa * scene.grid.h
+    side = next((b.name for b in scene.bodies if _near_side(scene, b)), None)
+    return (boundary if side is not None else interior), side
 
 
 def _near_side(scene: "Scene", body: Body) -> bool:
