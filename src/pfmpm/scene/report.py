@@ -62,13 +62,13 @@ class Gap:
     ----------
     bodies : (str, str)
     gap : float
-        The distance of their closest particles less half the spacing of
-        each: the width of the gap between the squares the particles stand
-        for, where it is narrowest (exact where they face each other along x
-        or y).
+        The narrowest gap between their seeded material: the shortest
+        distance between a square that a particle of one stands for and a
+        square of the other (squares of side ``spacing``, centred on the
+        particles).
     closing_speed : float
-        The closest particles' initial relative velocity along the line from
-        one to the other, > 0 where they approach.
+        The initial relative velocity of the two particles across that gap,
+        along it: > 0 where they approach.
     meet : float or None
         ``gap / closing_speed``: when they meet at their initial speeds
         (without the forces on them); ``None`` if they do not approach.
@@ -169,13 +169,11 @@ def setup_report(scene: "Scene") -> SetupReport:
         tree = cKDTree(xs[a]) if a < len(scene.bodies) - 1 else None
         for b in range(a + 1, len(scene.bodies)):
             second = scene.bodies[b]
-            distance, nearest = tree.query(xs[b])
-            k = int(np.argmin(distance))
-            gap = float(distance[k]) - 0.5 * (first.spacing(h) + second.spacing(h))
+            gap, ia, ib, across = _narrowest(tree, xs[b], 0.5 * (first.spacing(h) + second.spacing(h)))
             if gap <= _TOL * h:  # touching (to round-off) or overlapping
                 continue
-            pa, pb = xs[a][nearest[k]], xs[b][k]
-            closing = -float(np.dot(_velocity(second, pb) - _velocity(first, pa), pb - pa)) / float(distance[k])
+            pa, pb = xs[a][ia], xs[b][ib]
+            closing = -float(np.dot(_velocity(second, pb) - _velocity(first, pa), across)) / gap
             meet = gap / closing if closing > 0 else None
             gaps.append(Gap(bodies=(first.name, second.name), gap=gap, closing_speed=closing, meet=meet))
             if meet is not None and meet > end:
@@ -185,6 +183,29 @@ def setup_report(scene: "Scene") -> SetupReport:
     warnings += snapshot_warnings(scene)
     return SetupReport(extents=extents, gaps=gaps, step=stability.step_limit(scene), dt=scene.dt(), end=end,
                        warnings=warnings, units=scene.unit_system())
+
+
+def _narrowest(tree, xb: np.ndarray, reach: float) -> tuple[float, int, int, np.ndarray]:
+    """The narrowest gap between the squares of half side sum ``reach`` about
+    the points of ``tree`` and those about ``xb``: its width, the two points
+    and the vector across it (from the first to the second).
+
+    A pair of centres ``d`` apart has squares ``|g|`` apart with ``g_i =
+    sign(d_i) max(|d_i| - reach, 0)``, between ``|d| - sqrt(2) reach`` and
+    ``|d| - reach``; so only pairs within ``sqrt(2) - 1`` reaches of the
+    nearest centres can be narrowest."""
+    from scipy.spatial import cKDTree
+
+    distance, _ = tree.query(xb)
+    within = distance.min() + (np.sqrt(2.0) - 1.0) * reach
+    close = np.flatnonzero(distance <= within)
+    pairs = cKDTree(xb[close]).sparse_distance_matrix(tree, within, output_type="ndarray")
+    ib, ia = close[pairs["i"]], pairs["j"]
+    d = xb[ib] - tree.data[ia]
+    across = np.sign(d) * np.maximum(np.abs(d) - reach, 0.0)
+    width = np.hypot(across[:, 0], across[:, 1])
+    k = int(np.argmin(width))
+    return float(width[k]), int(ia[k]), int(ib[k]), across[k]
 
 
 def _point(p, tol: float) -> str:
