@@ -105,7 +105,8 @@ def test_particle_columns_are_attributes_under_the_names_the_docs_use():
         assert getattr(p, name).shape == ((len(p),) if components == 1 else (len(p), components)), name
     p.v[3] = (1.5, -2.0)  # a view: the core's own memory
     assert p.v[3].tolist() == [1.5, -2.0]
-    text = "".join(path.read_text() for path in [root / "README.md", *sorted((root / "docs" / "notebooks").glob("*.ipynb"))])
+    docs = [root / "README.md", *sorted((root / "docs" / "notebooks").glob("*.ipynb"))]
+    text = "".join(path.read_text() for path in docs)
     used = set(re.findall(r"particles\.([A-Za-z_]\w*)", text)) - {"pvd", "columns"}
     assert {"x", "c"} <= used <= set(columns)
 
