@@ -668,8 +668,8 @@ class _PhaseFieldSolver:
     ----------
     c : dolfinx.fem.Function
         P1 phase field; solved in place, warm-starting from its value.
-    fracture : pfmpm.scene.Fracture
-    settings : pfmpm.scene.PhaseField
+    fracture : pfmpm.scene.FractureSpec
+    settings : pfmpm.scene.PhaseFieldSpec
         Tolerance on ``||F^c - K^c c|| / ||F^c||`` and the iteration limit
         (of the CG iterations of one solve, and of its Newton steps).
     n_cells : int
@@ -899,7 +899,7 @@ def run_command(scene_path: str, out: str, overrides: list[str], quiet: bool = F
               f" rank(s), {scene.steps()} steps of dt = {sim.dt:.6g} ({sim.substeps} sub-steps)"
               f" -> {out}")
         for warning in snapshot_warnings(scene):
-            print(f"warning: {warning}", file=sys.stderr)
+            print(f"warning: {warning}")
     result = sim.run(out, progress=not quiet, overwrite=overwrite)
     if result.status == "failed":
         if root:
