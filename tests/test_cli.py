@@ -155,13 +155,15 @@ def test_version_and_help():
 def test_fem_beside_run(tmp_path):
     """``pfmpm fem`` runs a scene with the FEM reference, as ``python -m pfmpm.fem`` does."""
     borden = ROOT / "demos" / "borden_plate.toml"
-    # No snapshots: those of the scene lie after this run's end, which the run would warn of.
-    sets = ["--set", "grid.h=1.0", "--set", "materials.concrete.fracture.l0=2.0", "--set", "time.end=1",
-            "--set", "output.snapshots=[]"]
+    sets = ["--set", "grid.h=1.0", "--set", "materials.concrete.fracture.l0=2.0", "--set", "time.end=1"]
     r = pfmpm("fem", borden, "--out", tmp_path / "a", "--quiet", *sets)
     assert r.returncode == 0, r.stderr
+    assert "\nwarning: output.snapshots = 50, 65, 80: after the run ends (t = 1.02" in r.stdout
     summary = json.loads((tmp_path / "a" / "summary.json").read_text())
     assert summary["method"] == "fem" and summary["status"] == "completed" and summary["units"] == "mm-us-MPa"
+    # Its folder is a run's, as pfmpm run's is.
+    r = pfmpm("fem", borden, "--out", tmp_path / "a", "--quiet", *sets)
+    assert r.returncode == 2 and r.stderr.startswith(f"error: output directory {tmp_path / 'a'} holds another run")
     # With an empty JIT cache, every form and element is compiled: quietly.
     env = dict(os.environ, XDG_CACHE_HOME=str(tmp_path / "cache"))
     r = subprocess.run([sys.executable, "-m", "pfmpm.fem", borden, "--out", tmp_path / "b", "--quiet", *sets],

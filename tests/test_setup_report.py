@@ -122,7 +122,8 @@ def test_snapshots_after_the_end_are_warned_of():
 
 
 def test_pfmpm_run_prints_the_report(tmp_path):
-    """The report follows the run's first line; its warnings go to stderr."""
+    """The report follows the run's first line, then its warnings (on stdout: the
+    first line on stderr is what failed, if the run fails)."""
     path = tmp_path / "disks.toml"
     path.write_text(toml_text(two_disks(end=10.0).to_dict()))
     r = subprocess.run([sys.executable, "-m", "pfmpm.cli", "run", str(path), "--out", str(tmp_path / "out"),
@@ -130,7 +131,7 @@ def test_pfmpm_run_prints_the_report(tmp_path):
     assert r.returncode == 0, r.stderr
     lines = r.stdout.splitlines()
     assert lines[1:5] == ["  " + line for line in setup_report(two_disks(end=10.0)).lines()]
-    assert r.stderr.startswith("warning: bodies left and right are 5 apart and meet at t = 20")
+    assert lines[5].startswith("warning: bodies left and right are 5 apart and meet at t = 20") and not r.stderr
     setup = json.loads((tmp_path / "out" / "summary.json").read_text())["setup"]
     assert setup["gaps"][0]["meet"] == pytest.approx(20.0, rel=1e-12)
     assert setup["step"]["wave_body"] == "left" and len(setup["extents"]) == 2

@@ -63,8 +63,8 @@ def _run(args: argparse.Namespace) -> int:
     print(f"{scene.name}: {len(sim.particles)} particles, {scene.steps()} steps of dt = {scene.dt():.6g}{where} -> {out}")
     for line in sim.setup.lines():
         print(f"  {line}")
-    for warning in sim.setup.warnings:
-        print(f"warning: {warning}", file=sys.stderr)
+    for warning in sim.setup.warnings:  # with the report: stderr's first line is a failure's
+        print(f"warning: {warning}")
     try:
         result = sim.run(out, progress=not args.quiet, checkpoint_every=every, keep=keep, resume=resume,
                          draw=False, overwrite=args.overwrite)
