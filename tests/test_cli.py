@@ -266,6 +266,16 @@ def test_a_used_output_folder_is_refused_overwritten_or_resumed_by_its_own_run(t
         f"particles_{steps:06d}.vtu", "scene.toml", "summary.json"])
     assert "end = 2.0" in (out / "scene.toml").read_text()
     assert read_csv(out / "energies.csv")["step"][-1] == steps < 100
+    # The kept scene runs again, in its own folder; a scene file of the user's is never replaced.
+    r = pfmpm("run", out / "scene.toml", "--out", out, "--quiet", "--overwrite")
+    assert r.returncode == 0 and json.loads((out / "summary.json").read_text())["steps"] == steps, r.stderr
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    shutil.copy(BAR, mine / "scene.toml")
+    r = pfmpm("run", mine / "scene.toml", "--out", mine, "--quiet", "--overwrite")
+    assert r.returncode == 2 and r.stderr == (f"error: output directory {mine} has a scene.toml that no run"
+                                              " wrote, which the run's would replace: choose another directory\n")
+    assert (mine / "scene.toml").read_bytes() == BAR.read_bytes() and len(list(mine.iterdir())) == 1
 
     def resume_with(other: Path) -> str:
         """--resume of a fresh run of BAR whose newest checkpoint is the one of ``other``."""

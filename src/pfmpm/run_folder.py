@@ -37,9 +37,12 @@ RUN_FILES = (SCENE_FILE, SUMMARY, "energies.csv", "particles.pvd", "particles_*.
              "fields.h5", "*.png", "*.gif", "*.mp4", "*.tmp", CHECKPOINTS)
 """What a run writes into its folder (``pfmpm run`` and ``fem``; ``pfmpm
 animate`` adds a GIF or MP4), as glob patterns; ``checkpoints`` is a folder.
-Overwriting a run deletes these and leaves everything else."""
-_MARKS = (SCENE_FILE, SUMMARY, "energies.csv", "particles.pvd", "fields.xdmf", CHECKPOINTS)
+Overwriting a run deletes these and leaves everything else; ``scene.toml``
+only if a run wrote it (:data:`_HEADER`), not a scene file of the user's."""
+_MARKS = (SUMMARY, "energies.csv", "particles.pvd", "fields.xdmf", CHECKPOINTS)
 """The files whose presence makes a folder a run's (also of a pfmpm that wrote no ``scene.toml``)."""
+_HEADER = "# The scene of run "
+"""The first line of the ``scene.toml`` a run writes."""
 
 
 class RunFolderError(FileExistsError):
@@ -56,7 +59,18 @@ def scene_digest(tables: dict) -> str:
 
 def run_mark(folder: Path | str) -> str | None:
     """The first file that makes ``folder`` a run's, or ``None``: it holds no run."""
+    if _kept_scene(Path(folder) / SCENE_FILE):
+        return SCENE_FILE
     return next((name for name in _MARKS if (Path(folder) / name).exists()), None)
+
+
+def _kept_scene(path: Path) -> bool:
+    """Whether ``path`` is a ``scene.toml`` that a run wrote."""
+    try:
+        with open(path) as f:
+            return f.readline().startswith(_HEADER)
+    except (FileNotFoundError, IsADirectoryError, UnicodeDecodeError):
+        return False
 
 
 def run_id(folder: Path | str) -> str | None:
@@ -76,13 +90,29 @@ def check_fresh(folder: Path | str, overwrite: bool = False) -> Path:
     NotADirectoryError
         If it or a folder above it is a file.
     RunFolderError
-        If it holds another run and not ``overwrite``.
+        If it holds another run and not ``overwrite``, or a ``scene.toml`` that
+        no run wrote.
     """
-    folder = check_directory(folder)
+    folder = _check_scene_file(check_directory(folder))
     mark = run_mark(folder)
     if mark is not None and not overwrite:
         raise RunFolderError(f"output directory {folder} holds another run (its {mark}): replace it with"
                              " --overwrite, or choose another directory")
+    return folder
+
+
+def _check_scene_file(folder: Path) -> Path:
+    """``folder``, unless its ``scene.toml`` is one no run wrote (a user's scene
+    file, which the run's would replace).
+
+    Raises
+    ------
+    RunFolderError
+    """
+    path = folder / SCENE_FILE
+    if path.exists() and not _kept_scene(path):
+        raise RunFolderError(f"output directory {folder} has a {SCENE_FILE} that no run wrote, which the"
+                             " run's would replace: choose another directory")
     return folder
 
 
@@ -97,9 +127,9 @@ def check_resume(folder: Path | str, ckpt) -> Path:
     RunFolderError
         If ``folder`` keeps a scene other than the checkpoint's, or the id of
         another run (a checkpoint from before runs had ids belongs to no run
-        that has one).
+        that has one), or has a ``scene.toml`` that no run wrote.
     """
-    folder = check_directory(folder)
+    folder = _check_scene_file(check_directory(folder))
     scene_file = folder / SCENE_FILE
     if ckpt.scene_sha256 is not None and scene_file.is_file():
         digest = scene_digest(read_toml(scene_file))
@@ -133,7 +163,7 @@ def start(folder: Path, scene: Scene, overwrite: bool = False, resume=None) -> s
         ident = resume.run_id
     folder.mkdir(parents=True, exist_ok=True)
     tmp = folder / (SCENE_FILE + ".tmp")
-    tmp.write_text(f"# The scene of run {ident or '(no id)'}, as it ran (its --set values applied).\n"
+    tmp.write_text(f"{_HEADER}{ident or '(no id)'}, as it ran (its --set values applied).\n"
                    + toml_text(scene.to_dict()))
     tmp.replace(folder / SCENE_FILE)
     return ident
@@ -143,6 +173,8 @@ def clear(folder: Path) -> None:
     """Delete the files of :data:`RUN_FILES` in ``folder``: what a run wrote there."""
     for pattern in RUN_FILES:
         for path in folder.glob(pattern):
+            if path.name == SCENE_FILE and not _kept_scene(path):
+                continue
             if path.is_dir() and not path.is_symlink():
                 shutil.rmtree(path)
             else:
