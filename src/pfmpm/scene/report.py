@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from . import seeding, stability
+from .units import UnitSystem
 
 if TYPE_CHECKING:
     from .scene import Scene
@@ -107,7 +108,7 @@ class SetupReport:
     dt: float
     end: float
     warnings: list[str]
-    units: object
+    units: UnitSystem
 
     def lines(self) -> list[str]:
         """The report as lines of text, warnings apart."""
@@ -160,9 +161,10 @@ def setup_report(scene: "Scene") -> SetupReport:
     xs = seeding.positions(scene)
     extents = []
     for body, x in zip(scene.bodies, xs):
-        half = 0.5 * body.spacing(h)
-        extents.append(Extent(body=body.name, material=body.material, particles=len(x), spacing=2 * half,
-                              lo=tuple((x.min(axis=0) - half).tolist()), hi=tuple((x.max(axis=0) + half).tolist()),
+        spacing = body.spacing(h)
+        extents.append(Extent(body=body.name, material=body.material, particles=len(x), spacing=spacing,
+                              lo=tuple((x.min(axis=0) - 0.5 * spacing).tolist()),
+                              hi=tuple((x.max(axis=0) + 0.5 * spacing).tolist()),
                               shape=tuple(body.shape.bounds())))
     gaps, warnings = [], []
     for a, first in enumerate(scene.bodies):
