@@ -6,6 +6,7 @@ import dataclasses
 import json
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -15,6 +16,7 @@ from pfmpm.scene import (Body, Contact, Disk, FractureSpec, GridSpec, LinearElas
 from pfmpm.scene.report import setup_report
 from pfmpm.scene.toml import toml_text
 
+ROOT = Path(__file__).resolve().parents[1]
 STIFF = LinearElasticSpec(name="stiff", E=400.0, nu=0.3, density=1.0)
 SOFT = LinearElasticSpec(name="soft", E=100.0, nu=0.3, density=1.0)
 
@@ -80,6 +82,22 @@ def test_the_gap_and_meeting_time_of_two_disks():
     away = dataclasses.replace(two_disks(), bodies=tuple(dataclasses.replace(b, velocity=(-b.velocity[0], 0.0))
                                                          for b in two_disks().bodies))
     assert setup_report(away).gaps[0].meet is None
+
+
+def test_bodies_whose_outlines_are_apart_may_touch_once_seeded():
+    """The disk-beam demo's disk starts 0.125 mm above the beam: one spacing at
+    h = 0.25, so it meets the beam after 0.125 / 0.02 = 6.25 us; at h = 1 its
+    lowest particles' squares reach down to the beam's top, and it touches from the start."""
+    path = ROOT / "demos" / "disk_beam.toml"
+    fine = setup_report(Scene.from_toml(path))
+    assert [(g.bodies, g.gap, g.meet) for g in fine.gaps] == [(("beam", "disk"), pytest.approx(0.125, abs=1e-12),
+                                                              pytest.approx(6.25, rel=1e-12))]
+    assert fine.touching == []
+    coarse = setup_report(Scene.from_toml(path, ["grid.h=1.0", "materials.beam.fracture.l0=2.0",
+                                                 "materials.disk.fracture.l0=2.0"]))
+    assert coarse.gaps == [] and coarse.touching == [("beam", "disk")]
+    assert coarse.extents[1].lo[1] == 10.0 and coarse.extents[1].shape[1] == 10.125
+    assert "bodies beam and disk: touching at t = 0" in coarse.lines()
 
 
 def test_the_bodies_and_material_that_set_the_time_step_are_named():

@@ -2,7 +2,8 @@
 
 Each body's extent as its particles fill it (an outline snaps to the particle
 lattice), the gap between every two bodies that start apart and when they
-meet at their initial speeds, what sets the time step, and warnings where
+meet at their initial speeds (or that they touch from the start), what sets
+the time step, and warnings where
 the run will not do what the scene seems to ask (snapshots after its end,
 bodies that meet only after it).
 """
@@ -91,6 +92,10 @@ class SetupReport:
         One per body, in order.
     gaps : list of Gap
         Every two bodies whose material starts apart, in body order.
+    touching : list of (str, str)
+        Every two bodies whose material touches or overlaps at t = 0 (a
+        shape's outline may lie apart from another's and its particles'
+        squares still touch), in body order.
     step : pfmpm.scene.stability.StepLimit
         The stability limit and the bodies that set it.
     dt : float
@@ -104,6 +109,7 @@ class SetupReport:
 
     extents: list[Extent]
     gaps: list[Gap]
+    touching: list[tuple[str, str]]
     step: stability.StepLimit
     dt: float
     end: float
@@ -128,6 +134,7 @@ class SetupReport:
             else:
                 lines.append(f"bodies {a} and {b}: {g.gap:.6g}{length} apart, approaching at"
                              f" {g.closing_speed:.6g}{speed}: they meet at t = {g.meet:.6g}{time}")
+        lines += [f"bodies {a} and {b}: touching at t = 0" for a, b in self.touching]
         s = self.step
         limit = (f"dt = {s.limit:.6g}{time} = cfl {s.cfl:g} x kappa {s.kappa:g} x h {s.h:g}{length} /"
                  f" (P-wave speed {s.wave_speed:.6g}{speed} of body {s.wave_body}"
@@ -145,7 +152,7 @@ class SetupReport:
     def to_dict(self) -> dict:
         """The report as plain values (for ``summary.json``)."""
         return {"extents": [asdict(e) for e in self.extents], "gaps": [asdict(g) for g in self.gaps],
-                "step": asdict(self.step), "dt": self.dt, "end": self.end, "warnings": list(self.warnings)}
+                "touching": [list(pair) for pair in self.touching], "step": asdict(self.step), "dt": self.dt, "end": self.end, "warnings": list(self.warnings)}
 
     def _material(self, body: str) -> str:
         return next(e.material for e in self.extents if e.body == body)
@@ -166,13 +173,14 @@ def setup_report(scene: "Scene") -> SetupReport:
                               lo=tuple((x.min(axis=0) - 0.5 * spacing).tolist()),
                               hi=tuple((x.max(axis=0) + 0.5 * spacing).tolist()),
                               shape=tuple(body.shape.bounds())))
-    gaps, warnings = [], []
+    gaps, touching, warnings = [], [], []
     for a, first in enumerate(scene.bodies):
         tree = cKDTree(xs[a]) if a < len(scene.bodies) - 1 else None
         for b in range(a + 1, len(scene.bodies)):
             second = scene.bodies[b]
             gap, ia, ib, across = _narrowest(tree, xs[b], 0.5 * (first.spacing(h) + second.spacing(h)))
             if gap <= _TOL * h:  # touching (to round-off) or overlapping
+                touching.append((first.name, second.name))
                 continue
             pa, pb = xs[a][ia], xs[b][ib]
             closing = -float(np.dot(_velocity(second, pb) - _velocity(first, pa), across)) / gap
@@ -183,7 +191,7 @@ def setup_report(scene: "Scene") -> SetupReport:
                                 f" at t = {meet:.6g}{time} at their initial speeds, after the run ends"
                                 f" (t = {end:.6g}{time})")
     warnings += snapshot_warnings(scene)
-    return SetupReport(extents=extents, gaps=gaps, step=stability.step_limit(scene), dt=scene.dt(), end=end,
+    return SetupReport(extents=extents, gaps=gaps, touching=touching, step=stability.step_limit(scene), dt=scene.dt(), end=end,
                        warnings=warnings, units=scene.unit_system())
 
 
