@@ -152,7 +152,8 @@ class SetupReport:
     def to_dict(self) -> dict:
         """The report as plain values (for ``summary.json``)."""
         return {"extents": [asdict(e) for e in self.extents], "gaps": [asdict(g) for g in self.gaps],
-                "touching": [list(pair) for pair in self.touching], "step": asdict(self.step), "dt": self.dt, "end": self.end, "warnings": list(self.warnings)}
+                "touching": [list(pair) for pair in self.touching], "step": asdict(self.step),
+                "dt": self.dt, "end": self.end, "warnings": list(self.warnings)}
 
     def _material(self, body: str) -> str:
         return next(e.material for e in self.extents if e.body == body)
@@ -191,8 +192,8 @@ def setup_report(scene: "Scene") -> SetupReport:
                                 f" at t = {meet:.6g}{time} at their initial speeds, after the run ends"
                                 f" (t = {end:.6g}{time})")
     warnings += snapshot_warnings(scene)
-    return SetupReport(extents=extents, gaps=gaps, touching=touching, step=stability.step_limit(scene), dt=scene.dt(), end=end,
-                       warnings=warnings, units=scene.unit_system())
+    return SetupReport(extents=extents, gaps=gaps, touching=touching, step=stability.step_limit(scene),
+                       dt=scene.dt(), end=end, warnings=warnings, units=scene.unit_system())
 
 
 def _narrowest(tree, xb: np.ndarray, reach: float) -> tuple[float, int, int, np.ndarray]:
