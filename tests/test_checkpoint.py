@@ -459,4 +459,11 @@ def test_light_nodes_are_counted(tmp_path):
     sim.particles.x[0] = (27.0 - 1e-8, 0.5)
     result = sim.run(tmp_path, progress=False)
     assert result.status == "completed" and result.light_nodes >= 1
-    assert json.loads((tmp_path / "summary.json").read_text())["light_nodes"] == result.light_nodes
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["light_nodes"] == result.light_nodes
+    # Whether it matters: each held at most 1e-12 of the heaviest particle's mass, so at
+    # most that times the top speed of momentum, against the bar's total mass times it.
+    mass = sim.particles.mass
+    assert sim.solver.mass_tol == 1e-12 * mass.max()
+    bound = result.light_nodes * 1e-12 * mass.max() / mass.sum()
+    assert summary["light_momentum"] == result.light_momentum == pytest.approx(bound, rel=1e-12)

@@ -1,7 +1,8 @@
-"""The pfmpm command: run output, overrides, errors, Ctrl-C and bench."""
+"""The pfmpm command: run output, output folders, overrides, errors, Ctrl-C, post and bench."""
 
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -13,6 +14,7 @@ import meshio
 import numpy as np
 import pytest
 
+from pfmpm import checkpoint
 from pfmpm.output import read_csv
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -156,8 +158,12 @@ def test_fem_beside_run(tmp_path):
     sets = ["--set", "grid.h=1.0", "--set", "materials.concrete.fracture.l0=2.0", "--set", "time.end=1"]
     r = pfmpm("fem", borden, "--out", tmp_path / "a", "--quiet", *sets)
     assert r.returncode == 0, r.stderr
+    assert "\nwarning: output.snapshots = 50, 65, 80: after the run ends (t = 1.02" in r.stdout
     summary = json.loads((tmp_path / "a" / "summary.json").read_text())
     assert summary["method"] == "fem" and summary["status"] == "completed" and summary["units"] == "mm-us-MPa"
+    # Its folder is a run's, as pfmpm run's is.
+    r = pfmpm("fem", borden, "--out", tmp_path / "a", "--quiet", *sets)
+    assert r.returncode == 2 and r.stderr.startswith(f"error: output directory {tmp_path / 'a'} holds another run")
     # With an empty JIT cache, every form and element is compiled: quietly.
     env = dict(os.environ, XDG_CACHE_HOME=str(tmp_path / "cache"))
     r = subprocess.run([sys.executable, "-m", "pfmpm.fem", borden, "--out", tmp_path / "b", "--quiet", *sets],
@@ -229,3 +235,100 @@ def test_bench_damage_gradient_bands():
     assert three["contact_nodes"] > 2 * one["contact_nodes"] > 0
     r = pfmpm("bench", "--physics", "damage_gradient", "--particles", "2000", "--bands", "0")
     assert r.returncode == 2 and r.stderr.strip() == "error: bands = 0: must be >= 1"
+
+
+def test_a_used_output_folder_is_refused_overwritten_or_resumed_by_its_own_run(tmp_path):
+    """Issue 53: a second run into a used folder stops with a one-line error and
+    leaves it as it was; with --overwrite nothing of the first run remains (and
+    nothing else is deleted); --resume of a folder whose newest checkpoint
+    belongs to another scene, or to another run of the same scene, stops with
+    a one-line error."""
+    out = tmp_path / "A"
+    first = ["run", BAR, "--out", out, "--quiet", "--set", "time.end=5", "--checkpoint-every", "20"]
+    assert pfmpm(*first).returncode == 0
+    before = {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    assert {"scene.toml", "summary.json", "particles_000100.vtu"} <= {str(p) for p in before}
+    (out / "notes.txt").write_text("mine")
+
+    r = pfmpm("run", BAR, "--out", out, "--quiet", "--set", "time.end=2")
+    assert r.returncode == 2 and r.stderr == (f"error: output directory {out} holds another run (its"
+                                              " scene.toml): replace it with --overwrite, or choose another"
+                                              " directory\n")
+    assert {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()} == {
+        **before, Path("notes.txt"): b"mine"}
+
+    r = pfmpm("run", BAR, "--out", out, "--quiet", "--set", "time.end=2", "--set", "output.every=1000",
+              "--overwrite")
+    assert r.returncode == 0, r.stderr
+    steps = json.loads((out / "summary.json").read_text())["steps"]
+    assert sorted(p.name for p in out.iterdir()) == sorted([
+        "energies.csv", "energies.png", "notes.txt", "particles.pvd", "particles_000000.vtu",
+        f"particles_{steps:06d}.vtu", "scene.toml", "summary.json"])
+    assert "end = 2.0" in (out / "scene.toml").read_text()
+    assert read_csv(out / "energies.csv")["step"][-1] == steps < 100
+    # The kept scene runs again, in its own folder; a scene file of the user's is never replaced.
+    r = pfmpm("run", out / "scene.toml", "--out", out, "--quiet", "--overwrite")
+    assert r.returncode == 0 and json.loads((out / "summary.json").read_text())["steps"] == steps, r.stderr
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    shutil.copy(BAR, mine / "scene.toml")
+    r = pfmpm("run", mine / "scene.toml", "--out", mine, "--quiet", "--overwrite")
+    assert r.returncode == 2 and r.stderr == (f"error: output directory {mine} has a scene.toml that no run"
+                                              " wrote, which the run's would replace: choose another directory\n")
+    assert (mine / "scene.toml").read_bytes() == BAR.read_bytes() and len(list(mine.iterdir())) == 1
+
+    def resume_with(other: Path) -> str:
+        """--resume of a fresh run of BAR whose newest checkpoint is the one of ``other``."""
+        mine = tmp_path / f"resume_{other.name}"
+        assert pfmpm(*first[:3], mine, *first[4:]).returncode == 0
+        theirs = checkpoint.list_checkpoints(other / "checkpoints")[-1]
+        shutil.copy(theirs, mine / "checkpoints" / "step_000000900.h5")
+        r = pfmpm("run", "--resume", mine, "--quiet")
+        assert r.returncode == 2 and len(r.stderr.splitlines()) == 1 and "Traceback" not in r.stderr
+        assert r.stderr.startswith(f"error: checkpoint {mine / 'checkpoints' / 'step_000000900.h5'} ")
+        return r.stderr
+
+    stiffer = tmp_path / "stiffer"
+    assert pfmpm(*first[:3], stiffer, *first[4:], "--set", "materials.soft.E=120").returncode == 0
+    err = resume_with(stiffer)
+    assert "is of another scene (sha256 " in err and f"than {tmp_path / 'resume_stiffer' / 'scene.toml'}" in err
+    again = tmp_path / "again"
+    assert pfmpm(*first[:3], again, *first[4:]).returncode == 0
+    other_id = json.loads((again / "summary.json").read_text())["run_id"]
+    err = resume_with(again)
+    assert f"belongs to run {other_id}, not to the run " in err
+
+
+def test_post_reads_the_scene_the_run_kept(tmp_path):
+    """The run folder keeps its scene with the --set values applied
+    (scene.toml), and pfmpm post measures with it: here the Rayleigh speed of
+    a concrete made 40 % stiffer by --set. A folder without scene.toml (of an
+    older pfmpm) takes the scene file and its --set values instead."""
+    from pfmpm.post import tip_report
+    from pfmpm.scene import Scene
+
+    borden = ROOT / "demos" / "borden_plate.toml"
+    sets = ["grid.h=1.0", "materials.concrete.fracture.l0=2.0", "bodies.plate.particles_per_cell=1",
+            "time.end=20", "output.every=1000", "output.snapshots=[]", "materials.concrete.E=44800"]
+    out = tmp_path / "borden"
+    r = pfmpm("run", borden, "--out", out, "--quiet", *[a for s in sets for a in ("--set", s)])
+    assert r.returncode == 0, r.stderr
+    assert Scene.from_toml(out / "scene.toml") == Scene.from_toml(borden, sets)
+    r = pfmpm("post", "crack-tip", out, "--json")
+    assert r.returncode == 0, r.stderr
+    report = json.loads(r.stdout)
+    expected = tip_report(Scene.from_toml(borden, sets), out / "energies.csv")
+    assert report["max_speed_over_rayleigh"] == expected["max_speed_over_rayleigh"] > 0
+    unset = tip_report(Scene.from_toml(borden), out / "energies.csv")
+    assert report["max_speed_over_rayleigh"] == pytest.approx(unset["max_speed_over_rayleigh"] / 1.4 ** 0.5,
+                                                              rel=1e-12)
+
+    r = pfmpm("post", "crack-tip", out, "--scene", borden)
+    assert r.returncode == 2 and r.stderr == (f"error: --scene {borden}: {out} keeps the run's own scene,"
+                                              f" {out / 'scene.toml'}\n")
+    (out / "scene.toml").unlink()
+    r = pfmpm("post", "crack-tip", out)
+    assert r.returncode == 2 and len(r.stderr.splitlines()) == 1
+    assert r.stderr.startswith(f"error: {out / 'scene.toml'}: no such file")
+    r = pfmpm("post", "crack-tip", out, "--scene", borden, "--json", *[a for s in sets for a in ("--set", s)])
+    assert r.returncode == 0 and json.loads(r.stdout) == report

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from pfmpm import scenes
-from pfmpm.compare import (BORDEN_SCENE, COLUMNS, agreement, branch_time, compare_borden,
+from pfmpm.compare import (BORDEN_SCENE, COLUMNS, OUTPUTS, agreement, branch_time, compare_borden,
                            comparison_overrides, initiation_time, reference)
 from pfmpm.output import read_csv
 from pfmpm.scene import Crack, Scene
@@ -223,6 +223,29 @@ def test_compare_runs_either_model(tmp_path):
                 for m in ("mpm", "fem"))
     assert mpm["bounded"] and mpm["passes"] >= mpm["solves"] > 1
     assert fem["solver"] == "vinewtonrsls: cg + jacobi" and fem["passes"] >= 1
+
+
+def test_a_new_comparison_refuses_a_used_directory_unless_told_to_overwrite_it(tmp_path):
+    """Issue 53: like pfmpm run, a new comparison stops with one line in a directory
+    that holds one; --overwrite deletes that comparison and its runs (those of
+    an h the new one does not run too), and nothing else."""
+    out = tmp_path / "cmp"
+    args = ["compare", "borden", "--l0", "2.0", "--end", "0.5", "--out", out, "--scene", DEMO, "--frames", "0",
+            "--set", "bodies.plate.particles_per_cell=1", "--quiet"]
+    assert pfmpm(*args, "--h", "0.5", timeout=300).returncode == 0
+    (out / "notes.txt").write_text("mine")
+    r = pfmpm(*args, "--h", "1.0", timeout=300)
+    assert r.returncode == 2 and r.stderr == (f"error: output directory {out} holds another comparison or run"
+                                              " (its study.json): replace it with --overwrite, continue it with"
+                                              " --resume, or choose another directory\n")
+    r = pfmpm(*args, "--h", "1.0", "--overwrite", timeout=300)
+    assert r.returncode == 0, r.stderr
+    kept = ["notes.txt", "study.json", "mpm_h1", "fem_h1", *OUTPUTS]
+    assert sorted(p.name for p in out.iterdir()) == sorted(kept)
+    assert json.loads((out / "study.json").read_text())["settings"]["h"] == [1.0]
+    r = pfmpm("compare", "borden", "--resume", "--overwrite", "--out", out)
+    assert r.returncode == 2
+    assert r.stderr == "error: --overwrite: cannot change the study of a resumed comparison\n"
 
 
 def test_l0_below_h_is_refused_before_any_run(tmp_path):

@@ -100,3 +100,18 @@ def test_the_names_before_the_spec_classes_still_import():
     assert pfmpm.scene.Grid is GridSpec and pfmpm.scene.Wall is WallSpec
     assert pfmpm.scene.Fracture is FractureSpec and pfmpm.scene.PhaseField is PhaseFieldSpec
     assert pfmpm.scene.Material is LinearElasticSpec
+
+
+def test_the_readme_docs_and_notebooks_name_the_spec_classes():
+    """Issue 53: one set of names where users read them (the old ones only for old scripts)."""
+    import re
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    old = r"(Grid|Wall|Fracture|PhaseField|Material)"
+    for path in [root / "README.md", *(root / "docs").glob("*.md"), *(root / "docs" / "notebooks").glob("*.ipynb")]:
+        text = path.read_text()
+        imports = " ".join(re.findall(r"from pfmpm\.scene import \([^)]*\)|from pfmpm\.scene import .*", text))
+        assert not re.search(rf"\b{old}\b", imports), path.name
+        assert not re.search(rf"(?<![\w.]){old}\(", text), path.name
+    assert "GridSpec(" in (root / "README.md").read_text()

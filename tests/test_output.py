@@ -1,5 +1,5 @@
-"""The particle files of pfmpm.output, read back by meshio, and the seeding
-that writes positions in place."""
+"""The particle files of pfmpm.output, read back by meshio, the names in them,
+the particle columns as attributes, and the seeding that writes positions in place."""
 
 import meshio
 import numpy as np
@@ -85,3 +85,43 @@ def test_a_snapshot_holds_no_array_of_all_particles(tmp_path, monkeypatch):
     written = meshio.read(tmp_path / "particles_000000.vtu")
     assert np.array_equal(written.point_data["displacement"], np.zeros((n, 3)))
     assert np.array_equal(written.point_data["id"].ravel(), np.arange(n))
+
+
+def test_particle_columns_are_attributes_under_the_names_the_docs_use():
+    """``dir(sim.particles)`` lists every column (issue 53), each a view of N
+    rows; the README and the notebooks name only columns."""
+    import re
+    from pathlib import Path
+
+    from pfmpm.simulation import Simulation
+
+    root = Path(__file__).resolve().parents[1]
+    sim = Simulation(Scene.from_toml(root / "demos" / "borden_plate.toml",
+                                     ["grid.h=2.0", "materials.concrete.fracture.l0=4.0"]))
+    p = sim.particles
+    columns = {c["name"]: c["components"] for c in p.columns()}
+    assert {"x", "v", "stress", "c", "history", "body", "material"} <= set(columns) <= set(dir(p))
+    for name, components in columns.items():
+        assert getattr(p, name).shape == ((len(p),) if components == 1 else (len(p), components)), name
+    p.v[3] = (1.5, -2.0)  # a view: the core's own memory
+    assert p.v[3].tolist() == [1.5, -2.0]
+    docs = [root / "README.md", *sorted((root / "docs" / "notebooks").glob("*.ipynb"))]
+    text = "".join(path.read_text() for path in docs)
+    used = set(re.findall(r"particles\.([A-Za-z_]\w*)", text)) - {"pvd", "columns"}
+    assert {"x", "c"} <= used <= set(columns)
+
+
+def test_the_vtu_files_name_the_bodies_and_materials(tmp_path):
+    """Each snapshot's field data says which body and material each integer is."""
+    from pfmpm.simulation import Simulation
+
+    scene = Scene.from_toml("demos/disk_beam.toml", ["grid.h=1.0", "materials.beam.fracture.l0=2.0",
+                                                     "materials.disk.fracture.l0=2.0"])
+    sim = Simulation(scene)
+    frames = sim.open_frames(tmp_path)
+    frames.write()
+    mesh = meshio.read(tmp_path / "particles_000000.vtu")
+    assert {k: v.tolist() for k, v in mesh.field_data.items()} == {
+        "body beam": [0], "body disk": [1], "material beam": [0], "material disk": [1]}
+    body = mesh.point_data["body"].ravel()
+    assert np.array_equal(body, sim.particles.body) and set(body) == {0, 1}

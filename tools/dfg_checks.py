@@ -28,10 +28,10 @@ import math
 import numpy as np
 
 from pfmpm import _core
-from pfmpm.scene import Body, Contact, Disk, Grid, Material, Rectangle, Scene, Time
+from pfmpm.scene import Body, Contact, Disk, GridSpec, LinearElasticSpec, Rectangle, Scene, Time
 from pfmpm.simulation import Simulation
 
-MATERIAL = Material("m", 100.0, 0.3, 1.0)
+MATERIAL = LinearElasticSpec("m", 100.0, 0.3, 1.0)
 SHAPES = {"bspline": {"degree": 2}, "cpdi": {"degree": 1, "shape": "cpdi"}}
 """The grid keys of each shape: quadratic B-splines, or CPDI1 on the degree-1 grid."""
 
@@ -80,7 +80,7 @@ def curved_band() -> dict:
     D-bar_min = 0.1 every node within a cell of this one-cell band is one
     (with the default 0.25, 50 of the 56 are)."""
     h, radius, centre = 0.25, 2.5, np.array([4.0, 2.0])
-    scene = Scene(grid=Grid(size=(8.0, 6.0), h=h, degree=2), time=Time(end=1.0), materials=(MATERIAL,),
+    scene = Scene(grid=GridSpec(size=(8.0, 6.0), h=h, degree=2), time=Time(end=1.0), materials=(MATERIAL,),
                   bodies=(Body("block", "m", Rectangle((0.5, 0.5), (7.5, 5.5)), particles_per_cell=3),),
                   contact=Contact(partition="damage_gradient", separability=0.1))
     sim = Simulation(scene)
@@ -104,7 +104,7 @@ def curved_band() -> dict:
 def rectangle_flags() -> dict:
     """U4: the kernel-sum surface flags (S < 0.99 S_bulk) of the rectangle
     [1, 5] x [1, 4], 2 per cell, h = 0.25."""
-    scene = Scene(grid=Grid(size=(6.0, 5.0), h=0.25, degree=2), time=Time(end=1.0), materials=(MATERIAL,),
+    scene = Scene(grid=GridSpec(size=(6.0, 5.0), h=0.25, degree=2), time=Time(end=1.0), materials=(MATERIAL,),
                   bodies=(Body("r", "m", Rectangle((1.0, 1.0), (5.0, 4.0)), particles_per_cell=2),),
                   contact=Contact(partition="damage_gradient"))
     sim = Simulation(scene)
@@ -126,7 +126,7 @@ def bar_scene(partition: str | None, band: bool = True, h: float = 0.25,
     """A 10 x 2 bar whose halves move apart at 0.05; with ``band``, a band one cell
     wide across its middle of a material 1e8 times softer (failed), flagged as fully
     damaged under the damage gradient."""
-    materials = (MATERIAL, Material("failed", 1e-8 * MATERIAL.E, 0.3, 1.0))
+    materials = (MATERIAL, LinearElasticSpec("failed", 1e-8 * MATERIAL.E, 0.3, 1.0))
     half = h / 2 if band else 0.0
     bodies = [Body("left", "m", Rectangle((1.0, 1.0), (6.0 - half, 3.0)), velocity=(-0.05, 0.0)),
               Body("right", "m", Rectangle((6.0 + half, 1.0), (11.0, 3.0)), velocity=(0.05, 0.0))]
@@ -137,7 +137,7 @@ def bar_scene(partition: str | None, band: bool = True, h: float = 0.25,
         flags = (Rectangle((6.0 - half, 0.0), (6.0 + half, 4.0)),) if band else ()
         contact = Contact(partition="damage_gradient", groups=(tuple(b.name for b in bodies),),
                           surfaces=flags)
-    return Scene(grid=Grid(size=(12.0, 4.0), h=h, **SHAPES[shape]), time=Time(end=4.0, cfl=0.5),
+    return Scene(grid=GridSpec(size=(12.0, 4.0), h=h, **SHAPES[shape]), time=Time(end=4.0, cfl=0.5),
                  materials=materials, bodies=tuple(bodies), plane="strain", contact=contact)
 
 
@@ -172,7 +172,7 @@ def momentum(shape: str = "bspline") -> dict:
             "two_groups": Contact(partition="damage_gradient", friction=0.3)}
     out = {}
     for name, contact in runs.items():
-        scene = Scene(grid=Grid(size=(8.0, 6.0), h=0.25, **SHAPES[shape]), time=Time(end=3.0, cfl=0.5),
+        scene = Scene(grid=GridSpec(size=(8.0, 6.0), h=0.25, **SHAPES[shape]), time=Time(end=3.0, cfl=0.5),
                       materials=(MATERIAL,), bodies=bodies, plane="strain", contact=contact)
         sim = Simulation(scene)
         p = sim.particles

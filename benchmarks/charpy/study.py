@@ -213,7 +213,8 @@ def main(argv: list[str] | None = None) -> dict:
         parser.error(f"unknown case {unknown[0]!r}: one of {', '.join(every)}")
     for name in chosen:
         scene = Scene.from_toml(scenes.path("charpy"), every[name] + args.set)
-        result = Simulation(scene).run(out / name, progress=False)
+        # A case asked for is run again: its folder is the study's own.
+        result = Simulation(scene).run(out / name, progress=False, overwrite=True)
         if result.status != "completed":
             raise SystemExit(f"{name}: {result.status}: {result.error}")
         print(f"{name}: {result.steps} steps in {result.wall_s:.0f} s", flush=True)

@@ -50,6 +50,16 @@ void bind_particles(py::module_& m)
       .def("__getattr__", [](py::object self, const std::string& name)
            { return view(entry(self.cast<Particles&>(), name), self); })
       .def(
+          "__dir__",
+          [](py::object self)
+          {
+            py::list names = py::module_::import("builtins").attr("object").attr("__dir__")(self);
+            for (const Particles::Entry& e : self.cast<Particles&>().columns())
+              names.append(e.spec->name);
+            return names;
+          },
+          "the methods and every column, so that dir() and completion list the columns")
+      .def(
           "columns",
           [](Particles& P)
           {

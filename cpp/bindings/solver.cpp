@@ -218,6 +218,9 @@ void bind_solver(py::module_& m)
            "particle's state): the speed the stability check holds dt to")
       .def_property_readonly("light_nodes", &Solver::light_nodes,
                              "slot-steps so far too light to divide by (given zero velocity)")
+      .def_property_readonly("mass_tol", &Solver::mass_tol,
+                             "the mass at or below which a node slot is too light to divide by "
+                             "(1e-12 of the heaviest particle's)")
       .def(
           "state",
           [](const Solver& s)

@@ -22,7 +22,9 @@ as an uninterrupted one:
   so far with the times still due.
 
 The root attributes are ``format``, ``version``, ``sha256`` and ``meta``, a
-JSON object with the scene, the step and time, the rest of the solver state
+JSON object with the scene, the run's id and the scene's SHA-256
+(:mod:`pfmpm.run_folder`; files written before they were kept have
+neither), the step and time, the rest of the solver state
 (external and wall work, light-node count, CG statistics; with contact, each body's CG
 statistics and the contact record: contact nodes, node-pairs, violations of
 C.1-C.4 and the friction work so far), the particle snapshots
@@ -101,6 +103,12 @@ class Checkpoint:
         Phase-field image times still due.
     snapshot_images : list of (float, ndarray)
         Phase-field images taken so far.
+    run_id : str or None
+        The id of the run that wrote it (:mod:`pfmpm.run_folder`); ``None``
+        in files from before runs had ids.
+    scene_sha256 : str or None
+        :func:`pfmpm.run_folder.scene_digest` of its scene as the run wrote
+        it; ``None`` in files from before it was kept.
     """
 
     path: Path
@@ -119,6 +127,8 @@ class Checkpoint:
     snapshot_times: np.ndarray = field(default_factory=lambda: np.zeros(0))
     snapshot_images: list = field(default_factory=list)
     crack_time: np.ndarray | None = None
+    run_id: str | None = None
+    scene_sha256: str | None = None
 
 
 def file_name(step: int, failed: bool = False) -> str:
@@ -174,8 +184,9 @@ def write(directory: Path | str, sim, run, *, every: int, keep: int, status: str
         The checkpoint directory (created if missing).
     sim : Simulation
     run : object
-        The run's output state, with ``energies_csv()``, ``series_entries()``
-        and ``snapshot_state()`` (see :meth:`pfmpm.simulation.Simulation.run`).
+        The run's output state, with ``energies_csv()``, ``series_entries()``,
+        ``snapshot_state()``, ``run_id`` and ``scene_sha256`` (see
+        :meth:`pfmpm.simulation.Simulation.run`).
     every, keep : int
         The cadence and how many ``"ok"`` checkpoints to keep; older ones are
         deleted after this one is in place (``keep`` is ignored for a failed state).
@@ -192,9 +203,10 @@ def write(directory: Path | str, sim, run, *, every: int, keep: int, status: str
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
     attrs, arrays = _state_of(sim, run)
-    attrs.update(format=FORMAT, version=VERSION, scene=sim.scene.to_dict(), step=int(sim.step),
-                 time=float(sim.time), dt=float(sim.dt), status=status, error=error,
-                 checkpoint_every=int(every), keep=int(keep))
+    attrs.update(format=FORMAT, version=VERSION, scene=sim.scene.to_dict(), run_id=run.run_id,
+                 scene_sha256=run.scene_sha256, step=int(sim.step), time=float(sim.time),
+                 dt=float(sim.dt), status=status, error=error, checkpoint_every=int(every),
+                 keep=int(keep))
     digest = _digest(attrs, arrays)
     path = directory / file_name(sim.step, failed=status != "ok")
     tmp = directory / f".{path.name}.tmp"
@@ -294,7 +306,8 @@ def read(path: Path | str) -> Checkpoint:
         energies_csv=arrays["output/energies_csv"].tobytes(),
         series=[(t, name) for t, name in meta["series"]], crack_tip=arrays["output/crack_tip"],
         crack_time=arrays.get("output/crack_time"),
-        snapshot_times=arrays["output/snapshot_times"], snapshot_images=images)
+        snapshot_times=arrays["output/snapshot_times"], snapshot_images=images,
+        run_id=meta.get("run_id"), scene_sha256=meta.get("scene_sha256"))
 
 
 def _from_version_3(meta: dict, arrays: dict[str, np.ndarray]) -> tuple[dict, dict]:

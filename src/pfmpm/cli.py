@@ -12,7 +12,7 @@ from . import __version__
 from .bench import MODELS, PHYSICS
 from .compare import (BORDEN_SCENE, DEFAULT_END, DEFAULT_FRAMES, DEFAULT_H, DEFAULT_L0, compare_borden,
                       read_study)
-from .output import check_directory
+from .run_folder import SCENE_FILE, check_fresh, check_resume, read_scene
 from .scene import SceneError
 from .scene.components import SHAPES
 
@@ -29,6 +29,9 @@ def _run(args: argparse.Namespace) -> int:
     if args.resume is not None and args.set:
         print("error: --set: cannot change the scene of a resumed run", file=sys.stderr)
         return 2
+    if args.resume is not None and args.overwrite:
+        print("error: --overwrite: a resumed run continues its own output", file=sys.stderr)
+        return 2
     resume = None
     if args.resume is not None:
         try:
@@ -41,15 +44,16 @@ def _run(args: argparse.Namespace) -> int:
         out = Path(args.out) if args.out else resume.path.parent.parent
         every = resume.checkpoint_every if args.checkpoint_every is None else args.checkpoint_every
         keep = resume.keep if args.keep is None else args.keep
+        check_resume(out, resume)
     else:
         scene = Scene.from_toml(args.scene, overrides=args.set)
         out = Path(args.out) if args.out else Path("out") / Path(args.scene).stem
         every = args.checkpoint_every or 0
         keep = 3 if args.keep is None else args.keep
+        check_fresh(out, args.overwrite)
     if keep < 1:
         print(f"error: --keep {keep}: must be >= 1", file=sys.stderr)
         return 2
-    check_directory(out)
     try:
         sim = Simulation(scene)  # solves the phase field of initial cracks
     except SimulationError as err:
@@ -57,16 +61,24 @@ def _run(args: argparse.Namespace) -> int:
         return 1
     where = f" from step {resume.step} ({resume.path})" if resume else ""
     print(f"{scene.name}: {len(sim.particles)} particles, {scene.steps()} steps of dt = {scene.dt():.6g}{where} -> {out}")
+    for line in sim.setup.lines():
+        print(f"  {line}")
+    for warning in sim.setup.warnings:  # with the report: stderr's first line is a failure's
+        print(f"warning: {warning}")
     try:
         result = sim.run(out, progress=not args.quiet, checkpoint_every=every, keep=keep, resume=resume,
-                         draw=False)
+                         draw=False, overwrite=args.overwrite)
     except checkpoint.CheckpointError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
     del sim  # the figures need none of its state: draw them without it
     result.figures.draw()
-    light = (f"note: {result.light_nodes} grid node-steps had a mass too small to divide by"
-             " (below 1e-12 of the heaviest particle) and were given zero velocity")
+    # Each light node held at most Solver.mass_tol of mass, so at most that times the top
+    # speed of momentum: summed, a bound far below round-off unless it ran for very long.
+    matters = "negligible" if result.light_momentum < 1e-9 else "check which particles sit at node edges"
+    light = (f"note: {result.light_nodes} grid node-steps had a mass too small to divide by and were given"
+             f" zero velocity; the momentum they held is at most {result.light_momentum:.2g} of the total"
+             f" mass times the top particle speed: {matters}")
     if result.status == "failed":  # the error first: a failure's first line says what failed
         print(f"error: {result.error}", file=sys.stderr)
         print(f"output so far is in {out}; the state at the failure is in {result.checkpoint}", file=sys.stderr)
@@ -87,7 +99,7 @@ def _fem(args: argparse.Namespace) -> int:
     from .fem import run_command
 
     out = args.out or str(Path("out") / f"{Path(args.scene).stem}_fem")
-    return run_command(args.scene, out, args.set, args.quiet)
+    return run_command(args.scene, out, args.set, args.quiet, args.overwrite)
 
 
 def _animate(args: argparse.Namespace) -> int:
@@ -148,6 +160,8 @@ def _compare(args: argparse.Namespace) -> int:
     if args.resume:
         given = [f"--{k}" for k in ("h", "l0", "end", "scene", "set", "frames", "model")
                  if getattr(args, k) is not None]
+        if args.overwrite:
+            given.append("--overwrite")
         if given:
             print(f"error: {given[0]}: cannot change the study of a resumed comparison", file=sys.stderr)
             return 2
@@ -165,10 +179,9 @@ def _compare(args: argparse.Namespace) -> int:
         scene, sets = args.scene or str(BORDEN_SCENE), args.set or []
         frames = DEFAULT_FRAMES if args.frames is None else args.frames
         model = args.model or "AT2"
-    check_directory(out)
     try:
-        result = compare_borden(out, hs, l0, end, scene_path=scene, overrides=sets,
-                                progress=not args.quiet, frames=frames, resume=args.resume, model=model)
+        result = compare_borden(out, hs, l0, end, scene_path=scene, overrides=sets, progress=not args.quiet,
+                                frames=frames, resume=args.resume, model=model, overwrite=args.overwrite)
     except (ValueError, CheckpointError) as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
@@ -222,10 +235,19 @@ def _post(args: argparse.Namespace) -> int:
     from . import post
     from .scene import Scene
 
-    scene = Scene.from_toml(args.scene, overrides=args.set)
     run_dir = Path(args.run_dir)
+    kept = run_dir / SCENE_FILE
+    if args.scene is None and args.set:
+        print(f"error: --set: only with --scene; {kept} is the run's scene, its --set values applied",
+              file=sys.stderr)
+        return 2
+    if args.scene is not None and kept.is_file():
+        print(f"error: --scene {args.scene}: {run_dir} keeps the run's own scene, {kept}", file=sys.stderr)
+        return 2
+    scene = read_scene(run_dir) if args.scene is None else Scene.from_toml(args.scene, overrides=args.set)
     if args.measure in ("crack-tip", "crack-directions") and not scene.cracks:
-        print(f"error: {args.scene}: {args.measure} needs an initial crack ([[cracks]])", file=sys.stderr)
+        print(f"error: {args.scene or kept}: {args.measure} needs an initial crack ([[cracks]])",
+              file=sys.stderr)
         return 2
     if args.measure == "crack-tip":
         report = post.tip_report(scene, run_dir / "energies.csv")
@@ -284,7 +306,11 @@ def main(argv: list[str] | None = None) -> int:
 
     run = sub.add_parser("run", help="run a scene file")
     run.add_argument("scene", nargs="?", help="scene TOML file (not with --resume)")
-    run.add_argument("--out", help="output directory (default out/<scene name>; with --resume, the run's own)")
+    run.add_argument("--out", help="output directory (default out/<scene name>; with --resume, the run's own);"
+                                   " it keeps the scene as scene.toml")
+    run.add_argument("--overwrite", action="store_true",
+                     help="if the output directory holds another run, delete that run's files first"
+                          " (without it, such a directory is refused)")
     run.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override a scene value, e.g. time.end=10")
     run.add_argument("--quiet", action="store_true", help="no progress bar")
     run.add_argument("--checkpoint-every", type=_count, metavar="N",
@@ -299,7 +325,10 @@ def main(argv: list[str] | None = None) -> int:
     fem = sub.add_parser("fem", help="run a scene file with the phase-field FEM reference (DOLFINx);"
                                      " under mpirun -n N on N ranks")
     fem.add_argument("scene", help="scene TOML file: one rectangular body on grid lines")
-    fem.add_argument("--out", help="output directory (default out/<scene name>_fem)")
+    fem.add_argument("--out", help="output directory (default out/<scene name>_fem); it keeps the scene"
+                                   " as scene.toml")
+    fem.add_argument("--overwrite", action="store_true",
+                     help="if the output directory holds another run, delete that run's files first")
     fem.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                      help="override a scene value, e.g. time.end=10")
     fem.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -358,6 +387,9 @@ def main(argv: list[str] | None = None) -> int:
     compare.add_argument("--resume", action="store_true",
                          help="continue the comparison in --out with its own settings: keep the"
                               " completed runs, resume an interrupted MPM run from its checkpoint")
+    compare.add_argument("--overwrite", action="store_true",
+                         help="if --out holds another comparison or run, delete its files first"
+                              " (without it, such a directory is refused)")
     compare.add_argument("--quiet", action="store_true", help="no progress bars")
     compare.set_defaults(func=_compare)
 
@@ -380,10 +412,11 @@ def main(argv: list[str] | None = None) -> int:
                               " crack-directions: where the new crack left each notch tip, against the"
                               " weak directions of G_c(theta); fragments: fragments per body and the"
                               " closest approach of two bodies at every particle snapshot")
-    measure.add_argument("scene", help="the run's scene file")
-    measure.add_argument("run_dir", help="the run's output directory")
+    measure.add_argument("run_dir", help="the run's output directory, whose scene.toml is the scene it ran")
+    measure.add_argument("--scene", help="the scene file, for a run directory without scene.toml"
+                                         " (written by a pfmpm before it kept one)")
     measure.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                         help="the --set overrides the run was given")
+                         help="with --scene: the --set overrides the run was given")
     measure.add_argument("--history", action="store_true",
                          help="crack-directions: also the direction near each tip at every snapshot")
     measure.add_argument("--json", action="store_true", help="print one JSON object")

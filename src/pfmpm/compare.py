@@ -29,6 +29,10 @@ with both methods at a list of grid spacings ``h`` and one length scale
     The study's settings and each run's wall time, which ``pfmpm compare
     --resume`` continues from.
 
+A new comparison refuses a directory that holds another comparison or run,
+unless told to overwrite it (``--overwrite``): then that comparison's files
+and its runs' are deleted first (:func:`clear`).
+
 Each run keeps its own output in ``mpm_h<h>/`` and ``fem_h<h>/``, with
 ``frames`` particle (MPM, VTU) or field (FEM, XDMF) frames evenly spaced in
 time.  The MPM runs use the OpenMP threads the core is given
@@ -68,14 +72,14 @@ from pathlib import Path
 
 import numpy as np
 
-from . import _core, checkpoint, scenes
-from .output import read_csv
+from . import _core, checkpoint, run_folder, scenes
+from .output import check_directory, read_csv
 from .post.tip import branch_time, initiation_time, read_columns
 from .scene import Crack, Scene
 from .scene.toml import read_toml
 
-__all__ = ["COLUMNS", "Comparison", "agreement", "branch_time", "comparison_overrides",
-           "compare_borden", "initiation_time", "reference", "read_study"]
+__all__ = ["COLUMNS", "OUTPUTS", "Comparison", "agreement", "branch_time", "comparison_overrides",
+           "compare_borden", "check_fresh", "clear", "initiation_time", "reference", "read_study"]
 
 BORDEN_SCENE = scenes.path("borden_plate")
 """The Borden plate scene shipped with the package."""
@@ -95,6 +99,10 @@ OBSERVED_ORDERS = (0.5, 4.0)
 """An order the three finest FEM runs show is used when it lies in this range."""
 STUDY = "study.json"
 """The file in a comparison's output directory with its settings and wall times."""
+OUTPUTS = ("speed_vs_error.csv", "energies_overlay.png", "crack_tip_speed_overlay.png",
+           "phase_field_side_by_side.png", "crack_path_side_by_side.png", "speed_vs_error.png",
+           "comparison.md", "agreement.json")
+"""The files a comparison writes into its output directory besides :data:`STUDY` and its runs."""
 
 COLUMNS = ["method", "h", "particles", "dofs", "steps", "wall_s", "initiation_us", "branch_us",
            "fracture_energy_end", "elastic_energy_peak", "crack_tip_x_end", "error"]
@@ -287,6 +295,45 @@ def _run_name(method: str, h: float) -> str:
     return f"{method}_h{h:g}"
 
 
+def _runs(out: Path) -> list[Path]:
+    """The run folders of the comparison in ``out`` (of every ``h`` it ran)."""
+    return sorted(p for method in METHODS for p in out.glob(f"{method}_h*") if p.is_dir())
+
+
+def check_fresh(out_dir: Path | str, overwrite: bool = False) -> Path:
+    """``out_dir`` as the output directory of a new comparison.
+
+    Raises
+    ------
+    NotADirectoryError
+        If it or a folder above it is a file.
+    pfmpm.run_folder.RunFolderError
+        If it holds a comparison or a run, and not ``overwrite``.
+    """
+    out = check_directory(out_dir)
+    held = (STUDY if (out / STUDY).exists() else run_folder.run_mark(out)
+            or next((f"{p.name}/" for p in _runs(out) if run_folder.run_mark(p)), None))
+    if held is not None and not overwrite:
+        raise run_folder.RunFolderError(
+            f"output directory {out} holds another comparison or run (its {held}): replace it with"
+            f" --overwrite, continue it with --resume, or choose another directory")
+    return out
+
+
+def clear(out: Path) -> None:
+    """Delete what a comparison and its runs wrote in ``out`` (:data:`STUDY`,
+    :data:`OUTPUTS`, :data:`pfmpm.run_folder.RUN_FILES` of each run, and the
+    run folders left empty), and a run there; nothing else."""
+    for name in (STUDY, STUDY + ".tmp", *OUTPUTS):
+        (out / name).unlink(missing_ok=True)
+    for path in _runs(out):
+        run_folder.clear(path)
+        if not any(path.iterdir()):
+            path.rmdir()
+    if run_folder.run_mark(out):
+        run_folder.clear(out)
+
+
 def read_study(out_dir: Path | str) -> dict:
     """The settings of the comparison in ``out_dir`` (its :data:`STUDY` file):
     ``h``, ``l0``, ``end``, ``scene``, ``overrides``, ``frames``, ``model``.
@@ -306,7 +353,7 @@ def compare_borden(out_dir: Path | str, hs: Sequence[float] = DEFAULT_H, l0: flo
                    end: float = DEFAULT_END, scene_path: Path | str = BORDEN_SCENE,
                    overrides: Sequence[str] = (), progress: bool = True, log=print,
                    frames: int = DEFAULT_FRAMES, resume: bool = False,
-                   model: str = "AT2") -> Comparison:
+                   model: str = "AT2", overwrite: bool = False) -> Comparison:
     """Run the Borden plate with PF-MPM and PF-FEM at each ``h`` and compare.
 
     Parameters
@@ -338,7 +385,10 @@ def compare_borden(out_dir: Path | str, hs: Sequence[float] = DEFAULT_H, l0: flo
         interrupted MPM run from its checkpoint, run the rest.
     model : str
         The phase-field model of both methods, ``"AT2"`` (the paper's) or
-        ``"AT1"`` (:class:`~pfmpm.scene.Fracture`).
+        ``"AT1"`` (:class:`~pfmpm.scene.FractureSpec`).
+    overwrite : bool
+        Without ``resume``: if ``out_dir`` holds another comparison or run,
+        delete it first (:func:`clear`) rather than refuse.
 
     Returns
     -------
@@ -351,6 +401,8 @@ def compare_borden(out_dir: Path | str, hs: Sequence[float] = DEFAULT_H, l0: flo
         it; raised before any run.
     ValueError
         With ``resume``, if ``out_dir`` holds a comparison of other settings.
+    NotADirectoryError, pfmpm.run_folder.RunFolderError
+        From :func:`check_fresh`, without ``resume``.
     pfmpm.SimulationError
         If a run fails.
     KeyboardInterrupt
@@ -365,7 +417,7 @@ def compare_borden(out_dir: Path | str, hs: Sequence[float] = DEFAULT_H, l0: flo
     if not hs:
         raise ValueError("hs: give at least one grid spacing")
     hs = sorted({float(h) for h in hs}, reverse=True)  # coarse to fine
-    out = Path(out_dir)
+    out = Path(out_dir) if resume else check_fresh(out_dir, overwrite)
     settings = {"h": hs, "l0": float(l0), "end": float(end), "scene": str(scene_path),
                 "overrides": list(overrides), "frames": int(frames), "model": model}
     study = _open_study(out, settings, resume)
@@ -375,6 +427,8 @@ def compare_borden(out_dir: Path | str, hs: Sequence[float] = DEFAULT_H, l0: flo
             for h in hs}
     # The FEM set-up is cheap and checks that its path supports the scene.
     fems = {h: FemSimulation(by_h[h], MPI.COMM_SELF) for h in hs}
+    if not resume and out.is_dir():
+        clear(out)
     out.mkdir(parents=True, exist_ok=True)
     _save_study(out, study)
     runs = {}
@@ -397,8 +451,9 @@ def compare_borden(out_dir: Path | str, hs: Sequence[float] = DEFAULT_H, l0: flo
             where = f" from step {ckpt.step}" if ckpt else ""
             log(f"{LABELS[method]} h = {h:g}: {size} {what}, {by_h[h].steps()} steps{where} -> {path}")
             before = study["wall_s"].get(name, summary["wall_s"] if summary else 0.0) if ckpt else 0.0
-            result = sim.run(path, progress=progress, resume=ckpt) if method == "mpm" else \
-                sim.run(path, progress=progress)
+            # A resumed comparison starts its unfinished runs again in their own folders.
+            result = (sim.run(path, progress=progress, resume=ckpt, overwrite=resume) if method == "mpm"
+                      else sim.run(path, progress=progress, overwrite=resume))
             study["wall_s"][name] = before + result.wall_s
             _save_study(out, study)
             if result.status == "interrupted":
@@ -487,10 +542,7 @@ def _table(runs: dict, hs: list[float], crack: Crack, ref: float) -> list[dict]:
 def _write_outputs(out: Path, rows: list[dict], agree: dict, ref: dict, runs: dict, hs: list[float],
                    scene: Scene, l0: float, end: float, model: str) -> dict[str, Path]:
     """Write the CSV, the plots and ``comparison.md``; return their paths by name."""
-    files = {name: out / name for name in (
-        "speed_vs_error.csv", "energies_overlay.png", "crack_tip_speed_overlay.png",
-        "phase_field_side_by_side.png", "crack_path_side_by_side.png", "speed_vs_error.png",
-        "comparison.md")}
+    files = {name: out / name for name in OUTPUTS}
     with open(files["speed_vs_error.csv"], "w", newline="") as f:
         writer = csv.writer(f)
         writer.writerow(COLUMNS)
@@ -517,8 +569,7 @@ def _write_outputs(out: Path, rows: list[dict], agree: dict, ref: dict, runs: di
     plain["reference"] = {k: (v if not isinstance(v, float) or math.isfinite(v) else None)
                           for k, v in ref.items()}
     plain["model"] = model
-    (out / "agreement.json").write_text(json.dumps(plain, indent=2) + "\n")  # NaN as null
-    files["agreement.json"] = out / "agreement.json"
+    files["agreement.json"].write_text(json.dumps(plain, indent=2) + "\n")  # NaN as null
     return files
 
 

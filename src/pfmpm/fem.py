@@ -111,11 +111,12 @@ from petsc4py import PETSc
 
 from . import _core
 from .crack import initial_history
-from .output import check_directory
 from .post.tip import CrackPath, CrackTip
 from .run import CRACK_COLUMNS, ENERGY_COLUMNS, WALL_COLUMNS, RunResult, Snapshots, run_to_end
+from .run_folder import check_fresh
 from .scene import (Body, BodyForce, LinearElasticSpec, MaterialSpec, Rectangle, Scene, SceneError,
                     Traction)
+from .scene.report import snapshot_warnings
 from .simulation import core_materials
 
 __all__ = ["FemSimulation", "MESH_DIAGONAL", "run_command", "main"]
@@ -572,10 +573,11 @@ class FemSimulation:
 
     # -- run with output ------------------------------------------------------
 
-    def run(self, out_dir: Path | str, progress: bool = True) -> RunResult:
+    def run(self, out_dir: Path | str, progress: bool = True, overwrite: bool = False) -> RunResult:
         """Run to ``scene.time.end``, writing output to ``out_dir`` (collective).
 
-        The run loop of :func:`pfmpm.run.run_to_end`: rank 0 writes
+        The run loop of :func:`pfmpm.run.run_to_end`, with its folder rules
+        (``overwrite``): rank 0 writes ``scene.toml``,
         ``energies.csv``, ``summary.json`` and the plots; all ranks write the
         XDMF series ``fields.xdmf`` (:meth:`open_frames`) every
         ``output.every`` steps (and at the start and the end).  A non-finite energy stops the
@@ -583,7 +585,7 @@ class FemSimulation:
         Ctrl-C or SIGTERM stops every rank at the same step with status
         ``"interrupted"``.  Output written so far stays.
         """
-        return run_to_end(self, out_dir, progress)
+        return run_to_end(self, out_dir, progress, overwrite=overwrite)
 
     # -- what the run loop of pfmpm.run asks of a simulation -----------------
 
@@ -716,8 +718,8 @@ class _PhaseFieldSolver:
     ----------
     c : dolfinx.fem.Function
         P1 phase field; solved in place, warm-starting from its value.
-    fracture : pfmpm.scene.Fracture
-    settings : pfmpm.scene.PhaseField
+    fracture : pfmpm.scene.FractureSpec
+    settings : pfmpm.scene.PhaseFieldSpec
         Tolerance on ``||F^c - K^c c|| / ||F^c||`` and the iteration limit
         (of the CG iterations of one solve, and of its Newton steps).
     n_cells : int
@@ -930,14 +932,15 @@ def _supported(scene: Scene) -> tuple[Body, MaterialSpec]:
     return body, material
 
 
-def run_command(scene_path: str, out: str, overrides: list[str], quiet: bool = False) -> int:
-    """``pfmpm fem SCENE --out DIR``: run a scene file with the FEM path on
+def run_command(scene_path: str, out: str, overrides: list[str], quiet: bool = False,
+                overwrite: bool = False) -> int:
+    """``pfmpm fem SCENE --out DIR [--overwrite]``: run a scene file with the FEM path on
     every rank of ``MPI.COMM_WORLD``; rank 0 prints.  Returns the exit status:
     0 done, 1 failed, 2 a bad scene or output directory, 130 interrupted."""
     comm = MPI.COMM_WORLD
     root = comm.rank == 0
     try:
-        check_directory(out)
+        check_fresh(out, overwrite)
         scene = Scene.from_toml(scene_path, overrides=overrides)
         sim = FemSimulation(scene, comm)
     except (SceneError, OSError) as err:
@@ -949,7 +952,9 @@ def run_command(scene_path: str, out: str, overrides: list[str], quiet: bool = F
         print(f"{scene.name}: FEM, {s['vertices']} vertices, {s['cells']} cells on {comm.size}"
               f" rank(s), {scene.steps()} steps of dt = {sim.dt:.6g} ({sim.substeps} sub-steps)"
               f" -> {out}")
-    result = sim.run(out, progress=not quiet)
+        for warning in snapshot_warnings(scene):
+            print(f"warning: {warning}")
+    result = sim.run(out, progress=not quiet, overwrite=overwrite)
     if result.status == "failed":
         if root:
             print(f"error: {result.error}", file=sys.stderr)

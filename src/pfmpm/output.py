@@ -1,7 +1,8 @@
 """Run output: particle time series (VTU files with a PVD index) and CSV logs.
 
 The VTU files are VTK XML unstructured grids of vertex cells with base64
-binary data, readable by ParaView and meshio.
+binary data, readable by ParaView and meshio; their field data names what
+integer point data stands for (``body plate = 0``).
 """
 
 from __future__ import annotations
@@ -9,9 +10,10 @@ from __future__ import annotations
 import base64
 import csv
 import itertools
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import BinaryIO
+from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
@@ -98,7 +100,8 @@ def _write_data_array(f: BinaryIO, name: str, values: "np.ndarray | Rows", layou
     f.write(base64.b64encode(pending) + b"</DataArray>")
 
 
-def write_vtu(path: Path, points: np.ndarray, point_data: Iterable[tuple[str, np.ndarray, str]]) -> None:
+def write_vtu(path: Path, points: np.ndarray, point_data: Iterable[tuple[str, np.ndarray, str]],
+              field_data: Mapping[str, int] | None = None) -> None:
     """Write 2D points as VTK vertices with point data.
 
     Parameters
@@ -112,14 +115,21 @@ def write_vtu(path: Path, points: np.ndarray, point_data: Iterable[tuple[str, np
         none). The arrays are read, never copied whole, and may be made as
         the iterable is walked: a snapshot then holds one at a time, or,
         given as :class:`Rows`, none.
+    field_data : mapping of str to int, optional
+        Named integers of the whole file (VTK field data, one Int32 array
+        each), e.g. ``{"body plate": 0}``: what each value of an integer
+        point array stands for.
     """
     n = len(points)
+    fields = [f'<DataArray type="Int32" Name={quoteattr(name)} NumberOfTuples="1" format="ascii">{int(value)}'
+              "</DataArray>" for name, value in (field_data or {}).items()]
     tmp = path.with_suffix(".tmp")
     with open(tmp, "wb") as f:
         f.write("\n".join([
             '<?xml version="1.0"?>',
             '<VTKFile type="UnstructuredGrid" version="1.0" byte_order="LittleEndian" header_type="UInt64">',
             "<UnstructuredGrid>",
+            *(["<FieldData>", *fields, "</FieldData>"] if fields else []),
             f'<Piece NumberOfPoints="{n}" NumberOfCells="{n}">',
             "<PointData>\n"]).encode())
         for name, values, layout in point_data:
@@ -142,13 +152,15 @@ class ParticleSeries:
     """Particle snapshots ``particles_NNNNNN.vtu`` with a ``particles.pvd`` index.
 
     The index is rewritten after every snapshot, so an interrupted run leaves
-    a valid series of the snapshots written so far.
+    a valid series of the snapshots written so far. Each file has the
+    ``field_data`` of :func:`write_vtu`.
     """
 
-    def __init__(self, directory: Path, entries=()):
+    def __init__(self, directory: Path, entries=(), field_data: Mapping[str, int] | None = None):
         self.directory = Path(directory)
         self.directory.mkdir(parents=True, exist_ok=True)
         self._entries: list[tuple[float, str]] = [(float(t), str(f)) for t, f in entries]
+        self._field_data = dict(field_data or {})
 
     @property
     def entries(self) -> list[tuple[float, str]]:
@@ -159,7 +171,7 @@ class ParticleSeries:
               point_data: Iterable[tuple[str, np.ndarray, str]]) -> Path:
         """Write snapshot ``step`` at ``time`` (:func:`write_vtu`) and the index."""
         name = f"particles_{step:06d}.vtu"
-        write_vtu(self.directory / name, points, point_data)
+        write_vtu(self.directory / name, points, point_data, self._field_data)
         self._entries.append((time, name))
         lines = ['<?xml version="1.0"?>', '<VTKFile type="Collection" version="0.1">', "<Collection>"]
         lines += [f'<DataSet timestep="{t!r}" part="0" file="{f}"/>' for t, f in self._entries]

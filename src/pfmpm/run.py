@@ -41,8 +41,8 @@ from pathlib import Path
 
 import numpy as np
 
-from . import _core
-from .output import CsvLog, check_directory
+from . import _core, run_folder
+from .output import CsvLog
 from .post.tip import CrackTip
 from .scene import Scene
 
@@ -70,6 +70,8 @@ class RunResult:
 
     out_dir: Path
     steps_planned: int
+    run_id: str | None = None
+    """The run's id (:mod:`pfmpm.run_folder`), which its checkpoints carry."""
     steps: int = 0
     status: str = "running"
     error: str | None = None
@@ -82,6 +84,9 @@ class RunResult:
     """The checkpoint the run continued from."""
     light_nodes: int = 0
     """Grid node-steps whose mass was too small to divide by (see ``Solver.light_nodes``)."""
+    light_momentum: float = 0.0
+    """The most momentum they held, over the total mass times the top speed
+    (:meth:`~pfmpm.simulation.Simulation.light_momentum`)."""
     figures: "Figures | None" = None
     """The figures still to draw, from :func:`run_to_end` with ``draw=False``."""
 
@@ -91,6 +96,7 @@ class RunResult:
         Written to a temporary file and renamed, so a reader never sees half of it.
         """
         summary = {
+            "run_id": self.run_id,
             "status": self.status,
             "error": self.error,
             "steps": self.steps,
@@ -106,12 +112,14 @@ class RunResult:
 
 
 def run_to_end(sim, out_dir: Path | str, progress: bool = True, checkpoint_every: int = 0,
-               keep: int = 3, resume=None, draw: bool = True) -> RunResult:
+               keep: int = 3, resume=None, draw: bool = True, overwrite: bool = False) -> RunResult:
     """Run ``sim`` to ``scene.time.end``, writing its output to ``out_dir``.
 
-    Writes ``energies.csv`` every ``output.energies_every`` steps, the field
-    series (:meth:`open_frames`) every ``output.every`` steps (and at the
-    start and the end), ``summary.json``, and, once the run completes,
+    Writes ``scene.toml`` and ``summary.json`` (status ``"running"``) first
+    (:mod:`pfmpm.run_folder`), ``energies.csv`` every
+    ``output.energies_every`` steps, the field series (:meth:`open_frames`)
+    every ``output.every`` steps (and at the start and the end),
+    ``summary.json`` again at the end, and, once the run completes,
     ``energies.png``, ``crack_tip.png`` and ``crack_path.png`` (with an
     initial crack) and ``phase_field.png`` (with ``output.snapshots``).
 
@@ -131,9 +139,13 @@ def run_to_end(sim, out_dir: Path | str, progress: bool = True, checkpoint_every
         Continue from this checkpoint of a run of the same scene: its state
         and its output so far (``energies.csv``, the particle series, the
         crack-tip records, the phase-field images) are restored first.
+        ``out_dir`` must be the checkpoint's run's folder or hold no run.
     draw : bool
         Draw the figures (:class:`Figures`) before returning; if not, the
         result's ``figures`` draws them when asked.
+    overwrite : bool
+        Without ``resume``: if ``out_dir`` holds another run, delete its
+        files first (:data:`pfmpm.run_folder.RUN_FILES`) rather than refuse.
 
     Returns
     -------
@@ -143,6 +155,9 @@ def run_to_end(sim, out_dir: Path | str, progress: bool = True, checkpoint_every
     ------
     NotADirectoryError
         If ``out_dir`` or a folder above it is a file.
+    pfmpm.run_folder.RunFolderError
+        If ``out_dir`` holds another run (and not ``overwrite``), or, with
+        ``resume``, a run of another scene or with another id than the checkpoint's.
 
     Notes
     -----
@@ -164,15 +179,23 @@ def run_to_end(sim, out_dir: Path | str, progress: bool = True, checkpoint_every
         raise ValueError(f"{type(sim).__name__} writes no checkpoints")
     comm = sim.comm
     root = comm is None or comm.rank == 0
-    out = check_directory(out_dir)
-    if root:
-        out.mkdir(parents=True, exist_ok=True)
+    # Every rank checks the folder, so that a refusal stops them all; then rank 0 takes it.
+    out = (run_folder.check_fresh(out_dir, overwrite) if resume is None
+           else run_folder.check_resume(out_dir, resume))
     if comm is not None:
         comm.barrier()
     cfg = sim.scene.output
     total = sim.scene.steps()
+    result = RunResult(out_dir=out, steps_planned=total)
     if resume is not None:
         checkpoint.restore(sim, resume)
+        result.resumed_from = str(resume.path)
+    if root:
+        result.run_id = run_folder.start(out, sim.scene, overwrite, resume)
+        result.write_summary(out / "summary.json", {"scene": sim.scene.name, "units": sim.scene.units})
+    if comm is not None:
+        comm.barrier()
+    if resume is not None:
         tmp = out / "energies.csv.tmp"
         tmp.write_bytes(resume.energies_csv)
         tmp.replace(out / "energies.csv")
@@ -181,7 +204,8 @@ def run_to_end(sim, out_dir: Path | str, progress: bool = True, checkpoint_every
     snapshots = sim.new_snapshots()
     if snapshots is not None and resume is not None:
         snapshots.restore(resume.snapshot_times, resume.snapshot_images)
-    state = _OutputState(out, frames, snapshots)
+    state = _OutputState(out, frames, snapshots, result.run_id,
+                         run_folder.scene_digest(sim.scene.to_dict()))
 
     def record(force: bool) -> None:
         e = sim.energies()
@@ -202,9 +226,6 @@ def run_to_end(sim, out_dir: Path | str, progress: bool = True, checkpoint_every
                                                  every=checkpoint_every, keep=keep,
                                                  status=status, error=error))
 
-    result = RunResult(out_dir=out, steps_planned=total)
-    if resume is not None:
-        result.resumed_from = str(resume.path)
     start = _time.perf_counter()
     bar = tqdm(total=total, initial=sim.step, disable=not (progress and root), unit="step",
                desc=sim.scene.name)
@@ -230,6 +251,7 @@ def run_to_end(sim, out_dir: Path | str, progress: bool = True, checkpoint_every
         result.steps = sim.step
         fields = sim.summary_fields(result)
         result.light_nodes = fields.get("light_nodes", 0)
+        result.light_momentum = fields.get("light_momentum", 0.0)
         if root:
             result.write_summary(out / "summary.json", {"scene": sim.scene.name, "units": sim.scene.units,
                                                         **fields})
@@ -380,12 +402,16 @@ def _polar_overlay(scene: Scene):
 
 class _OutputState:
     """What a checkpoint needs of a run's output: the CSV so far, the particle
-    series entries and the phase-field images."""
+    series entries, the phase-field images, and the run's id and scene digest
+    (:mod:`pfmpm.run_folder`)."""
 
-    def __init__(self, out: Path, frames, snapshots: "Snapshots | None"):
+    def __init__(self, out: Path, frames, snapshots: "Snapshots | None", run_id: str | None,
+                 scene_sha256: str):
         self._csv = out / "energies.csv"
         self._frames = frames
         self._snapshots = snapshots
+        self.run_id = run_id
+        self.scene_sha256 = scene_sha256
 
     def energies_csv(self) -> bytes:
         return self._csv.read_bytes()

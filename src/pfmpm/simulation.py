@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Iterator
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -15,6 +16,7 @@ from .output import ParticleSeries, Rows
 from .post.tip import CrackPath, CrackTip
 from .run import CRACK_COLUMNS, ENERGY_COLUMNS, WALL_COLUMNS, RunResult, Snapshots, run_to_end
 from .scene import Scene, SceneError, seeding
+from .scene.report import SetupReport, setup_report
 from .scene.validation import at
 
 CONTACT_COLUMNS = ["friction_dissipation"]
@@ -73,7 +75,9 @@ class Simulation:
     scene : Scene
     grid : pfmpm._core.Grid
     particles : pfmpm._core.Particles
-        Particle arrays as zero-copy numpy views (``x``, ``v``, ``stress``, ...).
+        Particle arrays as zero-copy numpy views, one attribute per column
+        (``x``, ``v``, ``stress``, ...: ``dir(sim.particles)`` lists them,
+        ``sim.particles.columns()`` says what each holds).
     solver : pfmpm._core.Solver
     crack_tip : CrackTip or None
         Tracks the tip of the first initial crack and of its branches, if any.
@@ -268,6 +272,19 @@ class Simulation:
         index, times = self.crack_path.cracked()
         return self._of_crackable(self.particles.x)[index], times
 
+    @cached_property
+    def setup(self) -> SetupReport:
+        """The set-up report of the scene (:func:`pfmpm.scene.report.setup_report`):
+        each body's seeded extent, the gaps between bodies and when they
+        close, what sets the time step, and warnings."""
+        return setup_report(self.scene)
+
+    def legend(self) -> dict[str, int]:
+        """What the integer particle columns stand for, as the VTU files' field
+        data: ``{"body <name>": index, ..., "material <name>": index, ...}``."""
+        return {**{f"body {b.name}": i for i, b in enumerate(self.scene.bodies)},
+                **{f"material {m.name}": i for i, m in enumerate(self.scene.materials)}}
+
     def point_data(self) -> Iterator[tuple[str, np.ndarray, str]]:
         """The particle output as :func:`pfmpm.output.write_vtu` takes it, (name,
         array, layout), made one array at a time: every column that declares an
@@ -327,14 +344,14 @@ class Simulation:
         return active
 
     def run(self, out_dir: Path | str, progress: bool = True, checkpoint_every: int = 0,
-            keep: int = 3, resume=None, draw: bool = True) -> RunResult:
+            keep: int = 3, resume=None, draw: bool = True, overwrite: bool = False) -> RunResult:
         """Run to ``scene.time.end``, writing output to ``out_dir``: see
         :func:`pfmpm.run.run_to_end`, which takes the same parameters.
 
         The field series is ``particles.pvd`` with a VTU file per output
         step (with ``output.particles``).
         """
-        return run_to_end(self, out_dir, progress, checkpoint_every, keep, resume, draw)
+        return run_to_end(self, out_dir, progress, checkpoint_every, keep, resume, draw, overwrite)
 
     # -- what the run loop of pfmpm.run asks of a simulation -----------------
 
@@ -348,7 +365,7 @@ class Simulation:
         or ``None`` without ``output.particles``."""
         if not self.scene.output.particles:
             return None
-        return _ParticleFrames(self, ParticleSeries(out, resume.series if resume else ()))
+        return _ParticleFrames(self, ParticleSeries(out, resume.series if resume else (), self.legend()))
 
     def new_snapshots(self) -> Snapshots | None:
         """Phase-field images of the crackable particles at ``output.snapshots``,
@@ -403,9 +420,18 @@ class Simulation:
             })
         return record
 
+    def light_momentum(self) -> float:
+        """A bound on the momentum the light grid nodes held (``Solver.light_nodes``,
+        given zero velocity), over the run so far, as a fraction of the bodies'
+        total mass times the top particle speed: a node's momentum is at most
+        its mass (at most ``Solver.mass_tol``) times the top speed, so the
+        fraction is at most ``light_nodes * mass_tol / total mass``."""
+        return self.solver.light_nodes * self.solver.mass_tol / float(np.sum(self.particles.mass))
+
     def summary_fields(self, result: RunResult) -> dict:
         """The MPM entries of ``summary.json``: sizes, speed, the parts of the method
-        switched on, the seconds per stage of the step, phase-field and contact statistics."""
+        switched on, the seconds per stage of the step, the set-up report,
+        the light nodes, phase-field and contact statistics."""
         fields = {
             "dt": self.solver.dt,
             "t_end": self.time,
@@ -418,8 +444,10 @@ class Simulation:
             "grid": {"cells": list(self.scene.grid.cells), "h": self.scene.grid.h, "degree": self.scene.grid.degree,
                      "shape": self.scene.grid.shape},
             "light_nodes": self.solver.light_nodes,
+            "light_momentum": self.light_momentum(),
             # Wall seconds per stage of the step (the damage-gradient blocks in contact.seconds).
             "seconds": self.solver.stage_seconds(),
+            "setup": self.setup.to_dict(),
         }
         if self.cracks:
             stats = self.solver.phase_field_stats()

@@ -172,6 +172,10 @@ public:
   /// get zero velocity instead.
   std::int64_t light_nodes() const { return _light_nodes; }
 
+  /// @brief The mass at or below which a slot is too light to divide by:
+  /// 1e-12 of the heaviest particle's at construction.
+  double mass_tol() const { return _mass_tol; }
+
   /// @brief The state besides the particle columns, for a checkpoint.
   SolverState state() const;
   /// @brief Continue from `state`, saved by state() of a solver built on the

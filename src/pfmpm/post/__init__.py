@@ -48,8 +48,9 @@ Each measure of a phase field reads cracks with the scene's
     fraction, and how far particles pass a wall or into a platen (checks
     Z1-Z6, :func:`~pfmpm.post.brazilian.disk_fragments`).
 
-``pfmpm post crack-tip|crack-directions|fragments SCENE RUN_DIR`` prints the
-measures that read a finished run's output directory.
+``pfmpm post crack-tip|crack-directions|fragments RUN_DIR`` prints the
+measures that read a finished run's output directory, with the scene the run
+kept there (:func:`pfmpm.run_folder.read_scene`).
 """
 
 from .arms import crack_arms, crack_directions, propagation_angle, run_directions

@@ -47,8 +47,10 @@ The modules, one concern each:
 
 Classes that declare something the C++ core also has a class for end in
 ``Spec`` (``GridSpec`` for ``pfmpm._core.Grid``, ...); the TOML keys are the
-same as before.  The names they had before (``Grid``, ``Wall``, ``Fracture``,
-``PhaseField``, and ``Material`` for the linear elastic model) still work.
+same as before.  The README, the docs and the notebooks use these names; the
+names they had before (``Grid``, ``Wall``, ``Fracture``, ``PhaseField``, and
+``Material`` for the linear elastic model) are kept for scripts written
+against them.
 """
 
 from .bodies import Body

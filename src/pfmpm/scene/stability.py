@@ -4,6 +4,7 @@ critical length the core checks after every step (docs/method.md, "Time step")."
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from .bodies import Body
@@ -13,7 +14,8 @@ from .validation import WHOLE_TOL
 if TYPE_CHECKING:
     from .scene import Scene
 
-__all__ = ["CRITICAL_FACTOR", "LONE_PARTICLE_FACTOR", "stable_dt", "grid_dt", "critical_length", "steps"]
+__all__ = ["CRITICAL_FACTOR", "LONE_PARTICLE_FACTOR", "StepLimit", "step_limit", "stable_dt", "grid_dt",
+           "critical_length", "steps"]
 
 #: Critical time step of the lumped-mass B-spline grid in units of h / c, per
 #: degree, as (bodies clear of the grid sides, bodies on a side). Each is the
@@ -36,46 +38,95 @@ CRITICAL_FACTOR = {1: (0.707, 0.707), 2: (1.0, 0.609), 3: (1.0, 0.461)}
 LONE_PARTICLE_FACTOR = {2: 0.577, 3: 0.798}
 
 
+@dataclass(frozen=True)
+class StepLimit:
+    """The stability limit ``cfl * kappa * h / (c_max + v_max)`` and what sets it.
+
+    Attributes
+    ----------
+    limit : float
+        The stable step.
+    cfl, kappa, h : float
+        ``time.cfl``, the critical factor (the smaller of :data:`CRITICAL_FACTOR`
+        and :data:`LONE_PARTICLE_FACTOR`) and the grid spacing.
+    wave_speed : float
+        ``c_max``, the largest P-wave speed of a body's material.
+    wave_body : str
+        The first body whose material has it.
+    speed : float
+        ``v_max``, the largest initial particle speed.
+    speed_body : str or None
+        The first body that has it; ``None`` if every body starts at rest.
+    side_body : str or None
+        The first body that starts within ``grid.degree`` cells of a grid side,
+        which lowers the grid's ``kappa``; ``None`` if none does.
+    lone : bool
+        Whether ``kappa`` is a lone particle's, below the grid's.
+    """
+
+    limit: float
+    cfl: float
+    kappa: float
+    h: float
+    wave_speed: float
+    wave_body: str
+    speed: float
+    speed_body: str | None
+    side_body: str | None
+    lone: bool
+
+
+def step_limit(scene: "Scene") -> StepLimit:
+    """The stability limit of :func:`stable_dt` and the bodies that set it."""
+    waves = [scene.material_of(b).wave_speed(scene.plane) for b in scene.bodies]
+    speeds = [b.max_speed() for b in scene.bodies]
+    c_max, v_max = max(waves), max(speeds)
+    grid, side = _kappa(scene)
+    kappa = min(grid, LONE_PARTICLE_FACTOR.get(scene.grid.degree, grid))
+    return StepLimit(limit=scene.time.cfl * (kappa * scene.grid.h) / (c_max + v_max), cfl=scene.time.cfl,
+                     kappa=kappa, h=scene.grid.h, wave_speed=c_max,
+                     wave_body=scene.bodies[waves.index(c_max)].name, speed=v_max,
+                     speed_body=scene.bodies[speeds.index(v_max)].name if v_max > 0 else None,
+                     side_body=side, lone=kappa < grid)
+
+
 def stable_dt(scene: "Scene") -> float:
     """The default step ``cfl * kappa * h / (c_max + v_max)`` (eqs. 83-84),
-    with ``kappa`` the smaller of the grid's factor (:data:`CRITICAL_FACTOR`)
-    and a lone particle's (:data:`LONE_PARTICLE_FACTOR`).
+    ``kappa`` the smaller of the grid's factor (:data:`CRITICAL_FACTOR`) and a
+    lone particle's (:data:`LONE_PARTICLE_FACTOR`).
 
     ``c_max`` is the largest wave speed (``MaterialSpec.wave_speed``) over
-    the materials used by bodies and ``v_max`` the largest initial particle
+    the materials of the bodies and ``v_max`` the largest initial particle
     speed. So ``kappa`` is 0.577 for quadratic and 0.798 for cubic B-splines
     with the bodies clear of the grid's end functions (the paper's 1, a grid
-    filled with particles, let a Borden plate's corner particle blow up), 0.707
-    for degree 1, and 0.461 for cubic B-splines when bodies start within
+    filled with particles, let a Borden plate's corner particle blow up),
+    0.707 for degree 1, and 0.461 for cubic B-splines when bodies start within
     ``degree`` cells of a grid side, where the open knot vector's end
-    functions carry little lumped mass.
+    functions carry little lumped mass. :func:`step_limit` says which bodies
+    set each.
     """
-    lone = LONE_PARTICLE_FACTOR.get(scene.grid.degree, math.inf) * scene.grid.h
-    return scene.time.cfl * min(critical_length(scene), lone) / _speed(scene)
+    return step_limit(scene).limit
 
 
 def grid_dt(scene: "Scene") -> float:
-    """The largest fixed ``time.dt``: ``cfl * kappa * h / (c_max + v_max)``
-    with the grid's ``kappa`` alone (:data:`CRITICAL_FACTOR`), the default
-    step of pfmpm before issue 49 (a lone particle may blow up above
-    :func:`stable_dt`)."""
-    return scene.time.cfl * critical_length(scene) / _speed(scene)
-
-
-def _speed(scene: "Scene") -> float:
-    """c_max + v_max of :func:`stable_dt`."""
-    used = {body.material for body in scene.bodies}
-    c_max = max(m.wave_speed(scene.plane) for m in scene.materials if m.name in used)
-    v_max = max(body.max_speed() for body in scene.bodies)
-    return c_max + v_max
+    """The largest fixed ``time.dt``: :func:`stable_dt` with the grid's
+    ``kappa`` alone (:data:`CRITICAL_FACTOR`), pfmpm's default step before
+    issue 49 (above :func:`stable_dt` a lone particle may blow up)."""
+    limit = step_limit(scene)
+    return scene.time.cfl * critical_length(scene) / (limit.wave_speed + limit.speed)
 
 
 def critical_length(scene: "Scene") -> float:
-    """``kappa * h`` of the grid (:data:`CRITICAL_FACTOR`): a step is stable
-    while ``dt (c + |v|)`` stays below it, the core's check after every step."""
+    """``kappa * h`` of the grid (:data:`CRITICAL_FACTOR`): a step is stable while
+    ``dt (c + |v|)`` stays below it, the core's check after every step."""
+    return _kappa(scene)[0] * scene.grid.h
+
+
+def _kappa(scene: "Scene") -> tuple[float, str | None]:
+    """``kappa`` of :data:`CRITICAL_FACTOR`, and the first body near a grid side that lowers it (or ``None``)."""
     interior, boundary = CRITICAL_FACTOR[scene.grid.degree]
-    kappa = boundary if any(_near_side(scene, b) for b in scene.bodies) else interior
-    return kappa * scene.grid.h
+    side = next((b.name for b in scene.bodies if _near_side(scene, b)), None)
+    return (boundary if side is not None else interior), side
 
 
 def _near_side(scene: "Scene", body: Body) -> bool:

@@ -1,10 +1,12 @@
 """Scenes as nested dicts and TOML files: building the scene classes from
-tables, writing them back, and ``--set`` overrides."""
+tables, writing them back (as dicts and as TOML text), and ``--set`` overrides."""
 
 from __future__ import annotations
 
 import copy
 import dataclasses
+import json
+import math
 import tomllib
 from collections.abc import Callable, Mapping
 from pathlib import Path
@@ -19,7 +21,7 @@ from .materials import DEFAULT_MODEL, Anisotropy, FractureSpec, MaterialSpec, ma
 from .shapes import SHAPES
 from .validation import SceneError, at, fmt, key_text
 
-__all__ = ["build_scene", "read_toml", "plain", "apply_overrides"]
+__all__ = ["build_scene", "read_toml", "plain", "toml_text", "apply_overrides"]
 
 
 def build_scene(cls: type, d: Any, overrides: list[str] | tuple[str, ...] = ()) -> Any:
@@ -114,6 +116,46 @@ def plain(value: Any) -> Any:
     if isinstance(value, (list, tuple)):
         return [plain(v) for v in value]
     return value
+
+
+def toml_text(tables: Mapping[str, Any]) -> str:
+    """TOML text of a scene dict (:func:`plain`) that :func:`read_toml` reads
+    back as the same dict: every float written with all its digits, the
+    settings tables as ``[table]``, arrays of tables as ``[[array]]`` and the
+    tables within those (shapes, fracture) inline."""
+    lines = [f"{key_text(k)} = {_toml_value(v)}" for k, v in tables.items() if not _is_table(v)]
+    for key, value in tables.items():
+        if isinstance(value, Mapping):
+            lines += ["", f"[{key_text(key)}]"]
+            lines += [f"{key_text(k)} = {_toml_value(v)}" for k, v in value.items()]
+        elif _is_table(value):
+            for entry in value:
+                lines += ["", f"[[{key_text(key)}]]"]
+                lines += [f"{key_text(k)} = {_toml_value(v)}" for k, v in entry.items()]
+    return "\n".join(lines) + "\n"
+
+
+def _is_table(value: Any) -> bool:
+    """Whether a top-level value is written as a table or an array of tables."""
+    return isinstance(value, Mapping) or (
+        isinstance(value, (list, tuple)) and bool(value) and all(isinstance(v, Mapping) for v in value))
+
+
+def _toml_value(value: Any) -> str:
+    """A TOML value, inline."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        return repr(float(value)) if math.isfinite(value) else "nan" if math.isnan(value) else repr(float(value))
+    if isinstance(value, str):  # a TOML basic string: JSON's escapes, and DEL escaped too
+        return json.dumps(value, ensure_ascii=False).replace("\x7f", "\\u007f")
+    if isinstance(value, Mapping):
+        return "{ " + ", ".join(f"{key_text(k)} = {_toml_value(v)}" for k, v in value.items()) + " }"
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+    raise TypeError(f"{value!r}: no TOML value for a {type(value).__name__}")
 
 
 def _check_keys(table: Any, cls: type, extra: tuple[str, ...] = ()) -> None:
