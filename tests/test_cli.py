@@ -158,7 +158,7 @@ def test_fem_beside_run(tmp_path):
     sets = ["--set", "grid.h=1.0", "--set", "materials.concrete.fracture.l0=2.0", "--set", "time.end=1"]
     r = pfmpm("fem", borden, "--out", tmp_path / "a", "--quiet", *sets)
     assert r.returncode == 0, r.stderr
-    assert "\nwarning: output.snapshots = 50, 65, 80: after the run ends (t = 1.02" in r.stdout
+    assert "\nwarning: output.snapshots = 50, 65, 80: after the run ends (t = 1.09" in r.stdout
     summary = json.loads((tmp_path / "a" / "summary.json").read_text())
     assert summary["method"] == "fem" and summary["status"] == "completed" and summary["units"] == "mm-us-MPa"
     # Its folder is a run's, as pfmpm run's is.

@@ -195,28 +195,25 @@ def check_kalthoff_winkler(scene, sim, out, e):
     assert 45.0 < bearing < 75.0 and 40.0 < line < 75.0
 
 
-def check_charpy(scene, sim, out, e, crossed=False, damage=(0.6, 1.0)):
+def check_charpy(scene, sim, out, e, crossed=True):
     # Free-free: the momentum is the striker's to round-off. To 40 us the crack
-    # has run from the notch root into the ligament (the fields of its faces
-    # separable), short of the striker's face, so at most two fields meet at
-    # a node and no contact check fails. The system only loses energy: to
-    # damage (measured 287.2 mJ = 0.81 G_f A_f) and to the scheme (51.0 mJ;
-    # 119.0 mJ, with 0.45 G_f A_f of damage, when the faces parted before
-    # their band had softened: contact.parting_stress).
+    # has run from the notch root across the ligament (with CPDI, ``crossed``
+    # false, 0.94 of it), the fields of its faces separable, and no contact
+    # check fails. The system only loses energy: to damage (measured 125.2 mJ
+    # = 0.35 G_f A_f; with CPDI 0.24, its band a cell wide) and to the scheme
+    # (117.6 mJ; with CPDI 85.9).
     assert momentum_error(e) < 1e-9
     summary = json.loads((out / "summary.json").read_text())["contact"]
     assert summary["violations"] == {"C1": 0, "C2": 0, "C3": 0, "C4": 0}
     assert summary["separable_node_steps"] > 0
     r = energy_balance(e)
     assert r["overshoot"] < 0.0
-    assert damage[0] < r["damage"] / fracture_energy(scene) < damage[1]
-    assert 0.0 < r["numerical"] < 0.35 * r["damage"]  # measured 0.18, with CPDI 0.31
+    assert 0.2 < r["damage"] / fracture_energy(scene) < 0.6 and 0.0 < r["numerical"] < r["damage"]
     p = sim.particles
     band = crack_band(scene, p.x - sim.displacement(), p.damage, p.body, threshold=0.5)
     assert band["paths"] == 1 and band["from_root"]
-    # With ``crossed`` (CPDI) the band has crossed the whole ligament by 40 us.
     assert band["across"] == 1.0 if crossed else 0.5 < band["across"] < 1.0
-    assert band["width"] < 3.0  # measured 2.56 cells (quadratic B-splines at h = 1), 2 with CPDI
+    assert band["width"] < 2.0
 
 
 def check_brazilian(scene, sim, out, e):
@@ -286,10 +283,9 @@ def test_benchmark_with_cpdi_in_smoke_mode(name, tmp_path):
     """The Kalthoff-Winkler and Charpy smoke runs with CPDI1 on the degree-1
     grid, contact and the damage-gradient partition (docs/verification.md,
     "CPDI against B-splines"): the same checks as with B-splines, but the
-    Charpy band has crossed the whole ligament by 40 us, and its band is one
-    cell wide, as the crack line y = 27.5 runs through the middle of the
-    degree-1 grid's cells: half of l_ch, so about half the damage (measured
-    0.37 G_f A_f; docs/verification.md, "The crack band")."""
+    Charpy band, one cell wide as the crack line y = 27.5 runs through the
+    middle of the degree-1 grid's cells (half of l_ch: docs/verification.md,
+    "The crack band"), has crossed 0.94 of the ligament by 40 us."""
     path, overrides = smoke_runs()[name]
     scene = Scene.from_toml(path, overrides + ["grid.degree=1", "grid.shape=cpdi"])
     sim = Simulation(scene)
@@ -299,7 +295,7 @@ def test_benchmark_with_cpdi_in_smoke_mode(name, tmp_path):
     scale = max(np.abs(e["external_work"]).max(), (e["kinetic"] + e["elastic"]).max())
     assert np.abs(e["total"] - e["total"][0]).max() <= BALANCE[name] * scale
     if name == "charpy":
-        check_charpy(scene, sim, tmp_path, e, crossed=True, damage=(0.25, 0.5))
+        check_charpy(scene, sim, tmp_path, e, crossed=False)
     else:
         CHECKS[name](scene, sim, tmp_path, e)
 
@@ -389,8 +385,8 @@ def test_self_contact_measure_scripts(tmp_path):
 def test_charpy_study_script(tmp_path):
     """benchmarks/charpy/study.py on three cases at h = 1 to 30 us: the
     damage-gradient and single-field runs are the same to round-off until the
-    crack's first separable node (11.84 us, by which the damage has
-    dissipated 34.3 mJ; compared to 11.5 us), every run keeps its momentum
+    crack's first separable node (11.80 us, by which the damage has
+    dissipated 33.0 mJ; compared to 11.5 us), every run keeps its momentum
     (C7), the elastic striker is still in contact at 30 us, and the figure
     is drawn."""
     import runpy
@@ -414,16 +410,15 @@ def test_charpy_study_script(tmp_path):
 def test_charpy_energy_split(capsys):
     """benchmarks/charpy/diagnose.py split at the smoke settings: the kinematic
     and material parts add up to the change of ``total`` (to round-off), and
-    the loss is the kinematic part's (measured -57.38 and +0.13 mJ of -57.25
-    by 40 us: the material closes its balance to 0.3 % of the loss; -185.3
-    and +9.1 mJ when the faces parted before their band had softened)."""
+    the loss is the kinematic part's (measured -148.0 and +6.0 mJ of -142.0
+    by 40 us: the material closes its balance to 4 % of the loss)."""
     import runpy
 
     sets = [arg for s in manifests()["charpy"]["smoke"] for arg in ("--set", s)]
     script = runpy.run_path(str(ROOT / "benchmarks" / "charpy" / "diagnose.py"))
     r = script["main"](["split", *sets, "--every", "1000"])
     assert r["kinematic"] + r["material"] == pytest.approx(r["total"], abs=1e-9 * 1011.2)
-    assert r["total"] < -40.0 and abs(r["material"]) < 0.1 * abs(r["kinematic"])
+    assert r["total"] < -100.0 and abs(r["material"]) < 0.1 * abs(r["kinematic"])
     assert "kinematic" in capsys.readouterr().out
 def test_brazilian_study_script(tmp_path):
     """benchmarks/brazilian/study.py at two coarse resolutions to 2 us: the

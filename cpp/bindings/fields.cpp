@@ -8,6 +8,7 @@
 #include <pybind11/numpy.h>
 #include <pybind11/stl.h>
 
+#include <limits>
 #include <vector>
 
 namespace py = pybind11;
@@ -33,7 +34,7 @@ void bind_fields(py::module_& m)
            py::arg("groups") = std::vector<std::int32_t>{}, py::arg("separability") = 0.25,
            py::arg("kernel_radius") = 0.0, py::arg("skin") = 0.1,
            py::arg("full_damage") = 1.0 - 1e-4, py::arg("phase_field_threshold") = 0.05,
-           py::arg("parting_stress") = 0.05,
+           py::arg("parting_stress") = std::numeric_limits<double>::infinity(),
            "groups: contact group of each body (empty: each body its own); separability: "
            "D-bar_min of eq. 21; kernel_radius: r_p (0: the cell diagonal); skin: Verlet skin "
            "over r_p; full_damage: D at which a damage model's particle is fully damaged; "

@@ -97,8 +97,8 @@ DamageFields::DamageFields(const Grid& grid, Particles& particles, std::vector<d
                "in (0, 1]");
   check_option(o.phase_field_threshold >= 0.0 && o.phase_field_threshold < 1.0,
                "phase_field_threshold", o.phase_field_threshold, "in [0, 1)");
-  check_option(o.parting_stress >= 0.0 && std::isfinite(o.parting_stress), "parting_stress",
-               o.parting_stress, ">= 0");
+  check_option(o.parting_stress >= 0.0, "parting_stress", o.parting_stress,
+               ">= 0 (infinite: eq. 21 alone)");
   if (_groups_n > max_groups)
     throw std::invalid_argument("friction: " + std::to_string(_groups_n) + " contact groups; at most "
                                 + std::to_string(max_groups));

@@ -13,6 +13,7 @@
 
 #include <array>
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <utility>
 #include <vector>
@@ -49,8 +50,8 @@ struct DamageGradientOptions
   /// model that maps there and has begun to soften (0 < D < full) still
   /// carries a largest principal stress above this fraction of its strength
   /// sigma_f: the faces part once their band has softened (docs/contact.md,
-  /// "Parting"). Large (1e9): eq. 21 alone.
-  double parting_stress = 0.05;
+  /// "Parting"). Infinite (the default): eq. 21 alone.
+  double parting_stress = std::numeric_limits<double>::infinity();
 };
 
 /// The normalised kernel damage field at every particle (eqs. 17-19).

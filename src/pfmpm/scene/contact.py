@@ -49,7 +49,7 @@ class ContactPair:
 # partition = "bodies" each must keep its default.
 _DAMAGE_KEYS = {"groups": (), "separability": 0.25, "kernel_radius": None, "skin": 0.1,
                 "surface_detection": "none", "surface_threshold": 0.99, "surfaces": (),
-                "phase_field_threshold": 0.05, "parting_stress": 0.05}
+                "phase_field_threshold": 0.05, "parting_stress": None}
 
 
 @dataclass(frozen=True)
@@ -106,12 +106,12 @@ class Contact:
     phase_field_threshold : float
         Damage gradient only: a particle of a phase-field material is fully
         damaged at c <= this, in [0, 1) (a damage model's at D >= 1 - 1e-4).
-    parting_stress : float
+    parting_stress : float or None
         Damage gradient only: the fields of a group part at a node only where
         no particle of a damage model mapping there that has begun to soften
         still carries a largest principal stress above this fraction of its
-        strength sigma_f, >= 0 (docs/contact.md, "Parting"); a large value,
-        such as 1e9, leaves eq. 21 alone.
+        strength sigma_f, >= 0 (docs/contact.md, "Parting"); ``None``, the
+        default, leaves eq. 21 alone.
     """
 
     friction: float = 0.0
@@ -126,7 +126,7 @@ class Contact:
     surface_threshold: float = 0.99
     surfaces: tuple[Shape, ...] = ()
     phase_field_threshold: float = 0.05
-    parting_stress: float = 0.05
+    parting_stress: float | None = None
 
     def __post_init__(self):
         store(self, "friction", real("friction", self.friction, ge=0))
@@ -161,7 +161,8 @@ class Contact:
         store(self, "surfaces", surfaces)
         store(self, "phase_field_threshold",
               real("phase_field_threshold", self.phase_field_threshold, ge=0, lt=1))
-        store(self, "parting_stress", real("parting_stress", self.parting_stress, ge=0))
+        if self.parting_stress is not None:
+            store(self, "parting_stress", real("parting_stress", self.parting_stress, ge=0))
         if self.partition != "damage_gradient":
             for key, default in _DAMAGE_KEYS.items():
                 if getattr(self, key) != default:
