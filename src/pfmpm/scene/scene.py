@@ -13,7 +13,7 @@ import numpy as np
 
 from . import seeding, stability
 from .bodies import Body
-from .components import GridSpec, Output, PhaseFieldSpec, Time
+from .components import GridSpec, Output, PhaseFieldSpec, Time, TransferSpec
 from .contact import Contact
 from .loads import BodyForce, Crack, Traction, WallSpec
 from .materials import PLANES, FractureSpec, MaterialSpec
@@ -55,6 +55,8 @@ class Scene:
         Initial cracks, on bodies whose material can crack.
     phase_field : PhaseFieldSpec
         Phase-field solver settings (used when some material can crack).
+    transfer : TransferSpec
+        The particle-grid transfer: FLIP (the default) or APIC.
     contact : Contact or None
         Frictional contact between the bodies, each its own discrete field;
         ``None``: the bodies form one continuum.
@@ -86,6 +88,7 @@ class Scene:
     phase_field: PhaseFieldSpec = field(default_factory=PhaseFieldSpec)
     contact: Contact | None = None
     units: str = ""
+    transfer: TransferSpec = field(default_factory=TransferSpec)
 
     def __post_init__(self):
         self.validate()
@@ -106,7 +109,7 @@ class Scene:
         store(self, "thickness", real("thickness", self.thickness, gt=0))
         store(self, "units", choice("units", self.units, ("", *UNIT_SYSTEMS)))
         for key, cls in (("grid", GridSpec), ("time", Time), ("output", Output),
-                         ("phase_field", PhaseFieldSpec)):
+                         ("phase_field", PhaseFieldSpec), ("transfer", TransferSpec)):
             if not isinstance(getattr(self, key), cls):
                 raise SceneError(key, f"must be a {cls.__name__}", getattr(self, key))
         store(self, "materials", self._items("materials", (MaterialSpec,), required=True))

@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from .bodies import Body
-from .components import GridSpec, Output, PhaseFieldSpec, Time
+from .components import GridSpec, Output, PhaseFieldSpec, Time, TransferSpec
 from .contact import Contact, ContactPair
 from .loads import LOADS, Crack, WallSpec
 from .damage import DamageSpec, WeibullSpec, damage_class
@@ -51,6 +51,7 @@ def build_scene(cls: type, d: Any, overrides: list[str] | tuple[str, ...] = ()) 
         "walls": lambda v: _tables(v, lambda t: _build(WallSpec, t)),
         "cracks": lambda v: _tables(v, lambda t: _build(Crack, t)),
         "phase_field": lambda t: _build(PhaseFieldSpec, t),
+        "transfer": lambda t: _build(TransferSpec, t),
         "contact": lambda t: _build(Contact, t, {
             "pairs": lambda v: _tables(v, lambda p: _build(ContactPair, p)),
             "surfaces": lambda v: _tables(v, lambda t: _typed(t, SHAPES))}),
