@@ -127,18 +127,15 @@ struct P2GBlock
 /// (K&T eq. 46), momentum (eq. 61), internal and external force (eqs. 62,
 /// 42), with Surface the mass gradient (eq. 70, H&H eq. 11) and volume, and
 /// with Damage the mass-weighted damage and the fully damaged flag of H&H
-/// eq. 21. `select` gives each (particle, node) pair its local field. With
-/// Affine (APIC) the momentum has the particle's affine part too (Jiang et
-/// al. 2015, eq. 8), with D_p at its position (`points`: the Greville
-/// abscissae of the cell's nodes), each pair's in its own field.
+/// eq. 21. `select` gives each (particle, node) pair its local field.
 ///
 /// Not inlined, on purpose: every partition runs this same compiled
 /// arithmetic (the compiler may fuse multiply-adds differently where it
 /// inlines), so a body alone in its cells, or a damage field with no
 /// split, gets the bits one field gets.
-template <class Shape, bool External, int F, bool Surface, bool Damage, bool Affine, class Select>
+template <class Shape, bool External, int F, bool Surface, bool Damage, class Select>
 [[gnu::noinline]] void sum_cell(const detail::EachParticle<Shape>& each, const P2GArrays& a,
-                                const Select& select, const BlockPoints<Shape>* points,
+                                const Select& select,
                                 P2GBlock<F, Shape::size, Surface, Damage>& block)
 {
   constexpr int K = Shape::size;
@@ -186,23 +183,6 @@ template <class Shape, bool External, int F, bool Surface, bool Damage, bool Aff
                   full[f][i] = std::max(full[f][i], a.full[p]);
               }
             });
-        if constexpr (Affine)
-        {
-          // Jiang et al. 2015, eq. 8: the affine part of the momentum,
-          // m_p B_p D_p^-1 (x_i - x_p) N_i (apic.h).
-          double D[3];
-          const Shape moments = first_moments(s, *points, D);
-          const Shape e = affine_weights(moments, D);
-          const double* B = &a.affine[4 * p];
-          const double bxx = mp * B[0], bxy = mp * B[1], byx = mp * B[2], byy = mp * B[3];
-          e.each_node(
-              [&](int i, double, const double* g)
-              {
-                const int f = Select::at(fp, i);
-                px[f][i] += bxx * g[0] + bxy * g[1];
-                py[f][i] += byx * g[0] + byy * g[1];
-              });
-        }
         // eq. 42, from the loaded particles alone (few: a load on an edge):
         // a zero force adds zeros, which leave the sums as they are.
         if constexpr (External)
@@ -235,6 +215,46 @@ template <class Shape, bool External, int F, bool Surface, bool Damage, bool Aff
   }
 }
 
+/// @brief APIC: add to a cell's momentum sums `px`, `py` (of sum_cell) the
+/// affine part of each particle's momentum, m_p N_i C_p (x_i - x_p) with
+/// C_p = B_p D_p^-1 (Jiang et al. 2015, eq. 8; apic.h), D_p at the particle's
+/// position (`points`: the Greville abscissae of the cell's nodes), each
+/// (particle, node) pair's in its own local field (`select`). A pass of its
+/// own, so that sum_cell, which every transfer runs, stays as it is.
+template <class Shape, int F, class Select>
+[[gnu::noinline]] void sum_affine(const detail::EachParticle<Shape>& each, const double* mass,
+                                  const double* affine, const Select& select,
+                                  const BlockPoints<Shape>& points, double (&px)[F][Shape::size],
+                                  double (&py)[F][Shape::size])
+{
+  constexpr int K = Shape::size;
+  double ax[F][K]{}, ay[F][K]{};
+  each(
+      [&](std::size_t p, const Shape& s)
+      {
+        const auto fp = select.particle(p);
+        const AffineFrame<Shape> frame = affine_frame<true>(s, points);
+        double c[4];
+        affine_velocity<Shape>(&affine[4 * p], frame.D, c);
+        for (double& ck : c)
+          ck *= mass[p];
+        s.each_node(
+            [&](int i, double w, const double*)
+            {
+              const int f = Select::at(fp, i);
+              const double rx = frame.r[0][Shape::offset(i, 0)], ry = frame.r[1][Shape::offset(i, 1)];
+              ax[f][i] += w * (c[0] * rx + c[1] * ry);
+              ay[f][i] += w * (c[2] * rx + c[3] * ry);
+            });
+      });
+  for (int f = 0; f < F; ++f)
+    for (int i = 0; i < K; ++i)
+    {
+      px[f][i] += ax[f][i];
+      py[f][i] += ay[f][i];
+    }
+}
+
 /// @brief The slot of local field f of a cell at active node a: a with one
 /// field, the body's slot with discrete fields, the group's side with damage
 /// fields (-1 where that side has no particle at the node).
@@ -257,7 +277,7 @@ std::int32_t slot_of(const Fields& fields, std::int32_t a, const CellFields& loc
 /// cell, which is then added to the slots once. The internal and external
 /// forces are summed apart in the block and added together. A cell whose
 /// pairs all map to one field takes the one-field block, whatever the
-/// partition. With Affine, the APIC momentum (sum_cell).
+/// partition. With Affine, the APIC momentum (sum_affine).
 template <class Shape, bool External, class Fields, bool Affine>
 struct MomentumP2G
 {
@@ -304,13 +324,10 @@ struct MomentumP2G
   {
     constexpr int K = Shape::size;
     P2GBlock<F, K, Surface, Damage> b;
+    sum_cell<Shape, External, F, Surface, Damage>(each, arrays, select, b);
     if constexpr (Affine)
-    {
-      const BlockPoints<Shape> points(grid, cell);
-      sum_cell<Shape, External, F, Surface, Damage, true>(each, arrays, select, &points, b);
-    }
-    else
-      sum_cell<Shape, External, F, Surface, Damage, false>(each, arrays, select, nullptr, b);
+      sum_affine<Shape, F>(each, arrays.mass, arrays.affine, select, BlockPoints<Shape>(grid, cell),
+                           b.px, b.py);
     const int nf = F == 1 ? 1 : Fields::per_pair ? 2 * local.n : local.n;
     const CellNodes<Shape> nodes(grid, cell);
     for (int f = 0; f < nf; ++f)
@@ -488,17 +505,23 @@ template <class Shape, int F, bool Affine, class Select>
 {
   constexpr int K = Shape::size;
   double *x = a.x, *v = a.v, *volume = a.volume;
-  // APIC (Jiang et al. 2015, eq. 10): B_p = sum_i N_i v_i (x_i - x_p)^T from
-  // the first moments of the particle's stencil, before it moves.
+  // APIC (Jiang et al. 2015, eq. 10): B_p = sum_i N_i v_i (x_i - x_p)^T at
+  // the particle's position before it moves (apic.h).
   [[maybe_unused]] auto affine = [&](std::size_t p, const Shape& s, const double (*nodal)[4])
   {
-    double D[3], unused[4], moment[2][4];
-    first_moments(s, *points, D).template interpolate<4>(nodal, unused, moment);
-    double* B = &a.affine[4 * p];
-    B[0] = moment[0][0];
-    B[1] = moment[1][0];
-    B[2] = moment[0][1];
-    B[3] = moment[1][1];
+    const AffineFrame<Shape> frame = affine_frame<false>(s, *points);
+    double b[4] = {0.0, 0.0, 0.0, 0.0};
+    s.each_node(
+        [&](int i, double w, const double*)
+        {
+          const double rx = frame.r[0][Shape::offset(i, 0)], ry = frame.r[1][Shape::offset(i, 1)];
+          const double wx = w * nodal[i][0], wy = w * nodal[i][1];
+          b[0] += wx * rx;
+          b[1] += wx * ry;
+          b[2] += wy * rx;
+          b[3] += wy * ry;
+        });
+    std::copy(b, b + 4, &a.affine[4 * p]);
   };
   each(
       [&](std::size_t p, const Shape& s)

@@ -840,8 +840,8 @@ void Solver::set_velocity_gradients(const std::vector<double>& G)
                   each(
                       [&](std::size_t p, const Shape& s)
                       {
-                        double D[3];
-                        first_moments(s, X, D);
+                        const AffineFrame<Shape> frame = affine_frame<true>(s, X);
+                        const double* D = frame.D;
                         const double* g = &G[4 * p];
                         B[4 * p] = g[0] * D[0] + g[1] * D[1];
                         B[4 * p + 1] = g[0] * D[1] + g[1] * D[2];

@@ -1,7 +1,8 @@
 /// @file apic.h
 /// @brief The affine particle-in-cell transfer (APIC: Jiang, Schroeder,
 /// Selle, Teran & Stomakhin 2015): the transfer scheme of a run, the
-/// particles' affine matrix, and the stencils its transfers read.
+/// particles' affine matrix, and the frame of node offsets and D_p that its
+/// transfers read.
 ///
 /// Each particle carries, besides v_p, the matrix
 ///   B_p = sum_i N_i v_i (x_i - x_p)^T                      (eq. 10)
@@ -84,23 +85,33 @@ struct BlockPoints
   }
 };
 
-// The offsets x_i - x_p are measured from the point the stencil reproduces,
-// sum_i N_i x_i / sum_i N_i (x_p up to round-off), in the block's cells: then
-// sum_i N_i (x_i - x_p) vanishes up to a rounding without bias. With x_p itself
-// the evaluation error of the N_i leaves a residue of a fixed sign, of the size
-// of the round-off of x_p's coordinates, that the affine momentum (eq. 8) turns
-// into a steady leak of linear and angular momentum, step after step.
-
-/// @brief The stencil s of a particle with its gradients replaced by the
-/// first moments N_i (x_i - x_p), and D_p as (xx, xy, yy) (diagonal for the
-/// tensor product): its `interpolate` then gives sum_i N_i u_i (x_i - x_p)^T
-/// in place of the gradient of u (eq. 10).
-template <int P>
-BSplineStencil<2, P> first_moments(const BSplineStencil<2, P>& s,
-                                   const BlockPoints<BSplineStencil<2, P>>& X, double (&D)[3])
+/// @brief The frame of a particle's affine velocity: the offsets x_i - x_p
+/// of its block's nodes per direction (node i of the stencil lies at
+/// (r[0][offset(i, 0)], r[1][offset(i, 1)]) from the particle) and, where
+/// asked for (inertia), D_p = sum_i N_i (x_i - x_p)(x_i - x_p)^T as
+/// (xx, xy, yy).
+///
+/// The offsets are measured from the point the weights reproduce,
+/// sum_i N_i x_i / sum_i N_i (x_p up to round-off), in the block's cells:
+/// then sum_i N_i (x_i - x_p) vanishes up to a rounding without bias. From
+/// x_p itself, the evaluation error of the N_i leaves a residue of one sign,
+/// of the size of the round-off of x_p's coordinates, which the affine
+/// momentum (eq. 8) turns into a steady leak of linear and angular momentum.
+/// The weights sum to 1 up to round-off, so 1 / sum_i N_i is 2 - sum_i N_i
+/// to rounding (the error is the square of the sum's): no division.
+template <class Shape>
+struct AffineFrame
 {
-  BSplineStencil<2, P> m = s;
-  double diagonal[2];
+  double r[2][Shape::width];
+  double D[3];
+};
+
+/// @brief The offsets of the frame with B-splines, per direction.
+template <int P>
+[[gnu::always_inline]] inline void offsets(const BSplineStencil<2, P>& s,
+                                           const BlockPoints<BSplineStencil<2, P>>& X,
+                                           AffineFrame<BSplineStencil<2, P>>& f)
+{
   for (int d = 0; d < 2; ++d)
   {
     double weight = 0.0, first = 0.0;
@@ -109,77 +120,97 @@ BSplineStencil<2, P> first_moments(const BSplineStencil<2, P>& s,
       weight += s.n[d][a];
       first += s.n[d][a] * X.u[d][a];
     }
-    const double centre = first / weight;
-    diagonal[d] = 0.0;
+    const double centre = first * (2.0 - weight);
     for (int a = 0; a <= P; ++a)
-    {
-      const double r = X.h * (X.u[d][a] - centre);
-      m.dn[d][a] = s.n[d][a] * r;
-      diagonal[d] += m.dn[d][a] * r;
-    }
+      f.r[d][a] = X.h * (X.u[d][a] - centre);
   }
-  D[0] = diagonal[0];
-  D[1] = 0.0;
-  D[2] = diagonal[1];
-  return m;
 }
 
-/// @brief first_moments for CPDI: Sbar_i (x_i - x_p) node by node, and the
-/// full D_p.
-inline CpdiStencil first_moments(const CpdiStencil& s, const BlockPoints<CpdiStencil>& X,
-                                 double (&D)[3])
+/// @brief The offsets of the frame with CPDI, from the 4 x 4 nodes.
+[[gnu::always_inline]] inline void offsets(const CpdiStencil& s, const BlockPoints<CpdiStencil>& X,
+                                           AffineFrame<CpdiStencil>& f)
 {
-  constexpr int K = CpdiStencil::size;
   double weight = 0.0, first[2] = {0.0, 0.0};
-  for (int i = 0; i < K; ++i)
+  for (int i = 0; i < CpdiStencil::size; ++i)
   {
     weight += s.n[i];
     first[0] += s.n[i] * X.u[0][CpdiStencil::offset(i, 0)];
     first[1] += s.n[i] * X.u[1][CpdiStencil::offset(i, 1)];
   }
-  const double centre[2] = {first[0] / weight, first[1] / weight};
-  CpdiStencil m = s;
-  D[0] = D[1] = D[2] = 0.0;
-  for (int i = 0; i < K; ++i)
+  for (int d = 0; d < 2; ++d)
   {
-    const double rx = X.h * (X.u[0][CpdiStencil::offset(i, 0)] - centre[0]);
-    const double ry = X.h * (X.u[1][CpdiStencil::offset(i, 1)] - centre[1]);
-    m.dn[0][i] = s.n[i] * rx;
-    m.dn[1][i] = s.n[i] * ry;
-    D[0] += m.dn[0][i] * rx;
-    D[1] += m.dn[0][i] * ry;
-    D[2] += m.dn[1][i] * ry;
+    const double centre = first[d] * (2.0 - weight);
+    for (int a = 0; a < CpdiStencil::width; ++a)
+      f.r[d][a] = X.h * (X.u[d][a] - centre);
   }
-  return m;
 }
 
-/// @brief The stencil whose gradients are N_i D_p^-1 (x_i - x_p), from the
-/// first moments m and D_p: the weights of the affine momentum of eq. 8.
-/// With B-splines per direction; a direction with D_dd = 0 (a particle on
-/// a degree-1 grid line or on the grid's edge) has all its moments zero
-/// and keeps them.
+/// @brief D_p of the frame from its offsets: with B-splines diagonal, per
+/// direction (the cross sums are products of sum_a N_a (X_a - x_d) = 0).
 template <int P>
-BSplineStencil<2, P> affine_weights(BSplineStencil<2, P> m, const double (&D)[3])
+[[gnu::always_inline]] inline void inertia(const BSplineStencil<2, P>& s,
+                                           AffineFrame<BSplineStencil<2, P>>& f)
 {
-  const double inverse[2] = {D[0] > 0.0 ? 1.0 / D[0] : 0.0, D[2] > 0.0 ? 1.0 / D[2] : 0.0};
+  double diagonal[2] = {0.0, 0.0};
   for (int d = 0; d < 2; ++d)
     for (int a = 0; a <= P; ++a)
-      m.dn[d][a] *= inverse[d];
-  return m;
+      diagonal[d] += s.n[d][a] * f.r[d][a] * f.r[d][a];
+  f.D[0] = diagonal[0];
+  f.D[1] = 0.0;
+  f.D[2] = diagonal[1];
 }
 
-/// @brief affine_weights for CPDI: D_p^-1 applied node by node.
-inline CpdiStencil affine_weights(CpdiStencil m, const double (&D)[3])
+/// @brief D_p of the frame with CPDI, in full over the 4 x 4 nodes.
+[[gnu::always_inline]] inline void inertia(const CpdiStencil& s, AffineFrame<CpdiStencil>& f)
 {
-  const double det = D[0] * D[2] - D[1] * D[1];
-  const double a = D[2] / det, b = -D[1] / det, c = D[0] / det;
+  f.D[0] = f.D[1] = f.D[2] = 0.0;
   for (int i = 0; i < CpdiStencil::size; ++i)
   {
-    const double mx = m.dn[0][i], my = m.dn[1][i];
-    m.dn[0][i] = a * mx + b * my;
-    m.dn[1][i] = b * mx + c * my;
+    const double rx = f.r[0][CpdiStencil::offset(i, 0)], ry = f.r[1][CpdiStencil::offset(i, 1)];
+    f.D[0] += s.n[i] * rx * rx;
+    f.D[1] += s.n[i] * rx * ry;
+    f.D[2] += s.n[i] * ry * ry;
   }
-  return m;
+}
+
+/// @brief The frame of a particle with stencil s: its offsets and, with
+/// `Inertia`, D_p.
+template <bool Inertia, class Shape>
+[[gnu::always_inline]] inline AffineFrame<Shape> affine_frame(const Shape& s,
+                                                              const BlockPoints<Shape>& X)
+{
+  AffineFrame<Shape> f;
+  offsets(s, X, f);
+  if constexpr (Inertia)
+    inertia(s, f);
+  return f;
+}
+
+/// @brief The affine velocity C_p = B_p D_p^-1 of eq. 8, (xx, xy, yx, yy).
+/// With B-splines D_p is diagonal, and a direction with D_dd = 0 (a particle
+/// on a degree-1 grid line or on the grid's edge: all its weight at distance
+/// 0) gets no affine velocity; with CPDI D_p is positive definite.
+template <class Shape>
+[[gnu::always_inline]] inline void affine_velocity(const double* B, const double (&D)[3],
+                                                   double (&C)[4])
+{
+  if constexpr (Shape::domains)
+  {
+    const double det = D[0] * D[2] - D[1] * D[1];
+    const double ixx = D[2] / det, ixy = -D[1] / det, iyy = D[0] / det;
+    C[0] = B[0] * ixx + B[1] * ixy;
+    C[1] = B[0] * ixy + B[1] * iyy;
+    C[2] = B[2] * ixx + B[3] * ixy;
+    C[3] = B[2] * ixy + B[3] * iyy;
+  }
+  else
+  {
+    const double ixx = D[0] > 0.0 ? 1.0 / D[0] : 0.0, iyy = D[2] > 0.0 ? 1.0 / D[2] : 0.0;
+    C[0] = B[0] * ixx;
+    C[1] = B[1] * iyy;
+    C[2] = B[2] * ixx;
+    C[3] = B[3] * iyy;
+  }
 }
 
 } // namespace pfmpm
