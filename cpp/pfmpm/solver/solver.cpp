@@ -348,8 +348,8 @@ void Solver::advance(std::int64_t steps)
           if (_adaptive_threads)
             omp_set_num_threads(_threads.next(restore.threads));
           const double start = omp_get_wtime();
-          // energy in the last
-          step<typename decltype(shape)::type, decltype(affine)::value>(fields, k + 1 == steps);
+          constexpr bool apic = decltype(affine)::value;
+          step<typename decltype(shape)::type, apic>(fields, k + 1 == steps); // energy in the last
           if (_adaptive_threads)
           {
             const double now = waits.seconds();
@@ -569,17 +569,17 @@ void Solver::grid_to_particle(Fields& fields, bool stress)
   const bool check_stability = _stability_length > 0.0;
   const ParticleDomains* domains = _domains ? &*_domains : nullptr;
   KinematicsG2P<Shape, Fields, Affine> kernel{_grid,
-                                      fields,
-                                      _kinematics.data(),
-                                      _particles,
-                                      _bound,
-                                      _degradation,
-                                      domains,
-                                      _dt,
-                                      field_of_particles(fields, _particles),
-                                      stress,
-                                      Affine ? _particles.f64("affine").data() : nullptr,
-                                      _particles.size()};
+                                              fields,
+                                              _kinematics.data(),
+                                              _particles,
+                                              _bound,
+                                              _degradation,
+                                              domains,
+                                              _dt,
+                                              field_of_particles(fields, _particles),
+                                              stress,
+                                              Affine ? _particles.f64("affine").data() : nullptr,
+                                              _particles.size()};
   pfmpm::grid_to_particle<Shape>(_grid, _sort, points(), kernel);
   if (kernel.bad < _particles.size())
     non_finite(kernel.bad);
