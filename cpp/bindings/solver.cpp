@@ -137,25 +137,32 @@ void bind_solver(py::module_& m)
       .value("bspline", ShapeFunctions::bspline)
       .value("cpdi", ShapeFunctions::cpdi);
 
+  py::enum_<TransferScheme>(m, "TransferScheme",
+                            "the particle-grid transfer: FLIP (v_p += dt sum N_i a_i) or APIC "
+                            "(v_p = sum N_i v_i with the affine matrix B_p, Jiang et al. 2015)")
+      .value("flip", TransferScheme::flip)
+      .value("apic", TransferScheme::apic);
+
   py::class_<Solver>(m, "Solver", "Explicit MPM stepping with a staggered phase field (Algorithm 1)")
       .def(py::init(
                [](Grid& grid, Particles& particles,
                   const std::vector<std::shared_ptr<Material>>& materials, double dt,
                   std::vector<std::optional<Fracture>> fracture, double tol, int max_iterations,
                   std::vector<double> friction, std::optional<DamageGradientOptions> damage,
-                  ShapeFunctions shape, bool scale_failed, double failed_c)
+                  ShapeFunctions shape, bool scale_failed, double failed_c, TransferScheme transfer)
                {
                  return std::make_unique<Solver>(
                      grid, particles,
                      std::vector<std::shared_ptr<const Material>>(materials.begin(), materials.end()),
                      dt, std::move(fracture), tol, max_iterations, std::move(friction),
-                     std::move(damage), shape, DomainScaling{scale_failed, failed_c});
+                     std::move(damage), shape, DomainScaling{scale_failed, failed_c}, transfer);
                }),
            py::arg("grid"), py::arg("particles"), py::arg("materials"), py::arg("dt"),
            py::arg("fracture") = std::vector<std::optional<Fracture>>{}, py::arg("tol") = 1e-6,
            py::arg("max_iterations") = 1000, py::arg("friction") = std::vector<double>{},
            py::arg("damage") = std::nullopt, py::arg("shape") = ShapeFunctions::bspline,
-           py::arg("scale_failed") = true, py::arg("failed_c") = 0.0, py::keep_alive<1, 2>(),
+           py::arg("scale_failed") = true, py::arg("failed_c") = 0.0,
+           py::arg("transfer") = TransferScheme::flip, py::keep_alive<1, 2>(),
            py::keep_alive<1, 3>(),
            "materials: pfmpm._core.Material per material index (see pfmpm._core.material); "
            "friction: empty for one velocity field, else the n x n (row-major) Coulomb "
@@ -164,7 +171,8 @@ void bind_solver(py::module_& m)
            "gradient (friction then between groups); shape: the shape functions (CPDI adds the "
            "domain columns, to be set before the first step); scale_failed, failed_c: with CPDI, "
            "scale the domains of failed particles (damage D = 1, or phase field c < failed_c) to "
-           "a diagonal of at most a cell. Adds the models' particle columns.")
+           "a diagonal of at most a cell; transfer: FLIP or APIC (which adds the column "
+           "`affine`, B_p). Adds the models' particle columns.")
       .def("advance", &Solver::advance, py::arg("steps"),
            py::call_guard<py::gil_scoped_release>(),
            "take `steps` steps, each on the thread count the solver's ThreadGovernor chooses "
@@ -257,6 +265,19 @@ void bind_solver(py::module_& m)
           },
           py::arg("state"), "continue from a state() dict; restore the particle columns beside it")
       .def_property_readonly("dt", &Solver::dt)
+      .def_property_readonly("transfer", &Solver::transfer)
+      .def(
+          "set_velocity_gradients",
+          [](Solver& s, const py::array_t<double, py::array::c_style | py::array::forcecast>& G)
+          {
+            if (G.ndim() != 3 || G.shape(1) != 2 || G.shape(2) != 2)
+              throw py::value_error("velocity gradients: an (n, 2, 2) array is needed");
+            const std::vector<double> g(G.data(), G.data() + G.size());
+            s.set_velocity_gradients(g);
+          },
+          py::arg("G"),
+          "with APIC: each particle's affine matrix B_p = G_p D_p for the velocity field "
+          "v_p + G_p (x - x_p) about it (G: (n, 2, 2), G[p, i, j] = dv_i/dx_j)")
       .def_property_readonly("time", &Solver::time)
       .def_property_readonly("step_count", &Solver::step_count)
       .def("energies",
@@ -274,6 +295,7 @@ void bind_solver(py::module_& m)
              d["fracture_by_body"] = e.fracture_by_field;
              d["momentum_x"] = e.momentum[0];
              d["momentum_y"] = e.momentum[1];
+             d["angular_momentum"] = e.angular_momentum;
              d["mass"] = e.mass;
              return d;
            })

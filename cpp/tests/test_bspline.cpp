@@ -95,6 +95,7 @@ TEST_P(BSplineDegree, ReproducesLinearFieldsExactly)
     for (int j = 1; j <= p; ++j)
       g[i] += t[i + j];
     g[i] /= p;
+    EXPECT_NEAR(b.greville(i), g[i], 1e-15) << i; // BSpline1D's own
   }
   double N[4], dN[4], d2N[4];
   for (double x : samples(b))

@@ -16,7 +16,7 @@ import numpy as np
 
 from . import _core
 from .scene import (Anisotropy, Body, Contact, Crack, FractureSpec, GridSpec, LinearElasticSpec,
-                    NeoHookeanSpec, PhaseFieldSpec, Rectangle, Scene, Time)
+                    NeoHookeanSpec, PhaseFieldSpec, Rectangle, Scene, Time, TransferSpec)
 from .simulation import Simulation
 
 PHYSICS = ("elastic", "phasefield", "anisotropic", "contact", "damage_gradient")
@@ -25,7 +25,8 @@ MODELS = ("linear_elastic", "neo_hookean")
 
 
 def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str = "elastic",
-                model: str = "linear_elastic", bands: int = 1, shape: str = "bspline") -> Scene:
+                model: str = "linear_elastic", bands: int = 1, shape: str = "bspline",
+                transfer: str = "flip") -> Scene:
     """A square block of about ``particles`` points, 3x3 per cell, with a margin of empty cells.
 
     ``physics="phasefield"`` makes the block crackable (l0 = 2 h, spectral
@@ -48,7 +49,8 @@ def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str
     ``model="neo_hookean"`` makes the material neo-Hookean (eq. 8 in one
     step, no damage) with the same E, nu and density; it has no phase field.
     ``shape="cpdi"`` (with ``degree=1``) maps with CPDI1 over the particle
-    domains instead of B-splines at the centres.
+    domains instead of B-splines at the centres. ``transfer="apic"`` moves
+    momentum with APIC (``[transfer] scheme``).
     """
     if bands < 1:
         raise ValueError(f"bands = {bands}: must be >= 1")
@@ -91,16 +93,17 @@ def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str
         # The first, cold fourth-order solve needs more than the default limit.
         phase_field=PhaseFieldSpec(max_iterations=100_000),
         contact=contact,
+        transfer=TransferSpec(transfer),
     )
 
 
 def bench(physics: str = "elastic", particles: int = 1_000_000, steps: int = 20, repeats: int = 3,
           degree: int = 2, model: str = "linear_elastic", per_cell: int = 3, bands: int = 1,
-          shape: str = "bspline") -> dict:
+          shape: str = "bspline", transfer: str = "flip") -> dict:
     """Time ``steps`` core steps ``repeats`` times and report the median
     (``per_cell`` particles per cell and direction; ``bands`` damaged bands
     per direction with ``physics="damage_gradient"``; ``shape`` the shape
-    functions, :func:`block_scene`).
+    functions and ``transfer`` the particle-grid transfer, :func:`block_scene`).
 
     The block vibrates in a smooth mode (velocity amplitude 1e-3 of the wave
     speed), so strains and stresses are nonzero and nothing leaves the grid.
@@ -108,7 +111,7 @@ def bench(physics: str = "elastic", particles: int = 1_000_000, steps: int = 20,
     if physics not in PHYSICS:
         raise ValueError(f"physics = {physics!r}: must be one of {', '.join(PHYSICS)}")
     sim = Simulation(block_scene(particles, degree, per_cell, physics=physics, model=model, bands=bands,
-                                 shape=shape))
+                                 shape=shape, transfer=transfer))
     x = sim.particles.x
     lo, hi = x.min(axis=0), x.max(axis=0)
     s = (x - lo) / (hi - lo)
@@ -131,6 +134,7 @@ def bench(physics: str = "elastic", particles: int = 1_000_000, steps: int = 20,
         "degree": degree,
         "per_cell": per_cell,
         "shape": shape,
+        "transfer": transfer,
         "particles": n,
         "steps": steps,
         "repeats": repeats,

@@ -14,7 +14,7 @@ from .compare import (BORDEN_SCENE, DEFAULT_END, DEFAULT_FRAMES, DEFAULT_H, DEFA
                       read_study)
 from .run_folder import SCENE_FILE, check_fresh, check_resume, read_scene
 from .scene import SceneError
-from .scene.components import SHAPES
+from .scene.components import SHAPES, TRANSFER_SCHEMES
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -137,7 +137,7 @@ def _bench(args: argparse.Namespace) -> int:
         return 0
     try:
         r = bench(args.physics, args.particles, args.steps, args.repeats, args.degree, args.model,
-                  args.per_cell, args.bands, args.shape)
+                  args.per_cell, args.bands, args.shape, args.transfer)
     except SceneError as err:  # the block's grid: --degree with --shape
         print(f"error: --degree, --shape: {err}", file=sys.stderr)
         return 2
@@ -357,6 +357,8 @@ def main(argv: list[str] | None = None) -> int:
     bench.add_argument("--model", default="linear_elastic", choices=MODELS,
                        help="material model (neo_hookean: with --physics elastic or contact)")
     bench.add_argument("--per-cell", type=int, default=3, help="particles per cell and direction")
+    bench.add_argument("--transfer", default="flip", choices=TRANSFER_SCHEMES,
+                       help="particle-grid transfer: FLIP (default) or APIC ([transfer] scheme)")
     bench.add_argument("--bands", type=int, default=1,
                        help="damage_gradient: fully damaged bands per direction (default 1)")
     bench.add_argument("--json", action="store_true", help="print one JSON object")

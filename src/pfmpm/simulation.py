@@ -118,7 +118,7 @@ class Simulation:
         self.solver = _core.Solver(self.grid, self.particles, materials, scene.dt(), fracture,
                                    pf.tol, pf.max_iterations, friction, damage,
                                    _core.ShapeFunctions.__members__[g.shape], g.scale_failed,
-                                   g.failed_c)
+                                   g.failed_c, _core.TransferScheme.__members__[scene.transfer.scheme])
         self.solver.adaptive_threads = adaptive_threads()
         self.solver.set_phase_field_preconditioner(_core.Preconditioner.__members__[pf.preconditioner])
         if self.contact:
@@ -127,6 +127,8 @@ class Simulation:
         del xs
         self._initial_columns()
         self._impose_damage()
+        if scene.transfer.scheme == "apic":
+            self._initial_affine()
         self.damage = "dissipated" in columns
         if self.damage_gradient:
             self._flag_surfaces()
@@ -189,6 +191,14 @@ class Simulation:
                     part = sel[start:start + _BLOCK]
                     hit = part[entry.select(self.particles.x[part], start)]
                     damage[hit] = np.maximum(damage[hit], entry.D)
+
+    def _initial_affine(self) -> None:
+        """With APIC, the affine matrices of the bodies seeded with a velocity
+        gradient: each particle's for the field ``velocity_gradient`` about it
+        (``Solver.set_velocity_gradients``)."""
+        gradients = np.array([b.velocity_gradient for b in self.scene.bodies], dtype=float)
+        if np.any(gradients):
+            self.solver.set_velocity_gradients(gradients[self.particles.body])
 
     def _impose_cracks(self) -> None:
         """Set the initial history of every crack on the particles of its bodies."""
@@ -337,6 +347,8 @@ class Simulation:
             active.append("contact")
         if self.damage:
             active.append("damage")
+        if self.scene.transfer.scheme == "apic":
+            active.append("apic")
         if self.damage_gradient:
             active.append("damage_gradient")
             if self.scene.contact.surface_detection != "none" or self.scene.contact.surfaces:

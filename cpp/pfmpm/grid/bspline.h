@@ -45,6 +45,21 @@ public:
     return _h * (std::clamp(i + 1, 0, _cells) - std::clamp(i - _degree, 0, _cells)) / (_degree + 1);
   }
 
+  /// @brief The Greville abscissa of basis function i: the mean of its
+  /// `degree` inner knots, the point x_i with sum_i N_i(x) x_i = x on the
+  /// whole line (linear precision; open knots included). Away from the
+  /// ends: grid line i for degree 1, the centre of cell i - 1 for degree 2,
+  /// grid line i - 1 for degree 3 (the centre of the function's support).
+  double greville(int i) const { return _origin + _h * greville_coordinate(i); }
+  /// @brief greville(i) in cells from the origin, as coordinate() measures.
+  double greville_coordinate(int i) const
+  {
+    int sum = 0;
+    for (int j = 1; j <= _degree; ++j)
+      sum += std::clamp(i + j - _degree, 0, _cells);
+    return static_cast<double>(sum) / _degree;
+  }
+
   /// @brief The cell holding x, or -1 if x is outside [origin, origin + length).
   int cell(double x) const
   {

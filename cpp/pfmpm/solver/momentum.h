@@ -10,6 +10,7 @@
 #include "pfmpm/fields/fields.h"
 #include "pfmpm/materials/material.h"
 #include "pfmpm/shape/cpdi.h"
+#include "pfmpm/transfer/apic.h"
 #include "pfmpm/transfer/transfer.h"
 
 #include <algorithm>
@@ -108,6 +109,7 @@ struct P2GArrays
 {
   const double *v, *mass, *volume, *stress, *fext;
   const double *damage, *full; ///< with damage fields: D~_p and the fully damaged flag
+  const double* affine = nullptr; ///< with APIC: B_p
 };
 
 /// @brief The P2G sums of one cell: per local field and stencil node, the
@@ -213,6 +215,46 @@ template <class Shape, bool External, int F, bool Surface, bool Damage, class Se
   }
 }
 
+/// @brief APIC: add to a cell's momentum sums `px`, `py` (of sum_cell) the
+/// affine part of each particle's momentum, m_p N_i C_p (x_i - x_p) with
+/// C_p = B_p D_p^-1 (Jiang et al. 2015, eq. 8; apic.h), D_p at the particle's
+/// position (`points`: the Greville abscissae of the cell's nodes), each
+/// (particle, node) pair's in its own local field (`select`). A pass of its
+/// own, so that sum_cell, which every transfer runs, stays as it is.
+template <class Shape, int F, class Select>
+[[gnu::noinline]] void sum_affine(const detail::EachParticle<Shape>& each, const double* mass,
+                                  const double* affine, const Select& select,
+                                  const BlockPoints<Shape>& points, double (&px)[F][Shape::size],
+                                  double (&py)[F][Shape::size])
+{
+  constexpr int K = Shape::size;
+  double ax[F][K]{}, ay[F][K]{};
+  each(
+      [&](std::size_t p, const Shape& s)
+      {
+        const auto fp = select.particle(p);
+        const AffineFrame<Shape> frame = affine_frame<true>(s, points);
+        double c[4];
+        affine_velocity<Shape>(&affine[4 * p], frame.D, c);
+        for (double& ck : c)
+          ck *= mass[p];
+        s.each_node(
+            [&](int i, double w, const double*)
+            {
+              const int f = Select::at(fp, i);
+              const double rx = frame.r[0][Shape::offset(i, 0)], ry = frame.r[1][Shape::offset(i, 1)];
+              ax[f][i] += w * (c[0] * rx + c[1] * ry);
+              ay[f][i] += w * (c[2] * rx + c[3] * ry);
+            });
+      });
+  for (int f = 0; f < F; ++f)
+    for (int i = 0; i < K; ++i)
+    {
+      px[f][i] += ax[f][i];
+      py[f][i] += ay[f][i];
+    }
+}
+
 /// @brief The slot of local field f of a cell at active node a: a with one
 /// field, the body's slot with discrete fields, the group's side with damage
 /// fields (-1 where that side has no particle at the node).
@@ -235,8 +277,8 @@ std::int32_t slot_of(const Fields& fields, std::int32_t a, const CellFields& loc
 /// cell, which is then added to the slots once. The internal and external
 /// forces are summed apart in the block and added together. A cell whose
 /// pairs all map to one field takes the one-field block, whatever the
-/// partition.
-template <class Shape, bool External, class Fields>
+/// partition. With Affine, the APIC momentum (sum_affine).
+template <class Shape, bool External, class Fields, bool Affine>
 struct MomentumP2G
 {
   const Grid& grid;
@@ -283,6 +325,9 @@ struct MomentumP2G
     constexpr int K = Shape::size;
     P2GBlock<F, K, Surface, Damage> b;
     sum_cell<Shape, External, F, Surface, Damage>(each, arrays, select, b);
+    if constexpr (Affine)
+      sum_affine<Shape, F>(each, arrays.mass, arrays.affine, select, BlockPoints<Shape>(grid, cell),
+                           b.px, b.py);
     const int nf = F == 1 ? 1 : Fields::per_pair ? 2 * local.n : local.n;
     const CellNodes<Shape> nodes(grid, cell);
     for (int f = 0; f < nf; ++f)
@@ -432,10 +477,14 @@ struct G2PBlock
 struct G2PArrays
 {
   double *x, *v, *volume;
+  double* affine = nullptr; ///< with APIC: B_p
 };
 
 /// @brief Move a cell's particles (K&T eqs. 80, 82): velocity from the nodal
-/// accelerations (FLIP), position from the nodal velocities, each (particle,
+/// accelerations (FLIP), or with Affine (APIC) the nodal velocities
+/// interpolated and the affine matrix B_p (Jiang et al. 2015, eq. 10, at the
+/// position before the move: `points` are the Greville abscissae of the
+/// cell's nodes); position from the nodal velocities, each (particle,
 /// node) pair reading the values of its local field (`select`); the velocity
 /// gradient L_ij = dv_i/dx_j into `L` (4 per particle, in sorted order; H&H
 /// eq. 7 on the same fields) and the volume from det(I + dt L). Notes the
@@ -448,20 +497,42 @@ struct G2PArrays
 /// fields into one block, so that every partition runs the same arithmetic
 /// on the values it reads; not inlined, on purpose, for the same reason (see
 /// sum_cell).
-template <class Shape, int F, class Select>
+template <class Shape, int F, bool Affine, class Select>
 [[gnu::noinline]] void move_cell(const detail::EachParticle<Shape>& each, const G2PArrays& a,
                                  const Select& select, const G2PBlock<F, Shape::size>& block,
-                                 double dt, double* L, std::size_t& bad, double& speed2,
-                                 double& drift2)
+                                 const BlockPoints<Shape>* points, double dt, double* L,
+                                 std::size_t& bad, double& speed2, double& drift2)
 {
   constexpr int K = Shape::size;
   double *x = a.x, *v = a.v, *volume = a.volume;
+  // APIC (Jiang et al. 2015, eq. 10): B_p = sum_i N_i v_i (x_i - x_p)^T at
+  // the particle's position before it moves (apic.h).
+  [[maybe_unused]] auto affine = [&](std::size_t p, const Shape& s, const double (*nodal)[4])
+  {
+    const AffineFrame<Shape> frame = affine_frame<false>(s, *points);
+    double b[4] = {0.0, 0.0, 0.0, 0.0};
+    s.each_node(
+        [&](int i, double w, const double*)
+        {
+          const double rx = frame.r[0][Shape::offset(i, 0)], ry = frame.r[1][Shape::offset(i, 1)];
+          const double wx = w * nodal[i][0], wy = w * nodal[i][1];
+          b[0] += wx * rx;
+          b[1] += wx * ry;
+          b[2] += wy * rx;
+          b[3] += wy * ry;
+        });
+    std::copy(b, b + 4, &a.affine[4 * p]);
+  };
   each(
       [&](std::size_t p, const Shape& s)
       {
         double value[4], grad[2][4]; // (vx, vy, ax, ay) and their x and y derivatives
         if constexpr (F == 1)
+        {
           s.template interpolate<4>(block.nodal[0], value, grad);
+          if constexpr (Affine)
+            affine(p, s, block.nodal[0]);
+        }
         else
         {
           const auto fp = select.particle(p);
@@ -473,11 +544,21 @@ template <class Shape, int F, class Select>
               mine[i][q] = block.nodal[f][i][q];
           }
           s.template interpolate<4>(mine, value, grad);
+          if constexpr (Affine)
+            affine(p, s, mine);
         }
         const double vx = value[0], vy = value[1];
         const double Lxx = grad[0][0], Lxy = grad[1][0], Lyx = grad[0][1], Lyy = grad[1][1];
-        v[2 * p] += dt * value[2]; // eq. 80
-        v[2 * p + 1] += dt * value[3];
+        if constexpr (Affine)
+        {
+          v[2 * p] = vx; // the PIC velocity of APIC (Jiang et al. 2015)
+          v[2 * p + 1] = vy;
+        }
+        else
+        {
+          v[2 * p] += dt * value[2]; // eq. 80
+          v[2 * p + 1] += dt * value[3];
+        }
         x[2 * p] += dt * vx; // eq. 82
         x[2 * p + 1] += dt * vy;
         volume[p] *= (1.0 + dt * Lxx) * (1.0 + dt * Lyy) - dt * dt * Lxy * Lyx;
@@ -493,14 +574,15 @@ template <class Shape, int F, class Select>
       });
 }
 
-/// @brief G2P (K&T eqs. 80, 82, 78): move each cell's particles (move_cell),
-/// each (particle, node) pair reading its slot; then each run of the cell's
+/// @brief G2P (K&T eqs. 80, 82, 78): move each cell's particles (move_cell;
+/// with Affine the APIC velocity and B_p), each (particle, node) pair
+/// reading its slot; then each run of the cell's
 /// particles of one material advances its state with the velocity gradient
 /// and sets its stress (Material::Bound::update; a cracking particle's only
 /// with `stress`), and with CPDI the particle
 /// domains are convected (ParticleDomains::convect). Non-finite values and
 /// the largest speed are noted for the checks of the step.
-template <class Shape, class Fields>
+template <class Shape, class Fields, bool Affine>
 struct KinematicsG2P
 {
   const Grid& grid;
@@ -514,6 +596,7 @@ struct KinematicsG2P
   const std::int32_t* field_of; ///< per particle: its body (discrete) or group (damage fields)
   /// Whether cracking particles get their stress too (Material::Bound::update).
   bool stress;
+  double* affine; ///< with Affine: B_p per particle (the column `affine`), else null
 
   struct Local
   {
@@ -575,9 +658,17 @@ struct KinematicsG2P
         std::memcpy(nodes.nodal[f][i], &k, sizeof k);
       }
     local.L.resize(4 * static_cast<std::size_t>(cell.end - cell.begin));
-    const G2PArrays arrays{particles.x.data(), particles.v.data(), particles.volume.data()};
-    move_cell<Shape, F>(each, arrays, select, nodes, dt, local.L.data(), local.bad, local.speed2,
-                        local.drift2);
+    G2PArrays arrays{particles.x.data(), particles.v.data(), particles.volume.data()};
+    if constexpr (Affine)
+    {
+      arrays.affine = affine;
+      const BlockPoints<Shape> points(grid, cell);
+      move_cell<Shape, F, true>(each, arrays, select, nodes, &points, dt, local.L.data(),
+                                local.bad, local.speed2, local.drift2);
+    }
+    else
+      move_cell<Shape, F, false>(each, arrays, select, nodes, nullptr, dt, local.L.data(),
+                                 local.bad, local.speed2, local.drift2);
     // The materials: each run of the cell's particles of one material (with
     // one material, the whole cell).
     auto update = [&](std::int32_t m, const Batch& b)

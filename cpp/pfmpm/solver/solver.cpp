@@ -41,8 +41,9 @@ Solver::Solver(Grid& grid, Particles& particles,
                std::vector<std::shared_ptr<const Material>> materials, double dt,
                std::vector<std::optional<Fracture>> fracture, double tol, int max_iterations,
                std::vector<double> friction, std::optional<DamageGradientOptions> damage,
-               ShapeFunctions shape, DomainScaling scaling)
-    : _grid(grid), _particles(particles), _materials(std::move(materials)), _dt(dt)
+               ShapeFunctions shape, DomainScaling scaling, TransferScheme transfer)
+    : _grid(grid), _particles(particles), _materials(std::move(materials)), _dt(dt),
+      _transfer(transfer)
 {
   if (!(dt > 0.0) || !std::isfinite(dt))
     throw std::invalid_argument("dt = " + std::to_string(dt) + ": must be > 0");
@@ -69,6 +70,8 @@ Solver::Solver(Grid& grid, Particles& particles,
   if (cracks)
     for (const ColumnSpec& c : PhaseField::columns(fourth))
       particles.add(c);
+  if (transfer == TransferScheme::apic)
+    particles.add(affine_column());
 
   const double max_mass = particles.size() == 0
                               ? 0.0
@@ -289,21 +292,28 @@ struct Tag
 template <class F>
 void Solver::dispatch(F&& f)
 {
+  auto with_transfer = [&](auto shape, auto& fields)
+  {
+    if (_transfer == TransferScheme::apic)
+      f(shape, fields, std::true_type{});
+    else
+      f(shape, fields, std::false_type{});
+  };
   std::visit(
       [&](auto& fields)
       {
         if (_domains)
-          return f(Tag<CpdiStencil>{}, fields);
+          return with_transfer(Tag<CpdiStencil>{}, fields);
         switch (_grid.degree())
         {
         case 1:
-          f(Tag<BSplineStencil<2, 1>>{}, fields);
+          with_transfer(Tag<BSplineStencil<2, 1>>{}, fields);
           break;
         case 2:
-          f(Tag<BSplineStencil<2, 2>>{}, fields);
+          with_transfer(Tag<BSplineStencil<2, 2>>{}, fields);
           break;
         default:
-          f(Tag<BSplineStencil<2, 3>>{}, fields);
+          with_transfer(Tag<BSplineStencil<2, 3>>{}, fields);
         }
       },
       _fields);
@@ -333,14 +343,15 @@ void Solver::advance(std::int64_t steps)
   const RunQueueWait waits;
   double waited = _adaptive_threads ? waits.seconds() : 0.0;
   dispatch(
-      [&](auto shape, auto& fields)
+      [&](auto shape, auto& fields, auto affine)
       {
         for (std::int64_t k = 0; k < steps; ++k)
         {
           if (_adaptive_threads)
             omp_set_num_threads(_threads.next(restore.threads));
           const double start = omp_get_wtime();
-          step<typename decltype(shape)::type>(fields, k + 1 == steps); // energy in the last
+          constexpr bool apic = decltype(affine)::value;
+          step<typename decltype(shape)::type, apic>(fields, k + 1 == steps); // energy in the last
           if (_adaptive_threads)
           {
             const double now = waits.seconds();
@@ -354,7 +365,8 @@ void Solver::advance(std::int64_t steps)
 void Solver::prepare()
 {
   bind();
-  dispatch([&](auto shape, auto& fields) { prepare<typename decltype(shape)::type>(fields, true); });
+  dispatch([&](auto shape, auto& fields, auto)
+           { prepare<typename decltype(shape)::type>(fields, true); });
 }
 
 void Solver::bind()
@@ -464,13 +476,13 @@ void Solver::check_domains() const
   }
 }
 
-template <class Shape, class Fields>
+template <class Shape, bool Affine, class Fields>
 void Solver::step(Fields& fields, bool energy)
 {
   prepare<Shape>(fields, energy);
   {
     Stopwatch clock{_timers.p2g};
-    particle_to_grid<Shape>(fields);
+    particle_to_grid<Shape, Affine>(fields);
   }
   std::array<double, grid_update_sums> sums;
   {
@@ -495,7 +507,7 @@ void Solver::step(Fields& fields, bool energy)
   }
   {
     Stopwatch clock{_timers.g2p};
-    grid_to_particle<Shape>(fields, energy);
+    grid_to_particle<Shape, Affine>(fields, energy);
   }
   _time += _dt;
   ++_step;
@@ -515,7 +527,7 @@ const std::int32_t* field_of_particles(const Fields& fields, const Particles& pa
 }
 } // namespace
 
-template <class Shape, class Fields>
+template <class Shape, bool Affine, class Fields>
 void Solver::particle_to_grid(Fields& fields)
 {
   std::size_t slots = static_cast<std::size_t>(_grid.num_active());
@@ -535,12 +547,14 @@ void Solver::particle_to_grid(Fields& fields)
     arrays.damage = fields.damage();
     arrays.full = fields.full();
   }
+  if constexpr (Affine)
+    arrays.affine = P_.f64("affine").data();
   auto run = [&](auto external)
   {
     constexpr bool External = decltype(external)::value;
     pfmpm::particle_to_grid<Shape>(
         _grid, _sort, points(),
-        MomentumP2G<Shape, External, Fields>{
+        MomentumP2G<Shape, External, Fields, Affine>{
             _grid, fields, arrays, field_of_particles(fields, _particles), _sums.data(), _surface.data()});
   };
   if (_external)
@@ -549,22 +563,23 @@ void Solver::particle_to_grid(Fields& fields)
     run(std::false_type{});
 }
 
-template <class Shape, class Fields>
+template <class Shape, bool Affine, class Fields>
 void Solver::grid_to_particle(Fields& fields, bool stress)
 {
   const bool check_stability = _stability_length > 0.0;
   const ParticleDomains* domains = _domains ? &*_domains : nullptr;
-  KinematicsG2P<Shape, Fields> kernel{_grid,
-                                      fields,
-                                      _kinematics.data(),
-                                      _particles,
-                                      _bound,
-                                      _degradation,
-                                      domains,
-                                      _dt,
-                                      field_of_particles(fields, _particles),
-                                      stress,
-                                      _particles.size()};
+  KinematicsG2P<Shape, Fields, Affine> kernel{_grid,
+                                              fields,
+                                              _kinematics.data(),
+                                              _particles,
+                                              _bound,
+                                              _degradation,
+                                              domains,
+                                              _dt,
+                                              field_of_particles(fields, _particles),
+                                              stress,
+                                              Affine ? _particles.f64("affine").data() : nullptr,
+                                              _particles.size()};
   pfmpm::grid_to_particle<Shape>(_grid, _sort, points(), kernel);
   if (kernel.bad < _particles.size())
     non_finite(kernel.bad);
@@ -658,9 +673,12 @@ Energies Solver::energies() const
         degradation[m] = Degradation{_fracture[m]->k_f, P.f64("c").data(), nullptr};
         by_material[m] = &degradation[m];
       }
-  const auto sums = deterministic_block_sum<7>(
+  // With APIC, the angular momentum of each particle's affine velocity.
+  const Column* affine = P.find("affine");
+  const double* B = affine ? affine->f64.data() : nullptr;
+  const auto sums = deterministic_block_sum<8>(
       n,
-      [&](std::size_t begin, std::size_t end, std::array<double, 7>& acc)
+      [&](std::size_t begin, std::size_t end, std::array<double, 8>& acc)
       {
         for (std::size_t p = begin; p < end; ++p)
         {
@@ -673,6 +691,9 @@ Energies Solver::energies() const
             acc[5] += fe[p];
           if (dw)
             acc[6] += dw[p];
+          acc[7] += m * (P.x[2 * p] * vy - P.x[2 * p + 1] * vx);
+          if (B)
+            acc[7] += m * (B[4 * p + 2] - B[4 * p + 1]);
         }
         // The elastic energy of each run of one material, in index order.
         for (std::size_t p = begin; p < end;)
@@ -693,6 +714,7 @@ Energies Solver::energies() const
   e.external_work = _external_work;
   e.wall_work = _wall_work;
   e.momentum = {sums[2], sums[3]};
+  e.angular_momentum = sums[7];
   e.mass = sums[4];
   if (const ContactStats* stats = contact_stats())
   {
@@ -790,18 +812,59 @@ bool Solver::has_external_force() const
                      [](double f) { return f != 0.0; });
 }
 
+void Solver::set_velocity_gradients(const std::vector<double>& G)
+{
+  if (_transfer != TransferScheme::apic)
+    throw std::logic_error("velocity gradients set the affine matrices of APIC, not of this run");
+  const std::size_t n = _particles.size();
+  if (G.size() != 4 * n)
+    throw std::invalid_argument("velocity gradients: " + std::to_string(G.size())
+                                + " values for " + std::to_string(n) + " particles (4 each)");
+  if (const std::size_t outside = _sort.sort(_grid, _particles.x); outside < n)
+    throw SimulationError(where(outside) + " is outside the grid");
+  if (_domains)
+  {
+    _domains->bind(_particles);
+    check_domains();
+  }
+  double* B = _particles.f64("affine").data();
+  dispatch(
+      [&](auto shape, auto&, auto)
+      {
+        using Shape = typename decltype(shape)::type;
+        pfmpm::grid_to_particle<Shape>(
+            _grid, _sort, points(),
+            unreduced(
+                [&](const Cell& cell, const detail::EachParticle<Shape>& each)
+                {
+                  const BlockPoints<Shape> X(_grid, cell);
+                  each(
+                      [&](std::size_t p, const Shape& s)
+                      {
+                        const AffineFrame<Shape> frame = affine_frame<true>(s, X);
+                        const double* D = frame.D;
+                        const double* g = &G[4 * p];
+                        B[4 * p] = g[0] * D[0] + g[1] * D[1];
+                        B[4 * p + 1] = g[0] * D[1] + g[1] * D[2];
+                        B[4 * p + 2] = g[2] * D[0] + g[3] * D[1];
+                        B[4 * p + 3] = g[2] * D[1] + g[3] * D[2];
+                      });
+                }));
+      });
+}
+
 std::vector<std::array<double, 4>> Solver::nodal_mass_momentum()
 {
   _external = has_external_force();
   std::vector<std::array<double, 4>> out;
   dispatch(
-      [&](auto shape, auto& fields)
+      [&](auto shape, auto& fields, auto affine)
       {
         using Fields = std::decay_t<decltype(fields)>;
         using Shape = typename decltype(shape)::type;
         bind();
         prepare<Shape>(fields, true);
-        particle_to_grid<Shape>(fields);
+        particle_to_grid<Shape, decltype(affine)::value>(fields);
         const auto na = static_cast<std::size_t>(_grid.num_active());
         out.assign(na, {});
         for (std::size_t a = 0; a < na; ++a)

@@ -13,6 +13,7 @@
 #include "pfmpm/particles/particles.h"
 #include "pfmpm/shape/cpdi.h"
 #include "pfmpm/solver/threads.h"
+#include "pfmpm/transfer/apic.h"
 #include "pfmpm/transfer/transfer.h"
 
 #include <array>
@@ -38,6 +39,9 @@ struct Energies
   double wall_work = 0.0;      ///< work of the wall constraints since t = 0 (<= 0, see finish_slot)
   double dissipated = 0.0;     ///< work dissipated by damage since t = 0 (the column `dissipated`)
   std::array<double, 2> momentum{}; ///< sum of M_p v_p
+  /// sum of M_p (x_p x v_p), about the origin; with APIC plus M_p ((B_p)_yx - (B_p)_xy),
+  /// the angular momentum of the particles' affine velocities (Jiang et al. 2015)
+  double angular_momentum = 0.0;
   double mass = 0.0;           ///< sum of M_p
   std::vector<double> fracture_by_field; ///< with discrete fields: fracture energy per field
 };
@@ -122,11 +126,15 @@ public:
   ///        The phase field is assembled with B-splines either way.
   /// @param scaling With CPDI: which particles are failed, and whether their
   ///        domains are scaled.
+  /// @param transfer The particle-grid transfer: FLIP (K&T eq. 80), or APIC
+  ///        (transfer/apic.h, with any stencil and partition), which adds
+  ///        the column `affine` (B_p, zero: set_velocity_gradients sets it).
   Solver(Grid& grid, Particles& particles, std::vector<std::shared_ptr<const Material>> materials,
          double dt, std::vector<std::optional<Fracture>> fracture = {}, double tol = 1e-6,
          int max_iterations = 1000, std::vector<double> friction = {},
          std::optional<DamageGradientOptions> damage = std::nullopt,
-         ShapeFunctions shape = ShapeFunctions::bspline, DomainScaling scaling = {});
+         ShapeFunctions shape = ShapeFunctions::bspline, DomainScaling scaling = {},
+         TransferScheme transfer = TransferScheme::flip);
 
   /// @brief Take `steps` explicit steps, each on the OpenMP thread count
   /// that ThreadGovernor chooses (at most omp_get_max_threads(), which is
@@ -136,6 +144,8 @@ public:
   void advance(std::int64_t steps);
 
   double dt() const { return _dt; }
+  /// The particle-grid transfer of the run.
+  TransferScheme transfer() const { return _transfer; }
   double time() const { return _time; }
   std::int64_t step_count() const { return _step; }
 
@@ -187,6 +197,15 @@ public:
   /// @brief Energies and momentum of the current particle state.
   Energies energies() const;
 
+  /// @brief With APIC: set each particle's affine matrix to that of the
+  /// velocity field v_p + G_p (x - x_p) about it, B_p = G_p D_p, D_p at its
+  /// present position (transfer/apic.h): a body seeded with a velocity
+  /// gradient starts with it.
+  /// @param G The gradients G_p, (xx, xy, yx, yy) per particle, G_ij = dv_i/dx_j.
+  /// @throws std::logic_error without APIC; std::invalid_argument for a
+  ///         wrong size; SimulationError for a particle outside the grid.
+  void set_velocity_gradients(const std::vector<double>& G);
+
   /// Whether some material can crack.
   bool cracks() const { return !_phase.empty(); }
   /// Whether some material has the fourth-order phase-field term.
@@ -234,21 +253,22 @@ private:
   /// One step; `energy`: the particles' fracture energy and the cracking
   /// particles' stress too (the last step of an advance(), whose state
   /// energies and output read).
-  template <class Shape, class Fields>
+  template <class Shape, bool Affine, class Fields>
   void step(Fields& fields, bool energy);
   template <class Shape, class Fields>
   void prepare(Fields& fields, bool energy);
-  template <class Shape, class Fields>
+  template <class Shape, bool Affine, class Fields>
   void particle_to_grid(Fields& fields);
-  template <class Shape, class Fields>
+  template <class Shape, bool Affine, class Fields>
   void grid_to_particle(Fields& fields, bool stress);
   /// With CPDI: at t = 0, that no domain is wider than a cell; then set the
   /// step's integration domains and check that each fits its stencil.
   void check_domains() const;
   /// The particle data the stencil of the run reads.
   Points points() const;
-  /// f(shape, fields) with the stencil type as shape's `type` (B-splines of
-  /// the grid's degree, or CPDI) and the partition's type.
+  /// f(shape, fields, affine) with the stencil type as shape's `type`
+  /// (B-splines of the grid's degree, or CPDI), the partition's type and
+  /// the transfer as std::bool_constant (true: APIC).
   template <class F>
   void dispatch(F&& f);
   /// Attach the materials to the particles, and the degradation of each
@@ -298,6 +318,7 @@ private:
   double _touch_fill = default_touch_fill;
   bool _external = false; // some particle carries an external force
   std::variant<SingleField, BodyFields, DamageFields> _fields;
+  TransferScheme _transfer;
   std::optional<ParticleDomains> _domains; // with CPDI
   std::vector<PhaseFieldGroup> _phase;
 

@@ -19,7 +19,7 @@ The modules, one concern each:
     :class:`Scene`: the parts put together and the checks across them.
 ``components``
     The settings tables: :class:`GridSpec`, :class:`Time`, :class:`Output`,
-    :class:`PhaseFieldSpec`.
+    :class:`PhaseFieldSpec`, :class:`TransferSpec`.
 ``shapes``, ``bodies``
     :class:`Rectangle`, :class:`Disk`, :class:`Ring`, :class:`Polygon`,
     :class:`MeshShape` (the cells of a mesh file), :class:`ImageShape` (the
@@ -54,7 +54,7 @@ against them.
 """
 
 from .bodies import Body
-from .components import DEGREES, GridSpec, Output, PhaseFieldSpec, Time
+from .components import DEGREES, TRANSFER_SCHEMES, GridSpec, Output, PhaseFieldSpec, Time, TransferSpec
 from .contact import Contact, ContactPair
 from .loads import EDGES, LOADS, SIDES, WALL_TYPES, BodyForce, Crack, Traction, WallSpec
 from .damage import (DAMAGE_MODELS, DamageSpec, InitialDamage, RankineSpec, TimeToFailureSpec,
@@ -82,6 +82,8 @@ __all__ = [
     "Time",
     "Output",
     "PhaseFieldSpec",
+    "TransferSpec",
+    "TRANSFER_SCHEMES",
     "MATERIALS",
     "DEFAULT_MODEL",
     "register_material",

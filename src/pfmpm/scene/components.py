@@ -1,6 +1,6 @@
 """The scene's settings tables: the background grid, the time interval, the
-output cadence and the phase-field solver (TOML ``[grid]``, ``[time]``,
-``[output]`` and ``[phase_field]``)."""
+output cadence, the phase-field solver and the particle-grid transfer (TOML
+``[grid]``, ``[time]``, ``[output]``, ``[phase_field]`` and ``[transfer]``)."""
 
 from __future__ import annotations
 
@@ -10,7 +10,8 @@ from dataclasses import dataclass
 from .validation import (MAX_COUNT, WHOLE_TOL, SceneError, choice, integer, real, seq, store,
                          vec2)
 
-__all__ = ["DEGREES", "SHAPES", "GridSpec", "Time", "Output", "PhaseFieldSpec"]
+__all__ = ["DEGREES", "SHAPES", "TRANSFER_SCHEMES", "GridSpec", "Time", "Output", "PhaseFieldSpec",
+           "TransferSpec"]
 
 DEGREES = (1, 2, 3)
 
@@ -21,6 +22,10 @@ averages over the particle domains (degree 1 only)."""
 
 PRECONDITIONERS = ("automatic", "jacobi", "ssor", "multigrid")
 """The phase-field CG preconditioners ``[phase_field] preconditioner`` names."""
+
+TRANSFER_SCHEMES = ("flip", "apic")
+"""The particle-grid transfers ``[transfer] scheme`` names: FLIP with the lumped mass
+(Kakouris & Triantafyllou eq. 80), or APIC (Jiang et al. 2015)."""
 
 
 @dataclass(frozen=True)
@@ -211,3 +216,28 @@ class PhaseFieldSpec:
         if self.max_iterations > MAX_COUNT:
             raise SceneError("max_iterations", f"must be <= {MAX_COUNT}", self.max_iterations)
         store(self, "preconditioner", choice("preconditioner", self.preconditioner, PRECONDITIONERS))
+
+
+@dataclass(frozen=True)
+class TransferSpec:
+    """The particle-grid transfer of the momentum step (``[transfer]``), the
+    core's ``pfmpm._core.TransferScheme``.
+
+    Parameters
+    ----------
+    scheme : str
+        ``"flip"``: each particle's velocity takes the step's nodal
+        accelerations, ``v_p += dt sum_i N_i a_i`` (Kakouris & Triantafyllou
+        eq. 80). ``"apic"``: the affine particle-in-cell transfer (Jiang et
+        al. 2015): ``v_p = sum_i N_i v_i`` and an affine matrix per particle
+        (the column ``affine``, ``B_p``) that P2G adds to the momentum,
+        which keeps the angular momentum of the transfers. Either works with
+        every grid degree, ``[grid] shape`` and ``[contact]`` partition. A
+        body's ``velocity_gradient`` sets its particles' initial affine
+        matrices with APIC.
+    """
+
+    scheme: str = "flip"
+
+    def __post_init__(self):
+        store(self, "scheme", choice("scheme", self.scheme, TRANSFER_SCHEMES))

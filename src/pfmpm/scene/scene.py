@@ -13,7 +13,7 @@ import numpy as np
 
 from . import seeding, stability
 from .bodies import Body
-from .components import GridSpec, Output, PhaseFieldSpec, Time
+from .components import GridSpec, Output, PhaseFieldSpec, Time, TransferSpec
 from .contact import Contact
 from .damage import DamageSpec, InitialDamage
 from .loads import BodyForce, Crack, Traction, WallSpec
@@ -56,6 +56,8 @@ class Scene:
         Initial cracks, on bodies whose material can crack.
     phase_field : PhaseFieldSpec
         Phase-field solver settings (used when some material can crack).
+    transfer : TransferSpec
+        The particle-grid transfer: FLIP (the default) or APIC.
     contact : Contact or None
         Frictional contact between the bodies, each its own discrete field;
         ``None``: the bodies form one continuum.
@@ -91,6 +93,7 @@ class Scene:
     contact: Contact | None = None
     units: str = ""
     initial_damage: tuple[InitialDamage, ...] = ()
+    transfer: TransferSpec = field(default_factory=TransferSpec)
 
     def __post_init__(self):
         self.validate()
@@ -111,7 +114,7 @@ class Scene:
         store(self, "thickness", real("thickness", self.thickness, gt=0))
         store(self, "units", choice("units", self.units, ("", *UNIT_SYSTEMS)))
         for key, cls in (("grid", GridSpec), ("time", Time), ("output", Output),
-                         ("phase_field", PhaseFieldSpec)):
+                         ("phase_field", PhaseFieldSpec), ("transfer", TransferSpec)):
             if not isinstance(getattr(self, key), cls):
                 raise SceneError(key, f"must be a {cls.__name__}", getattr(self, key))
         store(self, "materials", self._items("materials", (MaterialSpec,), required=True))

@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from .bodies import Body
-from .components import GridSpec, Output, PhaseFieldSpec, Time
+from .components import GridSpec, Output, PhaseFieldSpec, Time, TransferSpec
 from .contact import Contact, ContactPair
 from .loads import LOADS, Crack, WallSpec
 from .damage import DamageSpec, InitialDamage, WeibullSpec, damage_class
@@ -54,6 +54,7 @@ def build_scene(cls: type, d: Any, overrides: list[str] | tuple[str, ...] = ()) 
         "cracks": lambda v: _tables(v, lambda t: _build(Crack, t)),
         "initial_damage": lambda v: _tables(v, lambda t: _build(InitialDamage, t)),
         "phase_field": lambda t: _build(PhaseFieldSpec, t),
+        "transfer": lambda t: _build(TransferSpec, t),
         "contact": lambda t: _build(Contact, t, {
             "pairs": lambda v: _tables(v, lambda p: _build(ContactPair, p)),
             "surfaces": lambda v: _tables(v, lambda t: _typed(t, SHAPES))}),

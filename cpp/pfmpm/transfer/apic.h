@@ -1,0 +1,216 @@
+/// @file apic.h
+/// @brief The affine particle-in-cell transfer (APIC: Jiang, Schroeder,
+/// Selle, Teran & Stomakhin 2015): the transfer scheme of a run, the
+/// particles' affine matrix, and the frame of node offsets and D_p that its
+/// transfers read.
+///
+/// Each particle carries, besides v_p, the matrix
+///   B_p = sum_i N_i v_i (x_i - x_p)^T                      (eq. 10)
+/// of the nodal velocities it was given, so that its velocity about x_p is
+/// the affine field v_p + C_p (x - x_p), C_p = B_p D_p^-1, with
+///   D_p = sum_i N_i (x_i - x_p) (x_i - x_p)^T.
+/// P2G gives node i the momentum m_p N_i (v_p + C_p (x_i - x_p)) (eq. 8) and
+/// G2P sets v_p = sum_i N_i v_i and B_p from the new nodal velocities, both
+/// at the particle's position before it moves. x_i is the node's Greville
+/// abscissa (BSpline1D::greville), where the basis reproduces linear fields:
+/// sum_i N_i (x_i - x_p) = 0, which makes the transfers keep linear and
+/// angular momentum (the particles' angular momentum counts m_p times the
+/// antisymmetric part of B_p, Energies::angular_momentum).
+///
+/// D_p is formed per particle from its stencil, not taken as a constant:
+/// - Quadratic and cubic B-splines: h^2 / 4 I and h^2 / 3 I away from the
+///   grid's ends; on the `degree` cells next to an end (open knots) it
+///   varies with x_p and falls to zero at the edge. The tensor product makes
+///   it diagonal: D_dd = sum_a N_a(x_d) (X_a - x_d)^2 per direction, the
+///   cross sums being products of sum_a N_a (X_a - x_d) = 0.
+/// - Degree 1: D_dd = xi (1 - xi) h^2 (xi the coordinate in the cell), and
+///   N_i D_p^-1 (x_i - x_p) = grad N_i exactly, so C_p is the velocity
+///   gradient sum_i v_i grad N_i^T. On a grid line D_dd = 0, the whole
+///   weight sits at distance 0 and that direction's affine term is zero.
+/// - CPDI: D_p = sum_i Sbar_i (x_i - x_p)(x_i - x_p)^T is the corners' mean
+///   of the bilinear D at each corner plus r_1 r_1^T + r_2 r_2^T, positive
+///   definite for every domain with det [r_1 r_2] > 0; a full 2 x 2 inverse.
+///
+/// The column holds B_p, not C_p: P2G divides by D_p at the particle's
+/// position then, which keeps the angular momentum of the transfers exact
+/// where D_p varies (the ends of the grid, degree 1, CPDI); a C_p formed in
+/// G2P would divide by the D_p of the position before the move.
+#pragma once
+
+#include "pfmpm/grid/grid.h"
+#include "pfmpm/particles/particles.h"
+#include "pfmpm/shape/cpdi.h"
+#include "pfmpm/shape/stencil.h"
+#include "pfmpm/transfer/transfer.h"
+
+namespace pfmpm
+{
+
+/// The particle-grid transfer of a run, chosen once.
+enum class TransferScheme : int
+{
+  flip = 0, ///< v_p += dt sum_i N_i a_i: FLIP with the lumped mass (K&T eq. 80)
+  apic = 1  ///< v_p = sum_i N_i v_i with the affine matrix B_p (Jiang et al. 2015)
+};
+
+/// @brief The column of the APIC affine matrix B_p (eq. 10), (xx, xy, yx, yy)
+/// per particle, B_ij = sum_k N_k v_k,i (x_k - x_p)_j.
+inline ColumnSpec affine_column()
+{
+  return ColumnSpec{"affine", 4, DType::f64, {0.0},
+                    "APIC affine matrix B_p = sum_i N_i v_i (x_i - x_p)^T (Jiang et al. 2015, eq. 10)",
+                    "xx,xy,yx,yy", ""};
+}
+
+/// @brief The Greville abscissae of the nodes of a cell's stencil block, per
+/// direction, in cells from the block's first node: u[d][a] for node
+/// first(cell) + a (exact small fractions).
+template <class Shape>
+struct BlockPoints
+{
+  static_assert(Shape::dim == 2, "the grid is two-dimensional");
+  double u[2][Shape::width];
+  double h; ///< the cell size
+
+  BlockPoints(const Grid& grid, const Cell& cell) : h(grid.h())
+  {
+    const int c[2] = {cell.cx, cell.cy};
+    for (int d = 0; d < 2; ++d)
+    {
+      const BSpline1D& basis = grid.basis(d);
+      const int first = Shape::first(c[d], basis.size());
+      for (int a = 0; a < Shape::width; ++a)
+        u[d][a] = basis.greville_coordinate(first + a) - first;
+    }
+  }
+};
+
+/// @brief The frame of a particle's affine velocity: the offsets x_i - x_p
+/// of its block's nodes per direction (node i of the stencil lies at
+/// (r[0][offset(i, 0)], r[1][offset(i, 1)]) from the particle) and, where
+/// asked for (inertia), D_p = sum_i N_i (x_i - x_p)(x_i - x_p)^T as
+/// (xx, xy, yy).
+///
+/// The offsets are measured from the point the weights reproduce,
+/// sum_i N_i x_i / sum_i N_i (x_p up to round-off), in the block's cells:
+/// then sum_i N_i (x_i - x_p) vanishes up to a rounding without bias. From
+/// x_p itself, the evaluation error of the N_i leaves a residue of one sign,
+/// of the size of the round-off of x_p's coordinates, which the affine
+/// momentum (eq. 8) turns into a steady leak of linear and angular momentum.
+/// The weights sum to 1 up to round-off, so 1 / sum_i N_i is 2 - sum_i N_i
+/// to rounding (the error is the square of the sum's): no division.
+template <class Shape>
+struct AffineFrame
+{
+  double r[2][Shape::width];
+  double D[3];
+};
+
+/// @brief The offsets of the frame with B-splines, per direction.
+template <int P>
+[[gnu::always_inline]] inline void offsets(const BSplineStencil<2, P>& s,
+                                           const BlockPoints<BSplineStencil<2, P>>& X,
+                                           AffineFrame<BSplineStencil<2, P>>& f)
+{
+  for (int d = 0; d < 2; ++d)
+  {
+    double weight = 0.0, first = 0.0;
+    for (int a = 0; a <= P; ++a)
+    {
+      weight += s.n[d][a];
+      first += s.n[d][a] * X.u[d][a];
+    }
+    const double centre = first * (2.0 - weight);
+    for (int a = 0; a <= P; ++a)
+      f.r[d][a] = X.h * (X.u[d][a] - centre);
+  }
+}
+
+/// @brief The offsets of the frame with CPDI, from the 4 x 4 nodes.
+[[gnu::always_inline]] inline void offsets(const CpdiStencil& s, const BlockPoints<CpdiStencil>& X,
+                                           AffineFrame<CpdiStencil>& f)
+{
+  double weight = 0.0, first[2] = {0.0, 0.0};
+  for (int i = 0; i < CpdiStencil::size; ++i)
+  {
+    weight += s.n[i];
+    first[0] += s.n[i] * X.u[0][CpdiStencil::offset(i, 0)];
+    first[1] += s.n[i] * X.u[1][CpdiStencil::offset(i, 1)];
+  }
+  for (int d = 0; d < 2; ++d)
+  {
+    const double centre = first[d] * (2.0 - weight);
+    for (int a = 0; a < CpdiStencil::width; ++a)
+      f.r[d][a] = X.h * (X.u[d][a] - centre);
+  }
+}
+
+/// @brief D_p of the frame from its offsets: with B-splines diagonal, per
+/// direction (the cross sums are products of sum_a N_a (X_a - x_d) = 0).
+template <int P>
+[[gnu::always_inline]] inline void inertia(const BSplineStencil<2, P>& s,
+                                           AffineFrame<BSplineStencil<2, P>>& f)
+{
+  double diagonal[2] = {0.0, 0.0};
+  for (int d = 0; d < 2; ++d)
+    for (int a = 0; a <= P; ++a)
+      diagonal[d] += s.n[d][a] * f.r[d][a] * f.r[d][a];
+  f.D[0] = diagonal[0];
+  f.D[1] = 0.0;
+  f.D[2] = diagonal[1];
+}
+
+/// @brief D_p of the frame with CPDI, in full over the 4 x 4 nodes.
+[[gnu::always_inline]] inline void inertia(const CpdiStencil& s, AffineFrame<CpdiStencil>& f)
+{
+  f.D[0] = f.D[1] = f.D[2] = 0.0;
+  for (int i = 0; i < CpdiStencil::size; ++i)
+  {
+    const double rx = f.r[0][CpdiStencil::offset(i, 0)], ry = f.r[1][CpdiStencil::offset(i, 1)];
+    f.D[0] += s.n[i] * rx * rx;
+    f.D[1] += s.n[i] * rx * ry;
+    f.D[2] += s.n[i] * ry * ry;
+  }
+}
+
+/// @brief The frame of a particle with stencil s: its offsets and, with
+/// `Inertia`, D_p.
+template <bool Inertia, class Shape>
+[[gnu::always_inline]] inline AffineFrame<Shape> affine_frame(const Shape& s,
+                                                              const BlockPoints<Shape>& X)
+{
+  AffineFrame<Shape> f;
+  offsets(s, X, f);
+  if constexpr (Inertia)
+    inertia(s, f);
+  return f;
+}
+
+/// @brief The affine velocity C_p = B_p D_p^-1 of eq. 8, (xx, xy, yx, yy).
+/// With B-splines D_p is diagonal, and a direction with D_dd = 0 (a particle
+/// on a degree-1 grid line or on the grid's edge: all its weight at distance
+/// 0) gets no affine velocity; with CPDI D_p is positive definite.
+template <class Shape>
+[[gnu::always_inline]] inline void affine_velocity(const double* B, const double (&D)[3],
+                                                   double (&C)[4])
+{
+  if constexpr (Shape::domains)
+  {
+    const double det = D[0] * D[2] - D[1] * D[1];
+    const double ixx = D[2] / det, ixy = -D[1] / det, iyy = D[0] / det;
+    C[0] = B[0] * ixx + B[1] * ixy;
+    C[1] = B[0] * ixy + B[1] * iyy;
+    C[2] = B[2] * ixx + B[3] * ixy;
+    C[3] = B[2] * ixy + B[3] * iyy;
+  }
+  else
+  {
+    const double ixx = D[0] > 0.0 ? 1.0 / D[0] : 0.0, iyy = D[2] > 0.0 ? 1.0 / D[2] : 0.0;
+    C[0] = B[0] * ixx;
+    C[1] = B[1] * iyy;
+    C[2] = B[2] * ixx;
+    C[3] = B[3] * iyy;
+  }
+}
+
+} // namespace pfmpm
