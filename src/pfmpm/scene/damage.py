@@ -28,7 +28,7 @@ from typing import ClassVar
 import numpy as np
 
 from .shapes import distance_to_polyline
-from .validation import MAX_COUNT, SceneError, fmt, integer, real, seq, store, text, vec2
+from .validation import MAX_COUNT, SceneError, fmt, integer, polyline, real, seq, store, text, vec2
 
 __all__ = ["DAMAGE_MODELS", "damage_class", "DamageSpec", "RankineSpec", "TimeToFailureSpec",
            "WeibullSpec", "cell_diagonal", "localisation_width", "InitialDamage"]
@@ -373,16 +373,7 @@ class InitialDamage:
             if not (self.min[0] < self.max[0] and self.min[1] < self.max[1]):
                 raise SceneError("max", f"must exceed min = {fmt(self.min)} componentwise", self.max)
         elif region == "band":
-            points = seq("points", self.points, "[x, y] points")
-            if len(points) < 2:
-                raise SceneError("points", "needs at least two points", self.points)
-            store(self, "points", tuple(vec2(f"points[{i}]", p) for i, p in enumerate(points)))
-            for i in range(1, len(self.points)):
-                (ax, ay), (bx, by) = self.points[i - 1], self.points[i]
-                if not 0 < math.hypot(bx - ax, by - ay) < math.inf:
-                    raise SceneError(f"points[{i}]", f"segment from points[{i - 1}] ="
-                                     f" {fmt(self.points[i - 1])} must have a positive finite length",
-                                     self.points[i])
+            store(self, "points", polyline("points", self.points))
             store(self, "half_width", real("half_width", self.half_width, gt=0))
         else:
             self._check_particles()

@@ -3,11 +3,10 @@ walls (``[[walls]]``) and initial cracks (``[[cracks]]``)."""
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import ClassVar
 
-from .validation import SceneError, choice, fmt, real, seq, store, text, vec2
+from .validation import SceneError, choice, polyline, real, store, text, vec2
 
 __all__ = ["EDGES", "SIDES", "WALL_TYPES", "Traction", "BodyForce", "LOADS", "WallSpec", "Crack"]
 
@@ -115,15 +114,7 @@ class Crack:
     half_width: float | None = None
 
     def __post_init__(self):
-        points = seq("points", self.points, "points")
-        if len(points) < 2:
-            raise SceneError("points", "needs at least two points", self.points)
-        store(self, "points", tuple(vec2(f"points[{i}]", p) for i, p in enumerate(points)))
-        for i in range(1, len(self.points)):
-            (ax, ay), (bx, by) = self.points[i - 1], self.points[i]
-            if not 0 < math.hypot(bx - ax, by - ay) < math.inf:
-                raise SceneError(f"points[{i}]", f"segment from points[{i - 1}] = {fmt(self.points[i - 1])}"
-                                                 " must have a positive finite length", self.points[i])
+        store(self, "points", polyline("points", self.points))
         if self.body is not None:
             store(self, "body", text("body", self.body))
         store(self, "B", real("B", self.B, gt=0))

@@ -165,6 +165,21 @@ def seq(path: str, value: Any, what: str) -> tuple:
     return tuple(value)
 
 
+def polyline(path: str, value: Any) -> tuple[tuple[float, float], ...]:
+    """Check a polyline: two or more [x, y] points, each segment of positive
+    finite length; return its points as tuples."""
+    points = seq(path, value, "[x, y] points")
+    if len(points) < 2:
+        raise SceneError(path, "needs at least two points", value)
+    points = tuple(vec2(f"{path}[{i}]", p) for i, p in enumerate(points))
+    for i in range(1, len(points)):
+        (ax, ay), (bx, by) = points[i - 1], points[i]
+        if not 0 < math.hypot(bx - ax, by - ay) < math.inf:
+            raise SceneError(f"{path}[{i}]", f"segment from {path}[{i - 1}] = {fmt(points[i - 1])}"
+                                             " must have a positive finite length", points[i])
+    return points
+
+
 def store(obj: Any, name: str, value: Any) -> None:
     """Store a normalised field value on a frozen dataclass."""
     object.__setattr__(obj, name, value)
