@@ -28,7 +28,8 @@ SHAPES = {"bspline": (2, "bspline"), "cubic": (3, "bspline"), "cpdi": (1, "cpdi"
 
 
 def bar(h: float, shape: str, partition: str | None, l_ch: float | None, band_cells: float = 2.0,
-        offset: float = 0.0, cfl: float = 0.5, end: float = 4.0, Gf: float = 0.02) -> dict:
+        offset: float = 0.0, cfl: float = 0.5, end: float = 4.0, Gf: float = 0.02,
+        parting_stress: float | None = None) -> dict:
     """Run the bar to ``end`` and measure its band."""
     L, H, y0, mu, s0 = 20.0, 2.0, 4.0, 50.0, 0.85
     degree, kind = SHAPES[shape]
@@ -39,7 +40,7 @@ def bar(h: float, shape: str, partition: str | None, l_ch: float | None, band_ce
                   bodies=(Body(name="bar", material="m", shape=Rectangle((0.0, y0), (L, y0 + H)),
                                particles_per_cell=2),),
                   walls=(WallSpec(side="left", type="fixed"), WallSpec(side="right", type="fixed")),
-                  contact=Contact(partition=partition) if partition else None)
+                  contact=Contact(partition=partition, parting_stress=parting_stress) if partition else None)
     sim = Simulation(scene)
     P = sim.particles
     stretch = (s0 + math.sqrt(s0 * s0 + 4 * mu * mu)) / (2 * mu)  # sigma = mu (l^2 - 1) / l
@@ -65,13 +66,15 @@ def main(argv=None) -> None:
                    choices=["single", "damage_gradient"])
     p.add_argument("--l_ch", type=float, help="l_ch (default: the grid's localisation width)")
     p.add_argument("--offset", type=float, default=0.0, help="the band's centre off the node line, in cells")
+    p.add_argument("--parting", type=float, help="contact.parting_stress of the damage-gradient runs")
     args = p.parse_args(argv)
     print("| stencil | partition | h | l_ch | dissipation / G_f A | failed columns | damaged columns |")
     print("|---|---|---|---|---|---|---|")
     for shape in args.shape:
         for partition in args.partition:
             for h in args.h:
-                r = bar(h, shape, None if partition == "single" else partition, args.l_ch, offset=args.offset)
+                r = bar(h, shape, None if partition == "single" else partition, args.l_ch, offset=args.offset,
+                        parting_stress=args.parting)
                 print(f"| {shape} | {partition} | {h:g} | {r['l_ch']:.4g} | {r['dissipation']:.3f} | "
                       f"{r['failed_columns']} | {r['damaged_columns']} |", flush=True)
 
