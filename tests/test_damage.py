@@ -243,7 +243,7 @@ def test_bar_pulled_apart_dissipates_gf_per_unit_crack_area(h, shape, partition,
     # else is damaged. With the damage-gradient partition and quadratic
     # B-splines, the faces must part only once the band has softened
     # (contact.parting_stress): by eq. 21 alone they part when its first
-    # column fails, and the band dissipates 0.78 G_f. (Quadratic B-splines at
+    # column fails, and the band dissipates 0.65 G_f. (Quadratic B-splines at
     # h = 0.25 are measured in docs/verification.md, "The crack band",
     # outside these 5 %.)
     Gf, H = 0.02, 2.0
