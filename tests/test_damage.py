@@ -11,6 +11,7 @@ closed forms are in cpp/tests/test_neo_hookean.cpp."""
 import dataclasses
 import json
 import math
+import runpy
 from pathlib import Path
 
 import meshio
@@ -200,36 +201,14 @@ def test_same_seed_gives_bitwise_the_same_field():
 # -- Rankine softening in a run (eq. 23) ----------------------------------------
 
 
-def prestressed_bar(h: float, band_cells: float = 2, Gf: float = 0.02, cfl: float = 0.5,
-                    shape: str = "bspline", partition: str | None = None,
-                    parting_stress: float | None = None):
-    """A bar 20 x 2 between fixed walls, nu = 0, pre-stretched to sigma_xx =
-    0.85 sigma_f, with a band `band_cells` cells wide at its middle (on a
-    node line) whose strength is 0.8: it softens, and the two halves spring
-    back from it. l_ch is the default, the grid's localisation width (2 h
-    here). Quadratic B-splines, or CPDI1 on the linear grid; one velocity
-    field, or `partition`. Returns the simulation and the band."""
-    L, H, y0, mu = 20.0, 2.0, 4.0, 50.0
-    w = band_cells * h
-    grid = GridSpec(size=(L, H + 8.0), h=h, degree=1 if shape == "cpdi" else 2, shape=shape)
-    scene = Scene(name="bar", grid=grid, time=Time(end=4.0, cfl=cfl),
-                  materials=(NeoHookeanSpec(name="m", E=100.0, nu=0.0, density=1.0,
-                                            damage=RankineSpec(sigma_f=1.0, Gf=Gf)),),
-                  bodies=(Body(name="bar", material="m", shape=Rectangle((0.0, y0), (L, y0 + H)),
-                               particles_per_cell=2),),
-                  walls=(WallSpec(side="left", type="fixed"), WallSpec(side="right", type="fixed")),
-                  contact=Contact(partition=partition, parting_stress=parting_stress) if partition else None)
-    sim = Simulation(scene)
-    P = sim.particles
-    s0 = 0.85  # sigma = mu (l^2 - 1) / l with nu = 0
-    l = (s0 + math.sqrt(s0 * s0 + 4 * mu * mu)) / (2 * mu)
-    P.F[:] = (l, 0.0, 0.0, 1.0)
-    P.J[:] = l
-    P.mass[:] /= l  # the lattice is the stretched bar: V = l V_0
-    P.stress[:] = (s0, 0.0, 0.0, 0.0)
-    band = np.abs(P.x[:, 0] - L / 2) < w / 2
-    P.sigma_f[band] = 0.8
-    return sim, band
+CRACK_BAND = runpy.run_path(str(Path(__file__).resolve().parents[1] / "tools" / "crack_band.py"))
+prestressed_bar = CRACK_BAND["prestressed_bar"]
+"""The bar of tools/crack_band.py: 20 x 2 between fixed walls, nu = 0,
+pre-stretched to sigma_xx = 0.85 sigma_f, a band at its middle (by default
+2 cells wide, on a node line) of strength 0.8: it softens, and the two halves
+spring back from it. l_ch is the default, the grid's localisation width (2 h
+here); quadratic B-splines or CPDI1; one velocity field, or `partition`.
+Returns the simulation and the band."""
 
 
 @pytest.mark.parametrize("h, shape, partition, parting", [

@@ -2,8 +2,8 @@
 the energy a bar pulled apart dissipates per unit crack area, over G_f, with
 the default l_ch (the grid's localisation width) or a given one.
 
-The bar of tests/test_damage.py (``prestressed_bar``): 20 x 2 between fixed
-walls, nu = 0, pre-stretched to 0.85 sigma_f, a weak band (0.8 sigma_f) at its
+The bar (``prestressed_bar``, which tests/test_damage.py runs too): 20 x 2
+between fixed walls, nu = 0, pre-stretched to 0.85 sigma_f, a weak band (0.8 sigma_f) at its
 middle, on a node line or (``--offset 0.5``) in the middle of a cell. Prints
 one row per case: the dissipation over G_f H, and the particle columns that
 failed (D = 1) and that were damaged without failing.
@@ -27,10 +27,14 @@ SHAPES = {"bspline": (2, "bspline"), "cubic": (3, "bspline"), "cpdi": (1, "cpdi"
 """Stencils by name: (grid degree, shape)."""
 
 
-def bar(h: float, shape: str, partition: str | None, l_ch: float | None, band_cells: float = 2.0,
-        offset: float = 0.0, cfl: float = 0.5, end: float = 4.0, Gf: float = 0.02,
-        parting_stress: float | None = None) -> dict:
-    """Run the bar to ``end`` and measure its band."""
+def prestressed_bar(h: float, shape: str = "bspline", partition: str | None = None,
+                    l_ch: float | None = None, band_cells: float = 2.0, offset: float = 0.0,
+                    cfl: float = 0.5, end: float = 4.0, Gf: float = 0.02,
+                    parting_stress: float | None = None) -> tuple[Simulation, np.ndarray]:
+    """The bar, set up: 20 x 2 between fixed walls, nu = 0, pre-stretched to
+    sigma_xx = 0.85 sigma_f, its band ``band_cells`` cells wide (centred
+    ``offset`` cells off the node line at its middle) of strength 0.8. Returns
+    the simulation and the band's particles."""
     L, H, y0, mu, s0 = 20.0, 2.0, 4.0, 50.0, 0.85
     degree, kind = SHAPES[shape]
     scene = Scene(name="bar", grid=GridSpec(size=(L, H + 8.0), h=h, degree=degree, shape=kind),
@@ -46,16 +50,24 @@ def bar(h: float, shape: str, partition: str | None, l_ch: float | None, band_ce
     stretch = (s0 + math.sqrt(s0 * s0 + 4 * mu * mu)) / (2 * mu)  # sigma = mu (l^2 - 1) / l
     P.F[:] = (stretch, 0.0, 0.0, 1.0)
     P.J[:] = stretch
-    P.mass[:] /= stretch
+    P.mass[:] /= stretch  # the lattice is the stretched bar: V = l V_0
     P.stress[:] = (s0, 0.0, 0.0, 0.0)
-    x0 = P.x[:, 0].copy()
-    P.sigma_f[np.abs(x0 - L / 2 - offset * h) < band_cells * h / 2] = 0.8
-    sim.advance(scene.steps())
-    D = P.damage
+    band = np.abs(P.x[:, 0] - L / 2 - offset * h) < band_cells * h / 2
+    P.sigma_f[band] = 0.8
+    return sim, band
+
+
+def bar(h: float, shape: str, partition: str | None, l_ch: float | None, **options) -> dict:
+    """Run the bar of :func:`prestressed_bar` to its end and measure its band."""
+    sim, _ = prestressed_bar(h, shape, partition, l_ch, **options)
+    x0 = sim.particles.x[:, 0].copy()
+    sim.advance(sim.scene.steps())
+    D = sim.particles.damage
     columns = lambda sel: len(np.unique(np.round(x0[sel], 9)))  # noqa: E731
+    Gf, H = sim.scene.materials[0].damage.Gf, 2.0
     return {"dissipation": sim.energies()["damage_dissipation"] / (Gf * H),
             "failed_columns": columns(D == 1.0), "damaged_columns": columns((D > 1e-3) & (D < 1.0)),
-            "l_ch": scene.materials[0].damage.length(scene.grid)}
+            "l_ch": sim.scene.materials[0].damage.length(sim.scene.grid)}
 
 
 def main(argv=None) -> None:
@@ -73,8 +85,8 @@ def main(argv=None) -> None:
     for shape in args.shape:
         for partition in args.partition:
             for h in args.h:
-                r = bar(h, shape, None if partition == "single" else partition, args.l_ch, offset=args.offset,
-                        parting_stress=args.parting)
+                r = bar(h, shape, None if partition == "single" else partition, args.l_ch,
+                        offset=args.offset, parting_stress=args.parting)
                 print(f"| {shape} | {partition} | {h:g} | {r['l_ch']:.4g} | {r['dissipation']:.3f} | "
                       f"{r['failed_columns']} | {r['damaged_columns']} |", flush=True)
 
