@@ -21,7 +21,9 @@ class CMakeBuild(build_ext):
         import pybind11
 
         target_dir = Path(self.get_ext_fullpath(ext.name)).resolve().parent
-        build_dir = Path(self.build_temp).resolve()
+        # One CMake tree for the module and, with -DPFMPM_TESTS=ON, the unit
+        # tests (tools/test.sh): the library is compiled once for both.
+        build_dir = ROOT / "build" / "cmake"
         build_dir.mkdir(parents=True, exist_ok=True)
         subprocess.check_call(
             [

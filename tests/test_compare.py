@@ -283,13 +283,14 @@ def test_the_default_scene_ships_with_the_package():
 
 @pytest.mark.slow
 def test_mpm_and_fem_agree_on_the_borden_plate(tmp_path):
-    """Default h = 0.25 and l0 = 0.5, to 25 us (initiation is at about 13 us).
+    """Default h = 0.25 and l0 = 0.5, to 20 us (initiation is at about 13 us).
 
     MPM with 2 x 2 particles per cell (the demo has 3 x 3) to keep it short.
-    Measured: initiation 13.1 us in both, elastic energy RMS difference
-    about 1 % of the peak, fracture energy at 25 us 2.7 % apart.
+    Measured: initiation 13.03 us (MPM) and 13.33 us (FEM), elastic energy
+    RMS difference 0.77 % of the peak, fracture energy at 20 us 4.4 % apart
+    and 1.21 (MPM) and 1.23 (FEM) times the notch's.
     """
-    result = compare_borden(tmp_path, [0.25], 0.5, 25.0, scene_path=DEMO, frames=0,
+    result = compare_borden(tmp_path, [0.25], 0.5, 20.0, scene_path=DEMO, frames=0,
                             overrides=["bodies.plate.particles_per_cell=2"], progress=False,
                             log=lambda line: None)
     a = result.agreement
@@ -300,7 +301,7 @@ def test_mpm_and_fem_agree_on_the_borden_plate(tmp_path):
     assert 0.10 < a["elastic_peak"] < 0.14
     assert a["elastic_rms_rel"] < 0.10
     assert abs(a["fracture_end_rel_diff"]) < 0.10
-    # The crack has grown: the fracture energy at 25 us is well above the notch's.
+    # The crack has grown: the fracture energy at 20 us is well above the notch's.
     mpm, fem = (read_csv(tmp_path / f"{m}_h0.25" / "energies.csv") for m in ("mpm", "fem"))
     for e in (mpm, fem):
         assert e["fracture"][-1] > 1.15 * e["fracture"][0]
