@@ -291,6 +291,7 @@ void bind_solver(py::module_& m)
              d["external_work"] = e.external_work;
              d["friction_work"] = e.friction_work;
              d["wall_work"] = e.wall_work;
+             d["wall_impulse"] = e.wall_impulse;
              d["dissipated"] = e.dissipated;
              d["fracture_by_body"] = e.fracture_by_field;
              d["momentum_x"] = e.momentum[0];

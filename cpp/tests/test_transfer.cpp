@@ -182,5 +182,38 @@ TEST(Solver, FixedWallStopsAParticleOnIt)
     EXPECT_NEAR(P.v[0], 0.0, 1e-15); // -1 + dt * (1 / dt)
     EXPECT_NEAR(P.v[1], wall == Wall::fixed ? 0.0 : 0.5, 1e-15);
     EXPECT_DOUBLE_EQ(P.x[0], 0.0);
+    // The wall's impulse is the momentum it stopped.
+    const auto impulse = solver.energies().wall_impulse[static_cast<int>(Side::left)];
+    EXPECT_NEAR(impulse[0], 1.0, 1e-15);
+    EXPECT_NEAR(impulse[1], wall == Wall::fixed ? -0.5 : 0.0, 1e-15);
   }
+}
+
+TEST(Solver, AtACornerEachDirectionCountsOnTheWallNormalToIt)
+{
+  // A particle at the corner sees only the corner node, which the left wall
+  // holds along x and the bottom wall along y, whatever else they hold.
+  for (Wall left : {Wall::fixed, Wall::slip})
+    for (Wall bottom : {Wall::fixed, Wall::slip})
+    {
+      Grid grid(2, {8, 8}, 1.0, {0.0, 0.0});
+      grid.set_wall(Side::left, left);
+      grid.set_wall(Side::bottom, bottom);
+      Particles P(1);
+      P.x = {0.0, 0.0};
+      P.v = {-1.0, -2.0};
+      P.mass = {1.0};
+      P.volume = {1.0};
+      Solver solver(grid, P, elastic(1.0, 0.0, 1.0), 1e-3);
+      solver.advance(1);
+      const std::uint8_t bits = grid.constraints()[0];
+      EXPECT_EQ(bits & 3, 3);
+      EXPECT_EQ((bits >> constraint_side_shift(0)) & 3, static_cast<int>(Side::left));
+      EXPECT_EQ((bits >> constraint_side_shift(1)) & 3, static_cast<int>(Side::bottom));
+      const auto impulse = solver.energies().wall_impulse;
+      EXPECT_NEAR(impulse[static_cast<int>(Side::left)][0], 1.0, 1e-15);
+      EXPECT_NEAR(impulse[static_cast<int>(Side::bottom)][1], 2.0, 1e-15);
+      EXPECT_EQ(impulse[static_cast<int>(Side::left)][1], 0.0);
+      EXPECT_EQ(impulse[static_cast<int>(Side::bottom)][0], 0.0);
+    }
 }

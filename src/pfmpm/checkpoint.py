@@ -290,6 +290,14 @@ def read(path: Path | str) -> Checkpoint:
             raise CheckpointError(f"checkpoint {path}: written before the work of the walls was"
                                   " recorded, which this scene's energy balance needs; start the run again")
         solver["scalars"]["wall_work"] = 0.0
+    if "wall_impulse/left/x" not in solver["scalars"]:
+        # Files from before the walls' impulses were kept: none without walls.
+        if meta["scene"].get("walls"):
+            raise CheckpointError(f"checkpoint {path}: written before the walls' impulses were"
+                                  " recorded, which this scene's energies.csv reports; start the run again")
+        for side in ("left", "right", "bottom", "top"):
+            for d in "xy":
+                solver["scalars"][f"wall_impulse/{side}/{d}"] = 0.0
     if "dt" not in meta and meta["scene"].get("time", {}).get("dt") is None:
         # Files from before the default step kept below a lone particle's
         # limit (issue 49): the run goes on with the step it ran with, the

@@ -253,6 +253,12 @@ def _post(args: argparse.Namespace) -> int:
         report = post.tip_report(scene, run_dir / "energies.csv")
     elif args.measure == "crack-directions":
         report = post.run_directions(scene, run_dir, args.history)
+    elif args.measure == "forces":
+        try:
+            report = post.run_forces(scene, run_dir)
+        except KeyError as error:
+            print(f"error: {run_dir}: {error.args[0]}", file=sys.stderr)
+            return 2
     else:
         report = post.run_fragments(scene, run_dir)
     if args.json:
@@ -261,6 +267,11 @@ def _post(args: argparse.Namespace) -> int:
         _print_tip(report)
     elif args.measure == "crack-directions":
         _print_directions(report)
+    elif args.measure == "forces":
+        u = report["units"]
+        for name, peak in report["peaks"].items():
+            print(f"{name.replace('_', ' ')}: largest {peak['value']:.6g} {u['force']} at t = {peak['t']:.4g} {u['time']}")
+        print(f"forces: {report['csv']}\nplot: {report['png']}")
     else:
         for row in report:
             counts = ", ".join(f"{name}: {k}" for name, k in row["fragments"].items())
@@ -408,11 +419,14 @@ def main(argv: list[str] | None = None) -> int:
                             " (default %(default)s)")
     polar.set_defaults(func=_polar)
 
-    measure = sub.add_parser("post", help="measure a finished run: crack tip, crack directions, fragments")
-    measure.add_argument("measure", choices=["crack-tip", "crack-directions", "fragments"],
+    measure = sub.add_parser("post", help="measure a finished run: crack tip, crack directions, forces,"
+                                          " fragments")
+    measure.add_argument("measure", choices=["crack-tip", "crack-directions", "forces", "fragments"],
                          help="crack-tip: initiation and branching times and the tip speed (energies.csv);"
                               " crack-directions: where the new crack left each notch tip, against the"
-                              " weak directions of G_c(theta); fragments: fragments per body and the"
+                              " weak directions of G_c(theta); forces: the walls' reactions and each"
+                              " body's net force, mean over each interval between rows of energies.csv"
+                              " (forces.csv, forces.png); fragments: fragments per body and the"
                               " closest approach of two bodies at every particle snapshot")
     measure.add_argument("run_dir", help="the run's output directory, whose scene.toml is the scene it ran")
     measure.add_argument("--scene", help="the scene file, for a run directory without scene.toml"

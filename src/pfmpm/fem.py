@@ -112,7 +112,7 @@ from petsc4py import PETSc
 from . import _core
 from .crack import initial_history
 from .post.tip import CrackPath, CrackTip
-from .run import CRACK_COLUMNS, ENERGY_COLUMNS, WALL_COLUMNS, RunResult, Snapshots, run_to_end
+from .run import CRACK_COLUMNS, ENERGY_COLUMNS, SIDES, RunResult, Snapshots, run_to_end, wall_columns
 from .run_folder import check_fresh
 from .scene import (Body, BodyForce, LinearElasticSpec, MaterialSpec, Rectangle, Scene, SceneError,
                     Traction)
@@ -190,6 +190,7 @@ class FemSimulation:
         self._step = 0
         self._work = 0.0  # external work of this rank's owned vertices
         self._wall_work = 0.0  # and the work of the walls on them
+        self._wall_impulse = np.zeros((len(SIDES), 2))  # and their impulses, per side
         with _quiet_jit():
             self._build_mesh()
             self._build_dynamics(material)
@@ -332,16 +333,22 @@ class FemSimulation:
                 fext += self._mass[:, None] * np.asarray(load.acceleration)
         return fext
 
-    def _wall_masks(self) -> list[tuple[np.ndarray, tuple[int, ...]]]:
-        """Owned vertices on each walled grid side and the components the wall zeroes."""
+    def _wall_masks(self) -> list[tuple[int, np.ndarray, int]]:
+        """What the walls hold, as the MPM's grid does: (side, owned vertices,
+        component), each vertex's component once, by the wall it is normal to
+        where two walls meet (normal holds first, then fixed walls' tangential)."""
         (ox, oy), (sx, sy) = self.scene.grid.origin, self.scene.grid.size
-        side = {"left": (0, ox), "right": (0, ox + sx), "bottom": (1, oy), "top": (1, oy + sy)}
+        line = {"left": (0, ox), "right": (0, ox + sx), "bottom": (1, oy), "top": (1, oy + sy)}
         tol = _ON_LINE * self.scene.grid.h
+        holds = [(w, line[w.side][0]) for w in self.scene.walls]
+        holds += [(w, 1 - line[w.side][0]) for w in self.scene.walls if w.type == "fixed"]
+        held = np.zeros((self._owned, 2), dtype=bool)
         masks = []
-        for wall in self.scene.walls:
-            axis, value = side[wall.side]
-            on = np.abs(self._x[: self._owned, axis] - value) <= tol
-            masks.append((on, (0, 1) if wall.type == "fixed" else (axis,)))
+        for wall, k in holds:
+            axis, value = line[wall.side]
+            on = (np.abs(self._x[: self._owned, axis] - value) <= tol) & ~held[:, k]
+            held[on, k] = True
+            masks.append((SIDES.index(wall.side), on, k))
         return masks
 
     def _substeps(self) -> int:
@@ -376,7 +383,7 @@ class FemSimulation:
     @property
     def columns(self) -> list[str]:
         """Columns of ``energies.csv`` for this scene (crack-tip columns with a crack)."""
-        return (ENERGY_COLUMNS + (WALL_COLUMNS if self.scene.walls else [])
+        return (ENERGY_COLUMNS + wall_columns(self.scene.walls)
                 + (CRACK_COLUMNS if self.crack_tip is not None else []))
 
     @property
@@ -475,11 +482,12 @@ class FemSimulation:
         fint = self._internal_force()
         v_old = self._v.copy()
         self._v += dt * (self._fext - fint) / self._mass[:, None]
-        for on, components in self._walls:
-            for k in components:
-                # As the MPM's walls: the work is the kinetic energy stopped.
-                self._wall_work -= 0.5 * float(self._mass[on] @ (v_old[on, k] ** 2))
-                self._v[on, k] = 0.0
+        for side, on, k in self._walls:
+            # As the MPM's walls: the work is the kinetic energy stopped, the
+            # impulse the momentum stopped.
+            self._wall_work -= 0.5 * float(self._mass[on] @ (v_old[on, k] ** 2))
+            self._wall_impulse[side, k] -= float(self._mass[on] @ self._v[on, k])
+            self._v[on, k] = 0.0
         self._work += 0.5 * dt * float(np.sum(self._fext * (v_old + self._v)))
         u = self._u.array.reshape(-1, 2)
         u[: self._owned] += dt * self._v
@@ -512,7 +520,10 @@ class FemSimulation:
             float(m @ v[:, 1]),
         ])
         kinetic, elastic, fracture, work, wall, px, py = self.comm.allreduce(local, op=MPI.SUM)
-        return {
+        impulse = self.comm.allreduce(self._wall_impulse, op=MPI.SUM)
+        walls = {f"impulse_{w.side}_{d}": float(impulse[SIDES.index(w.side), k])
+                 for w in self.scene.walls for k, d in enumerate("xy")}
+        return walls | {
             "step": self._step,
             "t": self.time,
             "kinetic": kinetic,

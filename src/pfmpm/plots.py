@@ -65,6 +65,29 @@ def energies(csv_path: Path, png_path: Path, units: UnitSystem = NO_UNITS) -> No
 
 
 @_closing
+def forces(forces: dict, png_path: Path, units: UnitSystem = NO_UNITS) -> None:
+    """The walls' reactions (top) and the bodies' net forces (bottom) against
+    time, each the mean over an interval between rows
+    (:func:`pfmpm.post.forces.mean_forces`)."""
+    fig, (top, bottom) = plt.subplots(2, 1, figsize=(6.5, 6.0), sharex=True)
+    for name, values in forces.items():
+        if name == "t":
+            continue
+        ax = top if name.startswith("wall_") else bottom
+        ax.plot(forces["t"], values, label=name.replace("_", " "))
+    top.set_title("wall reactions" if top.lines else "no walls", fontsize=9)
+    bottom.set_title("net force on each body (momentum rate)", fontsize=9)
+    for ax in (top, bottom):
+        ax.set_ylabel(units.label("force", "force"))
+        if ax.lines:
+            ax.legend(fontsize=8)
+    bottom.set_xlabel(units.label("time t", "time"))
+    fig.tight_layout()
+    fig.savefig(png_path, dpi=120)
+    plt.close(fig)
+
+
+@_closing
 def crack_tip(csv_path: Path, png_path: Path, rayleigh: float, units: UnitSystem = NO_UNITS) -> None:
     """Crack-tip position and speed against 0.6 v_R and v_R: the tip of the
     whole crack and, where it branches, the tip of each branch."""

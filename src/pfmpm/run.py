@@ -46,7 +46,7 @@ from .output import CsvLog
 from .post.tip import CrackTip
 from .scene import Scene
 
-__all__ = ["ENERGY_COLUMNS", "WALL_COLUMNS", "CRACK_COLUMNS", "RunResult", "Figures", "Snapshots",
+__all__ = ["ENERGY_COLUMNS", "SIDES", "wall_columns", "CRACK_COLUMNS", "RunResult", "Figures", "Snapshots",
            "nearest_image", "run_to_end", "step_to_end"]
 
 ENERGY_COLUMNS = ["step", "t", "kinetic", "elastic", "fracture", "external_work", "total",
@@ -56,9 +56,21 @@ friction_dissipation + damage_dissipation - external_work - wall_work``, the
 energy balance: it keeps its value at t = 0 where energy is conserved.  The
 friction dissipation is zero without a ``[contact]`` table, the damage
 dissipation without a damage model, the wall work without walls."""
-WALL_COLUMNS = ["wall_work"]
-"""Extra ``energies.csv`` column of scenes with walls: the work the walls did
-on the bodies since t = 0 (<= 0: the kinetic energy they stopped)."""
+SIDES = ("left", "right", "bottom", "top")
+"""The grid's sides, in the order of the core's ``Side``."""
+
+
+def wall_columns(walls) -> list[str]:
+    """Extra ``energies.csv`` columns of a scene with ``walls``: ``wall_work``,
+    the work the walls did on the bodies since t = 0 (<= 0: the kinetic energy
+    they stopped), and per wall ``impulse_<side>_x`` and ``impulse_<side>_y``,
+    the impulse of its reaction on the bodies since t = 0 (force x time; at a
+    corner a direction that two walls hold counts as the one it is normal to).
+    :func:`pfmpm.post.forces.wall_forces` turns them into forces."""
+    if not walls:
+        return []
+    return ["wall_work"] + [f"impulse_{w.side}_{d}" for w in walls for d in "xy"]
+
 CRACK_COLUMNS = CrackTip.columns()
 """Extra ``energies.csv`` columns of scenes with an initial crack: the crack tip
 and the tip of each branch (see :class:`~pfmpm.post.tip.CrackTip`)."""

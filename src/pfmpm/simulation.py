@@ -14,7 +14,7 @@ from . import _core
 from .crack import initial_history
 from .output import ParticleSeries, Rows
 from .post.tip import CrackPath, CrackTip
-from .run import CRACK_COLUMNS, ENERGY_COLUMNS, WALL_COLUMNS, RunResult, Snapshots, run_to_end
+from .run import CRACK_COLUMNS, ENERGY_COLUMNS, SIDES, RunResult, Snapshots, run_to_end, wall_columns
 from .scene import Scene, SceneError, seeding
 from .scene.report import SetupReport, setup_report
 from .scene.validation import at
@@ -216,8 +216,11 @@ class Simulation:
 
     @property
     def columns(self) -> list[str]:
-        """Columns of ``energies.csv`` for this scene."""
-        columns = ENERGY_COLUMNS + (WALL_COLUMNS if self.scene.walls else [])
+        """Columns of ``energies.csv`` for this scene: with more than one body
+        also each body's momentum, ``momentum_x_<body>`` and ``momentum_y_<body>``."""
+        columns = ENERGY_COLUMNS + wall_columns(self.scene.walls)
+        if len(self.scene.bodies) > 1:
+            columns += [f"momentum_{d}_{b.name}" for b in self.scene.bodies for d in "xy"]
         columns += CRACK_COLUMNS if self.crack_tip else []
         if self.damage:
             columns += DAMAGE_COLUMNS
@@ -241,6 +244,15 @@ class Simulation:
         """Energies and momentum now, with the columns of ``energies.csv``."""
         e = self.solver.energies()
         by_body = e.pop("fracture_by_body")
+        impulse = e.pop("wall_impulse")
+        for wall in self.scene.walls:
+            e[f"impulse_{wall.side}_x"], e[f"impulse_{wall.side}_y"] = impulse[SIDES.index(wall.side)]
+        if len(self.scene.bodies) > 1:
+            p = self.particles
+            for d, name in enumerate("xy"):
+                momentum = np.bincount(p.body, weights=p.mass * p.v[:, d], minlength=len(self.scene.bodies))
+                for body, value in zip(self.scene.bodies, momentum):
+                    e[f"momentum_{name}_{body.name}"] = float(value)
         e["step"] = self.step
         e["t"] = self.time
         friction = -e.pop("friction_work")

@@ -75,22 +75,27 @@ void Grid::activate(const std::vector<std::int64_t>& cell_start)
   // Open knot vectors interpolate at the ends: only the first and last node of
   // each row and column carry the boundary value, so walls act on them alone.
   const int nnx = _basis[0].size(), nny = _basis[1].size();
-  const std::array<std::uint8_t, 3> normal_mask_x{0, 3, 1}; // free, fixed, slip on left/right
-  const std::array<std::uint8_t, 3> normal_mask_y{0, 3, 2}; // free, fixed, slip on bottom/top
   const std::vector<std::int32_t>& nodes = _active.nodes();
   _constraints.assign(nodes.size(), 0);
   for (std::size_t a = 0; a < nodes.size(); ++a)
   {
     const int ix = nodes[a] / nny, iy = nodes[a] % nny;
+    const bool on[4] = {ix == 0, ix == nnx - 1, iy == 0, iy == nny - 1};
     std::uint8_t m = 0;
-    if (ix == 0)
-      m |= normal_mask_x[static_cast<int>(wall(Side::left))];
-    if (ix == nnx - 1)
-      m |= normal_mask_x[static_cast<int>(wall(Side::right))];
-    if (iy == 0)
-      m |= normal_mask_y[static_cast<int>(wall(Side::bottom))];
-    if (iy == nny - 1)
-      m |= normal_mask_y[static_cast<int>(wall(Side::top))];
+    // Direction d held by `side`, unless a wall already holds it.
+    const auto hold = [&m](int side, int d)
+    {
+      if (!(m & (1 << d)))
+        m |= static_cast<std::uint8_t>((1 << d) | (side << constraint_side_shift(d)));
+    };
+    // Normal walls first, so that at a corner each side's reaction is its own
+    // normal force; then the tangential hold of fixed walls.
+    for (int side = 0; side < 4; ++side)
+      if (on[side] && wall(static_cast<Side>(side)) != Wall::free)
+        hold(side, side / 2);
+    for (int side = 0; side < 4; ++side)
+      if (on[side] && wall(static_cast<Side>(side)) == Wall::fixed)
+        hold(side, 1 - side / 2);
     _constraints[a] = m;
   }
 }

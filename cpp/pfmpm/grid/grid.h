@@ -29,6 +29,9 @@ enum class Wall : int
   slip = 2   ///< normal velocity component zero
 };
 
+/// Where Grid::constraints() keeps the side that holds direction d (0: x, 1: y).
+constexpr int constraint_side_shift(int d) { return 2 + 2 * d; }
+
 class Grid;
 
 /// @brief The nodes a cell's particles reach: `width` nodes per direction
@@ -130,8 +133,10 @@ public:
   const std::vector<std::int32_t>& active_nodes() const { return _active.nodes(); }
   /// Active index of node (ix, iy), or -1 when the node is inactive.
   std::int32_t active_index(int ix, int iy) const { return _active.index(ix, iy); }
-  /// Per active node: bit 0 set when the x velocity is constrained, bit 1 for y.
-  /// Empty when the grid has no walls.
+  /// Per active node: bit 0 set when the x velocity is constrained, bit 1 for
+  /// y, and the Side that holds direction d in the two bits from
+  /// constraint_side_shift(d) (a side's normal before a fixed wall's
+  /// tangential hold). Empty when the grid has no walls.
   const std::vector<std::uint8_t>& constraints() const { return _constraints; }
 
 private:

@@ -32,8 +32,11 @@ void finish_slot(const NodeSums& s, const double* vo, double* vn, std::uint8_t w
     for (int d = 0; d < 2; ++d)
       if (walls & (1 << d))
       {
-        // The wall's work: the kinetic energy it stops along d.
+        // The wall's work: the kinetic energy it stops along d; its impulse:
+        // the momentum it stops.
         acc[sum_wall_work] -= 0.5 * s.m * vo[d] * vo[d];
+        const int side = (walls >> constraint_side_shift(d)) & 3;
+        acc[sum_wall_impulse + 2 * side + d] -= s.m * vn[d];
         vn[d] = vw[d] = 0.0;
       }
   k = NodeKinematics{vn[0], vn[1], (vn[0] - vo[0]) / dt, (vn[1] - vo[1]) / dt};

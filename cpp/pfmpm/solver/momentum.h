@@ -367,7 +367,8 @@ enum GridUpdateSum : int
   sum_friction_work,     ///< work of the friction forces over the step
   sum_wall_work,         ///< work of the wall constraints over the step (<= 0)
   sum_light,             ///< slots with mass too small to divide by
-  sum_contact,           ///< first of the contact_counts counters
+  sum_wall_impulse,      ///< first of the walls' impulses, 2 side + d (Side order)
+  sum_contact = sum_wall_impulse + 8, ///< first of the contact_counts counters
   grid_update_sums = sum_contact + contact_counts
 };
 
@@ -385,7 +386,9 @@ void update_free_slot(const NodeSums& s, std::uint8_t walls, double dt, double m
 /// reaction), its kinematics and the work of the external and friction forces
 /// over the step (trapezoidal velocity). The work of a wall is the kinetic
 /// energy it takes from the slot, -m vo_d^2 / 2 per constrained direction d:
-/// the forces do no work along d, where the slot does not move.
+/// the forces do no work along d, where the slot does not move. Its impulse
+/// over the step, -m vn_d, is summed on the side that holds d
+/// (Grid::constraints): the reaction force times dt.
 void finish_slot(const NodeSums& s, const double* vo, double* vn, std::uint8_t walls,
                  const double* friction, double dt, NodeKinematics& k, double* acc);
 

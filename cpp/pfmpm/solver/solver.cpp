@@ -35,6 +35,12 @@ std::string phase_key(std::size_t k, const char* name)
 {
   return "phase_field/" + std::to_string(k) + "/" + name;
 }
+
+std::string wall_impulse_key(int side, int d)
+{
+  static const char* const sides[4] = {"left", "right", "bottom", "top"};
+  return std::string("wall_impulse/") + sides[side] + (d == 0 ? "/x" : "/y");
+}
 } // namespace
 
 Solver::Solver(Grid& grid, Particles& particles,
@@ -172,6 +178,9 @@ SolverState Solver::state() const
   s.scalars["step"] = static_cast<double>(_step);
   s.scalars["external_work"] = _external_work;
   s.scalars["wall_work"] = _wall_work;
+  for (int side = 0; side < 4; ++side)
+    for (int d = 0; d < 2; ++d)
+      s.scalars[wall_impulse_key(side, d)] = _wall_impulse[side][d];
   s.scalars["light_nodes"] = static_cast<double>(_light_nodes);
   for (std::size_t k = 0; k < _phase.size(); ++k)
   {
@@ -276,6 +285,9 @@ void Solver::restore(const SolverState& state)
   _step = static_cast<std::int64_t>(step);
   _external_work = state.scalars.at("external_work");
   _wall_work = state.scalars.at("wall_work");
+  for (int side = 0; side < 4; ++side)
+    for (int d = 0; d < 2; ++d)
+      _wall_impulse[side][d] = state.scalars.at(wall_impulse_key(side, d));
   _light_nodes = static_cast<std::int64_t>(state.scalars.at("light_nodes"));
 }
 
@@ -491,6 +503,9 @@ void Solver::step(Fields& fields, bool energy)
   }
   _external_work += sums[sum_external_work];
   _wall_work += sums[sum_wall_work];
+  for (int side = 0; side < 4; ++side)
+    for (int d = 0; d < 2; ++d)
+      _wall_impulse[side][d] += sums[sum_wall_impulse + 2 * side + d];
   _light_nodes += static_cast<std::int64_t>(sums[sum_light]);
   if constexpr (Fields::discrete)
   {
@@ -713,6 +728,7 @@ Energies Solver::energies() const
   e.dissipated = sums[6];
   e.external_work = _external_work;
   e.wall_work = _wall_work;
+  e.wall_impulse = _wall_impulse;
   e.momentum = {sums[2], sums[3]};
   e.angular_momentum = sums[7];
   e.mass = sums[4];

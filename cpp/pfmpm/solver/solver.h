@@ -37,6 +37,8 @@ struct Energies
   double external_work = 0.0;  ///< work of the external forces since t = 0
   double friction_work = 0.0;  ///< work of the friction (tangential contact) forces since t = 0 (<= 0)
   double wall_work = 0.0;      ///< work of the wall constraints since t = 0 (<= 0, see finish_slot)
+  /// impulse of each side's wall on the bodies since t = 0, (x, y) per Side
+  std::array<std::array<double, 2>, 4> wall_impulse{};
   double dissipated = 0.0;     ///< work dissipated by damage since t = 0 (the column `dissipated`)
   std::array<double, 2> momentum{}; ///< sum of M_p v_p
   /// sum of M_p (x_p x v_p), about the origin; with APIC plus M_p ((B_p)_yx - (B_p)_xy),
@@ -50,7 +52,8 @@ struct Energies
 /// one step to the next, by name: with the columns it is the complete state
 /// of a run.
 ///
-/// Scalars: `time`, `step`, `external_work`, `wall_work`, `light_nodes`; per phase field k
+/// Scalars: `time`, `step`, `external_work`, `wall_work`, `wall_impulse/<side>/<x|y>`
+/// (side: left, right, bottom, top), `light_nodes`; per phase field k
 /// (the single field's is 0; with discrete fields, one per crackable body in
 /// body order) `phase_field/k/solves`, `.../iterations`,
 /// `.../last_iterations`, `.../start_residual`, `.../last_residual`,
@@ -312,6 +315,7 @@ private:
   std::int64_t _step = 0;
   double _external_work = 0.0;
   double _wall_work = 0.0;
+  std::array<std::array<double, 2>, 4> _wall_impulse{};
   double _mass_tol;
   std::int64_t _light_nodes = 0;
   double _stability_length = 0.0; // 0: no check
