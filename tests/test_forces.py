@@ -9,6 +9,7 @@ against the fixed end of a bar under a step load, whose reaction is the
 analytic square wave of the reflected wave, in both methods.
 """
 
+import json
 import subprocess
 import sys
 from pathlib import Path
@@ -137,3 +138,34 @@ def test_post_forces_writes_the_curves_with_units(tmp_path):
     # The net force is the load plus the wall's reaction.
     F = 0.1 * 2.0
     assert np.max(np.abs(forces["net_x"] - (F + forces["wall_left_x"]))) < 1e-9
+
+
+@pytest.mark.parametrize("walls", [True, False])
+def test_a_checkpoint_from_before_the_impulses(tmp_path, walls):
+    """A file written before the walls' impulses were kept: without walls they
+    were zero and the run resumes; with walls its energies.csv could not go
+    on, and reading it is a one-line error."""
+    import h5py
+
+    from pfmpm import checkpoint
+
+    out = tmp_path / "bar"
+    run = [sys.executable, "-m", "pfmpm.cli", "run", str(BAR), "--out", str(out), "--set", "time.end=2",
+           "--checkpoint-every", "10", "--quiet"] + ([] if walls else ["--set", "walls=[]"])
+    assert subprocess.run(run, capture_output=True, text=True, timeout=300).returncode == 0
+    path = checkpoint.list_checkpoints(out / "checkpoints")[-1]
+    with h5py.File(path, "r+") as f:
+        meta = json.loads(f.attrs["meta"])
+        meta["solver"] = {k: v for k, v in meta["solver"].items() if not k.startswith("wall_impulse/")}
+        arrays = {}
+        f.visititems(lambda name, obj: arrays.__setitem__(name, obj[()]) if isinstance(obj, h5py.Dataset)
+                     else None)
+        f.attrs["meta"] = json.dumps(meta, sort_keys=True)
+        f.attrs["sha256"] = checkpoint._digest(meta, arrays)
+    if walls:
+        with pytest.raises(checkpoint.CheckpointError, match="written before the walls' impulses were recorded"):
+            checkpoint.read(path)
+    else:
+        scalars = checkpoint.read(path).solver["scalars"]
+        assert all(scalars[f"wall_impulse/{s}/{d}"] == 0.0 for s in ("left", "right", "bottom", "top")
+                   for d in "xy")
