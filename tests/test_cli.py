@@ -322,6 +322,11 @@ def test_post_reads_the_scene_the_run_kept(tmp_path):
     unset = tip_report(Scene.from_toml(borden), out / "energies.csv")
     assert report["max_speed_over_rayleigh"] == pytest.approx(unset["max_speed_over_rayleigh"] / 1.4 ** 0.5,
                                                               rel=1e-12)
+    # The printed report names the scene's units (mm-us-MPa).
+    r = pfmpm("post", "crack-tip", out)
+    lines = r.stdout.splitlines()
+    assert lines[0].startswith(f"crack initiation: t = {report['initiation_us']:.4g} µs (the tip 0.5 mm")
+    assert lines[2].endswith(") mm") and f"{report['max_speed']:.4g} mm/µs = " in lines[3], r.stdout
 
     r = pfmpm("post", "crack-tip", out, "--scene", borden)
     assert r.returncode == 2 and r.stderr == (f"error: --scene {borden}: {out} keeps the run's own scene,"

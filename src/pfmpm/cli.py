@@ -15,6 +15,7 @@ from .compare import (BORDEN_SCENE, DEFAULT_END, DEFAULT_FRAMES, DEFAULT_H, DEFA
 from .run_folder import SCENE_FILE, check_fresh, check_resume, read_scene
 from .scene import SceneError
 from .scene.components import SHAPES, TRANSFER_SCHEMES
+from .scene.units import unit_system
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -264,7 +265,7 @@ def _post(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(report, default=str))
     elif args.measure == "crack-tip":
-        _print_tip(report)
+        _print_tip(report, unit_system(scene.units))
     elif args.measure == "crack-directions":
         _print_directions(report)
     elif args.measure == "forces":
@@ -279,14 +280,17 @@ def _post(args: argparse.Namespace) -> int:
     return 0
 
 
-def _print_tip(r: dict) -> None:
+def _print_tip(r: dict, units) -> None:
     from .post.tip import BRANCH_AFTER, BRANCH_OFFSET, INITIATION_ADVANCE
 
-    print(f"crack initiation: t = {r['initiation_us']:.4g} (the tip {INITIATION_ADVANCE:g} past its start)")
-    print(f"branching: t = {r['branch_us']:.4g} (the tip {BRANCH_OFFSET:g} off the notch line,"
-          f" {BRANCH_AFTER:g} ahead of the notch tip)")
-    print(f"tip at the end: ({r['tip_x_end']:.4g}, {r['tip_y_end']:.4g})")
-    print(f"largest tip speed: {r['max_speed']:.4g} = {r['max_speed_over_rayleigh']:.3f} v_R")
+    t, length, speed = ((f" {u}" if units.declared else " (scene units)")
+                        for u in (units.time, units.length, units.speed))
+    print(f"crack initiation: t = {r['initiation_us']:.4g}{t} (the tip {INITIATION_ADVANCE:g}{length}"
+          " past its start)")
+    print(f"branching: t = {r['branch_us']:.4g}{t} (the tip {BRANCH_OFFSET:g}{length} off the notch line,"
+          f" {BRANCH_AFTER:g}{length} ahead of the notch tip)")
+    print(f"tip at the end: ({r['tip_x_end']:.4g}, {r['tip_y_end']:.4g}){length}")
+    print(f"largest tip speed: {r['max_speed']:.4g}{speed} = {r['max_speed_over_rayleigh']:.3f} v_R")
 
 
 def _print_directions(r: dict) -> None:
