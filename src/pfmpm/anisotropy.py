@@ -1,4 +1,4 @@
-"""Anisotropic surface energy of the fourth-order phase field (eqs. 4-8).
+"""Anisotropic surface energy of the fourth-order phase field (Kakouris & Triantafyllou 2019, eqs. 4-8).
 
 The crack density of eq. 4 with the anisotropy tensor ``gamma`` (eq. 6, in
 Voigt form on the curvature ``kappa = (c_11, c_22, c_12)``) is

@@ -46,7 +46,7 @@ def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str
     and contact across them, where the block is cut in four. ``bands`` such
     bands per direction, evenly spaced, cut it into (bands + 1)^2 fragments:
     the share of particles near full damage grows with it.
-    ``model="neo_hookean"`` makes the material neo-Hookean (eq. 8 in one
+    ``model="neo_hookean"`` makes the material neo-Hookean (H&H eq. 8 in one
     step, no damage) with the same E, nu and density; it has no phase field.
     ``shape="cpdi"`` (with ``degree=1``) maps with CPDI1 over the particle
     domains instead of B-splines at the centres. ``transfer="apic"`` moves

@@ -187,7 +187,7 @@ class FractureSpec:
         it either way (docs/method.md).
     Gc : float
         Critical energy release rate, > 0; with a fourth-order ``anisotropy``
-        it is the reference value G-bar_c of eq. 8.
+        it is the reference value G-bar_c of K&T eq. 8.
     l0 : float
         Length scale, > 0; the scene requires at least the grid spacing.
     k_f : float
@@ -336,7 +336,7 @@ class LinearElasticSpec(MaterialSpec):
 class NeoHookeanSpec(MaterialSpec):
     """Compressible neo-Hookean elasticity in plane strain (``model =
     "neo_hookean"``; Homel & Herbold 2017, eq. 22) on the deformation gradient
-    (eq. 8), with an optional damage model.
+    (H&H eq. 8), with an optional damage model.
 
     Parameters
     ----------
@@ -352,11 +352,11 @@ class NeoHookeanSpec(MaterialSpec):
         :class:`~pfmpm.scene.damage.RankineSpec` or
         :class:`~pfmpm.scene.damage.TimeToFailureSpec`; ``None``: elastic.
     integration : str
-        How F follows the velocity gradient: ``"euler"``, eq. 8
+        How F follows the velocity gradient: ``"euler"``, H&H eq. 8
         ``F <- (I + dt L) F`` (in ``substeps``), or ``"exponential"``,
         ``F <- exp(dt L) F``, exact for the step's L and so objective.
     substeps : int
-        Sub-steps of eq. 8 per step, >= 1 (1 with ``"exponential"``).
+        Sub-steps of H&H eq. 8 per step, >= 1 (1 with ``"exponential"``).
     fracture : None
         The model has no phase-field coupling yet: a fracture table is refused.
     """
