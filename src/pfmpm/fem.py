@@ -249,7 +249,8 @@ class FemSimulation:
         self._density = material.density
         weights = np.repeat(material.density * self._volume / 3.0, 3)
         self._mass = self._assemble(np.bincount(self._flat_dofs, weights, self._local), scalar=True)
-        self._fext = self._external_force()
+        self._loads = self._load_forces()
+        self._fext = self._external_force(0.0)
         self._walls = self._wall_masks()
         self._v = np.tile(np.asarray(self._body.velocity, dtype=float), (self._owned, 1))
         self._eps = np.zeros((len(self._dofs), 3))
@@ -303,34 +304,56 @@ class FemSimulation:
         values = vec.array.reshape(-1) if scalar else vec.array.reshape(-1, 2)
         return values[: self._owned].copy()
 
-    def _external_force(self) -> np.ndarray:
-        """Constant external force on the owned vertices (owned, 2).
+    def _load_forces(self) -> list[tuple]:
+        """Each load on the body and its force on the owned vertices (owned, 2)
+        at amplitude 1.
 
-        Tractions: each cell edge on the loaded side of the rectangle gives
-        ``t * length * thickness / 2`` to both its ends, the consistent P1
-        load (eq. 17); an edge lies on the boundary of one cell only, so
-        every edge counts once over all ranks.  Body forces: ``M_I b``.
+        Tractions: each cell edge on the loaded side of the rectangle (with
+        a ``span``, whose midpoint lies in it: a span that holds none is a
+        SceneError) gives ``t * length *
+        thickness / 2`` to both its ends, the consistent P1 load (eq. 17); an
+        edge lies on the boundary of one cell only, so every edge counts once
+        over all ranks.  Body forces: ``M_I b``.
         """
-        f = np.zeros((self._local, 2))
         (x0, y0), (x1, y1) = self._body.shape.min, self._body.shape.max
         line = {"left": (0, x0), "right": (0, x1), "bottom": (1, y0), "top": (1, y1)}
         tol = _ON_LINE * self.scene.grid.h
-        for load in self.scene.loads:
-            if isinstance(load, Traction):
-                axis, value = line[load.edge]
-                on = np.abs(self._x[self._dofs, axis] - value) <= tol  # (cells, 3)
-                for a, b in ((0, 1), (1, 2), (2, 0)):
-                    edge = on[:, a] & on[:, b]
-                    ia, ib = self._dofs[edge, a], self._dofs[edge, b]
-                    length = np.hypot(*(self._x[ib] - self._x[ia]).T)
-                    share = 0.5 * length * self._thickness
-                    for k in range(2):
-                        f[:, k] += np.bincount(ia, share * load.traction[k], self._local)
-                        f[:, k] += np.bincount(ib, share * load.traction[k], self._local)
-        fext = self._assemble(f)
-        for load in self.scene.loads:
-            if isinstance(load, BodyForce) and load.body in (None, self._body.name):
-                fext += self._mass[:, None] * np.asarray(load.acceleration)
+        forces = []
+        for i, load in enumerate(self.scene.loads):
+            if isinstance(load, BodyForce):
+                if load.body in (None, self._body.name):
+                    forces.append((load, self._mass[:, None] * np.asarray(load.acceleration)))
+                continue
+            f = np.zeros((self._local, 2))
+            edges = 0
+            axis, value = line[load.edge]
+            on = np.abs(self._x[self._dofs, axis] - value) <= tol  # (cells, 3)
+            for a, b in ((0, 1), (1, 2), (2, 0)):
+                edge = on[:, a] & on[:, b]
+                ia, ib = self._dofs[edge, a], self._dofs[edge, b]
+                if load.span is not None:
+                    mid = 0.5 * (self._x[ia, 1 - axis] + self._x[ib, 1 - axis])
+                    inside = (mid >= load.span[0]) & (mid <= load.span[1])
+                    ia, ib = ia[inside], ib[inside]
+                edges += len(ia)
+                length = np.hypot(*(self._x[ib] - self._x[ia]).T)
+                share = 0.5 * length * self._thickness
+                for k in range(2):
+                    f[:, k] += np.bincount(ia, share * load.traction[k], self._local)
+                    f[:, k] += np.bincount(ib, share * load.traction[k], self._local)
+            if load.span is not None and not self.comm.allreduce(edges, op=MPI.SUM):
+                raise SceneError(f"loads[{i}].span", f"holds the midpoint of no cell edge of the FEM mesh"
+                                                     f" on the {load.edge} edge of body {load.body!r}",
+                                 load.span)
+            forces.append((load, self._assemble(f)))
+        return forces
+
+    def _external_force(self, t: float) -> np.ndarray:
+        """External force on the owned vertices at time ``t`` (owned, 2): each
+        load's times its amplitude then (:meth:`_load_forces`)."""
+        fext = np.zeros((self._owned, 2))
+        for load, force in self._loads:
+            fext += (1.0 if load.amplitude is None else load.amplitude(t)) * force
         return fext
 
     def _wall_masks(self) -> list[tuple[int, np.ndarray, int]]:
@@ -423,7 +446,7 @@ class FemSimulation:
 
     @property
     def external_force(self) -> np.ndarray:
-        """Constant external force on the owned vertices, (owned, 2) view."""
+        """External force on the owned vertices in the last sub-step, (owned, 2) view."""
         return self._fext
 
     @property
@@ -436,9 +459,12 @@ class FemSimulation:
     def advance(self, steps: int) -> None:
         """Take ``steps`` scene steps (phase field, then the elastodynamic sub-steps)."""
         h = self.dt / self.substeps
+        amplified = any(load.amplitude is not None for load, _ in self._loads)
         for _ in range(steps):
             self._solve_phase_field()
-            for _ in range(self.substeps):
+            for k in range(self.substeps):
+                if amplified:  # the loads at the sub-step's midpoint, as the MPM's
+                    self._fext = self._external_force(self.time + (k + 0.5) * h)
                 self._substep(h)
             self._step += 1
 

@@ -124,6 +124,7 @@ class Simulation:
         if self.contact:
             self.solver.set_touch_fill(contact.touch_fill)
         columns = self._fill(xs, done=core)  # the models' columns the seeding sets: orientation, CPDI domains
+        self._amplified = self._amplified_loads(xs)
         del xs
         self._initial_columns()
         self._impose_damage()
@@ -237,8 +238,36 @@ class Simulation:
         return self.solver.step_count
 
     def advance(self, steps: int) -> None:
-        """Take ``steps`` explicit steps in C++."""
-        self.solver.advance(steps)
+        """Take ``steps`` explicit steps in C++; with loads that have an
+        amplitude, one at a time, each with the external forces at its
+        midpoint time."""
+        if not self._amplified:
+            self.solver.advance(steps)
+            return
+        fext = self.particles.fext
+        steady, touched, loads = self._amplified
+        for _ in range(steps):
+            t = self.time + 0.5 * self.dt
+            fext[touched] = steady
+            for amplitude, rows, force in loads:
+                fext[rows] += amplitude(t) * force
+            self.solver.advance(1)
+
+    def _amplified_loads(self, xs: list[np.ndarray]) -> tuple | None:
+        """The loads with an amplitude, for :meth:`advance`: the particles they
+        touch, the force there of the loads without one, and each load's
+        (amplitude, particles, force at amplitude 1); None without any."""
+        forces = seeding.load_forces(self.scene, xs, self.particles.mass)
+        loads = [(load.amplitude, rows, force) for load, rows, force in forces if load.amplitude is not None]
+        if not loads:
+            return None
+        n = len(self.particles)
+        touched = np.unique(np.concatenate([np.arange(n)[rows] for _, rows, _ in loads]))
+        steady = np.zeros((n, 2))
+        for load, rows, force in forces:
+            if load.amplitude is None:
+                steady[rows] += force
+        return steady[touched], touched, loads
 
     def energies(self) -> dict[str, float]:
         """Energies and momentum now, with the columns of ``energies.csv``."""

@@ -25,7 +25,8 @@ The modules, one concern each:
     :class:`MeshShape` (the cells of a mesh file), :class:`ImageShape` (the
     pixels of one colour of a PNG mask); :class:`Body`.
 ``loads``
-    :class:`Traction`, :class:`BodyForce`, :class:`WallSpec`, :class:`Crack`.
+    :class:`Traction`, :class:`BodyForce` and their amplitudes over time,
+    :class:`Ramp` and :class:`Table`; :class:`WallSpec`, :class:`Crack`.
 ``contact``
     :class:`Contact`, :class:`ContactPair`.
 ``materials``
@@ -56,7 +57,7 @@ against them.
 from .bodies import Body
 from .components import DEGREES, TRANSFER_SCHEMES, GridSpec, Output, PhaseFieldSpec, Time, TransferSpec
 from .contact import Contact, ContactPair
-from .loads import EDGES, LOADS, SIDES, WALL_TYPES, BodyForce, Crack, Traction, WallSpec
+from .loads import AMPLITUDES, EDGES, LOADS, SIDES, WALL_TYPES, BodyForce, Crack, Ramp, Table, Traction, WallSpec
 from .damage import (DAMAGE_MODELS, DamageSpec, InitialDamage, RankineSpec, TimeToFailureSpec,
                      WeibullSpec)
 from .materials import (DEFAULT_MODEL, MATERIALS, PLANES, SPLITS, SYMMETRIES, Anisotropy,
@@ -112,6 +113,9 @@ __all__ = [
     "Traction",
     "BodyForce",
     "LOADS",
+    "Ramp",
+    "Table",
+    "AMPLITUDES",
     "WallSpec",
     "Crack",
     "ContactPair",

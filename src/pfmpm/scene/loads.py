@@ -1,18 +1,94 @@
-"""What acts on the bodies: tractions and body forces (``[[loads]]``), grid
-walls (``[[walls]]``) and initial cracks (``[[cracks]]``)."""
+"""What acts on the bodies: tractions and body forces (``[[loads]]``) with
+their amplitudes over time, grid walls (``[[walls]]``) and initial cracks
+(``[[cracks]]``)."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 from typing import ClassVar
 
-from .validation import SceneError, choice, polyline, real, store, text, vec2
+import numpy as np
 
-__all__ = ["EDGES", "SIDES", "WALL_TYPES", "Traction", "BodyForce", "LOADS", "WallSpec", "Crack"]
+from .validation import SceneError, choice, fmt, polyline, real, seq, store, text, vec2
+
+__all__ = ["EDGES", "SIDES", "WALL_TYPES", "Ramp", "Table", "AMPLITUDES", "Traction", "BodyForce", "LOADS",
+           "WallSpec", "Crack"]
 
 EDGES = ("top", "bottom", "left", "right")
 SIDES = ("left", "right", "bottom", "top")
 WALL_TYPES = ("fixed", "slip")
+
+
+@dataclass(frozen=True)
+class Ramp:
+    """A smooth ramp of a load (``amplitude = { type = "ramp", time = T }``):
+    ``a(t) = s^2 (3 - 2 s)`` with ``s = t / T``, from 0 at t = 0 to 1 at T,
+    then 1. Its rate is zero at both ends, so the load starts and levels off
+    without the jump in rate that sends a wave through the body.
+
+    Parameters
+    ----------
+    time : float
+        Duration T of the ramp, > 0.
+    """
+
+    kind: ClassVar[str] = "ramp"
+    time: float
+
+    def __post_init__(self):
+        store(self, "time", real("time", self.time, gt=0.0))
+
+    def __call__(self, t: float) -> float:
+        s = min(max(t / self.time, 0.0), 1.0)
+        return s * s * (3.0 - 2.0 * s)
+
+
+@dataclass(frozen=True)
+class Table:
+    """A load's amplitude as a table (``amplitude = { type = "table", times
+    = [...], values = [...] }``): linear between the points, the first value
+    before the first time and the last after the last.
+
+    Parameters
+    ----------
+    times : sequence of float
+        Strictly increasing times, at least one.
+    values : sequence of float
+        The amplitude at each time (finite; the load is multiplied by it).
+    """
+
+    kind: ClassVar[str] = "table"
+    times: tuple[float, ...]
+    values: tuple[float, ...]
+
+    def __post_init__(self):
+        times = seq("times", self.times, "times")
+        values = seq("values", self.values, "values")
+        if not times:
+            raise SceneError("times", "needs at least one time", self.times)
+        if len(values) != len(times):
+            raise SceneError("values", f"must have one value per time ({len(times)})", self.values)
+        times = tuple(real(f"times[{i}]", t) for i, t in enumerate(times))
+        for i in range(1, len(times)):
+            if times[i] <= times[i - 1]:
+                raise SceneError(f"times[{i}]", f"must be greater than times[{i - 1}] = {fmt(times[i - 1])}",
+                                 times[i])
+        store(self, "times", times)
+        store(self, "values", tuple(real(f"values[{i}]", v) for i, v in enumerate(values)))
+
+    def __call__(self, t: float) -> float:
+        return float(np.interp(t, self.times, self.values))
+
+
+AMPLITUDES: dict[str, type] = {cls.kind: cls for cls in (Ramp, Table)}
+"""Amplitude classes by their TOML ``type``."""
+
+
+def _amplitude(value) -> Ramp | Table | None:
+    """Check a load's ``amplitude``: None (constant) or an amplitude."""
+    if value is not None and not isinstance(value, (Ramp, Table)):
+        raise SceneError("amplitude", "must be a Ramp or a Table", value)
+    return value
 
 
 @dataclass(frozen=True)
@@ -27,17 +103,33 @@ class Traction:
         ``"top"``, ``"bottom"``, ``"left"`` or ``"right"``.
     traction : (float, float)
         Traction vector (force per unit boundary area, stress units).
+    amplitude : Ramp or Table or None
+        The factor of the traction over time; ``None``: constant (a step at
+        t = 0).
+    span : (float, float) or None
+        Only the part of the edge between these two coordinates along it (x
+        on the top and bottom edges, y on the left and right ones): the
+        particles of the layer whose coordinate lies in ``[a, b]``, each
+        carrying its spacing's share. ``None``: the whole edge.
     """
 
     kind: ClassVar[str] = "traction"
     body: str
     edge: str
     traction: tuple[float, float]
+    amplitude: Ramp | Table | None = None
+    span: tuple[float, float] | None = None
 
     def __post_init__(self):
         store(self, "body", text("body", self.body))
         store(self, "edge", choice("edge", self.edge, EDGES))
         store(self, "traction", vec2("traction", self.traction))
+        store(self, "amplitude", _amplitude(self.amplitude))
+        if self.span is not None:
+            span = vec2("span", self.span)
+            if not span[0] < span[1]:
+                raise SceneError("span", "must be [a, b] with a < b", self.span)
+            store(self, "span", span)
 
 
 @dataclass(frozen=True)
@@ -50,16 +142,20 @@ class BodyForce:
         Acceleration vector.
     body : str or None
         Name of the loaded body; ``None`` loads all bodies.
+    amplitude : Ramp or Table or None
+        The factor of the acceleration over time; ``None``: constant.
     """
 
     kind: ClassVar[str] = "body_force"
     acceleration: tuple[float, float]
     body: str | None = None
+    amplitude: Ramp | Table | None = None
 
     def __post_init__(self):
         store(self, "acceleration", vec2("acceleration", self.acceleration))
         if self.body is not None:
             store(self, "body", text("body", self.body))
+        store(self, "amplitude", _amplitude(self.amplitude))
 
 
 LOADS: dict[str, type] = {cls.kind: cls for cls in (Traction, BodyForce)}

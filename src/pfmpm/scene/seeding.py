@@ -10,12 +10,14 @@ import numpy as np
 
 from .bodies import Body
 from .components import GridSpec
-from .loads import Traction
+from .loads import BodyForce, Traction
+from .validation import SceneError
 
 if TYPE_CHECKING:
     from .scene import Scene
 
-__all__ = ["cell_range", "lattice", "count", "positions", "position_batches", "fill", "particles"]
+__all__ = ["cell_range", "lattice", "count", "positions", "position_batches", "fill", "load_forces",
+           "particles"]
 
 _CHUNK = 1 << 16  # candidate particles examined per vectorised batch
 _EDGE_TOL = 0.51  # edge layer thickness in particle spacings
@@ -84,17 +86,14 @@ def fill(scene: "Scene", xs: list[np.ndarray], columns: Mapping[str, np.ndarray]
     ``x`` (N, 2) positions, ``v`` (N, 2) velocities, ``mass`` (N,),
     ``volume`` (N,) ``= (h/n)^2 * thickness``, ``body`` (N,) body index,
     ``material`` (N,) material index, ``phi`` (N,) material orientation in
-    radians (clockwise from x) and ``fext`` (N, 2) constant external forces:
-    ``traction * (h/n) * thickness`` on the edge layer of each traction load
-    plus ``mass * acceleration`` of each body force.  The edge layer is the
-    particles of the body within ``0.51 h/n`` of its extreme particle
-    coordinate on that side.  With ``grid.shape = "cpdi"`` also the
+    radians (clockwise from x) and ``fext`` (N, 2) the external forces at
+    t = 0, those of :func:`load_forces` times each load's amplitude then.  With ``grid.shape = "cpdi"`` also the
     half-edges of the particle domains, the ``h/n`` squares of the lattice:
     ``convected_r1`` and ``domain_r1`` (N, 2) ``= (h/2n, 0)``,
     ``convected_r2`` and ``domain_r2`` ``= (0, h/2n)``.
     """
     materials = {m.name: i for i, m in enumerate(scene.materials)}
-    slices, start = {}, 0
+    start = 0
     for b, (body, x) in enumerate(zip(scene.bodies, xs)):
         part = slice(start, start + len(x))
         m = materials[body.material]
@@ -112,25 +111,68 @@ def fill(scene: "Scene", xs: list[np.ndarray], columns: Mapping[str, np.ndarray]
             columns["v"][part] = body.velocity
             if np.any(body.velocity_gradient):
                 columns["v"][part] += x @ np.asarray(body.velocity_gradient).T
-        slices[body.name] = (part, spacing, x)
         start += len(x)
     if "fext" not in columns:
         return
     fext = columns["fext"]
     fext[...] = 0.0
-    for load in scene.loads:
-        if isinstance(load, Traction):
-            part, spacing, x = slices[load.body]
-            coord = x[:, 0 if load.edge in ("left", "right") else 1]
-            tol = _EDGE_TOL * spacing
-            if load.edge in ("right", "top"):
-                layer = coord >= coord.max() - tol
-            else:
-                layer = coord <= coord.min() + tol
-            fext[part][layer] += np.multiply(load.traction, spacing * scene.thickness)
-        else:
-            part = slice(None) if load.body is None else slices[load.body][0]
-            fext[part] += columns["mass"][part, None] * np.asarray(load.acceleration)
+    for load, rows, force in load_forces(scene, xs, columns["mass"]):
+        fext[rows] += (1.0 if load.amplitude is None else load.amplitude(0.0)) * force
+
+
+def load_forces(scene: "Scene", xs: list[np.ndarray], mass: np.ndarray) -> list[tuple]:
+    """Each load's particles and the force on each at amplitude 1.
+
+    Parameters
+    ----------
+    scene : Scene
+    xs : list of ndarray
+        The bodies' particle positions at t = 0, in body order
+        (:func:`positions`).
+    mass : ndarray (N,)
+        The particles' masses.
+
+    Returns
+    -------
+    list of (load, rows, force)
+        Per entry of ``scene.loads``: its particles (a slice or indices into
+        all particles) and the force on them, ``(2,)`` or ``(len(rows), 2)``.
+        A traction gives each particle of the body's edge layer (within
+        ``0.51 h/n`` of its extreme particle coordinate on that side; with a
+        ``span``, those whose coordinate along the edge lies in it)
+        ``traction * (h/n) * thickness``; a body force gives each particle
+        of its body (or of all) ``mass * acceleration``.
+
+    Raises
+    ------
+    SceneError
+        If a traction's span holds no particle of its edge layer.
+    """
+    parts, start = {}, 0
+    for body, x in zip(scene.bodies, xs):
+        parts[body.name] = (slice(start, start + len(x)), body.spacing(scene.grid.h), x)
+        start += len(x)
+    forces = []
+    for i, load in enumerate(scene.loads):
+        if isinstance(load, BodyForce):
+            rows = slice(None) if load.body is None else parts[load.body][0]
+            forces.append((load, rows, mass[rows, None] * np.asarray(load.acceleration)))
+            continue
+        part, spacing, x = parts[load.body]
+        normal = 0 if load.edge in ("left", "right") else 1
+        coord = x[:, normal]
+        tol = _EDGE_TOL * spacing
+        layer = coord >= coord.max() - tol if load.edge in ("right", "top") else coord <= coord.min() + tol
+        if load.span is not None:
+            along = x[:, 1 - normal]
+            (a, b), eps = load.span, 1e-9 * spacing
+            layer &= (along >= a - eps) & (along <= b + eps)
+            if not layer.any():
+                raise SceneError(f"loads[{i}].span", f"holds no particle of the {load.edge} edge layer"
+                                                     f" of body {load.body!r}", load.span)
+        rows = part.start + np.flatnonzero(layer)
+        forces.append((load, rows, np.multiply(load.traction, spacing * scene.thickness)))
+    return forces
 
 
 def particles(scene: "Scene") -> dict[str, np.ndarray]:

@@ -15,7 +15,7 @@ from typing import Any
 from .bodies import Body
 from .components import GridSpec, Output, PhaseFieldSpec, Time, TransferSpec
 from .contact import Contact, ContactPair
-from .loads import LOADS, Crack, WallSpec
+from .loads import AMPLITUDES, LOADS, Crack, WallSpec
 from .damage import DamageSpec, InitialDamage, WeibullSpec, damage_class
 from .materials import DEFAULT_MODEL, Anisotropy, FractureSpec, MaterialSpec, material_class
 from .shapes import SHAPES
@@ -49,7 +49,7 @@ def build_scene(cls: type, d: Any, overrides: list[str] | tuple[str, ...] = ()) 
         "output": lambda t: _build(Output, t),
         "materials": lambda v: _tables(v, _material),
         "bodies": lambda v: _tables(v, _body),
-        "loads": lambda v: _tables(v, lambda t: _typed(t, LOADS)),
+        "loads": lambda v: _tables(v, lambda t: _typed(t, LOADS, {"amplitude": lambda a: _typed(a, AMPLITUDES)})),
         "walls": lambda v: _tables(v, lambda t: _build(WallSpec, t)),
         "cracks": lambda v: _tables(v, lambda t: _build(Crack, t)),
         "initial_damage": lambda v: _tables(v, lambda t: _build(InitialDamage, t)),
@@ -201,8 +201,10 @@ def _tables(value: Any, build: Callable[[Any], Any]) -> tuple:
     return tuple(items)
 
 
-def _typed(table: Any, classes: Mapping[str, type]) -> Any:
-    """Build a table whose ``type`` key selects the class among ``classes``."""
+def _typed(table: Any, classes: Mapping[str, type],
+           convert: Mapping[str, Callable[[Any], Any]] | None = None) -> Any:
+    """Build a table whose ``type`` key selects the class among ``classes``
+    (``convert`` as for :func:`_build`)."""
     if not isinstance(table, Mapping):
         raise SceneError("", "must be a table", table)
     if "type" not in table:
@@ -210,7 +212,7 @@ def _typed(table: Any, classes: Mapping[str, type]) -> Any:
     cls = classes.get(table["type"]) if isinstance(table["type"], str) else None
     if cls is None:
         raise SceneError("type", "must be one of " + ", ".join(map(repr, classes)), table["type"])
-    return _build(cls, table, extra=("type",))
+    return _build(cls, table, convert, extra=("type",))
 
 
 def _material(table: Any) -> MaterialSpec:
