@@ -294,7 +294,7 @@ BAD = [
     ("bodies.plate.shape.radius=3", "bodies[0].shape.radius: unknown key (allowed: type, min, max)"),
     (_set(("loads",), [dict(TRACTION, acceleration=[0, 1])]), "loads[0].acceleration: unknown key"),
     (_set(("loads",), [{"type": "body_force", "acceleration": [0, 1], "edge": "top"}]),
-     "loads[0].edge: unknown key (allowed: type, acceleration, body)"),
+     "loads[0].edge: unknown key (allowed: type, acceleration, body, amplitude)"),
     ("walls.0.normal=1", "walls[0].normal: unknown key"),
     # missing required keys
     (_delete(("grid", "h")), "grid.h: missing required key"),

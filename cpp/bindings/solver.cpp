@@ -292,6 +292,9 @@ void bind_solver(py::module_& m)
              d["friction_work"] = e.friction_work;
              d["wall_work"] = e.wall_work;
              d["wall_impulse"] = e.wall_impulse;
+             d["region_impulse"] = e.region_impulse;
+             d["region_work"] = e.region_work;
+             d["region_displacement"] = e.region_displacement;
              d["dissipated"] = e.dissipated;
              d["fracture_by_body"] = e.fracture_by_field;
              d["momentum_x"] = e.momentum[0];

@@ -208,7 +208,7 @@ Correction correct(const std::vector<NodeField>& fields, const std::vector<doubl
   }
   std::array<double, grid_update_sums> acc{};
   update_contact_node(n, sums.data(), surface.data(), field.data(), friction.data(), nfields,
-                      touch_fill, 0, dt, 1e-300, k.data(), acc.data());
+                      touch_fill, NodeHold{}, nullptr, dt, 1e-300, k.data(), acc.data());
   for (int j = 0; j < n; ++j)
   {
     c.ke1 += 0.5 * fields[j].m * (k[j].vx * k[j].vx + k[j].vy * k[j].vy);

@@ -206,14 +206,42 @@ TEST(Solver, AtACornerEachDirectionCountsOnTheWallNormalToIt)
       P.volume = {1.0};
       Solver solver(grid, P, elastic(1.0, 0.0, 1.0), 1e-3);
       solver.advance(1);
-      const std::uint8_t bits = grid.constraints()[0];
-      EXPECT_EQ(bits & 3, 3);
-      EXPECT_EQ((bits >> constraint_side_shift(0)) & 3, static_cast<int>(Side::left));
-      EXPECT_EQ((bits >> constraint_side_shift(1)) & 3, static_cast<int>(Side::bottom));
+      const NodeHold hold = grid.constraints()[0];
+      EXPECT_EQ(hold.held, 3);
+      EXPECT_EQ(hold.by[0], static_cast<int>(Side::left));
+      EXPECT_EQ(hold.by[1], static_cast<int>(Side::bottom));
       const auto impulse = solver.energies().wall_impulse;
       EXPECT_NEAR(impulse[static_cast<int>(Side::left)][0], 1.0, 1e-15);
       EXPECT_NEAR(impulse[static_cast<int>(Side::bottom)][1], 2.0, 1e-15);
       EXPECT_EQ(impulse[static_cast<int>(Side::left)][1], 0.0);
       EXPECT_EQ(impulse[static_cast<int>(Side::bottom)][0], 0.0);
     }
+}
+
+TEST(Solver, ARegionSetsItsNodesVelocityAndCountsWhatItAdds)
+{
+  // A particle at a node's control point under a region that holds x at
+  // u = 0.3: after one step it moves at u along x and keeps its y velocity;
+  // the region's impulse is m (u - v) and its work the kinetic energy it
+  // added, (u^2 - v^2) m / 2 (no force acts on a lone particle at rest
+  // stress).
+  Grid grid(2, {8, 8}, 1.0, {0.0, 0.0});
+  const int k = grid.add_region({3.0, 3.0}, {6.0, 6.0}, 1);
+  grid.set_region_velocity(k, {0.3, -7.0});
+  Particles P(1);
+  P.x = {4.5, 4.5};
+  P.v = {-1.0, 0.5};
+  P.mass = {2.0};
+  P.volume = {1.0};
+  Solver solver(grid, P, elastic(1.0, 0.0, 1.0), 1e-3);
+  solver.advance(1);
+  EXPECT_NEAR(P.v[0], 0.3, 1e-14);
+  EXPECT_NEAR(P.v[1], 0.5, 1e-14);
+  const Energies e = solver.energies();
+  EXPECT_NEAR(e.region_impulse[k][0], 2.0 * 1.3, 1e-14);
+  EXPECT_EQ(e.region_impulse[k][1], 0.0);
+  EXPECT_NEAR(e.region_work[k], 0.5 * 2.0 * (0.09 - 1.0), 1e-14);
+  EXPECT_THROW(grid.add_region({3.0, 3.0}, {2.0, 6.0}, 1), std::invalid_argument);
+  EXPECT_THROW(grid.add_region({3.0, 3.0}, {6.0, 6.0}, 0), std::invalid_argument);
+  EXPECT_THROW(grid.add_region({3.1, 3.1}, {3.2, 3.2}, 1), std::invalid_argument);
 }

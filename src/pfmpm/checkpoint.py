@@ -49,6 +49,7 @@ import numpy as np
 
 from .post.tip import CrackTip
 from .scene import Scene
+from .scene.loads import MAX_REGIONS
 from .scene.stability import grid_dt
 
 FORMAT = "pfmpm-checkpoint"
@@ -298,6 +299,10 @@ def read(path: Path | str) -> Checkpoint:
         for side in ("left", "right", "bottom", "top"):
             for d in "xy":
                 solver["scalars"][f"wall_impulse/{side}/{d}"] = 0.0
+    for k in range(MAX_REGIONS):
+        # Files from before prescribed regions: there were none.
+        for name in ("work", "impulse/x", "impulse/y", "displacement/x", "displacement/y"):
+            solver["scalars"].setdefault(f"region/{k}/{name}", 0.0)
     if "dt" not in meta and meta["scene"].get("time", {}).get("dt") is None:
         # Files from before the default step kept below a lone particle's
         # limit (issue 49): the run goes on with the step it ran with, the

@@ -254,9 +254,10 @@ def _post(args: argparse.Namespace) -> int:
         report = post.tip_report(scene, run_dir / "energies.csv")
     elif args.measure == "crack-directions":
         report = post.run_directions(scene, run_dir, args.history)
-    elif args.measure == "forces":
+    elif args.measure in ("forces", "load-displacement"):
         try:
-            report = post.run_forces(scene, run_dir)
+            report = (post.run_forces(scene, run_dir) if args.measure == "forces"
+                      else post.run_load_displacement(scene, run_dir, args.region))
         except KeyError as error:
             print(f"error: {run_dir}: {error.args[0]}", file=sys.stderr)
             return 2
@@ -273,6 +274,11 @@ def _post(args: argparse.Namespace) -> int:
         for name, peak in report["peaks"].items():
             print(f"{name.replace('_', ' ')}: largest {peak['value']:.6g} {u['force']} at t = {peak['t']:.4g} {u['time']}")
         print(f"forces: {report['csv']}\nplot: {report['png']}")
+    elif args.measure == "load-displacement":
+        u = report["units"]
+        print(f"region {report['region']} along {report['component']}: largest load {report['peak_load']:.6g}"
+              f" {u['force']} at displacement {report['displacement_at_peak']:.6g} {u['length']}")
+        print(f"curve: {report['csv']}\nplot: {report['png']}")
     else:
         for row in report:
             counts = ", ".join(f"{name}: {k}" for name, k in row["fragments"].items())
@@ -424,19 +430,23 @@ def main(argv: list[str] | None = None) -> int:
     polar.set_defaults(func=_polar)
 
     measure = sub.add_parser("post", help="measure a finished run: crack tip, crack directions, forces,"
-                                          " fragments")
-    measure.add_argument("measure", choices=["crack-tip", "crack-directions", "forces", "fragments"],
+                                          " load-displacement, fragments")
+    measure.add_argument("measure", choices=["crack-tip", "crack-directions", "forces", "load-displacement",
+                                             "fragments"],
                          help="crack-tip: initiation and branching times and the tip speed (energies.csv);"
                               " crack-directions: where the new crack left each notch tip, against the"
-                              " weak directions of G_c(theta); forces: the walls' reactions and each"
-                              " body's net force, mean over each interval between rows of energies.csv"
-                              " (forces.csv, forces.png); fragments: fragments per body and the"
+                              " weak directions of G_c(theta); forces: the reactions of the walls and"
+                              " prescribed regions and each body's net force, mean over each interval"
+                              " between rows of energies.csv (forces.csv, forces.png); load-displacement:"
+                              " a prescribed region's load against its displacement"
+                              " (load_displacement.csv, .png); fragments: fragments per body and the"
                               " closest approach of two bodies at every particle snapshot")
     measure.add_argument("run_dir", help="the run's output directory, whose scene.toml is the scene it ran")
     measure.add_argument("--scene", help="the scene file, for a run directory without scene.toml"
                                          " (written by a pfmpm before it kept one)")
     measure.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                          help="with --scene: the --set overrides the run was given")
+    measure.add_argument("--region", help="load-displacement: the prescribed region (default: the only one)")
     measure.add_argument("--history", action="store_true",
                          help="crack-directions: also the direction near each tip at every snapshot")
     measure.add_argument("--json", action="store_true", help="print one JSON object")

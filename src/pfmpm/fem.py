@@ -112,7 +112,8 @@ from petsc4py import PETSc
 from . import _core
 from .crack import initial_history
 from .post.tip import CrackPath, CrackTip
-from .run import CRACK_COLUMNS, ENERGY_COLUMNS, SIDES, RunResult, Snapshots, run_to_end, wall_columns
+from .run import (CRACK_COLUMNS, ENERGY_COLUMNS, SIDES, RunResult, Snapshots, region_columns, run_to_end,
+                  wall_columns)
 from .run_folder import check_fresh
 from .scene import (Body, BodyForce, LinearElasticSpec, MaterialSpec, Rectangle, Scene, SceneError,
                     Traction)
@@ -191,6 +192,9 @@ class FemSimulation:
         self._work = 0.0  # external work of this rank's owned vertices
         self._wall_work = 0.0  # and the work of the walls on them
         self._wall_impulse = np.zeros((len(SIDES), 2))  # and their impulses, per side
+        n = len(scene.prescribed)  # the prescribed regions': work, impulse, displacement
+        self._region_work = np.zeros(n)
+        self._region_impulse, self._region_displacement = np.zeros((n, 2)), np.zeros((n, 2))
         with _quiet_jit():
             self._build_mesh()
             self._build_dynamics(material)
@@ -251,7 +255,7 @@ class FemSimulation:
         self._mass = self._assemble(np.bincount(self._flat_dofs, weights, self._local), scalar=True)
         self._loads = self._load_forces()
         self._fext = self._external_force(0.0)
-        self._walls = self._wall_masks()
+        self._holds = self._hold_masks()
         self._v = np.tile(np.asarray(self._body.velocity, dtype=float), (self._owned, 1))
         self._eps = np.zeros((len(self._dofs), 3))
         self.substeps = self._substeps()
@@ -356,22 +360,32 @@ class FemSimulation:
             fext += (1.0 if load.amplitude is None else load.amplitude(t)) * force
         return fext
 
-    def _wall_masks(self) -> list[tuple[int, np.ndarray, int]]:
-        """What the walls hold, as the MPM's grid does: (side, owned vertices,
-        component), each vertex's component once, by the wall it is normal to
-        where two walls meet (normal holds first, then fixed walls' tangential)."""
+    def _hold_masks(self) -> list[tuple[int, np.ndarray, int]]:
+        """What the prescribed regions and the walls hold, as the MPM's grid
+        does: (holder, owned vertices, component), the holder a side (a wall)
+        or 4 + the index of a region; each vertex's component once, by a
+        region first (the vertices in its box), then by the wall it is normal
+        to, then by a fixed wall's tangential hold."""
         (ox, oy), (sx, sy) = self.scene.grid.origin, self.scene.grid.size
         line = {"left": (0, ox), "right": (0, ox + sx), "bottom": (1, oy), "top": (1, oy + sy)}
         tol = _ON_LINE * self.scene.grid.h
-        holds = [(w, line[w.side][0]) for w in self.scene.walls]
-        holds += [(w, 1 - line[w.side][0]) for w in self.scene.walls if w.type == "fixed"]
+        x = self._x[: self._owned]
+        candidates = []
+        for r, region in enumerate(self.scene.prescribed):
+            inside = np.all((x >= np.subtract(region.min, tol)) & (x <= np.add(region.max, tol)), axis=1)
+            candidates += [(4 + r, inside, k) for k in range(2) if region.mask & (1 << k)]
+        for normal in (True, False):
+            for w in self.scene.walls:
+                axis, value = line[w.side]
+                if normal or w.type == "fixed":
+                    candidates.append((SIDES.index(w.side), np.abs(x[:, axis] - value) <= tol,
+                                       axis if normal else 1 - axis))
         held = np.zeros((self._owned, 2), dtype=bool)
         masks = []
-        for wall, k in holds:
-            axis, value = line[wall.side]
-            on = (np.abs(self._x[: self._owned, axis] - value) <= tol) & ~held[:, k]
+        for holder, on, k in candidates:
+            on = on & ~held[:, k]
             held[on, k] = True
-            masks.append((SIDES.index(wall.side), on, k))
+            masks.append((holder, on, k))
         return masks
 
     def _substeps(self) -> int:
@@ -406,7 +420,7 @@ class FemSimulation:
     @property
     def columns(self) -> list[str]:
         """Columns of ``energies.csv`` for this scene (crack-tip columns with a crack)."""
-        return (ENERGY_COLUMNS + wall_columns(self.scene.walls)
+        return (ENERGY_COLUMNS + wall_columns(self.scene.walls) + region_columns(self.scene.prescribed)
                 + (CRACK_COLUMNS if self.crack_tip is not None else []))
 
     @property
@@ -465,7 +479,7 @@ class FemSimulation:
             for k in range(self.substeps):
                 if amplified:  # the loads at the sub-step's midpoint, as the MPM's
                     self._fext = self._external_force(self.time + (k + 0.5) * h)
-                self._substep(h)
+                self._substep(self.time + k * h, h)
             self._step += 1
 
     def _solve_phase_field(self) -> None:
@@ -503,17 +517,30 @@ class FemSimulation:
         f[:, 1] = self._dx_t @ sig[:, 2] + self._dy_t @ sig[:, 1]
         return self._assemble(f)
 
-    def _substep(self, dt: float) -> None:
-        """One explicit step: momentum (eq. 60), walls, position, strain, history."""
+    def _substep(self, t: float, dt: float) -> None:
+        """One explicit step from ``t``: momentum (eq. 60), prescribed regions
+        and walls, position, strain, history."""
         fint = self._internal_force()
         v_old = self._v.copy()
         self._v += dt * (self._fext - fint) / self._mass[:, None]
-        for side, on, k in self._walls:
-            # As the MPM's walls: the work is the kinetic energy stopped, the
-            # impulse the momentum stopped.
-            self._wall_work -= 0.5 * float(self._mass[on] @ (v_old[on, k] ** 2))
-            self._wall_impulse[side, k] -= float(self._mass[on] @ self._v[on, k])
-            self._v[on, k] = 0.0
+        held = [region.velocity_over(t, dt) for region in self.scene.prescribed]
+        for r, region in enumerate(self.scene.prescribed):
+            self._region_displacement[r] += dt * np.array([held[r][k] if region.mask & (1 << k) else 0.0
+                                                           for k in range(2)])
+        for holder, on, k in self._holds:
+            # As the MPM's holders: the impulse is the momentum added; a
+            # wall's work the kinetic energy stopped, a region's the kinetic
+            # energy it adds less the work of the forces it balances.
+            m, vo, vn = self._mass[on], v_old[on, k], self._v[on, k]
+            if holder < 4:
+                self._wall_work -= 0.5 * float(m @ (vo ** 2))
+                self._wall_impulse[holder, k] -= float(m @ vn)
+                self._v[on, k] = 0.0
+            else:
+                u = held[holder - 4][k]
+                self._region_work[holder - 4] += float(m @ (0.5 * (u * u - vo ** 2) - (vn - vo) * u))
+                self._region_impulse[holder - 4, k] += float(m @ (u - vn))
+                self._v[on, k] = u
         self._work += 0.5 * dt * float(np.sum(self._fext * (v_old + self._v)))
         u = self._u.array.reshape(-1, 2)
         u[: self._owned] += dt * self._v
@@ -549,6 +576,13 @@ class FemSimulation:
         impulse = self.comm.allreduce(self._wall_impulse, op=MPI.SUM)
         walls = {f"impulse_{w.side}_{d}": float(impulse[SIDES.index(w.side), k])
                  for w in self.scene.walls for k, d in enumerate("xy")}
+        region_work = self.comm.allreduce(self._region_work, op=MPI.SUM)
+        region_impulse = self.comm.allreduce(self._region_impulse, op=MPI.SUM)
+        for r, region in enumerate(self.scene.prescribed):
+            walls[f"work_{region.name}"] = float(region_work[r])
+            for k, d in enumerate("xy"):
+                walls[f"impulse_{region.name}_{d}"] = float(region_impulse[r, k])
+                walls[f"displacement_{region.name}_{d}"] = float(self._region_displacement[r, k])
         return walls | {
             "step": self._step,
             "t": self.time,
@@ -557,7 +591,7 @@ class FemSimulation:
             "fracture": fracture,
             "external_work": work,
             "wall_work": wall,
-            "total": kinetic + elastic + fracture - work - wall,
+            "total": kinetic + elastic + fracture - work - wall - float(np.sum(region_work)),
             "momentum_x": px,
             "momentum_y": py,
         }

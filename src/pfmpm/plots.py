@@ -66,22 +66,36 @@ def energies(csv_path: Path, png_path: Path, units: UnitSystem = NO_UNITS) -> No
 
 @_closing
 def forces(forces: dict, png_path: Path, units: UnitSystem = NO_UNITS) -> None:
-    """The walls' reactions (top) and the bodies' net forces (bottom) against
+    """The reactions of the walls and prescribed regions (top) and the bodies' net forces (bottom) against
     time, each the mean over an interval between rows
     (:func:`pfmpm.post.forces.mean_forces`)."""
     fig, (top, bottom) = plt.subplots(2, 1, figsize=(6.5, 6.0), sharex=True)
     for name, values in forces.items():
         if name == "t":
             continue
-        ax = top if name.startswith("wall_") else bottom
+        ax = top if name.startswith(("wall_", "region_")) else bottom
         ax.plot(forces["t"], values, label=name.replace("_", " "))
-    top.set_title("wall reactions" if top.lines else "no walls", fontsize=9)
+    top.set_title("reactions of the walls and prescribed regions" if top.lines else "no walls", fontsize=9)
     bottom.set_title("net force on each body (momentum rate)", fontsize=9)
     for ax in (top, bottom):
         ax.set_ylabel(units.label("force", "force"))
         if ax.lines:
             ax.legend(fontsize=8)
     bottom.set_xlabel(units.label("time t", "time"))
+    fig.tight_layout()
+    fig.savefig(png_path, dpi=120)
+    plt.close(fig)
+
+
+@_closing
+def load_displacement(curve: dict, png_path: Path, units: UnitSystem = NO_UNITS) -> None:
+    """A prescribed region's load against its displacement
+    (:func:`pfmpm.post.forces.load_displacement`)."""
+    fig, ax = plt.subplots(figsize=(6.0, 4.2))
+    ax.plot(curve["displacement"], curve["load"])
+    d = curve["component"]
+    ax.set_xlabel(units.label(f"displacement of {curve['region']} along {d}", "length"))
+    ax.set_ylabel(units.label(f"load along {d} (the region's force on the bodies)", "force"))
     fig.tight_layout()
     fig.savefig(png_path, dpi=120)
     plt.close(fig)

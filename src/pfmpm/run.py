@@ -46,13 +46,14 @@ from .output import CsvLog
 from .post.tip import CrackTip
 from .scene import Scene
 
-__all__ = ["ENERGY_COLUMNS", "SIDES", "wall_columns", "CRACK_COLUMNS", "RunResult", "Figures", "Snapshots",
+__all__ = ["ENERGY_COLUMNS", "SIDES", "wall_columns", "region_columns", "CRACK_COLUMNS", "RunResult", "Figures", "Snapshots",
            "nearest_image", "run_to_end", "step_to_end"]
 
 ENERGY_COLUMNS = ["step", "t", "kinetic", "elastic", "fracture", "external_work", "total",
                   "momentum_x", "momentum_y"]
 """Columns of ``energies.csv``; ``total = kinetic + elastic + fracture +
-friction_dissipation + damage_dissipation - external_work - wall_work``, the
+friction_dissipation + damage_dissipation - external_work - wall_work -
+work of the prescribed regions``, the
 energy balance: it keeps its value at t = 0 where energy is conserved.  The
 friction dissipation is zero without a ``[contact]`` table, the damage
 dissipation without a damage model, the wall work without walls."""
@@ -70,6 +71,16 @@ def wall_columns(walls) -> list[str]:
     if not walls:
         return []
     return ["wall_work"] + [f"impulse_{w.side}_{d}" for w in walls for d in "xy"]
+
+
+def region_columns(regions) -> list[str]:
+    """Extra ``energies.csv`` columns of a scene's ``[[prescribed]]``
+    regions, per region: ``work_<name>``, the work it did on the bodies
+    since t = 0 (part of ``total``); ``impulse_<name>_x|y``, the impulse of
+    its reaction; ``displacement_<name>_x|y``, how far its nodes have moved
+    along the components it holds."""
+    return [c for r in regions for c in (f"work_{r.name}", f"impulse_{r.name}_x", f"impulse_{r.name}_y",
+                                         f"displacement_{r.name}_x", f"displacement_{r.name}_y")]
 
 CRACK_COLUMNS = CrackTip.columns()
 """Extra ``energies.csv`` columns of scenes with an initial crack: the crack tip

@@ -14,7 +14,8 @@ from . import _core
 from .crack import initial_history
 from .output import ParticleSeries, Rows
 from .post.tip import CrackPath, CrackTip
-from .run import CRACK_COLUMNS, ENERGY_COLUMNS, SIDES, RunResult, Snapshots, run_to_end, wall_columns
+from .run import (CRACK_COLUMNS, ENERGY_COLUMNS, SIDES, RunResult, Snapshots, region_columns, run_to_end,
+                  wall_columns)
 from .scene import Scene, SceneError, seeding
 from .scene.report import SetupReport, setup_report
 from .scene.validation import at
@@ -96,6 +97,14 @@ class Simulation:
         self.grid = _core.Grid(g.degree, list(g.cells), g.h, list(g.origin))
         for wall in scene.walls:
             self.grid.set_wall(_core.Side.__members__[wall.side], _core.Wall.__members__[wall.type])
+        for i, region in enumerate(scene.prescribed):
+            try:
+                self.grid.add_region(list(region.min), list(region.max), region.mask)
+            except ValueError:
+                raise SceneError(f"prescribed[{i}].max", f"the box from min = {list(region.min)} holds no"
+                                                         f" grid node (control point)", list(region.max)) from None
+            if region.steady:
+                self.grid.set_region_velocity(i, list(region.velocity))
         xs = seeding.positions(scene)
         self.particles = _core.Particles(sum(len(x) for x in xs))
         core = self._fill(xs)
@@ -219,7 +228,7 @@ class Simulation:
     def columns(self) -> list[str]:
         """Columns of ``energies.csv`` for this scene: with more than one body
         also each body's momentum, ``momentum_x_<body>`` and ``momentum_y_<body>``."""
-        columns = ENERGY_COLUMNS + wall_columns(self.scene.walls)
+        columns = ENERGY_COLUMNS + wall_columns(self.scene.walls) + region_columns(self.scene.prescribed)
         if len(self.scene.bodies) > 1:
             columns += [f"momentum_{d}_{b.name}" for b in self.scene.bodies for d in "xy"]
         columns += CRACK_COLUMNS if self.crack_tip else []
@@ -238,19 +247,23 @@ class Simulation:
         return self.solver.step_count
 
     def advance(self, steps: int) -> None:
-        """Take ``steps`` explicit steps in C++; with loads that have an
-        amplitude, one at a time, each with the external forces at its
-        midpoint time."""
-        if not self._amplified:
+        """Take ``steps`` explicit steps in C++; with loads or prescribed
+        motion that change over time, one at a time, each with the external
+        forces at its midpoint time and the prescribed velocities over it."""
+        unsteady = [(k, r) for k, r in enumerate(self.scene.prescribed) if not r.steady]
+        if not self._amplified and not unsteady:
             self.solver.advance(steps)
             return
-        fext = self.particles.fext
-        steady, touched, loads = self._amplified
         for _ in range(steps):
-            t = self.time + 0.5 * self.dt
-            fext[touched] = steady
-            for amplitude, rows, force in loads:
-                fext[rows] += amplitude(t) * force
+            t = self.time
+            if self._amplified:
+                steady, touched, loads = self._amplified
+                fext = self.particles.fext
+                fext[touched] = steady
+                for amplitude, rows, force in loads:
+                    fext[rows] += amplitude(t + 0.5 * self.dt) * force
+            for k, region in unsteady:
+                self.grid.set_region_velocity(k, list(region.velocity_over(t, self.dt)))
             self.solver.advance(1)
 
     def _amplified_loads(self, xs: list[np.ndarray]) -> tuple | None:
@@ -276,6 +289,13 @@ class Simulation:
         impulse = e.pop("wall_impulse")
         for wall in self.scene.walls:
             e[f"impulse_{wall.side}_x"], e[f"impulse_{wall.side}_y"] = impulse[SIDES.index(wall.side)]
+        region_impulse, region_work = e.pop("region_impulse"), e.pop("region_work")
+        region_displacement = e.pop("region_displacement")
+        for k, region in enumerate(self.scene.prescribed):
+            name = region.name
+            e[f"impulse_{name}_x"], e[f"impulse_{name}_y"] = region_impulse[k]
+            e[f"displacement_{name}_x"], e[f"displacement_{name}_y"] = region_displacement[k]
+            e[f"work_{name}"] = region_work[k]
         if len(self.scene.bodies) > 1:
             p = self.particles
             for d, name in enumerate("xy"):
@@ -287,7 +307,7 @@ class Simulation:
         friction = -e.pop("friction_work")
         dissipated = e.pop("dissipated")
         e["total"] = (e["kinetic"] + e["elastic"] + e["fracture"] - e["external_work"]
-                      - e["wall_work"] + friction)
+                      - e["wall_work"] - sum(region_work[:len(self.scene.prescribed)]) + friction)
         if self.damage:
             e["damage_dissipation"] = dissipated
             e["total"] += dissipated

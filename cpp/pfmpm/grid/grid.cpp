@@ -3,6 +3,8 @@
 #include "pfmpm/grid/grid.h"
 
 #include <algorithm>
+#include <stdexcept>
+#include <string>
 
 namespace pfmpm
 {
@@ -13,9 +15,38 @@ Grid::Grid(int degree, std::array<int, 2> cells, double h, std::array<double, 2>
 {
 }
 
-bool Grid::has_walls() const
+bool Grid::has_holds() const
 {
-  return std::any_of(_walls.begin(), _walls.end(), [](Wall w) { return w != Wall::free; });
+  return !_regions.empty()
+         || std::any_of(_walls.begin(), _walls.end(), [](Wall w) { return w != Wall::free; });
+}
+
+int Grid::add_region(std::array<double, 2> min, std::array<double, 2> max, std::uint8_t components)
+{
+  if (_regions.size() >= static_cast<std::size_t>(max_regions))
+    throw std::invalid_argument("a grid holds at most " + std::to_string(max_regions) + " regions");
+  if (!(min[0] < max[0] && min[1] < max[1]))
+    throw std::invalid_argument("a region's box needs min < max in both directions");
+  if (components == 0 || components > 3)
+    throw std::invalid_argument("a region holds the x component, the y component or both");
+  // Its nodes on each axis: the control points within [min, max].
+  for (int d = 0; d < 2; ++d)
+  {
+    bool any = false;
+    for (int i = 0; i < _basis[d].size() && !any; ++i)
+      any = _basis[d].greville(i) >= min[d] && _basis[d].greville(i) <= max[d];
+    if (!any)
+      throw std::invalid_argument("a region's box holds no grid node");
+  }
+  _regions.push_back(Region{min, max, components});
+  return static_cast<int>(_regions.size()) - 1;
+}
+
+void Grid::set_region_velocity(int k, std::array<double, 2> velocity)
+{
+  if (k < 0 || k >= static_cast<int>(_regions.size()))
+    throw std::out_of_range("no region " + std::to_string(k));
+  _velocity[4 + k] = velocity;
 }
 
 void ActiveNodes::activate(const Grid& grid, const std::vector<std::int64_t>& cell_start,
@@ -70,25 +101,38 @@ void Grid::activate(const std::vector<std::int64_t>& cell_start)
 {
   _active.activate(*this, cell_start, _block);
   _constraints.clear();
-  if (!has_walls())
+  if (!has_holds())
     return;
   // Open knot vectors interpolate at the ends: only the first and last node of
   // each row and column carry the boundary value, so walls act on them alone.
   const int nnx = _basis[0].size(), nny = _basis[1].size();
   const std::vector<std::int32_t>& nodes = _active.nodes();
-  _constraints.assign(nodes.size(), 0);
+  _constraints.assign(nodes.size(), NodeHold{});
   for (std::size_t a = 0; a < nodes.size(); ++a)
   {
     const int ix = nodes[a] / nny, iy = nodes[a] % nny;
     const bool on[4] = {ix == 0, ix == nnx - 1, iy == 0, iy == nny - 1};
-    std::uint8_t m = 0;
-    // Direction d held by `side`, unless a wall already holds it.
-    const auto hold = [&m](int side, int d)
+    NodeHold& n = _constraints[a];
+    // Direction d held by `holder`, unless something already holds it.
+    const auto hold = [&n](int holder, int d)
     {
-      if (!(m & (1 << d)))
-        m |= static_cast<std::uint8_t>((1 << d) | (side << constraint_side_shift(d)));
+      if (!(n.held & (1 << d)))
+      {
+        n.held |= static_cast<std::uint8_t>(1 << d);
+        n.by[d] = static_cast<std::uint8_t>(holder);
+      }
     };
-    // Normal walls first, so that at a corner each side's reaction is its own
+    // Regions first: their motion is prescribed there, walls included.
+    const double gx = _basis[0].greville(ix), gy = _basis[1].greville(iy);
+    for (std::size_t k = 0; k < _regions.size(); ++k)
+    {
+      const Region& r = _regions[k];
+      if (gx >= r.min[0] && gx <= r.max[0] && gy >= r.min[1] && gy <= r.max[1])
+        for (int d = 0; d < 2; ++d)
+          if (r.components & (1 << d))
+            hold(4 + static_cast<int>(k), d);
+    }
+    // Normal walls next, so that at a corner each side's reaction is its own
     // normal force; then the tangential hold of fixed walls.
     for (int side = 0; side < 4; ++side)
       if (on[side] && wall(static_cast<Side>(side)) != Wall::free)
@@ -96,7 +140,6 @@ void Grid::activate(const std::vector<std::int64_t>& cell_start)
     for (int side = 0; side < 4; ++side)
       if (on[side] && wall(static_cast<Side>(side)) == Wall::fixed)
         hold(side, 1 - side / 2);
-    _constraints[a] = m;
   }
 }
 

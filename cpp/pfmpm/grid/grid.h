@@ -29,8 +29,28 @@ enum class Wall : int
   slip = 2   ///< normal velocity component zero
 };
 
-/// Where Grid::constraints() keeps the side that holds direction d (0: x, 1: y).
-constexpr int constraint_side_shift(int d) { return 2 + 2 * d; }
+/// The most prescribed-velocity regions of a grid (Grid::add_region).
+constexpr int max_regions = 4;
+/// What may hold a node's velocity: the four walls (Side order), then the regions.
+constexpr int max_holders = 4 + max_regions;
+
+/// @brief What holds an active node's velocity: bit d of `held` set when
+/// direction d (0: x, 1: y) is held, by holder `by[d]` (a Side, or 4 + the
+/// index of a region).
+struct NodeHold
+{
+  std::uint8_t held = 0;
+  std::uint8_t by[2]{};
+};
+
+/// @brief A box of grid nodes, those whose control points (Greville
+/// abscissae) lie in it, whose velocity components `components` (bit d for
+/// direction d) are prescribed.
+struct Region
+{
+  std::array<double, 2> min, max;
+  std::uint8_t components;
+};
 
 class Grid;
 
@@ -118,7 +138,18 @@ public:
   /// @brief Set the kinematic condition on one side.
   void set_wall(Side side, Wall wall) { _walls[static_cast<int>(side)] = wall; }
   Wall wall(Side side) const { return _walls[static_cast<int>(side)]; }
-  bool has_walls() const;
+  /// @brief Add a region of prescribed velocity (at rest until
+  /// set_region_velocity); returns its index.
+  /// @throws std::invalid_argument for a box with min >= max, no component,
+  /// no node in the box, or more than max_regions regions.
+  int add_region(std::array<double, 2> min, std::array<double, 2> max, std::uint8_t components);
+  const std::vector<Region>& regions() const { return _regions; }
+  /// @brief The velocity region k prescribes from now on (its held components).
+  void set_region_velocity(int k, std::array<double, 2> velocity);
+  /// The velocity each holder prescribes: zero for the walls.
+  const std::array<std::array<double, 2>, max_holders>& holder_velocity() const { return _velocity; }
+  /// Whether a wall or a region holds some node.
+  bool has_holds() const;
 
   /// @brief Rebuild the active node set (ActiveNodes, with block()) of all
   /// particles and the wall constraints of its nodes.
@@ -133,18 +164,19 @@ public:
   const std::vector<std::int32_t>& active_nodes() const { return _active.nodes(); }
   /// Active index of node (ix, iy), or -1 when the node is inactive.
   std::int32_t active_index(int ix, int iy) const { return _active.index(ix, iy); }
-  /// Per active node: bit 0 set when the x velocity is constrained, bit 1 for
-  /// y, and the Side that holds direction d in the two bits from
-  /// constraint_side_shift(d) (a side's normal before a fixed wall's
-  /// tangential hold). Empty when the grid has no walls.
-  const std::vector<std::uint8_t>& constraints() const { return _constraints; }
+  /// What holds each active node's velocity: a region first, then a wall's
+  /// normal, then a fixed wall's tangential hold. Empty without walls and
+  /// regions.
+  const std::vector<NodeHold>& constraints() const { return _constraints; }
 
 private:
   std::array<BSpline1D, 2> _basis;
   NodeBlock _block;
   std::array<Wall, 4> _walls{Wall::free, Wall::free, Wall::free, Wall::free};
+  std::vector<Region> _regions;
+  std::array<std::array<double, 2>, max_holders> _velocity{};
   ActiveNodes _active;
-  std::vector<std::uint8_t> _constraints; // per active node
+  std::vector<NodeHold> _constraints; // per active node
 };
 
 } // namespace pfmpm

@@ -7,8 +7,8 @@
 namespace pfmpm
 {
 
-void update_free_slot(const NodeSums& s, std::uint8_t walls, double dt, double mass_tol,
-                      NodeKinematics& k, double* acc)
+void update_free_slot(const NodeSums& s, NodeHold hold, const Velocity* held, double dt,
+                      double mass_tol, NodeKinematics& k, double* acc)
 {
   if (s.m <= mass_tol)
   {
@@ -21,23 +21,26 @@ void update_free_slot(const NodeSums& s, std::uint8_t walls, double dt, double m
   // these are final (eq. 65).
   const double vo[2] = {s.px / s.m, s.py / s.m};
   double vn[2] = {vo[0] + dt * s.fx / s.m, vo[1] + dt * s.fy / s.m};
-  finish_slot(s, vo, vn, walls, nullptr, dt, k, acc);
+  finish_slot(s, vo, vn, hold, held, nullptr, dt, k, acc);
 }
 
-void finish_slot(const NodeSums& s, const double* vo, double* vn, std::uint8_t walls,
+void finish_slot(const NodeSums& s, const double* vo, double* vn, NodeHold hold, const Velocity* held,
                  const double* friction, double dt, NodeKinematics& k, double* acc)
 {
-  double vw[2] = {vo[0], vo[1]}; // old velocity as the wall allows it
-  if (walls)
+  double vw[2] = {vo[0], vo[1]}; // old velocity as the holders allow it
+  if (hold.held)
     for (int d = 0; d < 2; ++d)
-      if (walls & (1 << d))
+      if (hold.held & (1 << d))
       {
-        // The wall's work: the kinetic energy it stops along d; its impulse:
-        // the momentum it stops.
-        acc[sum_wall_work] -= 0.5 * s.m * vo[d] * vo[d];
-        const int side = (walls >> constraint_side_shift(d)) & 3;
-        acc[sum_wall_impulse + 2 * side + d] -= s.m * vn[d];
-        vn[d] = vw[d] = 0.0;
+        // The holder's work and impulse (the momentum it adds along d).
+        const int h = hold.by[d];
+        const double u = held[h][d];
+        if (h < 4)
+          acc[sum_wall_work] -= 0.5 * s.m * vo[d] * vo[d];
+        else
+          acc[sum_region_work + h - 4] += 0.5 * s.m * (u * u - vo[d] * vo[d]) - s.m * (vn[d] - vo[d]) * u;
+        acc[sum_hold_impulse + 2 * h + d] += s.m * (u - vn[d]);
+        vn[d] = vw[d] = u;
       }
   k = NodeKinematics{vn[0], vn[1], (vn[0] - vo[0]) / dt, (vn[1] - vo[1]) / dt};
   acc[sum_external_work] += 0.5 * dt * (s.ex * (vw[0] + vn[0]) + s.ey * (vw[1] + vn[1]));
@@ -48,8 +51,8 @@ void finish_slot(const NodeSums& s, const double* vo, double* vn, std::uint8_t w
 
 void update_contact_node(int n, const NodeSums* sums, const SurfaceSums* surface,
                          const std::int32_t* field, const double* friction, int nfields,
-                         double touch_volume, std::uint8_t walls, double dt, double mass_tol,
-                         NodeKinematics* k, double* acc)
+                         double touch_volume, NodeHold hold, const Velocity* held, double dt,
+                         double mass_tol, NodeKinematics* k, double* acc)
 {
   constexpr int F = BodyFields::max_fields;
   TrialField trial[F]{};
@@ -90,14 +93,15 @@ void update_contact_node(int n, const NodeSums* sums, const SurfaceSums* surface
     if (!live[j])
       k[j] = NodeKinematics{};
     else
-      finish_slot(sums[j], vo[j], vn[j], walls, ft[j], dt, k[j], acc);
+      finish_slot(sums[j], vo[j], vn[j], hold, held, ft[j], dt, k[j], acc);
   }
 }
 
 void update_damage_node(int n, const NodeSums* sums, const SurfaceSums* surface,
                         const std::int32_t* field, const double* friction, int groups,
-                        double separability, double touch_volume, std::uint8_t walls,
-                        double dt, double mass_tol, NodeKinematics* k, double* acc)
+                        double separability, double touch_volume, NodeHold hold,
+                        const Velocity* held, double dt, double mass_tol, NodeKinematics* k,
+                        double* acc)
 {
   constexpr int F = BodyFields::max_fields;
   // The fields that act: a separable side on its own, the two sides of a
@@ -144,9 +148,9 @@ void update_damage_node(int n, const NodeSums* sums, const SurfaceSums* surface,
   }
   NodeKinematics kin[F];
   if (units == 1)
-    update_free_slot(unit[0], walls, dt, mass_tol, kin[0], acc);
+    update_free_slot(unit[0], hold, held, dt, mass_tol, kin[0], acc);
   else
-    update_contact_node(units, unit, usurf, group, friction, groups, touch_volume, walls, dt,
+    update_contact_node(units, unit, usurf, group, friction, groups, touch_volume, hold, held, dt,
                         mass_tol, kin, acc);
   for (int j = 0; j < n; ++j)
     k[j] = kin[of[j]];

@@ -360,6 +360,9 @@ struct MomentumP2G
   }
 };
 
+/// A velocity (x, y).
+using Velocity = std::array<double, 2>;
+
 /// What the grid update sums over the nodes, in a fixed order.
 enum GridUpdateSum : int
 {
@@ -367,8 +370,9 @@ enum GridUpdateSum : int
   sum_friction_work,     ///< work of the friction forces over the step
   sum_wall_work,         ///< work of the wall constraints over the step (<= 0)
   sum_light,             ///< slots with mass too small to divide by
-  sum_wall_impulse,      ///< first of the walls' impulses, 2 side + d (Side order)
-  sum_contact = sum_wall_impulse + 8, ///< first of the contact_counts counters
+  sum_region_work,       ///< first of the regions' works over the step, one per region
+  sum_hold_impulse = sum_region_work + max_regions, ///< first of the holders' impulses, 2 holder + d
+  sum_contact = sum_hold_impulse + 2 * max_holders, ///< first of the contact_counts counters
   grid_update_sums = sum_contact + contact_counts
 };
 
@@ -377,19 +381,23 @@ enum GridUpdateSum : int
 /// work of the external force over the step. Slots lighter than `mass_tol`
 /// get zero velocity and are counted. Out of line, so that every partition
 /// runs the same arithmetic.
-void update_free_slot(const NodeSums& s, std::uint8_t walls, double dt, double mass_tol,
-                      NodeKinematics& k, double* acc);
+void update_free_slot(const NodeSums& s, NodeHold hold, const Velocity* held, double dt,
+                      double mass_tol, NodeKinematics& k, double* acc);
 
 /// @brief New velocity vn of a slot with old velocity vo (after contact):
-/// walls (a wall sets the new velocity; the acceleration keeps the
-/// unconstrained old velocity so that the particle update, eq. 80, feels the
-/// reaction), its kinematics and the work of the external and friction forces
-/// over the step (trapezoidal velocity). The work of a wall is the kinetic
-/// energy it takes from the slot, -m vo_d^2 / 2 per constrained direction d:
-/// the forces do no work along d, where the slot does not move. Its impulse
-/// over the step, -m vn_d, is summed on the side that holds d
-/// (Grid::constraints): the reaction force times dt.
-void finish_slot(const NodeSums& s, const double* vo, double* vn, std::uint8_t walls,
+/// walls and regions (a holder sets the new velocity of each direction it
+/// holds to its own, u_d, zero for a wall; the acceleration keeps the old
+/// velocity so that the particle update, eq. 80, feels the reaction), its
+/// kinematics and the work of the external and friction forces over the
+/// step (trapezoidal velocity, with u_d for both ends along a held d). A
+/// holder's impulse over the step is m (u_d - vn_d), the reaction force
+/// times dt, vn_d the velocity the forces alone give; its work is the
+/// kinetic energy it adds, m (u_d^2 - vo_d^2) / 2, less the work of the
+/// forces it balances while the slot moves at u_d, m (vn_d - vo_d) u_d. For
+/// a wall that is -m vo_d^2 / 2: the forces do no work along d, where the
+/// slot does not move.
+/// @param held Each holder's velocity (Grid::holder_velocity).
+void finish_slot(const NodeSums& s, const double* vo, double* vn, NodeHold hold, const Velocity* held,
                  const double* friction, double dt, NodeKinematics& k, double* acc);
 
 /// @brief The update of the n >= 2 fields at a contact node (K&T eqs. 63-77):
@@ -401,8 +409,8 @@ void finish_slot(const NodeSums& s, const double* vo, double* vn, std::uint8_t w
 /// @param touch_volume What two fields fill where they touch (coulomb_forces).
 void update_contact_node(int n, const NodeSums* sums, const SurfaceSums* surface,
                          const std::int32_t* field, const double* friction, int nfields,
-                         double touch_volume, std::uint8_t walls, double dt, double mass_tol,
-                         NodeKinematics* k, double* acc);
+                         double touch_volume, NodeHold hold, const Velocity* held, double dt,
+                         double mass_tol, NodeKinematics* k, double* acc);
 
 /// @brief The update of the n >= 2 damage-gradient fields at a node (H&H
 /// Algorithm 3 with eq. 21): the two sides of a group are separable where
@@ -415,8 +423,9 @@ void update_contact_node(int n, const NodeSums* sums, const SurfaceSums* surface
 /// @param field Field index of each slot, 2 group + side, sorted.
 void update_damage_node(int n, const NodeSums* sums, const SurfaceSums* surface,
                         const std::int32_t* field, const double* friction, int groups,
-                        double separability, double touch_volume, std::uint8_t walls,
-                        double dt, double mass_tol, NodeKinematics* k, double* acc);
+                        double separability, double touch_volume, NodeHold hold,
+                        const Velocity* held, double dt, double mass_tol, NodeKinematics* k,
+                        double* acc);
 
 /// @brief The grid update (K&T eqs. 63-65): trial momentum and velocity of
 /// every slot, frictional contact among the slots of a contact node
@@ -431,15 +440,16 @@ std::array<double, grid_update_sums> update_grid(const Grid& grid, Fields& field
                                                  std::vector<NodeKinematics>& kinematics, double dt,
                                                  double mass_tol, double touch_fill)
 {
-  const std::vector<std::uint8_t>& constrained = grid.constraints();
-  const bool walls = !constrained.empty();
+  const std::vector<NodeHold>& constrained = grid.constraints();
+  const bool holds = !constrained.empty();
+  const Velocity* held = grid.holder_velocity().data();
   const auto na = static_cast<std::size_t>(grid.num_active());
   kinematics.resize(sums.size());
   return deterministic_sum<grid_update_sums>(
       na,
       [&](std::size_t a, std::array<double, grid_update_sums>& acc)
       {
-        const std::uint8_t wall = walls ? constrained[a] : 0;
+        const NodeHold hold = holds ? constrained[a] : NodeHold{};
         std::int32_t s0 = static_cast<std::int32_t>(a), n = 1;
         if constexpr (Fields::discrete)
         {
@@ -447,7 +457,7 @@ std::array<double, grid_update_sums> update_grid(const Grid& grid, Fields& field
           n = fields.slot_start()[a + 1] - s0;
         }
         if (n == 1)
-          return update_free_slot(sums[s0], wall, dt, mass_tol, kinematics[s0], acc.data());
+          return update_free_slot(sums[s0], hold, held, dt, mass_tol, kinematics[s0], acc.data());
         if constexpr (Fields::discrete)
         {
           // The volume of two touching fields: a fraction of the node's, the
@@ -458,11 +468,11 @@ std::array<double, grid_update_sums> update_grid(const Grid& grid, Fields& field
           if constexpr (Fields::per_pair)
             update_damage_node(n, &sums[s0], &surface[s0], &fields.slot_field()[s0],
                                fields.friction().data(), fields.size(),
-                               fields.options().separability, touch, wall, dt, mass_tol,
+                               fields.options().separability, touch, hold, held, dt, mass_tol,
                                &kinematics[s0], acc.data());
           else
             update_contact_node(n, &sums[s0], &surface[s0], &fields.slot_field()[s0],
-                                fields.friction().data(), fields.size(), touch, wall, dt,
+                                fields.friction().data(), fields.size(), touch, hold, held, dt,
                                 mass_tol, &kinematics[s0], acc.data());
         }
       });

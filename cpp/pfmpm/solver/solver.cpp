@@ -41,6 +41,11 @@ std::string wall_impulse_key(int side, int d)
   static const char* const sides[4] = {"left", "right", "bottom", "top"};
   return std::string("wall_impulse/") + sides[side] + (d == 0 ? "/x" : "/y");
 }
+
+std::string region_key(int k, const char* name)
+{
+  return "region/" + std::to_string(k) + "/" + name;
+}
 } // namespace
 
 Solver::Solver(Grid& grid, Particles& particles,
@@ -181,6 +186,14 @@ SolverState Solver::state() const
   for (int side = 0; side < 4; ++side)
     for (int d = 0; d < 2; ++d)
       s.scalars[wall_impulse_key(side, d)] = _wall_impulse[side][d];
+  for (int k = 0; k < max_regions; ++k)
+  {
+    s.scalars[region_key(k, "work")] = _region_work[k];
+    s.scalars[region_key(k, "impulse/x")] = _region_impulse[k][0];
+    s.scalars[region_key(k, "impulse/y")] = _region_impulse[k][1];
+    s.scalars[region_key(k, "displacement/x")] = _region_displacement[k][0];
+    s.scalars[region_key(k, "displacement/y")] = _region_displacement[k][1];
+  }
   s.scalars["light_nodes"] = static_cast<double>(_light_nodes);
   for (std::size_t k = 0; k < _phase.size(); ++k)
   {
@@ -288,6 +301,14 @@ void Solver::restore(const SolverState& state)
   for (int side = 0; side < 4; ++side)
     for (int d = 0; d < 2; ++d)
       _wall_impulse[side][d] = state.scalars.at(wall_impulse_key(side, d));
+  for (int k = 0; k < max_regions; ++k)
+  {
+    _region_work[k] = state.scalars.at(region_key(k, "work"));
+    _region_impulse[k][0] = state.scalars.at(region_key(k, "impulse/x"));
+    _region_impulse[k][1] = state.scalars.at(region_key(k, "impulse/y"));
+    _region_displacement[k][0] = state.scalars.at(region_key(k, "displacement/x"));
+    _region_displacement[k][1] = state.scalars.at(region_key(k, "displacement/y"));
+  }
   _light_nodes = static_cast<std::int64_t>(state.scalars.at("light_nodes"));
 }
 
@@ -505,7 +526,18 @@ void Solver::step(Fields& fields, bool energy)
   _wall_work += sums[sum_wall_work];
   for (int side = 0; side < 4; ++side)
     for (int d = 0; d < 2; ++d)
-      _wall_impulse[side][d] += sums[sum_wall_impulse + 2 * side + d];
+      _wall_impulse[side][d] += sums[sum_hold_impulse + 2 * side + d];
+  const std::vector<Region>& regions = _grid.regions();
+  for (std::size_t k = 0; k < regions.size(); ++k)
+  {
+    _region_work[k] += sums[sum_region_work + k];
+    for (int d = 0; d < 2; ++d)
+    {
+      _region_impulse[k][d] += sums[sum_hold_impulse + 2 * (4 + k) + d];
+      if (regions[k].components & (1 << d))
+        _region_displacement[k][d] += _dt * _grid.holder_velocity()[4 + k][d];
+    }
+  }
   _light_nodes += static_cast<std::int64_t>(sums[sum_light]);
   if constexpr (Fields::discrete)
   {
@@ -729,6 +761,9 @@ Energies Solver::energies() const
   e.external_work = _external_work;
   e.wall_work = _wall_work;
   e.wall_impulse = _wall_impulse;
+  e.region_impulse = _region_impulse;
+  e.region_work = _region_work;
+  e.region_displacement = _region_displacement;
   e.momentum = {sums[2], sums[3]};
   e.angular_momentum = sums[7];
   e.mass = sums[4];

@@ -39,6 +39,11 @@ struct Energies
   double wall_work = 0.0;      ///< work of the wall constraints since t = 0 (<= 0, see finish_slot)
   /// impulse of each side's wall on the bodies since t = 0, (x, y) per Side
   std::array<std::array<double, 2>, 4> wall_impulse{};
+  /// impulse and work of each prescribed-velocity region on the bodies since
+  /// t = 0, and how far its nodes have moved along the components it holds
+  std::array<std::array<double, 2>, max_regions> region_impulse{};
+  std::array<double, max_regions> region_work{};
+  std::array<std::array<double, 2>, max_regions> region_displacement{};
   double dissipated = 0.0;     ///< work dissipated by damage since t = 0 (the column `dissipated`)
   std::array<double, 2> momentum{}; ///< sum of M_p v_p
   /// sum of M_p (x_p x v_p), about the origin; with APIC plus M_p ((B_p)_yx - (B_p)_xy),
@@ -53,7 +58,8 @@ struct Energies
 /// of a run.
 ///
 /// Scalars: `time`, `step`, `external_work`, `wall_work`, `wall_impulse/<side>/<x|y>`
-/// (side: left, right, bottom, top), `light_nodes`; per phase field k
+/// (side: left, right, bottom, top), `region/<k>/work`, `region/<k>/impulse/<x|y>` and
+/// `region/<k>/displacement/<x|y>` (k < max_regions), `light_nodes`; per phase field k
 /// (the single field's is 0; with discrete fields, one per crackable body in
 /// body order) `phase_field/k/solves`, `.../iterations`,
 /// `.../last_iterations`, `.../start_residual`, `.../last_residual`,
@@ -316,6 +322,9 @@ private:
   double _external_work = 0.0;
   double _wall_work = 0.0;
   std::array<std::array<double, 2>, 4> _wall_impulse{};
+  std::array<std::array<double, 2>, max_regions> _region_impulse{};
+  std::array<double, max_regions> _region_work{};
+  std::array<std::array<double, 2>, max_regions> _region_displacement{};
   double _mass_tol;
   std::int64_t _light_nodes = 0;
   double _stability_length = 0.0; // 0: no check

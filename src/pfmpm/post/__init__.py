@@ -11,9 +11,11 @@ Each measure of a phase field reads cracks with the scene's
     circles about it, against the weak directions of ``G_c(theta)``
     (:func:`~pfmpm.post.arms.crack_directions`).
 ``forces``
-    The walls' reactions and each body's net force over a run, from the
-    impulses and momenta of its ``energies.csv``
-    (:func:`~pfmpm.post.forces.mean_forces`).
+    The reactions of the walls and of the prescribed regions and each body's
+    net force over a run, from the impulses and momenta of its
+    ``energies.csv`` (:func:`~pfmpm.post.forces.mean_forces`); a region's
+    load against its displacement
+    (:func:`~pfmpm.post.forces.load_displacement`).
 ``fragments``
     Fragments per body and the closest approach of different bodies
     (:func:`~pfmpm.post.fragments.fragments`); fragment sizes, their
@@ -52,17 +54,18 @@ Each measure of a phase field reads cracks with the scene's
     fraction, and how far particles pass a wall or into a platen (checks
     Z1-Z6, :func:`~pfmpm.post.brazilian.disk_fragments`).
 
-``pfmpm post crack-tip|crack-directions|forces|fragments RUN_DIR`` prints the
+``pfmpm post crack-tip|crack-directions|forces|load-displacement|fragments RUN_DIR`` prints the
 measures that read a finished run's output directory, with the scene the run
 kept there (:func:`pfmpm.run_folder.read_scene`).
 """
 
 from .arms import crack_arms, crack_directions, propagation_angle, run_directions
 from .disk_beam import cone_index, crack_rise, running_crack
-from .forces import mean_forces, run_forces
+from .forces import load_displacement, mean_forces, run_forces, run_load_displacement
 from .fragments import closest_approach, count_fragments, fragments, run_fragments
 from .tip import CrackTip, branch_time, initiation_time, tip_report
 
 __all__ = ["CrackTip", "initiation_time", "branch_time", "tip_report", "propagation_angle",
            "crack_arms", "crack_directions", "run_directions", "count_fragments", "fragments",
-           "closest_approach", "run_fragments", "mean_forces", "run_forces", "crack_rise", "running_crack", "cone_index"]
+           "closest_approach", "run_fragments", "mean_forces", "run_forces",
+           "load_displacement", "run_load_displacement", "crack_rise", "running_crack", "cone_index"]

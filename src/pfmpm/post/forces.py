@@ -1,7 +1,10 @@
-"""Forces of a run: the walls' reactions and the net force on each body.
+"""Forces of a run: the reactions of the walls and of the prescribed
+regions, the net force on each body, and a region's load against its
+displacement.
 
 ``energies.csv`` keeps impulses and momenta since t = 0 (the columns
-``impulse_<side>_x|y`` of :func:`pfmpm.run.wall_columns`, ``momentum_x|y``
+``impulse_<side>_x|y`` of :func:`pfmpm.run.wall_columns`,
+``impulse_<region>_x|y`` of :func:`pfmpm.run.region_columns`, ``momentum_x|y``
 and, with several bodies, ``momentum_x|y_<body>``), exact whatever the
 rows' spacing. A force here is their change over one interval between rows
 divided by its length: the mean force over that interval, at its midpoint.
@@ -22,7 +25,7 @@ from ..scene import Scene
 from ..scene.units import unit_system
 from .tip import read_columns
 
-__all__ = ["mean_forces", "run_forces"]
+__all__ = ["mean_forces", "run_forces", "load_displacement", "run_load_displacement"]
 
 
 def mean_forces(scene: Scene, e) -> dict[str, np.ndarray]:
@@ -39,7 +42,8 @@ def mean_forces(scene: Scene, e) -> dict[str, np.ndarray]:
     -------
     dict of str -> ndarray
         ``t``, the midpoint of each interval; per wall ``wall_<side>_x``
-        and ``wall_<side>_y``, its reaction; per body ``body_<name>_x`` and
+        and ``wall_<side>_y``, its reaction; per prescribed region
+        ``region_<name>_x`` and ``region_<name>_y``, its reaction; per body ``body_<name>_x`` and
         ``body_<name>_y``, the net force on it (with one body ``net_x`` and
         ``net_y``).
     """
@@ -53,6 +57,9 @@ def mean_forces(scene: Scene, e) -> dict[str, np.ndarray]:
     for wall in scene.walls:
         for d in "xy":
             forces[f"wall_{wall.side}_{d}"] = np.diff(e[f"impulse_{wall.side}_{d}"]) / dt
+    for region in scene.prescribed:
+        for d in "xy":
+            forces[f"region_{region.name}_{d}"] = np.diff(e[f"impulse_{region.name}_{d}"]) / dt
     for name, column in _momenta(scene):
         forces[name] = np.diff(e[column]) / dt
     return forces
@@ -68,6 +75,7 @@ def _momenta(scene: Scene) -> list[tuple[str, str]]:
 def _needed(scene: Scene) -> list[str]:
     """The ``energies.csv`` columns that :func:`mean_forces` reads."""
     return (["t"] + [f"impulse_{w.side}_{d}" for w in scene.walls for d in "xy"]
+            + [f"impulse_{r.name}_{d}" for r in scene.prescribed for d in "xy"]
             + [column for _, column in _momenta(scene)])
 
 
@@ -100,3 +108,72 @@ def run_forces(scene: Scene, run_dir: Path | str) -> dict:
             "units": {"force": units.force if units.declared else "scene units",
                       "time": units.time if units.declared else "scene units"}}
 
+
+
+def load_displacement(scene: Scene, e, region: str | None = None) -> dict:
+    """A prescribed region's load against its displacement.
+
+    Parameters
+    ----------
+    scene : Scene
+    e : path or mapping of str -> ndarray
+        The run's ``energies.csv``, or the columns.
+    region : str or None
+        The region's name; None: the scene's only one.
+
+    Returns
+    -------
+    dict
+        ``region``, ``component`` (the held component it moved farther
+        along), ``displacement`` (at each interval's midpoint, the mean of
+        its ends) and ``load`` (the mean force the region exerts on the
+        bodies over the interval, along that component); ``t``.
+
+    Raises
+    ------
+    KeyError
+        For a scene without that region (or with several and no name).
+    """
+    regions = {r.name: r for r in scene.prescribed}
+    if region is None:
+        if len(regions) != 1:
+            raise KeyError(f"the scene has {len(regions)} prescribed regions: name one with --region"
+                           + (f" ({', '.join(regions)})" if regions else ""))
+        region = next(iter(regions))
+    if region not in regions:
+        raise KeyError(f"no prescribed region {region!r} (the scene's: {', '.join(regions) or 'none'})")
+    e = read_columns(e)
+    forces = mean_forces(scene, e)
+    d = max(regions[region].components, key=lambda c: abs(e[f"displacement_{region}_{c}"][-1]))
+    u = e[f"displacement_{region}_{d}"]
+    return {"region": region, "component": d, "t": forces["t"], "displacement": 0.5 * (u[1:] + u[:-1]),
+            "load": forces[f"region_{region}_{d}"]}
+
+
+def run_load_displacement(scene: Scene, run_dir: Path | str, region: str | None = None) -> dict:
+    """Write a finished run's ``load_displacement.csv`` and
+    ``load_displacement.png`` (:func:`load_displacement`, in the scene's
+    units) into its folder.
+
+    Returns
+    -------
+    dict
+        ``csv``, ``png``, ``region``, ``component``, the largest load
+        ``peak_load`` (by magnitude) and the ``displacement_at_peak``,
+        ``units``.
+    """
+    run_dir = Path(run_dir)
+    curve = load_displacement(scene, run_dir / "energies.csv", region)
+    csv, png = run_dir / "load_displacement.csv", run_dir / "load_displacement.png"
+    columns = ["t", "displacement", "load"]
+    log = CsvLog(csv, columns)
+    for row in zip(*(curve[c] for c in columns)):
+        log.write(dict(zip(columns, row)))
+    log.close()
+    units = unit_system(scene.units)
+    plots.load_displacement(curve, png, units)
+    k = int(np.argmax(np.abs(curve["load"])))
+    return {"csv": str(csv), "png": str(png), "region": curve["region"], "component": curve["component"],
+            "peak_load": float(curve["load"][k]), "displacement_at_peak": float(curve["displacement"][k]),
+            "units": {"force": units.force if units.declared else "scene units",
+                      "length": units.length if units.declared else "scene units"}}

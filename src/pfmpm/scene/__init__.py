@@ -26,7 +26,8 @@ The modules, one concern each:
     pixels of one colour of a PNG mask); :class:`Body`.
 ``loads``
     :class:`Traction`, :class:`BodyForce` and their amplitudes over time,
-    :class:`Ramp` and :class:`Table`; :class:`WallSpec`, :class:`Crack`.
+    :class:`Ramp` and :class:`Table`; :class:`WallSpec`; :class:`Prescribed`
+    (motion of a box of grid nodes); :class:`Crack`.
 ``contact``
     :class:`Contact`, :class:`ContactPair`.
 ``materials``
@@ -57,7 +58,8 @@ against them.
 from .bodies import Body
 from .components import DEGREES, TRANSFER_SCHEMES, GridSpec, Output, PhaseFieldSpec, Time, TransferSpec
 from .contact import Contact, ContactPair
-from .loads import AMPLITUDES, EDGES, LOADS, SIDES, WALL_TYPES, BodyForce, Crack, Ramp, Table, Traction, WallSpec
+from .loads import (AMPLITUDES, EDGES, LOADS, SIDES, WALL_TYPES, BodyForce, Crack, Prescribed, Ramp, Table,
+                    Traction, WallSpec)
 from .damage import (DAMAGE_MODELS, DamageSpec, InitialDamage, RankineSpec, TimeToFailureSpec,
                      WeibullSpec)
 from .materials import (DEFAULT_MODEL, MATERIALS, PLANES, SPLITS, SYMMETRIES, Anisotropy,
@@ -116,6 +118,7 @@ __all__ = [
     "Ramp",
     "Table",
     "AMPLITUDES",
+    "Prescribed",
     "WallSpec",
     "Crack",
     "ContactPair",

@@ -11,12 +11,14 @@ import numpy as np
 
 from .validation import SceneError, choice, fmt, polyline, real, seq, store, text, vec2
 
-__all__ = ["EDGES", "SIDES", "WALL_TYPES", "Ramp", "Table", "AMPLITUDES", "Traction", "BodyForce", "LOADS",
-           "WallSpec", "Crack"]
+__all__ = ["EDGES", "SIDES", "WALL_TYPES", "COMPONENTS", "Ramp", "Table", "AMPLITUDES", "Traction", "BodyForce",
+           "LOADS", "WallSpec", "Prescribed", "MAX_REGIONS", "Crack"]
 
 EDGES = ("top", "bottom", "left", "right")
 SIDES = ("left", "right", "bottom", "top")
 WALL_TYPES = ("fixed", "slip")
+COMPONENTS = ("x", "y", "xy")
+MAX_REGIONS = 4  # the core's max_regions
 
 
 @dataclass(frozen=True)
@@ -160,6 +162,80 @@ class BodyForce:
 
 LOADS: dict[str, type] = {cls.kind: cls for cls in (Traction, BodyForce)}
 """Load classes by their TOML ``type``."""
+
+
+@dataclass(frozen=True)
+class Prescribed:
+    """Prescribed motion (``[[prescribed]]``): the grid nodes whose control
+    points lie in a box move with a given velocity, or by a given
+    displacement, along the held components. Particles whose nodes all lie
+    in the box move with them; those partly over it are pulled along. The
+    reaction (the momentum it adds to the bodies), the work it does on them
+    and its displacement are in ``energies.csv`` (``impulse_<name>_x|y``,
+    ``work_<name>``, part of ``total``, ``displacement_<name>_x|y``).
+
+    Parameters
+    ----------
+    name : str
+        Unique name, in the column names (not a grid side's).
+    min, max : (float, float)
+        The box's corners, min < max; it must hold a grid node.
+    velocity : (float, float) or None
+        The velocity, times ``amplitude(t)`` at each step's midpoint.
+    displacement : (float, float) or None
+        The displacement ``U (a(t) - a(0))``: each step the nodes move by
+        ``U (a(t + dt) - a(t))``, so it is exact at every step; needs an
+        ``amplitude``. Exactly one of ``velocity`` and ``displacement``.
+    components : str
+        ``"x"``, ``"y"`` or ``"xy"``: the components held.
+    amplitude : Ramp or Table or None
+        The factor over time; ``None``: constant (velocity only).
+    """
+
+    name: str
+    min: tuple[float, float]
+    max: tuple[float, float]
+    velocity: tuple[float, float] | None = None
+    displacement: tuple[float, float] | None = None
+    components: str = "xy"
+    amplitude: Ramp | Table | None = None
+
+    def __post_init__(self):
+        store(self, "name", text("name", self.name))
+        if self.name in SIDES:
+            raise SceneError("name", "is a grid side's, which names the walls' columns", self.name)
+        store(self, "min", vec2("min", self.min))
+        store(self, "max", vec2("max", self.max))
+        if not (self.min[0] < self.max[0] and self.min[1] < self.max[1]):
+            raise SceneError("max", f"must exceed min = {fmt(self.min)} in both directions", self.max)
+        if (self.velocity is None) == (self.displacement is None):
+            raise SceneError("velocity", "give exactly one of velocity and displacement")
+        if self.velocity is not None:
+            store(self, "velocity", vec2("velocity", self.velocity))
+        else:
+            store(self, "displacement", vec2("displacement", self.displacement))
+            if self.amplitude is None:
+                raise SceneError("amplitude", "a displacement needs one (it is U (a(t) - a(0)))")
+        store(self, "components", choice("components", self.components, COMPONENTS))
+        store(self, "amplitude", _amplitude(self.amplitude))
+
+    @property
+    def mask(self) -> int:
+        """The held components as the core's bits (1: x, 2: y)."""
+        return ("x" in self.components) | ("y" in self.components) << 1
+
+    @property
+    def steady(self) -> bool:
+        """Whether its velocity is the same at every step."""
+        return self.amplitude is None
+
+    def velocity_over(self, t: float, dt: float) -> tuple[float, float]:
+        """The nodes' velocity over the step from ``t`` to ``t + dt``."""
+        if self.velocity is not None:
+            a = 1.0 if self.amplitude is None else self.amplitude(t + 0.5 * dt)
+            return (a * self.velocity[0], a * self.velocity[1])
+        rate = (self.amplitude(t + dt) - self.amplitude(t)) / dt
+        return (rate * self.displacement[0], rate * self.displacement[1])
 
 
 @dataclass(frozen=True)

@@ -16,7 +16,7 @@ from .bodies import Body
 from .components import GridSpec, Output, PhaseFieldSpec, Time, TransferSpec
 from .contact import Contact
 from .damage import DamageSpec, InitialDamage
-from .loads import BodyForce, Crack, Traction, WallSpec
+from .loads import MAX_REGIONS, BodyForce, Crack, Prescribed, Traction, WallSpec
 from .materials import PLANES, FractureSpec, MaterialSpec
 from .toml import build_scene, plain, read_toml
 from .units import SOLID_WAVE_SPEEDS, UNIT_SYSTEMS, UnitSystem, unit_system
@@ -51,6 +51,8 @@ class Scene:
     loads : sequence of Traction or BodyForce
     walls : sequence of WallSpec
         At most one per grid side.
+    prescribed : sequence of Prescribed
+        Boxes of grid nodes with prescribed motion; at most four, names unique.
     output : Output
     cracks : sequence of Crack
         Initial cracks, on bodies whose material can crack.
@@ -94,6 +96,7 @@ class Scene:
     units: str = ""
     initial_damage: tuple[InitialDamage, ...] = ()
     transfer: TransferSpec = field(default_factory=TransferSpec)
+    prescribed: tuple[Prescribed, ...] = ()
 
     def __post_init__(self):
         self.validate()
@@ -121,11 +124,15 @@ class Scene:
         store(self, "bodies", self._items("bodies", (Body,), required=True))
         store(self, "loads", self._items("loads", (Traction, BodyForce)))
         store(self, "walls", self._items("walls", (WallSpec,)))
+        store(self, "prescribed", self._items("prescribed", (Prescribed,)))
+        if len(self.prescribed) > MAX_REGIONS:
+            raise SceneError("prescribed", f"at most {MAX_REGIONS} regions", len(self.prescribed))
         store(self, "cracks", self._items("cracks", (Crack,)))
         store(self, "initial_damage", self._items("initial_damage", (InitialDamage,)))
         materials = self._unique("materials", "name", "duplicate name")
         bodies = self._unique("bodies", "name", "duplicate name")
         self._unique("walls", "side", "duplicate wall on this side")
+        self._unique("prescribed", "name", "duplicate name")
         for i, body in enumerate(self.bodies):
             reference(f"bodies[{i}].material", body.material, materials, "material")
         for i, load in enumerate(self.loads):

@@ -15,7 +15,7 @@ from typing import Any
 from .bodies import Body
 from .components import GridSpec, Output, PhaseFieldSpec, Time, TransferSpec
 from .contact import Contact, ContactPair
-from .loads import AMPLITUDES, LOADS, Crack, WallSpec
+from .loads import AMPLITUDES, LOADS, Crack, Prescribed, WallSpec
 from .damage import DamageSpec, InitialDamage, WeibullSpec, damage_class
 from .materials import DEFAULT_MODEL, Anisotropy, FractureSpec, MaterialSpec, material_class
 from .shapes import SHAPES
@@ -51,6 +51,8 @@ def build_scene(cls: type, d: Any, overrides: list[str] | tuple[str, ...] = ()) 
         "bodies": lambda v: _tables(v, _body),
         "loads": lambda v: _tables(v, lambda t: _typed(t, LOADS, {"amplitude": lambda a: _typed(a, AMPLITUDES)})),
         "walls": lambda v: _tables(v, lambda t: _build(WallSpec, t)),
+        "prescribed": lambda v: _tables(v, lambda t: _build(Prescribed, t,
+                                                             {"amplitude": lambda a: _typed(a, AMPLITUDES)})),
         "cracks": lambda v: _tables(v, lambda t: _build(Crack, t)),
         "initial_damage": lambda v: _tables(v, lambda t: _build(InitialDamage, t)),
         "phase_field": lambda t: _build(PhaseFieldSpec, t),
