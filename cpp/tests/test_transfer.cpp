@@ -163,6 +163,20 @@ TEST(Solver, ParticleLeavingTheGridIsReported)
   }
 }
 
+namespace
+{
+/// One particle of unit volume at x with velocity v and mass m.
+Particles lone_particle(std::array<double, 2> x, std::array<double, 2> v, double m)
+{
+  Particles P(1);
+  P.x = {x[0], x[1]};
+  P.v = {v[0], v[1]};
+  P.mass = {m};
+  P.volume = {1.0};
+  return P;
+}
+} // namespace
+
 TEST(Solver, FixedWallStopsAParticleOnIt)
 {
   // Open knot vectors interpolate at the ends: a particle on the left edge
@@ -172,11 +186,7 @@ TEST(Solver, FixedWallStopsAParticleOnIt)
   {
     Grid grid(2, {8, 8}, 1.0, {0.0, 0.0});
     grid.set_wall(Side::left, wall);
-    Particles P(1);
-    P.x = {0.0, 4.0};
-    P.v = {-1.0, 0.5};
-    P.mass = {1.0};
-    P.volume = {1.0};
+    Particles P = lone_particle({0.0, 4.0}, {-1.0, 0.5}, 1.0);
     Solver solver(grid, P, elastic(1.0, 0.0, 1.0), 1e-3);
     solver.advance(1);
     EXPECT_NEAR(P.v[0], 0.0, 1e-15); // -1 + dt * (1 / dt)
@@ -199,11 +209,7 @@ TEST(Solver, AtACornerEachDirectionCountsOnTheWallNormalToIt)
       Grid grid(2, {8, 8}, 1.0, {0.0, 0.0});
       grid.set_wall(Side::left, left);
       grid.set_wall(Side::bottom, bottom);
-      Particles P(1);
-      P.x = {0.0, 0.0};
-      P.v = {-1.0, -2.0};
-      P.mass = {1.0};
-      P.volume = {1.0};
+      Particles P = lone_particle({0.0, 0.0}, {-1.0, -2.0}, 1.0);
       Solver solver(grid, P, elastic(1.0, 0.0, 1.0), 1e-3);
       solver.advance(1);
       const NodeHold hold = grid.constraints()[0];
@@ -228,11 +234,7 @@ TEST(Solver, ARegionSetsItsNodesVelocityAndCountsWhatItAdds)
   Grid grid(2, {8, 8}, 1.0, {0.0, 0.0});
   const int k = grid.add_region({3.0, 3.0}, {6.0, 6.0}, 1);
   grid.set_region_velocity(k, {0.3, -7.0});
-  Particles P(1);
-  P.x = {4.5, 4.5};
-  P.v = {-1.0, 0.5};
-  P.mass = {2.0};
-  P.volume = {1.0};
+  Particles P = lone_particle({4.5, 4.5}, {-1.0, 0.5}, 2.0);
   Solver solver(grid, P, elastic(1.0, 0.0, 1.0), 1e-3);
   solver.advance(1);
   EXPECT_NEAR(P.v[0], 0.3, 1e-14);
