@@ -179,3 +179,16 @@ def test_a_run_with_regions_and_ramps_resumes_bitwise(tmp_path):
     assert main(["run", "--resume", str(part), "--quiet"]) == 0
     assert (part / "energies.csv").read_bytes() == (full / "energies.csv").read_bytes()
     assert read_csv(full / "energies.csv")["work_striker"][-1] > 0
+
+
+def test_a_region_that_reaches_no_particle_is_reported():
+    """The set-up report warns of a region placed where its nodes reach no
+    particle (a grip a cell and a half clear of the bar moves nothing)."""
+    from pfmpm.scene.report import setup_report
+
+    scene = grip_scene()
+    assert not any("prescribed region" in w for w in setup_report(scene).warnings)
+    away = Scene.from_dict(plain(scene) | {"prescribed": [plain(scene.prescribed[0]) | {"max": [0.4, 6.0]}]})
+    (warning,) = [w for w in setup_report(away).warnings if "prescribed region" in w]
+    assert warning == ("prescribed region grip reaches no particle at t = 0 (none within 1.5 of its box, its"
+                       " nodes' reach): it moves nothing until material comes within it")

@@ -193,9 +193,25 @@ def setup_report(scene: "Scene") -> SetupReport:
                 warnings.append(f"bodies {first.name} and {second.name} are {gap:.6g}{length} apart and meet"
                                 f" at t = {meet:.6g}{time} at their initial speeds, after the run ends"
                                 f" (t = {end:.6g}{time})")
+    warnings += _idle_regions(scene, np.concatenate(xs), length)
     warnings += snapshot_warnings(scene)
     return SetupReport(extents=extents, gaps=gaps, touching=touching, step=stability.step_limit(scene),
                        dt=scene.dt(), end=end, warnings=warnings, units=scene.unit_system())
+
+
+def _idle_regions(scene: "Scene", x: np.ndarray, length: str) -> list[str]:
+    """A warning for each prescribed region whose nodes reach no particle at
+    t = 0: none lies within its box widened by the reach of a node's basis
+    function, (degree + 1) h / 2, so it moves nothing until material comes."""
+    reach = 0.5 * (scene.grid.degree + 1) * scene.grid.h
+    warnings = []
+    for region in scene.prescribed:
+        lo, hi = np.subtract(region.min, reach), np.add(region.max, reach)
+        if not np.any(np.all((x > lo) & (x < hi), axis=1)):
+            warnings.append(f"prescribed region {region.name} reaches no particle at t = 0 (none within"
+                            f" {reach:.6g}{length} of its box, its nodes' reach): it moves nothing until"
+                            " material comes within it")
+    return warnings
 
 
 def _narrowest(tree, xb: np.ndarray, reach: float) -> tuple[float, int, int, np.ndarray]:
