@@ -270,10 +270,10 @@ class Simulation:
         """The loads with an amplitude, for :meth:`advance`: the particles they
         touch, the force there of the loads without one, and each load's
         (amplitude, particles, force at amplitude 1); None without any."""
+        if all(load.amplitude is None for load in self.scene.loads):
+            return None
         forces = seeding.load_forces(self.scene, xs, self.particles.mass)
         loads = [(load.amplitude, rows, force) for load, rows, force in forces if load.amplitude is not None]
-        if not loads:
-            return None
         n = len(self.particles)
         touched = np.unique(np.concatenate([np.arange(n)[rows] for _, rows, _ in loads]))
         steady = np.zeros((n, 2))

@@ -123,10 +123,10 @@ void Grid::activate(const std::vector<std::int64_t>& cell_start)
       }
     };
     // Regions first: their motion is prescribed there, walls included.
-    const double gx = _basis[0].greville(ix), gy = _basis[1].greville(iy);
     for (std::size_t k = 0; k < _regions.size(); ++k)
     {
       const Region& r = _regions[k];
+      const double gx = _basis[0].greville(ix), gy = _basis[1].greville(iy);
       if (gx >= r.min[0] && gx <= r.max[0] && gy >= r.min[1] && gy <= r.max[1])
         for (int d = 0; d < 2; ++d)
           if (r.components & (1 << d))

@@ -152,7 +152,7 @@ public:
   bool has_holds() const;
 
   /// @brief Rebuild the active node set (ActiveNodes, with block()) of all
-  /// particles and the wall constraints of its nodes.
+  /// particles and what holds its nodes (constraints()).
   /// @param cell_start Offsets of each cell's particles, num_cells()+1 entries.
   void activate(const std::vector<std::int64_t>& cell_start);
 

@@ -93,10 +93,7 @@ def run_forces(scene: Scene, run_dir: Path | str) -> dict:
     run_dir = Path(run_dir)
     forces = mean_forces(scene, run_dir / "energies.csv")
     csv, png = run_dir / "forces.csv", run_dir / "forces.png"
-    log = CsvLog(csv, list(forces))
-    for row in zip(*forces.values()):
-        log.write(dict(zip(forces, row)))
-    log.close()
+    _write_columns(csv, forces)
     units = unit_system(scene.units)
     plots.forces(forces, png, units)
     peaks = {}
@@ -105,8 +102,7 @@ def run_forces(scene: Scene, run_dir: Path | str) -> dict:
             k = int(np.argmax(np.abs(values)))
             peaks[name] = {"value": float(values[k]), "t": float(forces["t"][k])}
     return {"csv": str(csv), "png": str(png), "peaks": peaks,
-            "units": {"force": units.force if units.declared else "scene units",
-                      "time": units.time if units.declared else "scene units"}}
+            "units": {"force": units.unit("force"), "time": units.unit("time")}}
 
 
 
@@ -165,15 +161,18 @@ def run_load_displacement(scene: Scene, run_dir: Path | str, region: str | None 
     run_dir = Path(run_dir)
     curve = load_displacement(scene, run_dir / "energies.csv", region)
     csv, png = run_dir / "load_displacement.csv", run_dir / "load_displacement.png"
-    columns = ["t", "displacement", "load"]
-    log = CsvLog(csv, columns)
-    for row in zip(*(curve[c] for c in columns)):
-        log.write(dict(zip(columns, row)))
-    log.close()
+    _write_columns(csv, {c: curve[c] for c in ("t", "displacement", "load")})
     units = unit_system(scene.units)
     plots.load_displacement(curve, png, units)
     k = int(np.argmax(np.abs(curve["load"])))
     return {"csv": str(csv), "png": str(png), "region": curve["region"], "component": curve["component"],
             "peak_load": float(curve["load"][k]), "displacement_at_peak": float(curve["displacement"][k]),
-            "units": {"force": units.force if units.declared else "scene units",
-                      "length": units.length if units.declared else "scene units"}}
+            "units": {"force": units.unit("force"), "length": units.unit("length")}}
+
+
+def _write_columns(path: Path, columns: dict[str, np.ndarray]) -> None:
+    """Write equal-length ``columns`` as a CSV file (:class:`~pfmpm.output.CsvLog`'s format)."""
+    log = CsvLog(path, list(columns))
+    for row in zip(*columns.values()):
+        log.write(dict(zip(columns, row)))
+    log.close()

@@ -66,8 +66,12 @@ class UnitSystem:
         ``stress``, ``force``, ``mass``, ``density``.  Undeclared units
         read ``[scene units]``.
         """
-        unit = getattr(self, quantity) if self.declared else "scene units"
-        return f"{text} [{unit}]"
+        return f"{text} [{self.unit(quantity)}]"
+
+    def unit(self, quantity: str) -> str:
+        """The unit of ``quantity`` (as for :meth:`label`); ``scene units``
+        where the scene declares none."""
+        return getattr(self, quantity) if self.declared else "scene units"
 
 
 NO_UNITS = UnitSystem("", "", "", "", "", "", "", 0.0)
