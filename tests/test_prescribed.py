@@ -126,6 +126,10 @@ def test_post_load_displacement_and_the_scene_file(tmp_path):
     assert r.stdout.startswith("region pull along x: largest load ") and "(scene units)" not in r.stdout
     curve = read_csv(out / "load_displacement.csv")
     assert list(curve) == ["t", "displacement", "load"] and (out / "load_displacement.png").stat().st_size > 0
+    # Once the ramp is over the pull is held at U and carries E A U / L.
+    held = curve["t"] > 35.0
+    assert np.all(np.abs(curve["displacement"][held] - 0.03) < 1e-12)
+    assert np.mean(curve["load"][held]) == pytest.approx(E * 2.0 * 0.03 / 30.0, rel=0.01)
     r = subprocess.run(cli + ["post", "load-displacement", str(out), "--region", "grip"], capture_output=True,
                        text=True, timeout=300)
     assert r.returncode == 2 and r.stderr == f"error: {out}: no prescribed region 'grip' (the scene's: pull)\n"
