@@ -33,6 +33,8 @@ def smoke(benchmark: str) -> list[str]:
 # (pattern of a command, arguments appended to it); None: not run here.
 RULES = [
     (r"^bash tools/(main|test)\.sh$", None),
+    # tools/setup.sh, then the build of tests/test_docs_site.py.
+    (r"^bash tools/docs\.sh$", None),
     (r"pfmpm --version$", []),
     (r"pfmpm compare borden --h ", ["--h", "1.0", "--l0", "2.0", "--end", "0.5", "--set",
                                     "bodies.plate.particles_per_cell=1", "--quiet"]),

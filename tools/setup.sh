@@ -14,6 +14,9 @@ packages=(
   python3-nbclient python3-nbformat python3-ipykernel jupyter-notebook jupyter-nbconvert
   # pfmpm animate: GIFs through Pillow (MP4s need ffmpeg, which is not installed).
   python3-pil
+  # The documentation site (tools/docs.sh, tests/test_docs_site.py): Sphinx
+  # with MyST for the Markdown pages in docs/.
+  python3-sphinx python3-myst-parser
   # The phase-field FEM reference (pfmpm.fem): DOLFINx 0.5 and PETSc built on
   # Open MPI, whose mpirun runs it in parallel; gcc compiles its JIT forms.
   python3-dolfinx python3-petsc4py python3-mpi4py openmpi-bin gcc python3-dev

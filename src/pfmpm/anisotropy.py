@@ -1,7 +1,7 @@
 """Anisotropic surface energy of the fourth-order phase field (Kakouris & Triantafyllou 2019, eqs. 4-8).
 
 The crack density of eq. 4 with the anisotropy tensor ``gamma`` (eq. 6, in
-Voigt form on the curvature ``kappa = (c_11, c_22, c_12)``) is
+Voigt form on the curvature ``kappa = (c_11, c_22, c_12)``) is::
 
     Z = (1 - c)^2 / (4 l0) + l0 |grad c|^2 + l0^3 kappa^T gamma kappa.
 

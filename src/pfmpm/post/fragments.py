@@ -114,7 +114,7 @@ def median_size(sizes: np.ndarray, masses: np.ndarray, smallest: float) -> float
 
 
 def mean_speed(v: np.ndarray, mass: np.ndarray) -> float:
-    """Mass-weighted mean particle speed sum M_p |v_p| / sum M_p."""
+    """Mass-weighted mean particle speed ``sum M_p |v_p| / sum M_p``."""
     v, mass = np.asarray(v, dtype=float).reshape(-1, 2), np.asarray(mass, dtype=float)
     return float(np.sum(mass * np.hypot(v[:, 0], v[:, 1])) / np.sum(mass))
 
