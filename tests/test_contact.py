@@ -221,7 +221,7 @@ def test_contact_table_is_read_from_a_dict():
     ("contact.friction=-0.1", r"^contact\.friction = -0\.1: must be >= 0$"),
     ("contact.mu=0.3", r"^contact\.mu: unknown key \(allowed: friction, pairs, partition, touch_fill, groups, "
                         r"separability, kernel_radius, skin, surface_detection, surface_threshold, "
-                        r"surfaces, phase_field_threshold, parting_stress\)$"),
+                        r"surfaces, phase_field_threshold, parting\)$"),
     ("contact.touch_fill=1.5", r"^contact\.touch_fill = 1\.5: must be >= 0 and <= 1$"),
     ("contact.pairs.0.friction=-1", r"^contact\.pairs\[0\]\.friction = -1: must be >= 0$"),
     ("contact.pairs.0.bodies=['a', 'c']", r"^contact\.pairs\[0\]\.bodies\[1\] = 'c': no body with that name"),

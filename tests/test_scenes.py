@@ -70,10 +70,11 @@ BALANCE = {
     "billet": 0.01,
     "wedge_disk_block": 0.05,
     "kalthoff_winkler": 0.1,
-    # Measured 0.174: the damage-gradient crack's faces part with most of their
-    # stress and the scheme loses what they release (docs/verification.md,
-    # "Modified Charpy").
-    "charpy": 0.2,
+    # Measured 0.065 (CPDI 0.045): the crack's faces part once their band has
+    # stopped softening; by eq. 21 alone (contact.parting = "failed") they
+    # part with most of their stress and the scheme loses what they release,
+    # 0.174 (docs/verification.md, "Modified Charpy").
+    "charpy": 0.1,
     # Measured 0.0088: the coarse phase field's crack (the history field).
     "three_point_bending": 0.02,
     "brazilian": 0.01,
@@ -198,25 +199,26 @@ def check_kalthoff_winkler(scene, sim, out, e):
     assert 45.0 < bearing < 75.0 and 40.0 < line < 75.0
 
 
-def check_charpy(scene, sim, out, e, crossed=True):
+def check_charpy(scene, sim, out, e):
     # Free-free: the momentum is the striker's to round-off. To 40 us the crack
-    # has run from the notch root across the ligament (with CPDI, ``crossed``
-    # false, 0.94 of it), the fields of its faces separable, and no contact
-    # check fails. The system only loses energy: to damage (measured 125.2 mJ
-    # = 0.35 G_f A_f; with CPDI 0.24, its band a cell wide) and to the scheme
-    # (117.6 mJ; with CPDI 85.9).
+    # has run from the notch root across 0.94 of the ligament (with CPDI all
+    # of it), the fields of its faces separable, and no contact check fails.
+    # The system only loses energy: to damage (measured 266.0 mJ = 0.75 G_f
+    # A_f; with CPDI 0.37, its band a cell wide) and to the scheme, far less
+    # (58.9 mJ; with CPDI 40.5): the faces part once their band has stopped
+    # softening (by eq. 21 alone the scheme lost 0.94 of the damage). At h = 1
+    # the band from the 2 mm notch's root is 2.6 cells wide (CPDI 1 cell).
     assert momentum_error(e) < 1e-9
     summary = json.loads((out / "summary.json").read_text())["contact"]
     assert summary["violations"] == {"C1": 0, "C2": 0, "C3": 0, "C4": 0}
     assert summary["separable_node_steps"] > 0
     r = energy_balance(e)
     assert r["overshoot"] < 0.0
-    assert 0.2 < r["damage"] / fracture_energy(scene) < 0.6 and 0.0 < r["numerical"] < r["damage"]
+    assert 0.3 < r["damage"] / fracture_energy(scene) < 0.9 and 0.0 < r["numerical"] < 0.5 * r["damage"]
     p = sim.particles
     band = crack_band(scene, p.x - sim.displacement(), p.damage, p.body, threshold=0.5)
     assert band["paths"] == 1 and band["from_root"]
-    assert band["across"] == 1.0 if crossed else 0.5 < band["across"] < 1.0
-    assert band["width"] < 2.0
+    assert 0.9 < band["across"] <= 1.0 and band["width"] < 3.0
 
 
 def check_brazilian(scene, sim, out, e):
@@ -309,10 +311,10 @@ def test_scene_in_smoke_mode(name, tmp_path):
 def test_benchmark_with_cpdi_in_smoke_mode(name, tmp_path):
     """The Kalthoff-Winkler and Charpy smoke runs with CPDI1 on the degree-1
     grid, contact and the damage-gradient partition (docs/verification.md,
-    "CPDI against B-splines"): the same checks as with B-splines, but the
-    Charpy band, one cell wide as the crack line y = 27.5 runs through the
-    middle of the degree-1 grid's cells (half of l_ch: docs/verification.md,
-    "The crack band"), has crossed 0.94 of the ligament by 40 us."""
+    "CPDI against B-splines"): the same checks as with B-splines (the
+    Charpy band is one cell wide, as the crack line y = 27.5 runs through the
+    middle of the degree-1 grid's cells: half of l_ch, docs/verification.md,
+    "The crack band")."""
     path, overrides = smoke_runs()[name]
     scene = Scene.from_toml(path, overrides + ["grid.degree=1", "grid.shape=cpdi"])
     sim = Simulation(scene)
@@ -321,10 +323,7 @@ def test_benchmark_with_cpdi_in_smoke_mode(name, tmp_path):
     e = read_csv(tmp_path / "energies.csv")
     scale = max(np.abs(e["external_work"]).max(), (e["kinetic"] + e["elastic"]).max())
     assert np.abs(e["total"] - e["total"][0]).max() <= BALANCE[name] * scale
-    if name == "charpy":
-        check_charpy(scene, sim, tmp_path, e, crossed=False)
-    else:
-        CHECKS[name](scene, sim, tmp_path, e)
+    CHECKS[name](scene, sim, tmp_path, e)
 
 
 @pytest.mark.parametrize("name", sorted(manifests()))
@@ -437,16 +436,19 @@ def test_charpy_study_script(tmp_path):
 def test_charpy_energy_split(capsys):
     """benchmarks/charpy/diagnose.py split at the smoke settings: the kinematic
     and material parts add up to the change of ``total`` (to round-off), and
-    the loss is the kinematic part's (measured -148.0 and +6.0 mJ of -142.0
-    by 40 us: the material closes its balance to 4 % of the loss)."""
+    the loss is the kinematic part's (measured -68.6 and +2.9 mJ of -65.7
+    by 40 us: the material closes its balance to 4 % of the loss; by eq. 21
+    alone the loss was -142.0)."""
     import runpy
 
     sets = [arg for s in manifests()["charpy"]["smoke"] for arg in ("--set", s)]
     script = runpy.run_path(str(ROOT / "benchmarks" / "charpy" / "diagnose.py"))
     r = script["main"](["split", *sets, "--every", "1000"])
     assert r["kinematic"] + r["material"] == pytest.approx(r["total"], abs=1e-9 * 1011.2)
-    assert r["total"] < -100.0 and abs(r["material"]) < 0.1 * abs(r["kinematic"])
+    assert r["total"] < -40.0 and abs(r["material"]) < 0.1 * abs(r["kinematic"])
     assert "kinematic" in capsys.readouterr().out
+
+
 def test_brazilian_study_script(tmp_path):
     """benchmarks/brazilian/study.py at two coarse resolutions to 2 us: the
     damage-gradient and single-field runs are the same to round-off until the

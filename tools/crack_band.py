@@ -30,7 +30,7 @@ SHAPES = {"bspline": (2, "bspline"), "cubic": (3, "bspline"), "cpdi": (1, "cpdi"
 def prestressed_bar(h: float, shape: str = "bspline", partition: str | None = None,
                     l_ch: float | None = None, band_cells: float = 2.0, offset: float = 0.0,
                     cfl: float = 0.5, end: float = 4.0, Gf: float = 0.02,
-                    parting_stress: float | None = None) -> tuple[Simulation, np.ndarray]:
+                    parting: str = "softened") -> tuple[Simulation, np.ndarray]:
     """The bar, set up: 20 x 2 between fixed walls, nu = 0, pre-stretched to
     sigma_xx = 0.85 sigma_f, its band ``band_cells`` cells wide (centred
     ``offset`` cells off the node line at its middle) of strength 0.8. Returns
@@ -44,7 +44,7 @@ def prestressed_bar(h: float, shape: str = "bspline", partition: str | None = No
                   bodies=(Body(name="bar", material="m", shape=Rectangle((0.0, y0), (L, y0 + H)),
                                particles_per_cell=2),),
                   walls=(WallSpec(side="left", type="fixed"), WallSpec(side="right", type="fixed")),
-                  contact=Contact(partition=partition, parting_stress=parting_stress) if partition else None)
+                  contact=Contact(partition=partition, parting=parting) if partition else None)
     sim = Simulation(scene)
     P = sim.particles
     stretch = (s0 + math.sqrt(s0 * s0 + 4 * mu * mu)) / (2 * mu)  # sigma = mu (l^2 - 1) / l
@@ -78,7 +78,8 @@ def main(argv=None) -> None:
                    choices=["single", "damage_gradient"])
     p.add_argument("--l_ch", type=float, help="l_ch (default: the grid's localisation width)")
     p.add_argument("--offset", type=float, default=0.0, help="the band's centre off the node line, in cells")
-    p.add_argument("--parting", type=float, help="contact.parting_stress of the damage-gradient runs")
+    p.add_argument("--parting", default="softened", choices=["softened", "failed"],
+                   help="contact.parting of the damage-gradient runs")
     args = p.parse_args(argv)
     print("| stencil | partition | h | l_ch | dissipation / G_f A | failed columns | damaged columns |")
     print("|---|---|---|---|---|---|---|")
@@ -86,7 +87,7 @@ def main(argv=None) -> None:
         for partition in args.partition:
             for h in args.h:
                 r = bar(h, shape, None if partition == "single" else partition, args.l_ch,
-                        offset=args.offset, parting_stress=args.parting)
+                        offset=args.offset, parting=args.parting)
                 print(f"| {shape} | {partition} | {h:g} | {r['l_ch']:.4g} | {r['dissipation']:.3f} | "
                       f"{r['failed_columns']} | {r['damaged_columns']} |", flush=True)
 

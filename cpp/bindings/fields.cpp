@@ -25,29 +25,29 @@ void bind_fields(py::module_& m)
       .def(py::init(
                [](std::vector<std::int32_t> groups, double separability, double kernel_radius,
                   double skin, double full_damage, double phase_field_threshold,
-                  double parting_stress)
+                  bool part_when_softened)
                {
                  return DamageGradientOptions{std::move(groups), separability, kernel_radius,
                                               skin,         full_damage,  phase_field_threshold,
-                                              parting_stress};
+                                              part_when_softened};
                }),
            py::arg("groups") = std::vector<std::int32_t>{}, py::arg("separability") = 0.25,
            py::arg("kernel_radius") = 0.0, py::arg("skin") = 0.1,
            py::arg("full_damage") = 1.0 - 1e-4, py::arg("phase_field_threshold") = 0.05,
-           py::arg("parting_stress") = std::numeric_limits<double>::infinity(),
+           py::arg("part_when_softened") = true,
            "groups: contact group of each body (empty: each body its own); separability: "
            "D-bar_min of eq. 21; kernel_radius: r_p (0: the cell diagonal); skin: Verlet skin "
            "over r_p; full_damage: D at which a damage model's particle is fully damaged; "
            "phase_field_threshold: c at or below which a phase-field particle is; "
-           "parting_stress: the largest principal stress, over sigma_f, that a softening "
-           "particle at a node may still carry for its fields to part")
+           "part_when_softened: a node's fields part only once no damage-model particle "
+           "mapping there is still softening (false: eq. 21 alone)")
       .def_readonly("groups", &DamageGradientOptions::groups)
       .def_readonly("separability", &DamageGradientOptions::separability)
       .def_readonly("kernel_radius", &DamageGradientOptions::kernel_radius)
       .def_readonly("skin", &DamageGradientOptions::skin)
       .def_readonly("full_damage", &DamageGradientOptions::full_damage)
       .def_readonly("phase_field_threshold", &DamageGradientOptions::phase_field_threshold)
-      .def_readonly("parting_stress", &DamageGradientOptions::parting_stress);
+      .def_readonly("part_when_softened", &DamageGradientOptions::part_when_softened);
 
   m.def(
       "kernel_damage_field",

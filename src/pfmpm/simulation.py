@@ -122,7 +122,7 @@ class Simulation:
                 contact.group_indices(names), contact.separability,
                 contact.resolved_radius(g.h), contact.skin,
                 phase_field_threshold=contact.phase_field_threshold,
-                parting_stress=math.inf if contact.parting_stress is None else contact.parting_stress)
+                part_when_softened=contact.parting == "softened")
         # The solver adds the models' columns; then their initial values.
         self.solver = _core.Solver(self.grid, self.particles, materials, scene.dt(), fracture,
                                    pf.tol, pf.max_iterations, friction, damage,

@@ -97,8 +97,6 @@ DamageFields::DamageFields(const Grid& grid, Particles& particles, std::vector<d
                "in (0, 1]");
   check_option(o.phase_field_threshold >= 0.0 && o.phase_field_threshold < 1.0,
                "phase_field_threshold", o.phase_field_threshold, "in [0, 1)");
-  check_option(o.parting_stress >= 0.0, "parting_stress", o.parting_stress,
-               ">= 0 (infinite: eq. 21 alone)");
   if (_groups_n > max_groups)
     throw std::invalid_argument("friction: " + std::to_string(_groups_n) + " contact groups; at most "
                                 + std::to_string(max_groups));
@@ -216,11 +214,10 @@ bool DamageFields::particle_damage(const Particles& particles, const CellSort& s
   const auto n = static_cast<std::ptrdiff_t>(particles.size());
   _damage.resize(n);
   _full.resize(n);
-  _carrying.resize(n);
-  const Column* strength = particles.find("sigma_f");
-  const double* sigma_f = strength ? strength->f64.data() : nullptr;
-  const double* stress = particles.stress.data();
-  double* out_carrying = _carrying.data();
+  _softening.resize(n);
+  const Column* grew = particles.find("softening");
+  const std::int32_t* softening = grew ? grew->i32.data() : nullptr;
+  std::uint8_t* out_softening = _softening.data();
   _full_cell.assign(_grid.num_cells(), 0);
   std::uint8_t* full_cell = _full_cell.data();
   const std::int32_t* cell = sort.cell().data();
@@ -261,14 +258,8 @@ bool DamageFields::particle_damage(const Particles& particles, const CellSort& s
     }
     out_damage[p] = D;
     out_full[p] = full ? 1.0 : 0.0;
-    double carrying = 0.0;
-    if (sigma_f && source[material[p]] == DamageSource::column && D > 0.0 && !full)
-    {
-      const double* sg = &stress[4 * p];
-      const double m = 0.5 * (sg[0] + sg[1]), r = std::hypot(0.5 * (sg[0] - sg[1]), sg[2]);
-      carrying = std::max({m + r, sg[3], 0.0}) / sigma_f[p];
-    }
-    out_carrying[p] = carrying;
+    out_softening[p] = softening && source[material[p]] == DamageSource::column && !full
+                           && softening[p] != 0;
     if (full)
     {
 #pragma omp atomic write
@@ -397,7 +388,7 @@ void DamageFields::open_nodes(const Particles& particles, const CellSort& sort)
   _mass.assign(ngs, 0.0);
   _mass_damage.assign(ngs, 0.0);
   _group_full.assign(ngs, 0);
-  _group_carrying.assign(ngs, 0.0);
+  _group_softening.assign(ngs, 0);
   _open_slot.resize(ngs);
   const std::array<const BSpline1D*, 2> basis{&_grid.basis(0), &_grid.basis(1)};
   const std::int32_t* order = sort.order().data();
@@ -406,7 +397,7 @@ void DamageFields::open_nodes(const Particles& particles, const CellSort& sort)
   const double* mass = particles.mass.data();
   const double* damage = _damage.data();
   const double* full = _full.data();
-  const double* carrying = _carrying.data();
+  const std::uint8_t* softening = _softening.data();
   const Column* r1 = particles.find("domain_r1");
   const Column* r2 = particles.find("domain_r2");
   // The sums of eq. 21 over A and B together, with the terms P2G adds into
@@ -416,14 +407,14 @@ void DamageFields::open_nodes(const Particles& particles, const CellSort& sort)
       _grid, *this, _groups, sort, _near_cells,
       [&](int cx, int cy, std::int64_t begin, std::int64_t end, const CellSlots& c)
       {
-        double m[max_groups][K], md[max_groups][K], carry[max_groups][K];
-        std::uint32_t any_full[max_groups];
+        double m[max_groups][K], md[max_groups][K];
+        std::uint32_t any_full[max_groups], any_softening[max_groups];
         for (int f = 0; f < c.n; ++f) // the cell's groups only
         {
           std::fill_n(m[f], K, 0.0);
           std::fill_n(md[f], K, 0.0);
-          std::fill_n(carry[f], K, 0.0);
           any_full[f] = 0;
+          any_softening[f] = 0;
         }
         const int cell[2] = {cx, cy};
         for (std::int64_t k = begin; k < end; ++k)
@@ -435,8 +426,8 @@ void DamageFields::open_nodes(const Particles& particles, const CellSort& sort)
           else
             s.evaluate(basis, cell, &x[2 * p]);
           const int f = c.local(group[p]);
-          const double mp = mass[p], Dp = damage[p], cp = carrying[p];
-          const bool failed = full[p] != 0.0;
+          const double mp = mass[p], Dp = damage[p];
+          const bool failed = full[p] != 0.0, soft = softening[p] != 0;
           s.each_node(
               [&](int i, double w, const double*)
               {
@@ -445,7 +436,7 @@ void DamageFields::open_nodes(const Particles& particles, const CellSort& sort)
                 // Where its shape function is positive (CPDI: above round-off).
                 const bool maps = Stencil::domains ? w > cpdi_maps_to : true;
                 any_full[f] |= failed && maps ? 1u << i : 0u;
-                carry[f][i] = maps ? std::max(carry[f][i], cp) : carry[f][i];
+                any_softening[f] |= soft && maps ? 1u << i : 0u;
               });
         }
         for (int f = 0; f < c.n; ++f)
@@ -455,19 +446,19 @@ void DamageFields::open_nodes(const Particles& particles, const CellSort& sort)
             _mass[slot] += m[f][i];
             _mass_damage[slot] += md[f][i];
             _group_full[slot] |= static_cast<std::uint8_t>(any_full[f] >> i & 1u);
-            _group_carrying[slot] = std::max(_group_carrying[slot], carry[f][i]);
+            _group_softening[slot] |= static_cast<std::uint8_t>(any_softening[f] >> i & 1u);
           }
       });
   // Open: a fully damaged particle maps there and the mean damage of both
   // sides together exceeds D-bar_min, less a margin far above the rounding
   // of sums of positive terms taken in another order than P2G's.
   const double threshold = _options.separability * (1.0 - 1e-9);
-  const double softened = _options.parting_stress;
+  const bool wait = _options.part_when_softened;
   const auto ngs_signed = static_cast<std::ptrdiff_t>(ngs);
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t g = 0; g < ngs_signed; ++g)
     _open_slot[g] = _group_full[g] && _mass_damage[g] > threshold * _mass[g]
-                            && _group_carrying[g] <= softened
+                            && !(wait && _group_softening[g])
                         ? 1
                         : 0;
   // The open cells: the occupied cells whose block holds an open node, found

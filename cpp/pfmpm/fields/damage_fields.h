@@ -46,12 +46,12 @@ struct DamageGradientOptions
   double full_damage = 1.0 - 1e-4;
   /// A phase-field particle is fully damaged at c <= this.
   double phase_field_threshold = 0.05;
-  /// A group's fields may part at a node only where no particle of a damage
-  /// model that maps there and has begun to soften (0 < D < full) still
-  /// carries a largest principal stress above this fraction of its strength
-  /// sigma_f: the faces part once their band has softened (docs/contact.md,
-  /// "Parting"). Infinite (the default): eq. 21 alone.
-  double parting_stress = std::numeric_limits<double>::infinity();
+  /// A group's fields may part at a node only where, besides eq. 21, no
+  /// particle of a damage model that maps there is still softening (its D
+  /// grew in the last step, the column `softening`): the faces part once
+  /// their band has stopped softening (docs/contact.md, "Parting"). False:
+  /// eq. 21 alone, as the paper.
+  bool part_when_softened = true;
 };
 
 /// The normalised kernel damage field at every particle (eqs. 17-19).
@@ -290,7 +290,7 @@ private:
 
   std::vector<double> _damage;        // per particle: D~_p
   std::vector<double> _full;          // per particle: 0 or 1
-  std::vector<double> _carrying;      // per particle: tension it still carries over sigma_f (softening)
+  std::vector<std::uint8_t> _softening; // per particle: a damage model's D grew in the last step
   std::vector<std::uint32_t> _mask;   // per particle
   std::vector<std::uint8_t> _full_cell; // per cell: it holds a fully damaged particle
   std::vector<std::uint8_t> _dilated_y; // per cell: _full_cell dilated along y (scratch)
@@ -305,12 +305,13 @@ private:
   bool _dirty = false;                // the nodal gradients are this build's (_best is set)
 
   // Per group slot: the sums of N_ip m_p and N_ip m_p D~_p over the group's
-  // particles, whether a fully damaged one maps there, whether the node is
+  // particles, whether a fully damaged one maps there, whether a softening
+  // one does, whether the node is
   // open; Algorithm 1's best particle (|grad|^2, index; nodal_gradient()),
   // whether some pair chose B.
   std::vector<double> _mass, _mass_damage;
   std::vector<std::uint8_t> _group_full;
-  std::vector<double> _group_carrying;
+  std::vector<std::uint8_t> _group_softening;
   std::vector<std::uint8_t> _open_slot;
   std::vector<double> _best_norm;
   std::vector<std::int32_t> _best;

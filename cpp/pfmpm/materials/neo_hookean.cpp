@@ -60,6 +60,10 @@ std::vector<ColumnSpec> NeoHookean<Damage>::columns() const
                    "tensile strength sigma_f (H&H eq. 25 with a Weibull field)", "", "sigma_f"});
     out.push_back({"dissipated", 1, DType::f64, {0.0},
                    "work dissipated by damage, the sum of V_0 W+ dD over the steps", "", ""});
+    out.push_back({"softening", 1, DType::i32, {0.0},
+                   "1 where the damage grew in the last step (on the softening branch of "
+                   "H&H eq. 23 or 24), 0 where it held",
+                   "", ""});
   }
   return out;
 }
@@ -68,12 +72,13 @@ template <class Damage>
 typename NeoHookean<Damage>::View NeoHookean<Damage>::view(Particles& P) const
 {
   View v{P.f64("F").data(), P.f64("J").data(), P.stress.data(), P.volume.data(),
-         nullptr, nullptr, nullptr};
+         nullptr, nullptr, nullptr, nullptr};
   if constexpr (damages)
   {
     v.damage = P.f64("damage").data();
     v.sigma_f = P.f64("sigma_f").data();
     v.dissipated = P.f64("dissipated").data();
+    v.softening = P.i32("softening").data();
   }
   return v;
 }

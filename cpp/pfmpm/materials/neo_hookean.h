@@ -93,6 +93,7 @@ public:
     double* damage;      ///< with damage only
     const double* sigma_f;
     double* dissipated;
+    std::int32_t* softening; ///< with damage only: 1 where D grew in the last step
   };
   View view(Particles& P) const;
   static constexpr bool constant_wave_speed = false;
@@ -120,6 +121,7 @@ public:
       const Principal s(*this, F, J);
       const double D0 = v.damage[p];
       const double D = _damage.grow(D0, s.max_stress(), v.sigma_f[p], dt);
+      v.softening[p] = D > D0 ? 1 : 0;
       if (D > D0)
       {
         // int W+ dD over the step by the trapezoidal rule, W+ at F^n and F^{n+1}.

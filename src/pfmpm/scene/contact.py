@@ -18,6 +18,8 @@ PARTITIONS = ("bodies", "damage_gradient")
 or two fields per contact group split by the damage gradient (Homel & Herbold 2017)."""
 SURFACE_DETECTION = ("none", "kernel_sum")
 """How surface particles are found at t = 0 (Homel & Herbold 2017, section 2.4)."""
+PARTING = ("softened", "failed")
+"""When a group's fields may part at a node: once its band has stopped softening, or by eq. 21 alone."""
 
 
 @dataclass(frozen=True)
@@ -49,7 +51,7 @@ class ContactPair:
 # partition = "bodies" each must keep its default.
 _DAMAGE_KEYS = {"groups": (), "separability": 0.25, "kernel_radius": None, "skin": 0.1,
                 "surface_detection": "none", "surface_threshold": 0.99, "surfaces": (),
-                "phase_field_threshold": 0.05, "parting_stress": None}
+                "phase_field_threshold": 0.05, "parting": "softened"}
 
 
 @dataclass(frozen=True)
@@ -106,12 +108,13 @@ class Contact:
     phase_field_threshold : float
         Damage gradient only: a particle of a phase-field material is fully
         damaged at c <= this, in [0, 1) (a damage model's at D >= 1 - 1e-4).
-    parting_stress : float or None
-        Damage gradient only: the fields of a group part at a node only where
-        no particle of a damage model mapping there that has begun to soften
-        still carries a largest principal stress above this fraction of its
-        strength sigma_f, >= 0 (docs/contact.md, "Parting"); ``None``, the
-        default, leaves eq. 21 alone.
+    parting : str
+        Damage gradient only: when a group's fields may part at a node.
+        ``"softened"`` (the default): by eq. 21 once no particle of a damage
+        model mapping there is still softening, so that the band dissipates
+        G_f before its faces part (docs/contact.md, "Parting"); ``"failed"``:
+        by eq. 21 alone, as the paper, once a fully damaged particle maps
+        there.
     """
 
     friction: float = 0.0
@@ -126,7 +129,7 @@ class Contact:
     surface_threshold: float = 0.99
     surfaces: tuple[Shape, ...] = ()
     phase_field_threshold: float = 0.05
-    parting_stress: float | None = None
+    parting: str = "softened"
 
     def __post_init__(self):
         store(self, "friction", real("friction", self.friction, ge=0))
@@ -161,8 +164,7 @@ class Contact:
         store(self, "surfaces", surfaces)
         store(self, "phase_field_threshold",
               real("phase_field_threshold", self.phase_field_threshold, ge=0, lt=1))
-        if self.parting_stress is not None:
-            store(self, "parting_stress", real("parting_stress", self.parting_stress, ge=0))
+        store(self, "parting", choice("parting", self.parting, PARTING))
         if self.partition != "damage_gradient":
             for key, default in _DAMAGE_KEYS.items():
                 if getattr(self, key) != default:
