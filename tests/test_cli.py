@@ -304,7 +304,7 @@ def test_post_reads_the_scene_the_run_kept(tmp_path):
     (scene.toml), and pfmpm post measures with it: here the Rayleigh speed of
     a concrete made 40 % stiffer by --set. A folder without scene.toml (of an
     older pfmpm) takes the scene file and its --set values instead."""
-    from pfmpm.post import tip_report
+    from pfmpm.post import run_cracks
     from pfmpm.scene import Scene
 
     borden = ROOT / "demos" / "borden_plate.toml"
@@ -317,16 +317,19 @@ def test_post_reads_the_scene_the_run_kept(tmp_path):
     r = pfmpm("post", "crack-tip", out, "--json")
     assert r.returncode == 0, r.stderr
     report = json.loads(r.stdout)
-    expected = tip_report(Scene.from_toml(borden, sets), out / "energies.csv")
-    assert report["max_speed_over_rayleigh"] == expected["max_speed_over_rayleigh"] > 0
-    unset = tip_report(Scene.from_toml(borden), out / "energies.csv")
-    assert report["max_speed_over_rayleigh"] == pytest.approx(unset["max_speed_over_rayleigh"] / 1.4 ** 0.5,
-                                                              rel=1e-12)
+    expected = run_cracks(Scene.from_toml(borden, sets), out)
+    assert report["rayleigh"] == expected["rayleigh"]
+    unset = run_cracks(Scene.from_toml(borden), out)
+    assert report["rayleigh"] == pytest.approx(unset["rayleigh"] * 1.4 ** 0.5, rel=1e-12)
     # The printed report names the scene's units (mm-us-MPa).
     r = pfmpm("post", "crack-tip", out)
     lines = r.stdout.splitlines()
-    assert lines[0].startswith(f"crack initiation: t = {report['initiation_us']:.4g} µs (the tip 0.5 mm")
-    assert lines[2].endswith(") mm") and f"{report['max_speed']:.4g} mm/µs = " in lines[3], r.stdout
+    assert lines[0].startswith(f"crack initiation: t = {report['initiation']:.4g} µs (an arm of the crack"
+                               " from the notch 0.5 mm long)")
+    assert lines[2].startswith("crack 1: from the notch tip at (50, 20) mm, t = 0 µs"), r.stdout
+    arm = report["cracks"][0]["arms"][0]
+    assert lines[3].startswith(f"  arm 1: from t = {arm['born']:.4g} µs") and " mm from the crack's start" in lines[3]
+    assert f"{arm['max_speed']:.4g} mm/µs = {arm['max_speed'] / report['rayleigh']:.3f} v_R" in lines[3]
 
     r = pfmpm("post", "crack-tip", out, "--scene", borden)
     assert r.returncode == 2 and r.stderr == (f"error: --scene {borden}: {out} keeps the run's own scene,"

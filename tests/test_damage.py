@@ -72,11 +72,11 @@ def test_damage_tables_are_read_checked_and_written_back():
     ({**RANKINE, "Gf": 0.0}, {}, "materials[0].damage.Gf = 0.0: must be > 0"),
     ({**TTF, "c_f": 0}, {}, "materials[0].damage.c_f = 0: must be > 0"),
     ({**RANKINE, "l_ch": 2.5}, {},
-     "materials[0].damage.l_ch = 2.5: must be < 2 E Gf / sigma_f^2 = 2, or the softening of eq. 23"
+     "materials[0].damage.l_ch = 2.5: must be < 2 E Gf / sigma_f^2 = 2, or the softening of H&H eq. 23"
      " snaps back"),
     ({**RANKINE, "Gf": 0.003}, {},
      "materials[0].damage.l_ch = 1.0: must be < 2 E Gf / sigma_f^2 = 0.6, or the"
-     " softening of eq. 23 snaps back (the default, the grid's localisation width)"),
+     " softening of H&H eq. 23 snaps back (the default, the grid's localisation width)"),
     ({**RANKINE, "model": "mazars"}, {},
      "materials[0].damage.model = 'mazars': must be one of 'rankine', 'time_to_failure'"),
     ({"sigma_f": 1.0}, {}, "materials[0].damage.model: missing required key"),

@@ -15,7 +15,7 @@ from pfmpm.post.brazilian import (contact_distance, disk_fragments, disk_speed, 
 from pfmpm.post.fragments import (closest_approach, count_fragments, domain_gap, fragment_sizes,
                                   fragments, mean_speed, median_size, particle_domains,
                                   size_distribution)
-from pfmpm.post.tip import CrackTip, tip_report
+from pfmpm.post.tip import CrackTip
 from pfmpm.scene import Scene
 
 DEMOS = Path(__file__).resolve().parents[1] / "demos"
@@ -269,20 +269,6 @@ def test_crack_directions_of_an_arm_along_a_weak_direction():
 
 
 # -- the crack tip -------------------------------------------------------------------
-
-
-def test_tip_report_of_a_running_and_branching_tip():
-    scene = Scene.from_toml(DEMOS / "borden_plate.toml", BORDEN)  # notch tip (50, 20)
-    t = np.arange(0.0, 40.0, 0.5)
-    x = 50.0 + np.clip(t - 10.0, 0.0, None)  # starts at 10 us, 1 mm/us
-    y = 20.0 + 0.5 * np.clip(t - 25.0, 0.0, None)  # leaves the line at 25 us
-    e = {"t": t, "crack_tip_x": x, "crack_tip_y": y, "crack_tip_speed": np.gradient(x, t)}
-    r = tip_report(scene, e)
-    assert r["initiation_us"] == 11.0  # first past 50.5 mm
-    assert r["branch_us"] == 27.5  # first more than 1 mm off y = 20 (and 5 mm ahead)
-    assert (r["tip_x_end"], r["tip_y_end"]) == (79.5, 27.25)
-    assert r["max_speed"] == pytest.approx(1.0)
-    assert r["max_speed_over_rayleigh"] == pytest.approx(1.0 / scene.crack_rayleigh_speed())
 
 
 def test_crack_tip_takes_the_scene_threshold():

@@ -19,8 +19,7 @@ import pytest
 
 from pfmpm import scenes
 from pfmpm.output import read_csv
-from pfmpm.post import (closest_approach, cone_index, crack_rise, run_directions, run_fragments,
-                        tip_report)
+from pfmpm.post import closest_approach, cone_index, crack_rise, run_cracks, run_directions, run_fragments
 from pfmpm.post.charpy import crack_band, energy_balance, fracture_energy, momentum_error
 from pfmpm.post.fragments import failed
 from pfmpm.post.forces import mean_forces
@@ -97,10 +96,11 @@ def check_bar(scene, sim, out, e):
 def check_borden(scene, sim, out, e):
     # Symmetric loads: no net momentum. The crack starts before 25 us and runs below v_R.
     assert momentum_drift(e, sim.particles.mass.sum()) < 1e-8
-    tip = tip_report(scene, out / "energies.csv")
-    assert 5.0 < tip["initiation_us"] < 25.0
-    assert tip["tip_x_end"] > 51.0 and abs(tip["tip_y_end"] - 20.0) < 1.0
-    assert 0.0 < tip["max_speed_over_rayleigh"] < 1.0
+    r = run_cracks(scene, out)
+    assert 5.0 < r["initiation"] < 25.0
+    arm = r["cracks"][0]["arms"][0]
+    assert arm["tip_end"][0] > 51.0 and abs(arm["tip_end"][1] - 20.0) < 1.0
+    assert 0.0 < arm["max_speed"] < r["rayleigh"]
 
 
 def directions(scene, sim, out, weak, tips):

@@ -1,6 +1,6 @@
 /// @file fields.cpp
 /// @brief The damage-gradient partition's parameters and the kernel damage
-/// field (H&H 2017 eqs. 17-19) in Python.
+/// field (H&H eqs. 17-19) in Python.
 #include "bindings.h"
 
 #include "pfmpm/fields/damage_fields.h"
@@ -36,11 +36,11 @@ void bind_fields(py::module_& m)
            py::arg("full_damage") = 1.0 - 1e-4, py::arg("phase_field_threshold") = 0.05,
            py::arg("part_when_softened") = true,
            "groups: contact group of each body (empty: each body its own); separability: "
-           "D-bar_min of eq. 21; kernel_radius: r_p (0: the cell diagonal); skin: Verlet skin "
+           "D-bar_min of H&H eq. 21; kernel_radius: r_p (0: the cell diagonal); skin: Verlet skin "
            "over r_p; full_damage: D at which a damage model's particle is fully damaged; "
            "phase_field_threshold: c at or below which a phase-field particle is; "
            "part_when_softened: a node's fields part only once no damage-model particle "
-           "mapping there is still softening (false: eq. 21 alone)")
+           "mapping there is still softening (false: H&H eq. 21 alone)")
       .def_readonly("groups", &DamageGradientOptions::groups)
       .def_readonly("separability", &DamageGradientOptions::separability)
       .def_readonly("kernel_radius", &DamageGradientOptions::kernel_radius)
@@ -67,10 +67,10 @@ void bind_fields(py::module_& m)
         return py::make_tuple(S, D, grad);
       },
       py::arg("grid"), py::arg("x"), py::arg("damage"), py::arg("radius"),
-      "(S, D-bar, grad D-bar) at every particle: the kernel sum (eq. 19), the normalised kernel "
-      "damage field (eqs. 17-19) and its gradient, neighbours within radius");
+      "(S, D-bar, grad D-bar) at every particle: the kernel sum (H&H eq. 19), the normalised "
+      "kernel damage field (H&H eqs. 17-19) and its gradient, neighbours within radius");
   m.def("lattice_kernel_sum", &DamageFields::lattice_kernel_sum, py::arg("spacing"),
-        py::arg("radius"), "kernel sum (eq. 19) at the interior of a square lattice");
+        py::arg("radius"), "kernel sum (H&H eq. 19) at the interior of a square lattice");
 }
 
 } // namespace pfmpm::bindings

@@ -93,7 +93,7 @@ void bind_materials(py::module_& m)
             }
             return py::make_tuple(plus, minus);
           },
-          py::arg("strain"), "(psi+, psi-) of eq. 14 for strains (N, 3): xx, yy, xy")
+          py::arg("strain"), "(psi+, psi-) of K&T eq. 14 for strains (N, 3): xx, yy, xy")
       .def(
           "stresses",
           [](const LinearElastic& e, const Strains& strain,
@@ -111,7 +111,7 @@ void bind_materials(py::module_& m)
             return sig;
           },
           py::arg("strain"), py::arg("g"),
-          "stresses (N, 4): xx, yy, xy, zz of g psi+ + psi- (eqs. 14, 16)")
+          "stresses (N, 4): xx, yy, xy, zz of g psi+ + psi- (K&T eqs. 14, 16)")
       .def_property_readonly("lame", [](const LinearElastic& e)
                              { return std::make_pair(e.lambda(), e.mu()); });
 }

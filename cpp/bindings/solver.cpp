@@ -109,17 +109,19 @@ void bind_solver(py::module_& m)
                }),
            py::arg("Gc"), py::arg("l0"), py::arg("k_f") = 0.0, py::arg("gamma") = Matrix3{},
            py::arg("model") = Model::AT2, py::arg("bound") = true,
-           "gamma: the 3 x 3 Voigt anisotropy tensor of eq. 6 in the material frame")
+           "gamma: the 3 x 3 Voigt anisotropy tensor of K&T eq. 6 in the material frame")
       .def_readonly("Gc", &Fracture::Gc)
       .def_readonly("l0", &Fracture::l0)
       .def_readonly("k_f", &Fracture::k_f)
       .def_readonly("model", &Fracture::model)
       .def_readonly("bound", &Fracture::bound)
       .def("reaction", &Fracture::reaction, py::arg("H"),
-           "coefficient of N_I N_J V_p in K at history H (eq. 49; AT1: 16 l0 (1 - k_f) H / (3 G_c))")
-      .def("source", &Fracture::source, "coefficient of N_I V_p in F (eq. 52): 1 (AT2), 1/2 (AT1)")
+           "coefficient of N_I N_J V_p in K at history H (K&T eq. 49; AT1: "
+           "16 l0 (1 - k_f) H / (3 G_c))")
+      .def("source", &Fracture::source,
+           "coefficient of N_I V_p in F (K&T eq. 52): 1 (AT2), 1/2 (AT1)")
       .def("crack_density", &Fracture::crack_density, py::arg("c"), py::arg("grad2"),
-           "crack density Z at c with |grad c|^2 = grad2 (eq. 4, gamma = 0)")
+           "crack density Z at c with |grad c|^2 = grad2 (K&T eq. 4, gamma = 0)")
       .def_property_readonly("gamma", [matrix](const Fracture& f) { return matrix(f.gamma); })
       .def_property_readonly("fourth_order", &Fracture::fourth_order)
       .def("rotated", [matrix](const Fracture& f, double phi) { return matrix(f.rotated(phi)); },
@@ -313,10 +315,11 @@ void bind_solver(py::module_& m)
             return contact_dict(*c, s.damage_fields() != nullptr);
           },
           "contact record (None with one field): contact nodes in the last step, node-pairs "
-          "examined, active (eq. 77) and sliding (eq. 75) ones, violations of C.1-C.4, work of "
-          "the friction forces since t = 0; with damage-gradient fields also the nodes where "
-          "a group has both sides (split) and of them the separable ones (eq. 21) in the last "
-          "step, and the separable ones summed over the steps (separable_total)")
+          "examined, active (K&T eq. 77) and sliding (K&T eq. 75) ones, violations of "
+          "C.1-C.4, work of the friction forces since t = 0; with damage-gradient fields also "
+          "the nodes where a group has both sides (split) and of them the separable ones "
+          "(H&H eq. 21) in the last step, and the separable ones summed over the steps "
+          "(separable_total)")
       .def(
           "detect_surfaces",
           [](Solver& s, const std::vector<double>& spacing, double threshold)

@@ -1,6 +1,6 @@
-"""Anisotropic surface energy of the fourth-order phase field (Kakouris & Triantafyllou 2019, eqs. 4-8).
+"""Anisotropic surface energy of the fourth-order phase field (Kakouris & Triantafyllou 2019, eqs. 4, 6-8).
 
-The crack density of eq. 4 with the anisotropy tensor ``gamma`` (eq. 6, in
+The crack density of K&T eq. 4 with the anisotropy tensor ``gamma`` (K&T eq. 6, in
 Voigt form on the curvature ``kappa = (c_11, c_22, c_12)``) is::
 
     Z = (1 - c)^2 / (4 l0) + l0 |grad c|^2 + l0^3 kappa^T gamma kappa.
@@ -21,7 +21,7 @@ and with ``k1 k2 = 1 / (2 sqrt(gamma_n))``, ``k1^2 + k2^2 = 1 / gamma_n``:
 
     G_c(theta) / G-bar_c = sqrt(1 + sqrt(gamma_n(theta))).
 
-This is eq. 8 in closed form (the paper integrates numerically over
+This is K&T eq. 8 in closed form (the paper integrates numerically over
 ``|x| < 50 l0``); ``gamma = 0`` gives ``G-bar_c`` exactly, and the four
 (G_c,min, G_c,max) pairs of the paper come out within 0.2 %.
 
@@ -79,7 +79,7 @@ def normal_coefficient(gamma, theta_deg, phi_deg: float = 0.0) -> np.ndarray:
     Parameters
     ----------
     gamma : (3, 3) array_like
-        Voigt tensor of eq. 6 in the material frame (its symmetric part counts).
+        Voigt tensor of K&T eq. 6 in the material frame (its symmetric part counts).
     theta_deg : float or array_like
         Crack direction(s), degrees counter-clockwise from x.
     phi_deg : float
@@ -99,13 +99,13 @@ def normal_coefficient(gamma, theta_deg, phi_deg: float = 0.0) -> np.ndarray:
 
 
 def surface_energy_ratio(gamma_n) -> np.ndarray:
-    """``G_c / G-bar_c = sqrt(1 + sqrt(gamma_n))`` (eq. 8 in closed form, module docstring)."""
+    """``G_c / G-bar_c = sqrt(1 + sqrt(gamma_n))`` (K&T eq. 8 in closed form, module docstring)."""
     gn = np.asarray(gamma_n, dtype=float)
     return np.sqrt(1.0 + np.sqrt(np.maximum(gn, 0.0)))
 
 
 def surface_energy(gamma, gc_bar: float, theta_deg, phi_deg: float = 0.0) -> np.ndarray:
-    """``G_c(theta)`` of eq. 8 for crack directions ``theta_deg``."""
+    """``G_c(theta)`` of K&T eq. 8 for crack directions ``theta_deg``."""
     return gc_bar * surface_energy_ratio(normal_coefficient(gamma, theta_deg, phi_deg))
 
 

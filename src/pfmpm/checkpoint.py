@@ -18,7 +18,8 @@ as an uninterrupted one:
   multi-body contact one per crackable body in body order);
 - ``/output``: ``energies.csv`` so far (its bytes), the crack-tip records
   behind the smoothed tip speeds, the time each crackable particle cracked
-  (``crack_time``, for the crack-path plot), and the phase-field images taken
+  and where (``crack_time``, ``crack_xy``, for the crack path and its arms),
+  and the phase-field images taken
   so far with the times still due.
 
 The root attributes are ``format``, ``version``, ``sha256`` and ``meta``, a
@@ -100,6 +101,9 @@ class Checkpoint:
     crack_time : (N,) ndarray or None
         When each crackable particle cracked (NaN: intact); ``None`` in files
         from before it was kept.
+    crack_xy : (N, 2) ndarray or None
+        Where each crackable particle cracked (NaN: intact); ``None`` in files
+        from before it was kept (the particles' positions then stand in).
     snapshot_times : (K,) ndarray
         Phase-field image times still due.
     snapshot_images : list of (float, ndarray)
@@ -128,6 +132,7 @@ class Checkpoint:
     snapshot_times: np.ndarray = field(default_factory=lambda: np.zeros(0))
     snapshot_images: list = field(default_factory=list)
     crack_time: np.ndarray | None = None
+    crack_xy: np.ndarray | None = None
     run_id: str | None = None
     scene_sha256: str | None = None
 
@@ -167,6 +172,7 @@ def _state_of(sim, run) -> tuple[dict, dict[str, np.ndarray]]:
     arrays["output/crack_tip"] = np.asarray(tip, dtype=float).reshape(-1, 1 + len(CrackTip.TRACKS))
     if sim.crack_path is not None:
         arrays["output/crack_time"] = sim.crack_path.times
+        arrays["output/crack_xy"] = sim.crack_path.positions
     times, images = run.snapshot_state()
     arrays["output/snapshot_times"] = np.asarray(times, dtype=float)
     attrs["snapshot_image_times"] = [t for t, _ in images]
@@ -318,7 +324,7 @@ def read(path: Path | str) -> Checkpoint:
         particles=particles, solver=solver,
         energies_csv=arrays["output/energies_csv"].tobytes(),
         series=[(t, name) for t, name in meta["series"]], crack_tip=arrays["output/crack_tip"],
-        crack_time=arrays.get("output/crack_time"),
+        crack_time=arrays.get("output/crack_time"), crack_xy=arrays.get("output/crack_xy"),
         snapshot_times=arrays["output/snapshot_times"], snapshot_images=images,
         run_id=meta.get("run_id"), scene_sha256=meta.get("scene_sha256"))
 
@@ -427,4 +433,4 @@ def restore(sim, ckpt: Checkpoint) -> None:
         raise CheckpointError(f"checkpoint {ckpt.path}: {err}") from None
     if sim.crack_tip is not None:
         sim.crack_tip.set_records(ckpt.crack_tip)
-        sim.restore_crack_path(ckpt.crack_time)
+        sim.restore_crack_path(ckpt.crack_time, ckpt.crack_xy)

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from pathlib import Path
 
@@ -251,7 +252,11 @@ def _post(args: argparse.Namespace) -> int:
               file=sys.stderr)
         return 2
     if args.measure == "crack-tip":
-        report = post.tip_report(scene, run_dir / "energies.csv")
+        try:
+            report = post.run_cracks(scene, run_dir)
+        except FileNotFoundError as error:
+            print(f"error: {error}", file=sys.stderr)
+            return 2
     elif args.measure == "crack-directions":
         report = post.run_directions(scene, run_dir, args.history)
     elif args.measure in ("forces", "load-displacement"):
@@ -287,16 +292,24 @@ def _post(args: argparse.Namespace) -> int:
 
 
 def _print_tip(r: dict, units) -> None:
-    from .post.tip import BRANCH_AFTER, BRANCH_OFFSET, INITIATION_ADVANCE
+    from .post.tip import INITIATION_ADVANCE
 
     t, length, speed = ((f" {u}" if units.declared else " (scene units)")
                         for u in (units.time, units.length, units.speed))
-    print(f"crack initiation: t = {r['initiation_us']:.4g}{t} (the tip {INITIATION_ADVANCE:g}{length}"
-          " past its start)")
-    print(f"branching: t = {r['branch_us']:.4g}{t} (the tip {BRANCH_OFFSET:g}{length} off the notch line,"
-          f" {BRANCH_AFTER:g}{length} ahead of the notch tip)")
-    print(f"tip at the end: ({r['tip_x_end']:.4g}, {r['tip_y_end']:.4g}){length}")
-    print(f"largest tip speed: {r['max_speed']:.4g}{speed} = {r['max_speed_over_rayleigh']:.3f} v_R")
+    xy = lambda p: f"({p[0]:.4g}, {p[1]:.4g}){length}"  # noqa: E731
+    print(f"crack initiation: t = {r['initiation']:.4g}{t} (an arm of the crack from the notch"
+          f" {INITIATION_ADVANCE:g}{length} long)")
+    print(f"branching: t = {r['branching']:.4g}{t} (the crack from the notch with two arms)")
+    for k, crack in enumerate(r["cracks"], 1):
+        start = "from the notch tip" if crack["from_notch"] else "starting"
+        merged = "" if math.isnan(crack["merged"]) else f", merged into an older crack at t = {crack['merged']:.4g}{t}"
+        print(f"crack {k}: {start} at {xy(crack['origin'])}, t = {crack['born']:.4g}{t}{merged}")
+        for arm in crack["arms"]:
+            ended = "" if math.isnan(arm["ended"]) else f", ended at t = {arm['ended']:.4g}{t}"
+            print(f"  arm {arm['arm']}: from t = {arm['born']:.4g}{t}{ended}; tip {xy(arm['tip_end'])},"
+                  f" {arm['length_end']:.4g}{length} from the crack's start; largest speed"
+                  f" {arm['max_speed']:.4g}{speed} = {arm['max_speed'] / r['rayleigh']:.3f} v_R")
+    print(f"arms: {r['csv']}\nplot: {r['png']}")
 
 
 def _print_directions(r: dict) -> None:
@@ -416,9 +429,10 @@ def main(argv: list[str] | None = None) -> int:
     compare.add_argument("--quiet", action="store_true", help="no progress bars")
     compare.set_defaults(func=_compare)
 
-    polar = sub.add_parser("polar", help="anisotropic surface energy G_c(theta) of a gamma tensor (eq. 8)")
+    polar = sub.add_parser("polar",
+                           help="anisotropic surface energy G_c(theta) of a gamma tensor (K&T eq. 8)")
     polar.add_argument("--gamma", required=True, metavar="G11,G12,G13;G21,G22,G23;G31,G32,G33",
-                       help="Voigt tensor of eq. 6 on (c_11, c_22, c_12), material frame")
+                       help="Voigt tensor of K&T eq. 6 on (c_11, c_22, c_12), material frame")
     polar.add_argument("--gc-bar", type=float, required=True, help="reference fracture energy G-bar_c")
     polar.add_argument("--phi", type=float, default=0.0,
                        help="principal material direction, degrees clockwise from x (default %(default)g)")
@@ -433,7 +447,8 @@ def main(argv: list[str] | None = None) -> int:
                                           " load-displacement, fragments")
     measure.add_argument("measure", choices=["crack-tip", "crack-directions", "forces", "load-displacement",
                                              "fragments"],
-                         help="crack-tip: initiation and branching times and the tip speed (energies.csv);"
+                         help="crack-tip: every crack, where and when it started, and each of its arms' tip,"
+                              " length and speed (crack_path.csv; writes crack_arms.csv and .png);"
                               " crack-directions: where the new crack left each notch tip, against the"
                               " weak directions of G_c(theta); forces: the reactions of the walls and"
                               " prescribed regions and each body's net force, mean over each interval"

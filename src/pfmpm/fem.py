@@ -21,9 +21,9 @@ Fields
     stress are constant per triangle, and so is the cell degradation, the
     exact cell mean of ``g(c)``.
 History
-    ``H`` (eq. 20) lives at the three edge midpoints of each triangle, the
+    ``H`` (K&T eq. 20) lives at the three edge midpoints of each triangle, the
     points of the degree-2 midpoint rule, and the reaction term
-    ``(F c, q)`` of eq. (57) is integrated with that rule (see
+    ``(F c, q)`` of K&T eq. (57) is integrated with that rule (see
     :class:`_PhaseFieldSolver`).  The strain is constant per triangle, so
     ``H = max(H, psi+)`` raises a cell's three points alike; without an
     initial crack ``H`` is constant per cell, where the rule is exact (the
@@ -41,18 +41,18 @@ History
     0.45-0.48 h / l0 with the centroids, 0.003-0.006 h / l0 with the
     midpoints; tests/test_fem.py, docs/method.md).
 Elastodynamics
-    Row-sum lumped mass; internal force from the cell stresses (eq. 62 with
+    Row-sum lumped mass; internal force from the cell stresses (K&T eq. 62 with
     cells in place of particles); tractions as consistent edge forces
     (half of ``t * length * thickness`` to each end of a loaded edge); body
     forces as ``M_I * b``.  Volumes, masses and forces include the
     thickness, as the MPM particle volumes do, so the energies compare.
 Phase field
-    Eq. (47) without the fourth-order term, Galerkin on P1: the matrix
-    ``K^c = L + M_F`` of eq. (57) with ``L = 4 l0^2 (grad c, grad q)``
-    assembled once and ``M_F = (F c, q)``, ``F`` of eq. (49) at the history
+    K&T Eq. (47) without the fourth-order term, Galerkin on P1: the matrix
+    ``K^c = L + M_F`` of K&T eq. (57) with ``L = 4 l0^2 (grad c, grad q)``
+    assembled once and ``M_F = (F c, q)``, ``F`` of K&T eq. (49) at the history
     points, reassembled each step (about 25 % cheaper than reassembling the whole
     form: 16 against 21 ms for 128,000 cells); right-hand side
-    ``F^c = (1, q)`` (eq. 52).  AT1 (``fracture.model``, docs/method.md)
+    ``F^c = (1, q)`` (K&T eq. 52).  AT1 (``fracture.model``, docs/method.md)
     changes ``F`` and ``F^c`` (:func:`_reaction`).  Both models are solved
     with the bound ``0 <= c <= 1`` unless ``fracture.bound = false``.
 
@@ -60,12 +60,12 @@ One step
 --------
 Scene step ``m`` does what the MPM step does, in the same order:
 
-1. solve eq. (56) with the current ``H``, warm-started from the previous
+1. solve K&T eq. (56) with the current ``H``, warm-started from the previous
    ``c``, to ``||F^c - K^c c|| <= tol ||F^c||`` (``scene.phase_field.tol``);
-2. degradation ``g = (1 - k_f) c^2 + k_f`` (eq. 15) and the stress of
-   ``g psi+ + psi-`` (eqs. 14, 16) from ``pfmpm._core.LinearElastic``, the
+2. degradation ``g = (1 - k_f) c^2 + k_f`` (K&T eq. 15) and the stress of
+   ``g psi+ + psi-`` (K&T eqs. 14, 16) from ``pfmpm._core.LinearElastic``, the
    same code as the MPM;
-3. ``v += dt M^-1 (f_ext - f_int)`` with walls, ``u += dt v`` (eq. 60);
+3. ``v += dt M^-1 (f_ext - f_int)`` with walls, ``u += dt v`` (K&T eq. 60);
 4. new strain, ``H = max(H, psi+)``.
 
 The MPM step ``scene.dt()`` (``cfl * h / c_p`` for quadratic B-splines) is
@@ -315,7 +315,7 @@ class FemSimulation:
         Tractions: each cell edge on the loaded side of the rectangle (with
         a ``span``, whose midpoint lies in it: a span that holds none is a
         SceneError) gives ``t * length *
-        thickness / 2`` to both its ends, the consistent P1 load (eq. 17); an
+        thickness / 2`` to both its ends, the consistent P1 load (K&T eq. 17); an
         edge lies on the boundary of one cell only, so every edge counts once
         over all ranks.  Body forces: ``M_I b``.
         """
@@ -483,20 +483,20 @@ class FemSimulation:
             self._step += 1
 
     def _solve_phase_field(self) -> None:
-        """Solve eq. (47) with the current history and update the cell degradation."""
+        """Solve K&T eq. (47) with the current history and update the cell degradation."""
         if self._pf is not None:
             self._pf.solve(self.history, self._step, self.time)
             self._g = self._degradation()
 
     def _degradation(self) -> np.ndarray:
-        """Cell mean of ``g = (1 - k_f) c^2 + k_f`` (eq. 15), exact for P1 ``c``."""
+        """Cell mean of ``g = (1 - k_f) c^2 + k_f`` (K&T eq. 15), exact for P1 ``c``."""
         ce = self.c.x.array[self._dofs]
         mean_sq = (ce.sum(axis=1) ** 2 + (ce * ce).sum(axis=1)) / 12.0
         k_f = self._fracture.k_f
         return (1.0 - k_f) * mean_sq + k_f
 
     def _strain(self) -> np.ndarray:
-        """Cell strains (cells, 3): xx, yy and the tensor xy component (eq. 2)."""
+        """Cell strains (cells, 3): xx, yy and the tensor xy component (K&T eq. 2)."""
         u = self._u.array.reshape(-1, 2)
         ux, uy = np.ascontiguousarray(u[:, 0]), np.ascontiguousarray(u[:, 1])
         eps = np.empty((len(self._dofs), 3))
@@ -506,11 +506,11 @@ class FemSimulation:
         return eps
 
     def stresses(self) -> np.ndarray:
-        """Cell stresses (cells, 4): xx, yy, xy, zz of ``g psi+ + psi-`` (eqs. 14-16)."""
+        """Cell stresses (cells, 4): xx, yy, xy, zz of ``g psi+ + psi-`` (K&T eqs. 14-16)."""
         return self._elastic.stresses(self._eps, self._g)
 
     def _internal_force(self) -> np.ndarray:
-        """Internal force on the owned vertices (owned, 2), eq. (62) over cells."""
+        """Internal force on the owned vertices (owned, 2), K&T eq. (62) over cells."""
         sig = self.stresses() * self._volume[:, None]
         f = np.empty((self._local, 2))
         f[:, 0] = self._dx_t @ sig[:, 0] + self._dy_t @ sig[:, 2]
@@ -518,7 +518,7 @@ class FemSimulation:
         return self._assemble(f)
 
     def _substep(self, t: float, dt: float) -> None:
-        """One explicit step from ``t``: momentum (eq. 60), prescribed regions
+        """One explicit step from ``t``: momentum (K&T eq. 60), prescribed regions
         and walls, position, strain, history."""
         fint = self._internal_force()
         v_old = self._v.copy()
@@ -548,7 +548,7 @@ class FemSimulation:
         self._eps = self._strain()
         if self._pf is not None:
             psi_plus, _ = self._elastic.split_energies(self._eps)
-            np.maximum(self.history, psi_plus[:, None], out=self.history)  # eq. (20)
+            np.maximum(self.history, psi_plus[:, None], out=self.history)  # K&T eq. (20)
 
     # -- diagnostics ----------------------------------------------------------
 
@@ -557,8 +557,8 @@ class FemSimulation:
 
         Sums run over owned vertices and cells and are reduced over the
         communicator, so every rank gets the same values.  ``elastic`` is
-        ``sum V (g psi+ + psi-)`` (eq. 14), ``fracture`` the crack density
-        functional ``G_c int Z dV`` (eqs. 3-4 with no anisotropy, or AT1's
+        ``sum V (g psi+ + psi-)`` (K&T eq. 14), ``fracture`` the crack density
+        functional ``G_c int Z dV`` (K&T eqs. 3-4 with no anisotropy, or AT1's
         density, see :meth:`_fracture_energy`), exact for P1 ``c``.
         """
         psi_plus, psi_minus = self._elastic.split_energies(self._eps)
@@ -597,7 +597,7 @@ class FemSimulation:
         }
 
     def _fracture_energy(self) -> float:
-        """This rank's ``G_c int Z dV`` (eq. 4, gamma = 0), exact for P1 ``c``.
+        """This rank's ``G_c int Z dV`` (K&T eq. 4, gamma = 0), exact for P1 ``c``.
 
         AT2: ``Z = (1 - c)^2 / (4 l0) + l0 |grad c|^2``; AT1:
         ``Z = 3 (1 - c) / (16 l0) + (3/4) l0 |grad c|^2`` (the C++
@@ -631,15 +631,15 @@ class FemSimulation:
         if tip is None:
             raise ValueError("the scene has no initial crack whose tip could be tracked")
         c = self.c.x.array[: self._owned]
-        self.crack_path.update(self.time, c)
+        self.crack_path.update(self.time, c, self._x[: self._owned])
         found = tip.merge(self.comm.allgather(tip.farthest(self._x[: self._owned], c)))
         return tip.record(self.time, found)
 
     def crack_path_points(self) -> tuple[np.ndarray, np.ndarray] | None:
-        """The vertices and the time each cracked (NaN: intact), on rank 0
-        (``None`` on the others); collective."""
-        xy = self.comm.gather(self._x[: self._owned])
-        times = self.comm.gather(self.crack_path.times)
+        """Where each cracked vertex is and when it cracked, on rank 0 (``None``
+        on the others); collective."""
+        _, times, xy = self.crack_path.cracked()
+        xy, times = self.comm.gather(xy), self.comm.gather(times)
         return (np.concatenate(xy), np.concatenate(times)) if self.comm.rank == 0 else None
 
     # -- run with output ------------------------------------------------------
@@ -761,12 +761,12 @@ class _XdmfFrames:
 
 
 class _PhaseFieldSolver:
-    """Eq. (47) without the fourth-order term on P1, solved for ``c`` in place.
+    """K&T Eq. (47) without the fourth-order term on P1, solved for ``c`` in place.
 
-    ``K^c c = F^c`` (eq. 56) with ``K^c = L + M_F`` (eq. 57, cells for
+    ``K^c c = F^c`` (K&T eq. 56) with ``K^c = L + M_F`` (K&T eq. 57, cells for
     particles): ``L_IJ = 4 l0^2 (grad N_J, grad N_I)``,
     ``M_F,IJ = (F N_J, N_I)`` with the reaction ``F`` of :func:`_reaction`
-    at the history points, and ``F^c_I = s (1, N_I)`` (eq. 52) with
+    at the history points, and ``F^c_I = s (1, N_I)`` (K&T eq. 52) with
     ``s = 1`` (AT2) or ``1/2`` (AT1).  ``M_F`` is integrated with the edge
     midpoint rule (``sum_k A/3 F_k N_I(m_k) N_J(m_k)`` over the midpoints
     ``m_k`` of a cell of area ``A``), exact for ``F`` constant per cell;
@@ -937,9 +937,9 @@ class _BelowWarning(logging.Filter):
 
 
 def _reaction(fracture, history: np.ndarray) -> np.ndarray:
-    """Per history point, the coefficient of ``c q`` in eq. (57) (C++ ``Fracture::reaction``).
+    """Per history point, the coefficient of ``c q`` in K&T eq. (57) (C++ ``Fracture::reaction``).
 
-    AT2: ``F = 4 l0 (1 - k_f) H / G_c + 1`` (eq. 49); AT1:
+    AT2: ``F = 4 l0 (1 - k_f) H / G_c + 1`` (K&T eq. 49); AT1:
     ``16 l0 (1 - k_f) H / (3 G_c)``, no constant term.
     """
     fr = fracture

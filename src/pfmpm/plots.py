@@ -102,26 +102,22 @@ def load_displacement(curve: dict, png_path: Path, units: UnitSystem = NO_UNITS)
 
 
 @_closing
-def crack_tip(csv_path: Path, png_path: Path, rayleigh: float, units: UnitSystem = NO_UNITS) -> None:
-    """Crack-tip position and speed against 0.6 v_R and v_R: the tip of the
-    whole crack and, where it branches, the tip of each branch."""
-    e = read_csv(csv_path)
-    fig, (top, middle, bottom) = plt.subplots(3, 1, figsize=(6.5, 8), sharex=True)
-    tracks = [("crack_tip", "farthest tip", "k-")]
-    tracks += [(t, f"{t.split('_')[0]} branch", style) for t, style in (("left_tip", "C0--"), ("right_tip", "C3:"))
-               if f"{t}_x" in e]
-    for track, label, style in tracks:
-        top.plot(e["t"], e[f"{track}_x"], style, label=label)
-        middle.plot(e["t"], e[f"{track}_y"], style, label=label)
-        bottom.plot(e["t"], e[f"{track}_speed"], style, label=label)
+def crack_arms(arms, png_path: Path, rayleigh: float, units: UnitSystem = NO_UNITS) -> None:
+    """Each crack arm's path length from its crack's start and its speed,
+    against 0.6 v_R and v_R (a :class:`pfmpm.post.cracks.Cracks`)."""
+    fig, (top, bottom) = plt.subplots(2, 1, figsize=(6.5, 6), sharex=True)
+    for a, arm in enumerate(arms.arms):
+        label = f"arm {a + 1} (crack {arm.crack + 1})"
+        top.plot(arm.t, arm.length, f"C{a % 10}-", label=label)
+        bottom.plot(arm.t, arm.speed, f"C{a % 10}-", label=label)
     for factor, style in ((1.0, "-."), (0.6, ":")):
         label = "v_R" if factor == 1.0 else f"{factor:g} v_R"
         bottom.axhline(factor * rayleigh, color="0.5", linestyle=style, label=label)
-    top.set_ylabel(units.label("tip x", "length"))
-    middle.set_ylabel(units.label("tip y", "length"))
+    top.set_ylabel(units.label("arm length", "length"))
     bottom.set_ylabel(units.label("tip speed", "speed"))
     bottom.set_xlabel(units.label("time t", "time"))
-    top.legend(fontsize=8)
+    if arms.arms:
+        top.legend(fontsize=8)
     bottom.legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(png_path, dpi=120)
@@ -129,25 +125,24 @@ def crack_tip(csv_path: Path, png_path: Path, rayleigh: float, units: UnitSystem
 
 
 @_closing
-def crack_path(csv_path: Path, xy: np.ndarray, times: np.ndarray, png_path: Path,
+def crack_path(arms, xy: np.ndarray, times: np.ndarray, png_path: Path,
                bounds: tuple[float, float, float, float], units: UnitSystem = NO_UNITS) -> None:
     """The crack path in x-y: the cracked points coloured by the time each
-    cracked, and the track of each crack tip of ``energies.csv``.
+    cracked, and the track of each crack arm's tip.
 
     Parameters
     ----------
-    csv_path : path
-        The run's ``energies.csv`` (with the crack-tip columns).
+    arms : pfmpm.post.cracks.Cracks
     xy : (N, 2) ndarray
-        The points (particles or mesh vertices).
+        Where the points (particles or mesh vertices) cracked.
     times : (N,) ndarray
         When each cracked; NaN for those intact.
     png_path : path
     bounds : (xmin, ymin, xmax, ymax)
         The region drawn (the crackable bodies).
     """
-    e = read_csv(csv_path)
     cracked = np.isfinite(times)
+    end = float(times[cracked].max()) if cracked.any() else 1.0
     x0, y0, x1, y1 = bounds
     width = 7.0
     aspect = (y1 - y0) / (x1 - x0) if x1 > x0 and y1 > y0 else 1.0  # a body can be a point
@@ -155,20 +150,19 @@ def crack_path(csv_path: Path, xy: np.ndarray, times: np.ndarray, png_path: Path
     order = np.argsort(times[cracked], kind="stable")
     if cracked.any():
         dots = ax.scatter(xy[cracked, 0][order], xy[cracked, 1][order], c=times[cracked][order],
-                          s=2, cmap="viridis", linewidths=0, vmin=0.0, vmax=float(e["t"][-1]))
+                          s=2, cmap="viridis", linewidths=0, vmin=0.0, vmax=end)
         fig.colorbar(dots, ax=ax, label=units.label("time cracked", "time"))
-    for track, label, style in (("left_tip", "left branch tip", "C3-"), ("right_tip", "right branch tip", "C1-"),
-                                ("crack_tip", "farthest tip", "k:")):
-        if f"{track}_x" in e:
-            ax.plot(e[f"{track}_x"], e[f"{track}_y"], style, lw=1.2, label=label)
+    for a, arm in enumerate(arms.arms):
+        ax.plot(arm.x, arm.y, f"C{a % 10}-", lw=1.2, label=f"arm {a + 1} (crack {arm.crack + 1})")
     if x1 > x0 and y1 > y0:  # else matplotlib's own limits (a body can be a point)
         ax.set_xlim(x0, x1)
         ax.set_ylim(y0, y1)
     ax.set_aspect("equal")
     ax.set_xlabel(units.label("x", "length"))
     ax.set_ylabel(units.label("y", "length"))
-    ax.set_title("crack path: cracked points by time, and the tips", fontsize=10)
-    ax.legend(fontsize=7, loc="lower left")
+    ax.set_title("crack path: cracked points by time, and each arm's tip", fontsize=10)
+    if arms.arms:
+        ax.legend(fontsize=7, loc="lower left")
     fig.tight_layout()
     fig.savefig(png_path, dpi=150)
     plt.close(fig)

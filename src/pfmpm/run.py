@@ -42,8 +42,9 @@ from pathlib import Path
 import numpy as np
 
 from . import _core, run_folder
-from .output import CsvLog
-from .post.tip import CrackTip
+from .output import CsvLog, read_csv
+from .post.cracks import scene_cracks
+from .post.tip import CRACK_PATH, CrackTip, write_crack_path
 from .scene import Scene
 
 __all__ = ["ENERGY_COLUMNS", "SIDES", "wall_columns", "region_columns", "CRACK_COLUMNS", "RunResult", "Figures", "Snapshots",
@@ -143,8 +144,10 @@ def run_to_end(sim, out_dir: Path | str, progress: bool = True, checkpoint_every
     ``output.energies_every`` steps, the field series (:meth:`open_frames`)
     every ``output.every`` steps (and at the start and the end),
     ``summary.json`` again at the end, and, once the run completes,
-    ``energies.png``, ``crack_tip.png`` and ``crack_path.png`` (with an
-    initial crack) and ``phase_field.png`` (with ``output.snapshots``).
+    ``energies.png``, with an initial crack ``crack_path.csv`` (where and
+    when each point cracked), ``crack_tip.png`` (each crack arm's length and
+    speed, :mod:`pfmpm.post.cracks`) and ``crack_path.png``, and
+    ``phase_field.png`` (with ``output.snapshots``).
 
     Parameters
     ----------
@@ -280,6 +283,8 @@ def run_to_end(sim, out_dir: Path | str, progress: bool = True, checkpoint_every
                                                         **fields})
     completed = result.status == "completed"
     path = sim.crack_path_points() if completed and sim.crack_tip is not None else None
+    if path is not None and root:
+        write_crack_path(out / CRACK_PATH, *path)
     result.figures = Figures(out, sim.scene, completed and root, path, snapshots)
     if draw:
         result.figures.draw()
@@ -312,9 +317,9 @@ class Figures:
         if self.completed:
             plots.energies(out / "energies.csv", out / "energies.png", units)
         if self.completed and self.crack_path is not None:
-            plots.crack_tip(out / "energies.csv", out / "crack_tip.png", scene.crack_rayleigh_speed(), units)
-            plots.crack_path(out / "energies.csv", *self.crack_path, out / "crack_path.png",
-                             _crackable_bounds(scene), units)
+            arms = scene_cracks(scene, *self.crack_path, read_csv(out / "energies.csv")["t"])
+            plots.crack_arms(arms, out / "crack_tip.png", scene.crack_rayleigh_speed(), units)
+            plots.crack_path(arms, *self.crack_path, out / "crack_path.png", _crackable_bounds(scene), units)
         if self.snapshots is not None and self.snapshots.images:
             plots.phase_field(self.snapshots, out / "phase_field.png", _polar_overlay(scene), units)
 

@@ -33,10 +33,12 @@ SCENE_FILE = "scene.toml"
 """The run's scene in its output folder."""
 SUMMARY = "summary.json"
 CHECKPOINTS = "checkpoints"
-RUN_FILES = (SCENE_FILE, SUMMARY, "energies.csv", "particles.pvd", "particles_*.vtu", "fields.xdmf",
-             "fields.h5", "*.png", "*.gif", "*.mp4", "*.tmp", CHECKPOINTS)
+RUN_FILES = (SCENE_FILE, SUMMARY, "energies.csv", "crack_path.csv", "particles.pvd", "particles_*.vtu",
+             "fields.xdmf", "fields.h5", "*.png", "*.gif", "*.mp4", "*.tmp", CHECKPOINTS,
+             "forces.csv", "load_displacement.csv", "crack_arms.csv")
 """What a run writes into its folder (``pfmpm run`` and ``fem``; ``pfmpm
-animate`` adds a GIF or MP4), as glob patterns; ``checkpoints`` is a folder.
+animate`` adds a GIF or MP4, ``pfmpm post`` its CSVs and plots), as glob
+patterns; ``checkpoints`` is a folder.
 Overwriting a run deletes these and leaves everything else; ``scene.toml``
 only if a run wrote it (:data:`_HEADER`), not a scene file of the user's."""
 _MARKS = (SUMMARY, "energies.csv", "particles.pvd", "fields.xdmf", CHECKPOINTS)

@@ -320,28 +320,30 @@ class Simulation:
     def crack_tip_record(self) -> dict[str, float]:
         """Record the crack tips now (the :data:`~pfmpm.run.CRACK_COLUMNS`) and
         which particles have cracked."""
-        c = self._of_crackable(self.particles.c)
-        self.crack_path.update(self.time, c)
-        return self.crack_tip.update(self.time, self._of_crackable(self.particles.x), c)
+        c, xy = self._of_crackable(self.particles.c), self._of_crackable(self.particles.x)
+        self.crack_path.update(self.time, c, xy)
+        return self.crack_tip.update(self.time, xy, c)
 
     def _of_crackable(self, column: np.ndarray) -> np.ndarray:
         """A particle column's rows of the crackable particles: the column itself
         (a view, no copy) when every particle is crackable."""
         return column if self._all_crackable else column[self._crackable]
 
-    def restore_crack_path(self, times) -> None:
-        """Continue the crack path of a checkpoint: its crack times, or, from a
-        file that has none, the checkpoint's time for the particles cracked by then."""
+    def restore_crack_path(self, times, positions) -> None:
+        """Continue the crack path of a checkpoint: its crack times and
+        positions; from a file without positions, the particles' positions
+        now; from one without times, the checkpoint's time and positions for
+        the particles cracked by then."""
+        xy = self._of_crackable(self.particles.x)
         if times is not None:
-            self.crack_path.restore(times)
+            self.crack_path.restore(times, xy if positions is None else positions)
         else:
-            self.crack_path.update(self.time, self._of_crackable(self.particles.c))
+            self.crack_path.update(self.time, self._of_crackable(self.particles.c), xy)
 
     def crack_path_points(self) -> tuple[np.ndarray, np.ndarray]:
-        """The cracked particles' positions now and the time each cracked, in
-        the order of the particles."""
-        index, times = self.crack_path.cracked()
-        return self._of_crackable(self.particles.x)[index], times
+        """Where each cracked particle cracked and when, in the order of the particles."""
+        _, times, xy = self.crack_path.cracked()
+        return xy, times
 
     @cached_property
     def setup(self) -> SetupReport:
@@ -480,7 +482,7 @@ class Simulation:
         }
         if self.damage_gradient:
             # Homel & Herbold 2017: nodes where a group's two fields meet, the
-            # separable ones (eq. 21), the neighbour lists and the cost per block.
+            # separable ones (H&H eq. 21), the neighbour lists and the cost per block.
             part = self.solver.damage_partition()
             record.update({
                 "split_nodes_last_step": stats["split"],

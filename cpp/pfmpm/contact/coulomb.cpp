@@ -21,7 +21,7 @@ double dot(const double* a, const double* b) { return a[0] * b[0] + a[1] * b[1];
 struct PairFrame
 {
   int i, j;
-  double ni[2], nj[2], ti[2], tj[2]; ///< normals and tangents of each side (eq. 71)
+  double ni[2], nj[2], ti[2], tj[2]; ///< normals and tangents of each side (K&T eq. 71)
   double reduced;                    ///< reduced mass M_i M_j / (M_i + M_j)
   double mu;                         ///< friction coefficient
   double scale;                      ///< velocity scale of the round-off tolerance
@@ -30,15 +30,15 @@ struct PairFrame
 /// The contact force on one side of a pair.
 struct SideForce
 {
-  double fn, ft; ///< normal force (eqs. 69, 72) and friction (eq. 75)
-  double fts;    ///< the stick force (eq. 74)
+  double fn, ft; ///< normal force (K&T eqs. 69, 72) and friction (K&T eq. 75)
+  double fts;    ///< the stick force (K&T eq. 74)
 };
 
 /// @brief The pair law on the velocities vi, vj of the pair's fields: the
 /// normal force that stops their relative normal velocity, with the
-/// non-tension cut (eqs. 69, 72), and the stick force (eq. 74) capped by
-/// Coulomb (eq. 75), on each side. With eq. 66, M_i (u_cm - u_i) =
-/// M_i M_j / (M_i + M_j) (u_j - u_i): eqs. 69 and 74 are evaluated in that
+/// non-tension cut (K&T eqs. 69, 72), and the stick force (K&T eq. 74) capped by
+/// Coulomb (K&T eq. 75), on each side. With K&T eq. 66, M_i (u_cm - u_i) =
+/// M_i M_j / (M_i + M_j) (u_j - u_i): K&T eqs. 69 and 74 are evaluated in that
 /// form, which has no cancellation when one field's mass at the node is tiny.
 void pair_law(const PairFrame& c, const double* vi, const double* vj, double dt, SideForce& si,
               SideForce& sj)
@@ -65,9 +65,9 @@ void pair_checks(const ContactPair& c, const double (*vn)[2], double tol, bool& 
 {
   const double g[2] = {vn[c.i][0] - vn[c.j][0], vn[c.i][1] - vn[c.j][1]};
   const double gn = dot(g, c.n), gs = dot(g, c.s), vtol = tol * c.scale;
-  // eqs. 22c-22e: no tension, no approach, and no gap rate where a force acts.
+  // K&T eqs. 22c-22e: no tension, no approach, and no gap rate where a force acts.
   c3 = c.fn > 0.0 || gn > vtol || (c.fn < 0.0 && std::abs(gn) > vtol);
-  // eqs. 23c-23e: stick has no slip; slip has friction at the cap, against the slip.
+  // K&T eqs. 23c-23e: stick has no slip; slip has friction at the cap, against the slip.
   const bool stick = std::abs(c.fts) <= c.mu * std::abs(c.fn);
   const double cap = c.mu * std::abs(c.fn);
   c4 = stick ? std::abs(gs) > vtol
@@ -102,8 +102,8 @@ int coulomb_forces(int n, const TrialField* f, const bool* live, const std::int3
       // (docs/contact.md, "Touching").
       if (si.V + sj.V < touch_volume)
         continue;
-      // Outward normals from the mass gradients (eq. 70), made collinear as
-      // in eq. 71 but from the gradients before they are normalised:
+      // Outward normals from the mass gradients (K&T eq. 70), made collinear as
+      // in K&T eq. 71 but from the gradients before they are normalised:
       // n_i = (g_i - g_j) / |g_i - g_j|. Each field's surface then counts by
       // its mass gradient, so where one field has little mass at the node (a
       // block's corner over the ground) the other's surface sets the normal;
@@ -130,7 +130,7 @@ int coulomb_forces(int n, const TrialField* f, const bool* live, const std::int3
       if (std::hypot(c.ni[0] + c.nj[0], c.ni[1] + c.nj[1]) > check_tol
           || std::hypot(c.ti[0] + c.tj[0], c.ti[1] + c.tj[1]) > check_tol)
         count[count_c1] += 1.0;
-      // Centre-of-mass velocity of the pair (eq. 66), for the tolerance's scale.
+      // Centre-of-mass velocity of the pair (K&T eq. 66), for the tolerance's scale.
       const double m = si.m + sj.m;
       const double vcm[2] = {(si.pt[0] + sj.pt[0]) / m, (si.pt[1] + sj.pt[1]) / m};
       c.reduced = si.m * sj.m / m;
@@ -143,7 +143,7 @@ int coulomb_forces(int n, const TrialField* f, const bool* live, const std::int3
   if (np == 1)
   {
     // One pair: K&T's algorithm, from the trial velocities. Where it does
-    // not approach (eq. 77), there is no contact force at all.
+    // not approach (K&T eq. 77), there is no contact force at all.
     const PairFrame& c = frame[0];
     const double ri[2] = {f[c.j].vt[0] - f[c.i].vt[0], f[c.j].vt[1] - f[c.i].vt[1]};
     if (!(-dot(ri, c.ni) > 0.0))
@@ -195,7 +195,7 @@ int coulomb_forces(int n, const TrialField* f, const bool* live, const std::int3
         break;
     }
   }
-  // The forces (eq. 76) of the pairs that push, and their record.
+  // The forces (K&T eq. 76) of the pairs that push, and their record.
   for (int q = 0; q < np; ++q)
   {
     const PairFrame& c = frame[q];
@@ -209,7 +209,7 @@ int coulomb_forces(int n, const TrialField* f, const bool* live, const std::int3
     count[count_active] += 1.0;
     if (c.mu * std::abs(si.fn) < std::abs(si.fts))
       count[count_sliding] += 1.0;
-    // eq. 76 on both sides; C.2: equal and opposite.
+    // K&T eq. 76 on both sides; C.2: equal and opposite.
     double Fi[2], Fj[2];
     force_of(si, c.ni, c.ti, Fi);
     force_of(sj, c.nj, c.tj, Fj);

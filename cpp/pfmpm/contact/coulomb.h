@@ -1,6 +1,6 @@
 /// @file coulomb.h
 /// @brief Coulomb frictional contact between the velocity fields at a grid
-/// node (Kakouris & Triantafyllou 2019, sections 4.3.1-4.3.2, eqs. 66-77) and
+/// node (Kakouris & Triantafyllou 2019, eqs. 66-77 of sections 4.3.1-4.3.2) and
 /// the checks C.1-C.4 of Algorithm 1.
 #pragma once
 
@@ -15,16 +15,16 @@ struct ContactStats
 {
   std::int32_t nodes = 0;      ///< contact nodes in the last step (Remark 4)
   std::int64_t pairs = 0;      ///< (node, pair of fields) examined, all steps
-  std::int64_t active = 0;     ///< of them, approaching (eq. 77): a force acted
-  std::int64_t sliding = 0;    ///< of the active ones, friction at the Coulomb cap (eq. 75)
-  /// Violations of C.1 (normals and tangents collinear, eqs. 22a/23a), C.2
-  /// (forces equal and opposite, eqs. 22b/23b), C.3 (no approach after the
-  /// correction and non-tension, eqs. 22c-22e), C.4 (stick: no slip; slip:
-  /// friction at the cap against the slip, eqs. 23c-23e).
+  std::int64_t active = 0;     ///< of them, approaching (K&T eq. 77): a force acted
+  std::int64_t sliding = 0;    ///< of the active ones, friction at the Coulomb cap (K&T eq. 75)
+  /// Violations of C.1 (normals and tangents collinear, K&T eqs. 22a/23a), C.2
+  /// (forces equal and opposite, K&T eqs. 22b/23b), C.3 (no approach after the
+  /// correction and non-tension, K&T eqs. 22c-22e), C.4 (stick: no slip; slip:
+  /// friction at the cap against the slip, K&T eqs. 23c-23e).
   std::array<std::int64_t, 4> violations{};
   double friction_work = 0.0; ///< work of the tangential (friction) contact forces since t = 0 (<= 0)
   /// With damage-gradient fields (H&H): nodes where a group has both sides,
-  /// and of them the separable ones (eq. 21), in the last step; and the
+  /// and of them the separable ones (H&H eq. 21), in the last step; and the
   /// separable (node, group)s summed over all steps.
   std::int32_t split = 0;
   std::int32_t separable = 0;
@@ -34,10 +34,10 @@ struct ContactStats
 /// A field at a contact node after its trial update, as the contact law sees it.
 struct TrialField
 {
-  double m;     ///< mass at the node (eq. 46)
-  double pt[2]; ///< trial momentum p + dt (F^ext - F^int) (eq. 63)
-  double vt[2]; ///< trial velocity (eq. 64)
-  double g[2];  ///< mass gradient (eq. 70)
+  double m;     ///< mass at the node (K&T eq. 46)
+  double pt[2]; ///< trial momentum p + dt (F^ext - F^int) (K&T eq. 63)
+  double vt[2]; ///< trial velocity (K&T eq. 64)
+  double g[2];  ///< mass gradient (K&T eq. 70)
   double V;     ///< volume sum_p N_I V_p
 };
 
@@ -46,8 +46,8 @@ struct ContactPair
 {
   int i, j;
   double n[2], s[2]; ///< normal and tangent of field i
-  double fn, ft;     ///< normal force (eq. 72) and friction (eq. 75) on field i
-  double fts;        ///< the stick force (eq. 74) on field i
+  double fn, ft;     ///< normal force (K&T eq. 72) and friction (K&T eq. 75) on field i
+  double fts;        ///< the stick force (K&T eq. 74) on field i
   double mu;         ///< friction coefficient
   double scale;      ///< velocity scale of the round-off tolerance
 };
@@ -67,12 +67,12 @@ enum ContactCount : int
   contact_counts
 };
 
-/// @brief Contact forces among the n fields at one node (eqs. 66-77).
+/// @brief Contact forces among the n fields at one node (K&T eqs. 66-77).
 ///
-/// Fields meet in pairs (eq. 66 with the pair's centre of mass). A pair can
+/// Fields meet in pairs (K&T eq. 66 with the pair's centre of mass). A pair can
 /// act only where the two touch (their volumes at the node add up to at
 /// least `touch_volume`) and have a normal. With one such pair this is the
-/// paper's algorithm: a force where the pair approaches (eq. 77). With two
+/// paper's algorithm: a force where the pair approaches (K&T eq. 77). With two
 /// or more (three or more fields), projected Gauss-Seidel sweeps over the
 /// pairs: each pair's force is the pair law applied to the velocities the
 /// other pairs' forces leave, until no pair approaches, none pulls, none
@@ -98,7 +98,7 @@ void check_contact(int active, const ContactPair* pairs, const double (*vn)[2], 
 /// to at least a fraction of the node's volume (the integral of N_I), by
 /// default this one (`contact.touch_fill` of a scene); bodies with a gap
 /// between them fill less. Without this check (a fraction of 0: the
-/// paper's contact) the approach condition (eq. 77) alone acts between
+/// paper's contact) the approach condition (K&T eq. 77) alone acts between
 /// bodies up to three cells apart. Of 0.9, 0.95 and 0.97, 0.9 is the largest
 /// that kept colliding disks apart by half a particle spacing
 /// (docs/contact.md, "Touching").

@@ -183,7 +183,7 @@ std::vector<double> DamageFields::detect_surfaces(Particles& particles, const Ce
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t p = 0; p < n; ++p)
   {
-    // Eq. 19 over p's own body and its mirror images in the walls (a face
+    // H&H eq. 19 over p's own body and its mirror images in the walls (a face
     // on a wall, such as a symmetry plane, is no surface).
     const double* xp = &x[2 * p];
     double S = 1.0;
@@ -400,7 +400,7 @@ void DamageFields::open_nodes(const Particles& particles, const CellSort& sort)
   const std::uint8_t* softening = _softening.data();
   const Column* r1 = particles.find("domain_r1");
   const Column* r2 = particles.find("domain_r2");
-  // The sums of eq. 21 over A and B together, with the terms P2G adds into
+  // The sums of H&H eq. 21 over A and B together, with the terms P2G adds into
   // its md and full, cell by cell; strips of one parity share no node.
   list_cells(_near, _near_cells);
   for_each_listed_cell(

@@ -34,9 +34,9 @@ struct DamageGradientOptions
 {
   /// Contact group of each body (Particles::body); empty: every body its own group.
   std::vector<std::int32_t> groups;
-  /// D-bar_min of the separability test (eq. 21): both fields' mean damage must exceed it.
+  /// D-bar_min of the separability test (H&H eq. 21): both fields' mean damage must exceed it.
   double separability = 0.25;
-  /// Kernel radius r_p of eqs. 17-19; 0: the cell diagonal (the paper's choice).
+  /// Kernel radius r_p of H&H eqs. 17-19; 0: the cell diagonal (the paper's choice).
   double kernel_radius = 0.0;
   /// Verlet skin delta over r_p: neighbours are listed within r_p + 2 delta
   /// and rebuilt once two particles may have closed the gap between them by
@@ -46,18 +46,18 @@ struct DamageGradientOptions
   double full_damage = 1.0 - 1e-4;
   /// A phase-field particle is fully damaged at c <= this.
   double phase_field_threshold = 0.05;
-  /// A group's fields may part at a node only where, besides eq. 21, no
+  /// A group's fields may part at a node only where, besides H&H eq. 21, no
   /// particle of a damage model that maps there is still softening (its D
   /// grew in the last step, the column `softening`): the faces part once
   /// their band has stopped softening (docs/contact.md, "Parting"). False:
-  /// eq. 21 alone, as the paper.
+  /// H&H eq. 21 alone, as the paper.
   bool part_when_softened = true;
 };
 
-/// The normalised kernel damage field at every particle (eqs. 17-19).
+/// The normalised kernel damage field at every particle (H&H eqs. 17-19).
 struct KernelField
 {
-  std::vector<double> S;    ///< kernel sum (eq. 19)
+  std::vector<double> S;    ///< kernel sum (H&H eq. 19)
   std::vector<double> D;    ///< D-bar
   std::vector<double> grad; ///< grad D-bar, N x 2
 };
@@ -73,20 +73,20 @@ struct DamageTimers
 {
   double damage = 0.0;     ///< the particle damage, the cells near full damage, the open nodes
   double neighbours = 0.0; ///< staleness check and rebuilds of the neighbour list
-  double gradient = 0.0;   ///< the kernel field and its gradient (eqs. 17-19)
+  double gradient = 0.0;   ///< the kernel field and its gradient (H&H eqs. 17-19)
   double partition = 0.0;  ///< Algorithm 1, Algorithm 2 and the slot layout
 };
 
 /// @brief Two velocity fields per contact group, split at every node by the
 /// damage-field gradient (H&H Algorithms 1 and 2), coupled by frictional
-/// contact where they are separable (eq. 21, Algorithm 3).
+/// contact where they are separable (H&H eq. 21, Algorithm 3).
 ///
 /// build() computes, every step:
 /// - the particle damage D~_p = max(s_p, D_p) with the surface flag s_p
 ///   (section 2.4) and whether the particle is fully damaged;
 /// - the open nodes, where the fields may separate (below);
 /// - at the particles whose stencil reaches an open node, the normalised
-///   kernel field and its gradient grad D_p (eqs. 17-19, `damage_gradient`),
+///   kernel field and its gradient grad D_p (H&H eqs. 17-19, `damage_gradient`),
 ///   neighbours from the Verlet list;
 /// - per open node and group, the nodal gradient G_i: the particle gradient of
 ///   largest magnitude among the group's particles mapping to the node
@@ -107,7 +107,7 @@ struct DamageTimers
 ///   chose it) B. Field index 2 group + side.
 ///
 /// Exact shortcut: a group's fields at a node are separable only if a fully
-/// damaged particle of the group maps to it (eq. 21, condition i) and the
+/// damaged particle of the group maps to it (H&H eq. 21, condition i) and the
 /// mass-weighted mean damage of both sides exceeds D-bar_min (condition
 /// ii), which needs that of the two together to exceed it (a mean of the
 /// two means); a non-separable node acts as one field (Algorithm 3). So
@@ -150,7 +150,7 @@ public:
   void build(Particles& particles, const CellSort& sort);
 
   /// @brief Surface flags at t = 0 (H&H section 2.4): s_p = 1 where the kernel
-  /// sum of eq. 19 over the particles of p's own body is below `threshold`
+  /// sum of H&H eq. 19 over the particles of p's own body is below `threshold`
   /// times that of the body's lattice interior, S_bulk (reading of card
   /// section 9; per body, so that bodies that start in contact get their
   /// interface painted). The grid's walls are mirror planes: the sum adds
@@ -161,7 +161,7 @@ public:
   std::vector<double> detect_surfaces(Particles& particles, const CellSort& sort,
                                       const std::vector<double>& spacing, double threshold);
 
-  /// Kernel sum at the interior of a square lattice of `spacing` (eq. 19).
+  /// Kernel sum at the interior of a square lattice of `spacing` (H&H eq. 19).
   static double lattice_kernel_sum(double spacing, double radius);
 
   // -- what the transfers read ---------------------------------------------

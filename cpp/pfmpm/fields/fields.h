@@ -4,7 +4,7 @@
 ///
 /// Every P2G sum and every G2P read goes to a slot. With one velocity field
 /// (SingleField) a node has one slot and every particle maps to it. With
-/// discrete fields (BodyFields, K&T section 3.1.1, eq. 28) every body is its
+/// discrete fields (BodyFields, K&T eq. 28 of section 3.1.1) every body is its
 /// own field: a node has one slot per body in its support, and a particle maps
 /// to its body's slot; nodes with two or more are contact nodes (Remark 4),
 /// where the contact law couples the slots. A partition that chooses the slot
@@ -27,22 +27,22 @@ namespace pfmpm
 /// P2G sums of one slot.
 struct NodeSums
 {
-  double m, px, py; ///< mass (K&T eq. 46) and momentum (eq. 61)
-  double fx, fy;    ///< net force F^ext - F^int (eqs. 42, 62)
+  double m, px, py; ///< mass (K&T eq. 46) and momentum (K&T eq. 61)
+  double fx, fy;    ///< net force F^ext - F^int (K&T eqs. 42, 62)
   double ex, ey;    ///< external force alone, for the work it does
 };
 
 /// Surface sums of one slot at a contact node.
 struct SurfaceSums
 {
-  double gx, gy; ///< mass gradient sum_p grad N_I M_p (eq. 70, before normalisation)
+  double gx, gy; ///< mass gradient sum_p grad N_I M_p (K&T eq. 70, before normalisation)
   double V;      ///< volume sum_p N_I V_p (the touch check, docs/contact.md)
   /// With damage fields only: sum_p N_I M_p D_p, the numerator of the mean
   /// damage (H&H eq. 21), and whether a fully damaged particle maps here (1 or 0).
   double md, full;
 };
 
-/// Velocity and acceleration of one slot after the grid update (eqs. 63-65).
+/// Velocity and acceleration of one slot after the grid update (K&T eqs. 63-65).
 struct NodeKinematics
 {
   double vx, vy, ax, ay;
@@ -76,7 +76,7 @@ struct SingleField
   static constexpr bool per_pair = false;
 };
 
-/// @brief Every body its own velocity field on the shared grid (eq. 28),
+/// @brief Every body its own velocity field on the shared grid (K&T eq. 28),
 /// coupled by frictional contact where two meet.
 ///
 /// build() tags each occupied cell with the bodies of its particles and gives

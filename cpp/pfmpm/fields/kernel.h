@@ -1,5 +1,5 @@
 /// @file kernel.h
-/// @brief The kernel damage field of Homel & Herbold (2017), eqs. 17-19: a
+/// @brief The kernel damage field of Homel & Herbold 2017, eqs. 17-19: a
 /// cubic kernel summed over a particle's neighbours, normalised by the kernel
 /// sum, and its gradient at the particle.
 #pragma once
@@ -12,24 +12,24 @@
 namespace pfmpm
 {
 
-/// @brief The cubic kernel of eq. 18, omega(r) = 1 - 3 r^2 + 2 r^3 for
+/// @brief The cubic kernel of H&H eq. 18, omega(r) = 1 - 3 r^2 + 2 r^3 for
 /// 0 <= r <= 1 and 0 beyond, with r the distance over the kernel radius.
 inline double kernel_weight(double r) { return r < 1.0 ? 1.0 - r * r * (3.0 - 2.0 * r) : 0.0; }
 
 /// @brief The normalised damage field at one particle and its gradient.
 struct KernelValue
 {
-  double S;        ///< kernel sum (eq. 19), >= 1 (the particle's own term)
-  double D;        ///< normalised damage D-bar = D / S (eqs. 17, 19)
+  double S;        ///< kernel sum (H&H eq. 19), >= 1 (the particle's own term)
+  double D;        ///< normalised damage D-bar = D / S (H&H eqs. 17, 19)
   double grad[2];  ///< gradient of D-bar at the particle
 };
 
-/// @brief The normalised kernel damage field (eqs. 17-19) and its gradient
+/// @brief The normalised kernel damage field (H&H eqs. 17-19) and its gradient
 /// at particle p, from the neighbours `q[0, n)` (any superset of those within
 /// `radius`, sorted by index so that the sums have an order fixed by the
 /// positions alone).
 ///
-/// With d_q = D_q - D_p, eq. 17 over eq. 19 is D-bar = D_p + sum_q d_q w_q / S
+/// With d_q = D_q - D_p, the ratio of H&H eqs. 17 and 19 is D-bar = D_p + sum_q d_q w_q / S
 /// and its gradient (S sum_q d_q grad w_q - sum_q d_q w_q grad S) / S^2, where
 /// grad w_q = 6 (r - 1)(x_p - x_q) / radius^2 is the kernel's gradient in x_p
 /// and the particle's own term adds 1 to S and nothing to the gradients. Sums

@@ -100,7 +100,7 @@ private:
 
 namespace moments
 {
-/// @brief One term of K_ij (eq. 57): the x derivatives of N_i and N_j, their
+/// @brief One term of K_ij (K&T eq. 57): the x derivatives of N_i and N_j, their
 /// y derivatives, and the particle weight (CellMoments' moment array) it
 /// carries.
 struct Term
@@ -108,7 +108,7 @@ struct Term
   int xi, xj, yi, yj, weight;
 };
 
-/// Weights: reaction(H) V (eq. 49), diffusion V, and with the fourth-order
+/// Weights: reaction(H) V (K&T eq. 49), diffusion V, and with the fourth-order
 /// term 4 l0^4 V gamma_rs for the pairs (xx, xx), (yy, yy), (xy, xy), (xx, yy),
 /// (xx, xy), (yy, xy) of the curvature kappa = (N_,xx, N_,yy, N_,xy).
 inline constexpr int reaction = 0, diffusion = 1;
@@ -117,7 +117,7 @@ inline constexpr int reaction = 0, diffusion = 1;
 inline constexpr std::array<Term, 3> second_order{
     {{0, 0, 0, 0, reaction}, {0, 0, 1, 1, diffusion}, {1, 1, 0, 0, diffusion}}};
 
-/// @brief With the fourth-order term e kappa_i^T gamma kappa_j (eq. 57)
+/// @brief With the fourth-order term e kappa_i^T gamma kappa_j (K&T eq. 57)
 /// written out: kappa component s of N_i against component r of N_j carries
 /// gamma_rs (gamma symmetric), with xx = (2, 0), yy = (0, 2) and xy = (1, 1)
 /// derivatives in (x, y). Grouped by the x derivatives.
@@ -172,7 +172,7 @@ struct CellMoments
   double source[W][W] = {};                              ///< sum_p s_p xi^m eta^n, m, n <= P
 
   /// Add a particle at `s` with weights `w` (in the order of moments'
-  /// weights) and F's coefficient `src` (eq. 52).
+  /// weights) and F's coefficient `src` (K&T eq. 52).
   void add(const CellPowers<P>& s, const double (&w)[weights], double src)
   {
     moments::unrolled(
@@ -196,7 +196,7 @@ struct CellMoments
     }
   }
 
-  /// @brief The cell's K_ij (eq. 57) for i = (a, b), j = (a', b') with
+  /// @brief The cell's K_ij (K&T eq. 57) for i = (a, b), j = (a', b') with
   /// a' >= a (all that the upper-half stencil stores) as
   /// block[a W + a'][b W + b'], from the x and y tables of its cell
   /// (CellProducts::products): per term, U_m = sum_n Y_n M_mn along y, then
@@ -254,7 +254,7 @@ struct CellMoments
         std::make_index_sequence<term_count>{});
   }
 
-  /// @brief The cell's F_i (eq. 52) for i = (a, b) as f[a W + b], from the
+  /// @brief The cell's F_i (K&T eq. 52) for i = (a, b) as f[a W + b], from the
   /// value tables of its cell (CellProducts::values).
   void rhs(const double* x, const double* y, double (&f)[W * W]) const
   {

@@ -268,7 +268,7 @@ void add_row(double* at, double w, const double* rows, std::size_t i,
 /// The Galerkin operator K_2h = P^T K_h P (P = R_x (x) R_y restricted to the
 /// coupled fine nodes), row by row: for coarse J, u = K_h P e_J on the fine
 /// nodes within p of P e_J's support, then K_2h(J, L) = (P e_L) . u for the
-/// upper half of J's stencil. With nested spaces this is eq. 57 assembled from
+/// upper half of J's stencil. With nested spaces this is K&T eq. 57 assembled from
 /// the same particles with the coarse basis. Each coarse row is written by one
 /// thread, its terms summed in a fixed order.
 template <int P>
@@ -493,7 +493,7 @@ double tensor_gather(const double* wx, int nx, int x0, const double* wy, int ny,
 }
 } // namespace
 
-/// The V-cycle on level l for b_l (eq. 50's residual restricted to it), from
+/// The V-cycle on level l for b_l (K&T eq. 50's residual restricted to it), from
 /// x_l = 0:
 ///  - a forward Gauss-Seidel sweep, x_i = (b_i - sum_{j before i} K_ij x_j) / K_ii
 ///    (the nodes after i are still zero), after which the residual is

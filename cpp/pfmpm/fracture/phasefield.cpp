@@ -1,6 +1,6 @@
 /// @file phasefield.cpp
 /// @brief Phase-field assembly (K&T eqs. 49, 52, 56-57), preconditioned CG
-/// and map-back to the particles (eqs. 53-55, 4).
+/// and map-back to the particles (K&T eqs. 53-55, 4).
 #include "pfmpm/fracture/phasefield.h"
 #include "pfmpm/common/reduce.h"
 #include "pfmpm/fracture/moments.h"
@@ -25,7 +25,7 @@ namespace
 std::string text(double v) { return std::to_string(v); }
 
 /// kappa^T G kappa for a symmetric Voigt G and kappa = (xx, yy, xy); times
-/// l0^3, the fourth-order part of eq. 4. (Scalars, not an array: the
+/// l0^3, the fourth-order part of K&T eq. 4. (Scalars, not an array: the
 /// interpolation has just written them one by one, and reading them back as
 /// a vector would wait for the stores.)
 double curvature_energy(const Voigt& G, double kxx, double kyy, double kxy)
@@ -322,7 +322,7 @@ void PhaseField::assemble(const Particles& particles, const CellSort& sort)
     _stencil[k] = 0.0;
 
   // Per cell, the moments of its particles in sorted order (moments.h), and
-  // from them its K x K block of eq. 57 and K entries of eq. 52, added to the
+  // from them its K x K block of K&T eq. 57 and K entries of K&T eq. 52, added to the
   // stencil rows.
   const CellProducts& along_x = _products[0];
   const CellProducts& along_y = _products[1];
@@ -339,11 +339,12 @@ void PhaseField::assemble(const Particles& particles, const CellSort& sort)
               const Fracture& fr = *fracture(material[p]);
               const double V = volume[p];
               double w[Moments::weights];
-              w[moments::reaction] = fr.reaction(history[p]) * V; // eq. 49 (AT1: Fracture::reaction)
+              // K&T eq. 49 (AT1: Fracture::reaction)
+              w[moments::reaction] = fr.reaction(history[p]) * V;
               w[moments::diffusion] = fr.diffusion() * V;
               if constexpr (Fourth)
               {
-                // kappa_i^T gamma kappa_j (eq. 57), gamma turned to the particle
+                // kappa_i^T gamma kappa_j (K&T eq. 57), gamma turned to the particle
                 // (symmetric: one weight per pair of components).
                 const Voigt& G = (*mine)(fr, phi[p]);
                 const double e = 4.0 * fr.l0 * fr.l0 * fr.l0 * fr.l0 * V;
@@ -471,7 +472,7 @@ void PhaseField::ssor_iterations(double stop, double& start, double& residual, i
     }
   };
 
-  // r = F - K c on the free nodes (eq. 50), 0 on the held ones, as are
+  // r = F - K c on the free nodes (K&T eq. 50), 0 on the held ones, as are
   // t, w, v, g and q, so that every update below leaves them 0.
   residual = std::sqrt(deterministic_sum<1>(na,
                                             [&](std::size_t a, std::array<double, 1>& acc)
@@ -663,7 +664,7 @@ double PhaseField::warm_start(std::size_t i)
   return guess;
 }
 
-/// Preconditioned conjugate gradients for K c = F (eq. 50), from the warm
+/// Preconditioned conjugate gradients for K c = F (K&T eq. 50), from the warm
 /// start until ||F - K c|| <= tol ||F||, with the preconditioner of
 /// set_preconditioner(). (The second-order model with the bound, its
 /// default, is solved by bounded_solve, whose passes run the same Jacobi or
@@ -704,7 +705,7 @@ bool PhaseField::conjugate_gradient()
   int it = 0;
   if (preconditioner() == Preconditioner::multigrid)
   {
-    multiply<P>(_c, _q); // the residual of the warm start, r = F - K c (eq. 50)
+    multiply<P>(_c, _q); // the residual of the warm start, r = F - K c (K&T eq. 50)
     multigrid_iterations<P>(norm_f, stop, residual, it);
   }
   else // the bounded solve's CG with every node free
@@ -723,7 +724,7 @@ bool PhaseField::conjugate_gradient()
   return residual <= stop;
 }
 
-/// K c = F (eq. 50) with the bound 0 <= c <= 1 at every active node: AT1
+/// K c = F (K&T eq. 50) with the bound 0 <= c <= 1 at every active node: AT1
 /// needs it (without it its equation has no solution where H = 0, and c
 /// would exceed 1 where H is small), and for both models it keeps
 /// c_p = sum N_I c_I, a convex combination of nodal values, in [0, 1]
@@ -943,7 +944,8 @@ void PhaseField::free_set_iterations(double stop, double& start, double& residua
       nf,
       [&](std::size_t k, std::array<double, 2>& acc)
       {
-        _r[k] = _rhs[_free[k]] - pfmpm::row_product(stencil, rows, node[k], _c.data()); // eq. 50
+        // K&T eq. 50
+        _r[k] = _rhs[_free[k]] - pfmpm::row_product(stencil, rows, node[k], _c.data());
         _z[k] = _r[k] / diagonal[k];
         _search[node[k]] = _z[k];
         acc[0] += _r[k] * _r[k];
@@ -986,7 +988,7 @@ void PhaseField::free_set_iterations(double stop, double& start, double& residua
   }
 }
 
-/// c_p (eq. 53) at the particles; with Energy their fracture energy too,
+/// c_p (K&T eq. 53) at the particles; with Energy their fracture energy too,
 /// which the step reads nowhere: the solver asks for it in the last step of
 /// each advance(), after which energies and output read it.
 template <int P, bool Fourth, bool Energy>
@@ -1018,14 +1020,14 @@ void PhaseField::map_to_particles(Particles& particles, const CellSort& sort)
                   if constexpr (!Energy)
                   {
                     double cp[1];
-                    s.template interpolate<1>(nodal, cp); // eq. 53
+                    s.template interpolate<1>(nodal, cp); // K&T eq. 53
                     c[p] = cp[0];
                   }
                   else
                   {
                     const Fracture& fr = *fracture(material[p]);
-                    // c_p (eq. 53) and its gradient (eq. 54), with the fourth
-                    // order its second derivatives kappa (eq. 55).
+                    // c_p (K&T eq. 53) and its gradient (K&T eq. 54), with the fourth
+                    // order its second derivatives kappa (K&T eq. 55).
                     double cp[1], g[2][1];
                     [[maybe_unused]] double kappa[3][1];
                     if constexpr (Fourth)
@@ -1033,7 +1035,7 @@ void PhaseField::map_to_particles(Particles& particles, const CellSort& sort)
                     else
                       s.template interpolate<1>(nodal, cp, g);
                     c[p] = cp[0];
-                    // G_c V Z with Z of eq. 4 (AT1: Fracture::crack_density).
+                    // G_c V Z with Z of K&T eq. 4 (AT1: Fracture::crack_density).
                     double Z = fr.crack_density(cp[0], g[0][0] * g[0][0] + g[1][0] * g[1][0]);
                     if constexpr (Fourth) // zero for a material with gamma = 0
                       Z += fr.l0 * fr.l0 * fr.l0

@@ -1,7 +1,7 @@
 /// @file phasefield.h
 /// @brief The phase-field equation on the active grid nodes, second order
 /// (gamma = 0) or fourth order with an anisotropy tensor gamma
-/// (Kakouris & Triantafyllou 2019, eqs. 4-6, 47-57).
+/// (Kakouris & Triantafyllou 2019, eqs. 4, 6, 47-57).
 #pragma once
 
 #include "pfmpm/grid/grid.h"
@@ -20,9 +20,9 @@
 namespace pfmpm
 {
 
-/// @brief A 2D anisotropy tensor in Voigt form (eq. 6), row-major 3 x 3. It
+/// @brief A 2D anisotropy tensor in Voigt form (K&T eq. 6), row-major 3 x 3. It
 /// acts on the curvature kappa = (c_,11, c_,22, c_,12): the fourth-order
-/// term of eq. 4 is l0^3 kappa^T gamma kappa.
+/// term of K&T eq. 4 is l0^3 kappa^T gamma kappa.
 using Voigt = std::array<double, 9>;
 
 /// @brief The local term w(d) of the crack density, d = 1 - c. In the
@@ -30,7 +30,7 @@ using Voigt = std::array<double, 9>;
 /// (docs/method.md):
 enum class Model : int
 {
-  AT2 = 0, ///< w = d^2, c_w = 2: eq. 4 of the paper; damage at any tension
+  AT2 = 0, ///< w = d^2, c_w = 2: K&T eq. 4; damage at any tension
   AT1 = 1  ///< w = d, c_w = 8/3: an elastic threshold and a band of finite width
 };
 
@@ -39,18 +39,18 @@ struct Fracture
 {
   double Gc;     ///< G_c, or the reference value G-bar_c when gamma != 0 (> 0)
   double l0;     ///< length scale l0 (> 0)
-  double k_f;    ///< residual stiffness k_f in [0, 1) (eq. 15)
+  double k_f;    ///< residual stiffness k_f in [0, 1) (K&T eq. 15)
   Voigt gamma{}; ///< anisotropy in the material frame; zero: the second-order functional
   Model model = Model::AT2; ///< AT1 only with gamma = 0
   /// Solve with the bound 0 <= c <= 1 (PhaseField::bounded_solve); AT1 needs
   /// it, the fourth-order functional (gamma != 0) is solved without it.
   bool bound = true;
 
-  /// Degradation g(c) = (1 - k_f) c^2 + k_f (eq. 15).
+  /// Degradation g(c) = (1 - k_f) c^2 + k_f (K&T eq. 15).
   double degradation(double c) const { return (1.0 - k_f) * c * c + k_f; }
 
-  /// @brief Per unit volume, the coefficient of N_I N_J in K (eq. 57) at
-  /// history H: eq. 49's F_p = 4 l0 (1 - k_f) H / G_c + 1 for AT2, and
+  /// @brief Per unit volume, the coefficient of N_I N_J in K (K&T eq. 57) at
+  /// history H: K&T eq. 49's F_p = 4 l0 (1 - k_f) H / G_c + 1 for AT2, and
   /// 16 l0 (1 - k_f) H / (3 G_c) for AT1, whose crack density has no
   /// (1 - c)^2 term.
   double reaction(double H) const
@@ -60,14 +60,14 @@ struct Fracture
     return 4.0 * l0 * (1.0 - k_f) * H / Gc + 1.0;
   }
   /// @brief Per unit volume, the coefficient of grad N_I . grad N_J in K
-  /// (eq. 57): 4 l0^2 for both models.
+  /// (K&T eq. 57): 4 l0^2 for both models.
   double diffusion() const { return 4.0 * l0 * l0; }
-  /// @brief Per unit volume, the coefficient of N_I in F (eq. 52): 1 for
+  /// @brief Per unit volume, the coefficient of N_I in F (K&T eq. 52): 1 for
   /// AT2, 1/2 for AT1 (its linear term (3 / 16 l0) (1 - c), scaled like
   /// the rest of AT1's equation by 8 l0 / (3 G_c)).
   double source() const { return model == Model::AT1 ? 0.5 : 1.0; }
   /// @brief Crack density Z at phase field c with |grad c|^2 = `grad2`
-  /// (eq. 4 with gamma = 0): (1 - c)^2 / (4 l0) + l0 |grad c|^2 for AT2,
+  /// (K&T eq. 4 with gamma = 0): (1 - c)^2 / (4 l0) + l0 |grad c|^2 for AT2,
   /// 3 (1 - c) / (16 l0) + (3/4) l0 |grad c|^2 for AT1.
   double crack_density(double c, double grad2) const
   {
@@ -76,7 +76,7 @@ struct Fracture
       return 3.0 * d / (16.0 * l0) + 0.75 * l0 * grad2;
     return d * d / (4.0 * l0) + l0 * grad2;
   }
-  /// Whether eq. 4 has its fourth-order term.
+  /// Whether K&T eq. 4 has its fourth-order term.
   bool fourth_order() const;
   /// @brief gamma seen in the global frame by a point whose principal material
   /// direction is turned by `phi` radians clockwise from x (section 4.3.4):
@@ -110,7 +110,7 @@ struct PhaseFieldStats
   std::int64_t handovers = 0;        ///< bounded solves finished by MPRGP (mprgp.h)
 };
 
-/// @brief The last assembled phase-field system K c = F (eqs. 56-57, 52) in
+/// @brief The last assembled phase-field system K c = F (K&T eqs. 56-57, 52) in
 /// compressed rows over the active nodes, both halves of K, with the solution
 /// of the last solve: for checks and for comparisons with other solvers.
 struct PhaseFieldSystem
@@ -134,12 +134,12 @@ struct PhaseFieldState
   PhaseFieldStats stats;
 };
 
-/// @brief Assembles and solves K c = F (eqs. 56, 57, 52) for the nodal phase
-/// field, and maps the result to the particles (eqs. 53-55). It writes the
+/// @brief Assembles and solves K c = F (K&T eqs. 56, 57, 52) for the nodal phase
+/// field, and maps the result to the particles (K&T eqs. 53-55). It writes the
 /// particles' c and fracture energy only: the stresses that c degrades are
 /// the materials' business (Material::stress).
 ///
-/// The fourth-order term of eq. 57 needs second derivatives of the basis, so
+/// The fourth-order term of K&T eq. 57 needs second derivatives of the basis, so
 /// C1 splines (degree >= 2); it is assembled only when some material has
 /// gamma != 0, with each particle's gamma turned to its orientation
 /// Particles::phi. Otherwise no second derivative is evaluated or stored.
@@ -246,7 +246,7 @@ private:
   PhaseFieldSystem compressed_rows() const;
   template <int P>
   void multiply(const std::vector<double>& padded, std::vector<double>& out) const;
-  /// @brief K c = F (eq. 50) with the bound 0 <= c <= 1 on every active
+  /// @brief K c = F (K&T eq. 50) with the bound 0 <= c <= 1 on every active
   /// node, by a primal-dual active-set method around CG on the free nodes
   /// (free_set_solve), handed over to MPRGP (mprgp.h) when its passes do not
   /// settle (see the definition).
@@ -314,7 +314,7 @@ private:
   std::vector<double> _c;  // nodal phase field, padded layout, kept between steps
   std::vector<double> _c_previous; // the solution before, for the warm start
   std::vector<double> _stencil;       // per padded node: upper-half stencil of K
-  std::vector<double> _rhs;           // per active node: F (eq. 52)
+  std::vector<double> _rhs;           // per active node: F (K&T eq. 52)
   std::vector<double> _diagonal;      // per active node: K_II, 1 where no crack can form
   std::vector<std::size_t> _position; // per active node: its index in the padded layout
   std::vector<double> _r, _z, _q;     // CG work vectors, per active node

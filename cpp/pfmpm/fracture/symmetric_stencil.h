@@ -1,6 +1,6 @@
 /// @file symmetric_stencil.h
 /// @brief Storage of the symmetric (2p+1)^2-point stencil of the phase-field
-/// matrix K (eq. 57) on a padded grid-node layout, shared by its assembly, its
+/// matrix K (K&T eq. 57) on a padded grid-node layout, shared by its assembly, its
 /// conjugate gradients and the multigrid levels built from it.
 #pragma once
 

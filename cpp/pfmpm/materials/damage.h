@@ -1,12 +1,12 @@
 /// @file damage.h
 /// @brief The scalar damage models of Homel & Herbold (2017, §2.7): how the
-/// damage D grows from the largest trial principal stress (eqs. 23, 24), and
-/// how it degrades the tensile principal stresses (eqs. 26-27).
+/// damage D grows from the largest trial principal stress (H&H eqs. 23, 24), and
+/// how it degrades the tensile principal stresses (H&H eqs. 26-27).
 ///
 /// A damage model is a policy of a constitutive model (NeoHookean<Damage>),
 /// chosen once per material: `grow(D, sigma_max, sigma_f, dt)` returns the
 /// damage after a step whose largest trial principal stress is sigma_max, for
-/// a particle of strength sigma_f (its own, with a Weibull field, eq. 25).
+/// a particle of strength sigma_f (its own, with a Weibull field, H&H eq. 25).
 #pragma once
 
 #include "pfmpm/materials/deformation.h"
@@ -21,7 +21,7 @@ struct NoDamage
 {
 };
 
-/// @brief Rankine damage with linear strain softening (eq. 23; Cervera &
+/// @brief Rankine damage with linear strain softening (H&H eq. 23; Cervera &
 /// Chiumenti): D = (1 + H_s)(1 - sigma_f / r), with the brittleness
 /// H_s = Hbar l_ch / (1 - Hbar l_ch), Hbar = sigma_f^2 / (2 E G_f).
 ///
@@ -43,7 +43,7 @@ public:
   /// Hbar l_ch / sigma_f^2 = l_ch / (2 E G_f): softening needs a sigma_f^2 < 1.
   double a() const { return _a; }
 
-  /// @brief Eq. 23 with the history of the largest trial stress; since
+  /// @brief H&H eq. 23 with the history of the largest trial stress; since
   /// 1 + H_s = 1 / (1 - a sigma_f^2), D = (1 - sigma_f / sigma_max) / (1 - a sigma_f^2).
   double grow(double D, double sigma_max, double sigma_f, double /*dt*/) const
   {
@@ -57,7 +57,7 @@ private:
   double _a;
 };
 
-/// @brief Time-to-failure damage (eq. 24): D^{n+1} = min(1, D^n + dt / tau)
+/// @brief Time-to-failure damage (H&H eq. 24): D^{n+1} = min(1, D^n + dt / tau)
 /// with tau = l / c_f, the time a crack running at c_f takes to cross the
 /// length l (the cell diagonal). The paper prints tau = c_f / l, which is not
 /// a time; we read it as its text does. D grows only in steps whose largest
@@ -72,7 +72,7 @@ public:
   /// 1 / tau.
   double rate() const { return _rate; }
 
-  /// Eq. 24.
+  /// H&H eq. 24.
   double grow(double D, double sigma_max, double sigma_f, double dt) const
   {
     return sigma_max > sigma_f ? std::min(1.0, D + dt * _rate) : D;
@@ -82,7 +82,7 @@ private:
   double _rate;
 };
 
-/// @brief Eqs. 26-27: sigma = sum_i sigma_i^+ v_i (x) v_i with sigma_i^+ =
+/// @brief H&H eqs. 26-27: sigma = sum_i sigma_i^+ v_i (x) v_i with sigma_i^+ =
 /// (1 - D) sigma_i where sigma_i > 0 and sigma_i otherwise, over the principal
 /// values of the trial stress, the out-of-plane one (zz) among them.
 ///

@@ -12,8 +12,8 @@ namespace pfmpm
 /// @brief det F of a plane deformation gradient (xx, xy, yx, yy); F_33 = 1.
 inline double determinant(const double* F) { return F[0] * F[3] - F[1] * F[2]; }
 
-/// @brief F <- (I + dt/n L)^n F: eq. 8, F^{n+1} = F^n + dt L F^n, taken in n
-/// equal sub-steps with the step's velocity gradient (n = 1 is eq. 8 itself).
+/// @brief F <- (I + dt/n L)^n F: H&H eq. 8, F^{n+1} = F^n + dt L F^n, taken in n
+/// equal sub-steps with the step's velocity gradient (n = 1 is H&H eq. 8 itself).
 /// @param[in,out] F Deformation gradient, row-major (xx, xy, yx, yy).
 /// @param L Velocity gradient L_ij = dv_i/dx_j, row-major.
 /// @param dt Time step.
@@ -33,7 +33,7 @@ inline void advance_deformation(double* F, const double* L, double dt, int subst
   }
 }
 
-/// @brief F <- exp(dt L) F: eq. 8 integrated exactly for a velocity gradient
+/// @brief F <- exp(dt L) F: H&H eq. 8 integrated exactly for a velocity gradient
 /// constant over the step (the higher-order integration its footnote
 /// allows). A rigid spin L = W gives an exact rotation, so the update is
 /// objective: a rotated body keeps its stretches to round-off.
@@ -77,12 +77,12 @@ inline void exponential_deformation(double* F, const double* L, double dt)
   F[3] = G[3];
 }
 
-/// @brief How a model advances its deformation gradient with L: eq. 8 in
+/// @brief How a model advances its deformation gradient with L: H&H eq. 8 in
 /// `substeps` sub-steps, or the exponential.
 struct DeformationUpdate
 {
-  bool exponential = false; ///< exp(dt L) (exponential_deformation) instead of eq. 8
-  int substeps = 1;         ///< sub-steps of eq. 8 (advance_deformation)
+  bool exponential = false; ///< exp(dt L) (exponential_deformation) instead of H&H eq. 8
+  int substeps = 1;         ///< sub-steps of H&H eq. 8 (advance_deformation)
 
   void operator()(double* F, const double* L, double dt) const
   {
@@ -92,7 +92,7 @@ struct DeformationUpdate
       advance_deformation(F, L, dt, substeps);
   }
   /// Whether det F changes by det(I + dt L), the factor G2P applies to the
-  /// particle volume: eq. 8 in one step.
+  /// particle volume: H&H eq. 8 in one step.
   bool scales_volume_as_g2p() const { return !exponential && substeps == 1; }
 };
 

@@ -19,16 +19,16 @@ enum class Plane : int
 };
 
 /// How the strain energy splits into a part that cracking degrades and a part
-/// it does not (eq. 14).
+/// it does not (K&T eq. 14).
 enum class Split : int
 {
   none = 0,                 ///< psi+ = psi: all energy degrades, also in compression
-  spectral = 1,             ///< Miehe et al. 2010: principal strains, eq. 14
+  spectral = 1,             ///< Miehe et al. 2010: principal strains, K&T eq. 14
   volumetric_deviatoric = 2 ///< Amor et al. 2009: compression of volume is kept
 };
 
 /// @brief Isotropic linear elasticity in plane strain or plane stress, with
-/// the degraded energy psi = g psi+ + psi- of eq. 14 and its stress (eq. 16).
+/// the degraded energy psi = g psi+ + psi- of K&T eq. 14 and its stress (K&T eq. 16).
 ///
 /// Undegraded, sigma = lambda* tr(eps) I + 2 mu eps with lambda* = lambda in
 /// plane strain and 2 mu lambda / (lambda + 2 mu) in plane stress. In plane
@@ -38,7 +38,7 @@ enum class Split : int
 /// Registered as "linear_elastic" with the parameters E, nu, density, plane
 /// ("strain" or "stress", default strain) and split ("none", "spectral",
 /// "volumetric_deviatoric"; default spectral). Its state is the small strain
-/// (column `strain`: xx, yy, xy), advanced by eq. 78.
+/// (column `strain`: xx, yy, xy), advanced by K&T eq. 78.
 class LinearElastic final : public MaterialModel<LinearElastic>
 {
 public:
@@ -74,7 +74,7 @@ public:
   };
   View view(Particles& P) const { return {P.f64("strain").data(), P.stress.data()}; }
   static constexpr bool constant_wave_speed = true;
-  /// Strain increment, eq. 78: eps += dt sym(L).
+  /// Strain increment, K&T eq. 78: eps += dt sym(L).
   void advance(const View& v, std::size_t p, const double* L, double dt) const
   {
     double* eps = &v.strain[3 * p];
@@ -84,7 +84,7 @@ public:
   }
   void undegraded(const View& v, std::size_t p) const
   {
-    undegraded(&v.strain[3 * p], &v.stress[4 * p]); // eq. 16, g = 1
+    undegraded(&v.strain[3 * p], &v.stress[4 * p]); // K&T eq. 16, g = 1
   }
   double degraded(const View& v, std::size_t p, double g) const
   {
@@ -100,7 +100,7 @@ public:
   }
   /// @}
 
-  /// @brief Undegraded stress from strain (eq. 16 with g = 1).
+  /// @brief Undegraded stress from strain (K&T eq. 16 with g = 1).
   /// @param eps Strain (xx, yy, xy).
   /// @param[out] sig Stress (xx, yy, xy, zz).
   void undegraded(const double* eps, double* sig) const
@@ -120,9 +120,10 @@ public:
            + _mu * (eps[0] * eps[0] + eps[1] * eps[1] + 2.0 * eps[2] * eps[2]);
   }
 
-  /// @brief Split energy (eq. 14) and degraded stress sigma = d(g psi+ + psi-)/d eps (eq. 16).
+  /// @brief Split energy (K&T eq. 14) and degraded stress
+  /// sigma = d(g psi+ + psi-)/d eps (K&T eq. 16).
   /// @param eps Strain (xx, yy, xy).
-  /// @param g Degradation g(c) (eq. 15).
+  /// @param g Degradation g(c) (K&T eq. 15).
   /// @param[out] sig Stress (xx, yy, xy, zz).
   /// @param[out] psi_plus Tensile energy density psi+ (undegraded).
   /// @param[out] psi_minus Compressive energy density psi-.

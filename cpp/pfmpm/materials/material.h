@@ -25,14 +25,14 @@ namespace pfmpm
 {
 
 /// @brief The phase field's hold on a material (K&T eqs. 14-16, 20): its
-/// tensile energy psi+ is degraded by g(c) = (1 - k_f) c^2 + k_f (eq. 15), and
+/// tensile energy psi+ is degraded by g(c) = (1 - k_f) c^2 + k_f (K&T eq. 15), and
 /// the history H = max(H, psi+) drives the phase field.
 struct Degradation
 {
   double k_f;             ///< residual stiffness
   const double* c;        ///< phase field per particle
   double* history;        ///< history field H per particle
-  /// g(c) of eq. 15.
+  /// g(c) of K&T eq. 15.
   double g(double c_p) const { return (1.0 - k_f) * c_p * c_p + k_f; }
 };
 
@@ -105,7 +105,7 @@ public:
     virtual ~Bound() = default;
     /// @brief Advance the batch's kinematic measure by dt with L (2 x 2 per
     /// particle, in batch order) and set its stress; with `degradation`, the
-    /// stress of eq. 16 with g(c) and the history raised to psi+ (eq. 20),
+    /// stress of K&T eq. 16 with g(c) and the history raised to psi+ (K&T eq. 20),
     /// and the stress only when `stress` is set: a cracking particle's stress
     /// is set again from the next phase field before a step reads it
     /// (Material::Bound::stress), so only the state an advance() leaves,
@@ -113,9 +113,9 @@ public:
     virtual UpdateResult update(const Batch& b, const double* L, double dt,
                                 const Degradation* degradation, bool stress) const = 0;
     /// @brief Set the stress of the batch from its current state and phase
-    /// field (after the phase-field solve changed c; eqs. 14-16).
+    /// field (after the phase-field solve changed c; K&T eqs. 14-16).
     virtual void stress(const Batch& b, const Degradation& degradation) const = 0;
-    /// @brief Add V_p psi_p (eq. 14: g psi+ + psi- with a degradation) of
+    /// @brief Add V_p psi_p (K&T eq. 14: g psi+ + psi- with a degradation) of
     /// each particle of the batch to `sum`, in batch order.
     virtual void add_energy(const Batch& b, const Degradation* degradation, double& sum) const = 0;
     /// P-wave speed of particle p in its current state.
@@ -159,7 +159,7 @@ private:
 /// - `void undegraded(const View&, std::size_t p) const`, the stress without
 ///   a phase field;
 /// - `double degraded(const View&, std::size_t p, double g) const`, the stress
-///   of eq. 16 with g(c), returning psi+;
+///   of K&T eq. 16 with g(c), returning psi+;
 /// - `double energy(const View&, std::size_t p) const` and
 ///   `void split(const View&, std::size_t p, double& plus, double& minus) const`
 ///   (energy densities per unit current volume);
@@ -196,8 +196,8 @@ private:
                {
                  const std::size_t p = at(k);
                  _model.advance(_view, p, &L[4 * k], dt);
-                 // eqs. 14-16 with this step's phase field; the history takes
-                 // the largest tensile energy so far (eq. 20, Kuhn-Tucker conditions).
+                 // K&T eqs. 14-16 with this step's phase field; the history takes
+                 // the largest tensile energy so far (K&T eq. 20, Kuhn-Tucker conditions).
                  const double plus = _model.degraded(_view, p, degradation->g(degradation->c[p]));
                  degradation->history[p] = std::max(degradation->history[p], plus);
                  note(r, p, stress_sum(p) + degradation->history[p]);
@@ -207,7 +207,7 @@ private:
                {
                  const std::size_t p = at(k);
                  _model.advance(_view, p, &L[4 * k], dt);
-                 // eq. 20 as above, psi+ without the stress
+                 // K&T eq. 20 as above, psi+ without the stress
                  double plus, minus;
                  _model.split(_view, p, plus, minus);
                  degradation->history[p] = std::max(degradation->history[p], plus);
@@ -248,7 +248,8 @@ private:
                {
                  double plus, minus;
                  _model.split(_view, p, plus, minus);
-                 sum += _volume[p] * (degradation->g(degradation->c[p]) * plus + minus); // eq. 14
+                 // K&T eq. 14
+                 sum += _volume[p] * (degradation->g(degradation->c[p]) * plus + minus);
                }
                else
                  sum += _volume[p] * _model.energy(_view, p);

@@ -116,7 +116,7 @@ std::shared_ptr<Material> make_neo_hookean(const Parameters& p)
     // H_s = Hbar l_ch / (1 - Hbar l_ch) needs Hbar l_ch < 1.
     require(rankine.a() * sigma_f * sigma_f < 1.0, "l_ch", l_ch,
             "must be < 2 E Gf / sigma_f^2 = " + std::to_string(2.0 * E * Gf / (sigma_f * sigma_f))
-                + ", or the softening of eq. 23 snaps back (H_s < 0)");
+                + ", or the softening of H&H eq. 23 snaps back (H_s < 0)");
     return std::make_shared<NeoHookean<RankineSoftening>>(E, nu, density, update, rankine, sigma_f);
   }
   return std::make_shared<NeoHookean<TimeToFailure>>(E, nu, density, update,

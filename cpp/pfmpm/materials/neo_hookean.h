@@ -1,7 +1,7 @@
 /// @file neo_hookean.h
 /// @brief Compressible neo-Hookean elasticity in plane strain (Homel & Herbold
-/// 2017, eq. 22) on the deformation gradient (eq. 8), with an optional scalar
-/// damage model (eqs. 23-27).
+/// 2017, eq. 22) on the deformation gradient (H&H eq. 8), with an optional scalar
+/// damage model (H&H eqs. 23-27).
 #pragma once
 
 #include "pfmpm/materials/damage.h"
@@ -18,23 +18,23 @@ namespace pfmpm
 /// @brief Compressible neo-Hookean elasticity, plane strain (F_33 = 1), with
 /// the damage model `Damage` (NoDamage, RankineSoftening or TimeToFailure).
 ///
-/// Trial stress (eq. 22): sigma^E = mu/J (B - I) + lambda ln J / J I with
+/// Trial stress (H&H eq. 22): sigma^E = mu/J (B - I) + lambda ln J / J I with
 /// B = F F^T, so sigma_zz = lambda ln J / J; stored energy per unit reference
 /// volume W = mu/2 (tr C - 3) - mu ln J + lambda/2 (ln J)^2, whose Kirchhoff
 /// stress J sigma^E this is.
 ///
-/// State (particle columns): `F` (xx, xy, yx, yy), advanced by eq. 8 (in
+/// State (particle columns): `F` (xx, xy, yx, yy), advanced by H&H eq. 8 (in
 /// sub-steps, or by its exponential: DeformationUpdate), and `J` = det F. With damage also
 /// `damage` (D: 0 intact, 1 failed), `sigma_f` (the tensile strength, filled
-/// with the material's; a Weibull field (eq. 25) is drawn into it at set-up)
+/// with the material's; a Weibull field (H&H eq. 25) is drawn into it at set-up)
 /// and `dissipated`, the work dissipated by damage. The current volume is
-/// J V_0: G2P multiplies it by det(I + dt L) each step, which for eq. 8 in
+/// J V_0: G2P multiplies it by det(I + dt L) each step, which for H&H eq. 8 in
 /// one step is det F^{n+1} / det F^n; otherwise the model rescales it to
 /// keep V / J fixed.
 ///
 /// Damage: after F, the largest trial principal stress (in-plane or zz)
 /// grows D (Damage::grow), and the stress is the trial stress with its
-/// tensile principal values scaled by 1 - D (eqs. 26-27). The stored energy
+/// tensile principal values scaled by 1 - D (H&H eqs. 26-27). The stored energy
 /// is W - D W+, with W+ = sum over the tensile principal directions of
 /// mu/2 (lambda_i^2 - 1 - ln lambda_i^2), plus lambda/2 (ln J)^2 when J > 1: the
 /// part of W that damage releases. A step that raises D by dD dissipates
@@ -46,8 +46,8 @@ namespace pfmpm
 /// degraded tensile stresses and it closes only approximately.
 ///
 /// Registered (neo_hookean.cpp) as "neo_hookean" with the parameters E, nu,
-/// density, integration ("euler", eq. 8, default, or "exponential"),
-/// substeps (of eq. 8, default 1) and damage ("none", default; "rankine"
+/// density, integration ("euler", H&H eq. 8, default, or "exponential"),
+/// substeps (of H&H eq. 8, default 1) and damage ("none", default; "rankine"
 /// with sigma_f, Gf, l_ch; "time_to_failure" with sigma_f, c_f, l_ch).
 ///
 /// The phase field (MaterialModel's `degraded`) multiplies the whole stress
@@ -98,7 +98,7 @@ public:
   View view(Particles& P) const;
   static constexpr bool constant_wave_speed = false;
 
-  /// Eq. 8 (DeformationUpdate), J, and with damage the growth of D (eqs. 23-24).
+  /// H&H eq. 8 (DeformationUpdate), J, and with damage the growth of D (H&H eqs. 23-24).
   void advance(const View& v, std::size_t p, const double* L, double dt) const
   {
     double* F = &v.F[4 * p];
@@ -131,7 +131,7 @@ public:
       }
     }
   }
-  /// The stress of the current state: eq. 22, with damage eqs. 26-27.
+  /// The stress of the current state: H&H eq. 22, with damage H&H eqs. 26-27.
   void undegraded(const View& v, std::size_t p) const
   {
     double* sig = &v.stress[4 * p];
@@ -164,12 +164,12 @@ public:
     minus = 0.0;
   }
   /// @brief P-wave speed in the current state, for the stability check: the
-  /// largest longitudinal speed of the tangent of eq. 22, along the larger
+  /// largest longitudinal speed of the tangent of H&H eq. 22, along the larger
   /// principal stretch, is c^2 = (mu b_max + lambda + mu - lambda ln J) /
   /// rho_0, with b_max the largest in-plane eigenvalue of B; we take its
   /// bound with -ln J <= max(1/J - 1, 0), equal at J = 1 and within a few
   /// per cent for |ln J| < 0.1, which saves a logarithm per particle and
-  /// step. With damage, eqs. 26-27 scale the stress along each tensile
+  /// step. With damage, H&H eqs. 26-27 scale the stress along each tensile
   /// principal direction by 1 - D and keep it along a compressive one, so
   /// the longitudinal stiffness along each principal direction i is (1 - D)
   /// (mu b_i + ...) where sigma_i > 0 and mu b_i + ... where not; the speed is
@@ -195,7 +195,7 @@ public:
   }
   /// @}
 
-  /// @brief The trial stress of eq. 22.
+  /// @brief The trial stress of H&H eq. 22.
   /// @param F Deformation gradient (xx, xy, yx, yy).
   /// @param J det F.
   /// @param[out] sig Cauchy stress (xx, yy, xy, zz).

@@ -76,7 +76,7 @@ void ParticleDomains::convect(const std::int32_t* index, std::size_t n, const do
   for (std::size_t k = 0; k < n; ++k, L += 4)
   {
     const std::size_t p = static_cast<std::size_t>(index[k]);
-    // r_k <- (I + dt L) r_k: eq. 8 on r_k = F r_k^0.
+    // r_k <- (I + dt L) r_k: H&H eq. 8 on r_k = F r_k^0.
     for (double* r : {&_r1[2 * p], &_r2[2 * p]})
     {
       const double rx = r[0], ry = r[1];

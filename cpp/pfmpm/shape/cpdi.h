@@ -131,7 +131,7 @@ struct CpdiStencil
 };
 
 /// A CPDI particle maps to a node (the damage-gradient partition: H&H
-/// Algorithms 1-2 and eq. 21) where its averaged shape function exceeds this:
+/// eq. 21 and Algorithms 1-2) where its averaged shape function exceeds this:
 /// the functions sum to 1, and a corner on a cell face gives the far node of
 /// its cell a weight of round-off size.
 inline constexpr double cpdi_maps_to = 1e-12;
@@ -148,7 +148,7 @@ struct DomainScaling
 /// named particle columns.
 ///
 /// `convected_r1`, `convected_r2` hold r_k = F r_k^0 (method card §1.1): each step's
-/// G2P advances them with the velocity gradient as eq. 8 advances F,
+/// G2P advances them with the velocity gradient as H&H eq. 8 advances F,
 /// r_k <- (I + dt L) r_k. `domain_r1`, `domain_r2` hold the integration
 /// domain the stencil reads: the convected one, or for a failed particle
 /// (damage D = 1, or phase field c below DomainScaling::c_failed) with

@@ -49,8 +49,8 @@ template <int Q, class Shape>
 /// order in which the grid numbers its nodes, so a row of the stencil is a run
 /// of consecutive active nodes. At a point x it holds the univariate values
 /// and derivatives, and gives the shape function N_i(x) = prod_d N_{a_d}(x_d)
-/// (K&T eq. 40), its gradient (eq. 54) and, when Order is 2, its second
-/// derivatives (eq. 55), each a product in direction order, so every
+/// (K&T eq. 34), its gradient (K&T eq. 54) and, when Order is 2, its second
+/// derivatives (K&T eq. 55), each a product in direction order, so every
 /// transfer multiplies the same factors the same way; the products are formed
 /// where a transfer reads them, in registers.
 ///

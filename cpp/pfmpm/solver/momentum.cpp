@@ -17,8 +17,8 @@ void update_free_slot(const NodeSums& s, NodeHold hold, const Velocity* held, do
       acc[sum_light] += 1.0; // a light slot, counted
     return;
   }
-  // Trial momentum (eq. 63) and velocity (eq. 64); with no contact force,
-  // these are final (eq. 65).
+  // Trial momentum (K&T eq. 63) and velocity (K&T eq. 64); with no contact force,
+  // these are final (K&T eq. 65).
   const double vo[2] = {s.px / s.m, s.py / s.m};
   double vn[2] = {vo[0] + dt * s.fx / s.m, vo[1] + dt * s.fy / s.m};
   finish_slot(s, vo, vn, hold, held, nullptr, dt, k, acc);
@@ -72,15 +72,15 @@ void update_contact_node(int n, const NodeSums* sums, const SurfaceSums* surface
     vo[j][0] = s.px / s.m;
     vo[j][1] = s.py / s.m;
     trial[j] = TrialField{s.m,
-                          {s.px + dt * s.fx, s.py + dt * s.fy},                       // eq. 63
-                          {vo[j][0] + dt * s.fx / s.m, vo[j][1] + dt * s.fy / s.m}, // eq. 64
+                          {s.px + dt * s.fx, s.py + dt * s.fy},                       // K&T eq. 63
+                          {vo[j][0] + dt * s.fx / s.m, vo[j][1] + dt * s.fy / s.m}, // K&T eq. 64
                           {u.gx, u.gy},
                           u.V};
   }
   ContactPair pairs[F * (F - 1) / 2];
   const int active = coulomb_forces(n, trial, live, field, friction, nfields, touch_volume, dt, fn,
                                     ft, pairs, &acc[sum_contact]);
-  // Corrected velocities (eq. 65), checked (C.3, C.4) before the walls act
+  // Corrected velocities (K&T eq. 65), checked (C.3, C.4) before the walls act
   // on them; walls, and the work done.
   double vn[F][2]{}, vc[F][2]{};
   for (int j = 0; j < n; ++j)
@@ -115,7 +115,7 @@ void update_damage_node(int n, const NodeSums* sums, const SurfaceSums* surface,
     const bool side_b = field[j] % 2 == 1;
     if (side_b && j > 0 && field[j - 1] == field[j] - 1)
     {
-      // Sides A (slot j - 1) and B (slot j) of one group: eq. 21.
+      // Sides A (slot j - 1) and B (slot j) of one group: H&H eq. 21.
       acc[sum_contact + count_split] += 1.0;
       const NodeSums &a = sums[j - 1], &b = sums[j];
       const SurfaceSums &sa = surface[j - 1], &sb = surface[j];

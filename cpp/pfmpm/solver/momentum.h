@@ -124,8 +124,8 @@ struct P2GBlock
 };
 
 /// @brief Sum a cell's particles, in sorted order, into its block: mass
-/// (K&T eq. 46), momentum (eq. 61), internal and external force (eqs. 62,
-/// 42), with Surface the mass gradient (eq. 70, H&H eq. 11) and volume, and
+/// (K&T eq. 46), momentum (K&T eq. 61), internal and external force (K&T eqs. 62,
+/// 42), with Surface the mass gradient (K&T eq. 70, H&H eq. 11) and volume, and
 /// with Damage the mass-weighted damage and the fully damaged flag of H&H
 /// eq. 21. `select` gives each (particle, node) pair its local field.
 ///
@@ -159,14 +159,14 @@ template <class Shape, bool External, int F, bool Surface, bool Damage, class Se
             [&](int i, double w, const double* g)
             {
               const int f = Select::at(fp, i);
-              m[f][i] += w * mp;   // eq. 46
-              px[f][i] += w * mvx; // eq. 61
+              m[f][i] += w * mp;   // K&T eq. 46
+              px[f][i] += w * mvx; // K&T eq. 61
               py[f][i] += w * mvy;
-              fx[f][i] -= sxx * g[0] + sxy * g[1]; // eq. 62
+              fx[f][i] -= sxx * g[0] + sxy * g[1]; // K&T eq. 62
               fy[f][i] -= sxy * g[0] + syy * g[1];
               if constexpr (Surface)
               {
-                gx[f][i] += g[0] * mp; // eq. 70, before normalisation
+                gx[f][i] += g[0] * mp; // K&T eq. 70, before normalisation
                 gy[f][i] += g[1] * mp;
                 V[f][i] += w * Vp; // for the touch check
               }
@@ -183,7 +183,7 @@ template <class Shape, bool External, int F, bool Surface, bool Damage, class Se
                   full[f][i] = std::max(full[f][i], a.full[p]);
               }
             });
-        // eq. 42, from the loaded particles alone (few: a load on an edge):
+        // K&T eq. 42, from the loaded particles alone (few: a load on an edge):
         // a zero force adds zeros, which leave the sums as they are.
         if constexpr (External)
           if (fext[2 * p] != 0.0 || fext[2 * p + 1] != 0.0)
@@ -387,7 +387,7 @@ void update_free_slot(const NodeSums& s, NodeHold hold, const Velocity* held, do
 /// @brief New velocity vn of a slot with old velocity vo (after contact):
 /// walls and regions (a holder sets the new velocity of each direction it
 /// holds to its own, u_d, zero for a wall; the acceleration keeps the old
-/// velocity so that the particle update, eq. 80, feels the reaction), its
+/// velocity so that the particle update, K&T eq. 80, feels the reaction), its
 /// kinematics and the work of the external and friction forces over the
 /// step (trapezoidal velocity, with u_d for both ends along a held d). A
 /// holder's impulse over the step is m (u_d - vn_d), the reaction force
@@ -403,7 +403,7 @@ void finish_slot(const NodeSums& s, const double* vo, double* vn, NodeHold hold,
 /// @brief The update of the n >= 2 fields at a contact node (K&T eqs. 63-77):
 /// trial momenta and velocities, Coulomb contact between every pair that
 /// touches and approaches (coulomb_forces; with two or more touching pairs,
-/// Gauss-Seidel sweeps over them), corrected velocities (eq. 65), walls,
+/// Gauss-Seidel sweeps over them), corrected velocities (K&T eq. 65), walls,
 /// the work done, and the checks C.3 and C.4.
 /// @param field Field index of each slot, into `friction` (nfields x nfields).
 /// @param touch_volume What two fields fill where they touch (coulomb_forces).
@@ -413,7 +413,7 @@ void update_contact_node(int n, const NodeSums* sums, const SurfaceSums* surface
                          double mass_tol, NodeKinematics* k, double* acc);
 
 /// @brief The update of the n >= 2 damage-gradient fields at a node (H&H
-/// Algorithm 3 with eq. 21): the two sides of a group are separable where
+/// eq. 21 in Algorithm 3): the two sides of a group are separable where
 /// both carry mass, a fully damaged particle maps to one of them, and both
 /// mean damages exceed `separability`; sides that are not are summed into
 /// one field (the node acts as one field, FLIP update included). The fields
@@ -429,7 +429,7 @@ void update_damage_node(int n, const NodeSums* sums, const SurfaceSums* surface,
 
 /// @brief The grid update (K&T eqs. 63-65): trial momentum and velocity of
 /// every slot, frictional contact among the slots of a contact node
-/// (eqs. 66-77; with damage fields H&H Algorithm 3), walls, and the nodal
+/// (K&T eqs. 66-77; with damage fields H&H Algorithm 3), walls, and the nodal
 /// accelerations that G2P reads. Two fields touch at a node where their
 /// volumes there fill `touch_fill` of its volume (coulomb_forces).
 /// @return The sums of GridUpdateSum.
@@ -569,10 +569,10 @@ template <class Shape, int F, bool Affine, class Select>
         }
         else
         {
-          v[2 * p] += dt * value[2]; // eq. 80
+          v[2 * p] += dt * value[2]; // K&T eq. 80
           v[2 * p + 1] += dt * value[3];
         }
-        x[2 * p] += dt * vx; // eq. 82
+        x[2 * p] += dt * vx; // K&T eq. 82
         x[2 * p + 1] += dt * vy;
         volume[p] *= (1.0 + dt * Lxx) * (1.0 + dt * Lyy) - dt * dt * Lxy * Lyx;
         if (!std::isfinite(x[2 * p] + x[2 * p + 1] + v[2 * p] + v[2 * p + 1]))

@@ -129,7 +129,7 @@ Solver::Solver(Grid& grid, Particles& particles,
   if (!cracks)
     return;
   // The phase fields: one over all crackable particles, or with discrete
-  // fields one per crackable body (eq. 28), each from its own particles
+  // fields one per crackable body (K&T eq. 28), each from its own particles
   // (with damage-gradient fields, one per crackable contact group).
   const std::int32_t* field_of = phase_field_of();
   std::vector<char> crackable_body;
@@ -446,7 +446,7 @@ void Solver::prepare(Fields& fields, bool energy)
     }
     const CellSort& sort = g.select ? g.sort : _sort;
     const bool converged = g.field.template solve<P>(_particles, sort, energy);
-    // The materials degrade their stresses with the new phase field (eqs. 14-16).
+    // The materials degrade their stresses with the new phase field (K&T eqs. 14-16).
     const std::int32_t* order = sort.order().data();
     const std::int64_t* start = sort.cell_start().data();
     const auto ncells = static_cast<std::ptrdiff_t>(sort.cell_start().size()) - 1;

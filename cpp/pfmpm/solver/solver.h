@@ -32,8 +32,8 @@ namespace pfmpm
 struct Energies
 {
   double kinetic = 0.0;        ///< sum of M_p |v_p|^2 / 2
-  double elastic = 0.0;        ///< sum of V_p psi_p (with a phase field, g(c_p) psi+ + psi-, eq. 14)
-  double fracture = 0.0;       ///< sum of G_c V_p Z(c_p) (eqs. 3-4)
+  double elastic = 0.0;        ///< sum of V_p psi_p (with a phase field g(c_p) psi+ + psi-: K&T eq. 14)
+  double fracture = 0.0;       ///< sum of G_c V_p Z(c_p) (K&T eqs. 3-4)
   double external_work = 0.0;  ///< work of the external forces since t = 0
   double friction_work = 0.0;  ///< work of the friction (tangential contact) forces since t = 0 (<= 0)
   double wall_work = 0.0;      ///< work of the wall constraints since t = 0 (<= 0, see finish_slot)
@@ -92,16 +92,16 @@ struct StageTimers
 /// One step (step()): sort the particles by cell and activate the grid nodes
 /// they touch; lay out the velocity fields' slots; if some material can crack,
 /// solve each phase field with the current history and let the materials
-/// degrade their stresses (eqs. 56, 14-16); P2G of mass, momentum and forces;
+/// degrade their stresses (K&T eqs. 56, 14-16); P2G of mass, momentum and forces;
 /// the grid update with walls and contact; G2P of velocity, position and
 /// velocity gradient, and the materials' update of their state and stress,
-/// which raises the history field (eq. 20). Every sum over particles is
+/// which raises the history field (K&T eq. 20). Every sum over particles is
 /// taken in an order fixed by the particle positions alone, so results do
 /// not depend on the thread count.
 ///
 /// The velocity-field partition is chosen once, at construction: one field;
 /// or (with a friction matrix) every body its own discrete field coupled by
-/// frictional contact (eqs. 63-77), each crackable body with its own phase
+/// frictional contact (K&T eqs. 63-77), each crackable body with its own phase
 /// field; or (with damage-gradient options too) two fields per contact group
 /// chosen per (particle, node) by the damage gradient (Homel & Herbold 2017,
 /// DamageFields), each crackable group with its own phase field.
@@ -119,7 +119,7 @@ public:
   /// @param materials Materials indexed by Particles::material.
   /// @param dt Time step (> 0); the caller checks it against the CFL limit.
   /// @param fracture Per material, its fracture parameters or none; empty: nothing cracks.
-  /// @param tol Phase-field tolerance tol_c, relative to ||F|| (eq. 52).
+  /// @param tol Phase-field tolerance tol_c, relative to ||F|| (K&T eq. 52).
   /// @param max_iterations Phase-field CG iteration limit per step.
   /// @param friction Empty: all particles form one velocity field. Otherwise
   ///        every body (Particles::body) is its own discrete field, coupled by
@@ -170,7 +170,7 @@ public:
   /// particles, with c_p the P-wave speed of the particle's material in its
   /// state, must satisfy dt (c_p + |v_p|) <= `length` (up to round-off);
   /// otherwise the step throws SimulationError. `length` is the critical
-  /// length kappa h of the scene's step rule (eqs. 83-84), which takes the
+  /// length kappa h of the scene's step rule (K&T eqs. 83-84), which takes the
   /// initial body speeds; the check follows the speeds as they grow. 0
   /// switches the check off (the default).
   void set_stability_length(double length);

@@ -5,11 +5,11 @@
 /// transfers read.
 ///
 /// Each particle carries, besides v_p, the matrix
-///   B_p = sum_i N_i v_i (x_i - x_p)^T                      (eq. 10)
+///   B_p = sum_i N_i v_i (x_i - x_p)^T                      (Jiang et al. 2015, eq. 10)
 /// of the nodal velocities it was given, so that its velocity about x_p is
 /// the affine field v_p + C_p (x - x_p), C_p = B_p D_p^-1, with
 ///   D_p = sum_i N_i (x_i - x_p) (x_i - x_p)^T.
-/// P2G gives node i the momentum m_p N_i (v_p + C_p (x_i - x_p)) (eq. 8) and
+/// P2G gives node i the momentum m_p N_i (v_p + C_p (x_i - x_p)) (Jiang et al. 2015, eq. 8) and
 /// G2P sets v_p = sum_i N_i v_i and B_p from the new nodal velocities, both
 /// at the particle's position before it moves. x_i is the node's Greville
 /// abscissa (BSpline1D::greville), where the basis reproduces linear fields:
@@ -53,7 +53,7 @@ enum class TransferScheme : int
   apic = 1  ///< v_p = sum_i N_i v_i with the affine matrix B_p (Jiang et al. 2015)
 };
 
-/// @brief The column of the APIC affine matrix B_p (eq. 10), (xx, xy, yx, yy)
+/// @brief The column of the APIC affine matrix B_p (Jiang et al. 2015, eq. 10), (xx, xy, yx, yy)
 /// per particle, B_ij = sum_k N_k v_k,i (x_k - x_p)_j.
 inline ColumnSpec affine_column()
 {
@@ -96,7 +96,7 @@ struct BlockPoints
 /// then sum_i N_i (x_i - x_p) vanishes up to a rounding without bias. From
 /// x_p itself, the evaluation error of the N_i leaves a residue of one sign,
 /// of the size of the round-off of x_p's coordinates, which the affine
-/// momentum (eq. 8) turns into a steady leak of linear and angular momentum.
+/// momentum (Jiang et al. 2015, eq. 8) turns into a steady leak of linear and angular momentum.
 /// The weights sum to 1 up to round-off, so 1 / sum_i N_i is 2 - sum_i N_i
 /// to rounding (the error is the square of the sum's): no division.
 template <class Shape>
@@ -186,7 +186,7 @@ template <bool Inertia, class Shape>
   return f;
 }
 
-/// @brief The affine velocity C_p = B_p D_p^-1 of eq. 8, (xx, xy, yx, yy).
+/// @brief The affine velocity C_p = B_p D_p^-1 of Jiang et al. 2015, eq. 8, (xx, xy, yx, yy).
 /// With B-splines D_p is diagonal, and a direction with D_dd = 0 (a particle
 /// on a degree-1 grid line or on the grid's edge: all its weight at distance
 /// 0) gets no affine velocity; with CPDI D_p is positive definite.

@@ -12,8 +12,9 @@ import numpy as np
 from ..output import read_csv
 from ..scene import Crack, Scene
 
-__all__ = ["CrackTip", "CrackPath", "INITIATION_ADVANCE", "BRANCH_OFFSET", "BRANCH_AFTER", "initiation_time",
-           "branch_time", "tip_report", "read_columns"]
+__all__ = ["CrackTip", "CrackPath", "CRACK_PATH", "write_crack_path", "read_crack_path",
+           "INITIATION_ADVANCE", "BRANCH_OFFSET", "BRANCH_AFTER", "initiation_time",
+           "branch_time", "read_columns"]
 
 INITIATION_ADVANCE = 0.5
 """Crack initiation: the tip has moved this far (mm) past its position at t = 0."""
@@ -167,10 +168,11 @@ class CrackTip:
 
 
 class CrackPath:
-    """When each point cracked: the time of the first record at which its phase
-    field was below ``threshold``, for the crack-path plot. It keeps a flag per
-    point and the times of the cracked ones only, since a crack is a thin band
-    of a body's points.
+    """When and where each point cracked: the time of the first record at which
+    its phase field was below ``threshold``, and its position then, for the
+    crack-path plot and the crack arms (:mod:`pfmpm.post.cracks`). It keeps a
+    flag per point and the times and positions of the cracked ones only, since
+    a crack is a thin band of a body's points.
 
     Parameters
     ----------
@@ -185,14 +187,17 @@ class CrackPath:
         self._cracked = np.zeros(n, dtype=bool)
         self._index = np.empty(0, dtype=np.int64)
         self._time = np.empty(0)
+        self._xy = np.empty((0, 2))
 
-    def update(self, t: float, c: np.ndarray) -> None:
-        """Note time ``t`` for the points that crack now, given the phase field ``c`` of all."""
+    def update(self, t: float, c: np.ndarray, xy: np.ndarray) -> None:
+        """Note time ``t`` and the position in ``xy`` of the points that crack
+        now, given the phase field ``c`` and positions ``xy`` of all."""
         new = np.flatnonzero(~self._cracked & (c < self.threshold))
         if len(new):
             self._cracked[new] = True
             self._index = np.concatenate((self._index, new))
             self._time = np.concatenate((self._time, np.full(len(new), t)))
+            self._xy = np.concatenate((self._xy, xy[new]))
 
     @property
     def times(self) -> np.ndarray:
@@ -201,16 +206,44 @@ class CrackPath:
         times[self._index] = self._time
         return times
 
-    def restore(self, times: np.ndarray) -> None:
-        """Continue from :attr:`times` (of a checkpoint)."""
+    @property
+    def positions(self) -> np.ndarray:
+        """(n, 2) where each point cracked, NaN while intact."""
+        xy = np.full((len(self._cracked), 2), np.nan)
+        xy[self._index] = self._xy
+        return xy
+
+    def restore(self, times: np.ndarray, positions: np.ndarray) -> None:
+        """Continue from :attr:`times` and :attr:`positions` (of a checkpoint)."""
         self._cracked = np.isfinite(times)
         self._index = np.flatnonzero(self._cracked)
         self._time = np.asarray(times)[self._index]
+        self._xy = np.asarray(positions, dtype=float)[self._index]
 
-    def cracked(self) -> tuple[np.ndarray, np.ndarray]:
-        """The indices of the cracked points, ascending, and the time each cracked."""
+    def cracked(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The indices of the cracked points, ascending, the time each cracked
+        and where."""
         order = np.argsort(self._index)
-        return self._index[order], self._time[order]
+        return self._index[order], self._time[order], self._xy[order]
+
+
+CRACK_PATH = "crack_path.csv"
+"""The file of a completed run with an initial crack: where and when each
+point cracked (:meth:`CrackPath.cracked`), one row per point, by time."""
+
+
+def write_crack_path(path: Path, xy: np.ndarray, times: np.ndarray) -> None:
+    """Write the points ``xy`` and the times they cracked to the CSV ``path``
+    (columns ``x``, ``y``, ``t``), in the order they cracked."""
+    order = np.argsort(times, kind="stable")
+    rows = np.column_stack((np.asarray(xy, dtype=float)[order], np.asarray(times, dtype=float)[order]))
+    np.savetxt(path, rows, delimiter=",", header="x,y,t", comments="", fmt="%.17g")
+
+
+def read_crack_path(path: Path) -> tuple[np.ndarray, np.ndarray]:
+    """The points and their crack times of :func:`write_crack_path`'s file."""
+    rows = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2).reshape(-1, 3)
+    return rows[:, :2], rows[:, 2]
 
 
 def read_columns(csv_or_columns) -> Mapping[str, np.ndarray]:
@@ -273,32 +306,3 @@ def branch_time(e, crack: Crack, offset: float = BRANCH_OFFSET, after: float = B
     along, across = rx * d[0] + ry * d[1], np.abs(rx * d[1] - ry * d[0])
     off = (along > after) & (across > offset)
     return float(e["t"][np.argmax(off)]) if off.any() else math.nan
-
-
-def tip_report(scene: Scene, e) -> dict:
-    """The crack-tip measures of a run of ``scene`` with an initial crack.
-
-    Parameters
-    ----------
-    scene : Scene
-    e : path or mapping of str -> ndarray
-        The run's ``energies.csv``, or its columns.
-
-    Returns
-    -------
-    dict
-        ``initiation_us`` (:func:`initiation_time`), ``branch_us``
-        (:func:`branch_time`), ``tip_x_end``, ``tip_y_end``, the largest
-        smoothed ``max_speed`` and its ratio ``max_speed_over_rayleigh`` to
-        the Rayleigh speed of the crackable material.
-    """
-    e = read_columns(e)
-    speed = float(np.max(e["crack_tip_speed"]))
-    return {
-        "initiation_us": initiation_time(e),
-        "branch_us": branch_time(e, scene.cracks[0]),
-        "tip_x_end": float(e["crack_tip_x"][-1]),
-        "tip_y_end": float(e["crack_tip_y"][-1]),
-        "max_speed": speed,
-        "max_speed_over_rayleigh": speed / scene.crack_rayleigh_speed(),
-    }

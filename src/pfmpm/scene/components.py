@@ -25,7 +25,7 @@ PRECONDITIONERS = ("automatic", "jacobi", "ssor", "multigrid")
 
 TRANSFER_SCHEMES = ("flip", "apic")
 """The particle-grid transfers ``[transfer] scheme`` names: FLIP with the lumped mass
-(Kakouris & Triantafyllou eq. 80), or APIC (Jiang et al. 2015)."""
+(Kakouris & Triantafyllou 2019, eq. 80), or APIC (Jiang et al. 2015)."""
 
 
 @dataclass(frozen=True)
@@ -194,7 +194,7 @@ class PhaseFieldSpec:
     ----------
     tol : float
         Tolerance tol_c of the phase-field solve, relative to ``||F||``
-        (eq. 52), in ``(0, 1)``.
+        (K&T eq. 52), in ``(0, 1)``.
     max_iterations : int
         Conjugate-gradient iterations allowed per step; the run stops with
         an error when they do not reach ``tol``.
@@ -228,7 +228,7 @@ class TransferSpec:
     scheme : str
         ``"flip"``: each particle's velocity takes the step's nodal
         accelerations, ``v_p += dt sum_i N_i a_i`` (Kakouris & Triantafyllou
-        eq. 80). ``"apic"``: the affine particle-in-cell transfer (Jiang et
+        2019, eq. 80). ``"apic"``: the affine particle-in-cell transfer (Jiang et
         al. 2015): ``v_p = sum_i N_i v_i`` and an affine matrix per particle
         (the column ``affine``, ``B_p``) that P2G adds to the momentum,
         which keeps the angular momentum of the transfers. Either works with

@@ -19,7 +19,7 @@ or two fields per contact group split by the damage gradient (Homel & Herbold 20
 SURFACE_DETECTION = ("none", "kernel_sum")
 """How surface particles are found at t = 0 (Homel & Herbold 2017, section 2.4)."""
 PARTING = ("softened", "failed")
-"""When a group's fields may part at a node: once its band has stopped softening, or by eq. 21 alone."""
+"""When a group's fields may part at a node: once its band has stopped softening, or by H&H eq. 21 alone."""
 
 
 @dataclass(frozen=True)
@@ -88,10 +88,10 @@ class Contact:
         through its two fields, surfaces and cracks); a body in no entry is
         its own group.
     separability : float
-        Damage gradient only: D-bar_min of the separability test (eq. 21),
+        Damage gradient only: D-bar_min of the separability test (H&H eq. 21),
         in (0, 1).
     kernel_radius : float or None
-        Damage gradient only: kernel radius r_p of eqs. 17-19, > 0; ``None``
+        Damage gradient only: kernel radius r_p of H&H eqs. 17-19, > 0; ``None``
         is the cell diagonal (the paper's choice).
     skin : float
         Damage gradient only: the neighbour lists' Verlet skin over r_p, > 0.
@@ -110,10 +110,10 @@ class Contact:
         damaged at c <= this, in [0, 1) (a damage model's at D >= 1 - 1e-4).
     parting : str
         Damage gradient only: when a group's fields may part at a node.
-        ``"softened"`` (the default): by eq. 21 once no particle of a damage
+        ``"softened"`` (the default): by H&H eq. 21 once no particle of a damage
         model mapping there is still softening, so that the band dissipates
         G_f before its faces part (docs/contact.md, "Parting"); ``"failed"``:
-        by eq. 21 alone, as the paper, once a fully damaged particle maps
+        by H&H eq. 21 alone, as the paper, once a fully damaged particle maps
         there.
     """
 

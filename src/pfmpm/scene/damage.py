@@ -1,16 +1,16 @@
 """Damage models of a material (its ``damage`` table): the scalar damage of
 Homel & Herbold (2017, §2.7), D = 0 intact to 1 failed, which degrades the
-tensile principal stresses (eqs. 26-27).
+tensile principal stresses (H&H eqs. 26-27).
 
 ``model`` selects the class in :data:`DAMAGE_MODELS`:
 
 ``"rankine"`` (:class:`RankineSpec`)
-    Rankine damage with linear strain softening (eq. 23).
+    Rankine damage with linear strain softening (H&H eq. 23).
 ``"time_to_failure"`` (:class:`TimeToFailureSpec`)
-    D grows at 1 / tau, tau = l / c_f, while the strength is exceeded (eq. 24).
+    D grows at 1 / tau, tau = l / c_f, while the strength is exceeded (H&H eq. 24).
 
 Either takes an optional ``weibull`` table (:class:`WeibullSpec`): a strength
-drawn per particle (eq. 25).
+drawn per particle (H&H eq. 25).
 
 The scene's ``[[initial_damage]]`` tables (:class:`InitialDamage`) give
 particles of such materials a damage D at t = 0: pre-failed surfaces and
@@ -58,7 +58,7 @@ def damage_class(model) -> type["DamageSpec"]:
 
 def cell_diagonal(h: float) -> float:
     """The cell diagonal sqrt(2) h of the 2D grid: H&H's l_ch (§2.7, Table III)
-    and the default length of time-to-failure damage (eq. 24)."""
+    and the default length of time-to-failure damage (H&H eq. 24)."""
     return math.sqrt(2.0) * h
 
 
@@ -74,14 +74,14 @@ def localisation_width(grid) -> float:
     B-splines (between knot lines), and 2 cells for linear B-splines and
     CPDI1 when the crack lies on a node line (one cell when it runs through
     the middle of a cell: it then dissipates G_f / 2). A band of width w
-    dissipates G_f w / l_ch per unit crack area (eq. 23 in one dimension).
+    dissipates G_f w / l_ch per unit crack area (H&H eq. 23 in one dimension).
     """
     return max(grid.degree, 2) * grid.h
 
 
 @dataclass(frozen=True)
 class WeibullSpec:
-    """Weibull strength per particle (eq. 25):
+    """Weibull strength per particle (H&H eq. 25):
     ``sigma_f = sigma_ref [(V_ref / V) ln(R) / ln(1/2)]^(1/m)``, R uniform in (0, 1).
 
     ``sigma_ref`` is the damage table's ``sigma_f``, the median strength of a
@@ -110,7 +110,7 @@ class WeibullSpec:
         store(self, "seed", integer("seed", self.seed, ge=0))
 
     def draw(self, sigma_ref: float, volume: np.ndarray) -> np.ndarray:
-        """One strength per particle of ``volume`` (eq. 25), in particle order.
+        """One strength per particle of ``volume`` (H&H eq. 25), in particle order.
 
         R = u + 2^-54 with u from ``default_rng(seed).random``, so that R lies
         in the open interval (0, 1).
@@ -151,7 +151,7 @@ class DamageSpec(abc.ABC):
         Characteristic length; ``None``: the model's default for the grid
         (:meth:`default_length`).
     weibull : WeibullSpec or None
-        A strength per particle (eq. 25); ``None``: ``sigma_f`` everywhere.
+        A strength per particle (H&H eq. 25); ``None``: ``sigma_f`` everywhere.
     """
 
     model: ClassVar[str]
@@ -185,7 +185,7 @@ class DamageSpec(abc.ABC):
 
     def strengths(self, volume: np.ndarray) -> np.ndarray:
         """The strength of each particle of initial ``volume``: the Weibull
-        draws (eq. 25), or ``sigma_f``."""
+        draws (H&H eq. 25), or ``sigma_f``."""
         if self.weibull is None:
             return np.full(len(volume), self.sigma_f)
         return self.weibull.draw(self.sigma_f, volume)
@@ -194,7 +194,7 @@ class DamageSpec(abc.ABC):
 @_register
 @dataclass(frozen=True)
 class RankineSpec(DamageSpec):
-    """Rankine damage with linear strain softening (eq. 23, Cervera's form):
+    """Rankine damage with linear strain softening (H&H eq. 23, Cervera's form):
     ``D = (1 + H_s)(1 - sigma_f / r)``, r the largest trial principal stress so
     far, ``H_s = Hbar l_ch / (1 - Hbar l_ch)``, ``Hbar = sigma_f^2 / (2 E Gf)``.
     A band of width l_ch dissipates Gf per unit crack area.
@@ -240,13 +240,13 @@ class RankineSpec(DamageSpec):
             what = "" if strongest is None else f" of the strongest particle (sigma_f = {sigma:.6g})"
             default = " (the default, the grid's localisation width)" if self.l_ch is None else ""
             raise SceneError("l_ch", f"must be < 2 E Gf / sigma_f^2 = {limit:.6g}{what}, or the"
-                             f" softening of eq. 23 snaps back{default}", length)
+                             f" softening of H&H eq. 23 snaps back{default}", length)
 
 
 @_register
 @dataclass(frozen=True)
 class TimeToFailureSpec(DamageSpec):
-    """Time-to-failure damage (eq. 24): ``D += dt / tau``, ``tau = l_ch / c_f``,
+    """Time-to-failure damage (H&H eq. 24): ``D += dt / tau``, ``tau = l_ch / c_f``,
     in each step whose largest trial principal stress exceeds sigma_f.
 
     Parameters
@@ -307,7 +307,7 @@ class InitialDamage:
     The selected particles start with damage ``max(D, ...)`` over the entries
     that select them; the damage model grows it from there (it never
     decreases), and it dissipates nothing at t = 0.  A particle with D = 1 is
-    failed from the first step on: its tensile stresses are zero (eqs.
+    failed from the first step on: its tensile stresses are zero (H&H eqs.
     26-27), the damage-gradient partition splits the velocity field at it,
     and with CPDI (``grid.scale_failed``) its domain is scaled, as for a
     particle that fails during the run.

@@ -75,10 +75,10 @@ def material_class(model: Any) -> type["MaterialSpec"]:
 
 @dataclass(frozen=True)
 class Anisotropy:
-    """Anisotropic surface energy: the tensor gamma of eq. 6 in the material frame.
+    """Anisotropic surface energy: the tensor gamma of K&T eq. 6 in the material frame.
 
     gamma acts on the curvature ``kappa = (c_11, c_22, c_12)`` (the fourth-order
-    term of eq. 4 is ``l0^3 kappa^T gamma kappa``); the body's ``orientation``
+    term of K&T eq. 4 is ``l0^3 kappa^T gamma kappa``); the body's ``orientation``
     turns the material axes, and ``gamma_1111`` is the coefficient of a crack
     running along it. :mod:`pfmpm.anisotropy` gives the resulting ``G_c(theta)``.
 
@@ -169,12 +169,12 @@ class Anisotropy:
 @dataclass(frozen=True)
 class FractureSpec:
     """Phase-field fracture parameters of a material (its ``fracture`` table;
-    eqs. 4, 14-15); the core's ``Fracture`` is built from it.
+    K&T eqs. 4, 14-15); the core's ``Fracture`` is built from it.
 
     Parameters
     ----------
     model : str
-        ``"AT2"`` (the paper's eq. 4, the default) or ``"AT1"``: the local term
+        ``"AT2"`` (K&T eq. 4, the default) or ``"AT1"``: the local term
         of the crack density is ``w(d) = d^2`` or ``d`` with ``d = 1 - c``.  In
         the standard form ``(G_c / c_w) (w(d) / l + l |grad d|^2)`` both use
         ``l = 2 l0`` (docs/method.md); AT1 has an elastic threshold and a
@@ -193,10 +193,10 @@ class FractureSpec:
     k_f : float
         Residual stiffness in ``[0, 1)``: ``g(c) = (1 - k_f) c^2 + k_f``.
     split : str
-        Which energy cracking degrades: ``"spectral"`` (Miehe, eq. 14),
+        Which energy cracking degrades: ``"spectral"`` (Miehe, K&T eq. 14),
         ``"volumetric_deviatoric"`` (Amor) or ``"none"``.
     anisotropy : Anisotropy or None
-        The tensor gamma of the fourth-order functional (eqs. 4-6); ``None``:
+        The tensor gamma of the fourth-order functional (K&T eqs. 4, 6); ``None``:
         the second-order isotropic functional.  AT2 only.
     """
 
@@ -225,7 +225,7 @@ class FractureSpec:
                              f" anisotropy (symmetry {self.anisotropy.symmetry!r})", self.model)
 
     def gamma(self) -> np.ndarray:
-        """gamma of eq. 6 in the material frame (zero without anisotropy)."""
+        """gamma of K&T eq. 6 in the material frame (zero without anisotropy)."""
         return np.zeros((3, 3)) if self.anisotropy is None else self.anisotropy.matrix()
 
 
@@ -417,7 +417,7 @@ class NeoHookeanSpec(MaterialSpec):
 
     def initial_columns(self, scene: "Scene", volume: np.ndarray) -> dict[str, np.ndarray]:
         """With damage, the strength ``sigma_f`` of each particle (a Weibull
-        field, eq. 25, or the table's ``sigma_f``).
+        field, H&H eq. 25, or the table's ``sigma_f``).
 
         Raises
         ------

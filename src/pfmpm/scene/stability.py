@@ -23,7 +23,7 @@ __all__ = ["CRITICAL_FACTOR", "LONE_PARTICLE_FACTOR", "StepLimit", "step_limit",
 #: interior functions only, or of all functions including the open-knot end
 #: ones (degree 2: 1.634 and 0.862; degree 3: 1.929 and 0.653; degree 1: 1
 #: and 1), over sqrt(2) for two directions and capped at 1, the CFL limit the
-#: paper uses (eq. 84). A fixed ``time.dt`` may go up to it.
+#: paper uses (K&T eq. 84). A fixed ``time.dt`` may go up to it.
 #: tests/test_elastic.py recomputes these from the basis.
 CRITICAL_FACTOR = {1: (0.707, 0.707), 2: (1.0, 0.609), 3: (1.0, 0.461)}
 
@@ -91,7 +91,7 @@ def step_limit(scene: "Scene") -> StepLimit:
 
 
 def stable_dt(scene: "Scene") -> float:
-    """The default step ``cfl * kappa * h / (c_max + v_max)`` (eqs. 83-84),
+    """The default step ``cfl * kappa * h / (c_max + v_max)`` (K&T eqs. 83-84),
     ``kappa`` the smaller of the grid's factor (:data:`CRITICAL_FACTOR`) and a
     lone particle's (:data:`LONE_PARTICLE_FACTOR`).
 
