@@ -36,16 +36,8 @@ py::array_t<double> array_of(std::vector<double>&& data)
 py::dict stats_dict(const PhaseFieldStats& st)
 {
   py::dict d;
-  d["solves"] = st.solves;
-  d["iterations"] = st.iterations;
-  d["last_iterations"] = st.last_iterations;
-  d["start_residual"] = st.start_residual;
-  d["last_residual"] = st.last_residual;
-  d["unknowns"] = st.unknowns;
-  d["passes"] = st.passes;
-  d["last_passes"] = st.last_passes;
-  d["at_bound"] = st.at_bound;
-  d["handovers"] = st.handovers;
+  PhaseFieldStats::each([&](const char* name, PhaseFieldStats::Combine, const auto& value) { d[name] = value; },
+                        st);
   return d;
 }
 

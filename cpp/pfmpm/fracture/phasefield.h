@@ -108,6 +108,32 @@ struct PhaseFieldStats
   std::int32_t last_passes = 0;      ///< active-set passes of the last bounded solve
   std::int32_t at_bound = 0;         ///< nodes held at c = 0 or 1 by the last bounded solve
   std::int64_t handovers = 0;        ///< bounded solves finished by MPRGP (mprgp.h)
+
+  /// How a statistic of several phase fields (one per crackable body or
+  /// group) combines into the run's: summed, or the largest.
+  enum class Combine
+  {
+    sum,
+    max
+  };
+
+  /// @brief Call `visit(name, combine, s.member...)` for every statistic
+  /// of the Stats `s...` (one or more), in one order: the one list that the
+  /// solver's state, its restore, the run's total and the bindings iterate.
+  template <class Visit, class... Stats>
+  static void each(Visit&& visit, Stats&... s)
+  {
+    visit("solves", Combine::sum, s.solves...);
+    visit("iterations", Combine::sum, s.iterations...);
+    visit("last_iterations", Combine::max, s.last_iterations...);
+    visit("start_residual", Combine::max, s.start_residual...);
+    visit("last_residual", Combine::max, s.last_residual...);
+    visit("unknowns", Combine::sum, s.unknowns...);
+    visit("passes", Combine::sum, s.passes...);
+    visit("last_passes", Combine::max, s.last_passes...);
+    visit("at_bound", Combine::sum, s.at_bound...);
+    visit("handovers", Combine::sum, s.handovers...);
+  }
 };
 
 /// @brief The last assembled phase-field system K c = F (K&T eqs. 56-57, 52) in

@@ -200,16 +200,9 @@ SolverState Solver::state() const
     PhaseFieldState pf = _phase[k].field.state();
     s.arrays[phase_key(k, "c")] = std::move(pf.c);
     s.arrays[phase_key(k, "c_previous")] = std::move(pf.c_previous);
-    s.scalars[phase_key(k, "solves")] = static_cast<double>(pf.stats.solves);
-    s.scalars[phase_key(k, "iterations")] = static_cast<double>(pf.stats.iterations);
-    s.scalars[phase_key(k, "last_iterations")] = pf.stats.last_iterations;
-    s.scalars[phase_key(k, "start_residual")] = pf.stats.start_residual;
-    s.scalars[phase_key(k, "last_residual")] = pf.stats.last_residual;
-    s.scalars[phase_key(k, "unknowns")] = pf.stats.unknowns;
-    s.scalars[phase_key(k, "passes")] = static_cast<double>(pf.stats.passes);
-    s.scalars[phase_key(k, "last_passes")] = pf.stats.last_passes;
-    s.scalars[phase_key(k, "at_bound")] = pf.stats.at_bound;
-    s.scalars[phase_key(k, "handovers")] = static_cast<double>(pf.stats.handovers);
+    PhaseFieldStats::each([&](const char* name, PhaseFieldStats::Combine, const auto& value)
+                          { s.scalars[phase_key(k, name)] = static_cast<double>(value); },
+                          pf.stats);
   }
   if (const ContactStats* c = contact_stats())
   {
@@ -260,18 +253,11 @@ void Solver::restore(const SolverState& state)
                                 + std::to_string(time));
   for (std::size_t k = 0; k < _phase.size(); ++k)
   {
-    auto at = [&](const char* name) { return state.scalars.at(phase_key(k, name)); };
     PhaseFieldStats stats;
-    stats.solves = static_cast<std::int64_t>(at("solves"));
-    stats.iterations = static_cast<std::int64_t>(at("iterations"));
-    stats.last_iterations = static_cast<std::int32_t>(at("last_iterations"));
-    stats.start_residual = at("start_residual");
-    stats.last_residual = at("last_residual");
-    stats.unknowns = static_cast<std::int32_t>(at("unknowns"));
-    stats.passes = static_cast<std::int64_t>(at("passes"));
-    stats.last_passes = static_cast<std::int32_t>(at("last_passes"));
-    stats.at_bound = static_cast<std::int32_t>(at("at_bound"));
-    stats.handovers = static_cast<std::int64_t>(at("handovers"));
+    PhaseFieldStats::each(
+        [&](const char* name, PhaseFieldStats::Combine, auto& value)
+        { value = static_cast<std::decay_t<decltype(value)>>(state.scalars.at(phase_key(k, name))); },
+        stats);
     _phase[k].field.restore(PhaseFieldState{state.arrays.at(phase_key(k, "c")),
                                             state.arrays.at(phase_key(k, "c_previous")), stats});
   }
@@ -823,17 +809,10 @@ PhaseFieldStats Solver::phase_field_stats() const
   PhaseFieldStats total;
   for (const PhaseFieldGroup& g : _phase)
   {
-    const PhaseFieldStats& s = g.field.stats();
-    total.solves += s.solves;
-    total.iterations += s.iterations;
-    total.last_iterations = std::max(total.last_iterations, s.last_iterations);
-    total.start_residual = std::max(total.start_residual, s.start_residual);
-    total.last_residual = std::max(total.last_residual, s.last_residual);
-    total.unknowns += s.unknowns;
-    total.passes += s.passes;
-    total.last_passes = std::max(total.last_passes, s.last_passes);
-    total.at_bound += s.at_bound;
-    total.handovers += s.handovers;
+    PhaseFieldStats::each(
+        [](const char*, PhaseFieldStats::Combine how, auto& sum, const auto& value)
+        { sum = how == PhaseFieldStats::Combine::sum ? sum + value : std::max(sum, value); },
+        total, g.field.stats());
   }
   return total;
 }
