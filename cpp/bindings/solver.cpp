@@ -145,11 +145,19 @@ void bind_solver(py::module_& m)
                   std::vector<double> friction, std::optional<DamageGradientOptions> damage,
                   ShapeFunctions shape, bool scale_failed, double failed_c, TransferScheme transfer)
                {
+                 StepConfig step(dt);
+                 step.fracture = std::move(fracture);
+                 step.tol = tol;
+                 step.max_iterations = max_iterations;
+                 step.friction = std::move(friction);
+                 step.damage = std::move(damage);
+                 step.shape = shape;
+                 step.scaling = DomainScaling{scale_failed, failed_c};
+                 step.transfer = transfer;
                  return std::make_unique<Solver>(
                      grid, particles,
                      std::vector<std::shared_ptr<const Material>>(materials.begin(), materials.end()),
-                     dt, std::move(fracture), tol, max_iterations, std::move(friction),
-                     std::move(damage), shape, DomainScaling{scale_failed, failed_c}, transfer);
+                     std::move(step));
                }),
            py::arg("grid"), py::arg("particles"), py::arg("materials"), py::arg("dt"),
            py::arg("fracture") = std::vector<std::optional<Fracture>>{}, py::arg("tol") = 1e-6,

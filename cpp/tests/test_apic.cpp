@@ -170,8 +170,9 @@ TEST_P(ApicDegree, AStepCarriesAnAffineFieldAndKeepsAngularMomentum)
     P.mass[p] = 0.015625 * (1.0 + 0.2 * std::sin(7.0 * p));
     P.volume[p] = 0.015625;
   }
-  Solver solver(grid, P, elastic(100.0, 0.3, 1.0), 2e-3, {}, 1e-6, 1000, {}, std::nullopt,
-                ShapeFunctions::bspline, {}, TransferScheme::apic);
+  StepConfig step(2e-3);
+  step.transfer = TransferScheme::apic;
+  Solver solver(grid, P, elastic(100.0, 0.3, 1.0), step);
   EXPECT_EQ(solver.transfer(), TransferScheme::apic);
   std::vector<double> gradients(4 * n);
   for (std::size_t p = 0; p < n; ++p)

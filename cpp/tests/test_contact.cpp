@@ -65,8 +65,10 @@ TEST_P(ContactDegree, CollisionConservesMomentumAndPassesChecks)
 {
   Grid grid(GetParam(), {32, 24}, 0.25, {0.0, 0.0});
   Particles P = make_disks(oblique, 0.125);
-  Solver solver(grid, P, elastic(100.0, 0.3, 1.0), 2e-3, {}, 1e-6, 1000,
-                {0.0, 0.3, 0.3, 0.0}, std::nullopt, shape_of(GetParam()));
+  StepConfig step(2e-3);
+  step.friction = {0.0, 0.3, 0.3, 0.0};
+  step.shape = shape_of(GetParam());
+  Solver solver(grid, P, elastic(100.0, 0.3, 1.0), step);
   square_domains(P, 0.125);
   const Energies before = solver.energies();
   const double scale = momentum_scale(P);
@@ -98,8 +100,11 @@ TEST_P(ContactDegree, ThreadCountDoesNotChangeBits)
     for (std::size_t i = 0; i < P.size(); ++i)
       if (std::abs(P.x[2 * i + 1] - 2.0) < 0.1 && P.body[i] == 0)
         P.f64("history")[i] = 50.0;
-    Solver solver(grid, P, elastic(100.0, 0.3, 1.0), 2e-3, {Fracture{0.5, 0.5, 0.0}}, 1e-6,
-                  1000, {0.0, 0.3, 0.3, 0.0}, std::nullopt, shape_of(GetParam()));
+    StepConfig step(2e-3);
+    step.fracture = {Fracture{0.5, 0.5, 0.0}};
+    step.friction = {0.0, 0.3, 0.3, 0.0};
+    step.shape = shape_of(GetParam());
+    Solver solver(grid, P, elastic(100.0, 0.3, 1.0), step);
     square_domains(P, 0.125);
     solver.advance(300);
     return std::make_pair(P, solver.energies());
@@ -127,8 +132,10 @@ TEST_P(ContactDegree, BodiesThatNeverMeetRunAsOneField)
     add_model_columns(P, false);
     for (std::size_t i = 0; i < P.size(); ++i)
       P.f64("strain")[3 * i] = 1e-3 * std::sin(P.x[2 * i + 1]);
-    Solver solver(grid, P, elastic(100.0, 0.3, 1.0), 2e-3, {}, 1e-6, 1000,
-                  std::move(friction), std::nullopt, shape_of(GetParam()));
+    StepConfig step(2e-3);
+    step.friction = std::move(friction);
+    step.shape = shape_of(GetParam());
+    Solver solver(grid, P, elastic(100.0, 0.3, 1.0), step);
     square_domains(P, 0.125);
     solver.advance(300);
     return P;
@@ -152,11 +159,17 @@ TEST(Contact, BadFrictionIsRefused)
   P.mass = {1.0};
   P.volume = {1.0};
   const auto m = elastic(1.0, 0.0, 1.0);
-  EXPECT_THROW(Solver(grid, P, m, 0.1, {}, 1e-6, 10, {0.0, -0.1, -0.1, 0.0}), std::invalid_argument);
-  EXPECT_THROW(Solver(grid, P, m, 0.1, {}, 1e-6, 10, {0.0, 0.1, 0.2, 0.0}), std::invalid_argument);
-  EXPECT_THROW(Solver(grid, P, m, 0.1, {}, 1e-6, 10, {0.0, 0.1, 0.2}), std::invalid_argument);
+  auto with_friction = [](std::vector<double> friction)
+  {
+    StepConfig step(0.1);
+    step.friction = std::move(friction);
+    return step;
+  };
+  EXPECT_THROW(Solver(grid, P, m, with_friction({0.0, -0.1, -0.1, 0.0})), std::invalid_argument);
+  EXPECT_THROW(Solver(grid, P, m, with_friction({0.0, 0.1, 0.2, 0.0})), std::invalid_argument);
+  EXPECT_THROW(Solver(grid, P, m, with_friction({0.0, 0.1, 0.2})), std::invalid_argument);
   P.body = {2};
-  EXPECT_THROW(Solver(grid, P, m, 0.1, {}, 1e-6, 10, {0.0, 0.1, 0.1, 0.0}), std::invalid_argument);
+  EXPECT_THROW(Solver(grid, P, m, with_friction({0.0, 0.1, 0.1, 0.0})), std::invalid_argument);
 }
 
 // Three and more fields at one node (update_contact_node): the contact

@@ -117,9 +117,9 @@ struct Disk
   Disk() : P(count())
   {
     add_model_columns(P, false);
-    solver = std::make_unique<Solver>(grid, P, elastic(100.0, 0.3, 1.0), 1e-3,
-                                      std::vector<std::optional<Fracture>>{}, 1e-6, 1000,
-                                      std::vector<double>{}, std::nullopt, ShapeFunctions::cpdi);
+    StepConfig step(1e-3);
+    step.shape = ShapeFunctions::cpdi;
+    solver = std::make_unique<Solver>(grid, P, elastic(100.0, 0.3, 1.0), step);
     const double d = 4.0 / 60;
     std::size_t k = 0;
     std::vector<double>& strain = P.f64("strain");
@@ -242,9 +242,9 @@ TEST(Cpdi, BadInputIsRefused)
   // Degree 2.
   Grid quadratic(2, {10, 10}, 0.5, {0.0, 0.0});
   Particles P(1);
-  EXPECT_THROW(Solver(quadratic, P, elastic(1.0, 0.3, 1.0), 1e-3, {}, 1e-6, 1000, {},
-                      std::nullopt, ShapeFunctions::cpdi),
-               std::invalid_argument);
+  StepConfig cpdi(1e-3);
+  cpdi.shape = ShapeFunctions::cpdi;
+  EXPECT_THROW(Solver(quadratic, P, elastic(1.0, 0.3, 1.0), cpdi), std::invalid_argument);
   // A domain wider than a cell at t = 0.
   disk.P.f64("convected_r1")[0] = disk.P.f64("domain_r1")[0] = 0.2;
   EXPECT_THROW(disk.solver->advance(1), std::invalid_argument);

@@ -81,9 +81,10 @@ struct BandedBlock
     std::vector<double> friction;
     if (options)
       friction = {0.3};
-    solver = std::make_unique<Solver>(grid, P, elastic(100.0, 0.3, 1.0), 2e-3,
-                                      std::vector<std::optional<Fracture>>{}, 1e-6, 1000,
-                                      friction, options);
+    StepConfig step(2e-3);
+    step.friction = friction;
+    step.damage = options;
+    solver = std::make_unique<Solver>(grid, P, elastic(100.0, 0.3, 1.0), step);
     if (options)
       for (std::size_t p = 0; p < P.size(); ++p)
         if (std::abs(P.x[2 * p] - 3.0) < band)
@@ -246,8 +247,10 @@ TEST(DamageFields, SurfaceFlagsOfARectangle)
   // cell rectangle are flagged; its corner particle has S / S_bulk = 0.470.
   Grid grid(2, {24, 20}, 0.25, {0.0, 0.0});
   Particles P = make_rectangle(1.0, 1.0, 5.0, 4.0, 0.25, 2);
-  Solver solver(grid, P, elastic(100.0, 0.3, 1.0), 1e-3, {}, 1e-6, 1000, {0.0},
-                DamageGradientOptions{});
+  StepConfig step(1e-3);
+  step.friction = {0.0};
+  step.damage = DamageGradientOptions{};
+  Solver solver(grid, P, elastic(100.0, 0.3, 1.0), step);
   const std::vector<double> ratio = solver.detect_surfaces({0.125}, 0.99);
   const std::vector<std::int32_t>& flag = P.i32("surface");
   for (std::size_t p = 0; p < P.size(); ++p)
@@ -430,7 +433,10 @@ TEST(DamageFields, CollisionConservesMomentum)
   Particles P = make_disks({{2.0, 2.0, 1.0, 0.5, 0.1}, {4.1, 2.6, 1.0, 0.0, 0.0}}, 0.125);
   DamageGradientOptions options;
   options.groups = {0, 0};
-  Solver solver(grid, P, elastic(100.0, 0.3, 1.0), 2e-3, {}, 1e-6, 1000, {0.3}, options);
+  StepConfig step(2e-3);
+  step.friction = {0.3};
+  step.damage = options;
+  Solver solver(grid, P, elastic(100.0, 0.3, 1.0), step);
   solver.detect_surfaces({0.125, 0.125}, 0.99);
   const Energies before = solver.energies();
   const double scale = momentum_scale(P);
@@ -553,7 +559,13 @@ TEST(DamageFields, BadOptionsAreRefused)
   P.volume = {1.0};
   const auto m = elastic(1.0, 0.0, 1.0);
   auto make = [&](DamageGradientOptions o, std::vector<double> friction = {0.1})
-  { Solver(grid, P, m, 0.1, {}, 1e-6, 10, std::move(friction), std::move(o)); };
+  {
+    StepConfig step(0.1);
+    step.max_iterations = 10;
+    step.friction = std::move(friction);
+    step.damage = std::move(o);
+    Solver(grid, P, m, step);
+  };
   DamageGradientOptions o;
   EXPECT_NO_THROW(make(o));
   o.separability = 1.0;

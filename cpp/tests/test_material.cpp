@@ -127,7 +127,7 @@ TEST(Material, ATestModelRunsThroughAStepWithItsClosedFormStress)
       P.v[2 * p] = a * P.x[2 * p];
       P.mass[p] = P.volume[p] = 0.25;
     }
-  Solver solver(grid, P, {model}, dt);
+  Solver solver(grid, P, {model}, StepConfig(dt));
   solver.advance(1);
 
   const double l = 1.0 + a * dt;

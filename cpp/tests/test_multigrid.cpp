@@ -85,12 +85,20 @@ struct PlateRun
            Particles P, const Fracture& f, Preconditioner preconditioner, double tol)
       : grid(degree, cells, h, origin),
         particles(std::move(P)),
-        solver(grid, particles, test::elastic(100.0, 0.2, 1.0), 1e-3, {f}, tol, 100000)
+        solver(grid, particles, test::elastic(100.0, 0.2, 1.0), step(f, tol))
   {
     solver.set_phase_field_preconditioner(preconditioner);
     solver.prepare();
   }
   PhaseFieldStats stats() const { return solver.phase_field_stats(); }
+  static StepConfig step(const Fracture& f, double tol)
+  {
+    StepConfig step(1e-3);
+    step.fracture = {f};
+    step.tol = tol;
+    step.max_iterations = 100000;
+    return step;
+  }
 };
 
 /// Max |a - b| over two particle arrays of the same size.

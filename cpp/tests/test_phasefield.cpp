@@ -195,8 +195,10 @@ TEST(BoundedSolve, BelowTheThresholdNothingIsDamaged)
     test::add_model_columns(P, true);
     for (double& h : P.f64("history"))
       h = H;
-    Solver solver(grid, P, test::elastic(100.0, 0.3, 1.0), 1e-3,
-                  {Fracture{Gc, l0, 0.0, {}, Model::AT1}}, 1e-8, 1000);
+    StepConfig step(1e-3);
+    step.fracture = {Fracture{Gc, l0, 0.0, {}, Model::AT1}};
+    step.tol = 1e-8;
+    Solver solver(grid, P, test::elastic(100.0, 0.3, 1.0), step);
     solver.prepare();
     double lo = 1.0, hi = 0.0;
     for (double c : P.f64("c"))
@@ -239,7 +241,10 @@ TEST(BoundedSolve, NodesWithinTheRoundOffOfTheMomentsAreUncoupled)
   std::vector<double>& history = P.f64("history");
   std::fill(history.begin(), history.end(), 1.0);
   history[last] = 1e12;
-  Solver solver(grid, P, test::elastic(100.0, 0.3, 1.0), 1e-3, {Fracture{1.0, 0.5, 0.0}}, 1e-8, 1000);
+  StepConfig step(1e-3);
+  step.fracture = {Fracture{1.0, 0.5, 0.0}};
+  step.tol = 1e-8;
+  Solver solver(grid, P, test::elastic(100.0, 0.3, 1.0), step);
   solver.prepare();
   const PhaseFieldSystem k = solver.phase_field_system();
   const auto n = static_cast<int>(k.rhs.size());

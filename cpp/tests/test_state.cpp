@@ -49,6 +49,18 @@ void expect_same_particles(const Particles& P, const Particles& Q)
   EXPECT_TRUE(same_bits(P.f64("c"), Q.f64("c")));
   EXPECT_TRUE(same_bits(P.stress, Q.stress));
 }
+
+/// The step of these tests: `dt` with `fracture`, and with `friction` each
+/// body its own field.
+StepConfig step_with(double dt, std::vector<std::optional<Fracture>> fracture,
+                     std::vector<double> friction = {})
+{
+  StepConfig step(dt);
+  step.fracture = std::move(fracture);
+  step.friction = std::move(friction);
+  return step;
+}
+
 } // namespace
 
 class RestoredSolver : public ::testing::TestWithParam<Model>
@@ -62,14 +74,14 @@ TEST_P(RestoredSolver, ContinuesBitwise)
   const std::vector<std::optional<Fracture>> fracture{Fracture{0.5, 0.5, 0.0, {}, GetParam()}};
   Grid grid(2, {24, 24}, 0.25, {0.0, 0.0});
   Particles P = make_block(40);
-  Solver original(grid, P, mat, 1e-3, fracture);
+  Solver original(grid, P, mat, step_with(1e-3, fracture));
   original.advance(30);
 
   // A copy of the particles and the solver state, in a solver that has
   // solved nothing yet.
   Grid grid2(2, {24, 24}, 0.25, {0.0, 0.0});
   Particles Q = P;
-  Solver resumed(grid2, Q, mat, 1e-3, fracture);
+  Solver resumed(grid2, Q, mat, step_with(1e-3, fracture));
   resumed.restore(original.state());
   EXPECT_EQ(resumed.step_count(), 30);
   EXPECT_EQ(resumed.energies().fracture, original.energies().fracture);
@@ -93,7 +105,7 @@ TEST(SolverState, StateOfAnotherGridIsRefused)
   const auto mat = elastic(100.0, 0.3, 1.0);
   Grid small(2, {20, 20}, 0.25, {0.0, 0.0}), large(2, {24, 24}, 0.25, {0.0, 0.0});
   Particles P = make_block(10), Q = make_block(10);
-  Solver a(small, P, mat, 1e-3, fracture), b(large, Q, mat, 1e-3, fracture);
+  Solver a(small, P, mat, step_with(1e-3, fracture)), b(large, Q, mat, step_with(1e-3, fracture));
   EXPECT_THROW(b.restore(a.state()), std::invalid_argument);
 }
 
@@ -119,7 +131,7 @@ TEST(SolverState, RestoredContactRunContinuesBitwise)
   };
   Grid grid(2, {32, 24}, 0.25, {0.0, 0.0});
   Particles P = disks();
-  Solver original(grid, P, mat, 2e-3, fracture, 1e-6, 1000, friction);
+  Solver original(grid, P, mat, step_with(2e-3, fracture, friction));
   original.advance(100);
   ASSERT_GT(original.contact_stats()->nodes, 0) << "the disks should be in contact";
   ASSERT_GT(original.contact_stats()->active, 0);
@@ -127,7 +139,7 @@ TEST(SolverState, RestoredContactRunContinuesBitwise)
   // The particles and the solver state, in a solver that has solved nothing.
   Grid grid2(2, {32, 24}, 0.25, {0.0, 0.0});
   Particles Q = P;
-  Solver resumed(grid2, Q, mat, 2e-3, fracture, 1e-6, 1000, friction);
+  Solver resumed(grid2, Q, mat, step_with(2e-3, fracture, friction));
   SolverState state = original.state();
   // One phase field (of the crackable disk) and the contact record.
   EXPECT_EQ(state.arrays.size(), 2u);
@@ -166,8 +178,8 @@ TEST(SolverState, StateWithOtherFieldsIsRefused)
   Grid grid(2, {32, 24}, 0.25, {0.0, 0.0});
   Particles P = make_disks({{2.0, 2.0, 1.0, 0.0, 0.0}, {5.0, 2.0, 1.0, 0.0, 0.0}}, 0.25);
   Particles Q = P;
-  Solver one(grid, P, mat, 1e-3, fracture);
-  Solver two(grid, Q, mat, 1e-3, fracture, 1e-6, 1000, {0.0, 0.3, 0.3, 0.0});
+  Solver one(grid, P, mat, step_with(1e-3, fracture));
+  Solver two(grid, Q, mat, step_with(1e-3, fracture, {0.0, 0.3, 0.3, 0.0}));
   EXPECT_THROW(one.restore(two.state()), std::invalid_argument);
   EXPECT_THROW(two.restore(one.state()), std::invalid_argument);
   // Both disks crack: two phase fields, not one.
@@ -183,7 +195,7 @@ TEST(SolverState, StepOutrunningTheGridIsUnstable)
   // a speed of 40 adds 0.8.
   Grid grid(2, {24, 24}, 0.25, {0.0, 0.0});
   Particles P = make_block(10);
-  Solver solver(grid, P, elastic(100.0, 0.3, 1.0), 0.01);
+  Solver solver(grid, P, elastic(100.0, 0.3, 1.0), StepConfig(0.01));
   solver.set_stability_length(0.5);
   solver.advance(2);
   for (std::size_t p = 0; p < P.size(); ++p)

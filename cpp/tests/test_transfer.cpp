@@ -59,7 +59,7 @@ TEST_P(TransferDegree, P2GConservesMassAndMomentum)
 {
   Grid grid(GetParam(), {40, 40}, 0.25, {-1.0, -2.0});
   Particles P = make_disk(60);
-  Solver solver(grid, P, elastic(100.0, 0.3, 1.0), 1e-3);
+  Solver solver(grid, P, elastic(100.0, 0.3, 1.0), StepConfig(1e-3));
   const Energies e = solver.energies();
   double m = 0, px = 0, py = 0;
   for (const auto& row : solver.nodal_mass_momentum())
@@ -79,7 +79,7 @@ TEST_P(TransferDegree, FreeMotionConservesMomentum)
   // nodes (gradients of a partition of unity), so momentum is exact.
   Grid grid(GetParam(), {40, 40}, 0.25, {-1.0, -2.0});
   Particles P = make_disk(60);
-  Solver solver(grid, P, elastic(100.0, 0.3, 1.0), 1e-3);
+  Solver solver(grid, P, elastic(100.0, 0.3, 1.0), StepConfig(1e-3));
   const Energies before = solver.energies();
   solver.advance(200);
   const Energies after = solver.energies();
@@ -109,8 +109,10 @@ void expect_thread_independent_bits(int degree, const Voigt& gamma, Model model 
         history[i] = 50.0;
       phi[i] = 0.3 * P.x[2 * i];
     }
-    Solver solver(grid, P, elastic(100.0, 0.3, 1.0), 1e-3,
-                  {Fracture{0.5, 0.5, 0.0, gamma, model, bound}}, 1e-6, 20000);
+    StepConfig step(1e-3);
+    step.fracture = {Fracture{0.5, 0.5, 0.0, gamma, model, bound}};
+    step.max_iterations = 20000;
+    Solver solver(grid, P, elastic(100.0, 0.3, 1.0), step);
     solver.advance(50);
     return std::make_pair(P, solver.energies());
   };
@@ -150,7 +152,7 @@ TEST(Solver, ParticleLeavingTheGridIsReported)
   P.v = {10.0, 0.0};
   P.mass = {1.0};
   P.volume = {1.0};
-  Solver solver(grid, P, elastic(1.0, 0.0, 1.0), 0.05);
+  Solver solver(grid, P, elastic(1.0, 0.0, 1.0), StepConfig(0.05));
   try
   {
     solver.advance(10);
@@ -187,7 +189,7 @@ TEST(Solver, FixedWallStopsAParticleOnIt)
     Grid grid(2, {8, 8}, 1.0, {0.0, 0.0});
     grid.set_wall(Side::left, wall);
     Particles P = lone_particle({0.0, 4.0}, {-1.0, 0.5}, 1.0);
-    Solver solver(grid, P, elastic(1.0, 0.0, 1.0), 1e-3);
+    Solver solver(grid, P, elastic(1.0, 0.0, 1.0), StepConfig(1e-3));
     solver.advance(1);
     EXPECT_NEAR(P.v[0], 0.0, 1e-15); // -1 + dt * (1 / dt)
     EXPECT_NEAR(P.v[1], wall == Wall::fixed ? 0.0 : 0.5, 1e-15);
@@ -210,7 +212,7 @@ TEST(Solver, AtACornerEachDirectionCountsOnTheWallNormalToIt)
       grid.set_wall(Side::left, left);
       grid.set_wall(Side::bottom, bottom);
       Particles P = lone_particle({0.0, 0.0}, {-1.0, -2.0}, 1.0);
-      Solver solver(grid, P, elastic(1.0, 0.0, 1.0), 1e-3);
+      Solver solver(grid, P, elastic(1.0, 0.0, 1.0), StepConfig(1e-3));
       solver.advance(1);
       const NodeHold hold = grid.constraints()[0];
       EXPECT_EQ(hold.held, 3);
@@ -235,7 +237,7 @@ TEST(Solver, ARegionSetsItsNodesVelocityAndCountsWhatItAdds)
   const int k = grid.add_region({3.0, 3.0}, {6.0, 6.0}, 1);
   grid.set_region_velocity(k, {0.3, -7.0});
   Particles P = lone_particle({4.5, 4.5}, {-1.0, 0.5}, 2.0);
-  Solver solver(grid, P, elastic(1.0, 0.0, 1.0), 1e-3);
+  Solver solver(grid, P, elastic(1.0, 0.0, 1.0), StepConfig(1e-3));
   solver.advance(1);
   EXPECT_NEAR(P.v[0], 0.3, 1e-14);
   EXPECT_NEAR(P.v[1], 0.5, 1e-14);

@@ -49,13 +49,12 @@ std::string region_key(int k, const char* name)
 } // namespace
 
 Solver::Solver(Grid& grid, Particles& particles,
-               std::vector<std::shared_ptr<const Material>> materials, double dt,
-               std::vector<std::optional<Fracture>> fracture, double tol, int max_iterations,
-               std::vector<double> friction, std::optional<DamageGradientOptions> damage,
-               ShapeFunctions shape, DomainScaling scaling, TransferScheme transfer)
-    : _grid(grid), _particles(particles), _materials(std::move(materials)), _dt(dt),
-      _transfer(transfer)
+               std::vector<std::shared_ptr<const Material>> materials, StepConfig step)
+    : _grid(grid), _particles(particles), _materials(std::move(materials)), _dt(step.dt),
+      _transfer(step.transfer)
 {
+  // The configuration's fields by name, in StepConfig's order.
+  auto& [dt, fracture, tol, max_iterations, friction, damage, shape, scaling, transfer] = step;
   if (!(dt > 0.0) || !std::isfinite(dt))
     throw std::invalid_argument("dt = " + std::to_string(dt) + ": must be > 0");
   if (_materials.empty())

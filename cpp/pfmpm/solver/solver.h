@@ -86,6 +86,44 @@ struct StageTimers
   double g2p = 0.0;         ///< G2P and the materials' update
 };
 
+/// @brief What each step of a run does, chosen once: the time step, the
+/// phase field's parameters, the velocity-field partition, the stencil and
+/// the transfer. Every field but dt has a default.
+struct StepConfig
+{
+  explicit StepConfig(double dt) : dt(dt) {}
+
+  /// Time step (> 0); the caller checks it against the CFL limit.
+  double dt;
+  /// Per material, its fracture parameters or none; empty: nothing cracks.
+  std::vector<std::optional<Fracture>> fracture;
+  /// Phase-field tolerance tol_c, relative to ||F|| (K&T eq. 52).
+  double tol = 1e-6;
+  /// Phase-field CG iteration limit per step.
+  int max_iterations = 1000;
+  /// Empty: all particles form one velocity field. Otherwise every body
+  /// (Particles::body) is its own discrete field, coupled by frictional
+  /// contact with coefficient friction[a * n + b] between bodies a and b
+  /// (n x n, n >= 2; see BodyFields); with `damage`, between contact groups
+  /// a and b (n x n, n >= 1; see DamageFields).
+  std::vector<double> friction;
+  /// The damage-gradient partition's parameters, or none. A material's
+  /// damage is its `damage` column if it has one, else 1 - c if it cracks by
+  /// the phase field, else 0.
+  std::optional<DamageGradientOptions> damage;
+  /// The shape functions of the momentum transfers: B-splines, or CPDI1 on
+  /// the degree-1 grid (with any partition), which adds the domain columns
+  /// (ParticleDomains) and sets the grid's node block. The phase field is
+  /// assembled with B-splines either way.
+  ShapeFunctions shape = ShapeFunctions::bspline;
+  /// With CPDI: which particles are failed, and whether their domains are scaled.
+  DomainScaling scaling;
+  /// The particle-grid transfer: FLIP (K&T eq. 80), or APIC (transfer/apic.h,
+  /// with any stencil and partition), which adds the column `affine` (B_p,
+  /// zero: set_velocity_gradients sets it).
+  TransferScheme transfer = TransferScheme::flip;
+};
+
 /// @brief Explicit update-stress-last MPM in the momentum formulation, with
 /// a staggered phase-field solve for materials that can crack.
 ///
@@ -117,33 +155,9 @@ public:
   /// @param particles Particle state (kept by reference; must outlive the
   ///        solver). The materials' and the phase field's columns are added.
   /// @param materials Materials indexed by Particles::material.
-  /// @param dt Time step (> 0); the caller checks it against the CFL limit.
-  /// @param fracture Per material, its fracture parameters or none; empty: nothing cracks.
-  /// @param tol Phase-field tolerance tol_c, relative to ||F|| (K&T eq. 52).
-  /// @param max_iterations Phase-field CG iteration limit per step.
-  /// @param friction Empty: all particles form one velocity field. Otherwise
-  ///        every body (Particles::body) is its own discrete field, coupled by
-  ///        frictional contact with coefficient friction[a * n + b] between
-  ///        bodies a and b (n x n, n >= 2; see BodyFields); with `damage`,
-  ///        between contact groups a and b (n x n, n >= 1; see DamageFields).
-  /// @param damage The damage-gradient partition's parameters, or none. A
-  ///        material's damage is its `damage` column if it has one, else
-  ///        1 - c if it cracks by the phase field, else 0.
-  /// @param shape The shape functions of the momentum transfers: B-splines,
-  ///        or CPDI1 on the degree-1 grid (with any partition), which adds the
-  ///        domain columns (ParticleDomains) and sets the grid's node block.
-  ///        The phase field is assembled with B-splines either way.
-  /// @param scaling With CPDI: which particles are failed, and whether their
-  ///        domains are scaled.
-  /// @param transfer The particle-grid transfer: FLIP (K&T eq. 80), or APIC
-  ///        (transfer/apic.h, with any stencil and partition), which adds
-  ///        the column `affine` (B_p, zero: set_velocity_gradients sets it).
+  /// @param step What each step does (StepConfig).
   Solver(Grid& grid, Particles& particles, std::vector<std::shared_ptr<const Material>> materials,
-         double dt, std::vector<std::optional<Fracture>> fracture = {}, double tol = 1e-6,
-         int max_iterations = 1000, std::vector<double> friction = {},
-         std::optional<DamageGradientOptions> damage = std::nullopt,
-         ShapeFunctions shape = ShapeFunctions::bspline, DomainScaling scaling = {},
-         TransferScheme transfer = TransferScheme::flip);
+         StepConfig step);
 
   /// @brief Take `steps` explicit steps, each on the OpenMP thread count
   /// that ThreadGovernor chooses (at most omp_get_max_threads(), which is
