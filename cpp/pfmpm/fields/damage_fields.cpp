@@ -82,9 +82,10 @@ KernelField kernel_damage_field(const Grid& grid, const std::vector<double>& x,
 }
 
 DamageFields::DamageFields(const Grid& grid, Particles& particles, std::vector<double> friction,
-                           std::vector<DamageSource> source, DamageGradientOptions options)
+                           std::vector<DamageSource> source, DamageGradientOptions options,
+                           ShapeFunctions shape)
     : _grid(grid), _friction(std::move(friction)), _source(std::move(source)),
-      _options(std::move(options))
+      _options(std::move(options)), _cpdi(shape == ShapeFunctions::cpdi)
 {
   _groups_n = friction_fields(_friction, 1);
   const DamageGradientOptions& o = _options;
@@ -398,8 +399,8 @@ void DamageFields::open_nodes(const Particles& particles, const CellSort& sort)
   const double* damage = _damage.data();
   const double* full = _full.data();
   const std::uint8_t* softening = _softening.data();
-  const Column* r1 = particles.find("domain_r1");
-  const Column* r2 = particles.find("domain_r2");
+  const double* r1 = Stencil::domains ? particles.f64("domain_r1").data() : nullptr;
+  const double* r2 = Stencil::domains ? particles.f64("domain_r2").data() : nullptr;
   // The sums of H&H eq. 21 over A and B together, with the terms P2G adds into
   // its md and full, cell by cell; strips of one parity share no node.
   list_cells(_near, _near_cells);
@@ -422,7 +423,7 @@ void DamageFields::open_nodes(const Particles& particles, const CellSort& sort)
           const std::int32_t p = order[k];
           Stencil s;
           if constexpr (Stencil::domains)
-            s.evaluate(basis, cell, &x[2 * p], &r1->f64[2 * p], &r2->f64[2 * p]);
+            s.evaluate(basis, cell, &x[2 * p], &r1[2 * p], &r2[2 * p]);
           else
             s.evaluate(basis, cell, &x[2 * p]);
           const int f = c.local(group[p]);
@@ -486,7 +487,7 @@ void DamageFields::open_cells(const Particles& particles, const CellSort& sort)
   // grid's ends).
   dilate(_full_cell, _grid.cells()[0], _grid.cells()[1], _grid.block().reach(), _dilated_y, _near);
   // The open nodes, with the transfers' shape functions.
-  if (particles.find("domain_r1"))
+  if (_cpdi)
     open_nodes<CpdiStencil>(particles, sort);
   else if (_grid.degree() == 1)
     open_nodes<BSplineStencil<2, 1>>(particles, sort);
@@ -615,8 +616,8 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
   // domains) those where its averaged shape function is positive, the
   // nodes of the cells its domain's corners lie in (above round-off:
   // cpdi_maps_to).
-  const Column* domain_r1 = particles.find("domain_r1");
-  const Column* domain_r2 = particles.find("domain_r2");
+  const double* domain_r1 = _cpdi ? particles.f64("domain_r1").data() : nullptr;
+  const double* domain_r2 = _cpdi ? particles.f64("domain_r2").data() : nullptr;
   const std::uint32_t all = nk >= 32 ? ~0u : (1u << nk) - 1u;
   const std::array<const BSpline1D*, 2> basis{&_grid.basis(0), &_grid.basis(1)};
   auto reached = [&](std::int32_t p, int cx, int cy) -> std::uint32_t
@@ -625,8 +626,7 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
       return all;
     CpdiStencil stencil;
     const int cell[2] = {cx, cy};
-    stencil.evaluate(basis, cell, &particles.x[2 * p], &domain_r1->f64[2 * p],
-                     &domain_r2->f64[2 * p]);
+    stencil.evaluate(basis, cell, &particles.x[2 * p], &domain_r1[2 * p], &domain_r2[2 * p]);
     std::uint32_t m = 0;
     for (int i = 0; i < CpdiStencil::size; ++i)
       m |= stencil.n[i] > cpdi_maps_to ? 1u << i : 0u;

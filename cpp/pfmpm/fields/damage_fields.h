@@ -10,6 +10,7 @@
 #include "pfmpm/grid/grid.h"
 #include "pfmpm/particles/cell_sort.h"
 #include "pfmpm/particles/particles.h"
+#include "pfmpm/shape/cpdi.h"
 
 #include <array>
 #include <cstdint>
@@ -132,8 +133,12 @@ public:
   ///        groups x groups, symmetric, >= 0; the diagonal entry of a group
   ///        is that of its crack faces.
   /// @param source Per material, where its particles' damage comes from.
+  /// @param shape The transfers' shape functions: with CPDI the particles
+  ///        carry domains (ParticleDomains), and a particle maps to the
+  ///        nodes where its averaged shape function is positive.
   DamageFields(const Grid& grid, Particles& particles, std::vector<double> friction,
-               std::vector<DamageSource> source, DamageGradientOptions options);
+               std::vector<DamageSource> source, DamageGradientOptions options,
+               ShapeFunctions shape);
 
   /// Number of contact groups.
   int size() const { return _groups_n; }
@@ -283,6 +288,7 @@ private:
   std::vector<double> _friction;
   std::vector<DamageSource> _source;
   DamageGradientOptions _options;
+  bool _cpdi;                         // the transfers' shape functions are CPDI1
   double _radius;
   std::vector<std::int32_t> _group;   // per particle
   std::optional<BodyFields> _groups;  // with two or more groups: their slots

@@ -683,12 +683,12 @@ double PhaseField::warm_start(std::size_t i)
 /// The CG scalars are those of PCG with M: 4.65 iterations per solve on the
 /// default Borden plate to 40 us against 12.8 with Jacobi, z = D^-1 r
 /// (free_set_iterations), and 7.8 against 25.7 over the whole
-/// paper-resolution run (docs/performance.md).
+/// paper-resolution run (docs/performance/phase-field.md).
 ///
 /// The fourth-order model, whose condition number grows like
 /// gamma_n (l0/h)^4, takes the multigrid V-cycle by default
 /// (multigrid_iterations, Multigrid), a few iterations where Gauss-Seidel
-/// takes hundreds (docs/performance.md).
+/// takes hundreds (docs/performance/fourth-order.md).
 template <int P, bool Fourth>
 bool PhaseField::conjugate_gradient()
 {
@@ -765,7 +765,7 @@ bool PhaseField::conjugate_gradient()
 /// barely touches K_II is 1e-16 of its neighbours'. There the passes can
 /// cycle, a node's multiplier changing sign each time it is held or freed
 /// (two bodies in contact, where particles sit anywhere in their cells, do
-/// this: docs/performance.md). So the solve hands the current c over to
+/// this: docs/performance/bounded.md). So the solve hands the current c over to
 /// MPRGP (mprgp.h), which lowers the energy at every step and provably
 /// converges, when a pass returns to an active set that an earlier pass of
 /// this solve had, when CG on the free nodes does not reach the tolerance,

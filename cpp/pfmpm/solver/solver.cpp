@@ -121,7 +121,7 @@ Solver::Solver(Grid& grid, Particles& particles,
                                       : DamageSource::none);
     }
     _fields.emplace<DamageFields>(grid, particles, std::move(friction), std::move(source),
-                                  std::move(*damage));
+                                  std::move(*damage), shape);
   }
   else if (!friction.empty())
     _fields.emplace<BodyFields>(grid, particles, std::move(friction));

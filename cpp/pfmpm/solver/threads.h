@@ -13,8 +13,8 @@ namespace pfmpm
 ///
 /// On a machine whose cores are busy with other work, every barrier of a step
 /// may wait for a thread that the operating system has set aside, and two
-/// threads can be much slower than one (docs/performance.md, "Threads on a
-/// busy machine"). Since every kernel gives the same bits on any number of
+/// threads can be much slower than one (docs/performance/threads.md).
+/// Since every kernel gives the same bits on any number of
 /// threads, the count may change from step to step without changing the
 /// result; this class changes it by measurement:
 /// - the first `settle` steps (allocations, the first sort, a cold
