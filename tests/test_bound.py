@@ -149,7 +149,7 @@ def test_gauss_seidel_bounded_solve_matches_jacobi(model):
 
 
 IMPACTS = runpy.run_path(str(ROOT / "tools" / "impacts.py"))
-"""The generated two-body impacts of tools/impacts.py (docs/performance.md, "The bounded solve")."""
+"""The generated two-body impacts of tools/impacts.py (docs/performance/bounded.md)."""
 
 
 def test_generated_impacts_whose_active_set_cycled_run_to_the_end():

@@ -71,7 +71,7 @@ def test_fracture_energy_of_the_scene(bar):
     # G_f A_f = 22.13 mJ/mm^2 x 8 mm x 2 mm (benchmarks section 5).
     assert fracture_energy(scene) == pytest.approx(354.08)
     # l_ch: the default, 2 h (H&H's cell diagonal, 1.414 mm, gave 1.44 G_f per unit area
-    # in a bar: docs/verification.md, "The crack band").
+    # in a bar: docs/verification/crack-band.md).
     assert scene.material_of(scene.body("target")).damage.length(scene.grid) == 2.0
 
 

@@ -179,7 +179,7 @@ def test_cpdi_stretches_a_bar_to_twice_its_length_without_cell_crossing_noise():
     # cross a cell face; CPDI on the same grid follows the closed form to
     # 0.02 % at 2 x 2 particles per cell, and at 4 x 4 stays within twice
     # the error of quadratic B-splines (0.525 % against 0.538 %; at 2 x 2
-    # those tear the bar). docs/verification.md has the 16-cell bar
+    # those tear the bar). docs/verification/cpdi.md has the 16-cell bar
     # (tools/cpdi_comparison.py).
     l1, error = stretched_bar(1, "cpdi")
     assert l1 == pytest.approx(2.0, rel=0.01)

@@ -221,8 +221,8 @@ def test_bar_pulled_apart_dissipates_gf_per_unit_crack_area(h, shape, partition)
     # crack, H x thickness: a band 2 cells wide fails completely and nothing
     # else is damaged; with the partition too, whose faces part by default
     # only once the band has stopped softening (contact.parting). (Quadratic
-    # B-splines at h = 0.25 are measured in docs/verification.md, "The crack
-    # band", outside these 5 %.)
+    # B-splines at h = 0.25 are measured in docs/verification/crack-band.md,
+    # outside these 5 %.)
     Gf, H = 0.02, 2.0
     sim, band = prestressed_bar(h, Gf=Gf, shape=shape, partition=partition)
     P = sim.particles
@@ -242,7 +242,7 @@ def test_faces_parting_by_eq21_alone_leave_the_band_short_of_gf(h):
     # soon as a failed particle maps there. With quadratic B-splines the
     # band's inner two columns fail while the outer two still soften; the
     # faces part, the outer columns unload short of failure, and the band
-    # dissipates 0.653 / 0.635 G_f (docs/verification.md, "The crack band").
+    # dissipates 0.653 / 0.635 G_f (docs/verification/crack-band.md).
     # The default waits until no particle there is still softening: 1.006 /
     # 1.013 (the test above).
     Gf, H = 0.02, 2.0

@@ -2,7 +2,7 @@
 tools/efficiency.py): checks E1-E5 computed from a timing table whose answers
 are known, painting a damage state, and the driver's smoke mode, whose table
 must have its structure and runs that end bitwise the same on 1 and 2
-threads (E5). No timing is asserted: docs/performance.md records them."""
+threads (E5). No timing is asserted: docs/performance/efficiency.md records them."""
 
 import json
 import runpy

@@ -121,7 +121,7 @@ def test_homel_herbold_notebook(kernel_env):
     # conserved (K4) and no contact-law violation. (On this grid the first
     # particle to fail is on the struck face, 49 mm from the notch tip, at
     # 22.9 us: l_ch = 2 h = 4 mm softens more steeply than H&H's 2.83; at
-    # h = 1 mm it is at the tip, docs/verification.md, K3.)
+    # h = 1 mm it is at the tip, docs/verification/kalthoff-winkler.md, K3.)
     for name, kw in r["kalthoff_winkler"].items():
         assert kw["single_crack"], name
         assert 50.0 < kw["angle"] < 66.0, (name, kw["angle"])

@@ -58,7 +58,7 @@ BALANCE = {
     # The history field makes cracking dissipate more than the crack density
     # holds, most on coarse grids; the bar's traction step rings in the wave front.
     # The Kalthoff-Winkler bar's first contact is inelastic at the grid nodes,
-    # and its crack faces part while stressed (docs/verification.md).
+    # and its crack faces part while stressed (docs/verification/kalthoff-winkler.md).
     "vibrating_bar": 0.04,
     "borden_plate": 0.05,
     "borden_cubic": 0.03,
@@ -72,7 +72,7 @@ BALANCE = {
     # Measured 0.065 (CPDI 0.045): the crack's faces part once their band has
     # stopped softening; by eq. 21 alone (contact.parting = "failed") they
     # part with most of their stress and the scheme loses what they release,
-    # 0.174 (docs/verification.md, "Modified Charpy").
+    # 0.174 (docs/verification/charpy.md).
     "charpy": 0.1,
     # Measured 0.0088: the coarse phase field's crack (the history field).
     "three_point_bending": 0.02,
@@ -310,11 +310,12 @@ def test_scene_in_smoke_mode(name, tmp_path):
 @pytest.mark.parametrize("name", ["kalthoff_winkler", "charpy"])
 def test_benchmark_with_cpdi_in_smoke_mode(name, tmp_path):
     """The Kalthoff-Winkler and Charpy smoke runs with CPDI1 on the degree-1
-    grid, contact and the damage-gradient partition (docs/verification.md,
+    grid, contact and the damage-gradient partition
+    (docs/verification/kalthoff-winkler.md and docs/verification/charpy.md,
     "CPDI against B-splines"): the same checks as with B-splines (the
     Charpy band is one cell wide, as the crack line y = 27.5 runs through the
-    middle of the degree-1 grid's cells: half of l_ch, docs/verification.md,
-    "The crack band")."""
+    middle of the degree-1 grid's cells: half of l_ch,
+    docs/verification/crack-band.md)."""
     path, overrides = smoke_runs()[name]
     scene = Scene.from_toml(path, overrides + ["grid.degree=1", "grid.shape=cpdi"])
     sim = Simulation(scene)

@@ -1,7 +1,7 @@
 """Threads: the waiting policy pfmpm sets for OpenMP (src/pfmpm/__init__.py),
 a short spin unless the user chose one, and the solver's choice of each
 step's thread count, which must not change a bit of the result. Their effect
-on speed is measured in docs/performance.md, not here."""
+on speed is measured in docs/performance/threads.md, not here."""
 
 import os
 import subprocess

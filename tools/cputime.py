@@ -1,5 +1,5 @@
 """Process CPU time of the bench block's steps, which a busy machine inflates
-less than wall time (docs/performance.md).
+less than wall time (docs/performance/index.md).
 
     OMP_NUM_THREADS=1 python -P tools/cputime.py PHYSICS PARTICLES STEPS [PER_CELL [BANDS]] [--order rows]
 
@@ -11,7 +11,7 @@ sets it. ``--order rows`` first permutes every particle column into the order th
 seeding had before it numbered the cells column by column: row by row (y
 outer), a cell's particles in their seeded order, so that successive cells
 of a transfer's column lie a grid row apart in memory. It measures what the
-seeding order is worth (docs/performance.md, cost growth); not with
+seeding order is worth (docs/performance/particle-count.md); not with
 ``damage_gradient``, whose neighbour lists are built before it.
 """
 

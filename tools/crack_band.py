@@ -1,4 +1,4 @@
-"""The crack band of Rankine softening (docs/verification.md, "The crack band"):
+"""The crack band of Rankine softening (docs/verification/crack-band.md):
 the energy a bar pulled apart dissipates per unit crack area, over G_f, with
 the default l_ch (the grid's localisation width) or a given one.
 

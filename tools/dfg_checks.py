@@ -1,4 +1,4 @@
-"""The measured numbers of the damage-gradient checks in docs/verification.md.
+"""The measured numbers of the damage-gradient checks in docs/verification/damage-gradient.md.
 
 Homel & Herbold (2017), checks of ``../shared/benchmarks-homel-herbold.md``:
 

@@ -2,7 +2,7 @@
 (shared/benchmarks-homel-herbold.md section 7, checks E1-E5): wall time per
 step of the Brazilian disk against particle count, with damage-gradient
 partitioning (DFG) and without (SF), on 1 and 2 threads, per stage
-(pfmpm.post.efficiency; docs/performance.md, "Efficiency study").
+(pfmpm.post.efficiency; docs/performance/efficiency.md).
 
     .venv/bin/python tools/efficiency.py [SCENE] [--k 1 1.5 2 3 4] [--steps 200]
         [--warmup 50] [--rounds 3] [--threads 1 2] [--paint-time 10 | --no-paint]

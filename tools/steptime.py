@@ -1,4 +1,4 @@
-"""Wall time per step of a scene after 5 warm-up steps (docs/performance.md).
+"""Wall time per step of a scene after 5 warm-up steps (docs/performance/index.md).
 
     python tools/steptime.py SCENE STEPS [KEY=VALUE ...] [--stages]
     python tools/steptime.py --resume DIR STEPS [--stages]

@@ -1,4 +1,4 @@
-"""Threads on a busy machine (docs/performance.md): ``pfmpm bench --scenes`` of
+"""Threads on a busy machine (docs/performance/threads.md): ``pfmpm bench --scenes`` of
 each shipped paper scene on 1 and 2 threads, alternating, with two
 ``yes > /dev/null`` running, and a Markdown table of the medians.
 

@@ -22,8 +22,8 @@ damaged particle, then each to the end, and measures
 - Z6: how far particles pass the side walls or into a platen (<= 0.5 cell),
   and that the run reached t_end with finite values.
 
-A run that the stability check stops (docs/verification.md, "Dynamic
-Brazilian disk") is measured up to where it stopped. Writes
+A run that the stability check stops (docs/verification/brazilian-time-step.md)
+is measured up to where it stopped. Writes
 ``h<h>.json`` per resolution and then, from every ``h*.json`` in ``--out``,
 ``brazilian.json`` (the checks), ``brazilian.csv`` (one row per run) and
 ``brazilian_fragments.png`` (the cumulative fragment-size distributions at

@@ -7,7 +7,7 @@ A scene (:mod:`pfmpm.scene`) declares grid, bodies, materials and loads; a
 OpenMP threads that wait at a barrier spin for a while before they sleep; on
 a machine whose cores are busy with other work the spinning thread holds the
 core the thread it waits for needs, and two threads ran 4-30 times slower than
-one (docs/performance.md, "Threads on a busy machine"). Unless the user chose
+one (docs/performance/threads.md). Unless the user chose
 a waiting policy (``OMP_WAIT_POLICY`` or ``GOMP_SPINCOUNT``), importing pfmpm
 sets ``GOMP_SPINCOUNT`` to :data:`SPIN_COUNT`: a short spin, then sleep. The
 OpenMP runtime reads it when it is loaded, so it takes effect when pfmpm is

@@ -94,7 +94,7 @@ ORDER = 2.0
 """Convergence order in h of the end fracture energy that the Richardson
 reference assumes when fewer than three FEM runs show one: the FEM runs of
 the l0 = 1 mm study at h = 1, 0.5, 0.25 mm converge at order 1.94
-(docs/verification.md)."""
+(docs/verification/mpm-fem.md)."""
 OBSERVED_ORDERS = (0.5, 4.0)
 """An order the three finest FEM runs show is used when it lies in this range."""
 STUDY = "study.json"

@@ -30,7 +30,7 @@ DAMAGE_COLUMNS = ["damage_dissipation"]
 
 def adaptive_threads() -> bool:
     """Whether the solver adapts each step's thread count to the machine's load
-    (the C++ ThreadGovernor; docs/performance.md, "Threads on a busy machine"):
+    (the C++ ThreadGovernor; docs/performance/threads.md):
     yes unless the environment sets ``PFMPM_ADAPTIVE_THREADS=0``."""
     value = os.environ.get("PFMPM_ADAPTIVE_THREADS", "1")
     if value not in ("0", "1"):

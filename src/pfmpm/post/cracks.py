@@ -203,7 +203,9 @@ class _Tracker:
     def analyse(self, t: float, m: int) -> None:
         """The cracks and tips at time ``t``, when the first ``m`` points have cracked."""
         xy, sub = self.xy[:m], self.graph[:m, :m]
-        _, label = connected_components(sub, directed=False)
+        # The graph is symmetric: its strong components are its connected ones,
+        # and its directed paths its paths (scipy then keeps the matrix as it is).
+        _, label = connected_components(sub, directed=True, connection="strong")
         first = np.full(label.max() + 1, m)
         np.minimum.at(first, label, np.arange(m))
         now = {comp: self._crack(t, int(p), label == comp, xy) for comp, p in enumerate(first)}
@@ -221,7 +223,7 @@ class _Tracker:
         if self.tip is not None:
             notched = np.isin(label, [comp for comp, c in now.items() if self.cracks[c].from_notch])
             sources |= notched & self.initial[:m]
-        length = dijkstra(sub, directed=False, indices=np.flatnonzero(sources), min_only=True)
+        length = dijkstra(sub, directed=True, indices=np.flatnonzero(sources), min_only=True)
         # A tip is no nearer its crack's start than any point within `hops`
         # links of it (as far as `apart`: a bulge of a band's side is not a
         # tip); of the crack from the notch, it lies ahead of the notch's
