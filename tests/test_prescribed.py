@@ -18,8 +18,8 @@ import pytest
 from pfmpm.fem import FemSimulation
 from pfmpm.output import read_csv
 from pfmpm.post.forces import load_displacement, mean_forces
-from pfmpm.scene import (Body, GridSpec, LinearElasticSpec, Prescribed, Ramp, Rectangle, Scene, SceneError, Time,
-                         WallSpec)
+from pfmpm.scene import (Body, BodyForce, GridSpec, LinearElasticSpec, Prescribed, Ramp, Rectangle, Scene,
+                         SceneError, Time, WallSpec)
 from pfmpm.scene.toml import plain, toml_text
 from pfmpm.simulation import Simulation
 
@@ -196,3 +196,36 @@ def test_a_region_that_reaches_no_particle_is_reported():
     (warning,) = [w for w in setup_report(away).warnings if "prescribed region" in w]
     assert warning == ("prescribed region grip reaches no particle at t = 0 (none within 1.5 of its box, its"
                        " nodes' reach): it moves nothing until material comes within it")
+
+
+@pytest.mark.parametrize("moving", [True, False])
+def test_a_moving_box_carries_its_striker(moving):
+    """A block (a striker) under a body force of -1 along x, held by a box
+    that covers it, moves at V = (1.2, -0.25) for 6 time units, 7.4 cells.
+    With ``moving`` the box goes with it: every particle of the block moves
+    by V t exactly (to round-off) and keeps the velocity V, whatever the
+    force, and the region's work is the kinetic energy it gave plus the work
+    it did against the force. A box that stays put loses the block's nodes as
+    it leaves, and the force then slows the block."""
+    m = LinearElasticSpec("steel", E, 0.3, RHO)
+    block = Body("striker", "steel", Rectangle((4.0, 8.0), (6.0, 10.0)), particles_per_cell=2)
+    box = Prescribed("striker", (2.5, 6.5), (7.5, 11.5), velocity=(1.2, -0.25), moving=moving)
+    scene = Scene(grid=GridSpec(size=(16.0, 16.0), h=1.0, degree=2), time=Time(end=6.0), materials=(m,),
+                  bodies=(block,), plane="strain", prescribed=(box,), loads=(BodyForce((-1.0, 0.0)),))
+    sim = Simulation(scene)
+    x0 = sim.particles.x.copy()
+    sim.advance(scene.steps())
+    moved = sim.particles.x - x0
+    expected = np.array([1.2, -0.25]) * sim.time
+    e = sim.energies()
+    if moving:
+        assert np.abs(moved - expected).max() <= 1e-12 * np.abs(expected).max()
+        assert np.abs(sim.particles.v - (1.2, -0.25)).max() <= 1e-13
+        mass = sim.particles.mass.sum()
+        kinetic = 0.5 * mass * (1.2 ** 2 + 0.25 ** 2)
+        assert e["kinetic"] == pytest.approx(kinetic, rel=1e-12)
+        assert e["work_striker"] == pytest.approx(kinetic + mass * 1.0 * expected[0], rel=1e-9)
+        assert (e["displacement_striker_x"], e["displacement_striker_y"]) == pytest.approx(tuple(expected),
+                                                                                            rel=1e-12)
+    else:
+        assert (expected[0] - moved[:, 0]).min() > 1.0  # measured 2.83

@@ -70,7 +70,9 @@ void bind_grid(py::module_& m)
       .def_property_readonly("num_active", &Grid::num_active, "active nodes in the last step")
       .def("set_wall", &Grid::set_wall, py::arg("side"), py::arg("wall"))
       .def("add_region", &Grid::add_region, py::arg("min"), py::arg("max"), py::arg("components"),
-           "a box of nodes whose velocity components (bit 0: x, bit 1: y) are prescribed; its index")
+           py::arg("moves") = false,
+           "a box of nodes whose velocity components (bit 0: x, bit 1: y) are prescribed; with "
+           "moves, the box follows the region's displacement; its index")
       .def("set_region_velocity", &Grid::set_region_velocity, py::arg("k"), py::arg("velocity"),
            "the velocity region k prescribes from the next step on");
 }

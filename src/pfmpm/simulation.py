@@ -99,7 +99,7 @@ class Simulation:
             self.grid.set_wall(_core.Side.__members__[wall.side], _core.Wall.__members__[wall.type])
         for i, region in enumerate(scene.prescribed):
             try:
-                self.grid.add_region(list(region.min), list(region.max), region.mask)
+                self.grid.add_region(list(region.min), list(region.max), region.mask, region.moving)
             except ValueError:
                 raise SceneError(f"prescribed[{i}].max", f"the box from min = {list(region.min)} holds no"
                                                          f" grid node (control point)", list(region.max)) from None

@@ -21,7 +21,8 @@ bool Grid::has_holds() const
          || std::any_of(_walls.begin(), _walls.end(), [](Wall w) { return w != Wall::free; });
 }
 
-int Grid::add_region(std::array<double, 2> min, std::array<double, 2> max, std::uint8_t components)
+int Grid::add_region(std::array<double, 2> min, std::array<double, 2> max, std::uint8_t components,
+                     bool moves)
 {
   if (_regions.size() >= static_cast<std::size_t>(max_regions))
     throw std::invalid_argument("a grid holds at most " + std::to_string(max_regions) + " regions");
@@ -38,8 +39,16 @@ int Grid::add_region(std::array<double, 2> min, std::array<double, 2> max, std::
     if (!any)
       throw std::invalid_argument("a region's box holds no grid node");
   }
-  _regions.push_back(Region{min, max, components});
+  _regions.push_back(Region{min, max, components, moves, {0.0, 0.0}});
   return static_cast<int>(_regions.size()) - 1;
+}
+
+void Grid::move_region(int k, std::array<double, 2> offset)
+{
+  if (k < 0 || k >= static_cast<int>(_regions.size()))
+    throw std::out_of_range("no region " + std::to_string(k));
+  if (_regions[k].moves)
+    _regions[k].offset = offset;
 }
 
 void Grid::set_region_velocity(int k, std::array<double, 2> velocity)
@@ -126,7 +135,7 @@ void Grid::activate(const std::vector<std::int64_t>& cell_start)
     for (std::size_t k = 0; k < _regions.size(); ++k)
     {
       const Region& r = _regions[k];
-      const double gx = _basis[0].greville(ix), gy = _basis[1].greville(iy);
+      const double gx = _basis[0].greville(ix) - r.offset[0], gy = _basis[1].greville(iy) - r.offset[1];
       if (gx >= r.min[0] && gx <= r.max[0] && gy >= r.min[1] && gy <= r.max[1])
         for (int d = 0; d < 2; ++d)
           if (r.components & (1 << d))

@@ -50,6 +50,8 @@ struct Region
 {
   std::array<double, 2> min, max;
   std::uint8_t components;
+  bool moves = false;                ///< the box moves with the region's displacement
+  std::array<double, 2> offset{};    ///< how far it has moved (Grid::move_region)
 };
 
 class Grid;
@@ -139,13 +141,19 @@ public:
   void set_wall(Side side, Wall wall) { _walls[static_cast<int>(side)] = wall; }
   Wall wall(Side side) const { return _walls[static_cast<int>(side)]; }
   /// @brief Add a region of prescribed velocity (at rest until
-  /// set_region_velocity); returns its index.
+  /// set_region_velocity); returns its index. With `moves` its box follows
+  /// the region's displacement (move_region): a rigid striker or a moving
+  /// wall; else it stays where it is, a grip or a support.
   /// @throws std::invalid_argument for a box with min >= max, no component,
   /// no node in the box, or more than max_regions regions.
-  int add_region(std::array<double, 2> min, std::array<double, 2> max, std::uint8_t components);
+  int add_region(std::array<double, 2> min, std::array<double, 2> max, std::uint8_t components,
+                 bool moves = false);
   const std::vector<Region>& regions() const { return _regions; }
   /// @brief The velocity region k prescribes from now on (its held components).
   void set_region_velocity(int k, std::array<double, 2> velocity);
+  /// @brief Move a moving region's box by `offset` from where it was added
+  /// (its displacement so far); the next activate() holds the nodes there.
+  void move_region(int k, std::array<double, 2> offset);
   /// The velocity each holder prescribes: zero for the walls.
   const std::array<std::array<double, 2>, max_holders>& holder_velocity() const { return _velocity; }
   /// Whether a wall or a region holds some node.

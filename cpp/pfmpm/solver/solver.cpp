@@ -293,6 +293,8 @@ void Solver::restore(const SolverState& state)
     _region_impulse[k][1] = state.scalars.at(region_key(k, "impulse/y"));
     _region_displacement[k][0] = state.scalars.at(region_key(k, "displacement/x"));
     _region_displacement[k][1] = state.scalars.at(region_key(k, "displacement/y"));
+    if (k < static_cast<int>(_grid.regions().size()))
+      _grid.move_region(static_cast<int>(k), _region_displacement[k]);
   }
   _light_nodes = static_cast<std::int64_t>(state.scalars.at("light_nodes"));
 }
@@ -522,6 +524,7 @@ void Solver::step(Fields& fields, bool energy)
       if (regions[k].components & (1 << d))
         _region_displacement[k][d] += _dt * _grid.holder_velocity()[4 + k][d];
     }
+    _grid.move_region(static_cast<int>(k), _region_displacement[k]);
   }
   _light_nodes += static_cast<std::int64_t>(sums[sum_light]);
   if constexpr (Fields::discrete)

@@ -7,7 +7,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from .validation import (MAX_COUNT, WHOLE_TOL, SceneError, choice, integer, real, seq, store,
+from .validation import (MAX_COUNT, WHOLE_TOL, SceneError, boolean, choice, integer, real, seq, store,
                          vec2)
 
 __all__ = ["DEGREES", "SHAPES", "TRANSFER_SCHEMES", "GridSpec", "Time", "Output", "PhaseFieldSpec",
@@ -86,8 +86,7 @@ class GridSpec:
         if not all(math.isfinite(o + s) for o, s in zip(self.origin, self.size)):
             raise SceneError("origin", "origin + size is not finite", self.origin)
         store(self, "shape", choice("shape", self.shape, SHAPES))
-        if not isinstance(self.scale_failed, bool):
-            raise SceneError("scale_failed", "must be true or false", self.scale_failed)
+        store(self, "scale_failed", boolean("scale_failed", self.scale_failed))
         store(self, "failed_c", real("failed_c", self.failed_c, ge=0, lt=1))
         if self.shape == "cpdi":
             if self.degree != 1:
@@ -177,8 +176,7 @@ class Output:
     def __post_init__(self):
         store(self, "every", integer("every", self.every, ge=1))
         store(self, "energies_every", integer("energies_every", self.energies_every, ge=1))
-        if not isinstance(self.particles, bool):
-            raise SceneError("particles", "must be true or false", self.particles)
+        store(self, "particles", boolean("particles", self.particles))
         times = seq("snapshots", self.snapshots, "times")
         store(self, "snapshots", tuple(real(f"snapshots[{i}]", t, ge=0) for i, t in enumerate(times)))
         store(self, "crack_threshold", real("crack_threshold", self.crack_threshold, gt=0, lt=1))

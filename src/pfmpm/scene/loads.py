@@ -9,7 +9,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from .validation import SceneError, choice, fmt, polyline, real, seq, store, text, vec2
+from .validation import SceneError, boolean, choice, fmt, polyline, real, seq, store, text, vec2
 
 __all__ = ["EDGES", "SIDES", "WALL_TYPES", "COMPONENTS", "Ramp", "Table", "AMPLITUDES", "Traction", "BodyForce",
            "LOADS", "WallSpec", "Prescribed", "MAX_REGIONS", "Crack"]
@@ -190,6 +190,12 @@ class Prescribed:
         ``"x"``, ``"y"`` or ``"xy"``: the components held.
     amplitude : Ramp or Table or None
         The factor over time; ``None``: constant (velocity only).
+    moving : bool
+        Whether the box moves with the region's displacement (a rigid
+        striker or a moving wall, which carries the material it holds
+        along); ``False``, the default: it stays put (a grip or a support).
+        The FEM holds the vertices in the box at t = 0 either way, which move
+        with it.
     """
 
     name: str
@@ -199,6 +205,7 @@ class Prescribed:
     displacement: tuple[float, float] | None = None
     components: str = "xy"
     amplitude: Ramp | Table | None = None
+    moving: bool = False
 
     def __post_init__(self):
         store(self, "name", text("name", self.name))
@@ -218,6 +225,7 @@ class Prescribed:
                 raise SceneError("amplitude", "a displacement needs one (it is U (a(t) - a(0)))")
         store(self, "components", choice("components", self.components, COMPONENTS))
         store(self, "amplitude", _amplitude(self.amplitude))
+        store(self, "moving", boolean("moving", self.moving))
 
     @property
     def mask(self) -> int:

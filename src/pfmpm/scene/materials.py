@@ -31,7 +31,7 @@ import numpy as np
 
 from ..anisotropy import check_gamma
 from .damage import DamageSpec
-from .validation import SceneError, at, choice, integer, real, seq, store, text
+from .validation import SceneError, at, boolean, choice, integer, real, seq, store, text
 
 if TYPE_CHECKING:
     from .scene import Scene
@@ -216,8 +216,7 @@ class FractureSpec:
         store(self, "model", choice("model", self.model, FRACTURE_MODELS))
         if self.anisotropy is not None and not isinstance(self.anisotropy, Anisotropy):
             raise SceneError("anisotropy", "must be an anisotropy table", self.anisotropy)
-        if not isinstance(self.bound, bool):
-            raise SceneError("bound", "must be true or false", self.bound)
+        store(self, "bound", boolean("bound", self.bound))
         if self.model == "AT1" and not self.bound:
             raise SceneError("bound", "AT1 needs the bound 0 <= c <= 1", self.bound)
         if self.model == "AT1" and self.anisotropy is not None and self.anisotropy.fourth_order:

@@ -131,6 +131,13 @@ def integer(path: str, value: Any, *, ge: int | None = None) -> int:
     return int(value)
 
 
+def boolean(path: str, value: Any) -> bool:
+    """Check a true or false (numbers rejected)."""
+    if not isinstance(value, bool):
+        raise SceneError(path, "must be true or false", value)
+    return value
+
+
 def vec2(path: str, value: Any, **bounds: float) -> tuple[float, float]:
     """Check a 2-vector of finite numbers, each within ``bounds``."""
     if isinstance(value, np.ndarray):
