@@ -127,7 +127,8 @@ def test_resumed_contact_run_is_bitwise_identical(tmp_path):
     scalars, arrays = ckpt.solver["scalars"], ckpt.solver["arrays"]
     assert scalars["contact/nodes"] > 0 and scalars["contact/active"] > 0, \
         "the bodies should be in contact at the checkpoint"
-    assert sorted(arrays) == [f"phase_field/{k}/{name}" for k in (0, 1) for name in ("c", "c_previous")]
+    assert sorted(arrays) == ["contact/pair_impulse"] + [f"phase_field/{k}/{name}" for k in (0, 1)
+                                                         for name in ("c", "c_previous")]
 
     # Restored into a fresh simulation, the state gives the checkpointed
     # energies row exactly: the friction work and each body's fracture
@@ -138,7 +139,7 @@ def test_resumed_contact_run_is_bitwise_identical(tmp_path):
     k = np.flatnonzero(e["step"] == 100)[0]
     now = again.energies()
     for column in ("kinetic", "elastic", "fracture", "friction_dissipation", "fracture_beam",
-                   "fracture_disk", "total"):
+                   "fracture_disk", "contact_beam_disk_x", "contact_beam_disk_y", "total"):
         assert now[column] == e[column][k], column
     assert again.solver.contact_stats() == {key.removeprefix("contact/"): value
                                             for key, value in scalars.items() if key.startswith("contact/")}
@@ -157,7 +158,8 @@ def test_resumed_contact_run_is_bitwise_identical(tmp_path):
     for name in a:
         assert a[name] == b[name], f"{name} differs after resuming"
     header = (part / "energies.csv").read_text().splitlines()[0].split(",")
-    assert header[-3:] == ["friction_dissipation", "fracture_beam", "fracture_disk"]
+    assert header[-5:] == ["friction_dissipation", "fracture_beam", "fracture_disk",
+                           "contact_beam_disk_x", "contact_beam_disk_y"]
     s, t = (json.loads((d / "summary.json").read_text()) for d in (full, part))
     assert t["status"] == "completed" and t["resumed_from"].endswith(names[0])
     assert t["contact"] == s["contact"] and t["phase_field"] == s["phase_field"]

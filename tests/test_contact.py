@@ -136,7 +136,8 @@ def test_sliding_block_stops_after_the_coulomb_distance(tmp_path):
     assert contact["sliding_node_pairs"] > 0 and contact["active_node_pairs"] > 0
     assert contact["violations"] == {"C1": 0, "C2": 0, "C3": 0, "C4": 0}
     header = (tmp_path / "energies.csv").read_text().splitlines()[0].split(",")
-    assert header[-3:] == ["friction_dissipation", "fracture_slab", "fracture_block"]
+    assert header[-5:] == ["friction_dissipation", "fracture_slab", "fracture_block",
+                           "contact_slab_block_x", "contact_slab_block_y"]
 
 
 def test_a_slab_on_a_wall_loses_what_a_mirrored_slab_loses(tmp_path):

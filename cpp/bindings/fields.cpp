@@ -19,6 +19,9 @@ namespace pfmpm::bindings
 
 void bind_fields(py::module_& m)
 {
+  m.attr("max_pair_fields") = max_pair_fields;
+  m.def("field_pair", &field_pair, py::arg("a"), py::arg("b"),
+        "the index of the pair of fields a < b in Energies' pair_impulse");
   py::class_<DamageGradientOptions>(
       m, "DamageGradient",
       "Parameters of the damage-field-gradient partition (Homel & Herbold 2017)")

@@ -297,6 +297,7 @@ void bind_solver(py::module_& m)
              d["region_impulse"] = e.region_impulse;
              d["region_work"] = e.region_work;
              d["region_displacement"] = e.region_displacement;
+             d["pair_impulse"] = e.pair_impulse;
              d["dissipated"] = e.dissipated;
              d["fracture_by_body"] = e.fracture_by_field;
              d["momentum_x"] = e.momentum[0];

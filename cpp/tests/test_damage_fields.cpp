@@ -605,11 +605,16 @@ TEST(Coulomb, PairForcesAreExactlyOpposite)
     const bool live[2] = {true, true};
     const std::int32_t field[2] = {0, 1};
     const double friction[4] = {0.0, 0.4, 0.4, 0.0};
-    double fn[2][2]{}, ft[2][2]{}, count[contact_counts]{};
+    double fn[2][2]{}, ft[2][2]{}, count[contact_counts]{}, impulse[2 * max_field_pairs]{};
     ContactPair pairs[1];
-    coulomb_forces(2, f, live, field, friction, 2, 1.0, 1e-2, fn, ft, pairs, count);
+    coulomb_forces(2, f, live, field, friction, 2, 1.0, 1e-2, fn, ft, pairs, count, impulse);
     for (int d = 0; d < 2; ++d)
+    {
       EXPECT_EQ(fn[0][d] + ft[0][d], -(fn[1][d] + ft[1][d]));
+      // The pair's impulse is the force on field 0 times dt.
+      EXPECT_NEAR(impulse[d], 1e-2 * (fn[0][d] + ft[0][d]),
+                  1e-16 * (std::abs(fn[0][d]) + std::abs(ft[0][d])));
+    }
     EXPECT_EQ(count[count_c2], 0.0);
   }
 }

@@ -142,12 +142,14 @@ TEST(SolverState, RestoredContactRunContinuesBitwise)
   Solver resumed(grid2, Q, mat, step_with(2e-3, fracture, friction));
   SolverState state = original.state();
   // One phase field (of the crackable disk) and the contact record.
-  EXPECT_EQ(state.arrays.size(), 2u);
+  EXPECT_EQ(state.arrays.size(), 3u);
   EXPECT_EQ(state.arrays.count("phase_field/0/c"), 1u);
+  EXPECT_EQ(state.arrays.count("contact/pair_impulse"), 1u);
   EXPECT_EQ(state.scalars.count("contact/friction_work"), 1u);
   resumed.restore(state);
   EXPECT_EQ(resumed.energies().fracture_by_field, original.energies().fracture_by_field);
   EXPECT_EQ(resumed.energies().friction_work, original.energies().friction_work);
+  EXPECT_EQ(resumed.energies().pair_impulse, original.energies().pair_impulse);
 
   original.advance(150);
   resumed.advance(150);

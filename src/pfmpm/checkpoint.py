@@ -48,6 +48,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import _core
 from .post.tip import CrackTip
 from .scene import Scene
 from .scene.loads import MAX_REGIONS
@@ -305,6 +306,12 @@ def read(path: Path | str) -> Checkpoint:
         for side in ("left", "right", "bottom", "top"):
             for d in "xy":
                 solver["scalars"][f"wall_impulse/{side}/{d}"] = 0.0
+    if "contact/nodes" in solver["scalars"] and "contact/pair_impulse" not in solver["arrays"]:
+        # Files from before the contact impulses per pair were kept: they count
+        # from the resume, and the run's energies.csv, whose header the file
+        # keeps, has no column for them.
+        pairs = _core.max_pair_fields * (_core.max_pair_fields - 1) // 2
+        solver["arrays"]["contact/pair_impulse"] = np.zeros(2 * pairs)
     for k in range(MAX_REGIONS):
         # Files from before prescribed regions: there were none.
         for name in ("work", "impulse/x", "impulse/y", "displacement/x", "displacement/y"):

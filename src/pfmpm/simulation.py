@@ -224,10 +224,20 @@ class Simulation:
                     h0 = initial_history(self.particles.x[part], crack, self.scene.fracture_of(body))
                     self.particles.history[part] = np.maximum(self.particles.history[part], h0)
 
+    def _body_pairs(self) -> list[tuple[int, int]]:
+        """The pairs of bodies a < b whose contact impulses ``energies.csv``
+        keeps: with each body its own field, the first ``max_pair_fields``."""
+        if not self.contact or self.damage_gradient:
+            return []
+        n = min(len(self.scene.bodies), _core.max_pair_fields)
+        return [(a, b) for b in range(n) for a in range(b)]
+
     @property
     def columns(self) -> list[str]:
         """Columns of ``energies.csv`` for this scene: with more than one body
-        also each body's momentum, ``momentum_x_<body>`` and ``momentum_y_<body>``."""
+        also each body's momentum, ``momentum_x_<body>`` and ``momentum_y_<body>``,
+        and with each body its own field the contact impulse of each pair,
+        ``contact_<a>_<b>_x|y`` (of body b on body a since t = 0)."""
         columns = ENERGY_COLUMNS + wall_columns(self.scene.walls) + region_columns(self.scene.prescribed)
         if len(self.scene.bodies) > 1:
             columns += [f"momentum_{d}_{b.name}" for b in self.scene.bodies for d in "xy"]
@@ -236,6 +246,8 @@ class Simulation:
             columns += DAMAGE_COLUMNS
         if self.contact:
             columns += CONTACT_COLUMNS + [f"fracture_{b.name}" for b in self.scene.bodies]
+        names = [b.name for b in self.scene.bodies]
+        columns += [f"contact_{names[a]}_{names[b]}_{d}" for a, b in self._body_pairs() for d in "xy"]
         return columns
 
     @property
@@ -291,6 +303,10 @@ class Simulation:
             e[f"impulse_{wall.side}_x"], e[f"impulse_{wall.side}_y"] = impulse[SIDES.index(wall.side)]
         region_impulse, region_work = e.pop("region_impulse"), e.pop("region_work")
         region_displacement = e.pop("region_displacement")
+        pair_impulse = e.pop("pair_impulse")
+        for a, b in self._body_pairs():
+            name = f"contact_{self.scene.bodies[a].name}_{self.scene.bodies[b].name}"
+            e[f"{name}_x"], e[f"{name}_y"] = pair_impulse[_core.field_pair(a, b)]
         for k, region in enumerate(self.scene.prescribed):
             name = region.name
             e[f"impulse_{name}_x"], e[f"impulse_{name}_y"] = region_impulse[k]

@@ -84,7 +84,8 @@ constexpr int max_sweeps = 10000;
 
 int coulomb_forces(int n, const TrialField* f, const bool* live, const std::int32_t* field,
                    const double* friction, int nfields, double touch_volume, double dt,
-                   double (*fn)[2], double (*ft)[2], ContactPair* pairs, double* count)
+                   double (*fn)[2], double (*ft)[2], ContactPair* pairs, double* count,
+                   double* impulse)
 {
   // The pairs that touch and have a normal, in the order (i, j), i < j.
   constexpr int max_pairs = BodyFields::max_fields * (BodyFields::max_fields - 1) / 2;
@@ -222,6 +223,15 @@ int coulomb_forces(int n, const TrialField* f, const bool* live, const std::int3
       ft[c.i][d] += si.ft * c.ti[d];
       fn[c.j][d] += sj.fn * c.nj[d];
       ft[c.j][d] += sj.ft * c.tj[d];
+    }
+    // The pair's impulse, on its lower-numbered field.
+    const int a = field[c.i], b = field[c.j];
+    if (a != b && std::max(a, b) < max_pair_fields)
+    {
+      const double* F = a < b ? Fi : Fj;
+      double* out = &impulse[2 * field_pair(std::min(a, b), std::max(a, b))];
+      out[0] += dt * F[0];
+      out[1] += dt * F[1];
     }
   }
   return active;

@@ -31,6 +31,14 @@ struct ContactStats
   std::int64_t separable_total = 0;
 };
 
+/// Fields (bodies; with damage-gradient fields, contact groups) whose
+/// contact impulses are kept per pair: those numbered below this.
+constexpr int max_pair_fields = 16;
+/// Pairs of such fields.
+constexpr int max_field_pairs = max_pair_fields * (max_pair_fields - 1) / 2;
+/// The index of the pair of fields a < b < max_pair_fields.
+constexpr int field_pair(int a, int b) { return b * (b - 1) / 2 + a; }
+
 /// A field at a contact node after its trial update, as the contact law sees it.
 struct TrialField
 {
@@ -87,9 +95,13 @@ enum ContactCount : int
 /// @param[out] pairs The pairs to check: with one pair, it if it pushed;
 ///             with more, all of them. Returns how many.
 /// @param[in,out] count Counters, indexed by ContactCount.
+/// @param[in,out] impulse Per pair of fields a < b (field_pair), the impulse
+///        dt F of b's contact force on a, (x, y), added to; pairs of a field
+///        with itself or numbered from max_pair_fields on are not kept.
 int coulomb_forces(int n, const TrialField* f, const bool* live, const std::int32_t* field,
                    const double* friction, int nfields, double touch_volume, double dt,
-                   double (*fn)[2], double (*ft)[2], ContactPair* pairs, double* count);
+                   double (*fn)[2], double (*ft)[2], ContactPair* pairs, double* count,
+                   double* impulse);
 
 /// @brief C.3 and C.4 on the corrected velocities vn of the fields.
 void check_contact(int active, const ContactPair* pairs, const double (*vn)[2], double* count);

@@ -79,7 +79,7 @@ void update_contact_node(int n, const NodeSums* sums, const SurfaceSums* surface
   }
   ContactPair pairs[F * (F - 1) / 2];
   const int active = coulomb_forces(n, trial, live, field, friction, nfields, touch_volume, dt, fn,
-                                    ft, pairs, &acc[sum_contact]);
+                                    ft, pairs, &acc[sum_contact], &acc[sum_pair_impulse]);
   // Corrected velocities (K&T eq. 65), checked (C.3, C.4) before the walls act
   // on them; walls, and the work done.
   double vn[F][2]{}, vc[F][2]{};

@@ -373,7 +373,8 @@ enum GridUpdateSum : int
   sum_region_work,       ///< first of the regions' works over the step, one per region
   sum_hold_impulse = sum_region_work + max_regions, ///< first of the holders' impulses, 2 holder + d
   sum_contact = sum_hold_impulse + 2 * max_holders, ///< first of the contact_counts counters
-  grid_update_sums = sum_contact + contact_counts
+  sum_pair_impulse = sum_contact + contact_counts,  ///< first of the pairs' contact impulses, 2 pair + d
+  grid_update_sums = sum_pair_impulse + 2 * max_field_pairs
 };
 
 /// @brief The update of a field alone at its node (K&T eqs. 63-65): with no

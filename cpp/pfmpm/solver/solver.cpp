@@ -212,6 +212,9 @@ SolverState Solver::state() const
     for (int i = 0; i < 4; ++i)
       s.scalars["contact/C" + std::to_string(i + 1)] = static_cast<double>(c->violations[i]);
     s.scalars["contact/friction_work"] = c->friction_work;
+    std::vector<double>& impulse = s.arrays["contact/pair_impulse"];
+    for (const auto& pair : _pair_impulse)
+      impulse.insert(impulse.end(), pair.begin(), pair.end());
     if (damage_fields())
     {
       s.scalars["contact/split"] = c->split;
@@ -272,6 +275,9 @@ void Solver::restore(const SolverState& state)
     for (int i = 0; i < 4; ++i)
       c.violations[i] = static_cast<std::int64_t>(state.scalars.at("contact/C" + std::to_string(i + 1)));
     c.friction_work = state.scalars.at("contact/friction_work");
+    const std::vector<double>& impulse = state.arrays.at("contact/pair_impulse");
+    for (int q = 0; q < max_field_pairs; ++q)
+      _pair_impulse[q] = {impulse[2 * q], impulse[2 * q + 1]};
     if (damage_fields())
     {
       c.split = static_cast<std::int32_t>(state.scalars.at("contact/split"));
@@ -529,6 +535,9 @@ void Solver::step(Fields& fields, bool energy)
   _light_nodes += static_cast<std::int64_t>(sums[sum_light]);
   if constexpr (Fields::discrete)
   {
+    for (int q = 0; q < max_field_pairs; ++q)
+      for (int d = 0; d < 2; ++d)
+        _pair_impulse[q][d] += sums[sum_pair_impulse + 2 * q + d];
     ContactStats& c = fields.stats();
     c.friction_work += sums[sum_friction_work];
     c.pairs += static_cast<std::int64_t>(sums[sum_contact + count_pairs]);
@@ -752,6 +761,7 @@ Energies Solver::energies() const
   e.region_impulse = _region_impulse;
   e.region_work = _region_work;
   e.region_displacement = _region_displacement;
+  e.pair_impulse = _pair_impulse;
   e.momentum = {sums[2], sums[3]};
   e.angular_momentum = sums[7];
   e.mass = sums[4];

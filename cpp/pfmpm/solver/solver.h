@@ -44,6 +44,9 @@ struct Energies
   std::array<std::array<double, 2>, max_regions> region_impulse{};
   std::array<double, max_regions> region_work{};
   std::array<std::array<double, 2>, max_regions> region_displacement{};
+  /// contact impulse since t = 0 of field b on field a, per pair a < b
+  /// (field_pair): bodies, or with damage-gradient fields contact groups
+  std::array<std::array<double, 2>, max_field_pairs> pair_impulse{};
   double dissipated = 0.0;     ///< work dissipated by damage since t = 0 (the column `dissipated`)
   std::array<double, 2> momentum{}; ///< sum of M_p v_p
   /// sum of M_p (x_p x v_p), about the origin; with APIC plus M_p ((B_p)_yx - (B_p)_xy),
@@ -67,7 +70,8 @@ struct Energies
 /// `contact/active`, `contact/sliding`, `contact/C1` .. `contact/C4`,
 /// `contact/friction_work`; with damage-gradient fields also
 /// `contact/split`, `contact/separable`, `contact/separable_total`. Arrays: `phase_field/k/c` and
-/// `phase_field/k/c_previous`, the nodal warm start.
+/// `phase_field/k/c_previous`, the nodal warm start; with discrete fields
+/// `contact/pair_impulse` (x, y per field_pair, max_field_pairs of them).
 struct SolverState
 {
   std::map<std::string, double> scalars;
@@ -339,6 +343,7 @@ private:
   std::array<std::array<double, 2>, max_regions> _region_impulse{};
   std::array<double, max_regions> _region_work{};
   std::array<std::array<double, 2>, max_regions> _region_displacement{};
+  std::array<std::array<double, 2>, max_field_pairs> _pair_impulse{};
   double _mass_tol;
   std::int64_t _light_nodes = 0;
   double _stability_length = 0.0; // 0: no check

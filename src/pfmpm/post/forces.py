@@ -45,7 +45,8 @@ def mean_forces(scene: Scene, e) -> dict[str, np.ndarray]:
         and ``wall_<side>_y``, its reaction; per prescribed region
         ``region_<name>_x`` and ``region_<name>_y``, its reaction; per body ``body_<name>_x`` and
         ``body_<name>_y``, the net force on it (with one body ``net_x`` and
-        ``net_y``).
+        ``net_y``); per pair of bodies in contact, each its own field,
+        ``contact_<a>_<b>_x|y``, the contact force of b on a.
     """
     e = read_columns(e)
     if missing := [c for c in _needed(scene) if c not in e]:
@@ -62,6 +63,9 @@ def mean_forces(scene: Scene, e) -> dict[str, np.ndarray]:
             forces[f"region_{region.name}_{d}"] = np.diff(e[f"impulse_{region.name}_{d}"]) / dt
     for name, column in _momenta(scene):
         forces[name] = np.diff(e[column]) / dt
+    # The contact force of each pair of bodies (with each body its own field).
+    for column in (c for c in e if c.startswith("contact_")):
+        forces[column] = np.diff(e[column]) / dt
     return forces
 
 
