@@ -8,7 +8,7 @@ import pytest
 
 from pfmpm import Scene, Simulation, _core
 from pfmpm.crack import distance_to_polyline, initial_history
-from pfmpm.post.tip import CrackTip
+from pfmpm.observe import CrackTip
 from pfmpm.scene import (
     Body,
     Crack,

@@ -15,7 +15,7 @@ from pfmpm.post.brazilian import (contact_distance, disk_fragments, disk_speed, 
 from pfmpm.post.fragments import (closest_approach, count_fragments, domain_gap, fragment_sizes,
                                   fragments, mean_speed, median_size, particle_domains,
                                   size_distribution)
-from pfmpm.post.tip import CrackTip
+from pfmpm.observe import CrackTip
 from pfmpm.scene import Scene
 
 DEMOS = Path(__file__).resolve().parents[1] / "demos"

@@ -49,7 +49,7 @@ from pathlib import Path
 import numpy as np
 
 from . import _core
-from .post.tip import CrackTip
+from .observe import CrackTip
 from .scene import Scene
 from .scene.loads import MAX_REGIONS
 from .scene.stability import grid_dt
@@ -97,7 +97,7 @@ class Checkpoint:
         The particle snapshots so far: (time, file name).
     crack_tip : (M, 4) ndarray
         Crack-tip records behind the speed fits: time and the distance of
-        each tip of :attr:`pfmpm.post.tip.CrackTip.TRACKS` ((M, 2), time and
+        each tip of :attr:`pfmpm.observe.CrackTip.TRACKS` ((M, 2), time and
         the one tip's distance, in files from before the branch tips).
     crack_time : (N,) ndarray or None
         When each crackable particle cracked (NaN: intact); ``None`` in files

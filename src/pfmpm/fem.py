@@ -111,7 +111,7 @@ from petsc4py import PETSc
 
 from . import _core
 from .crack import initial_history
-from .post.tip import CrackPath, CrackTip
+from .observe import CrackPath, CrackTip
 from .run import (CRACK_COLUMNS, ENERGY_COLUMNS, SIDES, RunResult, Snapshots, region_columns, run_to_end,
                   wall_columns)
 from .run_folder import check_fresh
@@ -622,7 +622,7 @@ class FemSimulation:
         which vertices have cracked.
 
         Each rank finds the farthest cracked vertices of its own (see
-        :class:`~pfmpm.post.tip.CrackTip`) and :meth:`~pfmpm.post.tip.CrackTip.merge`
+        :class:`~pfmpm.observe.CrackTip`) and :meth:`~pfmpm.observe.CrackTip.merge`
         takes the farthest of those, so the tips do not depend on how the
         mesh is partitioned.  Every call is one record of the speed fits;
         collective.  Only for scenes with an initial crack (see :attr:`columns`).

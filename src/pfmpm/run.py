@@ -13,7 +13,7 @@ which provides:
 ``columns``, ``energies()``
     The columns of ``energies.csv`` and a row of them now.
 ``crack_tip``, ``crack_tip_record()``, ``crack_path_points()``
-    The :class:`~pfmpm.post.tip.CrackTip` of the first initial crack (or
+    The :class:`~pfmpm.observe.CrackTip` of the first initial crack (or
     ``None``), the crack-tip columns of a row, and the points with the time
     each cracked (for the crack-path plot; collective, on the root).
 ``open_frames(out, resume)``
@@ -44,7 +44,7 @@ import numpy as np
 from . import _core, run_folder
 from .output import CsvLog, read_csv
 from .post.cracks import scene_cracks
-from .post.tip import CRACK_PATH, CrackTip, write_crack_path
+from .observe import CRACK_PATH, CrackTip, write_crack_path
 from .scene import Scene
 
 __all__ = ["ENERGY_COLUMNS", "SIDES", "wall_columns", "region_columns", "CRACK_COLUMNS", "RunResult", "Figures", "Snapshots",
@@ -85,7 +85,7 @@ def region_columns(regions) -> list[str]:
 
 CRACK_COLUMNS = CrackTip.columns()
 """Extra ``energies.csv`` columns of scenes with an initial crack: the crack tip
-and the tip of each branch (see :class:`~pfmpm.post.tip.CrackTip`)."""
+and the tip of each branch (see :class:`~pfmpm.observe.CrackTip`)."""
 
 
 @dataclass

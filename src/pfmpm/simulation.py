@@ -13,7 +13,7 @@ import numpy as np
 from . import _core
 from .crack import initial_history
 from .output import ParticleSeries, Rows
-from .post.tip import CrackPath, CrackTip
+from .observe import CrackPath, CrackTip
 from .run import (CRACK_COLUMNS, ENERGY_COLUMNS, SIDES, RunResult, Snapshots, region_columns, run_to_end,
                   wall_columns)
 from .scene import Scene, SceneError, seeding

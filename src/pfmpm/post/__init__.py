@@ -4,8 +4,9 @@ Each measure of a phase field reads cracks with the scene's
 ``output.crack_threshold``; those of a damage model read failure at full damage.
 
 ``tip``
-    :class:`~pfmpm.post.tip.CrackTip` (tracked during a run) and
-    :class:`~pfmpm.post.tip.CrackPath` (where and when each point cracked).
+    Crack initiation and branching from the crack-tip columns of
+    ``energies.csv``, which :class:`~pfmpm.observe.CrackTip` records while a
+    run goes.
 ``cracks``
     Every crack of a run, where and when it started, and each of its arms'
     tip, length and speed, for cracks of any direction and away from the
@@ -68,9 +69,9 @@ from .cracks import Cracks, run_cracks, track_cracks
 from .disk_beam import cone_index, crack_rise, running_crack
 from .forces import load_displacement, mean_forces, run_forces, run_load_displacement
 from .fragments import closest_approach, count_fragments, fragments, run_fragments
-from .tip import CrackPath, CrackTip, branch_time, initiation_time
+from .tip import branch_time, initiation_time
 
-__all__ = ["CrackTip", "CrackPath", "Cracks", "track_cracks", "run_cracks", "initiation_time", "branch_time",
+__all__ = ["Cracks", "track_cracks", "run_cracks", "initiation_time", "branch_time",
            "propagation_angle", "crack_arms", "crack_directions", "run_directions", "count_fragments", "fragments",
            "closest_approach", "run_fragments", "mean_forces", "run_forces",
            "load_displacement", "run_load_displacement", "crack_rise", "running_crack", "cone_index"]

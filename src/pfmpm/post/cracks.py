@@ -1,5 +1,5 @@
 """Every crack of a run and the tip of each of its arms over time, from where
-and when each point cracked (:data:`~pfmpm.post.tip.CRACK_PATH`), for cracks
+and when each point cracked (:data:`~pfmpm.observe.CRACK_PATH`), for cracks
 of any direction and for cracks that start away from the notch.
 
 At each record time the cracked points are linked to those within
@@ -24,7 +24,7 @@ jumps from one crack to another: a second crack is its own arms.
 
 An arm's length is the path length of its tip, and its speed the
 least-squares slope of that length over its last ``samples`` records, as
-the tip speeds of :class:`~pfmpm.post.tip.CrackTip`.
+the tip speeds of :class:`~pfmpm.observe.CrackTip`.
 """
 
 from __future__ import annotations
@@ -41,7 +41,8 @@ from scipy.spatial import cKDTree
 from .. import plots
 from ..scene import Scene
 from ..scene.units import unit_system
-from .tip import CRACK_PATH, INITIATION_ADVANCE, read_columns, read_crack_path
+from ..observe import CRACK_PATH, read_crack_path
+from .tip import INITIATION_ADVANCE, read_columns
 
 __all__ = ["Arm", "Crack", "Cracks", "LINK", "SEPARATION", "PATIENCE", "MAX_RECORDS", "track_cracks", "spacing_of",
            "scene_cracks", "run_cracks"]
@@ -341,7 +342,7 @@ def scene_cracks(scene: Scene, xy: np.ndarray, times: np.ndarray, record_times: 
 def run_cracks(scene: Scene, run_dir: Path | str) -> dict:
     """Write a completed run's ``crack_arms.csv`` (per arm and record: the
     tip, its path length and speed) and ``crack_arms.png``, from its
-    :data:`~pfmpm.post.tip.CRACK_PATH` and ``energies.csv``.
+    :data:`~pfmpm.observe.CRACK_PATH` and ``energies.csv``.
 
     Returns
     -------
