@@ -89,7 +89,7 @@ def test_borden_plate_default_resolution():
 
 
 HARD = {
-    "branching-2.3MPa": ["loads.0.traction=[0,2.3]", "loads.1.traction=[0,-2.3]", "time.end=130"],
+    "branching-2.3MPa": ["loads.0.traction=[0,2.3]", "loads.1.traction=[0,-2.3]", "time.end=100"],
     "cfl-0.98": ["time.cfl=0.98"],
 }
 
