@@ -20,6 +20,7 @@ namespace pfmpm::bindings
 void bind_fields(py::module_& m)
 {
   m.attr("max_pair_fields") = max_pair_fields;
+  m.attr("max_field_pairs") = max_field_pairs;
   m.def("field_pair", &field_pair, py::arg("a"), py::arg("b"),
         "the index of the pair of fields a < b in Energies' pair_impulse");
   py::class_<DamageGradientOptions>(

@@ -310,8 +310,7 @@ def read(path: Path | str) -> Checkpoint:
         # Files from before the contact impulses per pair were kept: they count
         # from the resume, and the run's energies.csv, whose header the file
         # keeps, has no column for them.
-        pairs = _core.max_pair_fields * (_core.max_pair_fields - 1) // 2
-        solver["arrays"]["contact/pair_impulse"] = np.zeros(2 * pairs)
+        solver["arrays"]["contact/pair_impulse"] = np.zeros(2 * _core.max_field_pairs)
     for k in range(MAX_REGIONS):
         # Files from before prescribed regions: there were none.
         for name in ("work", "impulse/x", "impulse/y", "displacement/x", "displacement/y"):

@@ -14,7 +14,8 @@ import numpy as np
 
 from .scene import Scene
 
-__all__ = ["CrackTip", "CrackPath", "CRACK_PATH", "BRANCH_OFFSET", "write_crack_path", "read_crack_path"]
+__all__ = ["CrackTip", "CrackPath", "CRACK_PATH", "BRANCH_OFFSET", "speed_fit", "write_crack_path",
+           "read_crack_path"]
 
 BRANCH_OFFSET = 1.0
 """A branch's tip (:class:`CrackTip`) lies on its side of the notch line or
@@ -154,15 +155,19 @@ class CrackTip:
             out[f"{track}_x"], out[f"{track}_y"] = x, y
         self._history.append(tuple(row))
         history = np.array(self._history)
-        ts = history[:, 0]
         for k, track in enumerate(self.TRACKS):
-            if len(ts) < 2 or np.ptp(ts) == 0:
-                out[f"{track}_speed"] = 0.0
-                continue
-            ds = history[:, k + 1]
-            tc = ts - ts.mean()
-            out[f"{track}_speed"] = float(tc @ (ds - ds.mean()) / (tc @ tc))
+            out[f"{track}_speed"] = speed_fit(history[:, 0], history[:, k + 1])
         return out
+
+
+def speed_fit(t, distance) -> float:
+    """The least-squares slope of ``distance`` against ``t``: a tip's smoothed
+    speed over the records given; 0 for fewer than two times or one time."""
+    t, distance = np.asarray(t, dtype=float), np.asarray(distance, dtype=float)
+    if len(t) < 2 or np.ptp(t) == 0:
+        return 0.0
+    tc = t - t.mean()
+    return float(tc @ (distance - distance.mean()) / (tc @ tc))
 
 
 class CrackPath:

@@ -12,13 +12,13 @@ first record), so that the band's thickening is not growth; any other crack
 starts at its first point. A path length is the shortest distance through
 the linked points (Dijkstra, from scipy). A tip is a point farther along
 than every point within ``separation`` / ``link`` links of it, and tips
-closer than ``separation`` to a farther one are one tip (half that for the tip that carries on a known arm,
-so that an arm is not lost while another passes near it); for the crack from
-the notch only points ahead of the notch's band and a link or more from it
-count. Each tip is an *arm*: it continues the arm of the same crack whose
-last tip lies nearest within ``2 separation`` (an arm without a tip for a
-few records, :data:`PATIENCE`, still counts, as far as it may have run
-since), or else it is a new arm (a
+closer than ``separation`` to a farther one are one tip (half that for the
+tip that carries on a known arm, so that an arm is not lost while another
+passes near it); for the crack from the notch only points ahead of the
+notch's band and a link or more from it count. Each tip is an *arm*: it
+continues the arm of the same crack whose last tip lies nearest within
+``2 separation`` (an arm without a tip for a few records, :data:`PATIENCE`,
+still counts, as far as it may have run since), or else it is a new arm (a
 branch, or the second side of a crack that grows both ways). So a tip never
 jumps from one crack to another: a second crack is its own arms.
 
@@ -41,7 +41,8 @@ from scipy.spatial import cKDTree
 from .. import plots
 from ..scene import Scene
 from ..scene.units import unit_system
-from ..observe import CRACK_PATH, read_crack_path
+from ..observe import CRACK_PATH, read_crack_path, speed_fit
+from ..output import CsvLog
 from .tip import INITIATION_ADVANCE, read_columns
 
 __all__ = ["Arm", "Crack", "Cracks", "LINK", "SEPARATION", "PATIENCE", "MAX_RECORDS", "track_cracks", "spacing_of",
@@ -127,8 +128,8 @@ def spacing_of(xy: np.ndarray) -> float:
 
 
 def track_cracks(xy: np.ndarray, times: np.ndarray, record_times: np.ndarray, notch=None,
-               samples: int = 9, spacing: float | None = None, link: float = LINK,
-               separation: float = SEPARATION, max_records: int = MAX_RECORDS) -> Cracks:
+                 samples: int = 9, spacing: float | None = None, link: float = LINK,
+                 separation: float = SEPARATION, max_records: int = MAX_RECORDS) -> Cracks:
     """The cracks and their arms (see the module's text).
 
     Parameters
@@ -173,7 +174,7 @@ def track_cracks(xy: np.ndarray, times: np.ndarray, record_times: np.ndarray, no
                 for series in (arm.x, arm.y, arm.length):
                     series.append(series[-1])
                 arm.t.append(float(t))
-            arm.speed.append(_slope(arm.t[-samples:], arm.length[-samples:]))
+            arm.speed.append(speed_fit(arm.t[-samples:], arm.length[-samples:]))
     return Cracks(tracker.cracks, tracker.arms, spacing)
 
 
@@ -181,7 +182,7 @@ class _Tracker:
     """The cracks and arms found so far, and the arms alive."""
 
     def __init__(self, xy, times, first_record, notch, reach, apart):
-        self.xy, self.times, self.reach, self.apart = xy, times, reach, apart
+        self.xy, self.reach, self.apart = xy, reach, apart
         self.hops = math.ceil(apart / reach)
         n = len(xy)
         pairs = cKDTree(xy).query_pairs(reach, output_type="ndarray")
@@ -199,7 +200,7 @@ class _Tracker:
         self.arms: list[Arm] = []
         self.by_first: dict[int, int] = {}  # a crack's first point -> its index
         self.live: list[int] = []  # the arms with a tip now
-        self.lost: dict[int, int] = {}  # arms without one: since how many analyses
+        self.lost: dict[int, int] = {}  # arms without one: for how many records
 
     def analyse(self, t: float, m: int) -> None:
         """The cracks and tips at time ``t``, when the first ``m`` points have cracked."""
@@ -323,20 +324,12 @@ class _Tracker:
         return list(taken.values())
 
 
-def _slope(t, s) -> float:
-    """Least-squares slope of ``s`` against ``t``."""
-    t, s = np.asarray(t), np.asarray(s)
-    if len(t) < 2 or np.ptp(t) == 0:
-        return 0.0
-    tc = t - t.mean()
-    return float(tc @ (s - s.mean()) / (tc @ tc))
-
 
 def scene_cracks(scene: Scene, xy: np.ndarray, times: np.ndarray, record_times: np.ndarray) -> Cracks:
     """:func:`track_cracks` of a run of ``scene``: from the tip of its first
     initial crack, with its ``output.crack_speed_samples``."""
     return track_cracks(xy, times, record_times, notch=scene.cracks[0].tip(),
-                      samples=scene.output.crack_speed_samples)
+                        samples=scene.output.crack_speed_samples)
 
 
 def run_cracks(scene: Scene, run_dir: Path | str) -> dict:
@@ -361,11 +354,11 @@ def run_cracks(scene: Scene, run_dir: Path | str) -> dict:
     xy, times = read_crack_path(path)
     arms = scene_cracks(scene, xy, times, read_columns(run_dir / "energies.csv")["t"])
     csv, png = run_dir / "crack_arms.csv", run_dir / "crack_arms.png"
-    with open(csv, "w") as f:
-        f.write("arm,crack,t,x,y,length,speed\n")
-        for a, arm in enumerate(arms.arms):
-            for row in zip(arm.t, arm.x, arm.y, arm.length, arm.speed):
-                f.write(f"{a + 1},{arm.crack + 1}," + ",".join(f"{v:.10g}" for v in row) + "\n")
+    log = CsvLog(csv, ["arm", "crack", "t", "x", "y", "length", "speed"])
+    for a, arm in enumerate(arms.arms):
+        for row in zip(arm.t, arm.x, arm.y, arm.length, arm.speed):
+            log.write(dict(zip(log.columns, (a + 1, arm.crack + 1, *row))))
+    log.close()
     units = unit_system(scene.units)
     rayleigh = scene.crack_rayleigh_speed()
     plots.crack_arms(arms, png, rayleigh, units)
