@@ -1,14 +1,14 @@
-"""The measures of the modified Charpy impact (pfmpm.post.charpy) on manufactured data."""
+"""The measures of the modified Charpy impact (benchmarks.charpy.measure) on manufactured data."""
 
 import math
 
 import numpy as np
 import pytest
 
+from benchmarks.charpy.measure import (contact_end, crack_band, energy_balance, fracture_energy,
+                                       momentum_error)
 from pfmpm import scenes
 from pfmpm.output import ParticleSeries
-from pfmpm.post.charpy import (contact_end, crack_band, energy_balance, fracture_energy,
-                               momentum_error)
 from pfmpm.scene import Scene
 
 

@@ -6,7 +6,7 @@ body stops after v0^2 / (2 mu g) and keeps its speed without friction, with the
 friction dissipation closing the energy balance; the checks C.1-C.4 hold at every
 contact node; a scene whose bodies never meet runs bit for bit as one field;
 bad contact input is refused with the key and value named; and the disk-beam
-crack-rise measure (pfmpm.post.disk_beam) counts cracked cells from the beam's bottom face.
+crack-rise measure (benchmarks.disk_beam.measure) counts cracked cells from the beam's bottom face.
 """
 
 import dataclasses
@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from pfmpm.post.disk_beam import crack_rise
+from benchmarks.disk_beam.measure import crack_rise
 from pfmpm.output import read_csv
 from pfmpm.scene import (Body, BodyForce, Contact, ContactPair, Disk, Grid, Material, Output,
                          Rectangle, Scene, SceneError, Time, Wall)
@@ -250,7 +250,7 @@ def test_duplicate_pair_is_refused():
 
 
 def test_disk_beam_crack_rise_counts_cracked_bins_from_the_bottom():
-    """pfmpm.post.disk_beam.crack_rise finds where the paper's running-crack measure
+    """benchmarks.disk_beam.measure.crack_rise finds where the paper's running-crack measure
     starts and ends from the crack's rise up the impact line: the cracked
     cells counted from the bottom face until the first uncracked one."""
     root = Path(__file__).resolve().parents[1] / "demos"

@@ -1,5 +1,5 @@
-"""The efficiency study of Homel & Herbold 2017, section 3.5 (pfmpm.post.efficiency,
-tools/efficiency.py): checks E1-E5 computed from a timing table whose answers
+"""The efficiency study of Homel & Herbold 2017, section 3.5 (benchmarks.efficiency.measure,
+benchmarks/efficiency/study.py): checks E1-E5 computed from a timing table whose answers
 are known, painting a damage state, and the driver's smoke mode, whose table
 must have its structure and runs that end bitwise the same on 1 and 2
 threads (E5). No timing is asserted: docs/performance/efficiency.md records them."""
@@ -11,8 +11,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from benchmarks.efficiency import measure as efficiency
 from pfmpm.output import read_csv
-from pfmpm.post import efficiency
 from pfmpm.post.fragments import failed
 from pfmpm.scene import Scene
 from pfmpm.simulation import Simulation
@@ -91,11 +91,11 @@ def test_painting_at_the_reference_spacing_gives_the_reference_damage():
 
 
 def test_smoke_study(tmp_path):
-    """tools/efficiency.py --smoke: two sizes x two partitions x 1 and 2 threads."""
+    """benchmarks/efficiency/study.py --smoke: two sizes x two partitions x 1 and 2 threads."""
     from pfmpm import _core
 
     threads = _core.num_threads()
-    driver = runpy.run_path(str(ROOT / "tools" / "efficiency.py"))
+    driver = runpy.run_path(str(ROOT / "benchmarks" / "efficiency" / "study.py"))
     result = driver["main"]([str(DISK), "--smoke", "--out", str(tmp_path)])
     assert _core.num_threads() == threads  # set back after the 2-thread runs
     rows = read_csv(tmp_path / "efficiency.csv")

@@ -1,4 +1,4 @@
-"""The measures of pfmpm.post on manufactured data: each gives the number it
+"""The measures of pfmpm.post and of the benchmarks (benchmarks/*/measure.py) on manufactured data: each gives the number it
 must, and reads cracks with the scene's ``output.crack_threshold``."""
 
 import math
@@ -8,10 +8,10 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from benchmarks.brazilian.measure import (contact_distance, disk_fragments, disk_speed, failed_fraction,
+                                          platen_penetration, wall_excursion)
+from benchmarks.disk_beam.measure import cone_index, running_crack
 from pfmpm.post.arms import crack_directions, new_crack
-from pfmpm.post.disk_beam import cone_index, running_crack
-from pfmpm.post.brazilian import (contact_distance, disk_fragments, disk_speed, failed_fraction,
-                                  platen_penetration, wall_excursion)
 from pfmpm.post.fragments import (closest_approach, count_fragments, domain_gap, fragment_sizes,
                                   fragments, mean_speed, median_size, particle_domains,
                                   size_distribution)
@@ -294,7 +294,7 @@ def kw_band(tip, angle_deg, r0, r1, spacing, width):
 
 
 def test_kalthoff_winkler_notch_tip_and_crack_angles():
-    from pfmpm.post.kalthoff_winkler import crack_angles, from_face, notch_tip
+    from benchmarks.kalthoff_winkler.measure import crack_angles, from_face, notch_tip
 
     scene = Scene.from_toml(DEMOS / "kalthoff_winkler.toml")
     tip, direction, half = notch_tip(scene)
@@ -319,7 +319,7 @@ def test_kalthoff_winkler_notch_tip_and_crack_angles():
 
 
 def test_kalthoff_winkler_record_follows_the_band_from_the_notch_tip():
-    from pfmpm.post.kalthoff_winkler import CrackRecord, from_face, report
+    from benchmarks.kalthoff_winkler.measure import CrackRecord, from_face, report
 
     scene = Scene.from_toml(DEMOS / "kalthoff_winkler.toml", KW_SMOKE)  # h = 2, tip (50, 27)
     tip = np.array([50.0, 27.0])
@@ -357,7 +357,7 @@ def test_kalthoff_winkler_record_follows_the_band_from_the_notch_tip():
 
 
 def test_kalthoff_winkler_speed_is_the_slope_over_the_window():
-    from pfmpm.post.kalthoff_winkler import speed
+    from benchmarks.kalthoff_winkler.measure import speed
 
     rows = [{"t": t, "tip": max(0.0, 2.0 * (t - 30.0))} for t in np.arange(0.0, 60.0, 0.5)]
     assert speed(rows, (40.0, 50.0)) == pytest.approx(2.0, rel=1e-12)
@@ -365,7 +365,7 @@ def test_kalthoff_winkler_speed_is_the_slope_over_the_window():
 
 
 def test_body_fields_keeps_the_bodies_apart_without_partitioning():
-    from pfmpm.post.self_contact import body_fields, variants
+    from benchmarks.common.self_contact import body_fields, variants
 
     scene = Scene.from_toml(DEMOS / "kalthoff_winkler.toml")
     sf = body_fields(scene)

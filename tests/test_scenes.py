@@ -17,14 +17,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from benchmarks.brazilian.measure import contact_distance, disk_fragments, platen_penetration, wall_excursion
+from benchmarks.charpy.measure import crack_band, energy_balance, fracture_energy, momentum_error
+from benchmarks.disk_beam.measure import cone_index, crack_rise
+from benchmarks.kalthoff_winkler.measure import crack_angles, from_face, notch_tip
 from pfmpm import scenes
 from pfmpm.output import read_csv
-from pfmpm.post import closest_approach, cone_index, crack_rise, run_cracks, run_directions, run_fragments
-from pfmpm.post.charpy import crack_band, energy_balance, fracture_energy, momentum_error
+from pfmpm.post import closest_approach, run_cracks, run_directions, run_fragments
 from pfmpm.post.fragments import failed
 from pfmpm.post.forces import mean_forces
-from pfmpm.post.kalthoff_winkler import crack_angles, from_face, notch_tip
-from pfmpm.post.brazilian import contact_distance, disk_fragments, platen_penetration, wall_excursion
 from pfmpm.scene import Scene
 from pfmpm.simulation import Simulation
 

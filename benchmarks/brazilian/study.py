@@ -2,7 +2,7 @@
 
 At each resolution (``grid.h`` with its Weibull seed, :data:`SEEDS`) runs
 the scene with damage-gradient partitioning (DFG, the scene as it is) and
-the single field (SF, :func:`pfmpm.post.self_contact.body_fields`) on the
+the single field (SF, :func:`benchmarks.common.self_contact.body_fields`) on the
 same Weibull field, side by side step by step until both have a fully
 damaged particle, then each to the end, and measures
 (``shared/benchmarks-homel-herbold.md`` section 6):
@@ -27,8 +27,10 @@ is measured up to where it stopped. Writes
 ``h<h>.json`` per resolution and then, from every ``h*.json`` in ``--out``,
 ``brazilian.json`` (the checks), ``brazilian.csv`` (one row per run) and
 ``brazilian_fragments.png`` (the cumulative fragment-size distributions at
-the analysis times, Fig. 18, with the mean speeds) and ``brazilian_damage.png``
-(the damage at the analysis times).
+the analysis times, Fig. 18, with the mean speeds), ``brazilian_damage.png``
+(the damage at the analysis times) and the table of
+docs/verification/brazilian.md, ``benchmark_results.json``
+(:mod:`benchmarks.common.results`).
 
     .venv/bin/python benchmarks/brazilian/study.py --h 0.1875 --out out/brazilian
     .venv/bin/python benchmarks/brazilian/study.py --report --out out/brazilian
@@ -40,18 +42,23 @@ import argparse
 import csv
 import json
 import math
+import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-from pfmpm import SimulationError, scenes
-from pfmpm.post.brazilian import (contact_distance, disk_fragments, disk_speed, failed_fraction,
-                                  platen_penetration, wall_excursion)
-from pfmpm.post.fragments import failed
-from pfmpm.post.self_contact import body_fields
-from pfmpm.scene import Scene
-from pfmpm.simulation import Simulation
+if str(Path(__file__).resolve().parents[2]) not in sys.path:  # run as a file: the root holds ``benchmarks``
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
+
+from benchmarks.brazilian.measure import (contact_distance, disk_fragments, disk_speed,  # noqa: E402
+                                          failed_fraction, platen_penetration, wall_excursion)
+from benchmarks.common import results as results_file  # noqa: E402
+from benchmarks.common.self_contact import body_fields  # noqa: E402
+from pfmpm import SimulationError, scenes  # noqa: E402
+from pfmpm.post.fragments import failed  # noqa: E402
+from pfmpm.scene import Scene  # noqa: E402
+from pfmpm.simulation import Simulation  # noqa: E402
 
 SEEDS = {0.1875: 1, 0.09375: 2, 0.0625: 3}
 """The Weibull seed of each resolution (the scene's comments); 0 at any other."""
@@ -283,7 +290,52 @@ def report(out: Path) -> dict:
         w.writeheader()
         w.writerows(rows)
     figures(records, analysis, out)
-    return checks
+    return checks, table(records, rows, checks)
+
+
+def table(records: list[dict], rows: list[dict], checks: dict) -> dict:
+    """The table of docs/verification/brazilian.md: a column per resolution,
+    a row per measure (DFG / SF where both)."""
+    def run(h, m):
+        return next(x for x in rows if x["h"] == h and x["method"] == m)
+
+    def both(h, cell):
+        return " / ".join(cell(run(h, m)) for m in METHODS)
+
+    def small(v):
+        return "0" if v == 0.0 else f"{v:.1e}"
+
+    z1 = {r["h"]: checks["Z1"][f"damage_gradient {r['h']}"] for r in records}
+    times = sorted({float(c[4:]) for x in rows for c in x if c.startswith("d50_") and not c.startswith("d50_unf")})
+    t_end = max(r["steps"] * r["dt"] for r in records) if records else 0.0
+    out = [[f"steps to {t_end:.3g} us; reached, DFG / SF"]
+           + [f"{r['steps']:,}; " + both(r["h"], lambda x: f"{x['t_end']:.1f}") for r in records],
+           ["first D > 0 (us)"] + [f"{checks['Z2'][r['h']]['first_damage_t']:.3f}"
+                                   if checks["Z2"][r["h"]]["first_damage_t"] is not None else "" for r in records],
+           ["**Z1**: first D = 1: t (us), where it started from the contact point (mm), then from the nearest "
+            "platen particle (mm)"]
+           + [", ".join(f"{z1[r['h']][k]:.3g}" for k in ("t", "distance", "to_platen")) for r in records],
+           ["**Z2**: max |DFG - SF| up to the first D > 0: x (mm), v (mm/us), stress (MPa), D"]
+           + [", ".join(small(checks["Z2"][r["h"]]["to_first_damage"][k]) for k in STATE) for r in records],
+           [f"**Z3**: fully damaged area {100 * FAILED:g} % at, DFG / SF (us)"]
+           + [" / ".join(f"{checks['Z3'][r['h']][m]:.2f}" for m in METHODS) for r in records]]
+    for t in times:
+        out.append([f"at {t:g} us: d50 (mm), fragments, speed, DFG / SF"]
+                   + [both(r["h"], lambda x: f"{x.get(f'd50_{t:g}', math.nan):.3g}, "
+                           f"{x.get(f'fragments_{t:g}', 0)}, {x.get(f'speed_{t:g}', math.nan):.3g}")
+                      for r in records])
+    out.append(["fully damaged area at the end, DFG / SF"]
+               + [both(r["h"], lambda x: f"{x['failed_end']:.2f}") for r in records])
+    out.append(["**Z6**: farthest past a wall (cells); deepest into a platen (cells), DFG / SF; all finite"]
+               + [both(r["h"], lambda x: f"{x['wall_max']:.3f}") + "; " + both(r["h"], lambda x: f"{x['platen_max']:.3f}")
+                  + "; " + ("yes" if all(run(r["h"], m)["finite"] for m in METHODS) else "no") for r in records])
+    out.append(["C.1-C.4 violations, DFG (SF: all 0)" if all(
+        run(r["h"], "single_field").get(c, 0) == 0 for r in records for c in ("C1", "C2", "C3", "C4"))
+        else "C.1-C.4 violations, DFG / SF"]
+               + [", ".join(str(run(r["h"], "damage_gradient").get(c, "")) for c in ("C1", "C2", "C3", "C4"))
+                  for r in records])
+    columns = [""] + [f"h = {r['h']:g}" + (f" (paper {r['paper_h']:g})" if r["paper_h"] else "") for r in records]
+    return results_file.table(columns, out)
 
 
 def figures(records: list[dict], analysis: dict, out: Path) -> None:
@@ -364,7 +416,8 @@ def main(argv: list[str] | None = None) -> dict:
     if not args.report:
         for h in args.h or sorted(SEEDS, reverse=True):
             run_resolution(h, args.set, args.samples, out, dict(zip(METHODS, args.at)))
-    checks = report(out)
+    checks, rows = report(out)
+    results_file.write(out, "brazilian", "docs/verification/brazilian.md", __file__, argv, {"checks": rows})
     for k in ("Z1", "Z2", "Z3", "Z4", "Z5", "Z6"):
         print(k, json.dumps(checks[k], default=float))
     return checks

@@ -18,15 +18,19 @@ from __future__ import annotations
 
 import argparse
 import csv
+import sys
 from pathlib import Path
 
 import numpy as np
 
-from pfmpm import scenes
-from pfmpm.post.brazilian import failed_fraction
-from pfmpm.post.self_contact import body_fields
-from pfmpm.scene import Scene
-from pfmpm.simulation import Simulation
+if str(Path(__file__).resolve().parents[2]) not in sys.path:  # run as a file: the root holds ``benchmarks``
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
+
+from benchmarks.brazilian.measure import failed_fraction  # noqa: E402
+from benchmarks.common.self_contact import body_fields  # noqa: E402
+from pfmpm import scenes  # noqa: E402
+from pfmpm.scene import Scene  # noqa: E402
+from pfmpm.simulation import Simulation  # noqa: E402
 
 SEEDS = {0.1875: 1, 0.09375: 2, 0.0625: 3}
 """The Weibull seed of each resolution (the scene's comments)."""

@@ -2,7 +2,7 @@
 
 Runs the charpy scene (``pfmpm/scenes/charpy.toml``) as the cases below, one
 after the other, each into ``--out/<case>``, and measures each with
-:mod:`pfmpm.post.charpy`:
+:mod:`benchmarks.charpy.measure`:
 
 - ``elastic_h1``: striker and bar elastic (the bar of the striker's
   material), h = 1 mm (check C1);
@@ -30,7 +30,9 @@ measured on the set D = 1 (``C6``) and on D >= 0.5 (``C6_half``), C7
 (momentum) on every run. The measures go to ``--out/results.json``, the
 checks to ``--out/checks.json`` and the energy histories to
 ``--out/energy_histories.png`` (Fig. 13: E - KE0 against time, E = kinetic +
-stored, SF and DFG at the three resolutions, with -G_f A_f and C2's band).
+stored, SF and DFG at the three resolutions, with -G_f A_f and C2's band),
+and the tables of docs/verification/charpy.md to
+``--out/benchmark_results.json`` (:mod:`benchmarks.common.results`).
 
     .venv/bin/python benchmarks/charpy/study.py --out out/charpy
     .venv/bin/python benchmarks/charpy/study.py --out out/charpy --cases dfg_h0.25 sf_h0.25
@@ -41,17 +43,22 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 
-import numpy as np
+if str(Path(__file__).resolve().parents[2]) not in sys.path:  # run as a file: the root holds ``benchmarks``
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
-from pfmpm import plots, scenes
-from pfmpm.output import read_csv
-from pfmpm.post.charpy import (crack_band, energy_balance, fracture_energy, momentum_error,
-                               contact_end)
-from pfmpm.post.frames import read_frame, series
-from pfmpm.scene import Scene
-from pfmpm.simulation import Simulation
+import numpy as np  # noqa: E402
+
+from benchmarks.charpy.measure import (contact_end, crack_band, energy_balance,  # noqa: E402
+                                       fracture_energy, momentum_error)
+from benchmarks.common import results as results_file  # noqa: E402
+from pfmpm import plots, scenes  # noqa: E402
+from pfmpm.output import read_csv  # noqa: E402
+from pfmpm.post.frames import read_frame, series  # noqa: E402
+from pfmpm.scene import Scene  # noqa: E402
+from pfmpm.simulation import Simulation  # noqa: E402
 
 RESOLUTIONS = (1.0, 0.5, 0.25)
 """Cell sizes h (mm) of the resolution study (benchmarks section 5, proposed)."""
@@ -167,6 +174,86 @@ def checks(results: dict) -> dict:
     return dict(sorted(out.items()))
 
 
+def tables(results: dict, report: dict) -> dict:
+    """The tables of docs/verification/charpy.md: ``runs``, the energy of each
+    case in units of G_f A_f, and ``checks``, C1-C7 with what they require."""
+    ga = fracture_energy(Scene.from_toml(scenes.path("charpy")))
+
+    def energy(name, key):
+        return f"{results[name]['energy'][key] / ga:.3f}" if name in results else ""
+
+    def verdict(check):
+        return "pass" if report[check]["pass"] else "**fails**"
+
+    runs = []
+    for h in RESOLUTIONS:
+        cells = [energy(f"{m}_h{h:g}", k) for m, keys in (("dfg", ("dE", "damage", "numerical")),
+                                                          ("sf", ("dE", "damage")),
+                                                          ("eq21", ("dE", "damage", "numerical")))
+                 for k in keys]
+        if any(cells):
+            runs.append([f"h = {h:g}", *cells])
+    for v in (0.03, 0.04):
+        names = [n for n in (f"v{v:g}_h{h:g}" for h in RESOLUTIONS) if n in results]
+        if names:
+            hs = " / ".join(f"{results[n]['h']:g}" for n in names)
+            runs.append([f"v0 = {v:g} mm/us, h = {hs}",
+                         *(" / ".join(energy(n, k) for n in names) for k in ("dE", "damage", "numerical")),
+                         *[""] * 5])
+    if "gf22.3_h1" in results:
+        runs.append(["G_f = 22.3, h = 1", *(energy("gf22.3_h1", k) for k in ("dE", "damage", "numerical")),
+                     *[""] * 5])
+    if "elastic_h1" in results:
+        e = results["elastic_h1"]["energy"]
+        runs.append(["elastic, h = 1", f"{e['dE'] / ga:.3f} ({100 * e['loss']:.2f} % of KE0)", "0", *[""] * 6])
+    checks = []
+    if "C1" in report:
+        c = report["C1"]
+        checks.append(["C1: elastic impact, h = 1: loss; largest E after the striker leaves",
+                       f"{100 * c['loss']:.2f} %; {100 * c['overshoot']:+.1f} %", "0.5-4.5 %; < +1 %",
+                       verdict("C1")])
+    if "C2" in report:
+        c = report["C2"]
+        hs = " / ".join(f"{results[n]['h']:g}" for n in c["dE"])
+        checks.append([f"C2: DFG dE, h = {hs}", " / ".join(f"{v / ga:.3f}" for v in c["dE"].values())
+                       + " G_f A_f", f"[{c['range'][0] / ga:.2f}, {c['range'][1] / ga:.2f}]", verdict("C2")])
+    if "C2_fast" in report:
+        c = report["C2_fast"]
+        checks.append(["C2 at faster strikers (" + ", ".join(c["dE_over_GfAf"]) + ")",
+                       " / ".join(f"{v:.3f}" for v in c["dE_over_GfAf"].values()),
+                       f"[{c['range'][0]:.2f}, {c['range'][1]:.2f}]", verdict("C2_fast")])
+    if "C3" in report:
+        c = report["C3"]
+        hs = " / ".join(k[1:] for k in c["over_GfAf"])
+        checks.append([f"C3: dE_SF - dE_DFG, h = {hs}",
+                       " / ".join(f"{v:+.3f}" for v in c["over_GfAf"].values()) + " G_f A_f",
+                       ">= +0.05 at h = 1, smaller at 0.25", verdict("C3")])
+    if "C4" in report:
+        c = report["C4"]
+        checks.append([f"C4: dE at D-bar_min = {' / '.join(c['dE'])}, h = {SWEEP_H:g}",
+                       " / ".join(f"{v:.3f}" for v in c["dE"].values())
+                       + f" mJ: spread {c['spread_over_GfAf']:.2g} G_f A_f", "< 0.02", verdict("C4")])
+    if "C5" in report:
+        c = report["C5"]
+        checks.append([f"C5: dE at l_ch = {' / '.join(c['dE'])} x the default, h = {SWEEP_H:g}",
+                       " / ".join(f"{v:.1f}" for v in c["dE"].values())
+                       + f" mJ; range {c['range_over_GfAf']:.2f} G_f A_f", "falls, by more than C4's spread",
+                       verdict("C5")])
+    for key, on in (("C6", "D = 1"), ("C6_half", f"D >= {CRACKED:g}")):
+        if key in report:
+            bands = {n: b for n, b in report[key]["bands"].items() if n.startswith("dfg")}
+            checks.append([f"C6 on {on} (DFG, h = {' / '.join(n[5:] for n in bands)})",
+                           " / ".join(f"{b['paths']} band(s), {b['width']:.1f} cells wide" for b in bands.values()),
+                           "one band, < 2 cells", verdict(key)])
+    c = report["C7"]
+    checks.append([f"C7: momentum, max |p - p0| / |p0| over the {len(c['momentum'])} runs",
+                   f"<= {max(c['momentum'].values()):.1e}", "< 1e-9", verdict("C7")])
+    return {"runs": results_file.table(
+                ["run", "dE", "damage", "numerical (and friction)", "dE, SF", "damage, SF", "dE, eq. 21 alone",
+                 "damage, eq. 21 alone", "numerical, eq. 21 alone"], runs),
+            "checks": results_file.table(["check", "measured", "required", ""], checks)}
+
+
 def figure(results: dict, out: Path) -> None:
     """Fig. 13: the system's energy E = kinetic + stored against time, SF and DFG
     at each resolution, as E - KE0 (each run's own KE0), with -G_f A_f and the
@@ -229,6 +316,8 @@ def main(argv: list[str] | None = None) -> dict:
     (out / "results.json").write_text(json.dumps(results, indent=1))
     report = checks(results) if results else {}
     (out / "checks.json").write_text(json.dumps(report, indent=1))
+    if report:
+        results_file.write(out, "charpy", "docs/verification/charpy.md", __file__, argv, tables(results, report))
     figure(results, out)
     for key, value in report.items():
         print(key, "pass" if value["pass"] else "FAIL",

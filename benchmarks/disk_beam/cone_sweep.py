@@ -5,7 +5,7 @@ steps of 0.005, snapshots at t = 16 us; a cone forms above about 0.10 mm/us.
 
 Each run is the disk-beam scene at the disk speed ``v``, to ``--end`` us, at
 the resolution given by ``--h`` (l0 = 2 h); its cone index is
-:func:`pfmpm.post.disk_beam.cone_index` at the end.  Writes ``sweep.csv`` (v, beta,
+:func:`benchmarks.disk_beam.measure.cone_index` at the end.  Writes ``sweep.csv`` (v, beta,
 beam fracture energy, cone crack area, wall time) and ``cone_index.png`` to
 ``--out``.
 
@@ -17,15 +17,19 @@ from __future__ import annotations
 
 import argparse
 import csv
+import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-from pfmpm import plots, scenes
-from pfmpm.post.disk_beam import cone_index
-from pfmpm.scene import Scene
-from pfmpm.simulation import Simulation
+if str(Path(__file__).resolve().parents[2]) not in sys.path:  # run as a file: the root holds ``benchmarks``
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
+
+from benchmarks.disk_beam.measure import cone_index  # noqa: E402
+from pfmpm import plots, scenes  # noqa: E402
+from pfmpm.scene import Scene  # noqa: E402
+from pfmpm.simulation import Simulation  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -6,8 +6,8 @@ depth, and compare the difference with A_f G_c (case i: 311.82 - 94.29 =
 217.53 mJ against 212.13 mJ). This script runs the disk-beam scene (with
 ``--set`` overrides as for ``pfmpm run``) and every ``--every`` steps records
 how far the crack has risen from the bottom face along the impact line
-(:func:`pfmpm.post.disk_beam.crack_rise`) and the beam's fracture energy. It prints
-the samples and then :func:`pfmpm.post.disk_beam.running_crack` of them:
+(:func:`benchmarks.disk_beam.measure.crack_rise`) and the beam's fracture energy. It prints
+the samples and then :func:`benchmarks.disk_beam.measure.running_crack` of them:
 
 - start: the last sample before the crack appears at the bottom face;
 - end: the first sample at which the crack has reached its final height;
@@ -35,14 +35,18 @@ from __future__ import annotations
 
 import argparse
 import csv
+import sys
 from pathlib import Path
 
 import numpy as np
 
-from pfmpm import scenes
-from pfmpm.post.disk_beam import crack_rise, running_crack
-from pfmpm.scene import Scene
-from pfmpm.simulation import Simulation
+if str(Path(__file__).resolve().parents[2]) not in sys.path:  # run as a file: the root holds ``benchmarks``
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
+
+from benchmarks.disk_beam.measure import crack_rise, running_crack  # noqa: E402
+from pfmpm import scenes  # noqa: E402
+from pfmpm.scene import Scene  # noqa: E402
+from pfmpm.simulation import Simulation  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -2,10 +2,10 @@
 
 Runs the Kalthoff-Winkler scene with damage-gradient partitioning (DFG, the
 scene as it is), as the single field (SF: the target one field, the impactor
-still its own, :func:`pfmpm.post.self_contact.body_fields`) and, for K5, DFG
+still its own, :func:`benchmarks.common.self_contact.body_fields`) and, for K5, DFG
 with G_f = 22.3 N/mm (Table II's print), sampling the crack from the notch
-tip every 0.5 us (:func:`pfmpm.post.kalthoff_winkler.run_crack`), and
-measures (:func:`pfmpm.post.kalthoff_winkler.report`):
+tip every 0.5 us (:func:`benchmarks.kalthoff_winkler.measure.run_crack`), and
+measures (:func:`benchmarks.kalthoff_winkler.measure.report`):
 
 - K1: the crack angle, from the failed particles 5-30 mm from the notch tip
   above the notch's line when the tip has passed 30 mm: their bearing from
@@ -19,9 +19,11 @@ measures (:func:`pfmpm.post.kalthoff_winkler.report`):
 - K4: the x momentum, conserved to round-off (the symmetry plane acts in y);
 - K5: the angle's change with G_f = 22.3.
 
-Prints them, writes ``kalthoff_winkler.json`` and ``crack_paths.png`` (the
-failed particles of each run coloured by the time they failed, and the
-tip's distance against time) to ``--out``.
+Prints them, writes ``kalthoff_winkler.json``, the table of
+docs/verification/kalthoff-winkler.md (``benchmark_results.json``,
+:mod:`benchmarks.common.results`) and ``crack_paths.png`` (the failed
+particles of each run coloured by the time they failed, and the tip's
+distance against time) to ``--out``.
 
     .venv/bin/python benchmarks/kalthoff_winkler/compare.py --out out/kalthoff_winkler
 """
@@ -30,13 +32,18 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 
-from pfmpm import scenes
-from pfmpm.post.fragments import failed
-from pfmpm.post.kalthoff_winkler import report, run_crack
-from pfmpm.post.self_contact import body_fields
-from pfmpm.scene import Scene
+if str(Path(__file__).resolve().parents[2]) not in sys.path:  # run as a file: the root holds ``benchmarks``
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
+
+from benchmarks.common import results  # noqa: E402
+from benchmarks.common.self_contact import body_fields  # noqa: E402
+from benchmarks.kalthoff_winkler.measure import report, run_crack  # noqa: E402
+from pfmpm import scenes  # noqa: E402
+from pfmpm.post.fragments import failed  # noqa: E402
+from pfmpm.scene import Scene  # noqa: E402
 
 RAYLEIGH = 2.803
 """Rayleigh speed of Table II's steel, mm/us (shared/benchmarks-homel-herbold.md section 0.1)."""
@@ -49,6 +56,52 @@ def variants(scene: Scene, sensitivity: bool) -> dict[str, Scene]:
         runs["damage_gradient_Gf_22.3"] = Scene.from_dict(scene.to_dict(),
                                                           ["materials.target.damage.Gf=22.3"])
     return runs
+
+
+COLUMNS = {"damage_gradient": "DFG", "single_field": "SF"}
+"""The runs of the table, by their column header."""
+PAPER = {"K1": "59.1 / 60.8; XFEM 60, experiment ~70", "K2": "2.0 / 1.7; XFEM 2.0-2.2",
+         "K3": "single crack"}
+"""The paper's column (DFG / SF) of the table, by check."""
+REQUIRED = {"K1": "59.1 +- 5 (DFG); 54-72", "K2": "2.0 +- 0.3, < c_R = 2.80", "K3_first": "within 2 h",
+            "K3": "until >= 60 us", "K4": "< 1e-9", "K5": "< 1 degree"}
+"""The required column of the table, by check."""
+
+
+def table(summary: dict) -> dict:
+    """The table of docs/verification/kalthoff-winkler.md from ``summary``
+    (:func:`main`'s): a row per check, a column per run (DFG, SF), the
+    paper's and the required values."""
+    runs = [n for n in COLUMNS if n in summary]
+    r = {n: summary[n] for n in runs}
+
+    def row(label, cell, paper="", required=""):
+        return [label, *(cell(n, r[n]) for n in runs), paper, required]
+
+    times = " / ".join(f"{r[n]['angle_time']:.1f}" for n in runs)
+    rows = [
+        row(f"K1: angle, bearing from the tip (at {times} us)", lambda n, x: f"{x['angle']:.1f}",
+            PAPER["K1"], REQUIRED["K1"]),
+        row("K1: angle, least-squares line", lambda n, x: f"{x['line']:.1f}"),
+        row(f"K1: bearing / line at {summary['t_end']:g} us",
+            lambda n, x: f"{x['angle_end']:.1f} / {x['line_end']:.1f}"),
+        row("K2: tip speed over 40-50 us", lambda n, x: f"{x['speed']:.2f} km/s", PAPER["K2"], REQUIRED["K2"]),
+        row("K3: first failure", lambda n, x: f"{x['initiation']['t']:.2f} us, "
+            f"{x['initiation']['distance']:.2f} mm from the notch's tip face", "", REQUIRED["K3_first"]),
+        row("K3: one arm of the band crossing the circles of 10, 20, 30 mm",
+            lambda n, x: f"until {x['single_until']:.1f} us", PAPER["K3"], REQUIRED["K3"]),
+        row("K4: largest change of the x momentum / its initial value",
+            lambda n, x: f"{x['momentum_drift']:.1e}", "", REQUIRED["K4"]),
+    ]
+    if "K5_angle_change" in summary:
+        gf = summary["damage_gradient_Gf_22.3"]
+        rows.append(row("K5: angle with G_f = 22.3", lambda n, x: (
+            f"{gf['angle']:.1f} (changes by {summary['K5_angle_change']:.3f})" if n == "damage_gradient"
+            else ""), "", REQUIRED["K5"]))
+    rows.append(row("separable nodes at the end", lambda n, x: str(
+        x["contact"].get("separable_nodes_last_step", ""))))
+    rows.append(row("C.1-C.4 violations", lambda n, x: str(sum(x["contact"].get("violations", {}).values()))))
+    return results.table(["check", *(COLUMNS[n] for n in runs), "paper (DFG / SF)", "required"], rows)
 
 
 def plot(runs: dict, out: Path) -> None:
@@ -111,6 +164,8 @@ def main(argv: list[str] | None = None) -> dict:
         summary["K5_angle_change"] = abs(runs["damage_gradient_Gf_22.3"]["report"]["angle"]
                                          - runs["damage_gradient"]["report"]["angle"])
     (out / "kalthoff_winkler.json").write_text(json.dumps(summary, indent=1, default=float))
+    results.write(out, "kalthoff_winkler", "docs/verification/kalthoff-winkler.md", __file__, argv,
+                  {"h1": table(dict(summary, t_end=runs["damage_gradient"]["rows"][-1]["t"]))})
     plot(runs, out)
     for name, value in summary.items():
         print(name, json.dumps(value, default=float))

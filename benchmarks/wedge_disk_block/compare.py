@@ -1,6 +1,6 @@
 """Wedge, disk and block (Homel & Herbold 2017, section 3.1, Fig. 9): checks W1-W4.
 
-Runs the wedge-disk-block scene three ways (:func:`pfmpm.post.self_contact.variants`):
+Runs the wedge-disk-block scene three ways (:func:`benchmarks.common.self_contact.variants`):
 the single field (no-slip), the three bodies as contact groups (the
 multi-field reference, mu_f = 0.1) and one group whose surfaces were flagged
 at t = 0 (damage-gradient self-contact, the scene as it is), and measures:
@@ -18,7 +18,9 @@ at t = 0 (damage-gradient self-contact, the scene as it is), and measures:
   disk reaches the block), relative;
 - the contact checks C.1-C.4.
 
-Prints them and writes ``wedge_disk_block.json`` to ``--out``.
+Prints them and writes ``wedge_disk_block.json`` and the table of
+docs/verification/wedge-disk-block.md (``benchmark_results.json``,
+:mod:`benchmarks.common.results`) to ``--out``.
 
     .venv/bin/python benchmarks/wedge_disk_block/compare.py --out out/wedge
 """
@@ -27,11 +29,51 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 
-from pfmpm import scenes
-from pfmpm.post.self_contact import relative_difference, rigid_rotation, run_variants
-from pfmpm.scene import Scene
+if str(Path(__file__).resolve().parents[2]) not in sys.path:  # run as a file: the root holds ``benchmarks``
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
+
+from benchmarks.common import results  # noqa: E402
+from benchmarks.common.self_contact import relative_difference, rigid_rotation, run_variants  # noqa: E402
+from pfmpm import scenes  # noqa: E402
+from pfmpm.scene import Scene  # noqa: E402
+
+ORDER = ("single_field", "multi_field", "damage_gradient")
+"""The runs in the order of the table's cells: SF / MF / DFG."""
+
+
+def table(report: dict) -> dict:
+    """The table of docs/verification/wedge-disk-block.md from ``report``
+    (:func:`main`'s): a row per check, what it measured, what is required and
+    whether it holds."""
+    def each(key, fmt, names=ORDER):
+        return " / ".join(format(report[key][n], fmt) for n in names)
+
+    def verdict(ok):
+        return "pass" if ok else "**fails**"
+
+    w1, w2 = report["W1"], report["W2"]
+    both = ("multi_field", "damage_gradient")
+    rows = [
+        ["W1: disk rotation (rad), SF / MF / DFG", each("W1", ".3f"), "", ""],
+        ["W1: |theta_DFG - theta_MF|",
+         f"{w1['dfg_over_sf']:.2g} of |theta_SF - theta_MF|; {w1['dfg_over_mf']:.2g} of |theta_MF|",
+         "<= 0.15; <= 0.10", verdict(w1["dfg_over_sf"] <= 0.15 and w1["dfg_over_mf"] <= 0.10)],
+        ["W2: position difference from MF, SF / DFG",
+         f"{w2['single_field']:.3g} / {w2['damage_gradient']:.2g} "
+         f"({w2['damage_gradient'] / w2['single_field']:.2g} of SF's)", "DFG <= 0.2 SF",
+         verdict(w2["damage_gradient"] <= 0.2 * w2["single_field"])],
+        ["W3: smallest gap between particle domains of different bodies, cells, SF / MF / DFG "
+         "(closest centres, spacings)", f"{each('W3', '.2g')} ({each('W3_closest', '.3g')})",
+         ">= -0.1 in MF and DFG", verdict(min(report["W3"][n] for n in both) >= -0.1)],
+        ["W4: x momentum against m_wedge a_x t before the disk meets the block", each("W4", ".1e"),
+         "< 1e-9", verdict(max(report["W4"].values()) <= 1e-9)],
+        ["C.1-C.4 violations, MF and DFG", str(sum(sum(v.values()) for v in report["contact"].values())),
+         "0", verdict(all(v == {"C1": 0, "C2": 0, "C3": 0, "C4": 0} for v in report["contact"].values()))],
+    ]
+    return results.table(["check", "measured", "required", ""], rows)
 
 
 def main(argv: list[str] | None = None) -> dict:
@@ -71,6 +113,8 @@ def main(argv: list[str] | None = None) -> dict:
     report["W1"]["dfg_over_mf"] = (abs(theta["damage_gradient"] - theta["multi_field"])
                                    / abs(theta["multi_field"]))
     (out / "wedge_disk_block.json").write_text(json.dumps(report, indent=1))
+    results.write(out, "wedge_disk_block", "docs/verification/wedge-disk-block.md", __file__, argv,
+                  {"checks": table(report)})
     for key, value in report.items():
         print(key, json.dumps(value))
     return report

@@ -10,7 +10,7 @@ in the current configuration; fragments below 50 um left out) and
 :func:`contact_distance` how far a particle starts from the platen-disk
 contact points (Z1); :func:`wall_excursion` and :func:`platen_penetration`
 how far particles pass a wall or into a platen (Z6). The single-field runs
-are :func:`pfmpm.post.self_contact.body_fields` of the scene.
+are :func:`benchmarks.common.self_contact.body_fields` of the scene.
 """
 
 from __future__ import annotations
@@ -19,8 +19,8 @@ import math
 
 import numpy as np
 
-from ..scene import Scene
-from .fragments import FULL_DAMAGE, failed, fragment_sizes, mean_speed, median_size, size_distribution
+from pfmpm.post.fragments import FULL_DAMAGE, failed, fragment_sizes, mean_speed, median_size, size_distribution
+from pfmpm.scene import Scene
 
 __all__ = ["INTACT", "LINK_CELLS", "SMALLEST", "disk_fragments", "disk_speed", "failed_fraction",
            "contact_distance", "wall_excursion", "platen_penetration"]

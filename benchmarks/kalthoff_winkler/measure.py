@@ -17,9 +17,9 @@ import math
 
 import numpy as np
 
-from ..scene import Rectangle, Scene
-from .arms import crack_arms, propagation_angle
-from .fragments import LINK, failed, linked_sets
+from pfmpm.post.arms import crack_arms, propagation_angle
+from pfmpm.post.fragments import LINK, failed, linked_sets
+from pfmpm.scene import Rectangle, Scene
 
 __all__ = ["BAND_DAMAGE", "ANGLE_RING", "ARM_RADII", "notch_tip", "from_face", "crack_angles",
            "CrackRecord", "run_crack", "speed", "report"]
@@ -170,7 +170,7 @@ def run_crack(scene: Scene, every: float = 0.5, progress=None) -> dict:
         (:meth:`~pfmpm.simulation.Simulation.contact_record`) and ``tip``,
         ``direction``, ``half_width`` (the notch, :func:`notch_tip`).
     """
-    from ..simulation import Simulation
+    from pfmpm.simulation import Simulation
 
     sim = Simulation(scene)
     p = sim.particles

@@ -1,7 +1,7 @@
 """The cost of damage-gradient partitioning (Homel & Herbold 2017, section 3.5,
 Fig. 19): wall time per step against particle count, with the partition
 (``dfg``) and without it (``sf``: every body its own velocity field,
-:func:`~pfmpm.post.self_contact.body_fields`), on one
+:func:`~benchmarks.common.self_contact.body_fields`), on one
 and more threads, per stage of the step; the checks E1-E5 of
 ``shared/benchmarks-homel-herbold.md`` section 7 from the table of timings.
 
@@ -16,7 +16,7 @@ partitions at a size, and the same crack pattern at every size.
 
 :func:`study` times the runs (every size, partition and thread count in
 turn, per round) into rows of :data:`COLUMNS`; :func:`checks` computes E1-E5
-from them and :func:`figure` draws Fig. 19. ``tools/efficiency.py`` is the
+from them and :func:`figure` draws Fig. 19. ``benchmarks/efficiency/study.py`` is the
 driver.
 """
 
@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..scene import Scene
+from pfmpm.scene import Scene
 
 __all__ = ["METHODS", "STAGES", "DFG_BLOCKS", "COLUMNS", "scene_at", "reference_damage", "paint",
            "time_run", "time_runs", "study", "medians", "checks", "figure"]
@@ -61,7 +61,7 @@ E2_RANGE = (3.2e4, 1.5e5)
 
 def scene_at(scene: Scene, h: float, method: str) -> Scene:
     """``scene`` at grid spacing ``h`` with partition ``method`` (:data:`METHODS`)."""
-    from .self_contact import body_fields
+    from benchmarks.common.self_contact import body_fields
 
     if method not in METHODS:
         raise ValueError(f"method = {method!r}: must be one of {', '.join(METHODS)}")
@@ -75,7 +75,7 @@ def scene_at(scene: Scene, h: float, method: str) -> Scene:
 def reference_damage(scene: Scene, h: float, paint_time: float) -> dict:
     """The damage of a damage-gradient run of ``scene`` at spacing ``h`` at
     time ``paint_time``: ``x0`` (initial positions), ``body`` and ``damage``."""
-    from ..simulation import Simulation
+    from pfmpm.simulation import Simulation
 
     sim = Simulation(scene_at(scene, h, "dfg"))
     x0, body = sim.particles.x.copy(), sim.particles.body.copy()
@@ -115,7 +115,7 @@ def time_runs(scene: Scene, h: float, methods, threads: int, steps: int | None, 
     ``chunk``, the runs advance ``chunk`` steps at a time in turn, in one
     process, so that a slow drift of a shared machine's speed falls on all
     of them alike; without, each run is timed whole, one after the other."""
-    from .. import _core
+    from pfmpm import _core
 
     if chunk is not None and chunk < 1:
         raise ValueError(f"chunk = {chunk}: must be at least 1 step")
@@ -129,7 +129,7 @@ def time_runs(scene: Scene, h: float, methods, threads: int, steps: int | None, 
 
 def _time_runs(scene, h, methods, threads, steps, warmup, reference, until, chunk) -> list[dict]:
     """:func:`time_runs` on the threads set."""
-    from ..simulation import Simulation
+    from pfmpm.simulation import Simulation
 
     def blocks(sim):
         part = sim.solver.damage_partition()
@@ -188,7 +188,7 @@ def study(scene: Scene, ks, h0: float, steps: int = 200, warmup: int = 50, round
     to ``csv_path`` as they come (if given); ``progress(row)`` is called
     after each.
     """
-    from ..output import CsvLog
+    from pfmpm.output import CsvLog
 
     reference = None
     if paint_time is not None:

@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 
-from ..scene import Rectangle, Scene
+from pfmpm.scene import Rectangle, Scene
 
 __all__ = ["crack_rise", "running_crack", "cone_index"]
 

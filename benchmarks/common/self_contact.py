@@ -15,8 +15,8 @@ import math
 
 import numpy as np
 
-from ..scene import Scene
-from .fragments import closest_approach, domain_gap, particle_domains
+from pfmpm.post.fragments import closest_approach, domain_gap, particle_domains
+from pfmpm.scene import Scene
 
 __all__ = ["VARIANTS", "variants", "body_fields", "run_variants", "relative_difference",
            "interface_slip", "rigid_rotation"]
@@ -65,7 +65,7 @@ def run_variants(scene: Scene, times: list[float], samples: int = 20,
     ``momentum`` (total momentum at each of them), ``contact`` (the contact
     record, or None) and ``steps``.
     """
-    from ..simulation import Simulation
+    from pfmpm.simulation import Simulation
 
     out = {}
     for name, s in variants(scene).items():

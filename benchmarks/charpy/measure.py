@@ -18,8 +18,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..scene import Rectangle, Scene
-from .fragments import FULL_DAMAGE, MIN_POINTS
+from pfmpm.post.fragments import FULL_DAMAGE, MIN_POINTS
+from pfmpm.scene import Rectangle, Scene
 
 __all__ = ["WINDOW", "SETTLED", "fracture_energy", "energy_balance", "momentum_error",
            "contact_end", "crack_band"]
@@ -113,7 +113,7 @@ def contact_end(scene: Scene, run_dir, name: str = "striker") -> float | None:
     relative to its largest: the internal forces of a body sum to zero at
     every node, so its momentum changes only by contact. None if it is still
     changing at the last snapshot but one."""
-    from .frames import read_frame, series
+    from pfmpm.post.frames import read_frame, series
 
     index = [b.name for b in scene.bodies].index(name)
     times, momenta = [], []
