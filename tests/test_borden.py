@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from pfmpm import Scene, Simulation
+from pfmpm.observe import CrackObserver
 from pfmpm.scene import rayleigh_speed
 
 DEMO = Path(__file__).resolve().parents[1] / "demos" / "borden_plate.toml"
@@ -34,12 +35,13 @@ def drive(scene, every=10):
     a ``branched`` flag, and the final simulation.
     """
     sim = Simulation(scene)
+    tips = CrackObserver(sim)
     rows = []
     history = sim.particles.history.copy()
     while sim.step < scene.steps():
         sim.advance(min(every, scene.steps() - sim.step))
         e = sim.energies()
-        e.update(sim.crack_tip_record())
+        tips.record(sim, e, False)
         e["branched"] = branched(sim, e["crack_tip_x"])
         rows.append(e)
         now = sim.particles.history

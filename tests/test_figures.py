@@ -15,7 +15,7 @@ from PIL import Image
 from pfmpm import Scene, Simulation, scenes
 from pfmpm.animate import animate
 from pfmpm.plots import PHASE_FIELD_LABEL
-from pfmpm.run import Snapshots
+from pfmpm.observe import CRACK_PATH, Snapshots, read_crack_path
 from pfmpm.scene import Body, Grid, Material, Rectangle, Time
 from pfmpm.scene.units import NO_UNITS, UNIT_SYSTEMS
 
@@ -131,8 +131,8 @@ def test_undeclared_units_say_so():
 def test_the_crack_path_plot_shows_the_cracked_points_by_time(borden_run):
     """Issue 21, defect 12: crack_path.png draws the cracked particles, each
     coloured by when it cracked (the notch at t = 0), in x-y."""
-    _, _, sim, figures = borden_run
-    xy, times = sim.crack_path_points()  # the cracked particles only
+    _, out, sim, figures = borden_run
+    xy, times = read_crack_path(out / CRACK_PATH)  # the cracked particles only
     assert len(xy) == len(times) and np.isfinite(times).all()
     # The notch (50 mm along y = 20, the history of B = 1000) cracks at t = 0:
     # every particle along it is there, with time 0.

@@ -61,25 +61,29 @@ def test_a_snapshot_holds_no_array_of_all_particles(tmp_path, monkeypatch):
 
     import scipy.spatial  # noqa: F401 (imported before the count, as a run has)
 
-    from pfmpm import output, run
+    from pfmpm import observe, output
     from pfmpm.simulation import Simulation
 
     monkeypatch.setattr(output, "_BLOCK", 1024)
     monkeypatch.setattr(seeding, "_CHUNK", 1024)
-    monkeypatch.setattr(run, "_QUERY_PIXELS", 1024)
+    monkeypatch.setattr(observe, "_QUERY_PIXELS", 1024)
     scene = Scene.from_toml("demos/borden_plate.toml", ["grid.h=0.5", "materials.concrete.fracture.l0=1.0"])
     sim = Simulation(scene)
     n = len(sim.particles)
-    frames, snapshots = sim.open_frames(tmp_path), sim.new_snapshots()
+    frames, images, tips = (observe.FrameObserver(sim), observe.SnapshotObserver(sim),
+                            observe.CrackObserver(sim))
+    frames.start(sim, tmp_path)
+    row = {}
     tracemalloc.start()
     try:
-        frames.write()
-        sim.offer_snapshot(snapshots)
-        sim.crack_tip_record()
+        frames.record(sim, row, True)
+        images.record(sim, row, True)
+        tips.record(sim, row, True)
         peak = tracemalloc.get_traced_memory()[1]
     finally:
         tracemalloc.stop()
-    assert n > 100_000 and len(snapshots.images) == 1
+    snapshots = images.snapshots
+    assert n > 100_000 and len(snapshots.images) == 1 and set(row) == set(observe.CrackTip.columns())
     kept = snapshots.images[0][1].nbytes  # the image itself (at most SNAPSHOT_PIXELS of them)
     assert peak - kept < 4 * n, f"{(peak - kept) / n:.1f} bytes per particle"
     written = meshio.read(tmp_path / "particles_000000.vtu")

@@ -25,8 +25,8 @@ class Stepper:
 
     comm = None
     checkpoints = False
-    crack_tip = None
-    columns = ENERGY_COLUMNS
+    cracks = False
+    field_series = True
 
     def __init__(self, scene, signal_at=None, fail_at=None):
         self.scene = scene
@@ -53,7 +53,10 @@ class Stepper:
         return {"step": self.step, "t": self.time, "kinetic": 2.0, "elastic": 0.0, "fracture": 0.0,
                 "external_work": 0.0, "total": 2.0, "momentum_x": 2.0, "momentum_y": 0.0}
 
-    def open_frames(self, out, resume=None):
+    def columns(self, observed=()):
+        return ENERGY_COLUMNS + list(observed)
+
+    def open_frames(self, out, entries=()):
         sim = self
 
         class Frames:
@@ -64,12 +67,6 @@ class Stepper:
                 sim.frames.append("closed")
 
         return Frames()
-
-    def new_snapshots(self):
-        return None
-
-    def offer_snapshot(self, snapshots):
-        assert snapshots is None
 
     def summary_fields(self, result):
         return {"stepper": True}

@@ -16,11 +16,15 @@ as an uninterrupted one:
   solutions of its last two solves (``phase_field/<k>/c``,
   ``phase_field/<k>/c_previous``; one phase field, ``k = 0``, or with
   multi-body contact one per crackable body in body order);
-- ``/output``: ``energies.csv`` so far (its bytes), the crack-tip records
-  behind the smoothed tip speeds, the time each crackable particle cracked
-  and where (``crack_time``, ``crack_xy``, for the crack path and its arms),
-  and the phase-field images taken
-  so far with the times still due.
+- ``/output``: ``energies.csv`` so far (its bytes, ``energies_csv``) and
+  the state of each observer of the run (:meth:`pfmpm.observe.Observer.state`),
+  an array under each name it gives; those of the standard observers are
+  the crack-tip records behind the smoothed tip speeds (``crack_tip``), the
+  time each crackable particle cracked and where (``crack_time``,
+  ``crack_xy``, for the crack path and its arms), the phase-field images
+  taken so far (``snapshot_<k>``, at ``snapshot_image_times``) with the
+  times still due (``snapshot_times``), and the particle series so far
+  (``series_time``, ``series_file``).
 
 The root attributes are ``format``, ``version``, ``sha256`` and ``meta``, a
 JSON object with the scene, the run's id and the scene's SHA-256
@@ -28,8 +32,7 @@ JSON object with the scene, the run's id and the scene's SHA-256
 neither), the step and time, the rest of the solver state
 (external and wall work, light-node count, CG statistics; with contact, each body's CG
 statistics and the contact record: contact nodes, node-pairs, violations of
-C.1-C.4 and the friction work so far), the particle snapshots
-listed in ``particles.pvd``, the checkpoint cadence and a status (``"ok"``, or
+C.1-C.4 and the friction work so far), the checkpoint cadence and a status (``"ok"``, or
 ``"failed"`` for the state left by a run that stopped on an error, kept for
 inspection and never resumed from). The SHA-256 checksum covers ``meta`` and
 every dataset and is checked on reading.
@@ -49,15 +52,18 @@ from pathlib import Path
 import numpy as np
 
 from . import _core
-from .observe import CrackTip
 from .scene import Scene
 from .scene.loads import MAX_REGIONS
 from .scene.stability import grid_dt
 
 FORMAT = "pfmpm-checkpoint"
-VERSION = 4
-# Version 4 stores the particle columns and the solver state by the names the
-# core gives them. Versions 2 and 3 had fixed lists of both (_from_version_3);
+VERSION = 5
+# Version 5 keeps the state of the run's observers as arrays under /output;
+# versions 2-4 kept the particle series and the times of the phase-field
+# images in meta (``series``, ``snapshot_image_times``), which reading turns
+# into those arrays. Version 4 stores the particle columns and the solver
+# state by the names the core gives them. Versions 2 and 3 had fixed lists of
+# both (_from_version_3);
 # version 3 turned the frame in which an anisotropic material's gamma is read
 # (docs/method.md), so a version-2 file is read unless one of its materials
 # has the fourth-order term.
@@ -93,22 +99,15 @@ class Checkpoint:
         The dict of :meth:`pfmpm._core.Solver.state`.
     energies_csv : bytes
         ``energies.csv`` as it was.
-    series : list of (float, str)
-        The particle snapshots so far: (time, file name).
-    crack_tip : (M, 4) ndarray
-        Crack-tip records behind the speed fits: time and the distance of
-        each tip of :attr:`pfmpm.observe.CrackTip.TRACKS` ((M, 2), time and
-        the one tip's distance, in files from before the branch tips).
-    crack_time : (N,) ndarray or None
-        When each crackable particle cracked (NaN: intact); ``None`` in files
-        from before it was kept.
-    crack_xy : (N, 2) ndarray or None
-        Where each crackable particle cracked (NaN: intact); ``None`` in files
-        from before it was kept (the particles' positions then stand in).
-    snapshot_times : (K,) ndarray
-        Phase-field image times still due.
-    snapshot_images : list of (float, ndarray)
-        Phase-field images taken so far.
+    observed : dict of str to ndarray
+        The state of the run's observers (:meth:`pfmpm.observe.Observer.state`),
+        by name, which :func:`pfmpm.run.run_to_end` hands back to them
+        (:meth:`~pfmpm.observe.Observer.restore`). Files from before the
+        observers have the same names (``crack_tip``, ``crack_time``,
+        ``crack_xy``, ``snapshot_*``, ``series_*``), some of them missing
+        or older: ``crack_tip`` is (M, 2), time and the one tip's distance,
+        in files from before the branch tips were tracked, and ``crack_time``
+        and ``crack_xy`` are missing in files from before they were kept.
     run_id : str or None
         The id of the run that wrote it (:mod:`pfmpm.run_folder`); ``None``
         in files from before runs had ids.
@@ -128,12 +127,7 @@ class Checkpoint:
     particles: dict
     solver: dict
     energies_csv: bytes = b""
-    series: list = field(default_factory=list)
-    crack_tip: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
-    snapshot_times: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    snapshot_images: list = field(default_factory=list)
-    crack_time: np.ndarray | None = None
-    crack_xy: np.ndarray | None = None
+    observed: dict = field(default_factory=dict)
     run_id: str | None = None
     scene_sha256: str | None = None
 
@@ -168,17 +162,7 @@ def _state_of(sim, run) -> tuple[dict, dict[str, np.ndarray]]:
     arrays.update({f"solver/{name}": a for name, a in state["arrays"].items()})
     attrs = {"solver": state["scalars"]}
     arrays["output/energies_csv"] = np.frombuffer(run.energies_csv(), dtype=np.uint8)
-    attrs["series"] = [[t, name] for t, name in run.series_entries()]
-    tip = sim.crack_tip.records() if sim.crack_tip is not None else []
-    arrays["output/crack_tip"] = np.asarray(tip, dtype=float).reshape(-1, 1 + len(CrackTip.TRACKS))
-    if sim.crack_path is not None:
-        arrays["output/crack_time"] = sim.crack_path.times
-        arrays["output/crack_xy"] = sim.crack_path.positions
-    times, images = run.snapshot_state()
-    arrays["output/snapshot_times"] = np.asarray(times, dtype=float)
-    attrs["snapshot_image_times"] = [t for t, _ in images]
-    for k, (_, image) in enumerate(images):
-        arrays[f"output/snapshot_{k}"] = image
+    arrays.update({f"output/{name}": a for name, a in run.observed().items()})
     return attrs, arrays
 
 
@@ -192,9 +176,9 @@ def write(directory: Path | str, sim, run, *, every: int, keep: int, status: str
         The checkpoint directory (created if missing).
     sim : Simulation
     run : object
-        The run's output state, with ``energies_csv()``, ``series_entries()``,
-        ``snapshot_state()``, ``run_id`` and ``scene_sha256`` (see
-        :meth:`pfmpm.simulation.Simulation.run`).
+        The run's output state, with ``energies_csv()``, ``observed()`` (the
+        observers' state by name), ``run_id`` and ``scene_sha256`` (see
+        :func:`pfmpm.run.run_to_end`).
     every, keep : int
         The cadence and how many ``"ok"`` checkpoints to keep; older ones are
         deleted after this one is in place (``keep`` is ignored for a failed state).
@@ -265,7 +249,7 @@ def read(path: Path | str) -> Checkpoint:
             fmt, version = f.attrs.get("format"), f.attrs.get("version")
             if fmt != FORMAT:
                 raise CheckpointError(f"checkpoint {path}: not a pfmpm checkpoint (format {fmt!r})")
-            if version not in (VERSION, 3, 2):
+            if version not in (VERSION, 4, 3, 2):
                 raise CheckpointError(f"checkpoint {path}: format version {version}, this pfmpm reads {VERSION}")
             meta = json.loads(f.attrs["meta"])
             if version == 2 and _anisotropic(meta["scene"]):
@@ -284,7 +268,7 @@ def read(path: Path | str) -> Checkpoint:
         raise CheckpointError(f"checkpoint {path}: cannot be read ({err})") from None
     if _digest(meta, arrays) != digest:
         raise CheckpointError(f"checkpoint {path}: checksum mismatch, the file is corrupt")
-    if version == VERSION:
+    if version >= 4:
         particles = {name.removeprefix("particles/"): a for name, a in arrays.items()
                      if name.startswith("particles/")}
         solver = {"scalars": meta["solver"],
@@ -323,15 +307,19 @@ def read(path: Path | str) -> Checkpoint:
     for key in [k for k in solver["scalars"] if k.startswith("phase_field/") and k.endswith("/passes")]:
         # Files from before the bounded solve could hand over to MPRGP: none did.
         solver["scalars"].setdefault(key.removesuffix("passes") + "handovers", 0)
-    images = [(t, arrays[f"output/snapshot_{k}"]) for k, t in enumerate(meta["snapshot_image_times"])]
+    observed = {name.removeprefix("output/"): a for name, a in arrays.items()
+                if name.startswith("output/") and name != "output/energies_csv"}
+    if version < 5:
+        # Before version 5 the particle series and the times of the images
+        # taken were kept in meta.
+        observed["series_time"] = np.array([t for t, _ in meta["series"]], dtype=float)
+        observed["series_file"] = np.array([name for _, name in meta["series"]], dtype="S")
+        observed["snapshot_image_times"] = np.asarray(meta["snapshot_image_times"], dtype=float)
     return Checkpoint(
         path=path, scene=meta["scene"], step=meta["step"], time=meta["time"], status=meta["status"],
         error=meta["error"], checkpoint_every=meta["checkpoint_every"], keep=meta["keep"],
         particles=particles, solver=solver,
-        energies_csv=arrays["output/energies_csv"].tobytes(),
-        series=[(t, name) for t, name in meta["series"]], crack_tip=arrays["output/crack_tip"],
-        crack_time=arrays.get("output/crack_time"), crack_xy=arrays.get("output/crack_xy"),
-        snapshot_times=arrays["output/snapshot_times"], snapshot_images=images,
+        energies_csv=arrays["output/energies_csv"].tobytes(), observed=observed,
         run_id=meta.get("run_id"), scene_sha256=meta.get("scene_sha256"))
 
 
@@ -410,7 +398,9 @@ def find(where: Path | str) -> Checkpoint:
 
 
 def restore(sim, ckpt: Checkpoint) -> None:
-    """Put the particle and solver state of ``ckpt`` into ``sim``, built on the checkpoint's scene.
+    """Put the particle and solver state of ``ckpt`` into ``sim``, built on the
+    checkpoint's scene (the run's observers take ``ckpt.observed``:
+    :func:`pfmpm.run.run_to_end`).
 
     Raises
     ------
@@ -437,6 +427,3 @@ def restore(sim, ckpt: Checkpoint) -> None:
         sim.solver.restore(ckpt.solver)
     except ValueError as err:
         raise CheckpointError(f"checkpoint {ckpt.path}: {err}") from None
-    if sim.crack_tip is not None:
-        sim.crack_tip.set_records(ckpt.crack_tip)
-        sim.restore_crack_path(ckpt.crack_time, ckpt.crack_xy)

@@ -111,9 +111,7 @@ from petsc4py import PETSc
 
 from . import _core
 from .crack import initial_history
-from .observe import CrackPath, CrackTip
-from .run import (CRACK_COLUMNS, ENERGY_COLUMNS, SIDES, RunResult, Snapshots, region_columns, run_to_end,
-                  wall_columns)
+from .run import ENERGY_COLUMNS, SIDES, RunResult, region_columns, run_to_end, wall_columns
 from .run_folder import check_fresh
 from .scene import (Body, BodyForce, LinearElasticSpec, MaterialSpec, Rectangle, Scene, SceneError,
                     Traction)
@@ -169,8 +167,6 @@ class FemSimulation:
     history : ndarray (cells, 3)
         History field ``H`` at the edge midpoints of the local cells, the
         midpoint of the edge opposite each vertex in the cell's vertex order.
-    crack_tip : CrackTip or None
-        Tracks the tip of the first initial crack, if any.
 
     Raises
     ------
@@ -180,6 +176,8 @@ class FemSimulation:
 
     checkpoints = False
     """The FEM path writes no checkpoints."""
+    field_series = True
+    """A run writes the XDMF series ``fields.xdmf`` (:meth:`open_frames`)."""
 
     def __init__(self, scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD):
         self.scene = scene
@@ -274,8 +272,6 @@ class FemSimulation:
         self._g = np.ones(len(self._dofs))
         self.history = np.zeros((len(self._dofs), 3))
         self._pf = None
-        self.crack_tip = None
-        self.crack_path = None
         if self._fracture is None:
             return
         points = self._midpoints.reshape(-1, 2)
@@ -291,9 +287,6 @@ class FemSimulation:
                                  " imposed: widen it or move the crack onto the body", w)
             np.maximum(self.history, seed, out=self.history)
         self._pf = _PhaseFieldSolver(self.c, self._fracture, self.scene.phase_field, len(self._dofs))
-        if self.scene.cracks:
-            self.crack_tip = CrackTip.for_scene(self.scene)
-            self.crack_path = CrackPath(self._owned, self.scene.output.crack_threshold)
         self._solve_phase_field()  # the phase field of the initial cracks, as the MPM
 
     def _assemble(self, local: np.ndarray, scalar: bool = False) -> np.ndarray:
@@ -417,11 +410,16 @@ class FemSimulation:
 
     # -- state ----------------------------------------------------------------
 
-    @property
-    def columns(self) -> list[str]:
-        """Columns of ``energies.csv`` for this scene (crack-tip columns with a crack)."""
+    def columns(self, observed: list[str] = ()) -> list[str]:
+        """Columns of ``energies.csv`` for this scene, then the columns
+        ``observed`` of the run's observers (:meth:`pfmpm.observe.Observer.columns`)."""
         return (ENERGY_COLUMNS + wall_columns(self.scene.walls) + region_columns(self.scene.prescribed)
-                + (CRACK_COLUMNS if self.crack_tip is not None else []))
+                + list(observed))
+
+    @property
+    def cracks(self) -> bool:
+        """Whether the body can crack (its material has a fracture table)."""
+        return self._pf is not None
 
     @property
     def step(self) -> int:
@@ -617,34 +615,18 @@ class FemSimulation:
             density = mean_sq / (4.0 * l0) + l0 * (cx * cx + cy * cy)
         return self._fracture.Gc * float(self._volume @ density)
 
-    def crack_tip_record(self) -> dict[str, float]:
-        """Record the crack tips now (the :data:`~pfmpm.run.CRACK_COLUMNS`) and
-        which vertices have cracked.
-
-        Each rank finds the farthest cracked vertices of its own (see
-        :class:`~pfmpm.observe.CrackTip`) and :meth:`~pfmpm.observe.CrackTip.merge`
-        takes the farthest of those, so the tips do not depend on how the
-        mesh is partitioned.  Every call is one record of the speed fits;
-        collective.  Only for scenes with an initial crack (see :attr:`columns`).
-        """
-        tip = self.crack_tip
-        if tip is None:
-            raise ValueError("the scene has no initial crack whose tip could be tracked")
-        c = self.c.x.array[: self._owned]
-        self.crack_path.update(self.time, c, self._x[: self._owned])
-        found = tip.merge(self.comm.allgather(tip.farthest(self._x[: self._owned], c)))
-        return tip.record(self.time, found)
-
-    def crack_path_points(self) -> tuple[np.ndarray, np.ndarray] | None:
-        """Where each cracked vertex is and when it cracked, on rank 0 (``None``
-        on the others); collective."""
-        _, times, xy = self.crack_path.cracked()
-        xy, times = self.comm.gather(xy), self.comm.gather(times)
-        return (np.concatenate(xy), np.concatenate(times)) if self.comm.rank == 0 else None
+    def crack_points(self) -> tuple[np.ndarray, np.ndarray]:
+        """This rank's owned vertices and their phase field, which the crack
+        tip, the crack path and the phase-field images of :mod:`pfmpm.observe`
+        watch (the ranks' tips are merged with
+        :meth:`~pfmpm.observe.CrackTip.merge`, so they do not depend on how
+        the mesh is partitioned)."""
+        return self._x[: self._owned], self.c.x.array[: self._owned]
 
     # -- run with output ------------------------------------------------------
 
-    def run(self, out_dir: Path | str, progress: bool = True, overwrite: bool = False) -> RunResult:
+    def run(self, out_dir: Path | str, progress: bool = True, overwrite: bool = False,
+            observers=None) -> RunResult:
         """Run to ``scene.time.end``, writing output to ``out_dir`` (collective).
 
         The run loop of :func:`pfmpm.run.run_to_end`, with its folder rules
@@ -654,38 +636,24 @@ class FemSimulation:
         ``output.every`` steps (and at the start and the end).  A non-finite energy stops the
         run with status ``"failed"`` and an error naming the step and time;
         Ctrl-C or SIGTERM stops every rank at the same step with status
-        ``"interrupted"``.  Output written so far stays.
+        ``"interrupted"``.  Output written so far stays.  ``observers``: see
+        :func:`~pfmpm.run.run_to_end`.
         """
-        return run_to_end(self, out_dir, progress, overwrite=overwrite)
+        return run_to_end(self, out_dir, progress, overwrite=overwrite, observers=observers)
 
     # -- what the run loop of pfmpm.run asks of a simulation -----------------
 
-    def open_frames(self, out: Path, resume=None) -> "_XdmfFrames":
+    def open_frames(self, out: Path, entries=()) -> "_XdmfFrames":
         """The XDMF series ``fields.xdmf`` on the mesh (collective): phase field,
-        displacement, velocity, stress and history (see :class:`_XdmfFrames`)."""
+        displacement, velocity, stress and history (see :class:`_XdmfFrames`);
+        a new one (``entries`` are for a resumed run, which the FEM has not)."""
         return _XdmfFrames(self, out / "fields.xdmf")
 
-    def new_snapshots(self) -> Snapshots | None:
-        """Phase-field images like the MPM's (``output.snapshots``), one pixel
-        centred on each vertex, on rank 0; ``None`` on the others, or if nothing
-        can crack."""
-        if self.comm.rank != 0 or self._pf is None or not self.scene.output.snapshots:
-            return None
+    def snapshot_pixels(self) -> tuple[float, np.ndarray, tuple[int, int], float]:
+        """The pixels of the phase-field images, like the MPM's
+        (``output.snapshots``): one pixel centred on each vertex."""
         h, (nx, ny) = self.scene.grid.h, self.scene.grid.cells
-        return Snapshots(self.scene, h, np.asarray(self.scene.grid.origin, dtype=float) - 0.5 * h,
-                         (nx + 1, ny + 1), reach=0.5 * h)
-
-    def offer_snapshot(self, snapshots: Snapshots | None) -> None:
-        """Gather the vertex phase field to rank 0 while images are pending (collective)."""
-        if self._pf is None or not self.scene.output.snapshots:
-            return
-        root = self.comm.rank == 0
-        if not self.comm.bcast(bool(snapshots.times) if root else None):
-            return
-        xy = self.comm.gather(self._x[: self._owned])
-        c = self.comm.gather(self.c.x.array[: self._owned])
-        if root:
-            snapshots.take(self.time, self.dt, np.concatenate(xy), np.concatenate(c))
+        return h, np.asarray(self.scene.grid.origin, dtype=float) - 0.5 * h, (nx + 1, ny + 1), 0.5 * h
 
     def summary(self) -> dict:
         """Sizes and settings of the discretisation (global over ranks)."""

@@ -1,31 +1,39 @@
-"""The run loop shared by the MPM and FEM paths: stepping, output, signals,
-checkpoints and the summary.
+"""The run loop shared by the MPM and FEM paths: stepping, ``energies.csv``,
+the observers, signals, checkpoints and the summary.
 
 :func:`run_to_end` drives a *simulation*, a
-:class:`~pfmpm.simulation.Simulation` or a :class:`~pfmpm.fem.FemSimulation`,
-which provides:
+:class:`~pfmpm.simulation.Simulation` or a :class:`~pfmpm.fem.FemSimulation`.
+What a run records besides ``energies.csv`` and ``summary.json`` (the crack
+tips and path, the phase-field images, the field series, or a user's own
+measure) is done by its observers (:mod:`pfmpm.observe`). A simulation
+provides:
 
 ``scene``, ``step``, ``time``, ``dt``, ``advance(n)``
     The scene and the stepping.
 ``comm``
     The MPI communicator of a distributed run, or ``None`` (serial).  With
     one, every call below is collective and rank 0 writes the files.
-``columns``, ``energies()``
-    The columns of ``energies.csv`` and a row of them now.
-``crack_tip``, ``crack_tip_record()``, ``crack_path_points()``
-    The :class:`~pfmpm.observe.CrackTip` of the first initial crack (or
-    ``None``), the crack-tip columns of a row, and the points with the time
-    each cracked (for the crack-path plot; collective, on the root).
-``open_frames(out, resume)``
-    The field series written every ``output.every`` steps (an object with
-    ``write()`` and ``close()``), or ``None``.
-``new_snapshots()``, ``offer_snapshot(snapshots)``
-    The :class:`Snapshots` of the phase field (or ``None``) and handing it
-    the state at a record.
+``columns(observed)``, ``energies()``
+    The columns of ``energies.csv``, with the observers' columns
+    ``observed`` where the simulation puts them, and a row of its own
+    columns now.
 ``summary_fields(result)``
     The method's own entries of ``summary.json``.
 ``checkpoints``
     Whether it can write and resume from checkpoints (:mod:`pfmpm.checkpoint`).
+
+and, for the standard observers (:func:`~pfmpm.observe.default_observers`):
+
+``cracks``, ``crack_points()``
+    Whether anything can crack (it has a phase field), and the points that
+    can, with their phase field: ``(xy, c)``, this rank's own.
+``snapshot_pixels()``
+    The pixels of the phase-field images: ``(pixel, origin, shape, reach)``
+    of :class:`~pfmpm.observe.Snapshots`.
+``field_series``, ``open_frames(out, entries)``
+    Whether it writes a field series, and the series in ``out`` continuing
+    ``entries`` (an object with ``write()``, ``close()`` and, for
+    checkpoints, ``entries``).
 """
 
 from __future__ import annotations
@@ -35,20 +43,21 @@ import math
 import signal
 import threading
 import time as _time
+from collections.abc import Callable
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from . import _core, run_folder
-from .output import CsvLog, read_csv
-from .post.cracks import scene_cracks
-from .observe import CRACK_PATH, CrackTip, write_crack_path
+from .observe import Observer, default_observers
+from .observe import Snapshots, nearest_image  # noqa: F401 (their old home: pfmpm.animate imports from here)
+from .output import CsvLog
 from .scene import Scene
 
-__all__ = ["ENERGY_COLUMNS", "SIDES", "wall_columns", "region_columns", "CRACK_COLUMNS", "RunResult", "Figures", "Snapshots",
-           "nearest_image", "run_to_end", "step_to_end"]
+__all__ = ["ENERGY_COLUMNS", "SIDES", "wall_columns", "region_columns", "RunResult", "Figures",
+           "run_to_end", "step_to_end"]
 
 ENERGY_COLUMNS = ["step", "t", "kinetic", "elastic", "fracture", "external_work", "total",
                   "momentum_x", "momentum_y"]
@@ -82,11 +91,6 @@ def region_columns(regions) -> list[str]:
     along the components it holds."""
     return [c for r in regions for c in (f"work_{r.name}", f"impulse_{r.name}_x", f"impulse_{r.name}_y",
                                          f"displacement_{r.name}_x", f"displacement_{r.name}_y")]
-
-CRACK_COLUMNS = CrackTip.columns()
-"""Extra ``energies.csv`` columns of scenes with an initial crack: the crack tip
-and the tip of each branch (see :class:`~pfmpm.observe.CrackTip`)."""
-
 
 @dataclass
 class RunResult:
@@ -136,18 +140,20 @@ class RunResult:
 
 
 def run_to_end(sim, out_dir: Path | str, progress: bool = True, checkpoint_every: int = 0,
-               keep: int = 3, resume=None, draw: bool = True, overwrite: bool = False) -> RunResult:
+               keep: int = 3, resume=None, draw: bool = True, overwrite: bool = False,
+               observers: list[Observer] | None = None) -> RunResult:
     """Run ``sim`` to ``scene.time.end``, writing its output to ``out_dir``.
 
     Writes ``scene.toml`` and ``summary.json`` (status ``"running"``) first
     (:mod:`pfmpm.run_folder`), ``energies.csv`` every
-    ``output.energies_every`` steps, the field series (:meth:`open_frames`)
-    every ``output.every`` steps (and at the start and the end),
-    ``summary.json`` again at the end, and, once the run completes,
-    ``energies.png``, with an initial crack ``crack_path.csv`` (where and
-    when each point cracked), ``crack_tip.png`` (each crack arm's length and
-    speed, :mod:`pfmpm.post.cracks`) and ``crack_path.png``, and
-    ``phase_field.png`` (with ``output.snapshots``).
+    ``output.energies_every`` steps (and at the start and the end), with
+    the observers' columns, ``summary.json`` again at the end, and, once the
+    run completes, ``energies.png``. The standard observers
+    (:func:`~pfmpm.observe.default_observers`) add the field series every
+    ``output.every`` steps, and with an initial crack the crack-tip columns,
+    ``crack_path.csv`` (where and when each point cracked), ``crack_tip.png``
+    (each crack arm's length and speed, :mod:`pfmpm.post.cracks`) and
+    ``crack_path.png``, and ``phase_field.png`` (with ``output.snapshots``).
 
     Parameters
     ----------
@@ -163,15 +169,20 @@ def run_to_end(sim, out_dir: Path | str, progress: bool = True, checkpoint_every
         How many of the newest checkpoints to keep (>= 1).
     resume : pfmpm.checkpoint.Checkpoint, optional
         Continue from this checkpoint of a run of the same scene: its state
-        and its output so far (``energies.csv``, the particle series, the
-        crack-tip records, the phase-field images) are restored first.
-        ``out_dir`` must be the checkpoint's run's folder or hold no run.
+        and its output so far (``energies.csv`` and what the observers kept:
+        the particle series, the crack-tip records, the phase-field images)
+        are restored first. ``out_dir`` must be the checkpoint's run's
+        folder or hold no run.
     draw : bool
         Draw the figures (:class:`Figures`) before returning; if not, the
         result's ``figures`` draws them when asked.
     overwrite : bool
         Without ``resume``: if ``out_dir`` holds another run, delete its
         files first (:data:`pfmpm.run_folder.RUN_FILES`) rather than refuse.
+    observers : list of pfmpm.observe.Observer, optional
+        What watches the run (:class:`~pfmpm.observe.Observer`), called in
+        this order; by default :func:`~pfmpm.observe.default_observers`.
+        To add one's own, pass ``default_observers(sim) + [mine]``.
 
     Returns
     -------
@@ -184,6 +195,9 @@ def run_to_end(sim, out_dir: Path | str, progress: bool = True, checkpoint_every
     pfmpm.run_folder.RunFolderError
         If ``out_dir`` holds another run (and not ``overwrite``), or, with
         ``resume``, a run of another scene or with another id than the checkpoint's.
+    ValueError
+        If two observers, or an observer and the simulation, give the same
+        column of ``energies.csv``.
 
     Notes
     -----
@@ -203,6 +217,10 @@ def run_to_end(sim, out_dir: Path | str, progress: bool = True, checkpoint_every
         raise ValueError(f"checkpoint_every = {checkpoint_every}, keep = {keep}: need >= 0 and >= 1")
     if (checkpoint_every or resume is not None) and not sim.checkpoints:
         raise ValueError(f"{type(sim).__name__} writes no checkpoints")
+    observers = default_observers(sim) if observers is None else list(observers)
+    columns = sim.columns([c for o in observers for c in o.columns()])
+    if twice := sorted({c for c in columns if columns.count(c) > 1}):
+        raise ValueError(f"energies.csv column {twice[0]} is given twice (by the simulation or its observers)")
     comm = sim.comm
     root = comm is None or comm.rank == 0
     # Every rank checks the folder, so that a refusal stops them all; then rank 0 takes it.
@@ -215,6 +233,8 @@ def run_to_end(sim, out_dir: Path | str, progress: bool = True, checkpoint_every
     result = RunResult(out_dir=out, steps_planned=total)
     if resume is not None:
         checkpoint.restore(sim, resume)
+        for o in observers:
+            o.restore(sim, resume.observed)
         result.resumed_from = str(resume.path)
     if root:
         result.run_id = run_folder.start(out, sim.scene, overwrite, resume)
@@ -225,27 +245,21 @@ def run_to_end(sim, out_dir: Path | str, progress: bool = True, checkpoint_every
         tmp = out / "energies.csv.tmp"
         tmp.write_bytes(resume.energies_csv)
         tmp.replace(out / "energies.csv")
-    log = CsvLog(out / "energies.csv", sim.columns, append=resume is not None) if root else None
-    frames = sim.open_frames(out, resume)
-    snapshots = sim.new_snapshots()
-    if snapshots is not None and resume is not None:
-        snapshots.restore(resume.snapshot_times, resume.snapshot_images)
-    state = _OutputState(out, frames, snapshots, result.run_id,
-                         run_folder.scene_digest(sim.scene.to_dict()))
+    log = CsvLog(out / "energies.csv", columns, append=resume is not None) if root else None
+    for o in observers:
+        o.start(sim, out)
+    state = _OutputState(out, observers, result.run_id, run_folder.scene_digest(sim.scene.to_dict()))
 
     def record(force: bool) -> None:
         e = sim.energies()
         bad = [k for k, v in e.items() if not math.isfinite(v)]
         if bad:
             raise _core.SimulationError(f"{', '.join(bad)} not finite at step {sim.step} (t = {sim.time:g})")
-        if force or sim.step % cfg.energies_every == 0:
-            if sim.crack_tip is not None:
-                e.update(sim.crack_tip_record())
-            if log is not None:
-                log.write(e)
-        sim.offer_snapshot(snapshots)
-        if frames is not None and (force or sim.step % cfg.every == 0):
-            frames.write()
+        row = e if force or sim.step % cfg.energies_every == 0 else None
+        for o in observers:
+            o.record(sim, row, force)
+        if row is not None and log is not None:
+            log.write(row)
 
     def save(status: str = "ok", error: str | None = None) -> None:
         result.checkpoint = str(checkpoint.write(out / checkpoint.DIRECTORY, sim, state,
@@ -255,7 +269,7 @@ def run_to_end(sim, out_dir: Path | str, progress: bool = True, checkpoint_every
     start = _time.perf_counter()
     bar = tqdm(total=total, initial=sim.step, disable=not (progress and root), unit="step",
                desc=sim.scene.name)
-    every = [cfg.energies_every] + ([cfg.every] if frames is not None else [])
+    every = [cfg.energies_every] + [o.every for o in observers if o.every]
     try:
         with _stop_on_signals() as caught:
             result.status, result.error = step_to_end(
@@ -269,10 +283,10 @@ def run_to_end(sim, out_dir: Path | str, progress: bool = True, checkpoint_every
                 save("failed", result.error)
     finally:
         bar.close()
-        if frames is not None:
-            frames.close()
         if log is not None:
             log.close()
+        completed = result.status == "completed"
+        drawings = [o.finish(out, completed) for o in observers]
         result.wall_s = _longest(comm, _time.perf_counter() - start)
         result.steps = sim.step
         fields = sim.summary_fields(result)
@@ -281,11 +295,7 @@ def run_to_end(sim, out_dir: Path | str, progress: bool = True, checkpoint_every
         if root:
             result.write_summary(out / "summary.json", {"scene": sim.scene.name, "units": sim.scene.units,
                                                         **fields})
-    completed = result.status == "completed"
-    path = sim.crack_path_points() if completed and sim.crack_tip is not None else None
-    if path is not None and root:
-        write_crack_path(out / CRACK_PATH, *path)
-    result.figures = Figures(out, sim.scene, completed and root, path, snapshots)
+    result.figures = Figures(out, sim.scene, completed and root, [d for d in drawings if d is not None])
     if draw:
         result.figures.draw()
         result.figures = None
@@ -294,34 +304,29 @@ def run_to_end(sim, out_dir: Path | str, progress: bool = True, checkpoint_every
 
 @dataclass
 class Figures:
-    """The plots of a run: ``energies.png``, ``crack_tip.png`` and
-    ``crack_path.png`` once it completes (the last two with an initial
-    crack), ``phase_field.png`` with snapshots. It holds only what they need
-    beyond the run's files, the cracked points and the phase-field images, so
-    they can be drawn after the simulation is gone (:func:`run_to_end` with
+    """The plots of a run: ``energies.png`` once it completes, then those of
+    its observers (:meth:`~pfmpm.observe.Observer.finish`: ``crack_tip.png``
+    and ``crack_path.png`` of a completed run with an initial crack,
+    ``phase_field.png`` with snapshots). It holds only what they need beyond
+    the run's files (the cracked points, the phase-field images), so they
+    can be drawn after the simulation is gone (:func:`run_to_end` with
     ``draw=False``), which ``pfmpm run`` does to keep its peak memory down."""
 
     out: Path
     scene: Scene
     completed: bool
     """Whether to draw the plots of a completed run (on the root rank)."""
-    crack_path: tuple[np.ndarray, np.ndarray] | None
-    """The points and their crack times of :meth:`crack_path_points`."""
-    snapshots: "Snapshots | None"
+    drawings: list[Callable[[], None]] = field(default_factory=list)
+    """What draws each observer's figures."""
 
     def draw(self) -> None:
         """Write the figures into ``out``."""
         from . import plots
 
-        out, scene, units = self.out, self.scene, self.scene.unit_system()
         if self.completed:
-            plots.energies(out / "energies.csv", out / "energies.png", units)
-        if self.completed and self.crack_path is not None:
-            arms = scene_cracks(scene, *self.crack_path, read_csv(out / "energies.csv")["t"])
-            plots.crack_arms(arms, out / "crack_tip.png", scene.crack_rayleigh_speed(), units)
-            plots.crack_path(arms, *self.crack_path, out / "crack_path.png", _crackable_bounds(scene), units)
-        if self.snapshots is not None and self.snapshots.images:
-            plots.phase_field(self.snapshots, out / "phase_field.png", _polar_overlay(scene), units)
+            plots.energies(self.out / "energies.csv", self.out / "energies.png", self.scene.unit_system())
+        for drawing in self.drawings:
+            drawing()
 
 
 def step_to_end(sim, total: int, every: list[int], record, bar, *, checkpoint=None,
@@ -403,149 +408,31 @@ def _stop_on_signals():
             signal.signal(s, handler)
 
 
-def _crackable_bounds(scene: Scene) -> tuple[float, float, float, float]:
-    """The bounding box of the bodies that can crack."""
-    boxes = np.array([b.shape.bounds() for b in scene.bodies if scene.fracture_of(b) is not None])
-    return (*boxes[:, :2].min(axis=0), *boxes[:, 2:].max(axis=0))
-
-
-def _polar_overlay(scene: Scene):
-    """``1/G_c(theta)`` of the first anisotropic body, drawn at the initial
-    crack tips (or the body's centre) on the phase-field snapshots; or None."""
-    from .anisotropy import polar_table
-
-    for body in scene.bodies:
-        f = scene.fracture_of(body)
-        if f is not None and f.anisotropy is not None and f.anisotropy.fourth_order:
-            x0, y0, x1, y1 = body.shape.bounds()
-            h = scene.grid.h
-            tips = [p for crack in scene.cracks if crack.body in (None, body.name)
-                    for p in (crack.points[0], crack.points[-1])
-                    if x0 + h <= p[0] <= x1 - h and y0 + h <= p[1] <= y1 - h]
-            if not tips:
-                tips = [(0.5 * (x0 + x1), 0.5 * (y0 + y1))]
-            return tips, polar_table(f.gamma(), f.Gc, body.orientation)
-    return None
-
-
 class _OutputState:
-    """What a checkpoint needs of a run's output: the CSV so far, the particle
-    series entries, the phase-field images, and the run's id and scene digest
-    (:mod:`pfmpm.run_folder`)."""
+    """What a checkpoint needs of a run's output: the CSV so far, the
+    observers' state, and the run's id and scene digest (:mod:`pfmpm.run_folder`)."""
 
-    def __init__(self, out: Path, frames, snapshots: "Snapshots | None", run_id: str | None,
-                 scene_sha256: str):
+    def __init__(self, out: Path, observers: list[Observer], run_id: str | None, scene_sha256: str):
         self._csv = out / "energies.csv"
-        self._frames = frames
-        self._snapshots = snapshots
+        self._observers = observers
         self.run_id = run_id
         self.scene_sha256 = scene_sha256
 
     def energies_csv(self) -> bytes:
         return self._csv.read_bytes()
 
-    def series_entries(self) -> list[tuple[float, str]]:
-        return self._frames.entries if self._frames is not None else []
+    def observed(self) -> dict[str, np.ndarray]:
+        """The :meth:`~pfmpm.observe.Observer.state` of every observer, in one dict.
 
-    def snapshot_state(self) -> tuple[list[float], list[tuple[float, np.ndarray]]]:
-        if self._snapshots is None:
-            return [], []
-        return list(self._snapshots.times), list(self._snapshots.images)
-
-
-_QUERY_PIXELS = 1 << 14  # pixel centres per nearest-point query (and tree of their points)
-
-
-class Snapshots:
-    """Phase-field images at the scene's ``output.snapshots`` times.
-
-    Each pixel takes the phase field of the point nearest its centre, or NaN
-    when no point lies within ``reach``: the body as the points fill it,
-    without the gaps that binning points into pixels of their own spacing
-    leaves wherever they have moved. Each image is taken at the first record
-    at or after the requested time (the last record for times past the end).
-
-    Parameters
-    ----------
-    scene : Scene
-    pixel : float
-        Pixel side.
-    origin : (float, float)
-        Lower-left corner of the image.
-    shape : (int, int)
-        Pixels in x and y.
-    reach : float
-        Largest distance from a pixel centre to the point it shows: the
-        points' spacing, so that no pixel inside a body is empty and none
-        farther than half a spacing outside it is filled.
-    """
-
-    def __init__(self, scene: Scene, pixel: float, origin, shape: tuple[int, int], reach: float):
-        self.times = sorted(scene.output.snapshots)
-        self.pixel = pixel
-        self.origin = np.asarray(origin, dtype=float)
-        self.shape = shape
-        self.reach = reach
-        self.images: list[tuple[float, np.ndarray]] = []
-        self._end = scene.steps() * scene.dt()
-
-    def restore(self, times, images) -> None:
-        """Continue from a checkpoint: the times still due and the images taken."""
-        self.times = [float(t) for t in times]
-        self.images = [(float(t), np.asarray(image)) for t, image in images]
-
-    def take(self, t: float, dt: float, xy: np.ndarray, c: np.ndarray) -> None:
-        """Offer the state at time ``t``; keep an image if a snapshot time is due."""
-        while self.times and (t >= self.times[0] - 0.5 * dt or t >= self._end - 0.5 * dt):
-            self.times.pop(0)
-            self.images.append((t, self.rasterize(xy, c)))
-
-    def rasterize(self, xy: np.ndarray, c: np.ndarray) -> np.ndarray:
-        """``c`` of the nearest point within ``reach`` of each pixel centre, NaN
-        where there is none; shape (ny, nx)."""
-        return nearest_image(xy, c, self.origin, self.pixel, self.shape, self.reach)
-
-
-def nearest_image(xy: np.ndarray, values: np.ndarray, origin, pixel: float, shape: tuple[int, int],
-                  reach: float) -> np.ndarray:
-    """An image of point values: each pixel the value of the point nearest its
-    centre, NaN where none lies within ``reach``.
-
-    Parameters
-    ----------
-    xy : (N, 2) ndarray
-        The points.
-    values : (N,) ndarray
-    origin : (float, float)
-        Lower-left corner of the image.
-    pixel : float
-        Pixel side.
-    shape : (int, int)
-        Pixels in x and y.
-    reach : float
-
-    Returns
-    -------
-    (ny, nx) ndarray
-        Row 0 at the bottom (``imshow(..., origin="lower")``).
-    """
-    from scipy.spatial import cKDTree
-
-    nx, ny = shape
-    image = np.full((ny, nx), np.nan)
-    xy, values = np.asarray(xy), np.asarray(values)
-    gx = origin[0] + (np.arange(nx) + 0.5) * pixel
-    gy = origin[1] + (np.arange(ny) + 0.5) * pixel
-    rows = max(1, _QUERY_PIXELS // nx)  # rows of pixels per query, to bound its arrays
-    for r in range(0, ny, rows):
-        cy = gy[r:r + rows]
-        # Only points within reach of the band's centres can be shown in it: a
-        # tree over those alone holds a band's share of the points, not all.
-        near = np.flatnonzero((xy[:, 1] >= cy[0] - reach) & (xy[:, 1] <= cy[-1] + reach))
-        if not len(near):
-            continue
-        _, nearest = cKDTree(xy[near]).query(np.column_stack((np.tile(gx, len(cy)), np.repeat(cy, nx))),
-                                             distance_upper_bound=reach)
-        found = nearest < len(near)
-        image[r:r + len(cy)].reshape(-1)[found] = values[near[nearest[found]]]
-    return image
+        Raises
+        ------
+        ValueError
+            If two observers keep an array of the same name.
+        """
+        state: dict[str, np.ndarray] = {}
+        for o in self._observers:
+            for name, value in o.state().items():
+                if name in state or name == "energies_csv":
+                    raise ValueError(f"checkpoint output/{name} is kept by two observers of the run")
+                state[name] = np.asarray(value)
+        return state

@@ -13,9 +13,7 @@ import numpy as np
 from . import _core
 from .crack import initial_history
 from .output import ParticleSeries, Rows
-from .observe import CrackPath, CrackTip
-from .run import (CRACK_COLUMNS, ENERGY_COLUMNS, SIDES, RunResult, Snapshots, region_columns, run_to_end,
-                  wall_columns)
+from .run import ENERGY_COLUMNS, SIDES, RunResult, region_columns, run_to_end, wall_columns
 from .scene import Scene, SceneError, seeding
 from .scene.report import SetupReport, setup_report
 from .scene.validation import at
@@ -80,10 +78,8 @@ class Simulation:
         (``x``, ``v``, ``stress``, ...: ``dir(sim.particles)`` lists them,
         ``sim.particles.columns()`` says what each holds).
     solver : pfmpm._core.Solver
-    crack_tip : CrackTip or None
-        Tracks the tip of the first initial crack and of its branches, if any.
-    crack_path : CrackPath or None
-        With a crack tip: when each crackable particle cracked.
+    cracks : bool
+        Whether a body can crack (its material has a fracture table).
     """
 
     comm = None
@@ -149,9 +145,6 @@ class Simulation:
         self._all_crackable = bool(self._crackable.all())
         self._impose_cracks()
         self.solver.set_stability_length(scene.critical_length())
-        self.crack_tip = CrackTip.for_scene(scene) if scene.cracks else None
-        self.crack_path = (CrackPath(int(self._crackable.sum()), scene.output.crack_threshold)
-                           if scene.cracks else None)
         if self.cracks or self.damage_gradient or scene.initial_damage:
             # The phase field of the initial cracks; the damage-gradient fields;
             # the CPDI domains of initially failed particles.
@@ -232,16 +225,17 @@ class Simulation:
         n = min(len(self.scene.bodies), _core.max_pair_fields)
         return [(a, b) for b in range(n) for a in range(b)]
 
-    @property
-    def columns(self) -> list[str]:
+    def columns(self, observed: list[str] = ()) -> list[str]:
         """Columns of ``energies.csv`` for this scene: with more than one body
         also each body's momentum, ``momentum_x_<body>`` and ``momentum_y_<body>``,
-        and with each body its own field the contact impulse of each pair,
-        ``contact_<a>_<b>_x|y`` (of body b on body a since t = 0)."""
+        then the columns ``observed`` of the run's observers
+        (:meth:`pfmpm.observe.Observer.columns`), then those of the models
+        and of contact: with each body its own field the contact impulse of
+        each pair, ``contact_<a>_<b>_x|y`` (of body b on body a since t = 0)."""
         columns = ENERGY_COLUMNS + wall_columns(self.scene.walls) + region_columns(self.scene.prescribed)
         if len(self.scene.bodies) > 1:
             columns += [f"momentum_{d}_{b.name}" for b in self.scene.bodies for d in "xy"]
-        columns += CRACK_COLUMNS if self.crack_tip else []
+        columns += list(observed)
         if self.damage:
             columns += DAMAGE_COLUMNS
         if self.contact:
@@ -333,33 +327,17 @@ class Simulation:
                 e[f"fracture_{body.name}"] = value
         return e
 
-    def crack_tip_record(self) -> dict[str, float]:
-        """Record the crack tips now (the :data:`~pfmpm.run.CRACK_COLUMNS`) and
-        which particles have cracked."""
-        c, xy = self._of_crackable(self.particles.c), self._of_crackable(self.particles.x)
-        self.crack_path.update(self.time, c, xy)
-        return self.crack_tip.update(self.time, xy, c)
+    def crack_points(self) -> tuple[np.ndarray, np.ndarray]:
+        """The positions and phase field of the particles that can crack (the
+        crack tip, the crack path and the phase-field images of
+        :mod:`pfmpm.observe` watch them): views of the columns, no copies,
+        when every particle can."""
+        return self._of_crackable(self.particles.x), self._of_crackable(self.particles.c)
 
     def _of_crackable(self, column: np.ndarray) -> np.ndarray:
         """A particle column's rows of the crackable particles: the column itself
         (a view, no copy) when every particle is crackable."""
         return column if self._all_crackable else column[self._crackable]
-
-    def restore_crack_path(self, times, positions) -> None:
-        """Continue the crack path of a checkpoint: its crack times and
-        positions; from a file without positions, the particles' positions
-        now; from one without times, the checkpoint's time and positions for
-        the particles cracked by then."""
-        xy = self._of_crackable(self.particles.x)
-        if times is not None:
-            self.crack_path.restore(times, xy if positions is None else positions)
-        else:
-            self.crack_path.update(self.time, self._of_crackable(self.particles.c), xy)
-
-    def crack_path_points(self) -> tuple[np.ndarray, np.ndarray]:
-        """Where each cracked particle cracked and when, in the order of the particles."""
-        _, times, xy = self.crack_path.cracked()
-        return xy, times
 
     @cached_property
     def setup(self) -> SetupReport:
@@ -435,14 +413,15 @@ class Simulation:
         return active
 
     def run(self, out_dir: Path | str, progress: bool = True, checkpoint_every: int = 0,
-            keep: int = 3, resume=None, draw: bool = True, overwrite: bool = False) -> RunResult:
+            keep: int = 3, resume=None, draw: bool = True, overwrite: bool = False,
+            observers=None) -> RunResult:
         """Run to ``scene.time.end``, writing output to ``out_dir``: see
         :func:`pfmpm.run.run_to_end`, which takes the same parameters.
 
         The field series is ``particles.pvd`` with a VTU file per output
         step (with ``output.particles``).
         """
-        return run_to_end(self, out_dir, progress, checkpoint_every, keep, resume, draw, overwrite)
+        return run_to_end(self, out_dir, progress, checkpoint_every, keep, resume, draw, overwrite, observers)
 
     # -- what the run loop of pfmpm.run asks of a simulation -----------------
 
@@ -451,31 +430,27 @@ class Simulation:
         """The time step."""
         return self.solver.dt
 
-    def open_frames(self, out: Path, resume=None) -> "_ParticleFrames | None":
-        """The particle series of a run in ``out`` (continuing that of ``resume``),
-        or ``None`` without ``output.particles``."""
-        if not self.scene.output.particles:
-            return None
-        return _ParticleFrames(self, ParticleSeries(out, resume.series if resume else (), self.legend()))
+    @property
+    def field_series(self) -> bool:
+        """Whether a run writes the particle series (``output.particles``)."""
+        return self.scene.output.particles
 
-    def new_snapshots(self) -> Snapshots | None:
-        """Phase-field images of the crackable particles at ``output.snapshots``,
-        a pixel per (finest) particle spacing, or larger pixels where that
-        would make more than :data:`SNAPSHOT_PIXELS`, each showing the nearest
-        particle within the coarsest spacing; ``None`` if no time is given."""
-        if not (self.cracks and self.scene.output.snapshots):
-            return None
+    def open_frames(self, out: Path, entries=()) -> "_ParticleFrames":
+        """The particle series ``particles.pvd`` of a run in ``out``, continuing
+        the series ``entries`` ((time, file name) of those written before)."""
+        return _ParticleFrames(self, ParticleSeries(out, entries, self.legend()))
+
+    def snapshot_pixels(self) -> tuple[float, tuple[float, float], tuple[int, int], float]:
+        """The pixels of the phase-field images (``output.snapshots``,
+        :class:`~pfmpm.observe.Snapshots`): ``(pixel, origin, shape,
+        reach)``, a pixel per (finest) spacing of the crackable bodies'
+        particles, or larger pixels where that would make more than
+        :data:`SNAPSHOT_PIXELS`, over the grid, each showing the nearest
+        particle within the coarsest spacing."""
         g = self.scene.grid
         spacings = [b.spacing(g.h) for b in self.scene.bodies if self.scene.fracture_of(b)]
         pixel = max(min(spacings), math.sqrt(g.size[0] * g.size[1] / SNAPSHOT_PIXELS))
-        return Snapshots(self.scene, pixel, g.origin, tuple(int(round(s / pixel)) for s in g.size),
-                         reach=max(spacings))
-
-    def offer_snapshot(self, snapshots: Snapshots | None) -> None:
-        """Hand the crackable particles' phase field now to ``snapshots``."""
-        if snapshots is not None:
-            snapshots.take(self.time, self.dt, self._of_crackable(self.particles.x),
-                           self._of_crackable(self.particles.c))
+        return pixel, tuple(g.origin), tuple(int(round(s / pixel)) for s in g.size), max(spacings)
 
     def contact_record(self) -> dict:
         """The contact entry of ``summary.json`` now: the contact nodes of the last
