@@ -98,7 +98,7 @@ public:
 
   std::string model() const override { return "drucker_prager"; }
   double density() const override { return _density; }
-  double wave_speed() const override { return std::sqrt((_lambda + 2.0 * _mu) / _density); }
+  double wave_speed() const override { return plane_strain_wave_speed(_E, _nu, _density); }
   double rayleigh_speed() const override { return isotropic_rayleigh_speed(_E, _nu, _density); }
   std::vector<ColumnSpec> columns() const override
   {

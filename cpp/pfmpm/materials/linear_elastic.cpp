@@ -66,7 +66,11 @@ LinearElastic::LinearElastic(const Parameters& p)
 {
 }
 
-double LinearElastic::wave_speed() const { return std::sqrt((_lambda + 2.0 * _mu) / _density); }
+double LinearElastic::wave_speed() const
+{
+  return _plane == Plane::strain ? plane_strain_wave_speed(_E, _nu, _density)
+                                 : plane_stress_wave_speed(_E, _nu, _density);
+}
 
 std::vector<ColumnSpec> LinearElastic::columns() const
 {

@@ -152,6 +152,21 @@ private:
              [](const ::pfmpm::Parameters& p) { return std::make_shared<Class>(p); }});        \
   }
 
+/// @brief The P-wave speed of an isotropic elastic solid in plane strain,
+/// sqrt(E (1 - nu) / (rho (1 + nu) (1 - 2 nu))) = sqrt((lambda + 2 mu) / rho),
+/// in the order of operations that sets a scene's time step.
+inline double plane_strain_wave_speed(double E, double nu, double density)
+{
+  return std::sqrt(E * (1.0 - nu) / (density * (1.0 + nu) * (1.0 - 2.0 * nu)));
+}
+
+/// @brief The P-wave speed of an isotropic elastic solid in plane stress,
+/// sqrt(E / (rho (1 - nu^2))).
+inline double plane_stress_wave_speed(double E, double nu, double density)
+{
+  return std::sqrt(E / (density * (1.0 - nu * nu)));
+}
+
 /// @brief The Rayleigh wave speed of an isotropic elastic solid by Viktorov's
 /// approximation c_s (0.862 + 1.14 nu) / (1 + nu), c_s the shear wave speed.
 inline double isotropic_rayleigh_speed(double E, double nu, double density)

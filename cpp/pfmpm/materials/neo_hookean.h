@@ -76,7 +76,7 @@ public:
   const DeformationUpdate& update() const { return _update; }
   const Damage& damage() const { return _damage; }
   /// P-wave speed of the undeformed material sqrt((lambda + 2 mu) / rho_0).
-  double wave_speed() const override { return std::sqrt((_lambda + 2.0 * _mu) / _density); }
+  double wave_speed() const override { return plane_strain_wave_speed(_E, _nu, _density); }
   /// Rayleigh wave speed of the undeformed material.
   double rayleigh_speed() const override { return isotropic_rayleigh_speed(_E, _nu, _density); }
   std::string model() const override { return "neo_hookean"; }
