@@ -84,14 +84,14 @@ def test_the_core_refuses_a_model_it_does_not_have_naming_the_key(acoustic):
     with pytest.raises(SceneError) as err:
         Simulation(scene)
     assert str(err.value) == ("materials[0].model = 'acoustic': the core has no such model"
-                              " (it has linear_elastic, neo_hookean)")
+                              " (it has drucker_prager, linear_elastic, neo_hookean)")
 
 
 def test_an_unknown_model_names_the_registered_ones(acoustic):
     with pytest.raises(SceneError) as err:
         Scene.from_dict(plate({"name": "m", "model": "plastic", "E": 1.0, "nu": 0.2, "density": 1.0}))
     assert str(err.value) == ("materials[0].model = 'plastic': must be one of 'linear_elastic',"
-                              " 'neo_hookean', 'acoustic'")
+                              " 'neo_hookean', 'drucker_prager', 'acoustic'")
     with pytest.raises(SceneError, match=r"^materials\[0\]\.model = \[1\]: must be one of"):
         Scene.from_dict(plate({"name": "m", "model": [1], "E": 1.0, "nu": 0.2, "density": 1.0}))
 

@@ -9,6 +9,7 @@
 #include <pybind11/numpy.h>
 #include <pybind11/stl.h>
 
+#include <cmath>
 #include <map>
 #include <string>
 
@@ -21,6 +22,33 @@ namespace pfmpm::bindings
 namespace
 {
 using Strains = py::array_t<double, py::array::c_style | py::array::forcecast>;
+
+/// A parameter declaration as a dict (material_models).
+py::dict parameter_dict(const ParameterSpec& p)
+{
+  const char* kinds[] = {"number", "integer", "word"};
+  auto bound = [](double x) { return std::isfinite(x) ? py::object(py::float_(x)) : py::object(py::none()); };
+  py::object fallback = py::none();
+  if (p.number_default)
+    fallback = p.kind == ParameterKind::integer ? py::object(py::int_(static_cast<long>(*p.number_default)))
+                                                : py::object(py::float_(*p.number_default));
+  else if (p.word_default)
+    fallback = py::str(*p.word_default);
+  py::dict d;
+  d["name"] = p.name;
+  d["kind"] = kinds[static_cast<int>(p.kind)];
+  d["unit"] = p.unit;
+  d["doc"] = p.doc;
+  d["lower"] = bound(p.lower);
+  d["upper"] = bound(p.upper);
+  d["lower_open"] = p.lower_open;
+  d["upper_open"] = p.upper_open;
+  d["choices"] = p.choices;
+  d["default"] = fallback;
+  d["optional"] = p.optional;
+  d["set_by"] = p.set_by;
+  return d;
+}
 
 /// Number of rows of an (N, 3) strain array; throws on another shape.
 py::ssize_t strain_rows(const Strains& strain)
@@ -44,6 +72,19 @@ void bind_materials(py::module_& m)
       .def_property_readonly("density", &Material::density)
       .def_property_readonly("wave_speed", py::overload_cast<>(&Material::wave_speed, py::const_),
                              "P-wave speed of the undeformed material")
+      .def_property_readonly("rayleigh_speed", &Material::rayleigh_speed,
+                             "Rayleigh wave speed of the undeformed material")
+      .def_property_readonly(
+          "dissipation",
+          [](const Material& mat)
+          {
+            py::dict out;
+            for (const ColumnSpec& c : mat.columns())
+              if (!c.dissipation.empty())
+                out[py::str(c.dissipation)] = c.name;
+            return out;
+          },
+          "the kinds of work the model dissipates, each with the column that sums it per particle")
       .def_property_readonly(
           "columns",
           [](const Material& mat)
@@ -73,7 +114,27 @@ void bind_materials(py::module_& m)
       py::arg("model"), py::arg("parameters"),
       "build the registered model `model` from a dict of numbers and words; a bad, missing or "
       "unknown key raises ValueError naming it");
-  m.def("material_models", &MaterialRegistry::models, "the registered material models");
+  m.def(
+      "material_models",
+      []()
+      {
+        py::dict out;
+        for (const std::string& name : MaterialRegistry::models())
+        {
+          const MaterialDeclaration& d = MaterialRegistry::declaration(name);
+          py::list parameters;
+          for (const ParameterSpec& p : d.parameters)
+            parameters.append(parameter_dict(p));
+          out[py::str(name)] = py::dict(py::arg("doc") = d.doc, py::arg("phase_field") = d.phase_field,
+                                        py::arg("parameters") = parameters);
+        }
+        return out;
+      },
+      "the registered material models by name, each with its description (`doc`), whether a "
+      "phase field can crack it (`phase_field`) and its declared `parameters`: dicts of name, kind (number, integer, word), unit, doc, "
+      "lower, upper, lower_open, upper_open (bounds, None where unbounded), choices, "
+      "default (None: required, unless optional), optional and set_by (empty: the "
+      "material's table; else the scene entry that sets it)");
 
   py::class_<LinearElastic, Material, std::shared_ptr<LinearElastic>>(
       m, "LinearElastic", "Isotropic linear elasticity (registered as linear_elastic)")

@@ -298,7 +298,7 @@ void bind_solver(py::module_& m)
              d["region_work"] = e.region_work;
              d["region_displacement"] = e.region_displacement;
              d["pair_impulse"] = e.pair_impulse;
-             d["dissipated"] = e.dissipated;
+             d["dissipation"] = e.dissipation;
              d["fracture_by_body"] = e.fracture_by_field;
              d["momentum_x"] = e.momentum[0];
              d["momentum_y"] = e.momentum[1];

@@ -23,6 +23,14 @@ namespace
 class SaintVenantKirchhoff final : public MaterialModel<SaintVenantKirchhoff>
 {
 public:
+  static constexpr bool phase_field = true;
+  static constexpr const char* description = "Saint Venant-Kirchhoff, for the tests";
+  static std::vector<ParameterSpec> parameters()
+  {
+    return {ParameterSpec::number("E", "stress", "Young's modulus").above(0.0),
+            ParameterSpec::number("nu", "1", "Poisson's ratio").above(-1.0).below(0.5),
+            ParameterSpec::number("density", "density", "mass density").above(0.0)};
+  }
   explicit SaintVenantKirchhoff(const Parameters& p)
       : _density(p.number("density")), _mu(p.number("E") / (2.0 * (1.0 + p.number("nu")))),
         _lambda(p.number("E") * p.number("nu") / ((1.0 + p.number("nu")) * (1.0 - 2.0 * p.number("nu"))))
@@ -35,6 +43,7 @@ public:
   }
   double density() const override { return _density; }
   double wave_speed() const override { return std::sqrt((_lambda + 2.0 * _mu) / _density); }
+  double rayleigh_speed() const override { return 0.0; }
   using MaterialModel<SaintVenantKirchhoff>::wave_speed;
 
   struct View
@@ -166,4 +175,48 @@ TEST(Material, UnknownModelAndParameterAreRefused)
   const auto m = MaterialRegistry::make(
       "linear_elastic", Parameters({{"E", 1.0}, {"nu", 0.2}, {"density", 1.0}}, {{"plane", "stress"}}));
   EXPECT_EQ(m->model(), "linear_elastic");
+}
+
+/// The message of the invalid_argument that make() throws, or "".
+std::string refused(const std::string& model, const Parameters& p)
+{
+  try
+  {
+    MaterialRegistry::make(model, p);
+  }
+  catch (const std::invalid_argument& e)
+  {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(Material, DeclaredParametersStateTheirRuleInTheRefusal)
+{
+  const Parameters ok({{"E", 1.0}, {"nu", 0.2}, {"density", 1.0}}, {});
+  EXPECT_EQ(refused("linear_elastic", Parameters({{"E", -1.0}, {"nu", 0.2}, {"density", 1.0}}, {})),
+            "E = -1: must be > 0");
+  EXPECT_EQ(refused("linear_elastic", Parameters({{"E", 1.0}, {"nu", 0.5}, {"density", 1.0}}, {})),
+            "nu = 0.5: must be > -1 and < 0.5");
+  EXPECT_EQ(refused("linear_elastic", Parameters({{"E", 1.0}, {"nu", 0.2}, {"density", 1.0}},
+                                                 {{"plane", "shell"}})),
+            "plane = shell: must be one of strain, stress");
+  EXPECT_EQ(refused("linear_elastic", Parameters({{"E", 1.0}, {"density", 1.0}}, {})),
+            "nu: missing (the linear_elastic model needs it)");
+  EXPECT_EQ(refused("neo_hookean", Parameters({{"E", 1.0}, {"nu", 0.2}, {"density", 1.0},
+                                               {"substeps", 2.5}}, {})),
+            "substeps = 2.5: must be a whole number and >= 1 and <= 1000");
+  EXPECT_EQ(refused("neo_hookean", Parameters({{"E", 1.0}, {"nu", 0.2}, {"density", 1.0},
+                                               {"sigma_f", 1.0}, {"l_ch", 1.0}},
+                                              {{"damage", "rankine"}})),
+            "Gf: missing (damage = rankine needs it)");
+  EXPECT_EQ(refused("neo_hookean", Parameters({{"E", 1.0}, {"nu", 0.2}, {"density", 1.0},
+                                               {"integration", 1.0}}, {})),
+            "integration = 1: must be one of euler, exponential");
+  EXPECT_EQ(refused("linear_elastic", ok), "");
+  // The declaration's defaults fill what is not given.
+  const Parameters full = ok.checked("linear_elastic", MaterialRegistry::declaration("linear_elastic").parameters);
+  EXPECT_EQ(full.word("plane"), "strain");
+  EXPECT_EQ(full.word("split"), "spectral");
+  EXPECT_EQ(full.number("E"), 1.0);
 }

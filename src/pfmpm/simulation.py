@@ -21,9 +21,15 @@ from .scene.validation import at
 CONTACT_COLUMNS = ["friction_dissipation"]
 """Extra ``energies.csv`` columns of scenes with contact: the energy the friction forces took
 out since t = 0, then ``fracture_<body>`` per body."""
-DAMAGE_COLUMNS = ["damage_dissipation"]
-"""Extra ``energies.csv`` column of scenes whose models dissipate by damage (a core column
-``dissipated``): the work dissipated since t = 0, part of ``total``."""
+
+
+def dissipation_columns(kinds) -> list[str]:
+    """Extra ``energies.csv`` columns of scenes whose models dissipate work
+    (a core column declared as the sum of a kind of dissipation: ``dissipated``
+    of damage, ``plastic_work`` of plasticity): per kind, ``<kind>_dissipation``,
+    the work dissipated since t = 0, part of ``total``."""
+    return [f"{kind}_dissipation" for kind in kinds]
+
 
 
 def adaptive_threads() -> bool:
@@ -135,7 +141,8 @@ class Simulation:
         self._impose_damage()
         if scene.transfer.scheme == "apic":
             self._initial_affine()
-        self.damage = "dissipated" in columns
+        self.dissipation = sorted({kind for m in materials for kind in m.dissipation})
+        """The kinds of work the scene's models dissipate (``"damage"``, ``"plastic"``)."""
         if self.damage_gradient:
             self._flag_surfaces()
         self._crackable = np.zeros(len(self.particles), dtype=bool)
@@ -236,8 +243,7 @@ class Simulation:
         if len(self.scene.bodies) > 1:
             columns += [f"momentum_{d}_{b.name}" for b in self.scene.bodies for d in "xy"]
         columns += list(observed)
-        if self.damage:
-            columns += DAMAGE_COLUMNS
+        columns += dissipation_columns(self.dissipation)
         if self.contact:
             columns += CONTACT_COLUMNS + [f"fracture_{b.name}" for b in self.scene.bodies]
         names = [b.name for b in self.scene.bodies]
@@ -315,12 +321,12 @@ class Simulation:
         e["step"] = self.step
         e["t"] = self.time
         friction = -e.pop("friction_work")
-        dissipated = e.pop("dissipated")
+        dissipation = e.pop("dissipation")
         e["total"] = (e["kinetic"] + e["elastic"] + e["fracture"] - e["external_work"]
                       - e["wall_work"] - sum(region_work[:len(self.scene.prescribed)]) + friction)
-        if self.damage:
-            e["damage_dissipation"] = dissipated
-            e["total"] += dissipated
+        for kind in self.dissipation:
+            e[f"{kind}_dissipation"] = dissipation[kind]
+            e["total"] += dissipation[kind]
         if self.contact:
             e["friction_dissipation"] = friction
             for body, value in zip(self.scene.bodies, by_body):
@@ -402,8 +408,7 @@ class Simulation:
             active.append("initial_damage")
         if self.contact:
             active.append("contact")
-        if self.damage:
-            active.append("damage")
+        active += [{"damage": "damage", "plastic": "plasticity"}.get(k, k) for k in self.dissipation]
         if self.scene.transfer.scheme == "apic":
             active.append("apic")
         if self.damage_gradient:

@@ -3,31 +3,32 @@
 #include "pfmpm/materials/linear_elastic.h"
 
 #include <cmath>
-#include <sstream>
-#include <stdexcept>
 
 namespace pfmpm
 {
 
-namespace
+std::vector<ParameterSpec> LinearElastic::parameters()
 {
-void require(bool ok, const char* name, double value, const char* rule)
-{
-  if (!ok)
-  {
-    std::ostringstream msg;
-    msg << name << " = " << value << ": " << rule;
-    throw std::invalid_argument(msg.str());
-  }
+  using P = ParameterSpec;
+  return {P::number("E", "stress", "Young's modulus").above(0.0),
+          P::number("nu", "1", "Poisson's ratio").above(-1.0).below(0.5),
+          P::number("density", "density", "mass density").above(0.0),
+          P::word("plane", {"strain", "stress"}, "the 2D kinematic assumption")
+              .fallback("strain")
+              .from("plane"),
+          P::word("split", {"none", "spectral", "volumetric_deviatoric"},
+                  "which strain energy cracking degrades (K&T eq. 14)")
+              .fallback("spectral")
+              .from("fracture.split")};
 }
-} // namespace
 
 LinearElastic::LinearElastic(double E, double nu, double density, Plane plane, Split split)
     : _E(E), _nu(nu), _density(density), _plane(plane), _split(split)
 {
-  require(std::isfinite(E) && E > 0.0, "E", E, "must be > 0");
-  require(std::isfinite(nu) && nu > -1.0 && nu < 0.5, "nu", nu, "must lie in (-1, 0.5)");
-  require(std::isfinite(density) && density > 0.0, "density", density, "must be > 0");
+  const auto specs = parameters();
+  declared(specs, "E").check(E);
+  declared(specs, "nu").check(nu);
+  declared(specs, "density").check(density);
   _mu = E / (2.0 * (1.0 + nu));
   const double lambda = E * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
   if (plane == Plane::strain)
@@ -48,35 +49,28 @@ LinearElastic::LinearElastic(double E, double nu, double density, Plane plane, S
 
 namespace
 {
-Plane plane_of(const std::string& word)
-{
-  if (word == "strain")
-    return Plane::strain;
-  if (word == "stress")
-    return Plane::stress;
-  throw std::invalid_argument("plane = " + word + ": must be strain or stress");
-}
+// The words are checked against parameters() before they get here.
+Plane plane_of(const std::string& word) { return word == "stress" ? Plane::stress : Plane::strain; }
 
 Split split_of(const std::string& word)
 {
   if (word == "none")
     return Split::none;
-  if (word == "spectral")
-    return Split::spectral;
-  if (word == "volumetric_deviatoric")
-    return Split::volumetric_deviatoric;
-  throw std::invalid_argument("split = " + word
-                              + ": must be none, spectral or volumetric_deviatoric");
+  return word == "spectral" ? Split::spectral : Split::volumetric_deviatoric;
 }
 } // namespace
 
 LinearElastic::LinearElastic(const Parameters& p)
     : LinearElastic(p.number("E"), p.number("nu"), p.number("density"),
-                    plane_of(p.word("plane", "strain")), split_of(p.word("split", "spectral")))
+                    plane_of(p.word("plane")), split_of(p.word("split")))
 {
 }
 
-double LinearElastic::wave_speed() const { return std::sqrt((_lambda + 2.0 * _mu) / _density); }
+double LinearElastic::wave_speed() const
+{
+  return _plane == Plane::strain ? plane_strain_wave_speed(_E, _nu, _density)
+                                 : plane_stress_wave_speed(_E, _nu, _density);
+}
 
 std::vector<ColumnSpec> LinearElastic::columns() const
 {

@@ -35,10 +35,8 @@ enum class Split : int
 /// strain the split uses the 3D strain (eps_zz = 0); in plane stress it acts
 /// on the in-plane strain with lambda*, the usual 2D treatment.
 ///
-/// Registered as "linear_elastic" with the parameters E, nu, density, plane
-/// ("strain" or "stress", default strain) and split ("none", "spectral",
-/// "volumetric_deviatoric"; default spectral). Its state is the small strain
-/// (column `strain`: xx, yy, xy), advanced by K&T eq. 78.
+/// Registered as "linear_elastic" with the parameters of parameters(). Its
+/// state is the small strain (column `strain`: xx, yy, xy), advanced by K&T eq. 78.
 class LinearElastic final : public MaterialModel<LinearElastic>
 {
 public:
@@ -48,8 +46,16 @@ public:
   /// @param plane Plane strain or plane stress.
   /// @param split Energy split used when the material can crack.
   LinearElastic(double E, double nu, double density, Plane plane, Split split = Split::spectral);
-  /// @brief From a scene's parameters (see the class description).
+  /// @brief From checked parameters (parameters()).
   explicit LinearElastic(const Parameters& p);
+
+  static constexpr bool phase_field = true;
+  static constexpr const char* description =
+      "Isotropic linear elasticity, small strain, in plane strain or plane stress, with the "
+      "energy splits of the phase field (K&T eqs. 14-16, 78).";
+  /// E, nu, density; plane and split, which a scene sets from its plane and
+  /// the material's fracture table.
+  static std::vector<ParameterSpec> parameters();
 
   double E() const { return _E; }
   double nu() const { return _nu; }
@@ -61,6 +67,7 @@ public:
 
   /// Dilatational (P) wave speed sqrt((lambda* + 2 mu) / rho).
   double wave_speed() const override;
+  double rayleigh_speed() const override { return isotropic_rayleigh_speed(_E, _nu, _density); }
 
   std::string model() const override { return "linear_elastic"; }
   std::vector<ColumnSpec> columns() const override;

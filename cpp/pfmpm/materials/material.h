@@ -3,12 +3,17 @@
 ///
 /// A model is one class deriving from MaterialModel<Self> plus one line,
 /// PFMPM_REGISTER_MATERIAL(Self, "name"), in its own .cpp file. The class
-/// declares the particle columns it keeps (its state, Material::columns) and
-/// per-particle functions; MaterialModel writes the loops over a batch of
-/// particles once for every model. The step calls a model once per batch (a
-/// cell's run of particles of one material), never per particle.
+/// declares its parameters (Self::parameters(), ParameterSpec: the scene
+/// reader, its checks and the docs' tables come from them), the particle
+/// columns it keeps (its state, Material::columns; a column that sums the
+/// work the model dissipates says so, ColumnSpec::dissipation, and the energy
+/// balance counts it) and per-particle functions; MaterialModel writes the
+/// loops over a batch of particles once for every model. The step calls a
+/// model once per batch (a cell's run of particles of one material), never
+/// per particle.
 #pragma once
 
+#include "pfmpm/common/parameters.h"
 #include "pfmpm/particles/particles.h"
 
 #include <algorithm>
@@ -45,31 +50,6 @@ struct Batch
   std::size_t n;
 };
 
-/// @brief Named numbers and words that build a material (a scene's material
-/// table). Each key a model reads is marked used; finish() refuses the rest.
-class Parameters
-{
-public:
-  Parameters() = default;
-  Parameters(std::map<std::string, double> numbers, std::map<std::string, std::string> words)
-      : _numbers(std::move(numbers)), _words(std::move(words))
-  {
-  }
-  /// @brief The number `key`; `fallback` when absent, or an error when
-  /// absent and no fallback is given.
-  double number(const std::string& key) const;
-  double number(const std::string& key, double fallback) const;
-  /// @brief The word `key`, or `fallback` when absent.
-  std::string word(const std::string& key, const std::string& fallback) const;
-  /// @throws std::invalid_argument naming the first key no model read.
-  void finish(const std::string& model) const;
-
-private:
-  std::map<std::string, double> _numbers;
-  std::map<std::string, std::string> _words;
-  mutable std::vector<std::string> _used;
-};
-
 /// What a batch update reports for the checks of the step.
 struct UpdateResult
 {
@@ -97,6 +77,8 @@ public:
   virtual double density() const = 0;
   /// P-wave speed of the undeformed material, sqrt((K + 4G/3) / rho).
   virtual double wave_speed() const = 0;
+  /// Rayleigh wave speed of the undeformed material: the limit of a running crack's speed.
+  virtual double rayleigh_speed() const = 0;
 
   /// @brief The model attached to a particle set (whose columns it has).
   class Bound
@@ -125,31 +107,72 @@ public:
   virtual std::unique_ptr<Bound> bind(Particles& P) const = 0;
 };
 
+/// @brief What the registry knows of a model: its description, its
+/// parameters and how to build it from their checked values.
+struct MaterialDeclaration
+{
+  std::string doc; ///< a sentence or two: the model, with its paper equations
+  /// Whether a phase field can crack it (K&T eqs. 14-16: its energy splits
+  /// into the part g(c) degrades and the rest); otherwise its `degraded` is
+  /// never called.
+  bool phase_field;
+  std::vector<ParameterSpec> parameters;
+  std::function<std::shared_ptr<Material>(const Parameters&)> make;
+};
+
 /// @brief The registry of constitutive models by name.
 class MaterialRegistry
 {
 public:
-  using Factory = std::function<std::shared_ptr<Material>(const Parameters&)>;
-  /// @brief Register `factory` under `model` (at static initialisation).
-  static bool add(const std::string& model, Factory factory);
-  /// @brief Build the model `model` from `parameters`.
+  /// @brief Register `declaration` under `model` (at static initialisation).
+  static bool add(const std::string& model, MaterialDeclaration declaration);
+  /// @brief Build the model `model` from `given`, checked against its
+  /// declared parameters (Parameters::checked).
   /// @throws std::invalid_argument for an unknown model, a missing or
   ///         unknown key, or a bad value.
-  static std::shared_ptr<Material> make(const std::string& model, const Parameters& parameters);
+  static std::shared_ptr<Material> make(const std::string& model, const Parameters& given);
+  /// @brief The declaration of `model`.
+  /// @throws std::invalid_argument for an unknown model.
+  static const MaterialDeclaration& declaration(const std::string& model);
   /// The registered names, sorted.
   static std::vector<std::string> models();
 
 private:
-  static std::map<std::string, Factory>& table();
+  static std::map<std::string, MaterialDeclaration>& table();
 };
 
-/// Register `Class` (constructible from Parameters) under the name `name`.
+/// Register `Class`, which has `static const char* description`, `static
+/// bool phase_field`, `static std::vector<ParameterSpec> parameters()` and a
+/// constructor from Parameters, under the name `name`.
 #define PFMPM_REGISTER_MATERIAL(Class, name)                                                      \
   namespace                                                                                     \
   {                                                                                             \
   const bool registered_##Class = ::pfmpm::MaterialRegistry::add(                               \
-      name, [](const ::pfmpm::Parameters& p) { return std::make_shared<Class>(p); });            \
+      name, {Class::description, Class::phase_field, Class::parameters(),                      \
+             [](const ::pfmpm::Parameters& p) { return std::make_shared<Class>(p); }});        \
   }
+
+/// @brief The P-wave speed of an isotropic elastic solid in plane strain,
+/// sqrt(E (1 - nu) / (rho (1 + nu) (1 - 2 nu))) = sqrt((lambda + 2 mu) / rho),
+/// in the order of operations that sets a scene's time step.
+inline double plane_strain_wave_speed(double E, double nu, double density)
+{
+  return std::sqrt(E * (1.0 - nu) / (density * (1.0 + nu) * (1.0 - 2.0 * nu)));
+}
+
+/// @brief The P-wave speed of an isotropic elastic solid in plane stress,
+/// sqrt(E / (rho (1 - nu^2))).
+inline double plane_stress_wave_speed(double E, double nu, double density)
+{
+  return std::sqrt(E / (density * (1.0 - nu * nu)));
+}
+
+/// @brief The Rayleigh wave speed of an isotropic elastic solid by Viktorov's
+/// approximation c_s (0.862 + 1.14 nu) / (1 + nu), c_s the shear wave speed.
+inline double isotropic_rayleigh_speed(double E, double nu, double density)
+{
+  return std::sqrt(E / (2.0 * (1.0 + nu) * density)) * (0.862 + 1.14 * nu) / (1.0 + nu);
+}
 
 /// @brief The batch loops of Material, written once for every model.
 ///

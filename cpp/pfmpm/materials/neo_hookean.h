@@ -45,10 +45,8 @@ namespace pfmpm
 /// compressed volume (or the reverse), W+ is not a potential of the
 /// degraded tensile stresses and it closes only approximately.
 ///
-/// Registered (neo_hookean.cpp) as "neo_hookean" with the parameters E, nu,
-/// density, integration ("euler", H&H eq. 8, default, or "exponential"),
-/// substeps (of H&H eq. 8, default 1) and damage ("none", default; "rankine"
-/// with sigma_f, Gf, l_ch; "time_to_failure" with sigma_f, c_f, l_ch).
+/// Registered (neo_hookean.cpp) as "neo_hookean" with the damage model chosen
+/// by the word `damage`; the parameters are declared there.
 ///
 /// The phase field (MaterialModel's `degraded`) multiplies the whole stress
 /// by g(c) and takes psi+ = the stored energy (no split); scenes do not
@@ -78,7 +76,9 @@ public:
   const DeformationUpdate& update() const { return _update; }
   const Damage& damage() const { return _damage; }
   /// P-wave speed of the undeformed material sqrt((lambda + 2 mu) / rho_0).
-  double wave_speed() const override { return std::sqrt((_lambda + 2.0 * _mu) / _density); }
+  double wave_speed() const override { return plane_strain_wave_speed(_E, _nu, _density); }
+  /// Rayleigh wave speed of the undeformed material.
+  double rayleigh_speed() const override { return isotropic_rayleigh_speed(_E, _nu, _density); }
   std::string model() const override { return "neo_hookean"; }
   std::vector<ColumnSpec> columns() const override;
 

@@ -36,6 +36,11 @@ struct ColumnSpec
   /// Name of the field in the particle output (VTU), or empty when the column
   /// is not written there.
   std::string output;
+  /// For a column that sums the work its model has dissipated per particle
+  /// since t = 0: the kind of dissipation ("damage", "plastic"). The energies
+  /// report its sum over the particles as `<kind>_dissipation`, a term of the
+  /// energy balance. Empty for other columns.
+  std::string dissipation = {};
 };
 
 /// @brief A column's declaration and its storage (row-major N x components).

@@ -702,9 +702,6 @@ Energies Solver::energies() const
   const Particles& P = _particles;
   const Column* fracture = P.find("fracture_energy");
   const double* fe = fracture ? fracture->f64.data() : nullptr;
-  // Models with damage keep the work it dissipated per particle.
-  const Column* dissipated = P.find("dissipated");
-  const double* dw = dissipated ? dissipated->f64.data() : nullptr;
   std::vector<std::unique_ptr<Material::Bound>> bound;
   for (const auto& m : _materials)
     bound.push_back(m->bind(const_cast<Particles&>(P))); // read only
@@ -720,9 +717,9 @@ Energies Solver::energies() const
   // With APIC, the angular momentum of each particle's affine velocity.
   const Column* affine = P.find("affine");
   const double* B = affine ? affine->f64.data() : nullptr;
-  const auto sums = deterministic_block_sum<8>(
+  const auto sums = deterministic_block_sum<7>(
       n,
-      [&](std::size_t begin, std::size_t end, std::array<double, 8>& acc)
+      [&](std::size_t begin, std::size_t end, std::array<double, 7>& acc)
       {
         for (std::size_t p = begin; p < end; ++p)
         {
@@ -733,11 +730,9 @@ Energies Solver::energies() const
           acc[4] += m;
           if (fe)
             acc[5] += fe[p];
-          if (dw)
-            acc[6] += dw[p];
-          acc[7] += m * (P.x[2 * p] * vy - P.x[2 * p + 1] * vx);
+          acc[6] += m * (P.x[2 * p] * vy - P.x[2 * p + 1] * vx);
           if (B)
-            acc[7] += m * (B[4 * p + 2] - B[4 * p + 1]);
+            acc[6] += m * (B[4 * p + 2] - B[4 * p + 1]);
         }
         // The elastic energy of each run of one material, in index order.
         for (std::size_t p = begin; p < end;)
@@ -754,7 +749,19 @@ Energies Solver::energies() const
   e.kinetic = sums[0];
   e.elastic = sums[1];
   e.fracture = sums[5];
-  e.dissipated = sums[6];
+  // The work the models dissipated, summed per kind over the columns that
+  // keep it per particle (ColumnSpec::dissipation), each column once.
+  std::map<std::string, std::string> kept; // column -> kind
+  for (const auto& m : _materials)
+    for (const ColumnSpec& c : m->columns())
+      if (!c.dissipation.empty())
+        kept.emplace(c.name, c.dissipation);
+  for (const auto& [column, kind] : kept)
+  {
+    const double* w = P.f64(column).data();
+    e.dissipation[kind] += deterministic_sum<1>(n, [&](std::size_t p, std::array<double, 1>& acc)
+                                                { acc[0] += w[p]; })[0];
+  }
   e.external_work = _external_work;
   e.wall_work = _wall_work;
   e.wall_impulse = _wall_impulse;
@@ -763,7 +770,7 @@ Energies Solver::energies() const
   e.region_displacement = _region_displacement;
   e.pair_impulse = _pair_impulse;
   e.momentum = {sums[2], sums[3]};
-  e.angular_momentum = sums[7];
+  e.angular_momentum = sums[6];
   e.mass = sums[4];
   if (const ContactStats* stats = contact_stats())
   {

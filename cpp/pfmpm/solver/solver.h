@@ -47,7 +47,9 @@ struct Energies
   /// contact impulse since t = 0 of field b on field a, per pair a < b
   /// (field_pair): bodies, or with damage-gradient fields contact groups
   std::array<std::array<double, 2>, max_field_pairs> pair_impulse{};
-  double dissipated = 0.0;     ///< work dissipated by damage since t = 0 (the column `dissipated`)
+  /// work the models dissipated since t = 0, by kind ("damage", "plastic":
+  /// the columns declared with ColumnSpec::dissipation)
+  std::map<std::string, double> dissipation;
   std::array<double, 2> momentum{}; ///< sum of M_p v_p
   /// sum of M_p (x_p x v_p), about the origin; with APIC plus M_p ((B_p)_yx - (B_p)_xy),
   /// the angular momentum of the particles' affine velocities (Jiang et al. 2015)

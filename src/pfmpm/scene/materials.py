@@ -3,32 +3,33 @@ each with an optional phase-field fracture table (or, for the neo-Hookean
 model, a damage table: :mod:`pfmpm.scene.damage`).
 
 A material table's ``model`` key names its class in :data:`MATERIALS`
-(default ``"linear_elastic"``); the class declares and validates the
-table's keys.  A new constitutive model is one more class::
-
-    @register_material
-    @dataclass(frozen=True)
-    class NeoHookeanSpec(MaterialSpec):
-        model: ClassVar[str] = "neo_hookean"
-        name: str
-        mu: float
-        ...
-
-It needs ``name``, ``density`` and ``fracture`` fields and the wave speeds the
-stability check and the crack-tip plots use; scene files then accept
-``model = "neo_hookean"``.  The core object of a material is built from its
+(default ``"linear_elastic"``).  The core's models declare their parameters
+once, in C++ (name, kind, bounds, default, unit, meaning:
+``pfmpm._core.material_models()``), and every class here checks its table
+against that declaration (:class:`DeclaredMaterial`), takes its wave speeds
+from the core object and writes its reference table into docs/scenes.md
+(:func:`parameter_table`).  A core model with no class of its own here gets
+one made from its declaration (:func:`declared_class`), so a new
+constitutive model is one C++ file and one CMake line: scene files then
+accept ``model = "<its name>"`` with its declared keys.  The classes written
+out here add what a declaration cannot say: the phase-field coupling of
+``linear_elastic`` and the damage table of ``neo_hookean``.  A model the
+core does not have can still be registered (:func:`register_material`),
+for scene checks alone.  The core object of a material is built from its
 entry in one place, :func:`pfmpm.simulation.core_materials`.
 """
 
 from __future__ import annotations
 
 import abc
-import math
+import dataclasses
+import functools
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
+from .. import _core
 from ..anisotropy import check_gamma
 from .damage import DamageSpec
 from .validation import SceneError, at, boolean, choice, integer, real, seq, store, text
@@ -36,16 +37,15 @@ from .validation import SceneError, at, boolean, choice, integer, real, seq, sto
 if TYPE_CHECKING:
     from .scene import Scene
 
-__all__ = ["PLANES", "SPLITS", "FRACTURE_MODELS", "SYMMETRIES", "INTEGRATIONS", "MATERIALS",
-           "DEFAULT_MODEL", "register_material", "material_class", "MaterialSpec",
-           "LinearElasticSpec", "NeoHookeanSpec", "FractureSpec", "Anisotropy", "wave_speed",
-           "rayleigh_speed"]
+__all__ = ["PLANES", "SPLITS", "FRACTURE_MODELS", "SYMMETRIES", "MATERIALS",
+           "DEFAULT_MODEL", "register_material", "material_class", "MaterialSpec", "DeclaredMaterial",
+           "declaration", "declared_class", "parameter_table", "LinearElasticSpec", "NeoHookeanSpec",
+           "FractureSpec", "Anisotropy", "wave_speed", "rayleigh_speed"]
 
 PLANES = ("strain", "stress")
 SPLITS = ("spectral", "volumetric_deviatoric", "none")
 FRACTURE_MODELS = ("AT2", "AT1")
 SYMMETRIES = ("isotropic2", "isotropic4", "cubic", "orthotropic", "general")
-INTEGRATIONS = ("euler", "exponential")
 
 MATERIALS: dict[str, type["MaterialSpec"]] = {}
 """Material classes by the ``model`` name scene files give them."""
@@ -60,7 +60,8 @@ def register_material(cls: type["MaterialSpec"]) -> type["MaterialSpec"]:
 
 
 def material_class(model: Any) -> type["MaterialSpec"]:
-    """The registered class of a ``model`` name.
+    """The registered class of a ``model`` name: its class here, or for a
+    core model without one, the class made from its declaration.
 
     Raises
     ------
@@ -283,9 +284,155 @@ class MaterialSpec(abc.ABC):
             raise SceneError("fracture", "must be a fracture table", self.fracture)
 
 
+@functools.cache
+def _core_models() -> dict[str, dict]:
+    """The core's models with their declarations (``_core.material_models()``)."""
+    return _core.material_models()
+
+
+def declaration(model: str) -> dict:
+    """The core's declaration of ``model``: ``doc``, ``phase_field`` and
+    ``parameters`` (see ``pfmpm._core.material_models``).
+
+    Raises
+    ------
+    KeyError
+        If the core has no such model.
+    """
+    return _core_models()[model]
+
+
+def _check_parameter(p: dict, value: Any) -> Any:
+    """``value`` checked against the declared parameter ``p`` (its bounds
+    or its words), normalised; a :class:`SceneError` names it."""
+    name = p["name"]
+    if p["kind"] == "word":
+        return choice(name, value, tuple(p["choices"]))
+    bounds = {("gt" if p["lower_open"] else "ge"): p["lower"], ("lt" if p["upper_open"] else "le"): p["upper"]}
+    bounds = {k: v for k, v in bounds.items() if v is not None}
+    if p["kind"] == "number":
+        return real(name, value, **bounds)
+    value = integer(name, value)
+    if p["lower"] is not None:
+        value = integer(name, value, ge=int(p["lower"]))
+    if p["upper"] is not None and value > p["upper"]:
+        raise SceneError(name, f"must be <= {p['upper']:g}", value)
+    return value
+
+
+class DeclaredMaterial(MaterialSpec):
+    """A material whose parameters the core model ``model`` declares.
+
+    The parameters a declaration sets from the material's own table
+    (``set_by`` empty) are fields of the class, checked against their
+    declared bounds or words; one set by the scene's ``plane`` takes its
+    value; those set by a ``fracture`` or ``damage`` table are the class's
+    own business (:meth:`core_parameters`).  The wave speeds are the core
+    object's.
+    """
+
+    def _check_declared(self) -> None:
+        """Check the name and the declared parameters of the table (for ``__post_init__``)."""
+        store(self, "name", text("name", self.name))
+        for p in self._table_parameters():
+            value = getattr(self, p["name"])
+            if value is not None or p["default"] is not None:
+                store(self, p["name"], _check_parameter(p, value))
+
+    @classmethod
+    def _table_parameters(cls) -> list[dict]:
+        """The declared parameters that are keys of the material's table."""
+        return [p for p in declaration(cls.model)["parameters"] if not p["set_by"]]
+
+    def _table_values(self) -> dict[str, float | str]:
+        """The values of the table's declared parameters that are given."""
+        return {p["name"]: getattr(self, p["name"]) for p in self._table_parameters()
+                if getattr(self, p["name"]) is not None}
+
+    def _core(self, plane: str):
+        """The core object of the table's parameters in ``plane``."""
+        values = self._table_values()
+        if any(p["set_by"] == "plane" for p in declaration(self.model)["parameters"]):
+            values["plane"] = plane
+        return _core.material(self.model, values)
+
+    def wave_speed(self, plane: str) -> float:
+        """P-wave speed of the undeformed material in ``plane``, the core model's."""
+        return self._core(plane).wave_speed
+
+    def rayleigh_speed(self) -> float:
+        """Rayleigh wave speed of the undeformed material, the core model's."""
+        return self._core(self._planes()[0]).rayleigh_speed
+
+    def _planes(self) -> tuple[str, ...]:
+        """The planes the model takes (all, unless it declares ``plane`` with fewer)."""
+        for p in declaration(self.model)["parameters"]:
+            if p["set_by"] == "plane":
+                return tuple(p["choices"])
+        return PLANES
+
+    def check_scene(self, scene: "Scene") -> None:
+        """The scene's plane is one the model takes."""
+        if scene.plane not in self._planes():
+            raise SceneError("model", f"is plane {' or '.join(self._planes())} only"
+                             f" (the scene has plane = {scene.plane!r})", self.model)
+
+    def core_parameters(self, scene: "Scene") -> dict[str, float | str]:
+        """The table's declared parameters, with the scene's plane where declared."""
+        values = self._table_values()
+        if any(p["set_by"] == "plane" for p in declaration(self.model)["parameters"]):
+            values["plane"] = scene.plane
+        return values
+
+
+def declared_class(model: str) -> type[DeclaredMaterial]:
+    """A frozen dataclass for the core model ``model`` made from its
+    declaration: ``name``, each parameter of its table (the required ones
+    first), and ``fracture``, which only a model that declares a phase-field
+    coupling accepts."""
+    d = declaration(model)
+    table = [p for p in d["parameters"] if not p["set_by"]]
+    fields: list = [("name", str)]
+    fields += [(p["name"], str if p["kind"] == "word" else float) for p in table
+               if p["default"] is None and not p["optional"]]
+    fields += [(p["name"], Any, dataclasses.field(default=p["default"])) for p in table
+               if p["default"] is not None or p["optional"]]
+    fields.append(("fracture", FractureSpec | None, dataclasses.field(default=None)))
+
+    def __post_init__(self):
+        self._check_declared()
+        self._check_fracture()
+        if self.fracture is not None and not d["phase_field"]:
+            raise SceneError("fracture", f"the {model} model has no phase-field coupling")
+
+    name = "".join(part.title() for part in model.split("_")) + "Spec"
+    cls = dataclasses.make_dataclass(name, fields, bases=(DeclaredMaterial,), frozen=True,
+                                     namespace={"model": model, "__post_init__": __post_init__,
+                                                "__doc__": d["doc"], "__module__": __name__})
+    return cls
+
+
+def parameter_table(model: str) -> str:
+    """The Markdown reference table of the core model ``model``'s parameters,
+    from its declaration: key, what it is, unit, rule and default (docs/scenes.md)."""
+    rows = ["| key | meaning | unit | rule | default |", "|---|---|---|---|---|"]
+    for p in declaration(model)["parameters"]:
+        if p["kind"] == "word":
+            rule = " or ".join(f"`{c}`" for c in p["choices"])
+        else:
+            parts = [f"{'>' if p['lower_open'] else '>='} {p['lower']:g}" if p["lower"] is not None else "",
+                     f"{'<' if p['upper_open'] else '<='} {p['upper']:g}" if p["upper"] is not None else ""]
+            rule = ("whole, " if p["kind"] == "integer" else "") + ", ".join(x for x in parts if x)
+        key = f"`{p['name']}`" if not p["set_by"] else f"`{p['name']}` (from `{p['set_by']}`)"
+        default = ("required" if p["default"] is None and not p["optional"]
+                   else "as needed" if p["default"] is None else f"`{p['default']}`")
+        rows.append(f"| {key} | {p['doc']} | {p['unit'] or '-'} | {rule or '-'} | {default} |")
+    return "\n".join(rows)
+
+
 @register_material
 @dataclass(frozen=True)
-class LinearElasticSpec(MaterialSpec):
+class LinearElasticSpec(DeclaredMaterial):
     """Isotropic linear elasticity, small strain (``model = "linear_elastic"``).
 
     Parameters
@@ -310,19 +457,8 @@ class LinearElasticSpec(MaterialSpec):
     fracture: FractureSpec | None = None
 
     def __post_init__(self):
-        store(self, "name", text("name", self.name))
-        store(self, "E", real("E", self.E, gt=0))
-        store(self, "nu", real("nu", self.nu, gt=-1, lt=0.5))
-        store(self, "density", real("density", self.density, gt=0))
+        self._check_declared()
         self._check_fracture()
-
-    def wave_speed(self, plane: str) -> float:
-        """P-wave speed, see :func:`wave_speed`."""
-        return wave_speed(self.E, self.nu, self.density, plane)
-
-    def rayleigh_speed(self) -> float:
-        """Rayleigh wave speed, see :func:`rayleigh_speed`."""
-        return rayleigh_speed(self.E, self.nu, self.density)
 
     def core_parameters(self, scene: "Scene") -> dict[str, float | str]:
         """E, nu, density, the plane and the energy split of the fracture table."""
@@ -332,7 +468,7 @@ class LinearElasticSpec(MaterialSpec):
 
 @register_material
 @dataclass(frozen=True)
-class NeoHookeanSpec(MaterialSpec):
+class NeoHookeanSpec(DeclaredMaterial):
     """Compressible neo-Hookean elasticity in plane strain (``model =
     "neo_hookean"``; Homel & Herbold 2017, eq. 22) on the deformation gradient
     (H&H eq. 8), with an optional damage model.
@@ -371,30 +507,15 @@ class NeoHookeanSpec(MaterialSpec):
     fracture: FractureSpec | None = None
 
     def __post_init__(self):
-        store(self, "name", text("name", self.name))
-        store(self, "E", real("E", self.E, gt=0))
-        store(self, "nu", real("nu", self.nu, gt=-1, lt=0.5))
-        store(self, "density", real("density", self.density, gt=0))
+        self._check_declared()
         if self.damage is not None and not isinstance(self.damage, DamageSpec):
             raise SceneError("damage", "must be a damage table", self.damage)
-        store(self, "integration", choice("integration", self.integration, INTEGRATIONS))
-        store(self, "substeps", integer("substeps", self.substeps, ge=1))
-        if self.substeps > 1000:
-            raise SceneError("substeps", "must be <= 1000", self.substeps)
         if self.integration == "exponential" and self.substeps != 1:
             raise SceneError("substeps", "must be 1 with integration = 'exponential'"
                              " (exact for the step's velocity gradient)", self.substeps)
         if self.fracture is not None:
             raise SceneError("fracture", "the neo_hookean model has no phase-field coupling yet;"
                              " give it a damage table instead")
-
-    def wave_speed(self, plane: str) -> float:
-        """P-wave speed of the undeformed material, see :func:`wave_speed`."""
-        return wave_speed(self.E, self.nu, self.density, plane)
-
-    def rayleigh_speed(self) -> float:
-        """Rayleigh wave speed of the undeformed material, see :func:`rayleigh_speed`."""
-        return rayleigh_speed(self.E, self.nu, self.density)
 
     def check_scene(self, scene: "Scene") -> None:
         """Plane strain only; the damage parameters against the grid (l_ch)."""
@@ -435,30 +556,25 @@ class NeoHookeanSpec(MaterialSpec):
 
 
 def rayleigh_speed(E: float, nu: float, rho: float) -> float:
-    """Rayleigh wave speed from Viktorov's approximation ``c_s (0.862 + 1.14 nu) / (1 + nu)``."""
-    return math.sqrt(E / (2 * (1 + nu) * rho)) * (0.862 + 1.14 * nu) / (1 + nu)
+    """Rayleigh wave speed of an isotropic elastic solid: the core's (Viktorov's
+    approximation ``c_s (0.862 + 1.14 nu) / (1 + nu)``)."""
+    return _core.material("linear_elastic", {"E": E, "nu": nu, "density": rho}).rayleigh_speed
 
 
 def wave_speed(E: float, nu: float, rho: float, plane: str) -> float:
-    """P-wave speed of a linear elastic material in 2D.
+    """P-wave speed of a linear elastic material in 2D: the core's
+    ``linear_elastic`` model's, ``sqrt(E (1 - nu) / (rho (1 + nu) (1 - 2 nu)))``
+    in plane strain and ``sqrt(E / (rho (1 - nu^2)))`` in plane stress.
 
-    Parameters
-    ----------
-    E, nu, rho : float
-        Young's modulus, Poisson's ratio and density.
-    plane : str
-        ``"strain"``: ``sqrt(E (1 - nu) / (rho (1 + nu) (1 - 2 nu)))``;
-        ``"stress"``: ``sqrt(E / (rho (1 - nu^2)))``.
-
-    Returns
-    -------
-    float
-        The wave speed.
+    Raises
+    ------
+    SceneError
+        Naming ``plane`` if it is neither ``"strain"`` nor ``"stress"``.
     """
-    if plane == "strain":
-        modulus, inertia = E * (1 - nu), rho * (1 + nu) * (1 - 2 * nu)
-    elif plane == "stress":
-        modulus, inertia = E, rho * (1 - nu * nu)
-    else:
-        raise SceneError("plane", "must be one of " + ", ".join(map(repr, PLANES)), plane)
-    return math.sqrt(modulus / inertia) if inertia > 0 else math.inf
+    plane = choice("plane", plane, PLANES)
+    return _core.material("linear_elastic", {"E": E, "nu": nu, "density": rho, "plane": plane}).wave_speed
+
+
+for _model in _core_models():
+    if _model not in MATERIALS:
+        register_material(declared_class(_model))
