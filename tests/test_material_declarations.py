@@ -110,7 +110,7 @@ def test_plastic_work_closes_the_energy_balance_of_a_block_torn_apart():
     d["bodies"][0]["shape"] = {"type": "rectangle", "min": [2.5, 2.5], "max": [5.5, 5.5]}
     d["bodies"][0]["velocity_gradient"] = [[0.2, 0.0], [0.0, 0.2]]
     sim = Simulation(Scene.from_dict(d))
-    assert "plastic_dissipation" in sim.columns and "plasticity" in sim.modules()
+    assert "plastic_dissipation" in sim.columns() and "plasticity" in sim.modules()
     e0 = sim.energies()
     rows = run_to(sim, sim.scene.steps())
     e = rows[-1]
