@@ -229,3 +229,86 @@ def test_a_moving_box_carries_its_striker(moving):
                                                                                             rel=1e-12)
     else:
         assert (expected[0] - moved[:, 0]).min() > 1.0  # measured 2.83
+
+
+def face_scene(**where) -> Scene:
+    """:func:`grip_scene` with the grip a region of the bar's own particles
+    (``where``: its face, or particles by index) instead of a box."""
+    scene = grip_scene()
+    (grip,) = scene.prescribed
+    held = Prescribed("grip", velocity=grip.velocity, components="x", amplitude=grip.amplitude, body="bar", **where)
+    return Scene(**{**scene.__dict__, "prescribed": (held,)})
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_a_body_face_pushed_sends_the_bar_wave(method):
+    """The grip as the bar's left face (its particle layer; in the FEM the
+    vertices of its left edge): the same wave, sigma = -rho c V behind the
+    front and as the reaction within 1 %, the momentum the face's impulse to
+    round-off, and its work closing the balance to 0.5 %."""
+    scene = face_scene(face="left")
+    sim = METHODS[method](scene)
+    e = run(sim)
+    forces = mean_forces(scene, e)
+    reaction = forces["region_grip_x"][forces["t"] > 0.7]
+    assert np.mean(reaction) == pytest.approx(RHO * C * V * 2.0, rel=0.01)
+    if method == "mpm":
+        x, sigma = sim.particles.x[:, 0], sim.particles.stress[:, 0]
+        # The face is the bar's first layer of particles, x0 + h / 6 at t = 0.
+        held = np.flatnonzero(sim.particles.held_by)
+        assert np.allclose(sim.particles.x[held, 0], 2.0 + 1.0 / 6.0 + e["displacement_grip_x"][-1], atol=1e-3)
+        assert len(held) == 6
+    else:
+        x, sigma = sim._x[sim._dofs].mean(axis=1)[:, 0], sim.stresses()[:, 0]
+    middle = (x > 6.0) & (x < 14.0)
+    assert np.mean(sigma[middle]) == pytest.approx(-RHO * C * V, rel=0.01)
+    assert np.max(np.abs(e["momentum_x"] - e["impulse_grip_x"])) < 1e-12 * e["impulse_grip_x"][-1]
+    drift = e["total"] - e["total"][0]
+    assert np.max(np.abs(drift)) < 5e-3 * e["work_grip"][-1]
+
+
+def test_particles_by_index_are_the_region_their_face_is():
+    """The left face's six particles named by index hold the same nodes: the
+    run has the face run's energies to the bit."""
+    face = run(Simulation(face_scene(face="left")))
+    sim = Simulation(face_scene(face="left"))
+    indices = np.flatnonzero(sim.particles.held_by)  # bar is the only body: its rows are all rows
+    named = run(Simulation(face_scene(particles=[int(i) for i in indices])))
+    for key in face:
+        assert np.array_equal(face[key], named[key]), key
+
+
+def test_a_whole_body_region_moves_the_body_rigidly():
+    """The whole bar held at V along x: every particle moves at V once the
+    ramp is over, with no stress, and the momentum is M V."""
+    sim = Simulation(face_scene())
+    e = run(sim)
+    p = sim.particles
+    assert np.all(p.held_by == 1)
+    assert np.allclose(p.v[:, 0], V, rtol=1e-12)
+    assert np.max(np.abs(p.stress)) < 1e-12 * RHO * C * V
+    assert e["momentum_x"][-1] == pytest.approx(p.mass.sum() * V, rel=1e-12)
+
+
+@pytest.mark.parametrize("region, message", [
+    ({"body": "bar", "min": [0.0, 0.0]}, r"^prescribed\[0\]\.min = \[0\.0, 0\.0\]: give a box or a body, not both$"),
+    ({"face": "left", "min": [0.0, 0.0], "max": [1.0, 1.0]}, r"^prescribed\[0\]\.face = 'left': needs a body$"),
+    ({"body": "bar", "face": "front"}, r"^prescribed\[0\]\.face = 'front': must be one of 'left', 'right', 'bottom', 'top'$"),
+    ({"body": "bar", "face": "left", "particles": [1]}, r"^prescribed\[0\]\.particles: give a face or particles, not both$"),
+    ({"body": "bar", "particles": [1, 1]}, r"^prescribed\[0\]\.particles = \[1, 1\]: names a particle twice$"),
+    ({"body": "beam"}, r"^prescribed\[0\]\.body = 'beam': no body with that name \(have: 'bar'\)$"),
+    ({"body": "bar", "moving": True}, r"^prescribed\[0\]\.moving = true: is for a box: a body's region follows its particles$"),
+    ({}, r"^prescribed\[0\]\.min: missing: give a box \(min and max\) or a body$"),
+])
+def test_bad_body_regions_are_named(region, message):
+    d = plain(grip_scene())
+    d["prescribed"] = [{"name": "grip", "velocity": [V, 0.0], "components": "x", **region}]
+    with pytest.raises(SceneError, match=message):
+        Scene.from_dict(d)
+
+
+def test_a_particle_index_past_the_body_and_a_fem_particle_set_are_named():
+    with pytest.raises(SceneError, match=r"^prescribed\[0\]\.particles = 1000: body 'bar' has 540 particles"):
+        Simulation(face_scene(particles=[3, 1000]))
+    with pytest.raises(SceneError, match=r"^prescribed\[0\]\.particles: the FEM path holds a box, a body or"):
+        FemSimulation(face_scene(particles=[3]))

@@ -73,6 +73,9 @@ void bind_grid(py::module_& m)
            py::arg("moves") = false,
            "a box of nodes whose velocity components (bit 0: x, bit 1: y) are prescribed; with "
            "moves, the box follows the region's displacement; its index")
+      .def("add_particle_region", &Grid::add_particle_region, py::arg("components"),
+           "a region of the nodes its particles reach (those whose column held_by has the bit of "
+           "its index), followed as they move; its index")
       .def("set_region_velocity", &Grid::set_region_velocity, py::arg("k"), py::arg("velocity"),
            "the velocity region k prescribes from the next step on");
 }

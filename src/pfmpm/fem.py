@@ -357,15 +357,23 @@ class FemSimulation:
         """What the prescribed regions and the walls hold, as the MPM's grid
         does: (holder, owned vertices, component), the holder a side (a wall)
         or 4 + the index of a region; each vertex's component once, by a
-        region first (the vertices in its box), then by the wall it is normal
-        to, then by a fixed wall's tangential hold."""
+        region first (the vertices in its box, on its body's face or of its
+        body), then by the wall it is normal to, then by a fixed wall's
+        tangential hold."""
         (ox, oy), (sx, sy) = self.scene.grid.origin, self.scene.grid.size
         line = {"left": (0, ox), "right": (0, ox + sx), "bottom": (1, oy), "top": (1, oy + sy)}
         tol = _ON_LINE * self.scene.grid.h
         x = self._x[: self._owned]
         candidates = []
+        (x0, y0), (x1, y1) = self._body.shape.min, self._body.shape.max
         for r, region in enumerate(self.scene.prescribed):
-            inside = np.all((x >= np.subtract(region.min, tol)) & (x <= np.add(region.max, tol)), axis=1)
+            if region.box:
+                inside = np.all((x >= np.subtract(region.min, tol)) & (x <= np.add(region.max, tol)), axis=1)
+            elif region.face is not None:  # the vertices on that edge of the body
+                axis, value = {"left": (0, x0), "right": (0, x1), "bottom": (1, y0), "top": (1, y1)}[region.face]
+                inside = np.abs(x[:, axis] - value) <= tol
+            else:  # the whole body
+                inside = np.ones(len(x), dtype=bool)
             candidates += [(4 + r, inside, k) for k in range(2) if region.mask & (1 << k)]
         for normal in (True, False):
             for w in self.scene.walls:
@@ -958,6 +966,10 @@ def _supported(scene: Scene) -> tuple[Body, MaterialSpec]:
                 raise SceneError("bodies[0].shape", "the FEM path needs a rectangle whose edges lie"
                                  f" on grid lines (multiples of h = {h:g} from the grid origin"
                                  f" {list(origin)})", [list(body.shape.min), list(body.shape.max)])
+    for i, region in enumerate(scene.prescribed):
+        if region.particles is not None:
+            raise SceneError(f"prescribed[{i}].particles", "the FEM path holds a box, a body or a"
+                             " body's face, not particles by index")
     material = scene.material_of(body)
     if not isinstance(material, LinearElasticSpec):
         raise SceneError(f"materials[{scene.materials.index(material)}].model", "the FEM path solves"

@@ -100,11 +100,15 @@ class Simulation:
         for wall in scene.walls:
             self.grid.set_wall(_core.Side.__members__[wall.side], _core.Wall.__members__[wall.type])
         for i, region in enumerate(scene.prescribed):
-            try:
-                self.grid.add_region(list(region.min), list(region.max), region.mask, region.moving)
-            except ValueError:
-                raise SceneError(f"prescribed[{i}].max", f"the box from min = {list(region.min)} holds no"
-                                                         f" grid node (control point)", list(region.max)) from None
+            if not region.box:
+                self.grid.add_particle_region(region.mask)
+            else:
+                try:
+                    self.grid.add_region(list(region.min), list(region.max), region.mask, region.moving)
+                except ValueError:
+                    raise SceneError(f"prescribed[{i}].max", f"the box from min = {list(region.min)} holds"
+                                                             f" no grid node (control point)",
+                                     list(region.max)) from None
             if region.steady:
                 self.grid.set_region_velocity(i, list(region.velocity))
         xs = seeding.positions(scene)
@@ -136,6 +140,7 @@ class Simulation:
             self.solver.set_touch_fill(contact.touch_fill)
         columns = self._fill(xs, done=core)  # the models' columns the seeding sets: orientation, CPDI domains
         self._amplified = self._amplified_loads(xs)
+        self._hold_particles(xs)
         del xs
         self._initial_columns()
         self._impose_damage()
@@ -277,6 +282,17 @@ class Simulation:
             for k, region in unsteady:
                 self.grid.set_region_velocity(k, list(region.velocity_over(t, self.dt)))
             self.solver.advance(1)
+
+    def _hold_particles(self, xs: list[np.ndarray]) -> None:
+        """Mark the particles of each body's prescribed region in the column
+        ``held_by`` (bit k for region k), whose nodes the grid then holds."""
+        members = seeding.region_particles(self.scene, xs)
+        if all(rows is None for rows in members):
+            return
+        held = self.particles.held_by
+        for k, rows in enumerate(members):
+            if rows is not None:
+                held[rows] |= np.int32(1 << k)
 
     def _amplified_loads(self, xs: list[np.ndarray]) -> tuple | None:
         """The loads with an amplitude, for :meth:`advance`: the particles they

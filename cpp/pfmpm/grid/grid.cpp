@@ -43,6 +43,23 @@ int Grid::add_region(std::array<double, 2> min, std::array<double, 2> max, std::
   return static_cast<int>(_regions.size()) - 1;
 }
 
+int Grid::add_particle_region(std::uint8_t components)
+{
+  if (_regions.size() >= static_cast<std::size_t>(max_regions))
+    throw std::invalid_argument("a grid holds at most " + std::to_string(max_regions) + " regions");
+  if (components == 0 || components > 3)
+    throw std::invalid_argument("a region holds the x component, the y component or both");
+  Region r{{0.0, 0.0}, {0.0, 0.0}, components};
+  r.particles = true;
+  _regions.push_back(r);
+  return static_cast<int>(_regions.size()) - 1;
+}
+
+bool Grid::has_particle_regions() const
+{
+  return std::any_of(_regions.begin(), _regions.end(), [](const Region& r) { return r.particles; });
+}
+
 void Grid::move_region(int k, std::array<double, 2> offset)
 {
   if (k < 0 || k >= static_cast<int>(_regions.size()))
@@ -106,12 +123,23 @@ void ActiveNodes::activate(const Grid& grid, const std::vector<std::int64_t>& ce
     }
 }
 
-void Grid::activate(const std::vector<std::int64_t>& cell_start)
+void Grid::activate(const std::vector<std::int64_t>& cell_start,
+                    const std::vector<std::vector<std::int64_t>>& region_cells)
 {
   _active.activate(*this, cell_start, _block);
   _constraints.clear();
   if (!has_holds())
     return;
+  // The nodes each particle region's particles reach, as the active set of
+  // those particles alone.
+  std::vector<ActiveNodes> reach(_regions.size());
+  for (std::size_t k = 0; k < _regions.size(); ++k)
+    if (_regions[k].particles)
+    {
+      if (k >= region_cells.size() || region_cells[k].empty())
+        throw std::logic_error("activate() needs the cells of particle region " + std::to_string(k));
+      reach[k].activate(*this, region_cells[k], _block);
+    }
   // Open knot vectors interpolate at the ends: only the first and last node of
   // each row and column carry the boundary value, so walls act on them alone.
   const int nnx = _basis[0].size(), nny = _basis[1].size();
@@ -136,7 +164,9 @@ void Grid::activate(const std::vector<std::int64_t>& cell_start)
     {
       const Region& r = _regions[k];
       const double gx = _basis[0].greville(ix) - r.offset[0], gy = _basis[1].greville(iy) - r.offset[1];
-      if (gx >= r.min[0] && gx <= r.max[0] && gy >= r.min[1] && gy <= r.max[1])
+      const bool in = r.particles ? reach[k].index(ix, iy) >= 0
+                                  : gx >= r.min[0] && gx <= r.max[0] && gy >= r.min[1] && gy <= r.max[1];
+      if (in)
         for (int d = 0; d < 2; ++d)
           if (r.components & (1 << d))
             hold(4 + static_cast<int>(k), d);

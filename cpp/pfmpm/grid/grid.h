@@ -43,15 +43,18 @@ struct NodeHold
   std::uint8_t by[2]{};
 };
 
-/// @brief A box of grid nodes, those whose control points (Greville
-/// abscissae) lie in it, whose velocity components `components` (bit d for
-/// direction d) are prescribed.
+/// @brief Grid nodes whose velocity components `components` (bit d for
+/// direction d) are prescribed: those whose control points (Greville
+/// abscissae) lie in a box, or those a set of particles reaches.
 struct Region
 {
   std::array<double, 2> min, max;
   std::uint8_t components;
   bool moves = false;                ///< the box moves with the region's displacement
   std::array<double, 2> offset{};    ///< how far it has moved (Grid::move_region)
+  /// Not a box: the nodes in the stencils of the particles whose column
+  /// `held_by` has bit k (the region's index) set, wherever they are.
+  bool particles = false;
 };
 
 class Grid;
@@ -148,6 +151,11 @@ public:
   /// no node in the box, or more than max_regions regions.
   int add_region(std::array<double, 2> min, std::array<double, 2> max, std::uint8_t components,
                  bool moves = false);
+  /// @brief Add a region of the nodes that its particles reach (Region::particles):
+  /// a body, a body's face or a set of particles, followed as they move.
+  int add_particle_region(std::uint8_t components);
+  /// Whether some region is a set of particles.
+  bool has_particle_regions() const;
   const std::vector<Region>& regions() const { return _regions; }
   /// @brief The velocity region k prescribes from now on (its held components).
   void set_region_velocity(int k, std::array<double, 2> velocity);
@@ -162,7 +170,11 @@ public:
   /// @brief Rebuild the active node set (ActiveNodes, with block()) of all
   /// particles and what holds its nodes (constraints()).
   /// @param cell_start Offsets of each cell's particles, num_cells()+1 entries.
-  void activate(const std::vector<std::int64_t>& cell_start);
+  /// @param region_cells Per region, the offsets of each cell's particles of
+  ///        a particle region, as cell_start (empty for a box); may be empty
+  ///        without particle regions.
+  void activate(const std::vector<std::int64_t>& cell_start,
+                const std::vector<std::vector<std::int64_t>>& region_cells = {});
 
   /// The active nodes of all particles.
   const ActiveNodes& active() const { return _active; }

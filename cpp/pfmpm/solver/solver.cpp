@@ -82,6 +82,11 @@ Solver::Solver(Grid& grid, Particles& particles,
       particles.add(c);
   if (transfer == TransferScheme::apic)
     particles.add(affine_column());
+  if (grid.has_particle_regions())
+    particles.add({"held_by", 1, DType::i32, {0.0},
+                   "bit k set where the particle belongs to prescribed region k (a body, its face "
+                   "or a set of particles), whose nodes it holds",
+                   "", ""});
 
   const double max_mass = particles.size() == 0
                               ? 0.0
@@ -416,6 +421,33 @@ void Solver::bind()
     }
 }
 
+std::vector<std::vector<std::int64_t>> Solver::region_cells() const
+{
+  const auto& regions = _grid.regions();
+  const std::vector<std::int64_t>& start = _sort.cell_start();
+  const std::vector<std::int32_t>& order = _sort.order();
+  const Column* column = _particles.find("held_by");
+  if (!column)
+    throw std::logic_error("particle regions need the particle column held_by");
+  const std::int32_t* held_by = column->i32.data();
+  std::vector<std::vector<std::int64_t>> cells(regions.size());
+  for (std::size_t k = 0; k < regions.size(); ++k)
+  {
+    if (!regions[k].particles)
+      continue;
+    std::vector<std::int64_t>& offsets = cells[k];
+    offsets.assign(start.size(), 0);
+    for (std::size_t c = 0; c + 1 < start.size(); ++c)
+    {
+      std::int64_t members = 0;
+      for (std::int64_t i = start[c]; i < start[c + 1]; ++i)
+        members += (held_by[order[i]] >> k) & 1;
+      offsets[c + 1] = offsets[c] + members;
+    }
+  }
+  return cells;
+}
+
 template <class Shape, class Fields>
 void Solver::prepare(Fields& fields, bool energy)
 {
@@ -424,7 +456,10 @@ void Solver::prepare(Fields& fields, bool energy)
     Stopwatch clock{_timers.sort};
     if (const std::size_t outside = _sort.sort(_grid, _particles.x); outside < _particles.size())
       throw SimulationError(where(outside) + " is outside the grid");
-    _grid.activate(_sort.cell_start());
+    if (_grid.has_particle_regions())
+      _grid.activate(_sort.cell_start(), region_cells());
+    else
+      _grid.activate(_sort.cell_start());
   }
   for (std::size_t k = 0; k < _phase.size(); ++k)
   {

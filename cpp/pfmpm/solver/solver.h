@@ -290,6 +290,9 @@ private:
   void particle_to_grid(Fields& fields);
   template <class Shape, bool Affine, class Fields>
   void grid_to_particle(Fields& fields, bool stress);
+  /// Per region, the offsets of each cell's particles of a particle region
+  /// (Region::particles, the column `held_by`) in the cell sort; empty for a box.
+  std::vector<std::vector<std::int64_t>> region_cells() const;
   /// With CPDI: at t = 0, that no domain is wider than a cell; then set the
   /// step's integration domains and check that each fits its stencil.
   void check_domains() const;

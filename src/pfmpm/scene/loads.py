@@ -9,7 +9,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from .validation import SceneError, boolean, choice, fmt, polyline, real, seq, store, text, vec2
+from .validation import SceneError, boolean, choice, fmt, integer, polyline, real, seq, store, text, vec2
 
 __all__ = ["EDGES", "SIDES", "WALL_TYPES", "COMPONENTS", "Ramp", "Table", "AMPLITUDES", "Traction", "BodyForce",
            "LOADS", "WallSpec", "Prescribed", "MAX_REGIONS", "Crack"]
@@ -166,10 +166,12 @@ LOADS: dict[str, type] = {cls.kind: cls for cls in (Traction, BodyForce)}
 
 @dataclass(frozen=True)
 class Prescribed:
-    """Prescribed motion (``[[prescribed]]``): the grid nodes whose control
-    points lie in a box move with a given velocity, or by a given
-    displacement, along the held components. Particles whose nodes all lie
-    in the box move with them; those partly over it are pulled along. The
+    """Prescribed motion (``[[prescribed]]``): grid nodes that move with a
+    given velocity, or by a given displacement, along the held components.
+    The nodes are those whose control points lie in a box, or those a set of
+    particles reaches (in their stencils), followed as the particles move: a
+    body, one face of it, or some of its particles. Particles whose nodes are
+    all held move with them; those partly over them are pulled along. The
     reaction (the momentum it adds to the bodies), the work it does on them
     and its displacement are in ``energies.csv`` (``impulse_<name>_x|y``,
     ``work_<name>``, part of ``total``, ``displacement_<name>_x|y``).
@@ -178,8 +180,19 @@ class Prescribed:
     ----------
     name : str
         Unique name, in the column names (not a grid side's).
-    min, max : (float, float)
-        The box's corners, min < max; it must hold a grid node.
+    min, max : (float, float) or None
+        A box: its corners, min < max; it must hold a grid node.
+    body : str or None
+        Instead of a box, the particles of this body: all of them, or with
+        ``face`` or ``particles`` some.
+    face : str or None
+        With ``body``: ``"left"``, ``"right"``, ``"bottom"`` or ``"top"``,
+        the body's particle layer on that side at t = 0 (within 0.51
+        particle spacings of its outermost particle there, as a traction's
+        edge).
+    particles : sequence of int or None
+        With ``body``: indices into the body's particles (0 to n - 1, in
+        seeding order, as ``initial_damage``'s), each once.
     velocity : (float, float) or None
         The velocity, times ``amplitude(t)`` at each step's midpoint.
     displacement : (float, float) or None
@@ -191,30 +204,33 @@ class Prescribed:
     amplitude : Ramp or Table or None
         The factor over time; ``None``: constant (velocity only).
     moving : bool
-        Whether the box moves with the region's displacement (a rigid
+        For a box: whether it moves with the region's displacement (a rigid
         striker or a moving wall, which carries the material it holds
         along); ``False``, the default: it stays put (a grip or a support).
         The FEM holds the vertices in the box at t = 0 either way, which move
-        with it.
+        with it. A body's region follows its particles anyway.
     """
 
     name: str
-    min: tuple[float, float]
-    max: tuple[float, float]
+    min: tuple[float, float] | None = None
+    max: tuple[float, float] | None = None
     velocity: tuple[float, float] | None = None
     displacement: tuple[float, float] | None = None
     components: str = "xy"
     amplitude: Ramp | Table | None = None
     moving: bool = False
+    body: str | None = None
+    face: str | None = None
+    particles: tuple[int, ...] | None = None
 
     def __post_init__(self):
         store(self, "name", text("name", self.name))
         if self.name in SIDES:
             raise SceneError("name", "is a grid side's, which names the walls' columns", self.name)
-        store(self, "min", vec2("min", self.min))
-        store(self, "max", vec2("max", self.max))
-        if not (self.min[0] < self.max[0] and self.min[1] < self.max[1]):
-            raise SceneError("max", f"must exceed min = {fmt(self.min)} in both directions", self.max)
+        if self.body is None:
+            self._check_box()
+        else:
+            self._check_body()
         if (self.velocity is None) == (self.displacement is None):
             raise SceneError("velocity", "give exactly one of velocity and displacement")
         if self.velocity is not None:
@@ -226,6 +242,43 @@ class Prescribed:
         store(self, "components", choice("components", self.components, COMPONENTS))
         store(self, "amplitude", _amplitude(self.amplitude))
         store(self, "moving", boolean("moving", self.moving))
+        if self.moving and self.body is not None:
+            raise SceneError("moving", "is for a box: a body's region follows its particles", self.moving)
+
+    def _check_box(self) -> None:
+        for key in ("face", "particles"):
+            if getattr(self, key) is not None:
+                raise SceneError(key, "needs a body", getattr(self, key))
+        for key in ("min", "max"):
+            if getattr(self, key) is None:
+                raise SceneError(key, "missing: give a box (min and max) or a body")
+        store(self, "min", vec2("min", self.min))
+        store(self, "max", vec2("max", self.max))
+        if not (self.min[0] < self.max[0] and self.min[1] < self.max[1]):
+            raise SceneError("max", f"must exceed min = {fmt(self.min)} in both directions", self.max)
+
+    def _check_body(self) -> None:
+        store(self, "body", text("body", self.body))
+        for key in ("min", "max"):
+            if getattr(self, key) is not None:
+                raise SceneError(key, "give a box or a body, not both", getattr(self, key))
+        if self.face is not None:
+            store(self, "face", choice("face", self.face, SIDES))
+        if self.particles is not None:
+            if self.face is not None:
+                raise SceneError("particles", "give a face or particles, not both")
+            indices = seq("particles", self.particles, "particle indices")
+            if not indices:
+                raise SceneError("particles", "must name at least one particle", self.particles)
+            indices = tuple(integer(f"particles[{i}]", v, ge=0) for i, v in enumerate(indices))
+            if len(set(indices)) != len(indices):
+                raise SceneError("particles", "names a particle twice", list(indices))
+            store(self, "particles", indices)
+
+    @property
+    def box(self) -> bool:
+        """Whether it holds the nodes in a box (else those its body's particles reach)."""
+        return self.body is None
 
     @property
     def mask(self) -> int:

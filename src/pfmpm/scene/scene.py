@@ -52,7 +52,8 @@ class Scene:
     walls : sequence of WallSpec
         At most one per grid side.
     prescribed : sequence of Prescribed
-        Boxes of grid nodes with prescribed motion; at most four, names unique.
+        Grid nodes with prescribed motion, in a box or reached by a body's
+        particles; at most four, names unique.
     output : Output
     cracks : sequence of Crack
         Initial cracks, on bodies whose material can crack.
@@ -138,6 +139,9 @@ class Scene:
         for i, load in enumerate(self.loads):
             if load.body is not None:
                 reference(f"loads[{i}].body", load.body, bodies, "body")
+        for i, region in enumerate(self.prescribed):
+            if region.body is not None:
+                reference(f"prescribed[{i}].body", region.body, bodies, "body")
         for i, body in enumerate(self.bodies):
             with at(f"bodies[{i}]"):
                 self._check_particles(body)

@@ -160,9 +160,7 @@ def load_forces(scene: "Scene", xs: list[np.ndarray], mass: np.ndarray) -> list[
             continue
         part, spacing, x = parts[load.body]
         normal = 0 if load.edge in ("left", "right") else 1
-        coord = x[:, normal]
-        tol = _EDGE_TOL * spacing
-        layer = coord >= coord.max() - tol if load.edge in ("right", "top") else coord <= coord.min() + tol
+        layer = edge_layer(x, spacing, load.edge)
         if load.span is not None:
             along = x[:, 1 - normal]
             (a, b), eps = load.span, 1e-9 * spacing
@@ -173,6 +171,47 @@ def load_forces(scene: "Scene", xs: list[np.ndarray], mass: np.ndarray) -> list[
         rows = part.start + np.flatnonzero(layer)
         forces.append((load, rows, np.multiply(load.traction, spacing * scene.thickness)))
     return forces
+
+
+def edge_layer(x: np.ndarray, spacing: float, edge: str) -> np.ndarray:
+    """Which of a body's particles ``x`` (k, 2) form its layer on ``edge``:
+    those within 0.51 particle ``spacing`` of its outermost particle
+    coordinate on that side."""
+    coord = x[:, 0 if edge in ("left", "right") else 1]
+    tol = _EDGE_TOL * spacing
+    return coord >= coord.max() - tol if edge in ("right", "top") else coord <= coord.min() + tol
+
+
+def region_particles(scene: "Scene", xs: list[np.ndarray]) -> list[np.ndarray | None]:
+    """Per prescribed region, the particles (indices into all particles) of a
+    body's region, or None for a box.
+
+    Raises
+    ------
+    SceneError
+        Naming ``prescribed[i].particles`` for an index past the body's particles.
+    """
+    start, first = 0, {}
+    for body, x in zip(scene.bodies, xs):
+        first[body.name] = (start, x, body.spacing(scene.grid.h))
+        start += len(x)
+    out: list[np.ndarray | None] = []
+    for i, region in enumerate(scene.prescribed):
+        if region.box:
+            out.append(None)
+            continue
+        offset, x, spacing = first[region.body]
+        if region.face is not None:
+            rows = np.flatnonzero(edge_layer(x, spacing, region.face))
+        elif region.particles is not None:
+            rows = np.asarray(region.particles)
+            if rows.max() >= len(x):
+                raise SceneError(f"prescribed[{i}].particles", f"body {region.body!r} has {len(x)} particles"
+                                 f" (0 to {len(x) - 1})", int(rows.max()))
+        else:
+            rows = np.arange(len(x))
+        out.append(offset + rows)
+    return out
 
 
 def particles(scene: "Scene") -> dict[str, np.ndarray]:
