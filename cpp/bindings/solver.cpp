@@ -45,21 +45,7 @@ py::dict stats_dict(const PhaseFieldStats& st)
 py::dict contact_dict(const ContactStats& st, bool damage)
 {
   py::dict d;
-  d["nodes"] = st.nodes;
-  d["pairs"] = st.pairs;
-  d["active"] = st.active;
-  d["sliding"] = st.sliding;
-  d["C1"] = st.violations[0];
-  d["C2"] = st.violations[1];
-  d["C3"] = st.violations[2];
-  d["C4"] = st.violations[3];
-  d["friction_work"] = st.friction_work;
-  if (damage)
-  {
-    d["split"] = st.split;
-    d["separable"] = st.separable;
-    d["separable_total"] = st.separable_total;
-  }
+  ContactStats::each([&](const char* name, const auto& value) { d[name] = value; }, damage, st);
   return d;
 }
 

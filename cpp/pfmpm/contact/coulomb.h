@@ -29,6 +29,29 @@ struct ContactStats
   std::int32_t split = 0;
   std::int32_t separable = 0;
   std::int64_t separable_total = 0;
+
+  /// @brief Call `visit(name, s.member)` for every statistic of `s`, the last
+  /// three only with damage-gradient fields (`damage`): the one list that the
+  /// solver's state, its restore and the bindings iterate.
+  template <class Visit, class Stats>
+  static void each(Visit&& visit, bool damage, Stats& s)
+  {
+    visit("nodes", s.nodes);
+    visit("pairs", s.pairs);
+    visit("active", s.active);
+    visit("sliding", s.sliding);
+    visit("C1", s.violations[0]);
+    visit("C2", s.violations[1]);
+    visit("C3", s.violations[2]);
+    visit("C4", s.violations[3]);
+    visit("friction_work", s.friction_work);
+    if (damage)
+    {
+      visit("split", s.split);
+      visit("separable", s.separable);
+      visit("separable_total", s.separable_total);
+    }
+  }
 };
 
 /// Fields (bodies; with damage-gradient fields, contact groups) whose

@@ -210,22 +210,12 @@ SolverState Solver::state() const
   }
   if (const ContactStats* c = contact_stats())
   {
-    s.scalars["contact/nodes"] = c->nodes;
-    s.scalars["contact/pairs"] = static_cast<double>(c->pairs);
-    s.scalars["contact/active"] = static_cast<double>(c->active);
-    s.scalars["contact/sliding"] = static_cast<double>(c->sliding);
-    for (int i = 0; i < 4; ++i)
-      s.scalars["contact/C" + std::to_string(i + 1)] = static_cast<double>(c->violations[i]);
-    s.scalars["contact/friction_work"] = c->friction_work;
+    ContactStats::each([&](const char* name, const auto& value)
+                       { s.scalars[std::string("contact/") + name] = static_cast<double>(value); },
+                       damage_fields() != nullptr, *c);
     std::vector<double>& impulse = s.arrays["contact/pair_impulse"];
     for (const auto& pair : _pair_impulse)
       impulse.insert(impulse.end(), pair.begin(), pair.end());
-    if (damage_fields())
-    {
-      s.scalars["contact/split"] = c->split;
-      s.scalars["contact/separable"] = c->separable;
-      s.scalars["contact/separable_total"] = static_cast<double>(c->separable_total);
-    }
   }
   return s;
 }
@@ -273,22 +263,13 @@ void Solver::restore(const SolverState& state)
   if (const ContactStats* stats = contact_stats())
   {
     ContactStats& c = const_cast<ContactStats&>(*stats);
-    c.nodes = static_cast<std::int32_t>(state.scalars.at("contact/nodes"));
-    c.pairs = static_cast<std::int64_t>(state.scalars.at("contact/pairs"));
-    c.active = static_cast<std::int64_t>(state.scalars.at("contact/active"));
-    c.sliding = static_cast<std::int64_t>(state.scalars.at("contact/sliding"));
-    for (int i = 0; i < 4; ++i)
-      c.violations[i] = static_cast<std::int64_t>(state.scalars.at("contact/C" + std::to_string(i + 1)));
-    c.friction_work = state.scalars.at("contact/friction_work");
+    ContactStats::each(
+        [&](const char* name, auto& value)
+        { value = static_cast<std::decay_t<decltype(value)>>(state.scalars.at(std::string("contact/") + name)); },
+        damage_fields() != nullptr, c);
     const std::vector<double>& impulse = state.arrays.at("contact/pair_impulse");
     for (int q = 0; q < max_field_pairs; ++q)
       _pair_impulse[q] = {impulse[2 * q], impulse[2 * q + 1]};
-    if (damage_fields())
-    {
-      c.split = static_cast<std::int32_t>(state.scalars.at("contact/split"));
-      c.separable = static_cast<std::int32_t>(state.scalars.at("contact/separable"));
-      c.separable_total = static_cast<std::int64_t>(state.scalars.at("contact/separable_total"));
-    }
   }
   _time = time;
   _step = static_cast<std::int64_t>(step);
