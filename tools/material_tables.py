@@ -1,5 +1,6 @@
-"""Write the reference tables of the material models' parameters into
-docs/scenes.md, from the core's declarations (pfmpm.scene.parameter_table),
+"""Write the reference tables of the material models' and the fracture
+table's parameters into docs/scenes.md, from the core's declarations
+(pfmpm.scene.declared.parameter_table),
 between the lines ``<!-- material models -->`` and ``<!-- /material models -->``.
 
     .venv/bin/python tools/material_tables.py          # rewrite the section
@@ -15,8 +16,8 @@ import re
 import sys
 from pathlib import Path
 
-from pfmpm.scene.materials import declaration, parameter_table
 from pfmpm import _core
+from pfmpm.scene.declared import declaration, fracture_parameters, parameter_table
 
 PAGE = Path(__file__).resolve().parents[1] / "docs" / "scenes.md"
 START, END = "<!-- material models -->", "<!-- /material models -->"
@@ -30,7 +31,10 @@ def section() -> str:
         d = declaration(model)
         crack = ("A `fracture` table lets the phase field crack it." if d["phase_field"]
                  else "It takes no `fracture` table.")
-        parts += ["", f"### `{model}`", "", f"{d['doc']} {crack}", "", parameter_table(model)]
+        parts += ["", f"### `{model}`", "", f"{d['doc']} {crack}", "", parameter_table(d["parameters"])]
+    parts += ["", "### `fracture`", "", "The phase-field table of a material that can crack (also"
+              " `split`, from the model's declaration, `anisotropy` and `bound`, above).", "",
+              parameter_table(fracture_parameters())]
     return "\n".join(parts + ["", END])
 
 

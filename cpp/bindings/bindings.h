@@ -2,6 +2,8 @@
 /// @brief The pfmpm._core module's parts, one per folder of the C++ library.
 #pragma once
 
+#include "pfmpm/common/parameters.h"
+
 #include <pybind11/pybind11.h>
 
 namespace pfmpm::bindings
@@ -17,5 +19,10 @@ void bind_materials(pybind11::module_& m);
 void bind_fields(pybind11::module_& m);
 /// Fracture parameters and the solver.
 void bind_solver(pybind11::module_& m);
+
+/// A parameter's declaration as a dict: name, kind (number, integer, word),
+/// unit, doc, lower, upper (None where unbounded), lower_open, upper_open,
+/// choices, default (None: required, unless optional), optional, set_by.
+pybind11::dict parameter_dict(const ParameterSpec& p);
 
 } // namespace pfmpm::bindings

@@ -23,7 +23,15 @@ namespace
 {
 using Strains = py::array_t<double, py::array::c_style | py::array::forcecast>;
 
-/// A parameter declaration as a dict (material_models).
+/// Number of rows of an (N, 3) strain array; throws on another shape.
+py::ssize_t strain_rows(const Strains& strain)
+{
+  if (strain.ndim() != 2 || strain.shape(1) != 3)
+    throw py::value_error("strain must have shape (N, 3)");
+  return strain.shape(0);
+}
+} // namespace
+
 py::dict parameter_dict(const ParameterSpec& p)
 {
   const char* kinds[] = {"number", "integer", "word"};
@@ -49,15 +57,6 @@ py::dict parameter_dict(const ParameterSpec& p)
   d["set_by"] = p.set_by;
   return d;
 }
-
-/// Number of rows of an (N, 3) strain array; throws on another shape.
-py::ssize_t strain_rows(const Strains& strain)
-{
-  if (strain.ndim() != 2 || strain.shape(1) != 3)
-    throw py::value_error("strain must have shape (N, 3)");
-  return strain.shape(0);
-}
-} // namespace
 
 void bind_materials(py::module_& m)
 {

@@ -73,6 +73,17 @@ void bind_solver(py::module_& m)
   py::enum_<Model>(m, "Model", "the phase-field model: w(d) = d^2 (AT2) or d (AT1)")
       .value("AT2", Model::AT2)
       .value("AT1", Model::AT1);
+  m.def(
+      "fracture_parameters",
+      []()
+      {
+        py::list out;
+        for (const ParameterSpec& p : Fracture::parameters())
+          out.append(parameter_dict(p));
+        return out;
+      },
+      "the declared parameters of a material's fracture table (dicts as material_models' "
+      "parameters)");
   py::class_<Fracture>(m, "Fracture", "Fracture parameters of a material that can crack")
       .def(py::init(
                [](double Gc, double l0, double k_f, const Matrix3& gamma, Model model, bool bound)

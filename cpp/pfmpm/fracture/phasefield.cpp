@@ -20,6 +20,24 @@
 namespace pfmpm
 {
 
+std::vector<ParameterSpec> Fracture::parameters()
+{
+  using P = ParameterSpec;
+  return {P::number("Gc", "energy/area",
+                    "critical energy release rate G_c (K&T eq. 4); with a fourth-order anisotropy "
+                    "the reference value G-bar_c (K&T eq. 8)")
+              .above(0.0),
+          P::number("l0", "length", "length scale l0 of the crack density (K&T eq. 4), >= grid.h")
+              .above(0.0),
+          P::number("k_f", "1", "residual stiffness in g(c) = (1 - k_f) c^2 + k_f (K&T eq. 15)")
+              .at_least(0.0)
+              .below(1.0)
+              .fallback(0.0),
+          P::word("model", {"AT2", "AT1"},
+                  "the crack density's local term: AT2 (K&T eq. 4) or AT1, w(d) = d")
+              .fallback("AT2")};
+}
+
 namespace
 {
 std::string text(double v) { return std::to_string(v); }
@@ -114,12 +132,17 @@ PhaseField::PhaseField(const Grid& grid, std::vector<std::optional<Fracture>> fr
       continue;
     const Fracture& f = *_fracture[m];
     const std::string at = "material " + std::to_string(m) + ": ";
-    if (!(f.Gc > 0.0) || !std::isfinite(f.Gc))
-      throw std::invalid_argument(at + "Gc = " + text(f.Gc) + ": must be > 0");
-    if (!(f.l0 > 0.0) || !std::isfinite(f.l0))
-      throw std::invalid_argument(at + "l0 = " + text(f.l0) + ": must be > 0");
-    if (!(f.k_f >= 0.0 && f.k_f < 1.0))
-      throw std::invalid_argument(at + "k_f = " + text(f.k_f) + ": must lie in [0, 1)");
+    try
+    {
+      const auto specs = Fracture::parameters();
+      declared(specs, "Gc").check(f.Gc);
+      declared(specs, "l0").check(f.l0);
+      declared(specs, "k_f").check(f.k_f);
+    }
+    catch (const std::invalid_argument& e)
+    {
+      throw std::invalid_argument(at + e.what());
+    }
     for (double g : f.gamma)
       if (!std::isfinite(g))
         throw std::invalid_argument(at + "gamma = " + text(g) + ": must be finite");

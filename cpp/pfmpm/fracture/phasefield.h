@@ -4,6 +4,8 @@
 /// (Kakouris & Triantafyllou 2019, eqs. 4, 6, 47-57).
 #pragma once
 
+#include "pfmpm/common/parameters.h"
+
 #include "pfmpm/grid/grid.h"
 #include "pfmpm/particles/cell_sort.h"
 #include "pfmpm/particles/particles.h"
@@ -45,6 +47,10 @@ struct Fracture
   /// Solve with the bound 0 <= c <= 1 (PhaseField::bounded_solve); AT1 needs
   /// it, the fourth-order functional (gamma != 0) is solved without it.
   bool bound = true;
+
+  /// @brief The declarations of a material's fracture table: Gc, l0, k_f
+  /// and model, checked by the phase field and by the scene reader.
+  static std::vector<ParameterSpec> parameters();
 
   /// Degradation g(c) = (1 - k_f) c^2 + k_f (K&T eq. 15).
   double degradation(double c) const { return (1.0 - k_f) * c * c + k_f; }

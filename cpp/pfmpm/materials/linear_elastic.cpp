@@ -16,7 +16,7 @@ std::vector<ParameterSpec> LinearElastic::parameters()
           P::word("plane", {"strain", "stress"}, "the 2D kinematic assumption")
               .fallback("strain")
               .from("plane"),
-          P::word("split", {"none", "spectral", "volumetric_deviatoric"},
+          P::word("split", {"spectral", "volumetric_deviatoric", "none"},
                   "which strain energy cracking degrades (K&T eq. 14)")
               .fallback("spectral")
               .from("fracture.split")};

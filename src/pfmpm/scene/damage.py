@@ -27,11 +27,19 @@ from typing import ClassVar
 
 import numpy as np
 
+from .declared import check_declared, declaration
 from .shapes import distance_to_polyline
 from .validation import MAX_COUNT, SceneError, fmt, integer, polyline, real, seq, store, text, vec2
 
 __all__ = ["DAMAGE_MODELS", "damage_class", "DamageSpec", "RankineSpec", "TimeToFailureSpec",
            "WeibullSpec", "cell_diagonal", "localisation_width", "InitialDamage"]
+
+
+def _declared(name: str, value):
+    """``value`` checked against the core's ``neo_hookean`` declaration of
+    the damage parameter ``name`` (its bounds live there, once)."""
+    return check_declared(declaration("neo_hookean")["parameters"], name, value)
+
 
 DAMAGE_MODELS: dict[str, type["DamageSpec"]] = {}
 """Damage classes by the ``model`` name of a ``damage`` table."""
@@ -177,9 +185,9 @@ class DamageSpec(abc.ABC):
         strength of a Weibull field); nothing to check by default."""
 
     def _check_common(self) -> None:
-        store(self, "sigma_f", real("sigma_f", self.sigma_f, gt=0))
+        store(self, "sigma_f", _declared("sigma_f", self.sigma_f))
         if self.l_ch is not None:
-            store(self, "l_ch", real("l_ch", self.l_ch, gt=0))
+            store(self, "l_ch", _declared("l_ch", self.l_ch))
         if self.weibull is not None and not isinstance(self.weibull, WeibullSpec):
             raise SceneError("weibull", "must be a weibull table", self.weibull)
 
@@ -222,7 +230,7 @@ class RankineSpec(DamageSpec):
 
     def __post_init__(self):
         self._check_common()
-        store(self, "Gf", real("Gf", self.Gf, gt=0))
+        store(self, "Gf", _declared("Gf", self.Gf))
 
     @staticmethod
     def default_length(grid) -> float:
@@ -268,7 +276,7 @@ class TimeToFailureSpec(DamageSpec):
 
     def __post_init__(self):
         self._check_common()
-        store(self, "c_f", real("c_f", self.c_f, gt=0))
+        store(self, "c_f", _declared("c_f", self.c_f))
 
     @staticmethod
     def default_length(grid) -> float:

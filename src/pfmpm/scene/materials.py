@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import abc
 import dataclasses
-import functools
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar
 
@@ -31,7 +30,9 @@ import numpy as np
 
 from .. import _core
 from ..anisotropy import check_gamma
+from . import declared
 from .damage import DamageSpec
+from .declared import check_declared, check_parameter, declaration
 from .validation import SceneError, at, boolean, choice, integer, real, seq, store, text
 
 if TYPE_CHECKING:
@@ -43,8 +44,10 @@ __all__ = ["PLANES", "SPLITS", "FRACTURE_MODELS", "SYMMETRIES", "MATERIALS",
            "FractureSpec", "Anisotropy", "wave_speed", "rayleigh_speed"]
 
 PLANES = ("strain", "stress")
-SPLITS = ("spectral", "volumetric_deviatoric", "none")
-FRACTURE_MODELS = ("AT2", "AT1")
+SPLITS = tuple(next(p["choices"] for p in declaration("linear_elastic")["parameters"] if p["name"] == "split"))
+"""The energy splits (declared by the core's ``linear_elastic``)."""
+FRACTURE_MODELS = tuple(next(p["choices"] for p in declared.fracture_parameters() if p["name"] == "model"))
+"""The phase-field models (declared by the core's fracture parameters)."""
 SYMMETRIES = ("isotropic2", "isotropic4", "cubic", "orthotropic", "general")
 
 MATERIALS: dict[str, type["MaterialSpec"]] = {}
@@ -210,11 +213,9 @@ class FractureSpec:
     bound: bool = True
 
     def __post_init__(self):
-        store(self, "Gc", real("Gc", self.Gc, gt=0))
-        store(self, "l0", real("l0", self.l0, gt=0))
-        store(self, "k_f", real("k_f", self.k_f, ge=0, lt=1))
-        store(self, "split", choice("split", self.split, SPLITS))
-        store(self, "model", choice("model", self.model, FRACTURE_MODELS))
+        for key in ("Gc", "l0", "k_f", "model"):
+            store(self, key, check_declared(declared.fracture_parameters(), key, getattr(self, key)))
+        store(self, "split", check_declared(declaration("linear_elastic")["parameters"], "split", self.split))
         if self.anisotropy is not None and not isinstance(self.anisotropy, Anisotropy):
             raise SceneError("anisotropy", "must be an anisotropy table", self.anisotropy)
         store(self, "bound", boolean("bound", self.bound))
@@ -284,42 +285,6 @@ class MaterialSpec(abc.ABC):
             raise SceneError("fracture", "must be a fracture table", self.fracture)
 
 
-@functools.cache
-def _core_models() -> dict[str, dict]:
-    """The core's models with their declarations (``_core.material_models()``)."""
-    return _core.material_models()
-
-
-def declaration(model: str) -> dict:
-    """The core's declaration of ``model``: ``doc``, ``phase_field`` and
-    ``parameters`` (see ``pfmpm._core.material_models``).
-
-    Raises
-    ------
-    KeyError
-        If the core has no such model.
-    """
-    return _core_models()[model]
-
-
-def _check_parameter(p: dict, value: Any) -> Any:
-    """``value`` checked against the declared parameter ``p`` (its bounds
-    or its words), normalised; a :class:`SceneError` names it."""
-    name = p["name"]
-    if p["kind"] == "word":
-        return choice(name, value, tuple(p["choices"]))
-    bounds = {("gt" if p["lower_open"] else "ge"): p["lower"], ("lt" if p["upper_open"] else "le"): p["upper"]}
-    bounds = {k: v for k, v in bounds.items() if v is not None}
-    if p["kind"] == "number":
-        return real(name, value, **bounds)
-    value = integer(name, value)
-    if p["lower"] is not None:
-        value = integer(name, value, ge=int(p["lower"]))
-    if p["upper"] is not None and value > p["upper"]:
-        raise SceneError(name, f"must be <= {p['upper']:g}", value)
-    return value
-
-
 class DeclaredMaterial(MaterialSpec):
     """A material whose parameters the core model ``model`` declares.
 
@@ -337,7 +302,7 @@ class DeclaredMaterial(MaterialSpec):
         for p in self._table_parameters():
             value = getattr(self, p["name"])
             if value is not None or p["default"] is not None:
-                store(self, p["name"], _check_parameter(p, value))
+                store(self, p["name"], check_parameter(p, value))
 
     @classmethod
     def _table_parameters(cls) -> list[dict]:
@@ -414,20 +379,8 @@ def declared_class(model: str) -> type[DeclaredMaterial]:
 
 def parameter_table(model: str) -> str:
     """The Markdown reference table of the core model ``model``'s parameters,
-    from its declaration: key, what it is, unit, rule and default (docs/scenes.md)."""
-    rows = ["| key | meaning | unit | rule | default |", "|---|---|---|---|---|"]
-    for p in declaration(model)["parameters"]:
-        if p["kind"] == "word":
-            rule = " or ".join(f"`{c}`" for c in p["choices"])
-        else:
-            parts = [f"{'>' if p['lower_open'] else '>='} {p['lower']:g}" if p["lower"] is not None else "",
-                     f"{'<' if p['upper_open'] else '<='} {p['upper']:g}" if p["upper"] is not None else ""]
-            rule = ("whole, " if p["kind"] == "integer" else "") + ", ".join(x for x in parts if x)
-        key = f"`{p['name']}`" if not p["set_by"] else f"`{p['name']}` (from `{p['set_by']}`)"
-        default = ("required" if p["default"] is None and not p["optional"]
-                   else "as needed" if p["default"] is None else f"`{p['default']}`")
-        rows.append(f"| {key} | {p['doc']} | {p['unit'] or '-'} | {rule or '-'} | {default} |")
-    return "\n".join(rows)
+    from its declaration (docs/scenes.md)."""
+    return declared.parameter_table(declaration(model)["parameters"])
 
 
 @register_material
@@ -575,6 +528,6 @@ def wave_speed(E: float, nu: float, rho: float, plane: str) -> float:
     return _core.material("linear_elastic", {"E": E, "nu": nu, "density": rho, "plane": plane}).wave_speed
 
 
-for _model in _core_models():
+for _model in declared.core_models():
     if _model not in MATERIALS:
         register_material(declared_class(_model))
