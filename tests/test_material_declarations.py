@@ -49,7 +49,7 @@ def test_the_wave_speeds_are_the_core_models():
 
 
 def test_docs_tables_are_generated_from_the_declarations():
-    done = subprocess.run([sys.executable, str(ROOT / "tools" / "material_tables.py"), "--check"],
+    done = subprocess.run([sys.executable, str(ROOT / "tools" / "parameter_tables.py"), "--check"],
                           capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
 

@@ -9,6 +9,8 @@
 #include <pybind11/stl.h>
 
 #include <limits>
+#include <map>
+#include <string>
 #include <vector>
 
 namespace py = pybind11;
@@ -23,28 +25,38 @@ void bind_fields(py::module_& m)
   m.attr("max_field_pairs") = max_field_pairs;
   m.def("field_pair", &field_pair, py::arg("a"), py::arg("b"),
         "the index of the pair of fields a < b in Energies' pair_impulse");
+  m.def(
+      "damage_gradient_parameters",
+      []()
+      {
+        py::list out;
+        for (const ParameterSpec& p : DamageGradientOptions::parameters())
+          out.append(parameter_dict(p));
+        return out;
+      },
+      "the declared parameters of the damage-gradient partition (dicts as material_models' "
+      "parameters)");
   py::class_<DamageGradientOptions>(
       m, "DamageGradient",
       "Parameters of the damage-field-gradient partition (Homel & Herbold 2017)")
       .def(py::init(
-               [](std::vector<std::int32_t> groups, double separability, double kernel_radius,
-                  double skin, double full_damage, double phase_field_threshold,
-                  bool part_when_softened)
+               [](std::vector<std::int32_t> groups, const py::dict& parameters)
                {
-                 return DamageGradientOptions{std::move(groups), separability, kernel_radius,
-                                              skin,         full_damage,  phase_field_threshold,
-                                              part_when_softened};
+                 std::map<std::string, double> numbers;
+                 std::map<std::string, std::string> words;
+                 for (const auto& [key, value] : parameters)
+                 {
+                   if (py::isinstance<py::str>(value))
+                     words[key.cast<std::string>()] = value.cast<std::string>();
+                   else
+                     numbers[key.cast<std::string>()] = value.cast<double>();
+                 }
+                 return DamageGradientOptions::from(std::move(groups), Parameters(numbers, words));
                }),
-           py::arg("groups") = std::vector<std::int32_t>{}, py::arg("separability") = 0.25,
-           py::arg("kernel_radius") = 0.0, py::arg("skin") = 0.1,
-           py::arg("full_damage") = 1.0 - 1e-4, py::arg("phase_field_threshold") = 0.05,
-           py::arg("part_when_softened") = true,
-           "groups: contact group of each body (empty: each body its own); separability: "
-           "D-bar_min of H&H eq. 21; kernel_radius: r_p (0: the cell diagonal); skin: Verlet skin "
-           "over r_p; full_damage: D at which a damage model's particle is fully damaged; "
-           "phase_field_threshold: c at or below which a phase-field particle is; "
-           "part_when_softened: a node's fields part only once no damage-model particle "
-           "mapping there is still softening (false: H&H eq. 21 alone)")
+           py::arg("groups") = std::vector<std::int32_t>{}, py::arg("parameters") = py::dict(),
+           "groups: contact group of each body (empty: each body its own); parameters: the "
+           "declared ones (damage_gradient_parameters()), absent ones at their defaults; a bad "
+           "or unknown key raises ValueError naming it")
       .def_readonly("groups", &DamageGradientOptions::groups)
       .def_readonly("separability", &DamageGradientOptions::separability)
       .def_readonly("kernel_radius", &DamageGradientOptions::kernel_radius)

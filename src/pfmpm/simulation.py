@@ -124,11 +124,10 @@ class Simulation:
         friction = contact.friction_matrix(names).ravel() if self.contact else []
         damage = None
         if self.damage_gradient:
-            damage = _core.DamageGradient(
-                contact.group_indices(names), contact.separability,
-                contact.resolved_radius(g.h), contact.skin,
-                phase_field_threshold=contact.phase_field_threshold,
-                part_when_softened=contact.parting == "softened")
+            damage = _core.DamageGradient(contact.group_indices(names), {
+                "separability": contact.separability, "kernel_radius": contact.resolved_radius(g.h),
+                "skin": contact.skin, "phase_field_threshold": contact.phase_field_threshold,
+                "parting": contact.parting})
         # The solver adds the models' columns; then their initial values.
         self.solver = _core.Solver(self.grid, self.particles, materials, scene.dt(), fracture,
                                    pf.tol, pf.max_iterations, friction, damage,

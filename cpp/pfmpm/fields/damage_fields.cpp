@@ -53,6 +53,45 @@ void check_option(bool ok, const std::string& name, double value, const char* ru
 }
 } // namespace
 
+std::vector<ParameterSpec> DamageGradientOptions::parameters()
+{
+  using P = ParameterSpec;
+  const DamageGradientOptions d;
+  return {P::number("separability", "1",
+                    "D-bar_min of the separability test (H&H eq. 21): two fields may part where "
+                    "both their mean damages exceed it")
+              .above(0.0)
+              .below(1.0)
+              .fallback(d.separability),
+          P::number("kernel_radius", "length",
+                    "kernel radius r_p of the damage field (H&H eqs. 17-19); 0: the cell diagonal, "
+                    "the paper's")
+              .at_least(0.0)
+              .fallback(d.kernel_radius),
+          P::number("skin", "1", "Verlet skin over r_p of the neighbour lists").above(0.0).fallback(d.skin),
+          P::number("phase_field_threshold", "1", "c at or below which a phase-field particle is fully damaged")
+              .at_least(0.0)
+              .below(1.0)
+              .fallback(d.phase_field_threshold),
+          P::word("parting", {"softened", "failed"},
+                  "when a group's fields may part at a node: once no damage-model particle there is "
+                  "still softening, or by H&H eq. 21 alone (docs/contact.md, \"Parting\")")
+              .fallback(d.part_when_softened ? "softened" : "failed")};
+}
+
+DamageGradientOptions DamageGradientOptions::from(std::vector<std::int32_t> groups, const Parameters& given)
+{
+  const Parameters p = given.checked("damage_gradient", parameters());
+  DamageGradientOptions o;
+  o.groups = std::move(groups);
+  o.separability = p.number("separability");
+  o.kernel_radius = p.number("kernel_radius");
+  o.skin = p.number("skin");
+  o.phase_field_threshold = p.number("phase_field_threshold");
+  o.part_when_softened = p.word("parting") == "softened";
+  return o;
+}
+
 KernelField kernel_damage_field(const Grid& grid, const std::vector<double>& x,
                                 const std::vector<double>& damage, double radius)
 {
@@ -89,15 +128,14 @@ DamageFields::DamageFields(const Grid& grid, Particles& particles, std::vector<d
 {
   _groups_n = friction_fields(_friction, 1);
   const DamageGradientOptions& o = _options;
-  check_option(o.separability > 0.0 && o.separability < 1.0, "separability", o.separability,
-               "in (0, 1)");
-  check_option(o.kernel_radius >= 0.0 && std::isfinite(o.kernel_radius), "kernel_radius",
-               o.kernel_radius, ">= 0 (0: the cell diagonal)");
-  check_option(o.skin > 0.0 && std::isfinite(o.skin), "skin", o.skin, "> 0");
+  const auto specs = DamageGradientOptions::parameters();
+  for (const auto& [name, value] : {std::pair<const char*, double>{"separability", o.separability},
+                                    {"kernel_radius", o.kernel_radius},
+                                    {"skin", o.skin},
+                                    {"phase_field_threshold", o.phase_field_threshold}})
+    declared(specs, name).check(value);
   check_option(o.full_damage > 0.0 && o.full_damage <= 1.0, "full_damage", o.full_damage,
                "in (0, 1]");
-  check_option(o.phase_field_threshold >= 0.0 && o.phase_field_threshold < 1.0,
-               "phase_field_threshold", o.phase_field_threshold, "in [0, 1)");
   if (_groups_n > max_groups)
     throw std::invalid_argument("friction: " + std::to_string(_groups_n) + " contact groups; at most "
                                 + std::to_string(max_groups));

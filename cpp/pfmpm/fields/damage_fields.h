@@ -4,6 +4,8 @@
 /// (particle, node) pair by the sign of the damage gradient.
 #pragma once
 
+#include "pfmpm/common/parameters.h"
+
 #include "pfmpm/contact/coulomb.h"
 #include "pfmpm/fields/fields.h"
 #include "pfmpm/fields/neighbours.h"
@@ -53,6 +55,16 @@ struct DamageGradientOptions
   /// their band has stopped softening (docs/contact.md, "Parting"). False:
   /// H&H eq. 21 alone, as the paper.
   bool part_when_softened = true;
+
+  /// @brief The declarations of the partition's parameters, a scene's
+  /// [contact] keys with partition = "damage_gradient": separability,
+  /// kernel_radius, skin, phase_field_threshold and parting ("softened":
+  /// part_when_softened, or "failed"). The defaults above are theirs.
+  static std::vector<ParameterSpec> parameters();
+  /// @brief The options of `groups` and `given` (the declared parameters,
+  /// checked against parameters(), absent ones at their defaults).
+  /// @throws std::invalid_argument naming a bad or unknown key.
+  static DamageGradientOptions from(std::vector<std::int32_t> groups, const Parameters& given);
 };
 
 /// The normalised kernel damage field at every particle (H&H eqs. 17-19).

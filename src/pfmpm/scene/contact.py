@@ -8,6 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .declared import check_declared, damage_gradient_parameters
 from .shapes import SHAPES, Shape
 from .validation import SceneError, choice, real, seq, store, text
 
@@ -18,8 +19,16 @@ PARTITIONS = ("bodies", "damage_gradient")
 or two fields per contact group split by the damage gradient (Homel & Herbold 2017)."""
 SURFACE_DETECTION = ("none", "kernel_sum")
 """How surface particles are found at t = 0 (Homel & Herbold 2017, section 2.4)."""
-PARTING = ("softened", "failed")
-"""When a group's fields may part at a node: once its band has stopped softening, or by H&H eq. 21 alone."""
+
+
+def _default(name: str):
+    """The core's default of the damage-gradient parameter ``name``."""
+    return next(p["default"] for p in damage_gradient_parameters() if p["name"] == name)
+
+
+PARTING = tuple(next(p["choices"] for p in damage_gradient_parameters() if p["name"] == "parting"))
+"""When a group's fields may part at a node: once its band has stopped softening, or by H&H eq. 21
+alone (declared by the core, as the partition's other parameters)."""
 
 
 @dataclass(frozen=True)
@@ -49,9 +58,10 @@ class ContactPair:
 
 # The keys of the damage-gradient partition and their defaults: with
 # partition = "bodies" each must keep its default.
-_DAMAGE_KEYS = {"groups": (), "separability": 0.25, "kernel_radius": None, "skin": 0.1,
-                "surface_detection": "none", "surface_threshold": 0.99, "surfaces": (),
-                "phase_field_threshold": 0.05, "parting": "softened"}
+_DAMAGE_KEYS = {"groups": (), "separability": _default("separability"), "kernel_radius": None,
+                "skin": _default("skin"), "surface_detection": "none", "surface_threshold": 0.99,
+                "surfaces": (), "phase_field_threshold": _default("phase_field_threshold"),
+                "parting": _default("parting")}
 
 
 @dataclass(frozen=True)
@@ -122,14 +132,14 @@ class Contact:
     partition: str = "bodies"
     touch_fill: float = 0.9
     groups: tuple[tuple[str, ...], ...] = ()
-    separability: float = 0.25
+    separability: float = _default("separability")
     kernel_radius: float | None = None
-    skin: float = 0.1
+    skin: float = _default("skin")
     surface_detection: str = "none"
     surface_threshold: float = 0.99
     surfaces: tuple[Shape, ...] = ()
-    phase_field_threshold: float = 0.05
-    parting: str = "softened"
+    phase_field_threshold: float = _default("phase_field_threshold")
+    parting: str = _default("parting")
 
     def __post_init__(self):
         store(self, "friction", real("friction", self.friction, ge=0))
@@ -148,10 +158,11 @@ class Contact:
                 raise SceneError(f"groups[{i}]", "must name at least one body", group)
             checked.append(tuple(text(f"groups[{i}][{k}]", n) for k, n in enumerate(names)))
         store(self, "groups", tuple(checked))
-        store(self, "separability", real("separability", self.separability, gt=0, lt=1))
+        declared = damage_gradient_parameters()
+        for key in ("separability", "skin", "phase_field_threshold", "parting"):
+            store(self, key, check_declared(declared, key, getattr(self, key)))
         if self.kernel_radius is not None:
             store(self, "kernel_radius", real("kernel_radius", self.kernel_radius, gt=0))
-        store(self, "skin", real("skin", self.skin, gt=0))
         store(self, "surface_detection",
               choice("surface_detection", self.surface_detection, SURFACE_DETECTION))
         store(self, "surface_threshold",
@@ -162,9 +173,6 @@ class Contact:
                 raise SceneError(f"surfaces[{i}]", "must be a shape (" + ", ".join(SHAPES) + ")",
                                  shape)
         store(self, "surfaces", surfaces)
-        store(self, "phase_field_threshold",
-              real("phase_field_threshold", self.phase_field_threshold, ge=0, lt=1))
-        store(self, "parting", choice("parting", self.parting, PARTING))
         if self.partition != "damage_gradient":
             for key, default in _DAMAGE_KEYS.items():
                 if getattr(self, key) != default:

@@ -1,6 +1,7 @@
 """The parameters the core declares once, in C++ (``ParameterSpec``): the
-material models' (``pfmpm._core.material_models()``) and the phase field's
-(``pfmpm._core.fracture_parameters()``), and the check of a scene value
+material models' (``pfmpm._core.material_models()``), the phase field's
+(``pfmpm._core.fracture_parameters()``) and the damage-gradient partition's
+(``pfmpm._core.damage_gradient_parameters()``), and the check of a scene value
 against its declaration, with the one-line messages of
 :mod:`pfmpm.scene.validation`."""
 
@@ -12,8 +13,8 @@ from typing import Any
 from .. import _core
 from .validation import SceneError, choice, integer, real
 
-__all__ = ["core_models", "declaration", "fracture_parameters", "check_parameter", "check_declared",
-           "parameter_table"]
+__all__ = ["core_models", "declaration", "fracture_parameters", "damage_gradient_parameters",
+           "check_parameter", "check_declared", "parameter_table"]
 
 
 @functools.cache
@@ -38,6 +39,13 @@ def declaration(model: str) -> dict:
 def fracture_parameters() -> tuple[dict, ...]:
     """The declared parameters of a material's ``fracture`` table (the phase field's)."""
     return tuple(_core.fracture_parameters())
+
+
+@functools.cache
+def damage_gradient_parameters() -> tuple[dict, ...]:
+    """The declared parameters of the damage-gradient partition (``[contact]``
+    keys with ``partition = "damage_gradient"``)."""
+    return tuple(_core.damage_gradient_parameters())
 
 
 def check_parameter(p: dict, value: Any) -> Any:

@@ -1,10 +1,10 @@
-"""Write the reference tables of the material models' and the fracture
-table's parameters into docs/scenes.md, from the core's declarations
-(pfmpm.scene.declared.parameter_table),
-between the lines ``<!-- material models -->`` and ``<!-- /material models -->``.
+"""Write the reference tables of the parameters the core declares (the
+material models', the fracture table's and the damage-gradient partition's)
+into docs/scenes.md, from the declarations (pfmpm.scene.declared), between
+the lines ``<!-- declared parameters -->`` and ``<!-- /declared parameters -->``.
 
-    .venv/bin/python tools/material_tables.py          # rewrite the section
-    .venv/bin/python tools/material_tables.py --check  # exit 1 if it is stale
+    .venv/bin/python tools/parameter_tables.py          # rewrite the section
+    .venv/bin/python tools/parameter_tables.py --check  # exit 1 if it is stale
 
 tests/test_material_declarations.py runs the check.
 """
@@ -17,15 +17,15 @@ import sys
 from pathlib import Path
 
 from pfmpm import _core
-from pfmpm.scene.declared import declaration, fracture_parameters, parameter_table
+from pfmpm.scene.declared import damage_gradient_parameters, declaration, fracture_parameters, parameter_table
 
 PAGE = Path(__file__).resolve().parents[1] / "docs" / "scenes.md"
-START, END = "<!-- material models -->", "<!-- /material models -->"
+START, END = "<!-- declared parameters -->", "<!-- /declared parameters -->"
 
 
 def section() -> str:
     """The generated section: per core model, its description and its table."""
-    parts = [START, "", "*Generated from the core's declarations by `tools/material_tables.py`;"
+    parts = [START, "", "*Generated from the core's declarations by `tools/parameter_tables.py`;"
              " do not edit by hand.*"]
     for model in _core.material_models():
         d = declaration(model)
@@ -35,6 +35,9 @@ def section() -> str:
     parts += ["", "### `fracture`", "", "The phase-field table of a material that can crack (also"
               " `split`, from the model's declaration, `anisotropy` and `bound`, above).", "",
               parameter_table(fracture_parameters())]
+    parts += ["", '### `[contact]` with `partition = "damage_gradient"`', "", "The damage-gradient"
+              " partition's own keys (besides `groups`, `surface_detection`, `surface_threshold` and"
+              " `surfaces`, above; docs/contact.md).", "", parameter_table(damage_gradient_parameters())]
     return "\n".join(parts + ["", END])
 
 
@@ -54,7 +57,7 @@ def main() -> int:
     new = updated(text)
     if args.check:
         if new != text:
-            print(f"{PAGE} is stale: run .venv/bin/python tools/material_tables.py", file=sys.stderr)
+            print(f"{PAGE} is stale: run .venv/bin/python tools/parameter_tables.py", file=sys.stderr)
             return 1
         return 0
     PAGE.write_text(new)
