@@ -122,6 +122,10 @@ void bind_solver(py::module_& m)
       .value("ssor", Preconditioner::ssor)
       .value("multigrid", Preconditioner::multigrid);
 
+  py::enum_<Partition>(m, "Partition", "the velocity-field partition of a run")
+      .value("single", Partition::single)
+      .value("bodies", Partition::bodies)
+      .value("damage_gradient", Partition::damage_gradient);
   py::enum_<ShapeFunctions>(m, "ShapeFunctions",
                             "shape functions of the momentum transfers: B-splines, or CPDI1 "
                             "averages over the particle domains (degree-1 grid)")
@@ -139,13 +143,14 @@ void bind_solver(py::module_& m)
                [](Grid& grid, Particles& particles,
                   const std::vector<std::shared_ptr<Material>>& materials, double dt,
                   std::vector<std::optional<Fracture>> fracture, double tol, int max_iterations,
-                  std::vector<double> friction, std::optional<DamageGradientOptions> damage,
+                  Partition partition, std::vector<double> friction, DamageGradientOptions damage,
                   ShapeFunctions shape, bool scale_failed, double failed_c, TransferScheme transfer)
                {
                  StepConfig step(dt);
                  step.fracture = std::move(fracture);
                  step.tol = tol;
                  step.max_iterations = max_iterations;
+                 step.partition = partition;
                  step.friction = std::move(friction);
                  step.damage = std::move(damage);
                  step.shape = shape;
@@ -158,16 +163,16 @@ void bind_solver(py::module_& m)
                }),
            py::arg("grid"), py::arg("particles"), py::arg("materials"), py::arg("dt"),
            py::arg("fracture") = std::vector<std::optional<Fracture>>{}, py::arg("tol") = 1e-6,
-           py::arg("max_iterations") = 1000, py::arg("friction") = std::vector<double>{},
-           py::arg("damage") = std::nullopt, py::arg("shape") = ShapeFunctions::bspline,
+           py::arg("max_iterations") = 1000, py::arg("partition") = Partition::single,
+           py::arg("friction") = std::vector<double>{}, py::arg("damage") = DamageGradientOptions{}, py::arg("shape") = ShapeFunctions::bspline,
            py::arg("scale_failed") = true, py::arg("failed_c") = 0.0,
            py::arg("transfer") = TransferScheme::flip, py::keep_alive<1, 2>(),
            py::keep_alive<1, 3>(),
            "materials: pfmpm._core.Material per material index (see pfmpm._core.material); "
-           "friction: empty for one velocity field, else the n x n (row-major) Coulomb "
-           "coefficients between bodies, each body its own discrete field; damage: a "
-           "pfmpm._core.DamageGradient for two fields per contact group split by the damage "
-           "gradient (friction then between groups); shape: the shape functions (CPDI adds the "
+           "partition: the velocity-field partition (Partition: single, bodies, "
+           "damage_gradient); friction: with discrete fields the n x n (row-major) Coulomb "
+           "coefficients between them (bodies, or contact groups), empty with one field; damage: "
+           "with damage_gradient its pfmpm._core.DamageGradient; shape: the shape functions (CPDI adds the "
            "domain columns, to be set before the first step); scale_failed, failed_c: with CPDI, "
            "scale the domains of failed particles (damage D = 1, or phase field c < failed_c) to "
            "a diagonal of at most a cell; transfer: FLIP or APIC (which adds the column "

@@ -67,6 +67,7 @@ TEST_P(ContactDegree, CollisionConservesMomentumAndPassesChecks)
   Particles P = make_disks(oblique, 0.125);
   StepConfig step(2e-3);
   step.friction = {0.0, 0.3, 0.3, 0.0};
+  step.partition = step.friction.empty() ? Partition::single : Partition::bodies;
   step.shape = shape_of(GetParam());
   Solver solver(grid, P, elastic(100.0, 0.3, 1.0), step);
   square_domains(P, 0.125);
@@ -103,6 +104,7 @@ TEST_P(ContactDegree, ThreadCountDoesNotChangeBits)
     StepConfig step(2e-3);
     step.fracture = {Fracture{0.5, 0.5, 0.0}};
     step.friction = {0.0, 0.3, 0.3, 0.0};
+    step.partition = step.friction.empty() ? Partition::single : Partition::bodies;
     step.shape = shape_of(GetParam());
     Solver solver(grid, P, elastic(100.0, 0.3, 1.0), step);
     square_domains(P, 0.125);
@@ -134,6 +136,7 @@ TEST_P(ContactDegree, BodiesThatNeverMeetRunAsOneField)
       P.f64("strain")[3 * i] = 1e-3 * std::sin(P.x[2 * i + 1]);
     StepConfig step(2e-3);
     step.friction = std::move(friction);
+    step.partition = step.friction.empty() ? Partition::single : Partition::bodies;
     step.shape = shape_of(GetParam());
     Solver solver(grid, P, elastic(100.0, 0.3, 1.0), step);
     square_domains(P, 0.125);
@@ -163,6 +166,7 @@ TEST(Contact, BadFrictionIsRefused)
   {
     StepConfig step(0.1);
     step.friction = std::move(friction);
+    step.partition = step.friction.empty() ? Partition::single : Partition::bodies;
     return step;
   };
   EXPECT_THROW(Solver(grid, P, m, with_friction({0.0, -0.1, -0.1, 0.0})), std::invalid_argument);

@@ -83,7 +83,11 @@ struct BandedBlock
       friction = {0.3};
     StepConfig step(2e-3);
     step.friction = friction;
-    step.damage = options;
+    if (options)
+    {
+      step.partition = Partition::damage_gradient;
+      step.damage = *options;
+    }
     solver = std::make_unique<Solver>(grid, P, elastic(100.0, 0.3, 1.0), step);
     if (options)
       for (std::size_t p = 0; p < P.size(); ++p)
@@ -249,6 +253,7 @@ TEST(DamageFields, SurfaceFlagsOfARectangle)
   Particles P = make_rectangle(1.0, 1.0, 5.0, 4.0, 0.25, 2);
   StepConfig step(1e-3);
   step.friction = {0.0};
+  step.partition = Partition::damage_gradient;
   step.damage = DamageGradientOptions{};
   Solver solver(grid, P, elastic(100.0, 0.3, 1.0), step);
   const std::vector<double> ratio = solver.detect_surfaces({0.125}, 0.99);
@@ -435,6 +440,7 @@ TEST(DamageFields, CollisionConservesMomentum)
   options.groups = {0, 0};
   StepConfig step(2e-3);
   step.friction = {0.3};
+  step.partition = Partition::damage_gradient;
   step.damage = options;
   Solver solver(grid, P, elastic(100.0, 0.3, 1.0), step);
   solver.detect_surfaces({0.125, 0.125}, 0.99);
@@ -563,6 +569,7 @@ TEST(DamageFields, BadOptionsAreRefused)
     StepConfig step(0.1);
     step.max_iterations = 10;
     step.friction = std::move(friction);
+    step.partition = Partition::damage_gradient;
     step.damage = std::move(o);
     Solver(grid, P, m, step);
   };

@@ -58,6 +58,7 @@ StepConfig step_with(double dt, std::vector<std::optional<Fracture>> fracture,
   StepConfig step(dt);
   step.fracture = std::move(fracture);
   step.friction = std::move(friction);
+  step.partition = step.friction.empty() ? Partition::single : Partition::bodies;
   return step;
 }
 

@@ -122,7 +122,9 @@ class Simulation:
         self.damage_gradient = contact is not None and contact.damage_gradient
         self.contact = contact is not None and (len(names) > 1 or self.damage_gradient)
         friction = contact.friction_matrix(names).ravel() if self.contact else []
-        damage = None
+        partition = (_core.Partition.damage_gradient if self.damage_gradient
+                     else _core.Partition.bodies if self.contact else _core.Partition.single)
+        damage = _core.DamageGradient()
         if self.damage_gradient:
             damage = _core.DamageGradient(contact.group_indices(names), {
                 "separability": contact.separability, "kernel_radius": contact.resolved_radius(g.h),
@@ -130,7 +132,7 @@ class Simulation:
                 "parting": contact.parting})
         # The solver adds the models' columns; then their initial values.
         self.solver = _core.Solver(self.grid, self.particles, materials, scene.dt(), fracture,
-                                   pf.tol, pf.max_iterations, friction, damage,
+                                   pf.tol, pf.max_iterations, partition, friction, damage,
                                    _core.ShapeFunctions.__members__[g.shape], g.scale_failed,
                                    g.failed_c, _core.TransferScheme.__members__[scene.transfer.scheme])
         self.solver.adaptive_threads = adaptive_threads()

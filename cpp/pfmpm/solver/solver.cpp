@@ -54,7 +54,7 @@ Solver::Solver(Grid& grid, Particles& particles,
       _transfer(step.transfer)
 {
   // The configuration's fields by name, in StepConfig's order.
-  auto& [dt, fracture, tol, max_iterations, friction, damage, shape, scaling, transfer] = step;
+  auto& [dt, fracture, tol, max_iterations, partition, friction, damage, shape, scaling, transfer] = step;
   if (!(dt > 0.0) || !std::isfinite(dt))
     throw std::invalid_argument("dt = " + std::to_string(dt) + ": must be > 0");
   if (_materials.empty())
@@ -110,10 +110,12 @@ Solver::Solver(Grid& grid, Particles& particles,
     grid.set_block(NodeBlock{CpdiStencil::lower, CpdiStencil::width});
     _domains.emplace(grid.h(), scaling);
   }
-  if (damage)
+  if (partition == Partition::single && !friction.empty())
+    throw std::invalid_argument("friction: one velocity field has no contact to take it");
+  if (partition != Partition::single && friction.empty())
+    throw std::invalid_argument("friction: the contact of discrete fields needs the matrix between them");
+  if (partition == Partition::damage_gradient)
   {
-    if (friction.empty())
-      throw std::invalid_argument("damage-gradient fields need a friction matrix between groups");
     // Each material's damage: a damage model's column, else the phase field's.
     std::vector<DamageSource> source;
     for (std::size_t m = 0; m < _materials.size(); ++m)
@@ -126,9 +128,9 @@ Solver::Solver(Grid& grid, Particles& particles,
                                       : DamageSource::none);
     }
     _fields.emplace<DamageFields>(grid, particles, std::move(friction), std::move(source),
-                                  std::move(*damage), shape);
+                                  std::move(damage), shape);
   }
-  else if (!friction.empty())
+  else if (partition == Partition::bodies)
     _fields.emplace<BodyFields>(grid, particles, std::move(friction));
   if (!cracks)
     return;

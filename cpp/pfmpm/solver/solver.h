@@ -92,6 +92,14 @@ struct StageTimers
   double g2p = 0.0;         ///< G2P and the materials' update
 };
 
+/// The velocity-field partition of a run, chosen once (StepConfig).
+enum class Partition : int
+{
+  single = 0,         ///< one velocity field
+  bodies = 1,         ///< every body its own field, frictional contact (K&T eqs. 63-77)
+  damage_gradient = 2 ///< two fields per contact group by the damage gradient (H&H)
+};
+
 /// @brief What each step of a run does, chosen once: the time step, the
 /// phase field's parameters, the velocity-field partition, the stencil and
 /// the transfer. Every field but dt has a default.
@@ -107,16 +115,18 @@ struct StepConfig
   double tol = 1e-6;
   /// Phase-field CG iteration limit per step.
   int max_iterations = 1000;
-  /// Empty: all particles form one velocity field. Otherwise every body
-  /// (Particles::body) is its own discrete field, coupled by frictional
-  /// contact with coefficient friction[a * n + b] between bodies a and b
-  /// (n x n, n >= 2; see BodyFields); with `damage`, between contact groups
-  /// a and b (n x n, n >= 1; see DamageFields).
+  /// The velocity-field partition: one field (SingleField); every body
+  /// (Particles::body) its own discrete field (BodyFields); or two fields per
+  /// contact group chosen by the damage gradient (DamageFields).
+  Partition partition = Partition::single;
+  /// With bodies or damage_gradient, the Coulomb coefficients of the
+  /// frictional contact, friction[a * n + b] between fields a and b: bodies
+  /// (n x n, n >= 2) or contact groups (n >= 1). Empty with one field.
   std::vector<double> friction;
-  /// The damage-gradient partition's parameters, or none. A material's
-  /// damage is its `damage` column if it has one, else 1 - c if it cracks by
-  /// the phase field, else 0.
-  std::optional<DamageGradientOptions> damage;
+  /// With damage_gradient, its parameters. A material's damage is its
+  /// `damage` column if it has one, else 1 - c if it cracks by the phase
+  /// field, else 0.
+  DamageGradientOptions damage;
   /// The shape functions of the momentum transfers: B-splines, or CPDI1 on
   /// the degree-1 grid (with any partition), which adds the domain columns
   /// (ParticleDomains) and sets the grid's node block. The phase field is
@@ -143,12 +153,12 @@ struct StepConfig
 /// taken in an order fixed by the particle positions alone, so results do
 /// not depend on the thread count.
 ///
-/// The velocity-field partition is chosen once, at construction: one field;
-/// or (with a friction matrix) every body its own discrete field coupled by
-/// frictional contact (K&T eqs. 63-77), each crackable body with its own phase
-/// field; or (with damage-gradient options too) two fields per contact group
-/// chosen per (particle, node) by the damage gradient (Homel & Herbold 2017,
-/// DamageFields), each crackable group with its own phase field.
+/// The velocity-field partition is chosen once, at construction
+/// (StepConfig::partition): one field; every body its own discrete field
+/// coupled by frictional contact (K&T eqs. 63-77), each crackable body with its
+/// own phase field; or two fields per contact group chosen per (particle,
+/// node) by the damage gradient (Homel & Herbold 2017, DamageFields), each
+/// crackable group with its own phase field.
 ///
 /// With explicit time integration the internal force of a step comes from
 /// the stresses fixed at its start, so the staggered loop of Algorithm 1
