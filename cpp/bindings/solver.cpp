@@ -289,23 +289,7 @@ void bind_solver(py::module_& m)
            {
              const Energies e = s.energies();
              py::dict d;
-             d["kinetic"] = e.kinetic;
-             d["elastic"] = e.elastic;
-             d["fracture"] = e.fracture;
-             d["external_work"] = e.external_work;
-             d["friction_work"] = e.friction_work;
-             d["wall_work"] = e.wall_work;
-             d["wall_impulse"] = e.wall_impulse;
-             d["region_impulse"] = e.region_impulse;
-             d["region_work"] = e.region_work;
-             d["region_displacement"] = e.region_displacement;
-             d["pair_impulse"] = e.pair_impulse;
-             d["dissipation"] = e.dissipation;
-             d["fracture_by_body"] = e.fracture_by_field;
-             d["momentum_x"] = e.momentum[0];
-             d["momentum_y"] = e.momentum[1];
-             d["angular_momentum"] = e.angular_momentum;
-             d["mass"] = e.mass;
+             Energies::each([&](const char* name, const auto& value) { d[name] = value; }, e);
              return d;
            })
       .def(

@@ -182,25 +182,32 @@ void Solver::set_touch_fill(double fill)
   _touch_fill = fill;
 }
 
+template <class Self, class Visit>
+void Solver::each_scalar(Self& s, Visit&& visit)
+{
+  visit("time", s._time);
+  visit("step", s._step);
+  visit("external_work", s._external_work);
+  visit("wall_work", s._wall_work);
+  for (int side = 0; side < 4; ++side)
+    for (int d = 0; d < 2; ++d)
+      visit(wall_impulse_key(side, d), s._wall_impulse[side][d]);
+  for (int k = 0; k < max_regions; ++k)
+  {
+    visit(region_key(k, "work"), s._region_work[k]);
+    visit(region_key(k, "impulse/x"), s._region_impulse[k][0]);
+    visit(region_key(k, "impulse/y"), s._region_impulse[k][1]);
+    visit(region_key(k, "displacement/x"), s._region_displacement[k][0]);
+    visit(region_key(k, "displacement/y"), s._region_displacement[k][1]);
+  }
+  visit("light_nodes", s._light_nodes);
+}
+
 SolverState Solver::state() const
 {
   SolverState s;
-  s.scalars["time"] = _time;
-  s.scalars["step"] = static_cast<double>(_step);
-  s.scalars["external_work"] = _external_work;
-  s.scalars["wall_work"] = _wall_work;
-  for (int side = 0; side < 4; ++side)
-    for (int d = 0; d < 2; ++d)
-      s.scalars[wall_impulse_key(side, d)] = _wall_impulse[side][d];
-  for (int k = 0; k < max_regions; ++k)
-  {
-    s.scalars[region_key(k, "work")] = _region_work[k];
-    s.scalars[region_key(k, "impulse/x")] = _region_impulse[k][0];
-    s.scalars[region_key(k, "impulse/y")] = _region_impulse[k][1];
-    s.scalars[region_key(k, "displacement/x")] = _region_displacement[k][0];
-    s.scalars[region_key(k, "displacement/y")] = _region_displacement[k][1];
-  }
-  s.scalars["light_nodes"] = static_cast<double>(_light_nodes);
+  each_scalar(*this, [&](const std::string& key, const auto& value)
+              { s.scalars[key] = static_cast<double>(value); });
   for (std::size_t k = 0; k < _phase.size(); ++k)
   {
     PhaseFieldState pf = _phase[k].field.state();
@@ -273,24 +280,10 @@ void Solver::restore(const SolverState& state)
     for (int q = 0; q < max_field_pairs; ++q)
       _pair_impulse[q] = {impulse[2 * q], impulse[2 * q + 1]};
   }
-  _time = time;
-  _step = static_cast<std::int64_t>(step);
-  _external_work = state.scalars.at("external_work");
-  _wall_work = state.scalars.at("wall_work");
-  for (int side = 0; side < 4; ++side)
-    for (int d = 0; d < 2; ++d)
-      _wall_impulse[side][d] = state.scalars.at(wall_impulse_key(side, d));
-  for (int k = 0; k < max_regions; ++k)
-  {
-    _region_work[k] = state.scalars.at(region_key(k, "work"));
-    _region_impulse[k][0] = state.scalars.at(region_key(k, "impulse/x"));
-    _region_impulse[k][1] = state.scalars.at(region_key(k, "impulse/y"));
-    _region_displacement[k][0] = state.scalars.at(region_key(k, "displacement/x"));
-    _region_displacement[k][1] = state.scalars.at(region_key(k, "displacement/y"));
-    if (k < static_cast<int>(_grid.regions().size()))
-      _grid.move_region(static_cast<int>(k), _region_displacement[k]);
-  }
-  _light_nodes = static_cast<std::int64_t>(state.scalars.at("light_nodes"));
+  each_scalar(*this, [&](const std::string& key, auto& value)
+              { value = static_cast<std::decay_t<decltype(value)>>(state.scalars.at(key)); });
+  for (int k = 0; k < static_cast<int>(_grid.regions().size()); ++k)
+    _grid.move_region(k, _region_displacement[k]);
 }
 
 namespace

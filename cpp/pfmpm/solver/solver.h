@@ -56,6 +56,31 @@ struct Energies
   double angular_momentum = 0.0;
   double mass = 0.0;           ///< sum of M_p
   std::vector<double> fracture_by_field; ///< with discrete fields: fracture energy per field
+
+  /// @brief Call `visit(name, member)` for every entry, by the names the
+  /// bindings give them (momentum as momentum_x and momentum_y; the by-body
+  /// fracture energies as fracture_by_body): the one list of them.
+  template <class Visit, class Self>
+  static void each(Visit&& visit, Self& e)
+  {
+    visit("kinetic", e.kinetic);
+    visit("elastic", e.elastic);
+    visit("fracture", e.fracture);
+    visit("external_work", e.external_work);
+    visit("friction_work", e.friction_work);
+    visit("wall_work", e.wall_work);
+    visit("wall_impulse", e.wall_impulse);
+    visit("region_impulse", e.region_impulse);
+    visit("region_work", e.region_work);
+    visit("region_displacement", e.region_displacement);
+    visit("pair_impulse", e.pair_impulse);
+    visit("dissipation", e.dissipation);
+    visit("fracture_by_body", e.fracture_by_field);
+    visit("momentum_x", e.momentum[0]);
+    visit("momentum_y", e.momentum[1]);
+    visit("angular_momentum", e.angular_momentum);
+    visit("mass", e.mass);
+  }
 };
 
 /// @brief Everything besides the particle columns that a run carries from
@@ -300,6 +325,11 @@ private:
   void particle_to_grid(Fields& fields);
   template <class Shape, bool Affine, class Fields>
   void grid_to_particle(Fields& fields, bool stress);
+  /// @brief Call `visit(key, member)` for every scalar of the run's state
+  /// besides the phase fields' and the contact's (SolverState): the one
+  /// list that state() and restore() iterate.
+  template <class Self, class Visit>
+  static void each_scalar(Self& s, Visit&& visit);
   /// Per region, the offsets of each cell's particles of a particle region
   /// (Region::particles, the column `held_by`) in the cell sort; empty for a box.
   std::vector<std::vector<std::int64_t>> region_cells() const;
