@@ -24,5 +24,7 @@ void bind_solver(pybind11::module_& m);
 /// unit, doc, lower, upper (None where unbounded), lower_open, upper_open,
 /// choices, default (None: required, unless optional), optional, set_by.
 pybind11::dict parameter_dict(const ParameterSpec& p);
+/// A dict of numbers and words (a scene's table) as Parameters, unchecked.
+Parameters parameters_of(const pybind11::dict& values);
 
 } // namespace pfmpm::bindings

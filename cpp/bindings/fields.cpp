@@ -9,8 +9,6 @@
 #include <pybind11/stl.h>
 
 #include <limits>
-#include <map>
-#include <string>
 #include <vector>
 
 namespace py = pybind11;
@@ -41,18 +39,7 @@ void bind_fields(py::module_& m)
       "Parameters of the damage-field-gradient partition (Homel & Herbold 2017)")
       .def(py::init(
                [](std::vector<std::int32_t> groups, const py::dict& parameters)
-               {
-                 std::map<std::string, double> numbers;
-                 std::map<std::string, std::string> words;
-                 for (const auto& [key, value] : parameters)
-                 {
-                   if (py::isinstance<py::str>(value))
-                     words[key.cast<std::string>()] = value.cast<std::string>();
-                   else
-                     numbers[key.cast<std::string>()] = value.cast<double>();
-                 }
-                 return DamageGradientOptions::from(std::move(groups), Parameters(numbers, words));
-               }),
+               { return DamageGradientOptions::from(std::move(groups), parameters_of(parameters)); }),
            py::arg("groups") = std::vector<std::int32_t>{}, py::arg("parameters") = py::dict(),
            "groups: contact group of each body (empty: each body its own); parameters: the "
            "declared ones (damage_gradient_parameters()), absent ones at their defaults; a bad "

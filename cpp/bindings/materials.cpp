@@ -58,6 +58,20 @@ py::dict parameter_dict(const ParameterSpec& p)
   return d;
 }
 
+Parameters parameters_of(const py::dict& values)
+{
+  std::map<std::string, double> numbers;
+  std::map<std::string, std::string> words;
+  for (const auto& [key, value] : values)
+  {
+    if (py::isinstance<py::str>(value))
+      words[key.cast<std::string>()] = value.cast<std::string>();
+    else
+      numbers[key.cast<std::string>()] = value.cast<double>();
+  }
+  return Parameters(numbers, words);
+}
+
 void bind_materials(py::module_& m)
 {
   py::enum_<Plane>(m, "Plane").value("strain", Plane::strain).value("stress", Plane::stress);
@@ -98,18 +112,7 @@ void bind_materials(py::module_& m)
   m.def(
       "material",
       [](const std::string& model, const py::dict& parameters)
-      {
-        std::map<std::string, double> numbers;
-        std::map<std::string, std::string> words;
-        for (const auto& [key, value] : parameters)
-        {
-          if (py::isinstance<py::str>(value))
-            words[key.cast<std::string>()] = value.cast<std::string>();
-          else
-            numbers[key.cast<std::string>()] = value.cast<double>();
-        }
-        return MaterialRegistry::make(model, Parameters(numbers, words));
-      },
+      { return MaterialRegistry::make(model, parameters_of(parameters)); },
       py::arg("model"), py::arg("parameters"),
       "build the registered model `model` from a dict of numbers and words; a bad, missing or "
       "unknown key raises ValueError naming it");
