@@ -1,5 +1,6 @@
 """Write the reference tables of the parameters the core declares (the
-material models', the fracture table's and the damage-gradient partition's)
+material models', the fracture table's, the phase-field solve's and the
+damage-gradient partition's)
 into docs/scenes.md, from the declarations (pfmpm.scene.declared), between
 the lines ``<!-- declared parameters -->`` and ``<!-- /declared parameters -->``.
 
@@ -17,7 +18,8 @@ import sys
 from pathlib import Path
 
 from pfmpm import _core
-from pfmpm.scene.declared import damage_gradient_parameters, declaration, fracture_parameters, parameter_table
+from pfmpm.scene.declared import (damage_gradient_parameters, declaration, fracture_parameters,
+                                  parameter_table, phase_field_parameters)
 
 PAGE = Path(__file__).resolve().parents[1] / "docs" / "scenes.md"
 START, END = "<!-- declared parameters -->", "<!-- /declared parameters -->"
@@ -35,6 +37,8 @@ def section() -> str:
     parts += ["", "### `fracture`", "", "The phase-field table of a material that can crack (also"
               " `split`, from the model's declaration, `anisotropy` and `bound`, above).", "",
               parameter_table(fracture_parameters())]
+    parts += ["", "### `[phase_field]`", "", "The phase-field solve's settings.", "",
+              parameter_table(phase_field_parameters())]
     parts += ["", '### `[contact]` with `partition = "damage_gradient"`', "", "The damage-gradient"
               " partition's own keys (besides `groups`, `surface_detection`, `surface_threshold` and"
               " `surfaces`, above; docs/contact.md).", "", parameter_table(damage_gradient_parameters())]

@@ -84,6 +84,16 @@ void bind_solver(py::module_& m)
       },
       "the declared parameters of a material's fracture table (dicts as material_models' "
       "parameters)");
+  m.def(
+      "phase_field_parameters",
+      []()
+      {
+        py::list out;
+        for (const ParameterSpec& p : PhaseField::solver_parameters())
+          out.append(parameter_dict(p));
+        return out;
+      },
+      "the declared parameters of the phase-field solve (a scene's [phase_field] keys)");
   py::class_<Fracture>(m, "Fracture", "Fracture parameters of a material that can crack")
       .def(py::init(
                [](double Gc, double l0, double k_f, const Matrix3& gamma, Model model, bool bound)
@@ -162,8 +172,8 @@ void bind_solver(py::module_& m)
                      std::move(step));
                }),
            py::arg("grid"), py::arg("particles"), py::arg("materials"), py::arg("dt"),
-           py::arg("fracture") = std::vector<std::optional<Fracture>>{}, py::arg("tol") = 1e-6,
-           py::arg("max_iterations") = 1000, py::arg("partition") = Partition::single,
+           py::arg("fracture") = std::vector<std::optional<Fracture>>{}, py::arg("tol") = PhaseField::default_tol,
+           py::arg("max_iterations") = PhaseField::default_max_iterations, py::arg("partition") = Partition::single,
            py::arg("friction") = std::vector<double>{}, py::arg("damage") = DamageGradientOptions{}, py::arg("shape") = ShapeFunctions::bspline,
            py::arg("scale_failed") = true, py::arg("failed_c") = 0.0,
            py::arg("transfer") = TransferScheme::flip, py::keep_alive<1, 2>(),

@@ -20,6 +20,25 @@
 namespace pfmpm
 {
 
+std::vector<ParameterSpec> PhaseField::solver_parameters()
+{
+  using P = ParameterSpec;
+  return {P::number("tol", "1", "tolerance tol_c of the solve, relative to ||F|| (K&T eq. 52)")
+              .above(0.0)
+              .below(1.0)
+              .fallback(default_tol),
+          P::integer("max_iterations",
+                     "conjugate-gradient iterations allowed per step; a step that needs more stops "
+                     "the run")
+              .at_least(1.0)
+              .at_most(2147483647.0)
+              .fallback(default_max_iterations),
+          P::word("preconditioner", {"automatic", "jacobi", "ssor", "multigrid"},
+                  "of the conjugate gradients: automatic is ssor for the second-order model and "
+                  "multigrid for the fourth-order one; the bounded solve takes jacobi or ssor")
+              .fallback("automatic")};
+}
+
 std::vector<ParameterSpec> Fracture::parameters()
 {
   using P = ParameterSpec;
@@ -160,11 +179,9 @@ PhaseField::PhaseField(const Grid& grid, std::vector<std::optional<Fracture>> fr
   if (at1 && _fourth)
     throw std::invalid_argument("AT1 is solved with the second-order functional only: no "
                                 "material of its phase field may have gamma != 0");
-  if (!(tol > 0.0 && tol < 1.0))
-    throw std::invalid_argument("tol = " + text(tol) + ": must lie in (0, 1)");
-  if (max_iterations < 1)
-    throw std::invalid_argument("max_iterations = " + std::to_string(max_iterations)
-                                + ": must be >= 1");
+  const auto solver = solver_parameters();
+  declared(solver, "tol").check(tol);
+  declared(solver, "max_iterations").check(max_iterations);
   if (_active)
   {
     const std::size_t padded_nx = static_cast<std::size_t>(grid.nodes()[0] + 2 * _pad);

@@ -195,6 +195,13 @@ struct PhaseFieldState
 class PhaseField
 {
 public:
+  /// @brief The declarations of the solve's parameters, a scene's
+  /// [phase_field] keys: tol, max_iterations and preconditioner, with the
+  /// defaults StepConfig takes.
+  static std::vector<ParameterSpec> solver_parameters();
+  static constexpr double default_tol = 1e-6;
+  static constexpr int default_max_iterations = 1000;
+
   /// @param grid The background grid (kept by reference).
   /// @param fracture Per material: its fracture parameters, or none if it cannot crack.
   /// @param tol Relative residual tolerance tol_c.

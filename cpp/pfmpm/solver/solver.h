@@ -137,9 +137,9 @@ struct StepConfig
   /// Per material, its fracture parameters or none; empty: nothing cracks.
   std::vector<std::optional<Fracture>> fracture;
   /// Phase-field tolerance tol_c, relative to ||F|| (K&T eq. 52).
-  double tol = 1e-6;
+  double tol = PhaseField::default_tol;
   /// Phase-field CG iteration limit per step.
-  int max_iterations = 1000;
+  int max_iterations = PhaseField::default_max_iterations;
   /// The velocity-field partition: one field (SingleField); every body
   /// (Particles::body) its own discrete field (BodyFields); or two fields per
   /// contact group chosen by the damage gradient (DamageFields).

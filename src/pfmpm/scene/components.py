@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from .declared import check_declared, phase_field_parameters
 from .validation import (MAX_COUNT, WHOLE_TOL, SceneError, boolean, choice, integer, real, seq, store,
                          vec2)
 
@@ -20,8 +21,13 @@ SHAPES = ("bspline", "cpdi")
 averages over the particle domains (degree 1 only)."""
 
 
-PRECONDITIONERS = ("automatic", "jacobi", "ssor", "multigrid")
-"""The phase-field CG preconditioners ``[phase_field] preconditioner`` names."""
+PRECONDITIONERS = tuple(next(p["choices"] for p in phase_field_parameters() if p["name"] == "preconditioner"))
+"""The phase-field CG preconditioners ``[phase_field] preconditioner`` names (declared by the core)."""
+
+
+def _solver_default(name: str):
+    """The core's default of the phase-field solve's parameter ``name``."""
+    return next(p["default"] for p in phase_field_parameters() if p["name"] == name)
 
 TRANSFER_SCHEMES = ("flip", "apic")
 """The particle-grid transfers ``[transfer] scheme`` names: FLIP with the lumped mass
@@ -204,16 +210,13 @@ class PhaseFieldSpec:
         (``fracture.bound``, the default) takes ``"jacobi"`` or ``"ssor"``.
     """
 
-    tol: float = 1e-6
-    max_iterations: int = 1000
-    preconditioner: str = "automatic"
+    tol: float = _solver_default("tol")
+    max_iterations: int = _solver_default("max_iterations")
+    preconditioner: str = _solver_default("preconditioner")
 
     def __post_init__(self):
-        store(self, "tol", real("tol", self.tol, gt=0, lt=1))
-        store(self, "max_iterations", integer("max_iterations", self.max_iterations, ge=1))
-        if self.max_iterations > MAX_COUNT:
-            raise SceneError("max_iterations", f"must be <= {MAX_COUNT}", self.max_iterations)
-        store(self, "preconditioner", choice("preconditioner", self.preconditioner, PRECONDITIONERS))
+        for key in ("tol", "max_iterations", "preconditioner"):
+            store(self, key, check_declared(phase_field_parameters(), key, getattr(self, key)))
 
 
 @dataclass(frozen=True)

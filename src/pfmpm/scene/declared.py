@@ -1,6 +1,7 @@
 """The parameters the core declares once, in C++ (``ParameterSpec``): the
 material models' (``pfmpm._core.material_models()``), the phase field's
-(``pfmpm._core.fracture_parameters()``) and the damage-gradient partition's
+(``pfmpm._core.fracture_parameters()``), the phase-field solve's
+(``pfmpm._core.phase_field_parameters()``) and the damage-gradient partition's
 (``pfmpm._core.damage_gradient_parameters()``), and the check of a scene value
 against its declaration, with the one-line messages of
 :mod:`pfmpm.scene.validation`."""
@@ -13,7 +14,8 @@ from typing import Any
 from .. import _core
 from .validation import SceneError, choice, integer, real
 
-__all__ = ["core_models", "declaration", "fracture_parameters", "damage_gradient_parameters",
+__all__ = ["core_models", "declaration", "fracture_parameters", "phase_field_parameters",
+           "damage_gradient_parameters",
            "check_parameter", "check_declared", "parameter_table"]
 
 
@@ -42,6 +44,12 @@ def fracture_parameters() -> tuple[dict, ...]:
 
 
 @functools.cache
+def phase_field_parameters() -> tuple[dict, ...]:
+    """The declared parameters of the phase-field solve (``[phase_field]``)."""
+    return tuple(_core.phase_field_parameters())
+
+
+@functools.cache
 def damage_gradient_parameters() -> tuple[dict, ...]:
     """The declared parameters of the damage-gradient partition (``[contact]``
     keys with ``partition = "damage_gradient"``)."""
@@ -62,7 +70,7 @@ def check_parameter(p: dict, value: Any) -> Any:
     if p["lower"] is not None:
         value = integer(name, value, ge=int(p["lower"]))
     if p["upper"] is not None and value > p["upper"]:
-        raise SceneError(name, f"must be <= {p['upper']:g}", value)
+        raise SceneError(name, f"must be <= {int(p['upper'])}", value)
     return value
 
 

@@ -28,6 +28,14 @@ __all__ = ["Scene"]
 _MAX_STEPS = 2**53  # step counts beyond this are not representable exactly
 _BYTES_PER_TABLE_CELL = 128  # B-spline polynomial table, per cell of each direction
 _BYTES_PER_PARTICLE = 320  # particle state, sort and phase-field arrays, setup temporaries
+_BYTES_PER_NODE = 30
+"""Per padded grid node, the active-node tables of the step (measured 2026-12-07:
+29 bytes per node of a 2 x 8e6-cell grid with one particle, `ru_maxrss`)."""
+_BYTES_PER_CRACK_NODE = 100
+"""Per padded grid node with a phase field, besides 8 bytes per stencil entry
+of its matrix: the solution, warm start, right-hand side, diagonal and the
+solve's vectors (measured 2026-12-07: 208 bytes per node with degree 2, where
+this and the stencil give 204 + 30)."""
 
 
 @dataclass(frozen=True)
@@ -217,27 +225,32 @@ class Scene:
                     raise SceneError(f"loads[{i}].{key}", f"gives the particles of body {body.name!r}"
                                      " a force that is not finite", vector)
 
-    def _check_memory(self) -> None:
-        """Check that the core's storage for the grid and particles fits in this machine's memory.
-
-        A rough upper estimate (see the ``_BYTES_*`` constants), so that a
-        scene too large to run fails here, naming the key to change, rather
-        than in an allocation inside the C++ core.
-        """
+    def memory_estimate(self) -> tuple[float, float, list[int]]:
+        """A rough upper estimate of the core's storage for this scene, in
+        bytes: (grid, particles, the particle bound of each body), from the
+        ``_BYTES_*`` constants."""
         (nx, ny), p = self.grid.cells, self.grid.degree
         nodes = (nx + 2 * p) * (ny + 2 * p)  # the phase field's padded layout
         stencil = ((2 * p + 1) ** 2 + 1) // 2
         cracks = any(m.fracture is not None for m in self.materials)
         grid = (_BYTES_PER_TABLE_CELL * (nx + ny) + (8 + 8 * (os.cpu_count() or 1)) * nx * ny
-                + nodes * (4 + (24 + 8 * stencil if cracks else 0)))
+                + nodes * (_BYTES_PER_NODE + (_BYTES_PER_CRACK_NODE + 8 * stencil if cracks else 0)))
         counts = []
         for body in self.bodies:
             (i0, i1), (j0, j1) = seeding.cell_range(body, self.grid)
             counts.append((i1 - i0) * (j1 - j0) * body.particles_per_cell ** 2)
-        need = grid + _BYTES_PER_PARTICLE * sum(counts)
+        return grid, _BYTES_PER_PARTICLE * sum(counts), counts
+
+    def _check_memory(self) -> None:
+        """Check that the core's storage for the grid and particles fits in
+        this machine's memory (:meth:`memory_estimate`), so that a scene too
+        large to run fails here, naming the key to change, rather than in an
+        allocation inside the C++ core."""
+        grid, particles, counts = self.memory_estimate()
+        need = grid + particles
         have = os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
         if need > have:
-            i = int(np.argmax(counts))
+            (nx, ny), i = self.grid.cells, int(np.argmax(counts))
             key = "grid.size" if grid >= _BYTES_PER_PARTICLE * counts[i] else f"bodies[{i}].particles_per_cell"
             raise SceneError(key, f"{nx} x {ny} cells and up to {sum(counts):.3g} particles need about"
                                   f" {need / 1e9:.3g} GB, more than this machine's {have / 1e9:.3g} GB")
