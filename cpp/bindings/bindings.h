@@ -6,6 +6,8 @@
 
 #include <pybind11/pybind11.h>
 
+#include <vector>
+
 namespace pfmpm::bindings
 {
 
@@ -24,6 +26,8 @@ void bind_solver(pybind11::module_& m);
 /// unit, doc, lower, upper (None where unbounded), lower_open, upper_open,
 /// choices, default (None: required, unless optional), optional, set_by.
 pybind11::dict parameter_dict(const ParameterSpec& p);
+/// Declarations as a list of parameter_dict()s.
+pybind11::list parameter_list(const std::vector<ParameterSpec>& specs);
 /// A dict of numbers and words (a scene's table) as Parameters, unchecked.
 Parameters parameters_of(const pybind11::dict& values);
 

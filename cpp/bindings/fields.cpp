@@ -25,13 +25,7 @@ void bind_fields(py::module_& m)
         "the index of the pair of fields a < b in Energies' pair_impulse");
   m.def(
       "damage_gradient_parameters",
-      []()
-      {
-        py::list out;
-        for (const ParameterSpec& p : DamageGradientOptions::parameters())
-          out.append(parameter_dict(p));
-        return out;
-      },
+      []() { return parameter_list(DamageGradientOptions::parameters()); },
       "the declared parameters of the damage-gradient partition (dicts as material_models' "
       "parameters)");
   py::class_<DamageGradientOptions>(

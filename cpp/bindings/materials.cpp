@@ -58,6 +58,14 @@ py::dict parameter_dict(const ParameterSpec& p)
   return d;
 }
 
+py::list parameter_list(const std::vector<ParameterSpec>& specs)
+{
+  py::list out;
+  for (const ParameterSpec& p : specs)
+    out.append(parameter_dict(p));
+  return out;
+}
+
 Parameters parameters_of(const py::dict& values)
 {
   std::map<std::string, double> numbers;
@@ -124,11 +132,8 @@ void bind_materials(py::module_& m)
         for (const std::string& name : MaterialRegistry::models())
         {
           const MaterialDeclaration& d = MaterialRegistry::declaration(name);
-          py::list parameters;
-          for (const ParameterSpec& p : d.parameters)
-            parameters.append(parameter_dict(p));
           out[py::str(name)] = py::dict(py::arg("doc") = d.doc, py::arg("phase_field") = d.phase_field,
-                                        py::arg("parameters") = parameters);
+                                        py::arg("parameters") = parameter_list(d.parameters));
         }
         return out;
       },

@@ -75,24 +75,12 @@ void bind_solver(py::module_& m)
       .value("AT1", Model::AT1);
   m.def(
       "fracture_parameters",
-      []()
-      {
-        py::list out;
-        for (const ParameterSpec& p : Fracture::parameters())
-          out.append(parameter_dict(p));
-        return out;
-      },
+      []() { return parameter_list(Fracture::parameters()); },
       "the declared parameters of a material's fracture table (dicts as material_models' "
       "parameters)");
   m.def(
       "phase_field_parameters",
-      []()
-      {
-        py::list out;
-        for (const ParameterSpec& p : PhaseField::solver_parameters())
-          out.append(parameter_dict(p));
-        return out;
-      },
+      []() { return parameter_list(PhaseField::solver_parameters()); },
       "the declared parameters of the phase-field solve (a scene's [phase_field] keys)");
   py::class_<Fracture>(m, "Fracture", "Fracture parameters of a material that can crack")
       .def(py::init(

@@ -131,14 +131,14 @@ void Grid::activate(const std::vector<std::int64_t>& cell_start,
   if (!has_holds())
     return;
   // The nodes each particle region's particles reach, as the active set of
-  // those particles alone.
-  std::vector<ActiveNodes> reach(_regions.size());
+  // those particles alone (its tables kept from step to step).
+  _reach.resize(_regions.size());
   for (std::size_t k = 0; k < _regions.size(); ++k)
     if (_regions[k].particles)
     {
       if (k >= region_cells.size() || region_cells[k].empty())
         throw std::logic_error("activate() needs the cells of particle region " + std::to_string(k));
-      reach[k].activate(*this, region_cells[k], _block);
+      _reach[k].activate(*this, region_cells[k], _block);
     }
   // Open knot vectors interpolate at the ends: only the first and last node of
   // each row and column carry the boundary value, so walls act on them alone.
@@ -164,7 +164,7 @@ void Grid::activate(const std::vector<std::int64_t>& cell_start,
     {
       const Region& r = _regions[k];
       const double gx = _basis[0].greville(ix) - r.offset[0], gy = _basis[1].greville(iy) - r.offset[1];
-      const bool in = r.particles ? reach[k].index(ix, iy) >= 0
+      const bool in = r.particles ? _reach[k].index(ix, iy) >= 0
                                   : gx >= r.min[0] && gx <= r.max[0] && gy >= r.min[1] && gy <= r.max[1];
       if (in)
         for (int d = 0; d < 2; ++d)

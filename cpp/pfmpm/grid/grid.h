@@ -196,6 +196,7 @@ private:
   std::vector<Region> _regions;
   std::array<std::array<double, 2>, max_holders> _velocity{};
   ActiveNodes _active;
+  std::vector<ActiveNodes> _reach;     // per region: the nodes a particle region's particles reach
   std::vector<NodeHold> _constraints; // per active node
 };
 

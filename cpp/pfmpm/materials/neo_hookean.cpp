@@ -28,6 +28,9 @@ std::vector<ParameterSpec> neo_hookean_parameters()
               .at_least(1.0)
               .at_most(1000.0)
               .fallback(1.0),
+          P::word("plane", {"strain"}, "the 2D kinematic assumption: plane strain only (F_33 = 1)")
+              .fallback("strain")
+              .from("plane"),
           P::word("damage", {"none", "rankine", "time_to_failure"},
                   "the damage model: Rankine softening (H&H eq. 23) or time to failure "
                   "(H&H eq. 24)")

@@ -397,7 +397,7 @@ void Solver::bind()
     }
 }
 
-std::vector<std::vector<std::int64_t>> Solver::region_cells() const
+const std::vector<std::vector<std::int64_t>>& Solver::region_cells()
 {
   const auto& regions = _grid.regions();
   const std::vector<std::int64_t>& start = _sort.cell_start();
@@ -406,12 +406,15 @@ std::vector<std::vector<std::int64_t>> Solver::region_cells() const
   if (!column)
     throw std::logic_error("particle regions need the particle column held_by");
   const std::int32_t* held_by = column->i32.data();
-  std::vector<std::vector<std::int64_t>> cells(regions.size());
+  _region_cells.resize(regions.size());
   for (std::size_t k = 0; k < regions.size(); ++k)
   {
+    std::vector<std::int64_t>& offsets = _region_cells[k];
     if (!regions[k].particles)
+    {
+      offsets.clear();
       continue;
-    std::vector<std::int64_t>& offsets = cells[k];
+    }
     offsets.assign(start.size(), 0);
     for (std::size_t c = 0; c + 1 < start.size(); ++c)
     {
@@ -421,7 +424,7 @@ std::vector<std::vector<std::int64_t>> Solver::region_cells() const
       offsets[c + 1] = offsets[c] + members;
     }
   }
-  return cells;
+  return _region_cells;
 }
 
 template <class Shape, class Fields>

@@ -331,8 +331,9 @@ private:
   template <class Self, class Visit>
   static void each_scalar(Self& s, Visit&& visit);
   /// Per region, the offsets of each cell's particles of a particle region
-  /// (Region::particles, the column `held_by`) in the cell sort; empty for a box.
-  std::vector<std::vector<std::int64_t>> region_cells() const;
+  /// (Region::particles, the column `held_by`) in the cell sort; empty for a
+  /// box. Kept in _region_cells from step to step.
+  const std::vector<std::vector<std::int64_t>>& region_cells();
   /// With CPDI: at t = 0, that no domain is wider than a cell; then set the
   /// step's integration domains and check that each fits its stencil.
   void check_domains() const;
@@ -403,6 +404,7 @@ private:
   std::vector<NodeSums> _sums;             // per slot
   std::vector<SurfaceSums> _surface;       // per slot, at contact cells
   std::vector<NodeKinematics> _kinematics; // per slot
+  std::vector<std::vector<std::int64_t>> _region_cells; // per region (region_cells)
   StageTimers _timers;
   bool _adaptive_threads = true;
   ThreadGovernor _threads;

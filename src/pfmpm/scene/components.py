@@ -7,7 +7,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from .declared import check_declared, phase_field_parameters
+from .declared import check_declared, parameter, phase_field_parameters
 from .validation import (MAX_COUNT, WHOLE_TOL, SceneError, boolean, choice, integer, real, seq, store,
                          vec2)
 
@@ -21,13 +21,13 @@ SHAPES = ("bspline", "cpdi")
 averages over the particle domains (degree 1 only)."""
 
 
-PRECONDITIONERS = tuple(next(p["choices"] for p in phase_field_parameters() if p["name"] == "preconditioner"))
+PRECONDITIONERS = tuple(parameter(phase_field_parameters(), "preconditioner")["choices"])
 """The phase-field CG preconditioners ``[phase_field] preconditioner`` names (declared by the core)."""
 
 
 def _solver_default(name: str):
     """The core's default of the phase-field solve's parameter ``name``."""
-    return next(p["default"] for p in phase_field_parameters() if p["name"] == name)
+    return parameter(phase_field_parameters(), name)["default"]
 
 TRANSFER_SCHEMES = ("flip", "apic")
 """The particle-grid transfers ``[transfer] scheme`` names: FLIP with the lumped mass

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .declared import check_declared, damage_gradient_parameters
+from .declared import check_declared, damage_gradient_parameters, parameter
 from .shapes import SHAPES, Shape
 from .validation import SceneError, choice, real, seq, store, text
 
@@ -23,10 +23,10 @@ SURFACE_DETECTION = ("none", "kernel_sum")
 
 def _default(name: str):
     """The core's default of the damage-gradient parameter ``name``."""
-    return next(p["default"] for p in damage_gradient_parameters() if p["name"] == name)
+    return parameter(damage_gradient_parameters(), name)["default"]
 
 
-PARTING = tuple(next(p["choices"] for p in damage_gradient_parameters() if p["name"] == "parting"))
+PARTING = tuple(parameter(damage_gradient_parameters(), "parting")["choices"])
 """When a group's fields may part at a node: once its band has stopped softening, or by H&H eq. 21
 alone (declared by the core, as the partition's other parameters)."""
 

@@ -16,7 +16,7 @@ from .validation import SceneError, choice, integer, real
 
 __all__ = ["core_models", "declaration", "fracture_parameters", "phase_field_parameters",
            "damage_gradient_parameters",
-           "check_parameter", "check_declared", "parameter_table"]
+           "parameter", "check_parameter", "check_declared", "parameter_table"]
 
 
 @functools.cache
@@ -74,13 +74,18 @@ def check_parameter(p: dict, value: Any) -> Any:
     return value
 
 
+def parameter(parameters, name: str) -> dict:
+    """The declared parameter called ``name`` among ``parameters``."""
+    for p in parameters:
+        if p["name"] == name:
+            return p
+    raise KeyError(f"no parameter {name} is declared")
+
+
 def check_declared(parameters, name: str, value: Any) -> Any:
     """``value`` checked against the parameter called ``name`` among ``parameters``
     (declared dicts)."""
-    for p in parameters:
-        if p["name"] == name:
-            return check_parameter(p, value)
-    raise KeyError(f"no parameter {name} is declared")
+    return check_parameter(parameter(parameters, name), value)
 
 
 def parameter_table(parameters) -> str:

@@ -32,7 +32,7 @@ from .. import _core
 from ..anisotropy import check_gamma
 from . import declared
 from .damage import DamageSpec
-from .declared import check_declared, check_parameter, declaration
+from .declared import check_declared, check_parameter, declaration, parameter
 from .validation import SceneError, at, boolean, choice, integer, real, seq, store, text
 
 if TYPE_CHECKING:
@@ -44,9 +44,9 @@ __all__ = ["PLANES", "SPLITS", "FRACTURE_MODELS", "SYMMETRIES", "MATERIALS",
            "FractureSpec", "Anisotropy", "wave_speed", "rayleigh_speed"]
 
 PLANES = ("strain", "stress")
-SPLITS = tuple(next(p["choices"] for p in declaration("linear_elastic")["parameters"] if p["name"] == "split"))
+SPLITS = tuple(parameter(declaration("linear_elastic")["parameters"], "split")["choices"])
 """The energy splits (declared by the core's ``linear_elastic``)."""
-FRACTURE_MODELS = tuple(next(p["choices"] for p in declared.fracture_parameters() if p["name"] == "model"))
+FRACTURE_MODELS = tuple(parameter(declared.fracture_parameters(), "model")["choices"])
 """The phase-field models (declared by the core's fracture parameters)."""
 SYMMETRIES = ("isotropic2", "isotropic4", "cubic", "orthotropic", "general")
 
@@ -299,42 +299,36 @@ class DeclaredMaterial(MaterialSpec):
     def _check_declared(self) -> None:
         """Check the name and the declared parameters of the table (for ``__post_init__``)."""
         store(self, "name", text("name", self.name))
-        for p in self._table_parameters():
+        for p in _table_parameters(self.model):
             value = getattr(self, p["name"])
             if value is not None or p["default"] is not None:
                 store(self, p["name"], check_parameter(p, value))
 
-    @classmethod
-    def _table_parameters(cls) -> list[dict]:
-        """The declared parameters that are keys of the material's table."""
-        return [p for p in declaration(cls.model)["parameters"] if not p["set_by"]]
-
-    def _table_values(self) -> dict[str, float | str]:
-        """The values of the table's declared parameters that are given."""
-        return {p["name"]: getattr(self, p["name"]) for p in self._table_parameters()
-                if getattr(self, p["name"]) is not None}
-
-    def _core(self, plane: str):
-        """The core object of the table's parameters in ``plane``."""
-        values = self._table_values()
-        if any(p["set_by"] == "plane" for p in declaration(self.model)["parameters"]):
+    def _values(self, plane: str) -> dict[str, float | str]:
+        """The given values of the table's declared parameters, with ``plane``
+        where the model declares one (a scene sets it)."""
+        values = {p["name"]: getattr(self, p["name"]) for p in _table_parameters(self.model)
+                  if getattr(self, p["name"]) is not None}
+        if self._plane() is not None:
             values["plane"] = plane
-        return _core.material(self.model, values)
+        return values
 
-    def wave_speed(self, plane: str) -> float:
-        """P-wave speed of the undeformed material in ``plane``, the core model's."""
-        return self._core(plane).wave_speed
-
-    def rayleigh_speed(self) -> float:
-        """Rayleigh wave speed of the undeformed material, the core model's."""
-        return self._core(self._planes()[0]).rayleigh_speed
+    def _plane(self) -> dict | None:
+        """The model's declared parameter set by the scene's ``plane``, or None."""
+        return next((p for p in declaration(self.model)["parameters"] if p["set_by"] == "plane"), None)
 
     def _planes(self) -> tuple[str, ...]:
         """The planes the model takes (all, unless it declares ``plane`` with fewer)."""
-        for p in declaration(self.model)["parameters"]:
-            if p["set_by"] == "plane":
-                return tuple(p["choices"])
-        return PLANES
+        plane = self._plane()
+        return PLANES if plane is None else tuple(plane["choices"])
+
+    def wave_speed(self, plane: str) -> float:
+        """P-wave speed of the undeformed material in ``plane``, the core model's."""
+        return _core.material(self.model, self._values(plane)).wave_speed
+
+    def rayleigh_speed(self) -> float:
+        """Rayleigh wave speed of the undeformed material, the core model's."""
+        return _core.material(self.model, self._values(self._planes()[0])).rayleigh_speed
 
     def check_scene(self, scene: "Scene") -> None:
         """The scene's plane is one the model takes."""
@@ -344,10 +338,12 @@ class DeclaredMaterial(MaterialSpec):
 
     def core_parameters(self, scene: "Scene") -> dict[str, float | str]:
         """The table's declared parameters, with the scene's plane where declared."""
-        values = self._table_values()
-        if any(p["set_by"] == "plane" for p in declaration(self.model)["parameters"]):
-            values["plane"] = scene.plane
-        return values
+        return self._values(scene.plane)
+
+
+def _table_parameters(model: str) -> list[dict]:
+    """The declared parameters of ``model`` that are keys of its material table."""
+    return [p for p in declaration(model)["parameters"] if not p["set_by"]]
 
 
 def declared_class(model: str) -> type[DeclaredMaterial]:
@@ -356,7 +352,7 @@ def declared_class(model: str) -> type[DeclaredMaterial]:
     first), and ``fracture``, which only a model that declares a phase-field
     coupling accepts."""
     d = declaration(model)
-    table = [p for p in d["parameters"] if not p["set_by"]]
+    table = _table_parameters(model)
     fields: list = [("name", str)]
     fields += [(p["name"], str if p["kind"] == "word" else float) for p in table
                if p["default"] is None and not p["optional"]]
@@ -415,8 +411,7 @@ class LinearElasticSpec(DeclaredMaterial):
 
     def core_parameters(self, scene: "Scene") -> dict[str, float | str]:
         """E, nu, density, the plane and the energy split of the fracture table."""
-        return {"E": self.E, "nu": self.nu, "density": self.density, "plane": scene.plane,
-                "split": self.fracture.split if self.fracture else "none"}
+        return {**self._values(scene.plane), "split": self.fracture.split if self.fracture else "none"}
 
 
 @register_material
@@ -471,19 +466,15 @@ class NeoHookeanSpec(DeclaredMaterial):
                              " give it a damage table instead")
 
     def check_scene(self, scene: "Scene") -> None:
-        """Plane strain only; the damage parameters against the grid (l_ch)."""
-        if scene.plane != "strain":
-            raise SceneError("model", f"is plane strain only (the scene has plane = {scene.plane!r})",
-                             self.model)
+        """Plane strain only (its declaration's); the damage parameters against the grid (l_ch)."""
+        super().check_scene(scene)
         if self.damage is not None:
             with at("damage"):
                 self.damage.check(self.E, scene.grid)
 
     def core_parameters(self, scene: "Scene") -> dict[str, float | str]:
-        """E, nu, density, the integration of F and the damage parameters."""
-        out: dict[str, float | str] = {"E": self.E, "nu": self.nu, "density": self.density,
-                                       "integration": self.integration,
-                                       "substeps": float(self.substeps)}
+        """E, nu, density, the integration of F, the plane and the damage parameters."""
+        out = self._values(scene.plane)
         if self.damage is not None:
             out.update(self.damage.core_parameters(scene.grid))
         return out
