@@ -2,7 +2,7 @@
 
 An MPM run's frames are its particle series (``particles.pvd``), a FEM run's
 its ``fields.xdmf``; each frame is drawn as an image whose pixels take the
-value of the nearest point (:func:`pfmpm.run.nearest_image`), with matplotlib's
+value of the nearest point (:func:`pfmpm.observe.nearest_image`), with matplotlib's
 animation writers: GIF through Pillow, MP4 through ffmpeg where it is installed.
 """
 
@@ -15,8 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .observe import nearest_image
 from .plots import PHASE_FIELD_LABEL, plt
-from .run import nearest_image
 from .scene.units import unit_system
 
 __all__ = ["frames", "animate"]

@@ -170,7 +170,7 @@ def crack_path(arms, xy: np.ndarray, times: np.ndarray, png_path: Path,
 
 @_closing
 def phase_field(snapshots, png_path: Path, polar=None, units: UnitSystem = NO_UNITS) -> None:
-    """Phase-field images of a :class:`~pfmpm.run.Snapshots`, one panel each.
+    """Phase-field images of a :class:`~pfmpm.observe.Snapshots`, one panel each.
 
     ``polar``: optional ``(centres, table)``, a :func:`pfmpm.anisotropy.polar_table`
     whose ``1/G_c(theta)`` curve is drawn around each centre, its largest

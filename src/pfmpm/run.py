@@ -52,7 +52,6 @@ import numpy as np
 
 from . import _core, run_folder
 from .observe import Observer, default_observers
-from .observe import Snapshots, nearest_image  # noqa: F401 (their old home: pfmpm.animate imports from here)
 from .output import CsvLog
 from .scene import Scene
 
