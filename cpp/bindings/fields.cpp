@@ -48,7 +48,7 @@ void bind_fields(py::module_& m)
 
   m.def(
       "kernel_damage_field",
-      [](const Grid& grid, py::array_t<double, py::array::c_style | py::array::forcecast> x,
+      [](const Grid<2>& grid, py::array_t<double, py::array::c_style | py::array::forcecast> x,
          py::array_t<double, py::array::c_style | py::array::forcecast> damage, double radius)
       {
         if (x.ndim() != 2 || x.shape(1) != 2)

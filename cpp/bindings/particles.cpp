@@ -45,8 +45,10 @@ void bind_particles(py::module_& m)
   py::class_<Particles>(m, "Particles",
                         "Material points: core arrays and the named columns of a scene's models. "
                         "Every column is an attribute, a zero-copy numpy view (N,) or (N, k).")
-      .def(py::init<std::size_t>(), py::arg("n"))
+      .def(py::init<std::size_t, int>(), py::arg("n"), py::arg("dim") = 2,
+           "n particles at rest in dim (2 or 3) directions")
       .def("__len__", &Particles::size)
+      .def_property_readonly("dim", &Particles::dim, "the directions: 2 or 3")
       .def("__getattr__", [](py::object self, const std::string& name)
            { return view(entry(self.cast<Particles&>(), name), self); })
       .def(

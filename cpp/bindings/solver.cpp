@@ -138,7 +138,7 @@ void bind_solver(py::module_& m)
 
   py::class_<Solver>(m, "Solver", "Explicit MPM stepping with a staggered phase field (Algorithm 1)")
       .def(py::init(
-               [](Grid& grid, Particles& particles,
+               [](Grid<2>& grid, Particles& particles,
                   const std::vector<std::shared_ptr<Material>>& materials, double dt,
                   std::vector<std::optional<Fracture>> fracture, double tol, int max_iterations,
                   Partition partition, std::vector<double> friction, DamageGradientOptions damage,

@@ -28,7 +28,7 @@ void expect_bspline_frame()
 {
   using S = BSplineStencil<2, P>;
   const double h = 0.5;
-  const Grid grid(P, {12, 12}, h, {-1.0, -1.0});
+  const Grid<2> grid(P, {12, 12}, h, {-1.0, -1.0});
   const std::array<const BSpline1D*, 2> basis{&grid.basis(0), &grid.basis(1)};
   for (int k = 0; k < 12 * 37; ++k)
   {
@@ -36,7 +36,7 @@ void expect_bspline_frame()
     const int cell[2] = {basis[0]->cell(x[0]), basis[1]->cell(x[1])};
     S s;
     s.evaluate(basis, cell, x);
-    const AffineFrame<S> f = affine_frame<true>(s, BlockPoints<S>(grid, Cell{cell[0], cell[1], 0, 0, 0}));
+    const AffineFrame<S> f = affine_frame<true>(s, BlockPoints<S>(grid, Cell<2>{{cell[0], cell[1]}, 0, 0, 0}));
     EXPECT_EQ(f.D[1], 0.0);
     for (int d = 0; d < 2; ++d)
     {
@@ -70,7 +70,7 @@ TEST(Apic, BSplineInertiaIsAQuarterOrAThirdOfHSquaredAwayFromTheEnds)
 TEST(Apic, LinearAffineWeightsAreTheShapeFunctionGradients)
 {
   // N_i D_p^-1 (x_i - x_p): the affine velocity of B_p = I is D_p^-1.
-  const Grid grid(1, {10, 10}, 0.25, {0.0, 0.0});
+  const Grid<2> grid(1, {10, 10}, 0.25, {0.0, 0.0});
   const std::array<const BSpline1D*, 2> basis{&grid.basis(0), &grid.basis(1)};
   using S = BSplineStencil<2, 1>;
   const double identity[4] = {1.0, 0.0, 0.0, 1.0};
@@ -80,7 +80,7 @@ TEST(Apic, LinearAffineWeightsAreTheShapeFunctionGradients)
     const int cell[2] = {4, 2};
     S s;
     s.evaluate(basis, cell, x);
-    const AffineFrame<S> f = affine_frame<true>(s, BlockPoints<S>(grid, Cell{4, 2, 42, 0, 0}));
+    const AffineFrame<S> f = affine_frame<true>(s, BlockPoints<S>(grid, Cell<2>{{4, 2}, 42, 0, 0}));
     EXPECT_NEAR(f.D[0], fx * (1.0 - fx) * 0.0625, 1e-16);
     EXPECT_NEAR(f.D[2], 0.37 * 0.63 * 0.0625, 1e-16);
     double C[4];
@@ -100,13 +100,13 @@ TEST(Apic, CpdiInertiaIsTheCornersMeanPlusTheDomain)
   // A sheared domain across cell faces: D_p = 1/4 sum_c D_lin(x_c) + r1 r1^T + r2 r2^T,
   // D_lin(x) = diag(xi (1 - xi), eta (1 - eta)) h^2, and the offsets' first moment is zero.
   const double h = 0.25;
-  const Grid grid(1, {10, 10}, h, {0.0, 0.0});
+  const Grid<2> grid(1, {10, 10}, h, {0.0, 0.0});
   const std::array<const BSpline1D*, 2> basis{&grid.basis(0), &grid.basis(1)};
   const double x[2] = {1.07, 0.61}, r1[2] = {0.09, 0.03}, r2[2] = {-0.04, 0.1};
   const int cell[2] = {4, 2};
   CpdiStencil s;
   s.evaluate(basis, cell, x, r1, r2);
-  const AffineFrame<CpdiStencil> f = affine_frame<true>(s, BlockPoints<CpdiStencil>(grid, Cell{4, 2, 42, 0, 0}));
+  const AffineFrame<CpdiStencil> f = affine_frame<true>(s, BlockPoints<CpdiStencil>(grid, Cell<2>{{4, 2}, 42, 0, 0}));
   double expect[3] = {r1[0] * r1[0] + r2[0] * r2[0], r1[0] * r1[1] + r2[0] * r2[1],
                       r1[1] * r1[1] + r2[1] * r2[1]};
   for (int c = 0; c < 4; ++c)
@@ -153,7 +153,7 @@ TEST_P(ApicDegree, AStepCarriesAnAffineFieldAndKeepsAngularMomentum)
   // that the stretching builds: the angular momentum (the affine part
   // included) and the momentum stay to round-off.
   const int degree = GetParam();
-  Grid grid(degree, {16, 16}, 0.25, {0.0, 0.0});
+  Grid<2> grid(degree, {16, 16}, 0.25, {0.0, 0.0});
   std::vector<double> xs;
   for (double x = 0.0625; x < 2.0; x += 0.125)
     for (double y = 0.0625; y < 1.5; y += 0.125)

@@ -63,7 +63,7 @@ class ContactDegree : public ::testing::TestWithParam<int>
 
 TEST_P(ContactDegree, CollisionConservesMomentumAndPassesChecks)
 {
-  Grid grid(GetParam(), {32, 24}, 0.25, {0.0, 0.0});
+  Grid<2> grid(GetParam(), {32, 24}, 0.25, {0.0, 0.0});
   Particles P = make_disks(oblique, 0.125);
   StepConfig step(2e-3);
   step.friction = {0.0, 0.3, 0.3, 0.0};
@@ -95,7 +95,7 @@ TEST_P(ContactDegree, ThreadCountDoesNotChangeBits)
   auto run = [](int threads)
   {
     omp_set_num_threads(threads);
-    Grid grid(GetParam(), {32, 24}, 0.25, {0.0, 0.0});
+    Grid<2> grid(GetParam(), {32, 24}, 0.25, {0.0, 0.0});
     Particles P = make_disks(oblique, 0.125);
     add_model_columns(P, true);
     for (std::size_t i = 0; i < P.size(); ++i)
@@ -129,7 +129,7 @@ TEST_P(ContactDegree, BodiesThatNeverMeetRunAsOneField)
   const std::vector<Disk> apart = {{2.0, 3.0, 1.0, -0.2, 0.1}, {6.0, 3.0, 1.0, 0.3, 0.0}};
   auto run = [&](std::vector<double> friction)
   {
-    Grid grid(GetParam(), {32, 24}, 0.25, {0.0, 0.0});
+    Grid<2> grid(GetParam(), {32, 24}, 0.25, {0.0, 0.0});
     Particles P = make_disks(apart, 0.125);
     add_model_columns(P, false);
     for (std::size_t i = 0; i < P.size(); ++i)
@@ -156,7 +156,7 @@ INSTANTIATE_TEST_SUITE_P(Degrees, ContactDegree, ::testing::Values(1, 2, 3));
 
 TEST(Contact, BadFrictionIsRefused)
 {
-  Grid grid(2, {8, 8}, 1.0, {0.0, 0.0});
+  Grid<2> grid(2, {8, 8}, 1.0, {0.0, 0.0});
   Particles P(1);
   P.x = {4.0, 4.0};
   P.mass = {1.0};
@@ -206,34 +206,34 @@ Correction correct(const std::vector<NodeField>& fields, const std::vector<doubl
 {
   const int n = static_cast<int>(fields.size());
   const int nfields = static_cast<int>(std::lround(std::sqrt(friction.size())));
-  std::vector<NodeSums> sums(n);
+  std::vector<NodeSums<2>> sums(n);
   std::vector<SurfaceSums> surface(n);
   std::vector<std::int32_t> field(n);
-  std::vector<NodeKinematics> k(n);
+  std::vector<NodeKinematics<2>> k(n);
   Correction c;
   for (int j = 0; j < n; ++j)
   {
     const NodeField& f = fields[j];
-    sums[j] = NodeSums{f.m, f.m * f.vx, f.m * f.vy, 0.0, 0.0, 0.0, 0.0};
+    sums[j] = NodeSums<2>{f.m, {f.m * f.vx, f.m * f.vy}, {0.0, 0.0}, {0.0, 0.0}};
     surface[j] = SurfaceSums{f.gx, f.gy, f.V, 0.0, 0.0};
     field[j] = f.field;
-    const double v[2] = {sums[j].px / f.m, sums[j].py / f.m}; // the trial velocity (eq. 64)
+    const double v[2] = {sums[j].p[0] / f.m, sums[j].p[1] / f.m}; // the trial velocity (eq. 64)
     c.ke0 += 0.5 * f.m * (v[0] * v[0] + v[1] * v[1]);
     c.p0[0] += f.m * v[0];
     c.p0[1] += f.m * v[1];
     c.pscale += f.m * std::hypot(v[0], v[1]);
   }
-  std::array<double, grid_update_sums> acc{};
+  std::array<double, GridUpdate<2>::size> acc{};
   update_contact_node(n, sums.data(), surface.data(), field.data(), friction.data(), nfields,
                       touch_fill, NodeHold{}, nullptr, dt, 1e-300, k.data(), acc.data());
   for (int j = 0; j < n; ++j)
   {
-    c.ke1 += 0.5 * fields[j].m * (k[j].vx * k[j].vx + k[j].vy * k[j].vy);
-    c.p1[0] += fields[j].m * k[j].vx;
-    c.p1[1] += fields[j].m * k[j].vy;
+    c.ke1 += 0.5 * fields[j].m * (k[j].v[0] * k[j].v[0] + k[j].v[1] * k[j].v[1]);
+    c.p1[0] += fields[j].m * k[j].v[0];
+    c.p1[1] += fields[j].m * k[j].v[1];
   }
   for (int i = 0; i < contact_counts; ++i)
-    c.count[i] = acc[sum_contact + i];
+    c.count[i] = acc[GridUpdate<2>::contact + i];
   return c;
 }
 

@@ -41,7 +41,7 @@ const double centres[][2] = {{2.37, 1.81}, {2.5, 2.0}, {0.26, 0.3}, {4.7, 4.74},
 
 TEST(Cpdi, PartitionOfUnityAndLinearFields)
 {
-  const Grid grid(1, {10, 10}, h, {-0.25, 0.0});
+  const Grid<2> grid(1, {10, 10}, h, {-0.25, 0.0});
   const std::array<const BSpline1D*, 2> basis{&grid.basis(0), &grid.basis(1)};
   const auto nodes = grid.nodes();
   for (const auto& r : domains)
@@ -85,7 +85,7 @@ TEST(Cpdi, UndeformedDomainAveragesTheHatFunctions)
   // A domain inside one cell: Sbar_i is the exact mean of the bilinear hat
   // over the domain, which for a hat linear in each direction is its value
   // at the centre; grad Sbar_i is then grad S_i at the centre.
-  const Grid grid(1, {10, 10}, h, {0.0, 0.0});
+  const Grid<2> grid(1, {10, 10}, h, {0.0, 0.0});
   const std::array<const BSpline1D*, 2> basis{&grid.basis(0), &grid.basis(1)};
   const double x[2] = {2.3, 1.2}, r1[2] = {0.06, 0.0}, r2[2] = {0.0, 0.09};
   const int cell[2] = {4, 2};
@@ -110,7 +110,7 @@ namespace
 /// vary from particle to particle, on a degree-1 CPDI solver.
 struct Disk
 {
-  Grid grid{1, {40, 40}, 0.25, {-1.0, -2.0}};
+  Grid<2> grid{1, {40, 40}, 0.25, {-1.0, -2.0}};
   Particles P{0};
   std::unique_ptr<Solver> solver;
 
@@ -211,7 +211,7 @@ TEST(Cpdi, FailedDomainsAreScaledToACell)
   }
   P.f64("damage")[1] = 1.0;
   P.f64("damage")[2] = 0.99;
-  const Grid grid(1, {10, 10}, h, {0.0, 0.0});
+  const Grid<2> grid(1, {10, 10}, h, {0.0, 0.0});
   ParticleDomains domains(h, DomainScaling{true, 0.0});
   domains.bind(P);
   EXPECT_EQ(domains.update(grid, P.x.data(), 3), 3u);
@@ -240,7 +240,7 @@ TEST(Cpdi, BadInputIsRefused)
 {
   Disk disk;
   // Degree 2.
-  Grid quadratic(2, {10, 10}, 0.5, {0.0, 0.0});
+  Grid<2> quadratic(2, {10, 10}, 0.5, {0.0, 0.0});
   Particles P(1);
   StepConfig cpdi(1e-3);
   cpdi.shape = ShapeFunctions::cpdi;

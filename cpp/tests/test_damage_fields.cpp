@@ -63,7 +63,7 @@ double momentum_scale(const Particles& P)
 /// friction 0.3.
 struct BandedBlock
 {
-  Grid grid{2, {24, 16}, 0.25, {0.0, 0.0}};
+  Grid<2> grid{2, {24, 16}, 0.25, {0.0, 0.0}};
   Particles P = make_rectangle(1.0, 1.0, 5.0, 3.0, 0.25, 2);
   std::unique_ptr<Solver> solver;
 
@@ -100,7 +100,7 @@ struct BandedBlock
 TEST(KernelField, UniformDamageHasZeroGradient)
 {
   // U1: any particle set, free surfaces included.
-  const Grid grid(2, {24, 24}, 0.25, {0.0, 0.0});
+  const Grid<2> grid(2, {24, 24}, 0.25, {0.0, 0.0});
   Particles P = make_disks({{3.0, 3.0, 1.7, 0.0, 0.0}}, 0.125);
   const double radius = std::sqrt(2.0) * 0.25;
   for (double d : {0.0, 0.37, 1.0})
@@ -126,7 +126,7 @@ TEST(KernelField, GradientPointsAtADamagedBand)
 {
   // U2: one row of D = 1 at y = 2.0625 in a block; within r_p of the band and
   // away from its ends, the gradients point at it along its normal.
-  const Grid grid(2, {32, 16}, 0.25, {0.0, 0.0});
+  const Grid<2> grid(2, {32, 16}, 0.25, {0.0, 0.0});
   const Particles P = make_rectangle(1.0, 1.0, 7.0, 3.0, 0.25, 2);
   const double radius = std::sqrt(2.0) * 0.25, band = 2.0625;
   std::vector<double> damage(P.size(), 0.0);
@@ -178,7 +178,7 @@ bool holds(const NeighbourList& list, const std::vector<std::vector<std::int32_t
 TEST(NeighbourList, ListsEveryPairWithinTheCutoffSorted)
 {
   // A jittered lattice, 2 per cell, and cutoffs below, at and above a cell.
-  const Grid grid(2, {20, 16}, 0.25, {0.0, 0.0});
+  const Grid<2> grid(2, {20, 16}, 0.25, {0.0, 0.0});
   Particles P = make_rectangle(0.5, 0.5, 4.5, 3.5, 0.25, 2);
   std::mt19937 rng(3);
   std::uniform_real_distribution<double> jitter(-0.05, 0.05);
@@ -206,7 +206,7 @@ TEST(NeighbourList, StaysValidUnderCommonMotionOnly)
   // displacement below delta everywhere. Relative motion of more than 2 delta
   // makes it stale; whenever the list is not stale, it holds every pair now
   // within r.
-  const Grid grid(2, {40, 16}, 0.25, {0.0, 0.0});
+  const Grid<2> grid(2, {40, 16}, 0.25, {0.0, 0.0});
   const Particles start = make_rectangle(1.0, 1.0, 5.0, 3.0, 0.25, 2);
   const double r = std::sqrt(2.0) * 0.25, delta = 0.1 * r;
   auto moved = [&](auto&& u)
@@ -249,7 +249,7 @@ TEST(DamageFields, SurfaceFlagsOfARectangle)
 {
   // U4: with S < 0.99 S_bulk, exactly the two outer particle rows of a 2 per
   // cell rectangle are flagged; its corner particle has S / S_bulk = 0.470.
-  Grid grid(2, {24, 20}, 0.25, {0.0, 0.0});
+  Grid<2> grid(2, {24, 20}, 0.25, {0.0, 0.0});
   Particles P = make_rectangle(1.0, 1.0, 5.0, 4.0, 0.25, 2);
   StepConfig step(1e-3);
   step.friction = {0.0};
@@ -434,7 +434,7 @@ TEST(DamageFields, CollisionConservesMomentum)
 {
   // Two disks of one contact group meet through their surface-flagged
   // fields: momentum is kept, forces are equal and opposite, C.1-C.4 hold.
-  Grid grid(2, {32, 24}, 0.25, {0.0, 0.0});
+  Grid<2> grid(2, {32, 24}, 0.25, {0.0, 0.0});
   Particles P = make_disks({{2.0, 2.0, 1.0, 0.5, 0.1}, {4.1, 2.6, 1.0, 0.0, 0.0}}, 0.125);
   DamageGradientOptions options;
   options.groups = {0, 0};
@@ -558,7 +558,7 @@ TEST(DamageFields, RestoredRunContinuesBitwise)
 
 TEST(DamageFields, BadOptionsAreRefused)
 {
-  Grid grid(2, {8, 8}, 1.0, {0.0, 0.0});
+  Grid<2> grid(2, {8, 8}, 1.0, {0.0, 0.0});
   Particles P(1);
   P.x = {4.0, 4.0};
   P.mass = {1.0};

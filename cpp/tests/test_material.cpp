@@ -124,7 +124,7 @@ TEST(Material, ATestModelRunsThroughAStepWithItsClosedFormStress)
   auto model = MaterialRegistry::make("test_saint_venant_kirchhoff",
                                       Parameters({{"E", E}, {"nu", nu}, {"density", 1.0}}, {}));
   EXPECT_EQ(model->columns().front().name, "F");
-  Grid grid(2, {40, 40}, 1.0, {-10.0, -10.0});
+  Grid<2> grid(2, {40, 40}, 1.0, {-10.0, -10.0});
   const int n = 48;
   Particles P(static_cast<std::size_t>(n) * n);
   for (int i = 0; i < n; ++i)

@@ -70,7 +70,7 @@ Fracture fracture(double l0, bool fourth)
 /// of the initial crack cold.
 struct PlateRun
 {
-  Grid grid;
+  Grid<2> grid;
   Particles particles;
   Solver solver;
   PlateRun(int degree, double h, Particles P, const Fracture& f, Preconditioner preconditioner,

@@ -83,12 +83,12 @@ TEST(Anisotropy, EnergyOfAHessianIsFrameIndependent)
 
 TEST(Anisotropy, FourthOrderNeedsC1Splines)
 {
-  const Grid linear(1, {8, 8}, 1.0, {0.0, 0.0});
+  const Grid<2> linear(1, {8, 8}, 1.0, {0.0, 0.0});
   const Voigt gamma{1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 2.0};
   EXPECT_THROW(PhaseField(linear, {Fracture{1.0, 2.0, 0.0, gamma}}, 1e-6, 100),
                std::invalid_argument);
   EXPECT_NO_THROW(PhaseField(linear, {Fracture{1.0, 2.0, 0.0}}, 1e-6, 100));
-  const Grid quadratic(2, {8, 8}, 1.0, {0.0, 0.0});
+  const Grid<2> quadratic(2, {8, 8}, 1.0, {0.0, 0.0});
   EXPECT_TRUE(PhaseField(quadratic, {Fracture{1.0, 2.0, 0.0, gamma}}, 1e-6, 100).fourth_order());
   EXPECT_FALSE(PhaseField(quadratic, {Fracture{1.0, 2.0, 0.0}}, 1e-6, 100).fourth_order());
 }
@@ -154,7 +154,7 @@ TEST(Models, AT1ThresholdAndCoefficients)
 
 TEST(Models, AT1IsSecondOrderOnly)
 {
-  const Grid quadratic(2, {8, 8}, 1.0, {0.0, 0.0});
+  const Grid<2> quadratic(2, {8, 8}, 1.0, {0.0, 0.0});
   const Voigt gamma{1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 2.0};
   EXPECT_THROW(PhaseField(quadratic, {Fracture{1.0, 2.0, 0.0, gamma, Model::AT1}}, 1e-6, 100),
                std::invalid_argument);
@@ -172,7 +172,7 @@ TEST(Models, WhichSolvesAreBounded)
 {
   // Second order: bounded unless every material asks for no bound; fourth
   // order: never (its own profile leaves [0, 1] when gamma_n > 1).
-  const Grid quadratic(2, {8, 8}, 1.0, {0.0, 0.0});
+  const Grid<2> quadratic(2, {8, 8}, 1.0, {0.0, 0.0});
   const Voigt gamma{1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 2.0};
   const Fracture at2{1.0, 2.0, 0.0}, free{1.0, 2.0, 0.0, {}, Model::AT2, false};
   EXPECT_TRUE(at2.bound);
@@ -190,7 +190,7 @@ TEST(BoundedSolve, BelowTheThresholdNothingIsDamaged)
   const double Gc = 1.0, l0 = 0.5, Hc = 3.0 * Gc / (32.0 * l0);
   auto run = [&](double H)
   {
-    Grid grid(2, {24, 24}, 0.25, {0.0, 0.0});
+    Grid<2> grid(2, {24, 24}, 0.25, {0.0, 0.0});
     Particles P = test::make_disks({{3.0, 3.0, 2.0, 0.0, 0.0}}, 0.125);
     test::add_model_columns(P, true);
     for (double& h : P.f64("history"))
@@ -232,7 +232,7 @@ TEST(BoundedSolve, NodesWithinTheRoundOffOfTheMomentsAreUncoupled)
   // gave such a node K_II = -5e-11 beside 3e5 in a two-body impact). It is
   // uncoupled, an identity row, and K stays positive semi-definite.
   const int J = 3;
-  Grid grid(2, {12, 12}, 1.0, {0.0, 0.0});
+  Grid<2> grid(2, {12, 12}, 1.0, {0.0, 0.0});
   Particles P = test::make_disks({{8.0, 6.0, 1.5, 0.0, 0.0}, {0.0, 0.0, 0.1, 0.0, 0.0}}, 0.5);
   test::add_model_columns(P, true);
   const std::size_t last = P.size() - 1;

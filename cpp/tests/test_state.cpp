@@ -73,14 +73,14 @@ TEST_P(RestoredSolver, ContinuesBitwise)
   // AT1's bounded solve carries nothing besides AT2's nodal c and the one before.
   const auto mat = elastic(100.0, 0.3, 1.0);
   const std::vector<std::optional<Fracture>> fracture{Fracture{0.5, 0.5, 0.0, {}, GetParam()}};
-  Grid grid(2, {24, 24}, 0.25, {0.0, 0.0});
+  Grid<2> grid(2, {24, 24}, 0.25, {0.0, 0.0});
   Particles P = make_block(40);
   Solver original(grid, P, mat, step_with(1e-3, fracture));
   original.advance(30);
 
   // A copy of the particles and the solver state, in a solver that has
   // solved nothing yet.
-  Grid grid2(2, {24, 24}, 0.25, {0.0, 0.0});
+  Grid<2> grid2(2, {24, 24}, 0.25, {0.0, 0.0});
   Particles Q = P;
   Solver resumed(grid2, Q, mat, step_with(1e-3, fracture));
   resumed.restore(original.state());
@@ -104,7 +104,7 @@ TEST(SolverState, StateOfAnotherGridIsRefused)
 {
   const std::vector<std::optional<Fracture>> fracture{Fracture{0.5, 0.5, 0.0}};
   const auto mat = elastic(100.0, 0.3, 1.0);
-  Grid small(2, {20, 20}, 0.25, {0.0, 0.0}), large(2, {24, 24}, 0.25, {0.0, 0.0});
+  Grid<2> small(2, {20, 20}, 0.25, {0.0, 0.0}), large(2, {24, 24}, 0.25, {0.0, 0.0});
   Particles P = make_block(10), Q = make_block(10);
   Solver a(small, P, mat, step_with(1e-3, fracture)), b(large, Q, mat, step_with(1e-3, fracture));
   EXPECT_THROW(b.restore(a.state()), std::invalid_argument);
@@ -130,7 +130,7 @@ TEST(SolverState, RestoredContactRunContinuesBitwise)
       }
     return P;
   };
-  Grid grid(2, {32, 24}, 0.25, {0.0, 0.0});
+  Grid<2> grid(2, {32, 24}, 0.25, {0.0, 0.0});
   Particles P = disks();
   Solver original(grid, P, mat, step_with(2e-3, fracture, friction));
   original.advance(100);
@@ -138,7 +138,7 @@ TEST(SolverState, RestoredContactRunContinuesBitwise)
   ASSERT_GT(original.contact_stats()->active, 0);
 
   // The particles and the solver state, in a solver that has solved nothing.
-  Grid grid2(2, {32, 24}, 0.25, {0.0, 0.0});
+  Grid<2> grid2(2, {32, 24}, 0.25, {0.0, 0.0});
   Particles Q = P;
   Solver resumed(grid2, Q, mat, step_with(2e-3, fracture, friction));
   SolverState state = original.state();
@@ -178,7 +178,7 @@ TEST(SolverState, StateWithOtherFieldsIsRefused)
 {
   const auto mat = elastic(100.0, 0.3, 1.0);
   const std::vector<std::optional<Fracture>> fracture{Fracture{0.5, 0.5, 0.0}};
-  Grid grid(2, {32, 24}, 0.25, {0.0, 0.0});
+  Grid<2> grid(2, {32, 24}, 0.25, {0.0, 0.0});
   Particles P = make_disks({{2.0, 2.0, 1.0, 0.0, 0.0}, {5.0, 2.0, 1.0, 0.0, 0.0}}, 0.25);
   Particles Q = P;
   Solver one(grid, P, mat, step_with(1e-3, fracture));
@@ -196,7 +196,7 @@ TEST(SolverState, StepOutrunningTheGridIsUnstable)
   // c = sqrt((lambda + 2 mu) / rho) = 13.4 for E = 100, nu = 0.3: with
   // dt = 0.01, dt c = 0.134 h-lengths of 0.25 / 0.5 = 0.27 of kappa h = 0.5;
   // a speed of 40 adds 0.8.
-  Grid grid(2, {24, 24}, 0.25, {0.0, 0.0});
+  Grid<2> grid(2, {24, 24}, 0.25, {0.0, 0.0});
   Particles P = make_block(10);
   Solver solver(grid, P, elastic(100.0, 0.3, 1.0), StepConfig(0.01));
   solver.set_stability_length(0.5);

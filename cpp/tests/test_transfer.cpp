@@ -57,7 +57,7 @@ class TransferDegree : public ::testing::TestWithParam<int>
 
 TEST_P(TransferDegree, P2GConservesMassAndMomentum)
 {
-  Grid grid(GetParam(), {40, 40}, 0.25, {-1.0, -2.0});
+  Grid<2> grid(GetParam(), {40, 40}, 0.25, {-1.0, -2.0});
   Particles P = make_disk(60);
   Solver solver(grid, P, elastic(100.0, 0.3, 1.0), StepConfig(1e-3));
   const Energies e = solver.energies();
@@ -77,7 +77,7 @@ TEST_P(TransferDegree, FreeMotionConservesMomentum)
 {
   // No external force and no walls: the internal forces sum to zero at the
   // nodes (gradients of a partition of unity), so momentum is exact.
-  Grid grid(GetParam(), {40, 40}, 0.25, {-1.0, -2.0});
+  Grid<2> grid(GetParam(), {40, 40}, 0.25, {-1.0, -2.0});
   Particles P = make_disk(60);
   Solver solver(grid, P, elastic(100.0, 0.3, 1.0), StepConfig(1e-3));
   const Energies before = solver.energies();
@@ -100,7 +100,7 @@ void expect_thread_independent_bits(int degree, const Voigt& gamma, Model model 
   auto run = [&](int threads)
   {
     omp_set_num_threads(threads);
-    Grid grid(degree, {40, 40}, 0.25, {-1.0, -2.0});
+    Grid<2> grid(degree, {40, 40}, 0.25, {-1.0, -2.0});
     Particles P = make_disk(60);
     std::vector<double>&history = P.f64("history"), &phi = P.f64("phi");
     for (std::size_t i = 0; i < P.size(); ++i)
@@ -146,7 +146,7 @@ INSTANTIATE_TEST_SUITE_P(Degrees, TransferDegree, ::testing::Values(1, 2, 3));
 
 TEST(Solver, ParticleLeavingTheGridIsReported)
 {
-  Grid grid(2, {8, 8}, 1.0, {0.0, 0.0});
+  Grid<2> grid(2, {8, 8}, 1.0, {0.0, 0.0});
   Particles P(1);
   P.x = {7.9, 4.0};
   P.v = {10.0, 0.0};
@@ -186,7 +186,7 @@ TEST(Solver, FixedWallStopsAParticleOnIt)
   // only the normal component.
   for (Wall wall : {Wall::fixed, Wall::slip})
   {
-    Grid grid(2, {8, 8}, 1.0, {0.0, 0.0});
+    Grid<2> grid(2, {8, 8}, 1.0, {0.0, 0.0});
     grid.set_wall(Side::left, wall);
     Particles P = lone_particle({0.0, 4.0}, {-1.0, 0.5}, 1.0);
     Solver solver(grid, P, elastic(1.0, 0.0, 1.0), StepConfig(1e-3));
@@ -208,7 +208,7 @@ TEST(Solver, AtACornerEachDirectionCountsOnTheWallNormalToIt)
   for (Wall left : {Wall::fixed, Wall::slip})
     for (Wall bottom : {Wall::fixed, Wall::slip})
     {
-      Grid grid(2, {8, 8}, 1.0, {0.0, 0.0});
+      Grid<2> grid(2, {8, 8}, 1.0, {0.0, 0.0});
       grid.set_wall(Side::left, left);
       grid.set_wall(Side::bottom, bottom);
       Particles P = lone_particle({0.0, 0.0}, {-1.0, -2.0}, 1.0);
@@ -233,7 +233,7 @@ TEST(Solver, ARegionSetsItsNodesVelocityAndCountsWhatItAdds)
   // the region's impulse is m (u - v) and its work the kinetic energy it
   // added, (u^2 - v^2) m / 2 (no force acts on a lone particle at rest
   // stress).
-  Grid grid(2, {8, 8}, 1.0, {0.0, 0.0});
+  Grid<2> grid(2, {8, 8}, 1.0, {0.0, 0.0});
   const int k = grid.add_region({3.0, 3.0}, {6.0, 6.0}, 1);
   grid.set_region_velocity(k, {0.3, -7.0});
   Particles P = lone_particle({4.5, 4.5}, {-1.0, 0.5}, 2.0);

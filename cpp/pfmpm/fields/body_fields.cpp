@@ -49,7 +49,7 @@ int friction_fields(const std::vector<double>& friction, int at_least)
   return n;
 }
 
-BodyFields::BodyFields(const Grid& grid, const Particles& particles, std::vector<double> friction,
+BodyFields::BodyFields(const Grid<2>& grid, const Particles& particles, std::vector<double> friction,
                        const std::int32_t* field)
     : _grid(grid), _field(field), _friction(std::move(friction))
 {
@@ -182,7 +182,7 @@ void BodyFields::build(const Particles& particles, const CellSort& sort, bool ma
     mark_contact_cells(_grid, sort, _slot_start, contact, nullptr, _touches);
 }
 
-void mark_holders(const Grid& grid, const CellSort& sort, std::int32_t a,
+void mark_holders(const Grid<2>& grid, const CellSort& sort, std::int32_t a,
                   const std::uint8_t* only, std::uint8_t* cells)
 {
   const NodeBlock& block = grid.block();
@@ -202,7 +202,7 @@ void mark_holders(const Grid& grid, const CellSort& sort, std::int32_t a,
     }
 }
 
-void mark_contact_cells(const Grid& grid, const CellSort& sort,
+void mark_contact_cells(const Grid<2>& grid, const CellSort& sort,
                         const std::vector<std::int32_t>& slot_start, std::int32_t contact_nodes,
                         const std::uint8_t* only, std::vector<std::uint8_t>& touches)
 {

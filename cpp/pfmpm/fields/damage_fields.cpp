@@ -92,7 +92,7 @@ DamageGradientOptions DamageGradientOptions::from(std::vector<std::int32_t> grou
   return o;
 }
 
-KernelField kernel_damage_field(const Grid& grid, const std::vector<double>& x,
+KernelField kernel_damage_field(const Grid<2>& grid, const std::vector<double>& x,
                                 const std::vector<double>& damage, double radius)
 {
   const std::size_t n = x.size() / 2;
@@ -120,7 +120,7 @@ KernelField kernel_damage_field(const Grid& grid, const std::vector<double>& x,
   return out;
 }
 
-DamageFields::DamageFields(const Grid& grid, Particles& particles, std::vector<double> friction,
+DamageFields::DamageFields(const Grid<2>& grid, Particles& particles, std::vector<double> friction,
                            std::vector<DamageSource> source, DamageGradientOptions options,
                            ShapeFunctions shape)
     : _grid(grid), _friction(std::move(friction)), _source(std::move(source)),
@@ -333,7 +333,7 @@ struct CellSlots
 /// stencil order (Grid::block()): looked up once per cell, not per particle
 /// and node. `groups`: the group slots, or none with one group (the slot of
 /// a node is then its active index).
-void cell_slots(const Grid& grid, const DamageFields& fields, const std::optional<BodyFields>& groups,
+void cell_slots(const Grid<2>& grid, const DamageFields& fields, const std::optional<BodyFields>& groups,
                 int cx, int cy, CellSlots& c)
 {
   const NodeBlock& block = grid.block();
@@ -354,17 +354,17 @@ void cell_slots(const Grid& grid, const DamageFields& fields, const std::optiona
 /// and its group slots: cells of one strip parity in parallel
 /// (for_each_listed_cell_by_strips), so that f may add into its cell's nodes.
 template <class F>
-void for_each_listed_cell(const Grid& grid, const DamageFields& fields,
+void for_each_listed_cell(const Grid<2>& grid, const DamageFields& fields,
                           const std::optional<BodyFields>& groups, const CellSort& sort,
                           const std::vector<std::int32_t>& cells, F&& f)
 {
-  for_each_listed_cell_by_strips(grid.cells()[0], grid.cells()[1], sort.cell_start(), cells,
-                                 [&](int cx, int cy, std::int64_t begin, std::int64_t end)
-                                 {
-                                   CellSlots c;
-                                   cell_slots(grid, fields, groups, cx, cy, c);
-                                   f(cx, cy, begin, end, c);
-                                 });
+  for_each_listed_cell_by_strips<2>(grid.cells(), sort.cell_start(), cells,
+                                    [&](const Cell<2>& cell)
+                                    {
+                                      CellSlots c;
+                                      cell_slots(grid, fields, groups, cell.index[0], cell.index[1], c);
+                                      f(cell.index[0], cell.index[1], cell.begin, cell.end, c);
+                                    });
 }
 
 /// The cells whose entry of `flag` is set, in key order, into `out` (the

@@ -78,7 +78,7 @@ struct KernelField
 /// @brief The kernel damage field and its gradient at every particle of
 /// positions `x` (N x 2) with damage `damage`, neighbours within `radius`
 /// found through the cell sort of `grid` (for checks and figures).
-KernelField kernel_damage_field(const Grid& grid, const std::vector<double>& x,
+KernelField kernel_damage_field(const Grid<2>& grid, const std::vector<double>& x,
                                 const std::vector<double>& damage, double radius);
 
 /// Per-block wall time of the partition, seconds since construction.
@@ -148,7 +148,7 @@ public:
   /// @param shape The transfers' shape functions: with CPDI the particles
   ///        carry domains (ParticleDomains), and a particle maps to the
   ///        nodes where its averaged shape function is positive.
-  DamageFields(const Grid& grid, Particles& particles, std::vector<double> friction,
+  DamageFields(const Grid<2>& grid, Particles& particles, std::vector<double> friction,
                std::vector<DamageSource> source, DamageGradientOptions options,
                ShapeFunctions shape);
 
@@ -295,7 +295,7 @@ private:
   /// with two or more.
   void layout(const CellSort& sort, bool any_split);
 
-  const Grid& _grid;
+  const Grid<2>& _grid;
   int _groups_n;
   std::vector<double> _friction;
   std::vector<DamageSource> _source;

@@ -24,12 +24,14 @@
 namespace pfmpm
 {
 
-/// P2G sums of one slot.
+/// P2G sums of one slot, in Dim directions.
+template <int Dim>
 struct NodeSums
 {
-  double m, px, py; ///< mass (K&T eq. 46) and momentum (K&T eq. 61)
-  double fx, fy;    ///< net force F^ext - F^int (K&T eqs. 42, 62)
-  double ex, ey;    ///< external force alone, for the work it does
+  double m;      ///< mass (K&T eq. 46)
+  double p[Dim]; ///< momentum (K&T eq. 61)
+  double f[Dim]; ///< net force F^ext - F^int (K&T eqs. 42, 62)
+  double e[Dim]; ///< external force alone, for the work it does
 };
 
 /// Surface sums of one slot at a contact node.
@@ -43,9 +45,10 @@ struct SurfaceSums
 };
 
 /// Velocity and acceleration of one slot after the grid update (K&T eqs. 63-65).
+template <int Dim>
 struct NodeKinematics
 {
-  double vx, vy, ax, ay;
+  double v[Dim], a[Dim];
 };
 
 /// @brief The number n of fields of a row-major n x n friction matrix.
@@ -57,7 +60,7 @@ int friction_fields(const std::vector<double>& friction, int at_least);
 /// cells of `sort` whose block holds active node a (NodeBlock::holders),
 /// given `only`, of those where it is not 0: from a node, which is cheaper
 /// than from every cell to its nodes where such nodes are few.
-void mark_holders(const Grid& grid, const CellSort& sort, std::int32_t a,
+void mark_holders(const Grid<2>& grid, const CellSort& sort, std::int32_t a,
                   const std::uint8_t* only, std::uint8_t* cells);
 
 /// @brief Per cell of `sort`, whether a node of its block has two or more
@@ -65,7 +68,7 @@ void mark_holders(const Grid& grid, const CellSort& sort, std::int32_t a,
 /// `touches`, 0 for every cell when there are no `contact_nodes`, and for
 /// the empty cells and, given `only`, the cells where it is 0.
 /// @param slot_start Slots of active node a: [slot_start[a], slot_start[a + 1]).
-void mark_contact_cells(const Grid& grid, const CellSort& sort,
+void mark_contact_cells(const Grid<2>& grid, const CellSort& sort,
                         const std::vector<std::int32_t>& slot_start, std::int32_t contact_nodes,
                         const std::uint8_t* only, std::vector<std::uint8_t>& touches);
 
@@ -97,7 +100,7 @@ public:
   ///        fields x fields, symmetric, >= 0, at least 2 x 2.
   /// @param field The field index of each particle instead of
   ///        Particles::body (the contact groups of DamageFields; kept by pointer).
-  BodyFields(const Grid& grid, const Particles& particles, std::vector<double> friction,
+  BodyFields(const Grid<2>& grid, const Particles& particles, std::vector<double> friction,
              const std::int32_t* field = nullptr);
 
   /// Number of fields.
@@ -141,7 +144,7 @@ private:
   /// `out` (capacity max_fields); returns how many, or -1 past capacity.
   int node_fields(int ix, int iy, std::int32_t* out) const;
 
-  const Grid& _grid;
+  const Grid<2>& _grid;
   const std::int32_t* _field;             // per particle, or null: Particles::body
   int _fields;
   std::vector<double> _friction;          // fields x fields

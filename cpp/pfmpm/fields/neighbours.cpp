@@ -9,7 +9,7 @@
 namespace pfmpm
 {
 
-void NeighbourList::build(const Grid& grid, const CellSort& sort, const std::vector<double>& x,
+void NeighbourList::build(const Grid<2>& grid, const CellSort& sort, const std::vector<double>& x,
                           double cutoff)
 {
   const auto n = x.size() / 2;
@@ -123,7 +123,7 @@ void NeighbourList::build(const Grid& grid, const CellSort& sort, const std::vec
   ++_builds;
 }
 
-bool NeighbourList::stale(const Grid& grid, const CellSort& sort, const std::vector<double>& x,
+bool NeighbourList::stale(const Grid<2>& grid, const CellSort& sort, const std::vector<double>& x,
                           double skin)
 {
   const std::size_t n = x.size() / 2;

@@ -50,13 +50,13 @@ public:
   /// `cutoff() - 2 skin` are taken at positions `x`, sorted into the cells
   /// of `grid` by `sort`: it was never built, the particle count changed, or
   /// a pair may have come within that radius from beyond the cutoff.
-  bool stale(const Grid& grid, const CellSort& sort, const std::vector<double>& x, double skin);
+  bool stale(const Grid<2>& grid, const CellSort& sort, const std::vector<double>& x, double skin);
   /// @brief Note that no particle moved more than `distance` in a step.
   void moved(double distance) { _drift += distance; }
 
   /// @brief For every particle, the others within `cutoff` of it, searched in
   /// the cells of `sort` around its own.
-  void build(const Grid& grid, const CellSort& sort, const std::vector<double>& x, double cutoff);
+  void build(const Grid<2>& grid, const CellSort& sort, const std::vector<double>& x, double cutoff);
 
   /// The neighbours of particle p, by index.
   struct Range

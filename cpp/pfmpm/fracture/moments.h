@@ -30,6 +30,7 @@ namespace pfmpm
 template <int P>
 struct CellPowers
 {
+  static constexpr int dim = 2; ///< a 2D cell (the phase field is 2D)
   static constexpr int width = P + 1;
   static constexpr int lower = 0;
   static constexpr bool domains = false;

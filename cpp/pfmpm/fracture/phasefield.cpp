@@ -135,7 +135,7 @@ Voigt Fracture::rotated(double phi) const
   return out;
 }
 
-PhaseField::PhaseField(const Grid& grid, std::vector<std::optional<Fracture>> fracture, double tol,
+PhaseField::PhaseField(const Grid<2>& grid, std::vector<std::optional<Fracture>> fracture, double tol,
                        int max_iterations)
     : _grid(grid), _fracture(std::move(fracture)), _tol(tol), _max_iterations(max_iterations),
       _pad(grid.degree()), _padded_ny(static_cast<std::size_t>(grid.nodes()[1] + 2 * grid.degree()))
@@ -369,7 +369,7 @@ void PhaseField::assemble(const Particles& particles, const CellSort& sort)
   [[maybe_unused]] std::vector<RotatedGamma> rotated = per_thread(Fourth);
   particle_to_grid<CellPowers<P>>(
       _grid, sort, Points{particles.x.data()},
-      [&](const Cell& cell, const auto& each)
+      [&](const Cell<2>& cell, const auto& each)
       {
         Moments sums; // the cell's moments
         [[maybe_unused]] RotatedGamma* mine = Fourth ? &rotated[omp_get_thread_num()] : nullptr;
@@ -399,16 +399,16 @@ void PhaseField::assemble(const Particles& particles, const CellSort& sort)
             });
         alignas(64) double block[W * W][CellProducts::row(P)];
         double f[K];
-        sums.block(along_x.products(cell.cx), along_y.products(cell.cy), block);
-        sums.rhs(along_x.values(cell.cx), along_y.values(cell.cy), f);
+        sums.block(along_x.products(cell.index[0]), along_y.products(cell.index[1]), block);
+        sums.rhs(along_x.values(cell.index[0]), along_y.values(cell.index[1]), f);
         for (int i = 0; i < K; ++i)
-          _rhs[_nodes.index(cell.cx + i / W, cell.cy + i % W)] += f[i];
+          _rhs[_nodes.index(cell.index[0] + i / W, cell.index[1] + i % W)] += f[i];
         // Node i = (a, b) of the cell, row a W + b of the block, has its
         // stored row at padded(cx, cy) + a padded_ny + b; the row takes its
         // upper half, the nodes j = (a', b') after i (a' > a, or a' = a and
         // b' >= b). The bounds are constants: the loops unroll to a straight
         // run of additions.
-        double* corner = &_stencil[padded(cell.cx, cell.cy) * H];
+        double* corner = &_stencil[padded(cell.index[0], cell.index[1]) * H];
 #pragma GCC unroll 4
         for (int ai = 0; ai < W; ++ai)
 #pragma GCC unroll 4
@@ -1046,14 +1046,14 @@ void PhaseField::map_to_particles(Particles& particles, const CellSort& sort)
   grid_to_particle<Shape>(
       _grid, sort, Points{particles.x.data()},
       unreduced(
-          [&](const Cell& cell, const auto& each)
+          [&](const Cell<2>& cell, const auto& each)
           {
             double nodal[K][1];
             [[maybe_unused]] RotatedGamma* mine =
                 Fourth && Energy ? &rotated[omp_get_thread_num()] : nullptr;
             for (int i = 0; i < K; ++i)
               nodal[i][0] =
-                  _c[padded(cell.cx + Shape::offset(i, 0), cell.cy + Shape::offset(i, 1))];
+                  _c[padded(cell.index[0] + Shape::offset(i, 0), cell.index[1] + Shape::offset(i, 1))];
             each(
                 [&](std::size_t p, const Shape& s)
                 {

@@ -206,7 +206,7 @@ public:
   /// @param fracture Per material: its fracture parameters, or none if it cannot crack.
   /// @param tol Relative residual tolerance tol_c.
   /// @param max_iterations CG iteration limit per solve.
-  PhaseField(const Grid& grid, std::vector<std::optional<Fracture>> fracture, double tol,
+  PhaseField(const Grid<2>& grid, std::vector<std::optional<Fracture>> fracture, double tol,
              int max_iterations);
 
   /// The particle columns of the phase field: c, history H and fracture
@@ -339,8 +339,8 @@ private:
     return static_cast<std::size_t>(ix + _pad) * _padded_ny + (iy + _pad);
   }
 
-  const Grid& _grid;
-  ActiveNodes _nodes; // the unknowns: the nodes the solve's particles touch
+  const Grid<2>& _grid;
+  ActiveNodes<2> _nodes; // the unknowns: the nodes the solve's particles touch
   std::vector<std::optional<Fracture>> _fracture;
   std::vector<CellProducts> _products; // x and y: the basis's products on each cell (moments.h)
   bool _active;

@@ -1,37 +1,90 @@
 /// @file grid.cpp
-/// @brief Active grid nodes and wall constraints.
+/// @brief Active grid nodes and wall constraints, in 2 and 3 directions.
 #include "pfmpm/grid/grid.h"
 
 #include <algorithm>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 namespace pfmpm
 {
 
-Grid::Grid(int degree, std::array<int, 2> cells, double h, std::array<double, 2> origin)
-    : _basis{BSpline1D(degree, cells[0], h, origin[0]), BSpline1D(degree, cells[1], h, origin[1])},
+namespace
+{
+template <int Dim, std::size_t... D>
+std::array<BSpline1D, Dim> make_bases(int degree, const std::array<int, Dim>& cells, double h,
+                                 const std::array<double, Dim>& origin, std::index_sequence<D...>)
+{
+  return {BSpline1D(degree, cells[D], h, origin[D])...};
+}
+
+/// Whether a cell of the box [lo, hi] (per direction, inclusive) holds a particle.
+template <int Dim>
+bool any_occupied(const std::array<int, Dim>& lo, const std::array<int, Dim>& hi,
+                  const std::array<int, Dim>& cells, const std::vector<std::int64_t>& cell_start)
+{
+  for (int d = 0; d < Dim; ++d)
+    if (lo[d] > hi[d])
+      return false;
+  std::array<int, Dim> c = lo;
+  for (;;)
+  {
+    const std::size_t key = lattice_key<Dim>(c, cells);
+    if (cell_start[key + 1] > cell_start[key])
+      return true;
+    int d = Dim - 1; // the next cell: the last direction fastest
+    for (; d >= 0 && ++c[d] > hi[d]; --d)
+      c[d] = lo[d];
+    if (d < 0)
+      return false;
+  }
+}
+
+const char* side_name(int side)
+{
+  static const char* const names[] = {"left", "right", "bottom", "top", "back", "front"};
+  return names[side];
+}
+} // namespace
+
+template <int Dim>
+Grid<Dim>::Grid(int degree, std::array<int, Dim> cells, double h, std::array<double, Dim> origin)
+    : _basis(make_bases<Dim>(degree, cells, h, origin, std::make_index_sequence<Dim>{})),
       _block{0, degree + 1}
 {
 }
 
-bool Grid::has_holds() const
+template <int Dim>
+void Grid<Dim>::set_wall(Side side, Wall wall)
+{
+  const int s = static_cast<int>(side);
+  if (s < 0 || s >= sides)
+    throw std::invalid_argument(std::string("wall side ") + (s >= 0 && s < 6 ? side_name(s) : "?")
+                                + ": a grid of " + std::to_string(Dim) + " directions has no such side");
+  _walls[s] = wall;
+}
+
+template <int Dim>
+bool Grid<Dim>::has_holds() const
 {
   return !_regions.empty()
          || std::any_of(_walls.begin(), _walls.end(), [](Wall w) { return w != Wall::free; });
 }
 
-int Grid::add_region(std::array<double, 2> min, std::array<double, 2> max, std::uint8_t components,
-                     bool moves)
+template <int Dim>
+int Grid<Dim>::add_region(std::array<double, Dim> min, std::array<double, Dim> max,
+                          std::uint8_t components, bool moves)
 {
   if (_regions.size() >= static_cast<std::size_t>(max_regions))
     throw std::invalid_argument("a grid holds at most " + std::to_string(max_regions) + " regions");
-  if (!(min[0] < max[0] && min[1] < max[1]))
-    throw std::invalid_argument("a region's box needs min < max in both directions");
-  if (components == 0 || components > 3)
-    throw std::invalid_argument("a region holds the x component, the y component or both");
+  for (int d = 0; d < Dim; ++d)
+    if (!(min[d] < max[d]))
+      throw std::invalid_argument("a region's box needs min < max in every direction");
+  if (components == 0 || components >= (1 << Dim))
+    throw std::invalid_argument("a region holds some of the velocity components, bit d for direction d");
   // Its nodes on each axis: the control points within [min, max].
-  for (int d = 0; d < 2; ++d)
+  for (int d = 0; d < Dim; ++d)
   {
     bool any = false;
     for (int i = 0; i < _basis[d].size() && !any; ++i)
@@ -39,28 +92,32 @@ int Grid::add_region(std::array<double, 2> min, std::array<double, 2> max, std::
     if (!any)
       throw std::invalid_argument("a region's box holds no grid node");
   }
-  _regions.push_back(Region{min, max, components, moves, {0.0, 0.0}});
+  _regions.push_back(Region<Dim>{min, max, components, moves, {}});
   return static_cast<int>(_regions.size()) - 1;
 }
 
-int Grid::add_particle_region(std::uint8_t components)
+template <int Dim>
+int Grid<Dim>::add_particle_region(std::uint8_t components)
 {
   if (_regions.size() >= static_cast<std::size_t>(max_regions))
     throw std::invalid_argument("a grid holds at most " + std::to_string(max_regions) + " regions");
-  if (components == 0 || components > 3)
-    throw std::invalid_argument("a region holds the x component, the y component or both");
-  Region r{{0.0, 0.0}, {0.0, 0.0}, components};
+  if (components == 0 || components >= (1 << Dim))
+    throw std::invalid_argument("a region holds some of the velocity components, bit d for direction d");
+  Region<Dim> r{{}, {}, components};
   r.particles = true;
   _regions.push_back(r);
   return static_cast<int>(_regions.size()) - 1;
 }
 
-bool Grid::has_particle_regions() const
+template <int Dim>
+bool Grid<Dim>::has_particle_regions() const
 {
-  return std::any_of(_regions.begin(), _regions.end(), [](const Region& r) { return r.particles; });
+  return std::any_of(_regions.begin(), _regions.end(),
+                     [](const Region<Dim>& r) { return r.particles; });
 }
 
-void Grid::move_region(int k, std::array<double, 2> offset)
+template <int Dim>
+void Grid<Dim>::move_region(int k, std::array<double, Dim> offset)
 {
   if (k < 0 || k >= static_cast<int>(_regions.size()))
     throw std::out_of_range("no region " + std::to_string(k));
@@ -68,49 +125,53 @@ void Grid::move_region(int k, std::array<double, 2> offset)
     _regions[k].offset = offset;
 }
 
-void Grid::set_region_velocity(int k, std::array<double, 2> velocity)
+template <int Dim>
+void Grid<Dim>::set_region_velocity(int k, std::array<double, Dim> velocity)
 {
   if (k < 0 || k >= static_cast<int>(_regions.size()))
     throw std::out_of_range("no region " + std::to_string(k));
-  _velocity[4 + k] = velocity;
+  _velocity[sides + k] = velocity;
 }
 
-void ActiveNodes::activate(const Grid& grid, const std::vector<std::int64_t>& cell_start,
-                           const NodeBlock& block)
+template <int Dim>
+void ActiveNodes<Dim>::activate(const Grid<Dim>& grid, const std::vector<std::int64_t>& cell_start,
+                                const NodeBlock& block)
 {
-  const int ncx = grid.cells()[0], ncy = grid.cells()[1];
-  const int nnx = grid.nodes()[0], nny = grid.nodes()[1];
-  _nodes_y = nny;
-  _index.resize(static_cast<std::size_t>(nnx) * nny);
-  auto occupied = [&](int cx, int cy)
-  {
-    const std::size_t c = static_cast<std::size_t>(cx) * ncy + cy;
-    return cell_start[c + 1] > cell_start[c];
-  };
+  const std::array<int, Dim> cells = grid.cells();
+  _n = grid.nodes();
+  _index.resize(static_cast<std::size_t>(grid.num_nodes()));
 
-  // The cells whose block holds node i along a line of n nodes lie in
-  // [i - lower - width + 1, i - lower] (one more on each side where the
+  // Per direction and node i, the cells [lo, hi] whose block holds i (the
   // block moves inwards at the grid's ends): a gather, so every node is
   // written by one thread only.
-  auto holds = [&](int cell, int i, int n)
+  std::array<std::vector<int>, Dim> lo, hi;
+  for (int d = 0; d < Dim; ++d)
   {
-    const int first = block.first(cell, n);
-    return first <= i && i < first + block.width;
-  };
+    lo[d].resize(_n[d]);
+    hi[d].resize(_n[d]);
+    for (int i = 0; i < _n[d]; ++i)
+      block.holders(i, cells[d], _n[d], lo[d][i], hi[d][i]);
+  }
+  // The nodes with first index i0 are keys [i0 * plane, (i0 + 1) * plane).
+  const std::size_t plane = _index.size() / _n[0];
 #pragma omp parallel for schedule(static)
-  for (int ix = 0; ix < nnx; ++ix)
+  for (int i0 = 0; i0 < _n[0]; ++i0)
   {
-    const int cx0 = std::max(ix - block.lower - block.width, 0);
-    const int cx1 = std::min(ix - block.lower + 1, ncx - 1);
-    for (int iy = 0; iy < nny; ++iy)
+    std::array<int, Dim> i{};
+    i[0] = i0;
+    std::array<int, Dim> c0, c1;
+    c0[0] = lo[0][i0];
+    c1[0] = hi[0][i0];
+    for (std::size_t r = 0; r < plane; ++r)
     {
-      const int cy0 = std::max(iy - block.lower - block.width, 0);
-      const int cy1 = std::min(iy - block.lower + 1, ncy - 1);
-      bool active = false;
-      for (int cx = cx0; cx <= cx1 && !active; ++cx)
-        for (int cy = cy0; cy <= cy1 && !active; ++cy)
-          active = holds(cx, ix, nnx) && holds(cy, iy, nny) && occupied(cx, cy);
-      _index[static_cast<std::size_t>(ix) * nny + iy] = active ? 0 : -1;
+      for (int d = 1; d < Dim; ++d)
+      {
+        c0[d] = lo[d][i[d]];
+        c1[d] = hi[d][i[d]];
+      }
+      _index[i0 * plane + r] = any_occupied<Dim>(c0, c1, cells, cell_start) ? 0 : -1;
+      for (int d = Dim - 1; d > 0 && ++i[d] == _n[d]; --d)
+        i[d] = 0;
     }
   }
 
@@ -123,8 +184,9 @@ void ActiveNodes::activate(const Grid& grid, const std::vector<std::int64_t>& ce
     }
 }
 
-void Grid::activate(const std::vector<std::int64_t>& cell_start,
-                    const std::vector<std::vector<std::int64_t>>& region_cells)
+template <int Dim>
+void Grid<Dim>::activate(const std::vector<std::int64_t>& cell_start,
+                         const std::vector<std::vector<std::int64_t>>& region_cells)
 {
   _active.activate(*this, cell_start, _block);
   _constraints.clear();
@@ -141,45 +203,58 @@ void Grid::activate(const std::vector<std::int64_t>& cell_start,
       _reach[k].activate(*this, region_cells[k], _block);
     }
   // Open knot vectors interpolate at the ends: only the first and last node of
-  // each row and column carry the boundary value, so walls act on them alone.
-  const int nnx = _basis[0].size(), nny = _basis[1].size();
-  const std::vector<std::int32_t>& nodes = _active.nodes();
-  _constraints.assign(nodes.size(), NodeHold{});
-  for (std::size_t a = 0; a < nodes.size(); ++a)
+  // each line carry the boundary value, so walls act on them alone.
+  const std::array<int, Dim> n = nodes();
+  const std::vector<std::int32_t>& active = _active.nodes();
+  _constraints.assign(active.size(), NodeHold{});
+  for (std::size_t a = 0; a < active.size(); ++a)
   {
-    const int ix = nodes[a] / nny, iy = nodes[a] % nny;
-    const bool on[4] = {ix == 0, ix == nnx - 1, iy == 0, iy == nny - 1};
-    NodeHold& n = _constraints[a];
+    const std::array<int, Dim> i = lattice_indices<Dim>(static_cast<std::size_t>(active[a]), n);
+    NodeHold& hold = _constraints[a];
     // Direction d held by `holder`, unless something already holds it.
-    const auto hold = [&n](int holder, int d)
+    const auto take = [&hold](int holder, int d)
     {
-      if (!(n.held & (1 << d)))
+      if (!(hold.held & (1 << d)))
       {
-        n.held |= static_cast<std::uint8_t>(1 << d);
-        n.by[d] = static_cast<std::uint8_t>(holder);
+        hold.held |= static_cast<std::uint8_t>(1 << d);
+        hold.by[d] = static_cast<std::uint8_t>(holder);
       }
     };
     // Regions first: their motion is prescribed there, walls included.
     for (std::size_t k = 0; k < _regions.size(); ++k)
     {
-      const Region& r = _regions[k];
-      const double gx = _basis[0].greville(ix) - r.offset[0], gy = _basis[1].greville(iy) - r.offset[1];
-      const bool in = r.particles ? _reach[k].index(ix, iy) >= 0
-                                  : gx >= r.min[0] && gx <= r.max[0] && gy >= r.min[1] && gy <= r.max[1];
+      const Region<Dim>& r = _regions[k];
+      bool in = true;
+      if (r.particles)
+        in = _reach[k].index(i) >= 0;
+      else
+        for (int d = 0; d < Dim; ++d)
+        {
+          const double g = _basis[d].greville(i[d]) - r.offset[d];
+          in = in && g >= r.min[d] && g <= r.max[d];
+        }
       if (in)
-        for (int d = 0; d < 2; ++d)
+        for (int d = 0; d < Dim; ++d)
           if (r.components & (1 << d))
-            hold(4 + static_cast<int>(k), d);
+            take(sides + static_cast<int>(k), d);
     }
-    // Normal walls next, so that at a corner each side's reaction is its own
-    // normal force; then the tangential hold of fixed walls.
-    for (int side = 0; side < 4; ++side)
-      if (on[side] && wall(static_cast<Side>(side)) != Wall::free)
-        hold(side, side / 2);
-    for (int side = 0; side < 4; ++side)
-      if (on[side] && wall(static_cast<Side>(side)) == Wall::fixed)
-        hold(side, 1 - side / 2);
+    // Normal walls next, so that at an edge or corner each side's reaction
+    // is its own normal force; then the tangential holds of fixed walls.
+    const auto on = [&](int side) { return i[side / 2] == (side % 2 == 0 ? 0 : n[side / 2] - 1); };
+    for (int side = 0; side < sides; ++side)
+      if (on(side) && _walls[side] != Wall::free)
+        take(side, side / 2);
+    for (int side = 0; side < sides; ++side)
+      if (on(side) && _walls[side] == Wall::fixed)
+        for (int d = 0; d < Dim; ++d)
+          if (d != side / 2)
+            take(side, d);
   }
 }
+
+template class ActiveNodes<2>;
+template class ActiveNodes<3>;
+template class Grid<2>;
+template class Grid<3>;
 
 } // namespace pfmpm

@@ -12,51 +12,61 @@
 namespace pfmpm
 {
 
-/// Sides of the rectangular grid.
+/// @brief Sides of the grid: the lower and upper end of each direction d
+/// are sides 2 d and 2 d + 1 (left/right: x, bottom/top: y, back/front: z);
+/// a grid of Dim directions has the first 2 Dim.
 enum class Side : int
 {
   left = 0,
   right = 1,
   bottom = 2,
-  top = 3
+  top = 3,
+  back = 4,
+  front = 5
 };
+
+/// Number of sides of a grid of `dim` directions.
+constexpr int num_sides(int dim) { return 2 * dim; }
 
 /// Kinematic condition on one side of the grid.
 enum class Wall : int
 {
   free = 0,  ///< no condition
-  fixed = 1, ///< both velocity components zero
+  fixed = 1, ///< every velocity component zero
   slip = 2   ///< normal velocity component zero
 };
 
 /// The most prescribed-velocity regions of a grid (Grid::add_region).
 constexpr int max_regions = 4;
-/// What may hold a node's velocity: the four walls (Side order), then the regions.
-constexpr int max_holders = 4 + max_regions;
+/// @brief What may hold a node's velocity in `dim` directions: the walls
+/// (holder s for Side s), then the regions (holder num_sides(dim) + k).
+constexpr int num_holders(int dim) { return num_sides(dim) + max_regions; }
 
 /// @brief What holds an active node's velocity: bit d of `held` set when
-/// direction d (0: x, 1: y) is held, by holder `by[d]` (a Side, or 4 + the
-/// index of a region).
+/// direction d (0: x, 1: y, 2: z) is held, by holder `by[d]` (a Side, or
+/// num_sides(Dim) + the index of a region).
 struct NodeHold
 {
   std::uint8_t held = 0;
-  std::uint8_t by[2]{};
+  std::uint8_t by[3]{};
 };
 
 /// @brief Grid nodes whose velocity components `components` (bit d for
 /// direction d) are prescribed: those whose control points (Greville
 /// abscissae) lie in a box, or those a set of particles reaches.
+template <int Dim>
 struct Region
 {
-  std::array<double, 2> min, max;
+  std::array<double, Dim> min, max;
   std::uint8_t components;
   bool moves = false;                ///< the box moves with the region's displacement
-  std::array<double, 2> offset{};    ///< how far it has moved (Grid::move_region)
+  std::array<double, Dim> offset{};  ///< how far it has moved (Grid::move_region)
   /// Not a box: the nodes in the stencils of the particles whose column
   /// `held_by` has bit k (the region's index) set, wherever they are.
   bool particles = false;
 };
 
+template <int Dim>
 class Grid;
 
 /// @brief The nodes a cell's particles reach: `width` nodes per direction
@@ -84,56 +94,131 @@ struct NodeBlock
   int reach() const { return width - 1 - 2 * lower; }
 };
 
+/// @brief The key of the point with indices `i` on a lattice of `n` points
+/// per direction, row-major: the last direction fastest (cx * cells_y + cy
+/// in 2D, (cx * cells_y + cy) * cells_z + cz in 3D). Cells and nodes are
+/// keyed so.
+template <int Dim>
+std::size_t lattice_key(const std::array<int, Dim>& i, const std::array<int, Dim>& n)
+{
+  std::size_t key = static_cast<std::size_t>(i[0]);
+  for (int d = 1; d < Dim; ++d)
+    key = key * n[d] + i[d];
+  return key;
+}
+
+/// The indices of the point of key `key` on a lattice of `n` points per direction.
+template <int Dim>
+std::array<int, Dim> lattice_indices(std::size_t key, const std::array<int, Dim>& n)
+{
+  std::array<int, Dim> i;
+  for (int d = Dim - 1; d > 0; --d)
+  {
+    i[d] = static_cast<int>(key % n[d]);
+    key /= n[d];
+  }
+  i[0] = static_cast<int>(key);
+  return i;
+}
+
 /// @brief The nodes in the support of the occupied cells of a particle sort,
 /// numbered compactly in increasing node order (K&T Algorithm 1, "find active
-/// part of Eulerian grid"); the degree+1 nodes of one grid column above a cell
-/// then have consecutive indices.
+/// part of Eulerian grid"); the degree+1 nodes of one grid line along the last
+/// direction above a cell then have consecutive indices.
+template <int Dim>
 class ActiveNodes
 {
 public:
   /// @brief Rebuild from per-cell particle offsets (num_cells + 1 entries):
   /// a node is active when a cell whose block holds it holds a particle.
-  void activate(const Grid& grid, const std::vector<std::int64_t>& cell_start,
+  void activate(const Grid<Dim>& grid, const std::vector<std::int64_t>& cell_start,
                 const NodeBlock& block);
   /// Number of active nodes.
   std::int32_t size() const { return static_cast<std::int32_t>(_nodes.size()); }
   /// Node index of each active node.
   const std::vector<std::int32_t>& nodes() const { return _nodes; }
-  /// Active index of node (ix, iy), or -1 when the node is inactive.
-  std::int32_t index(int ix, int iy) const
+  /// Active index of node `i`, or -1 when the node is inactive.
+  std::int32_t index(const std::array<int, Dim>& i) const { return _index[lattice_key<Dim>(i, _n)]; }
+  /// Active index of node (i_0, .., i_{Dim-1}), or -1 when the node is inactive.
+  template <class... I>
+  std::int32_t index(I... i) const
   {
-    return _index[static_cast<std::size_t>(ix) * _nodes_y + iy];
+    static_assert(sizeof...(I) == Dim, "one index per direction");
+    return index(std::array<int, Dim>{static_cast<int>(i)...});
   }
 
 private:
   std::vector<std::int32_t> _index; // per node
   std::vector<std::int32_t> _nodes; // per active node
-  int _nodes_y = 0;
+  std::array<int, Dim> _n{};        // nodes per direction
 };
 
-/// @brief Uniform 2D grid of square cells carrying a tensor-product B-spline basis.
+/// @brief Uniform grid of square (cubic) cells in Dim = 2 or 3 directions,
+/// carrying a tensor-product B-spline basis.
 ///
-/// Cells are keyed column by column, `cell = cx * cells_y + cy`, and the basis
-/// functions (grid nodes, i.e. control points) likewise, `node = ix * nodes_y + iy`.
-/// Only active nodes - those in the support of some particle - carry data: the
-/// grid keeps a compact numbering of them, rebuilt every step from the occupied
-/// cells (Algorithm 1, "find active part of Eulerian grid").
+/// Cells and basis functions (grid nodes, i.e. control points) are keyed
+/// row-major, the last direction fastest (lattice_key): `cell = cx * cells_y
+/// + cy` and `node = ix * nodes_y + iy` in 2D. Only active nodes - those in
+/// the support of some particle - carry data: the grid keeps a compact
+/// numbering of them, rebuilt every step from the occupied cells
+/// (Algorithm 1, "find active part of Eulerian grid"). The class is compiled
+/// for 2 and 3 directions (grid.cpp).
+template <int Dim>
 class Grid
 {
+  static_assert(Dim == 2 || Dim == 3, "a grid has 2 or 3 directions");
+
 public:
-  /// @param degree B-spline degree (1, 2 or 3), the same in both directions.
-  /// @param cells Number of cells in x and y.
+  static constexpr int dim = Dim;
+  /// Sides, and what may hold a node: the walls, then the regions.
+  static constexpr int sides = num_sides(Dim);
+  static constexpr int holders = num_holders(Dim);
+
+  /// @param degree B-spline degree (1, 2 or 3), the same in every direction.
+  /// @param cells Number of cells per direction.
   /// @param h Cell size.
-  /// @param origin Lower-left corner.
-  Grid(int degree, std::array<int, 2> cells, double h, std::array<double, 2> origin);
+  /// @param origin The corner of least coordinates.
+  Grid(int degree, std::array<int, Dim> cells, double h, std::array<double, Dim> origin);
 
   int degree() const { return _basis[0].degree(); }
   double h() const { return _basis[0].h(); }
-  const BSpline1D& basis(int dim) const { return _basis[dim]; }
-  std::array<int, 2> cells() const { return {_basis[0].cells(), _basis[1].cells()}; }
-  std::array<int, 2> nodes() const { return {_basis[0].size(), _basis[1].size()}; }
-  std::int64_t num_cells() const { return std::int64_t(_basis[0].cells()) * _basis[1].cells(); }
-  std::int64_t num_nodes() const { return std::int64_t(_basis[0].size()) * _basis[1].size(); }
+  const BSpline1D& basis(int d) const { return _basis[d]; }
+  /// The bases of every direction, for BSplineStencil::evaluate.
+  std::array<const BSpline1D*, Dim> bases() const
+  {
+    std::array<const BSpline1D*, Dim> b;
+    for (int d = 0; d < Dim; ++d)
+      b[d] = &_basis[d];
+    return b;
+  }
+  std::array<int, Dim> cells() const
+  {
+    std::array<int, Dim> c;
+    for (int d = 0; d < Dim; ++d)
+      c[d] = _basis[d].cells();
+    return c;
+  }
+  std::array<int, Dim> nodes() const
+  {
+    std::array<int, Dim> n;
+    for (int d = 0; d < Dim; ++d)
+      n[d] = _basis[d].size();
+    return n;
+  }
+  std::int64_t num_cells() const
+  {
+    std::int64_t n = 1;
+    for (int d = 0; d < Dim; ++d)
+      n *= _basis[d].cells();
+    return n;
+  }
+  std::int64_t num_nodes() const
+  {
+    std::int64_t n = 1;
+    for (int d = 0; d < Dim; ++d)
+      n *= _basis[d].size();
+    return n;
+  }
 
   /// @brief The nodes a cell's particles reach in the momentum transfers
   /// (by default the cell's B-spline support).
@@ -141,7 +226,9 @@ public:
   const NodeBlock& block() const { return _block; }
 
   /// @brief Set the kinematic condition on one side.
-  void set_wall(Side side, Wall wall) { _walls[static_cast<int>(side)] = wall; }
+  /// @throws std::invalid_argument for a side the grid does not have (back
+  ///         or front in 2D).
+  void set_wall(Side side, Wall wall);
   Wall wall(Side side) const { return _walls[static_cast<int>(side)]; }
   /// @brief Add a region of prescribed velocity (at rest until
   /// set_region_velocity); returns its index. With `moves` its box follows
@@ -149,21 +236,21 @@ public:
   /// wall; else it stays where it is, a grip or a support.
   /// @throws std::invalid_argument for a box with min >= max, no component,
   /// no node in the box, or more than max_regions regions.
-  int add_region(std::array<double, 2> min, std::array<double, 2> max, std::uint8_t components,
-                 bool moves = false);
+  int add_region(std::array<double, Dim> min, std::array<double, Dim> max,
+                 std::uint8_t components, bool moves = false);
   /// @brief Add a region of the nodes that its particles reach (Region::particles):
   /// a body, a body's face or a set of particles, followed as they move.
   int add_particle_region(std::uint8_t components);
   /// Whether some region is a set of particles.
   bool has_particle_regions() const;
-  const std::vector<Region>& regions() const { return _regions; }
+  const std::vector<Region<Dim>>& regions() const { return _regions; }
   /// @brief The velocity region k prescribes from now on (its held components).
-  void set_region_velocity(int k, std::array<double, 2> velocity);
+  void set_region_velocity(int k, std::array<double, Dim> velocity);
   /// @brief Move a moving region's box by `offset` from where it was added
   /// (its displacement so far); the next activate() holds the nodes there.
-  void move_region(int k, std::array<double, 2> offset);
+  void move_region(int k, std::array<double, Dim> offset);
   /// The velocity each holder prescribes: zero for the walls.
-  const std::array<std::array<double, 2>, max_holders>& holder_velocity() const { return _velocity; }
+  const std::array<std::array<double, Dim>, holders>& holder_velocity() const { return _velocity; }
   /// Whether a wall or a region holds some node.
   bool has_holds() const;
 
@@ -177,27 +264,36 @@ public:
                 const std::vector<std::vector<std::int64_t>>& region_cells = {});
 
   /// The active nodes of all particles.
-  const ActiveNodes& active() const { return _active; }
+  const ActiveNodes<Dim>& active() const { return _active; }
   /// Number of active nodes.
   std::int32_t num_active() const { return _active.size(); }
   /// Node index of each active node.
   const std::vector<std::int32_t>& active_nodes() const { return _active.nodes(); }
-  /// Active index of node (ix, iy), or -1 when the node is inactive.
-  std::int32_t active_index(int ix, int iy) const { return _active.index(ix, iy); }
+  /// Active index of node (i_0, .., i_{Dim-1}), or -1 when the node is inactive.
+  template <class... I>
+  std::int32_t active_index(I... i) const
+  {
+    return _active.index(i...);
+  }
   /// What holds each active node's velocity: a region first, then a wall's
-  /// normal, then a fixed wall's tangential hold. Empty without walls and
+  /// normal, then a fixed wall's tangential holds. Empty without walls and
   /// regions.
   const std::vector<NodeHold>& constraints() const { return _constraints; }
 
 private:
-  std::array<BSpline1D, 2> _basis;
+  std::array<BSpline1D, Dim> _basis;
   NodeBlock _block;
-  std::array<Wall, 4> _walls{Wall::free, Wall::free, Wall::free, Wall::free};
-  std::vector<Region> _regions;
-  std::array<std::array<double, 2>, max_holders> _velocity{};
-  ActiveNodes _active;
-  std::vector<ActiveNodes> _reach;     // per region: the nodes a particle region's particles reach
-  std::vector<NodeHold> _constraints; // per active node
+  std::array<Wall, sides> _walls{};
+  std::vector<Region<Dim>> _regions;
+  std::array<std::array<double, Dim>, holders> _velocity{};
+  ActiveNodes<Dim> _active;
+  std::vector<ActiveNodes<Dim>> _reach; // per region: the nodes a particle region's particles reach
+  std::vector<NodeHold> _constraints;   // per active node
 };
+
+extern template class ActiveNodes<2>;
+extern template class ActiveNodes<3>;
+extern template class Grid<2>;
+extern template class Grid<3>;
 
 } // namespace pfmpm

@@ -9,12 +9,11 @@
 namespace pfmpm
 {
 
-std::size_t CellSort::sort(const Grid& grid, const std::vector<double>& x)
+template <int Dim>
+std::size_t CellSort::sort(const Grid<Dim>& grid, const std::vector<double>& x)
 {
-  const auto n = static_cast<std::ptrdiff_t>(x.size() / 2);
-  const BSpline1D& bx = grid.basis(0);
-  const BSpline1D& by = grid.basis(1);
-  const int ncy = by.cells();
+  const auto n = static_cast<std::ptrdiff_t>(x.size() / Dim);
+  const std::array<int, Dim> cells = grid.cells();
   const auto ncells = static_cast<std::size_t>(grid.num_cells());
   _cell.resize(n);
   _order.resize(n);
@@ -24,14 +23,20 @@ std::size_t CellSort::sort(const Grid& grid, const std::vector<double>& x)
 #pragma omp parallel for schedule(static) reduction(min : outside)
   for (std::ptrdiff_t i = 0; i < n; ++i)
   {
-    const int cx = bx.cell(x[2 * i]), cy = by.cell(x[2 * i + 1]);
-    if (cx < 0 || cy < 0)
+    std::array<int, Dim> c;
+    bool inside = true;
+    for (int d = 0; d < Dim; ++d)
+    {
+      c[d] = grid.basis(d).cell(x[Dim * i + d]);
+      inside = inside && c[d] >= 0;
+    }
+    if (!inside)
     {
       outside = std::min(outside, i);
       _cell[i] = 0;
     }
     else
-      _cell[i] = cx * ncy + cy;
+      _cell[i] = static_cast<std::int32_t>(lattice_key<Dim>(c, cells));
   }
   if (outside < n)
     return static_cast<std::size_t>(outside);
@@ -70,5 +75,8 @@ std::size_t CellSort::sort(const Grid& grid, const std::vector<double>& x)
   }
   return static_cast<std::size_t>(n);
 }
+
+template std::size_t CellSort::sort(const Grid<2>&, const std::vector<double>&);
+template std::size_t CellSort::sort(const Grid<3>&, const std::vector<double>&);
 
 } // namespace pfmpm

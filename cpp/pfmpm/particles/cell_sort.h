@@ -13,17 +13,19 @@ namespace pfmpm
 
 /// @brief A stable counting sort of particles by the grid cell holding them.
 ///
-/// Cells are keyed as the grid keys them (`cell = cx * cells_y + cy`); the
+/// Cells are keyed as the grid keys them (lattice_key: `cell = cx * cells_y + cy`
+/// in 2D); the
 /// particles of cell c are order()[cell_start()[c] .. cell_start()[c + 1]).
 /// Within a cell they keep their index order, whatever the thread count, so
 /// every sum taken in this order has the same bits on any number of threads.
 class CellSort
 {
 public:
-  /// @brief Sort the particles at positions `x` (N x 2) into the cells of `grid`.
+  /// @brief Sort the particles at positions `x` (N x Dim) into the cells of `grid`.
   /// @return N when all lie on the grid, else the first particle that does not
   ///         (the sort is then incomplete).
-  std::size_t sort(const Grid& grid, const std::vector<double>& x);
+  template <int Dim>
+  std::size_t sort(const Grid<Dim>& grid, const std::vector<double>& x);
 
   /// @brief The particles of `all` for which keep(p) holds, in the same order.
   template <class Keep>
@@ -42,6 +44,9 @@ private:
   std::vector<std::int64_t> _cell_start; // offsets into _order, per cell + 1
   std::vector<std::int64_t> _histogram;  // threads x cells, scratch
 };
+
+extern template std::size_t CellSort::sort(const Grid<2>&, const std::vector<double>&);
+extern template std::size_t CellSort::sort(const Grid<3>&, const std::vector<double>&);
 
 template <class Keep>
 void CellSort::select(const CellSort& all, Keep&& keep)

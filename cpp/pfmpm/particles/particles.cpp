@@ -2,40 +2,63 @@
 /// @brief Core particle arrays and named columns.
 #include "pfmpm/particles/particles.h"
 
+#include "pfmpm/common/symmetric.h"
+
 #include <array>
 #include <stdexcept>
+#include <string>
 
 namespace pfmpm
 {
 
 namespace
 {
-/// The core arrays, in the order of Particles::columns().
-const std::array<ColumnSpec, 8>& core_specs()
+/// The core arrays of particles in `dim` directions, in the order of
+/// Particles::columns().
+const std::array<ColumnSpec, 8>& core_specs(int dim)
 {
-  static const std::array<ColumnSpec, 8> specs{{
+  static const std::array<ColumnSpec, 8> plane{{
       {"x", 2, DType::f64, {0.0}, "position", "x,y", ""},
       {"v", 2, DType::f64, {0.0}, "velocity (K&T eq. 80)", "x,y", "velocity"},
       {"mass", 1, DType::f64, {0.0}, "mass M_p", "", ""},
       {"volume", 1, DType::f64, {0.0}, "current volume V_p", "", "volume"},
-      {"stress", 4, DType::f64, {0.0}, "Cauchy stress", "xx,yy,xy,zz", "stress"},
+      {"stress", symmetric_size(2), DType::f64, {0.0}, "Cauchy stress", "xx,yy,xy,zz", "stress"},
       {"fext", 2, DType::f64, {0.0}, "external force (K&T eq. 42)", "x,y", ""},
       {"body", 1, DType::i32, {0.0}, "body index", "", "body"},
       {"material", 1, DType::i32, {0.0}, "material index", "", "material"},
   }};
-  return specs;
+  static const std::array<ColumnSpec, 8> solid{{
+      {"x", 3, DType::f64, {0.0}, "position", "x,y,z", ""},
+      {"v", 3, DType::f64, {0.0}, "velocity (K&T eq. 80)", "x,y,z", "velocity"},
+      {"mass", 1, DType::f64, {0.0}, "mass M_p", "", ""},
+      {"volume", 1, DType::f64, {0.0}, "current volume V_p", "", "volume"},
+      {"stress", symmetric_size(3), DType::f64, {0.0}, "Cauchy stress", "xx,yy,xy,zz,yz,xz", "stress"},
+      {"fext", 3, DType::f64, {0.0}, "external force (K&T eq. 42)", "x,y,z", ""},
+      {"body", 1, DType::i32, {0.0}, "body index", "", "body"},
+      {"material", 1, DType::i32, {0.0}, "material index", "", "material"},
+  }};
+  return dim == 2 ? plane : solid;
+}
+
+int checked_dim(int dim)
+{
+  if (dim != 2 && dim != 3)
+    throw std::invalid_argument("particles in " + std::to_string(dim)
+                                + " directions: must be 2 or 3");
+  return dim;
 }
 } // namespace
 
-Particles::Particles(std::size_t n)
-    : x(2 * n, 0.0), v(2 * n, 0.0), mass(n, 0.0), volume(n, 0.0), stress(4 * n, 0.0),
-      fext(2 * n, 0.0), body(n, 0), material(n, 0)
+Particles::Particles(std::size_t n, int dim)
+    : x(checked_dim(dim) * n, 0.0), v(dim * n, 0.0), mass(n, 0.0), volume(n, 0.0),
+      stress(symmetric_size(dim) * n, 0.0), fext(dim * n, 0.0), body(n, 0), material(n, 0),
+      _dim(dim)
 {
 }
 
 Column& Particles::add(const ColumnSpec& spec)
 {
-  for (const ColumnSpec& core : core_specs())
+  for (const ColumnSpec& core : core_specs(_dim))
     if (core.name == spec.name)
       throw std::invalid_argument("particle column " + spec.name + ": a core array has that name");
   const auto k = static_cast<std::size_t>(spec.components);
@@ -104,7 +127,7 @@ std::vector<std::int32_t>& Particles::i32(std::string_view name)
 
 std::vector<Particles::Entry> Particles::columns()
 {
-  const auto& core = core_specs();
+  const auto& core = core_specs(_dim);
   std::vector<Entry> out{
       {&core[0], x.data(), x.size()},           {&core[1], v.data(), v.size()},
       {&core[2], mass.data(), mass.size()},     {&core[3], volume.data(), volume.size()},

@@ -57,9 +57,10 @@ struct Column
 /// @brief Material points as contiguous arrays, row-major (N x k) where a
 /// quantity has k components.
 ///
-/// The core arrays are members: x, v, fext (N x 2); stress (N x 4: xx, yy,
-/// xy, zz, the Cauchy stress); mass, volume (N); body and material indices
-/// (N, int32). Everything else a scene's models keep per particle (the
+/// The core arrays are members: x, v, fext (N x Dim, Dim = dim() the
+/// directions, 2 or 3); stress (the Cauchy stress, N x symmetric_size(Dim):
+/// xx, yy, xy, zz, and in 3D yz, xz; common/symmetric.h); mass, volume (N);
+/// body and material indices (N, int32). Everything else a scene's models keep per particle (the
 /// small strain of a linear elastic material, the phase field c and history H,
 /// ...) is a named column, added by the model that needs it
 /// (Material::columns, PhaseField::columns) and found by name. columns()
@@ -68,16 +69,20 @@ struct Column
 class Particles
 {
 public:
-  /// @brief n particles at rest, zero mass, volume, stress and force.
-  explicit Particles(std::size_t n);
+  /// @brief n particles in `dim` directions (2 or 3) at rest, zero mass,
+  /// volume, stress and force.
+  /// @throws std::invalid_argument for another dim.
+  explicit Particles(std::size_t n, int dim = 2);
 
   std::size_t size() const { return mass.size(); }
+  /// The directions: 2 or 3 coordinates per position.
+  int dim() const { return _dim; }
 
   std::vector<double> x;      ///< position
   std::vector<double> v;      ///< velocity
   std::vector<double> mass;   ///< mass M_p
   std::vector<double> volume; ///< current volume V_p
-  std::vector<double> stress; ///< Cauchy stress (xx, yy, xy, zz)
+  std::vector<double> stress; ///< Cauchy stress (xx, yy, xy, zz[, yz, xz])
   std::vector<double> fext;   ///< external force: body force and traction (K&T eq. 42)
   std::vector<std::int32_t> body;     ///< body (velocity field or contact group) index
   std::vector<std::int32_t> material; ///< material index
@@ -110,6 +115,7 @@ public:
 
 private:
   std::deque<Column> _columns; // a deque: adding one moves no other
+  int _dim;
 };
 
 } // namespace pfmpm

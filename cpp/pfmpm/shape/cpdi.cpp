@@ -86,7 +86,7 @@ void ParticleDomains::convect(const std::int32_t* index, std::size_t n, const do
   }
 }
 
-std::size_t ParticleDomains::update(const Grid& grid, const double* x, std::size_t n) const
+std::size_t ParticleDomains::update(const Grid<2>& grid, const double* x, std::size_t n) const
 {
   const BSpline1D* basis[2] = {&grid.basis(0), &grid.basis(1)};
   const auto count = static_cast<std::ptrdiff_t>(n);

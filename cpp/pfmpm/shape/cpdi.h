@@ -180,7 +180,7 @@ public:
   /// @return The first particle whose domain reaches past the cells next
   ///         to its own (beyond the grid's edge: past the one cell a corner
   ///         may extend there), or n when there is none.
-  std::size_t update(const Grid& grid, const double* x, std::size_t n) const;
+  std::size_t update(const Grid<2>& grid, const double* x, std::size_t n) const;
 
   /// @brief The first particle whose domain is wider than a cell in x or y,
   /// or not positively oriented (det R <= 0), or n when there is none.

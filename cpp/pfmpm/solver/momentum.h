@@ -6,6 +6,7 @@
 #pragma once
 
 #include "pfmpm/common/reduce.h"
+#include "pfmpm/common/symmetric.h"
 #include "pfmpm/contact/coulomb.h"
 #include "pfmpm/fields/fields.h"
 #include "pfmpm/materials/material.h"
@@ -27,27 +28,37 @@ namespace pfmpm
 /// @brief The active indices of a cell's stencil nodes.
 ///
 /// A stencil row (the nodes with the same offsets but the last) is a run of
-/// consecutive active nodes (Grid::activate), so one look-up per row gives them.
+/// consecutive active nodes (Grid::activate), so one look-up per row gives
+/// them: width rows in 2D, width^2 in 3D.
 template <class Shape>
 class CellNodes
 {
 public:
-  static_assert(Shape::dim == 2, "the grid is two-dimensional");
-  CellNodes(const Grid& grid, const Cell& cell)
+  static constexpr int Dim = Shape::dim;
+  static constexpr int rows = Shape::size / Shape::width;
+
+  CellNodes(const Grid<Dim>& grid, const Cell<Dim>& cell)
   {
-    const int x0 = Shape::first(cell.cx, grid.nodes()[0]);
-    const int y0 = Shape::first(cell.cy, grid.nodes()[1]);
-    for (int a = 0; a < Shape::width; ++a)
-      _row[a] = grid.active_index(x0 + a, y0);
+    const std::array<int, Dim> nodes = grid.nodes();
+    std::array<int, Dim> first;
+    for (int d = 0; d < Dim; ++d)
+      first[d] = Shape::first(cell.index[d], nodes[d]);
+    for (int r = 0; r < rows; ++r)
+    {
+      std::array<int, Dim> node = first;
+      for (int d = 0; d + 1 < Dim; ++d)
+        node[d] += Shape::offset(r * Shape::width, d);
+      _row[r] = grid.active().index(node);
+    }
   }
   /// Active index of stencil node i.
   std::int32_t operator[](int i) const
   {
-    return _row[Shape::offset(i, 0)] + Shape::offset(i, 1);
+    return _row[i / Shape::width] + Shape::offset(i, Dim - 1);
   }
 
 private:
-  std::int32_t _row[Shape::width];
+  std::int32_t _row[rows];
 };
 
 /// The fields of a cell: the local field f of the block is `field[f]` (with
@@ -104,7 +115,8 @@ struct BySide
   static int at(const Particle& f, int i) { return f.base + static_cast<int>((f.mask >> i) & 1u); }
 };
 
-/// The particle arrays that P2G reads.
+/// The particle arrays that P2G reads (vectors Dim per particle, the stress
+/// symmetric_size(Dim)).
 struct P2GArrays
 {
   const double *v, *mass, *volume, *stress, *fext;
@@ -115,10 +127,10 @@ struct P2GArrays
 /// @brief The P2G sums of one cell: per local field and stencil node, the
 /// sums of NodeSums (internal and external force apart), with Surface those
 /// of SurfaceSums, and with Damage its damage sums.
-template <int F, int K, bool Surface, bool Damage>
+template <int Dim, int F, int K, bool Surface, bool Damage>
 struct P2GBlock
 {
-  double m[F][K], px[F][K], py[F][K], fx[F][K], fy[F][K], ex[F][K], ey[F][K];
+  double m[F][K], p[Dim][F][K], f[Dim][F][K], e[Dim][F][K];
   double gx[Surface ? F : 1][K], gy[Surface ? F : 1][K], V[Surface ? F : 1][K];
   double md[Damage ? F : 1][K], full[Damage ? F : 1][K];
 };
@@ -136,14 +148,17 @@ struct P2GBlock
 template <class Shape, bool External, int F, bool Surface, bool Damage, class Select>
 [[gnu::noinline]] void sum_cell(const detail::EachParticle<Shape>& each, const P2GArrays& a,
                                 const Select& select,
-                                P2GBlock<F, Shape::size, Surface, Damage>& block)
+                                P2GBlock<Shape::dim, F, Shape::size, Surface, Damage>& block)
 {
+  constexpr int Dim = Shape::dim;
   constexpr int K = Shape::size;
   constexpr int S = Surface ? F : 1;
   constexpr int D = Damage ? F : 1;
+  constexpr int T = symmetric_size(Dim);
+  static_assert(!Surface || Dim == 2, "contact is two-dimensional");
   const double *v = a.v, *mass = a.mass, *volume = a.volume, *stress = a.stress, *fext = a.fext;
   // Local arrays, which the compiler keeps apart from the particle arrays.
-  double m[F][K]{}, px[F][K]{}, py[F][K]{}, fx[F][K]{}, fy[F][K]{}, ex[F][K]{}, ey[F][K]{};
+  double m[F][K]{}, mv[Dim][F][K]{}, fi[Dim][F][K]{}, ext[Dim][F][K]{};
   [[maybe_unused]] double gx[S][K]{}, gy[S][K]{}, V[S][K]{};
   [[maybe_unused]] double md[D][K]{}, full[D][K]{};
   each(
@@ -151,19 +166,29 @@ template <class Shape, bool External, int F, bool Surface, bool Damage, class Se
       {
         const auto fp = select.particle(p);
         const double mp = mass[p];
-        const double mvx = mp * v[2 * p], mvy = mp * v[2 * p + 1];
+        double mvp[Dim];
+        for (int d = 0; d < Dim; ++d)
+          mvp[d] = mp * v[Dim * p + d];
         const double Vp = volume[p];
-        const double sxx = Vp * stress[4 * p], syy = Vp * stress[4 * p + 1],
-                     sxy = Vp * stress[4 * p + 2];
+        // V_p sigma_p, the entries the force reads (zz in 2D is out of plane).
+        double Vs[Dim][Dim];
+        for (int d = 0; d < Dim; ++d)
+          for (int k = d; k < Dim; ++k)
+            Vs[d][k] = Vs[k][d] = Vp * stress[T * p + symmetric_entry(d, k)];
         s.each_node(
             [&](int i, double w, const double* g)
             {
               const int f = Select::at(fp, i);
-              m[f][i] += w * mp;   // K&T eq. 46
-              px[f][i] += w * mvx; // K&T eq. 61
-              py[f][i] += w * mvy;
-              fx[f][i] -= sxx * g[0] + sxy * g[1]; // K&T eq. 62
-              fy[f][i] -= sxy * g[0] + syy * g[1];
+              m[f][i] += w * mp; // K&T eq. 46
+              for (int d = 0; d < Dim; ++d)
+                mv[d][f][i] += w * mvp[d]; // K&T eq. 61
+              for (int d = 0; d < Dim; ++d)
+              {
+                double t = Vs[d][0] * g[0]; // K&T eq. 62
+                for (int k = 1; k < Dim; ++k)
+                  t += Vs[d][k] * g[k];
+                fi[d][f][i] -= t;
+              }
               if constexpr (Surface)
               {
                 gx[f][i] += g[0] * mp; // K&T eq. 70, before normalisation
@@ -186,22 +211,24 @@ template <class Shape, bool External, int F, bool Surface, bool Damage, class Se
         // K&T eq. 42, from the loaded particles alone (few: a load on an edge):
         // a zero force adds zeros, which leave the sums as they are.
         if constexpr (External)
-          if (fext[2 * p] != 0.0 || fext[2 * p + 1] != 0.0)
+        {
+          bool loaded = false;
+          for (int d = 0; d < Dim; ++d)
+            loaded = loaded || fext[Dim * p + d] != 0.0;
+          if (loaded)
             s.each_node(
                 [&](int i, double w, const double*)
                 {
                   const int f = Select::at(fp, i);
-                  ex[f][i] += w * fext[2 * p];
-                  ey[f][i] += w * fext[2 * p + 1];
+                  for (int d = 0; d < Dim; ++d)
+                    ext[d][f][i] += w * fext[Dim * p + d];
                 });
+        }
       });
   std::memcpy(block.m, m, sizeof m);
-  std::memcpy(block.px, px, sizeof px);
-  std::memcpy(block.py, py, sizeof py);
-  std::memcpy(block.fx, fx, sizeof fx);
-  std::memcpy(block.fy, fy, sizeof fy);
-  std::memcpy(block.ex, ex, sizeof ex);
-  std::memcpy(block.ey, ey, sizeof ey);
+  std::memcpy(block.p, mv, sizeof mv);
+  std::memcpy(block.f, fi, sizeof fi);
+  std::memcpy(block.e, ext, sizeof ext);
   if constexpr (Surface)
   {
     std::memcpy(block.gx, gx, sizeof gx);
@@ -227,6 +254,7 @@ template <class Shape, int F, class Select>
                                   const BlockPoints<Shape>& points, double (&px)[F][Shape::size],
                                   double (&py)[F][Shape::size])
 {
+  static_assert(Shape::dim == 2, "APIC is two-dimensional");
   constexpr int K = Shape::size;
   double ax[F][K]{}, ay[F][K]{};
   each(
@@ -281,14 +309,16 @@ std::int32_t slot_of(const Fields& fields, std::int32_t a, const CellFields& loc
 template <class Shape, bool External, class Fields, bool Affine>
 struct MomentumP2G
 {
-  const Grid& grid;
+  static constexpr int Dim = Shape::dim;
+  static_assert(Dim == 2 || !Fields::discrete, "contact is two-dimensional");
+  const Grid<Dim>& grid;
   const Fields& fields;
   P2GArrays arrays;
   const std::int32_t* field_of; ///< per particle: its body (discrete) or group (damage fields)
-  NodeSums* sums;
+  NodeSums<Dim>* sums;
   SurfaceSums* surface;
 
-  void operator()(const Cell& cell, const detail::EachParticle<Shape>& each) const
+  void operator()(const Cell<Dim>& cell, const detail::EachParticle<Shape>& each) const
   {
     CellFields local;
     if constexpr (!Fields::discrete)
@@ -319,15 +349,15 @@ struct MomentumP2G
   }
 
   template <int F, bool Surface, bool Damage, class Select>
-  void scatter(const Cell& cell, const detail::EachParticle<Shape>& each, const Select& select,
-               const CellFields& local) const
+  void scatter(const Cell<Dim>& cell, const detail::EachParticle<Shape>& each,
+               const Select& select, const CellFields& local) const
   {
     constexpr int K = Shape::size;
-    P2GBlock<F, K, Surface, Damage> b;
+    P2GBlock<Dim, F, K, Surface, Damage> b;
     sum_cell<Shape, External, F, Surface, Damage>(each, arrays, select, b);
     if constexpr (Affine)
       sum_affine<Shape, F>(each, arrays.mass, arrays.affine, select, BlockPoints<Shape>(grid, cell),
-                           b.px, b.py);
+                           b.p[0], b.p[1]);
     const int nf = F == 1 ? 1 : Fields::per_pair ? 2 * local.n : local.n;
     const CellNodes<Shape> nodes(grid, cell);
     for (int f = 0; f < nf; ++f)
@@ -336,14 +366,14 @@ struct MomentumP2G
         const std::int32_t slot = slot_of(fields, nodes[i], local, f);
         if (slot < 0)
           continue; // a side no pair of the node chose: its sums are zero
-        NodeSums& n = sums[slot];
+        NodeSums<Dim>& n = sums[slot];
         n.m += b.m[f][i];
-        n.px += b.px[f][i];
-        n.py += b.py[f][i];
-        n.fx += b.fx[f][i] + b.ex[f][i];
-        n.fy += b.fy[f][i] + b.ey[f][i];
-        n.ex += b.ex[f][i];
-        n.ey += b.ey[f][i];
+        for (int d = 0; d < Dim; ++d)
+        {
+          n.p[d] += b.p[d][f][i];
+          n.f[d] += b.f[d][f][i] + b.e[d][f][i];
+          n.e[d] += b.e[d][f][i];
+        }
         if constexpr (Surface)
         {
           SurfaceSums& u = surface[slot];
@@ -360,21 +390,27 @@ struct MomentumP2G
   }
 };
 
-/// A velocity (x, y).
-using Velocity = std::array<double, 2>;
+/// A velocity in Dim directions.
+template <int Dim>
+using Velocity = std::array<double, Dim>;
 
-/// What the grid update sums over the nodes, in a fixed order.
-enum GridUpdateSum : int
+/// What the grid update sums over the nodes, in a fixed order (their indices).
+template <int Dim>
+struct GridUpdate
 {
-  sum_external_work = 0, ///< work of the external forces over the step
-  sum_friction_work,     ///< work of the friction forces over the step
-  sum_wall_work,         ///< work of the wall constraints over the step (<= 0)
-  sum_light,             ///< slots with mass too small to divide by
-  sum_region_work,       ///< first of the regions' works over the step, one per region
-  sum_hold_impulse = sum_region_work + max_regions, ///< first of the holders' impulses, 2 holder + d
-  sum_contact = sum_hold_impulse + 2 * max_holders, ///< first of the contact_counts counters
-  sum_pair_impulse = sum_contact + contact_counts,  ///< first of the pairs' contact impulses, 2 pair + d
-  grid_update_sums = sum_pair_impulse + 2 * max_field_pairs
+  static constexpr int external_work = 0; ///< work of the external forces over the step
+  static constexpr int friction_work = 1; ///< work of the friction forces over the step
+  static constexpr int wall_work = 2;     ///< work of the wall constraints over the step (<= 0)
+  static constexpr int light = 3;         ///< slots with mass too small to divide by
+  static constexpr int region_work = 4;   ///< first of the regions' works over the step, one per region
+  /// First of the holders' impulses, Dim holder + d.
+  static constexpr int hold_impulse = region_work + max_regions;
+  /// First of the contact_counts counters.
+  static constexpr int contact = hold_impulse + Dim * num_holders(Dim);
+  /// First of the pairs' contact impulses, Dim pair + d.
+  static constexpr int pair_impulse = contact + contact_counts;
+  /// How many.
+  static constexpr int size = pair_impulse + Dim * max_field_pairs;
 };
 
 /// @brief The update of a field alone at its node (K&T eqs. 63-65): with no
@@ -382,8 +418,9 @@ enum GridUpdateSum : int
 /// work of the external force over the step. Slots lighter than `mass_tol`
 /// get zero velocity and are counted. Out of line, so that every partition
 /// runs the same arithmetic.
-void update_free_slot(const NodeSums& s, NodeHold hold, const Velocity* held, double dt,
-                      double mass_tol, NodeKinematics& k, double* acc);
+template <int Dim>
+void update_free_slot(const NodeSums<Dim>& s, NodeHold hold, const Velocity<Dim>* held, double dt,
+                      double mass_tol, NodeKinematics<Dim>& k, double* acc);
 
 /// @brief New velocity vn of a slot with old velocity vo (after contact):
 /// walls and regions (a holder sets the new velocity of each direction it
@@ -398,8 +435,10 @@ void update_free_slot(const NodeSums& s, NodeHold hold, const Velocity* held, do
 /// a wall that is -m vo_d^2 / 2: the forces do no work along d, where the
 /// slot does not move.
 /// @param held Each holder's velocity (Grid::holder_velocity).
-void finish_slot(const NodeSums& s, const double* vo, double* vn, NodeHold hold, const Velocity* held,
-                 const double* friction, double dt, NodeKinematics& k, double* acc);
+template <int Dim>
+void finish_slot(const NodeSums<Dim>& s, const double* vo, double* vn, NodeHold hold,
+                 const Velocity<Dim>* held, const double* friction, double dt,
+                 NodeKinematics<Dim>& k, double* acc);
 
 /// @brief The update of the n >= 2 fields at a contact node (K&T eqs. 63-77):
 /// trial momenta and velocities, Coulomb contact between every pair that
@@ -408,10 +447,10 @@ void finish_slot(const NodeSums& s, const double* vo, double* vn, NodeHold hold,
 /// the work done, and the checks C.3 and C.4.
 /// @param field Field index of each slot, into `friction` (nfields x nfields).
 /// @param touch_volume What two fields fill where they touch (coulomb_forces).
-void update_contact_node(int n, const NodeSums* sums, const SurfaceSums* surface,
+void update_contact_node(int n, const NodeSums<2>* sums, const SurfaceSums* surface,
                          const std::int32_t* field, const double* friction, int nfields,
-                         double touch_volume, NodeHold hold, const Velocity* held, double dt,
-                         double mass_tol, NodeKinematics* k, double* acc);
+                         double touch_volume, NodeHold hold, const Velocity<2>* held, double dt,
+                         double mass_tol, NodeKinematics<2>* k, double* acc);
 
 /// @brief The update of the n >= 2 damage-gradient fields at a node (H&H
 /// eq. 21 in Algorithm 3): the two sides of a group are separable where
@@ -422,10 +461,10 @@ void update_contact_node(int n, const NodeSums* sums, const SurfaceSums* surface
 /// (update_contact_node), with the friction of their groups' pair (a
 /// group's own for its crack faces).
 /// @param field Field index of each slot, 2 group + side, sorted.
-void update_damage_node(int n, const NodeSums* sums, const SurfaceSums* surface,
+void update_damage_node(int n, const NodeSums<2>* sums, const SurfaceSums* surface,
                         const std::int32_t* field, const double* friction, int groups,
                         double separability, double touch_volume, NodeHold hold,
-                        const Velocity* held, double dt, double mass_tol, NodeKinematics* k,
+                        const Velocity<2>* held, double dt, double mass_tol, NodeKinematics<2>* k,
                         double* acc);
 
 /// @brief The grid update (K&T eqs. 63-65): trial momentum and velocity of
@@ -433,22 +472,23 @@ void update_damage_node(int n, const NodeSums* sums, const SurfaceSums* surface,
 /// (K&T eqs. 66-77; with damage fields H&H Algorithm 3), walls, and the nodal
 /// accelerations that G2P reads. Two fields touch at a node where their
 /// volumes there fill `touch_fill` of its volume (coulomb_forces).
-/// @return The sums of GridUpdateSum.
-template <class Fields>
-std::array<double, grid_update_sums> update_grid(const Grid& grid, Fields& fields,
-                                                 const std::vector<NodeSums>& sums,
-                                                 const std::vector<SurfaceSums>& surface,
-                                                 std::vector<NodeKinematics>& kinematics, double dt,
-                                                 double mass_tol, double touch_fill)
+/// @return The sums of GridUpdate.
+template <int Dim, class Fields>
+std::array<double, GridUpdate<Dim>::size>
+update_grid(const Grid<Dim>& grid, Fields& fields, const std::vector<NodeSums<Dim>>& sums,
+            const std::vector<SurfaceSums>& surface, std::vector<NodeKinematics<Dim>>& kinematics,
+            double dt, double mass_tol, double touch_fill)
 {
+  static_assert(Dim == 2 || !Fields::discrete, "contact is two-dimensional");
+  constexpr int sums_n = GridUpdate<Dim>::size;
   const std::vector<NodeHold>& constrained = grid.constraints();
   const bool holds = !constrained.empty();
-  const Velocity* held = grid.holder_velocity().data();
+  const Velocity<Dim>* held = grid.holder_velocity().data();
   const auto na = static_cast<std::size_t>(grid.num_active());
   kinematics.resize(sums.size());
-  return deterministic_sum<grid_update_sums>(
+  return deterministic_sum<sums_n>(
       na,
-      [&](std::size_t a, std::array<double, grid_update_sums>& acc)
+      [&](std::size_t a, std::array<double, sums_n>& acc)
       {
         const NodeHold hold = holds ? constrained[a] : NodeHold{};
         std::int32_t s0 = static_cast<std::int32_t>(a), n = 1;
@@ -458,7 +498,7 @@ std::array<double, grid_update_sums> update_grid(const Grid& grid, Fields& field
           n = fields.slot_start()[a + 1] - s0;
         }
         if (n == 1)
-          return update_free_slot(sums[s0], hold, held, dt, mass_tol, kinematics[s0], acc.data());
+          return update_free_slot<Dim>(sums[s0], hold, held, dt, mass_tol, kinematics[s0], acc.data());
         if constexpr (Fields::discrete)
         {
           // The volume of two touching fields: a fraction of the node's, the
@@ -480,12 +520,28 @@ std::array<double, grid_update_sums> update_grid(const Grid& grid, Fields& field
 }
 
 /// The nodal velocities and accelerations of a cell, per local field and
-/// stencil node: vx, vy, ax, ay (NodeKinematics' order).
-template <int F, int K>
+/// stencil node: v, then a (NodeKinematics' order).
+template <int Dim, int F, int K>
 struct G2PBlock
 {
-  double nodal[F][K][4];
+  double nodal[F][K][2 * Dim];
 };
+
+/// @brief det(I + dt L) of a velocity gradient L (row-major Dim x Dim): the
+/// volume ratio over a step (K&T eq. 78's F increment).
+template <int Dim>
+double volume_ratio(const double* L, double dt)
+{
+  if constexpr (Dim == 2)
+    return (1.0 + dt * L[0]) * (1.0 + dt * L[3]) - dt * dt * L[1] * L[2];
+  else
+  {
+    const double a = 1.0 + dt * L[0], b = dt * L[1], c = dt * L[2];
+    const double d = dt * L[3], e = 1.0 + dt * L[4], f = dt * L[5];
+    const double g = dt * L[6], h = dt * L[7], i = 1.0 + dt * L[8];
+    return a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g);
+  }
+}
 
 /// The particle arrays that G2P moves.
 struct G2PArrays
@@ -513,15 +569,20 @@ struct G2PArrays
 /// sum_cell).
 template <class Shape, int F, bool Affine, class Select>
 [[gnu::noinline]] void move_cell(const detail::EachParticle<Shape>& each, const G2PArrays& a,
-                                 const Select& select, const G2PBlock<F, Shape::size>& block,
+                                 const Select& select,
+                                 const G2PBlock<Shape::dim, F, Shape::size>& block,
                                  const BlockPoints<Shape>* points, double dt, double* L,
                                  std::size_t& bad, double& speed2, double& drift2)
 {
+  constexpr int Dim = Shape::dim;
   constexpr int K = Shape::size;
+  constexpr int Q = 2 * Dim; // nodal v and a
+  static_assert(!Affine || Dim == 2, "APIC is two-dimensional");
   double *x = a.x, *v = a.v, *volume = a.volume;
   // APIC (Jiang et al. 2015, eq. 10): B_p = sum_i N_i v_i (x_i - x_p)^T at
-  // the particle's position before it moves (apic.h).
-  [[maybe_unused]] auto affine = [&](std::size_t p, const Shape& s, const double (*nodal)[4])
+  // the particle's position before it moves (apic.h). Generic, so that it
+  // is compiled only where APIC calls it.
+  [[maybe_unused]] auto affine = [&](std::size_t p, const auto& s, const double (*nodal)[Q])
   {
     const AffineFrame<Shape> frame = affine_frame<false>(s, *points);
     double b[4] = {0.0, 0.0, 0.0, 0.0};
@@ -540,51 +601,58 @@ template <class Shape, int F, bool Affine, class Select>
   each(
       [&](std::size_t p, const Shape& s)
       {
-        double value[4], grad[2][4]; // (vx, vy, ax, ay) and their x and y derivatives
+        double value[Q], grad[Dim][Q]; // (v, a) and their derivatives along each direction
         if constexpr (F == 1)
         {
-          s.template interpolate<4>(block.nodal[0], value, grad);
+          s.template interpolate<Q>(block.nodal[0], value, grad);
           if constexpr (Affine)
             affine(p, s, block.nodal[0]);
         }
         else
         {
           const auto fp = select.particle(p);
-          double mine[K][4];
+          double mine[K][Q];
           for (int i = 0; i < K; ++i)
           {
             const int f = Select::at(fp, i);
-            for (int q = 0; q < 4; ++q)
+            for (int q = 0; q < Q; ++q)
               mine[i][q] = block.nodal[f][i][q];
           }
-          s.template interpolate<4>(mine, value, grad);
+          s.template interpolate<Q>(mine, value, grad);
           if constexpr (Affine)
             affine(p, s, mine);
         }
-        const double vx = value[0], vy = value[1];
-        const double Lxx = grad[0][0], Lxy = grad[1][0], Lyx = grad[0][1], Lyy = grad[1][1];
-        if constexpr (Affine)
+        // L_ij = dv_i/dx_j, row-major (K&T eq. 78, H&H eq. 7).
+        for (int i = 0; i < Dim; ++i)
+          for (int j = 0; j < Dim; ++j)
+            L[Dim * i + j] = grad[j][i];
+        double* const vp = &v[Dim * p];
+        double* const xp = &x[Dim * p];
+        for (int d = 0; d < Dim; ++d)
         {
-          v[2 * p] = vx; // the PIC velocity of APIC (Jiang et al. 2015)
-          v[2 * p + 1] = vy;
+          if constexpr (Affine)
+            vp[d] = value[d]; // the PIC velocity of APIC (Jiang et al. 2015)
+          else
+            vp[d] += dt * value[Dim + d]; // K&T eq. 80
         }
-        else
+        for (int d = 0; d < Dim; ++d)
+          xp[d] += dt * value[d]; // K&T eq. 82
+        volume[p] *= volume_ratio<Dim>(L, dt);
+        double sum = xp[0], speed = vp[0] * vp[0], moved = value[0] * value[0];
+        for (int d = 1; d < Dim; ++d)
+          sum += xp[d];
+        for (int d = 0; d < Dim; ++d)
+          sum += vp[d];
+        for (int d = 1; d < Dim; ++d)
         {
-          v[2 * p] += dt * value[2]; // K&T eq. 80
-          v[2 * p + 1] += dt * value[3];
+          speed += vp[d] * vp[d];
+          moved += value[d] * value[d];
         }
-        x[2 * p] += dt * vx; // K&T eq. 82
-        x[2 * p + 1] += dt * vy;
-        volume[p] *= (1.0 + dt * Lxx) * (1.0 + dt * Lyy) - dt * dt * Lxy * Lyx;
-        if (!std::isfinite(x[2 * p] + x[2 * p + 1] + v[2 * p] + v[2 * p + 1]))
+        if (!std::isfinite(sum))
           bad = std::min(bad, p);
-        speed2 = std::max(speed2, v[2 * p] * v[2 * p] + v[2 * p + 1] * v[2 * p + 1]);
-        drift2 = std::max(drift2, vx * vx + vy * vy);
-        L[0] = Lxx;
-        L[1] = Lxy;
-        L[2] = Lyx;
-        L[3] = Lyy;
-        L += 4;
+        speed2 = std::max(speed2, speed);
+        drift2 = std::max(drift2, moved);
+        L += Dim * Dim;
       });
 }
 
@@ -599,9 +667,11 @@ template <class Shape, int F, bool Affine, class Select>
 template <class Shape, class Fields, bool Affine>
 struct KinematicsG2P
 {
-  const Grid& grid;
+  static constexpr int Dim = Shape::dim;
+  static_assert(Dim == 2, "the materials take 2 x 2 velocity gradients");
+  const Grid<Dim>& grid;
   const Fields& fields;
-  const NodeKinematics* kinematics;
+  const NodeKinematics<Dim>* kinematics;
   Particles& particles;
   const std::vector<std::unique_ptr<Material::Bound>>& materials;
   const std::vector<const Degradation*>& degradation;
@@ -614,7 +684,7 @@ struct KinematicsG2P
 
   struct Local
   {
-    std::vector<double> L; // the cell's velocity gradients, 4 per particle
+    std::vector<double> L; // the cell's velocity gradients, Dim x Dim per particle
     std::size_t bad;       // first particle with a non-finite value
     double speed2 = 0.0;   // largest |v_p|^2
     double wave = 0.0;     // largest P-wave speed
@@ -632,7 +702,7 @@ struct KinematicsG2P
     drift2 = std::max(drift2, l.drift2);
   }
 
-  void operator()(Local& local, const Cell& cell, const detail::EachParticle<Shape>& each) const
+  void operator()(Local& local, const Cell<Dim>& cell, const detail::EachParticle<Shape>& each) const
   {
     CellFields fields_of;
     if constexpr (Fields::discrete && !Fields::per_pair)
@@ -655,23 +725,24 @@ struct KinematicsG2P
   }
 
   template <int F, class Select>
-  void gather(Local& local, const Cell& cell, const detail::EachParticle<Shape>& each,
+  void gather(Local& local, const Cell<Dim>& cell, const detail::EachParticle<Shape>& each,
               const Select& select, const CellFields& fields_of) const
   {
     constexpr int K = Shape::size;
+    constexpr int LL = Dim * Dim; // entries of a velocity gradient
     const int nf = F == 1 ? 1 : Fields::per_pair ? 2 * fields_of.n : fields_of.n;
     // The cell's nodes are read once for all its particles.
     const CellNodes<Shape> active(grid, cell);
-    G2PBlock<F, K> nodes;
+    G2PBlock<Dim, F, K> nodes;
     for (int f = 0; f < nf; ++f)
       for (int i = 0; i < K; ++i)
       {
         const std::int32_t slot = slot_of(fields, active[i], fields_of, f);
-        const NodeKinematics k = slot < 0 ? NodeKinematics{} : kinematics[slot];
+        const NodeKinematics<Dim> k = slot < 0 ? NodeKinematics<Dim>{} : kinematics[slot];
         static_assert(sizeof k == sizeof nodes.nodal[f][i]);
         std::memcpy(nodes.nodal[f][i], &k, sizeof k);
       }
-    local.L.resize(4 * static_cast<std::size_t>(cell.end - cell.begin));
+    local.L.resize(LL * static_cast<std::size_t>(cell.end - cell.begin));
     G2PArrays arrays{particles.x.data(), particles.v.data(), particles.volume.data()};
     if constexpr (Affine)
     {
@@ -687,7 +758,7 @@ struct KinematicsG2P
     // one material, the whole cell).
     auto update = [&](std::int32_t m, const Batch& b)
     {
-      const double* L = &local.L[4 * static_cast<std::size_t>(b.index - (each.order + cell.begin))];
+      const double* L = &local.L[LL * static_cast<std::size_t>(b.index - (each.order + cell.begin))];
       const UpdateResult r = materials[m]->update(b, L, dt, degradation[m], stress);
       local.wave = std::max(local.wave, r.wave);
       local.bad = std::min(local.bad, r.bad);

@@ -48,7 +48,7 @@ std::string region_key(int k, const char* name)
 }
 } // namespace
 
-Solver::Solver(Grid& grid, Particles& particles,
+Solver::Solver(Grid<2>& grid, Particles& particles,
                std::vector<std::shared_ptr<const Material>> materials, StepConfig step)
     : _grid(grid), _particles(particles), _materials(std::move(materials)), _dt(step.dt),
       _transfer(step.transfer)
@@ -57,6 +57,9 @@ Solver::Solver(Grid& grid, Particles& particles,
   auto& [dt, fracture, tol, max_iterations, partition, friction, damage, shape, scaling, transfer] = step;
   if (!(dt > 0.0) || !std::isfinite(dt))
     throw std::invalid_argument("dt = " + std::to_string(dt) + ": must be > 0");
+  if (particles.dim() != 2)
+    throw std::invalid_argument("particles in " + std::to_string(particles.dim())
+                                + " directions: the solver steps 2D particles");
   if (_materials.empty())
     throw std::invalid_argument("materials: at least one material is needed");
   for (const auto& m : _materials)
@@ -524,43 +527,44 @@ void Solver::step(Fields& fields, bool energy)
     Stopwatch clock{_timers.p2g};
     particle_to_grid<Shape, Affine>(fields);
   }
-  std::array<double, grid_update_sums> sums;
+  using U = GridUpdate<2>;
+  std::array<double, U::size> sums;
   {
     Stopwatch clock{_timers.grid};
     sums = update_grid(_grid, fields, _sums, _surface, _kinematics, _dt, _mass_tol, _touch_fill);
   }
-  _external_work += sums[sum_external_work];
-  _wall_work += sums[sum_wall_work];
-  for (int side = 0; side < 4; ++side)
+  _external_work += sums[U::external_work];
+  _wall_work += sums[U::wall_work];
+  for (int side = 0; side < Grid<2>::sides; ++side)
     for (int d = 0; d < 2; ++d)
-      _wall_impulse[side][d] += sums[sum_hold_impulse + 2 * side + d];
-  const std::vector<Region>& regions = _grid.regions();
+      _wall_impulse[side][d] += sums[U::hold_impulse + 2 * side + d];
+  const std::vector<Region<2>>& regions = _grid.regions();
   for (std::size_t k = 0; k < regions.size(); ++k)
   {
-    _region_work[k] += sums[sum_region_work + k];
+    _region_work[k] += sums[U::region_work + k];
     for (int d = 0; d < 2; ++d)
     {
-      _region_impulse[k][d] += sums[sum_hold_impulse + 2 * (4 + k) + d];
+      _region_impulse[k][d] += sums[U::hold_impulse + 2 * (Grid<2>::sides + k) + d];
       if (regions[k].components & (1 << d))
-        _region_displacement[k][d] += _dt * _grid.holder_velocity()[4 + k][d];
+        _region_displacement[k][d] += _dt * _grid.holder_velocity()[Grid<2>::sides + k][d];
     }
     _grid.move_region(static_cast<int>(k), _region_displacement[k]);
   }
-  _light_nodes += static_cast<std::int64_t>(sums[sum_light]);
+  _light_nodes += static_cast<std::int64_t>(sums[U::light]);
   if constexpr (Fields::discrete)
   {
     for (int q = 0; q < max_field_pairs; ++q)
       for (int d = 0; d < 2; ++d)
-        _pair_impulse[q][d] += sums[sum_pair_impulse + 2 * q + d];
+        _pair_impulse[q][d] += sums[U::pair_impulse + 2 * q + d];
     ContactStats& c = fields.stats();
-    c.friction_work += sums[sum_friction_work];
-    c.pairs += static_cast<std::int64_t>(sums[sum_contact + count_pairs]);
-    c.active += static_cast<std::int64_t>(sums[sum_contact + count_active]);
-    c.sliding += static_cast<std::int64_t>(sums[sum_contact + count_sliding]);
+    c.friction_work += sums[U::friction_work];
+    c.pairs += static_cast<std::int64_t>(sums[U::contact + count_pairs]);
+    c.active += static_cast<std::int64_t>(sums[U::contact + count_active]);
+    c.sliding += static_cast<std::int64_t>(sums[U::contact + count_sliding]);
     for (int i = 0; i < 4; ++i)
-      c.violations[i] += static_cast<std::int64_t>(sums[sum_contact + count_c1 + i]);
-    c.split = static_cast<std::int32_t>(sums[sum_contact + count_split]);
-    c.separable = static_cast<std::int32_t>(sums[sum_contact + count_separable]);
+      c.violations[i] += static_cast<std::int64_t>(sums[U::contact + count_c1 + i]);
+    c.split = static_cast<std::int32_t>(sums[U::contact + count_split]);
+    c.separable = static_cast<std::int32_t>(sums[U::contact + count_separable]);
     c.separable_total += c.separable;
   }
   {
@@ -594,7 +598,7 @@ void Solver::particle_to_grid(Fields& fields)
   _sums.resize(slots);
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t a = 0; a < static_cast<std::ptrdiff_t>(slots); ++a)
-    _sums[a] = NodeSums{};
+    _sums[a] = NodeSums<2>{};
   if constexpr (Fields::discrete)
     _surface.assign(slots, SurfaceSums{});
   const Particles& P_ = _particles;
@@ -898,7 +902,7 @@ void Solver::set_velocity_gradients(const std::vector<double>& G)
         pfmpm::grid_to_particle<Shape>(
             _grid, _sort, points(),
             unreduced(
-                [&](const Cell& cell, const detail::EachParticle<Shape>& each)
+                [&](const Cell<2>& cell, const detail::EachParticle<Shape>& each)
                 {
                   const BlockPoints<Shape> X(_grid, cell);
                   each(
@@ -942,8 +946,8 @@ std::vector<std::array<double, 4>> Solver::nodal_mass_momentum()
           for (std::int32_t s = s0; s < s1; ++s)
           {
             out[a][1] += _sums[s].m;
-            out[a][2] += _sums[s].px;
-            out[a][3] += _sums[s].py;
+            out[a][2] += _sums[s].p[0];
+            out[a][3] += _sums[s].p[1];
           }
         }
       });

@@ -197,7 +197,7 @@ public:
   ///        solver). The materials' and the phase field's columns are added.
   /// @param materials Materials indexed by Particles::material.
   /// @param step What each step does (StepConfig).
-  Solver(Grid& grid, Particles& particles, std::vector<std::shared_ptr<const Material>> materials,
+  Solver(Grid<2>& grid, Particles& particles, std::vector<std::shared_ptr<const Material>> materials,
          StepConfig step);
 
   /// @brief Take `steps` explicit steps, each on the OpenMP thread count
@@ -373,7 +373,7 @@ private:
     CellSort sort;     ///< the selection, when select
   };
 
-  Grid& _grid;
+  Grid<2>& _grid;
   Particles& _particles;
   std::vector<std::shared_ptr<const Material>> _materials;
   std::vector<std::unique_ptr<Material::Bound>> _bound; // per material, on _particles
@@ -401,9 +401,9 @@ private:
   std::vector<PhaseFieldGroup> _phase;
 
   CellSort _sort;
-  std::vector<NodeSums> _sums;             // per slot
+  std::vector<NodeSums<2>> _sums;          // per slot
   std::vector<SurfaceSums> _surface;       // per slot, at contact cells
-  std::vector<NodeKinematics> _kinematics; // per slot
+  std::vector<NodeKinematics<2>> _kinematics; // per slot
   std::vector<std::vector<std::int64_t>> _region_cells; // per region (region_cells)
   StageTimers _timers;
   bool _adaptive_threads = true;

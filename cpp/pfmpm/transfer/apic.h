@@ -72,9 +72,9 @@ struct BlockPoints
   double u[2][Shape::width];
   double h; ///< the cell size
 
-  BlockPoints(const Grid& grid, const Cell& cell) : h(grid.h())
+  BlockPoints(const Grid<2>& grid, const Cell<2>& cell) : h(grid.h())
   {
-    const int c[2] = {cell.cx, cell.cy};
+    const int c[2] = {cell.index[0], cell.index[1]};
     for (int d = 0; d < 2; ++d)
     {
       const BSpline1D& basis = grid.basis(d);

@@ -25,20 +25,12 @@ namespace pfmpm
 {
 
 /// The particle data a stencil is evaluated from: the centres and, for a
-/// stencil with domains (CPDI), the half-edges of the particle domains.
+/// stencil with domains (CPDI, 2D), the half-edges of the particle domains.
 struct Points
 {
-  const double* x;              ///< centres, (x, y) per particle
+  const double* x;              ///< centres, Dim coordinates per particle
   const double* r1 = nullptr;   ///< domain half-edge r_1, (x, y) per particle
   const double* r2 = nullptr;   ///< domain half-edge r_2
-};
-
-/// An occupied cell and the range of its particles in the sort.
-struct Cell
-{
-  int cx, cy;             ///< cell indices
-  std::size_t key;        ///< cx * cells_y + cy
-  std::int64_t begin, end; ///< its particles: order[begin, end)
 };
 
 namespace detail
@@ -47,16 +39,17 @@ namespace detail
 template <class Stencil>
 struct EachParticle
 {
-  const std::array<const BSpline1D*, 2>& basis;
+  static constexpr int Dim = Stencil::dim;
+  const std::array<const BSpline1D*, Dim>& basis;
   const std::int32_t* order;
   Points points;
-  const Cell& cell;
+  const Cell<Dim>& cell;
 
   template <class F>
   void operator()(F&& f) const
   {
-    const int index[2] = {cell.cx, cell.cy};
-    const std::array<const BSpline1D*, 2> local = basis;
+    const std::array<int, Dim> index = cell.index;
+    const std::array<const BSpline1D*, Dim> local = basis;
     const double* const xs = points.x;
     const std::int32_t* const sorted = order;
     for (std::int64_t k = cell.begin; k < cell.end; ++k)
@@ -64,9 +57,9 @@ struct EachParticle
       const std::size_t p = sorted[k];
       Stencil s;
       if constexpr (Stencil::domains)
-        s.evaluate(local, index, &xs[2 * p], &points.r1[2 * p], &points.r2[2 * p]);
+        s.evaluate(local, index.data(), &xs[Dim * p], &points.r1[Dim * p], &points.r2[Dim * p]);
       else
-        s.evaluate(local, index, &xs[2 * p]);
+        s.evaluate(local, index.data(), &xs[Dim * p]);
       f(p, s);
     }
   }
@@ -81,7 +74,8 @@ struct EachParticle
 /// receives its cells' contributions in an order fixed by the sort: the same
 /// bits on any number of threads.
 template <class Stencil, class Kernel>
-void particle_to_grid(const Grid& grid, const CellSort& sort, const Points& points, Kernel&& kernel)
+void particle_to_grid(const Grid<Stencil::dim>& grid, const CellSort& sort, const Points& points,
+                      Kernel&& kernel)
 {
   // A cell's block is at most strip_width nodes from at most one node before
   // the cell, so the blocks of two strips of one parity, strip_width cells
@@ -89,45 +83,39 @@ void particle_to_grid(const Grid& grid, const CellSort& sort, const Points& poin
   // which the first and last strip's neighbours of one parity stay clear of).
   static_assert(Stencil::lower >= -1 && Stencil::width <= strip_width,
                 "strips of one parity must not share a node");
-  const std::array<const BSpline1D*, 2> basis{&grid.basis(0), &grid.basis(1)};
-  const int ncy = grid.cells()[1];
+  constexpr int Dim = Stencil::dim;
+  const std::array<const BSpline1D*, Dim> basis = grid.bases();
   const std::int32_t* order = sort.order().data();
-  for_each_cell_by_strips(grid.cells()[0], ncy, sort.cell_start(),
-                          [&](int cx, int cy, std::int64_t begin, std::int64_t end)
-                          {
-                            const Cell cell{cx, cy, static_cast<std::size_t>(cx) * ncy + cy,
-                                            begin, end};
-                            kernel(cell, detail::EachParticle<Stencil>{basis, order, points, cell});
-                          });
+  for_each_cell_by_strips<Dim>(grid.cells(), sort.cell_start(),
+                               [&](const Cell<Dim>& cell) {
+                                 kernel(cell, detail::EachParticle<Stencil>{basis, order, points, cell});
+                               });
 }
 
 /// @brief G2P: call kernel(local, cell, each) for every occupied cell, the
-/// columns of cells statically shared among the threads.
+/// slabs of cells (of equal first index) statically shared among the threads.
 ///
 /// `local` is the thread's own `Kernel::Local`, made by kernel.local() at the
 /// start and handed to kernel.merge(local) at the end, one thread at a time:
 /// for reductions (a minimum or maximum, whose result does not depend on the
 /// order) and per-thread scratch. A kernel writes only to its cell's particles.
 template <class Stencil, class Kernel>
-void grid_to_particle(const Grid& grid, const CellSort& sort, const Points& points, Kernel&& kernel)
+void grid_to_particle(const Grid<Stencil::dim>& grid, const CellSort& sort, const Points& points,
+                      Kernel&& kernel)
 {
-  const std::array<const BSpline1D*, 2> basis{&grid.basis(0), &grid.basis(1)};
-  const int ncx = grid.cells()[0], ncy = grid.cells()[1];
+  constexpr int Dim = Stencil::dim;
+  const std::array<const BSpline1D*, Dim> basis = grid.bases();
+  const std::array<int, Dim> cells = grid.cells();
+  const std::size_t plane = slab_cells<Dim>(cells);
   const std::int32_t* order = sort.order().data();
-  const std::int64_t* start = sort.cell_start().data();
 #pragma omp parallel
   {
     auto local = kernel.local();
 #pragma omp for schedule(static)
-    for (int cx = 0; cx < ncx; ++cx)
-      for (int cy = 0; cy < ncy; ++cy)
-      {
-        const std::size_t key = static_cast<std::size_t>(cx) * ncy + cy;
-        if (start[key] == start[key + 1])
-          continue;
-        const Cell cell{cx, cy, key, start[key], start[key + 1]};
-        kernel(local, cell, detail::EachParticle<Stencil>{basis, order, points, cell});
-      }
+    for (int c0 = 0; c0 < cells[0]; ++c0)
+      for_each_occupied_cell_of_slab<Dim>(
+          c0, cells, plane, sort.cell_start(), [&](const Cell<Dim>& cell)
+          { kernel(local, cell, detail::EachParticle<Stencil>{basis, order, points, cell}); });
 #pragma omp critical
     kernel.merge(local);
   }
@@ -144,8 +132,8 @@ struct Unreduced
   };
   Local local() const { return {}; }
   void merge(Local&) const {}
-  template <class Each>
-  void operator()(Local&, const Cell& cell, const Each& each) const
+  template <class C, class Each>
+  void operator()(Local&, const C& cell, const Each& each) const
   {
     f(cell, each);
   }
