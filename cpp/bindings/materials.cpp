@@ -100,7 +100,7 @@ void bind_materials(py::module_& m)
           [](const Material& mat)
           {
             py::dict out;
-            for (const ColumnSpec& c : mat.columns())
+            for (const ColumnSpec& c : mat.columns(2)) // the same names in 2D and 3D
               if (!c.dissipation.empty())
                 out[py::str(c.dissipation)] = c.name;
             return out;
@@ -111,7 +111,7 @@ void bind_materials(py::module_& m)
           [](const Material& mat)
           {
             py::list out;
-            for (const ColumnSpec& c : mat.columns())
+            for (const ColumnSpec& c : mat.columns(2)) // the same names in 2D and 3D
               out.append(c.name);
             return out;
           },

@@ -28,7 +28,7 @@ inline std::vector<std::shared_ptr<const Material>> elastic(double E, double nu,
 /// (which adds them too) is built.
 inline void add_model_columns(Particles& P, bool phase_field)
 {
-  for (const ColumnSpec& c : LinearElastic(1.0, 0.0, 1.0, Plane::strain).columns())
+  for (const ColumnSpec& c : LinearElastic(1.0, 0.0, 1.0, Plane::strain).columns(2))
     P.add(c);
   if (phase_field)
     for (const ColumnSpec& c : PhaseField::columns(/*fourth_order=*/true)) // with phi, which some tests set

@@ -42,7 +42,7 @@ struct Point
                                                  {"dilation_angle", psi}},
                                                 {})))
   {
-    for (const ColumnSpec& s : model->columns())
+    for (const ColumnSpec& s : model->columns(2))
       P.add(s);
     P.volume[0] = 1.0;
     bound = model->bind(P);

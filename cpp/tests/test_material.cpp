@@ -37,7 +37,7 @@ public:
   {
   }
   std::string model() const override { return "test_saint_venant_kirchhoff"; }
-  std::vector<ColumnSpec> columns() const override
+  std::vector<ColumnSpec> columns(int) const override
   {
     return {{"F", 4, DType::f64, {1.0, 0.0, 0.0, 1.0}, "deformation gradient", "xx,xy,yx,yy", ""}};
   }
@@ -53,6 +53,8 @@ public:
   };
   View view(Particles& P) const { return {P.f64("F").data(), P.stress.data()}; }
   static constexpr bool constant_wave_speed = true;
+  static constexpr bool solid = false; // plane strain
+  template <int Dim>
   void advance(const View& v, std::size_t p, const double* L, double dt) const
   {
     double* F = &v.F[4 * p];
@@ -61,14 +63,16 @@ public:
                          A[2] * F[0] + A[3] * F[2], A[2] * F[1] + A[3] * F[3]};
     std::copy(G, G + 4, F);
   }
+  template <int Dim>
   void undegraded(const View& v, std::size_t p) const { stress(&v.F[4 * p], &v.stress[4 * p]); }
   double degraded(const View& v, std::size_t p, double g) const
   {
     stress(&v.F[4 * p], &v.stress[4 * p]);
     for (int k = 0; k < 4; ++k)
       v.stress[4 * p + k] *= g;
-    return energy(v, p);
+    return energy<2>(v, p);
   }
+  template <int Dim>
   double energy(const View& v, std::size_t p) const
   {
     const double* F = &v.F[4 * p];
@@ -79,7 +83,7 @@ public:
   }
   void split(const View& v, std::size_t p, double& plus, double& minus) const
   {
-    plus = energy(v, p);
+    plus = energy<2>(v, p);
     minus = 0.0;
   }
 
@@ -123,7 +127,7 @@ TEST(Material, ATestModelRunsThroughAStepWithItsClosedFormStress)
   const double E = 100.0, nu = 0.3, a = 2.5, dt = 0.1;
   auto model = MaterialRegistry::make("test_saint_venant_kirchhoff",
                                       Parameters({{"E", E}, {"nu", nu}, {"density", 1.0}}, {}));
-  EXPECT_EQ(model->columns().front().name, "F");
+  EXPECT_EQ(model->columns(2).front().name, "F");
   Grid<2> grid(2, {40, 40}, 1.0, {-10.0, -10.0});
   const int n = 48;
   Particles P(static_cast<std::size_t>(n) * n);

@@ -29,7 +29,7 @@ struct Point
   Point(std::map<std::string, double> numbers, std::map<std::string, std::string> words = {})
       : model(MaterialRegistry::make("neo_hookean", Parameters(numbers, words)))
   {
-    for (const ColumnSpec& c : model->columns())
+    for (const ColumnSpec& c : model->columns(2))
       P.add(c);
     P.volume[0] = 2.0;
     P.mass[0] = 2.0 * model->density();

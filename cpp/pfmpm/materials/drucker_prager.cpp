@@ -100,8 +100,10 @@ public:
   double density() const override { return _density; }
   double wave_speed() const override { return plane_strain_wave_speed(_E, _nu, _density); }
   double rayleigh_speed() const override { return isotropic_rayleigh_speed(_E, _nu, _density); }
-  std::vector<ColumnSpec> columns() const override
+  std::vector<ColumnSpec> columns(int dim) const override
   {
+    if (dim != 2)
+      throw std::invalid_argument("drucker_prager is two-dimensional (plane strain)");
     return {{"strain", 3, DType::f64, {0.0}, "small strain (K&T eq. 78)", "xx,yy,xy", "strain"},
             {"plastic_strain", 4, DType::f64, {0.0}, "plastic strain eps_p", "xx,yy,xy,zz",
              "plastic_strain"},
@@ -126,10 +128,14 @@ public:
             P.stress.data(), P.volume.data()};
   }
   static constexpr bool constant_wave_speed = true;
+  /// Plane strain alone.
+  static constexpr bool solid = false;
 
   /// K&T eq. 78, then the return to the cone (class description).
+  template <int Dim>
   void advance(const View& v, std::size_t p, const double* L, double dt) const
   {
+    static_assert(Dim == 2, "plane strain");
     double* eps = &v.strain[3 * p];
     double* ep = &v.plastic[4 * p];
     double before[4];
@@ -165,19 +171,23 @@ public:
       work += (before[i] + after[i]) * dep[i] * (i == 2 ? 2.0 : 1.0); // xy counts twice
     v.work[p] += 0.5 * v.volume[p] * work;
   }
+  template <int Dim>
   void undegraded(const View& v, std::size_t p) const
   {
+    static_assert(Dim == 2, "plane strain");
     elastic(&v.strain[3 * p], &v.plastic[4 * p], &v.stress[4 * p]);
   }
   double degraded(const View& v, std::size_t p, double g) const
   {
-    undegraded(v, p);
+    undegraded<2>(v, p);
     for (int i = 0; i < 4; ++i)
       v.stress[4 * p + i] *= g;
-    return energy(v, p);
+    return energy<2>(v, p);
   }
+  template <int Dim>
   double energy(const View& v, std::size_t p) const
   {
+    static_assert(Dim == 2, "plane strain");
     double sig[4];
     const double* eps = &v.strain[3 * p];
     const double* ep = &v.plastic[4 * p];
@@ -187,7 +197,7 @@ public:
   }
   void split(const View& v, std::size_t p, double& plus, double& minus) const
   {
-    plus = energy(v, p);
+    plus = energy<2>(v, p);
     minus = 0.0;
   }
   /// @}

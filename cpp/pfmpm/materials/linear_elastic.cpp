@@ -31,6 +31,7 @@ LinearElastic::LinearElastic(double E, double nu, double density, Plane plane, S
   declared(specs, "density").check(density);
   _mu = E / (2.0 * (1.0 + nu));
   const double lambda = E * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
+  _lambda3 = lambda;
   if (plane == Plane::strain)
   {
     _lambda = lambda;
@@ -72,8 +73,15 @@ double LinearElastic::wave_speed() const
                                  : plane_stress_wave_speed(_E, _nu, _density);
 }
 
-std::vector<ColumnSpec> LinearElastic::columns() const
+std::vector<ColumnSpec> LinearElastic::columns(int dim) const
 {
+  if (dim == 3)
+  {
+    if (_plane == Plane::stress)
+      throw std::invalid_argument("linear_elastic: plane stress is a 2D mode, not a 3D one");
+    return {{"strain", 6, DType::f64, {0.0}, "small strain (K&T eq. 78)", "xx,yy,xy,zz,yz,xz",
+             "strain"}};
+  }
   return {{"strain", 3, DType::f64, {0.0}, "small strain (K&T eq. 78)", "xx,yy,xy", "strain"}};
 }
 

@@ -3,6 +3,7 @@
 /// the phase field (Kakouris & Triantafyllou 2019, eqs. 14-16, 78).
 #pragma once
 
+#include "pfmpm/common/symmetric.h"
 #include "pfmpm/materials/material.h"
 
 #include <algorithm>
@@ -50,6 +51,9 @@ public:
   explicit LinearElastic(const Parameters& p);
 
   static constexpr bool phase_field = true;
+  /// In 3D too (undegraded: the phase field is 2D), with lambda and mu;
+  /// plane stress is a 2D mode.
+  static constexpr bool solid = true;
   static constexpr const char* description =
       "Isotropic linear elasticity, small strain, in plane strain or plane stress, with the "
       "energy splits of the phase field (K&T eqs. 14-16, 78).";
@@ -70,7 +74,7 @@ public:
   double rayleigh_speed() const override { return isotropic_rayleigh_speed(_E, _nu, _density); }
 
   std::string model() const override { return "linear_elastic"; }
-  std::vector<ColumnSpec> columns() const override;
+  std::vector<ColumnSpec> columns(int dim) const override;
 
   /// @name Per-particle functions of MaterialModel
   /// @{
@@ -81,17 +85,42 @@ public:
   };
   View view(Particles& P) const { return {P.f64("strain").data(), P.stress.data()}; }
   static constexpr bool constant_wave_speed = true;
-  /// Strain increment, K&T eq. 78: eps += dt sym(L).
+  /// Strain increment, K&T eq. 78: eps += dt sym(L) (in 2D xx, yy, xy; in
+  /// 3D the symmetric layout of common/symmetric.h).
+  template <int Dim>
   void advance(const View& v, std::size_t p, const double* L, double dt) const
   {
-    double* eps = &v.strain[3 * p];
-    eps[0] += dt * L[0];
-    eps[1] += dt * L[3];
-    eps[2] += 0.5 * dt * (L[1] + L[2]);
+    if constexpr (Dim == 2)
+    {
+      double* eps = &v.strain[3 * p];
+      eps[0] += dt * L[0];
+      eps[1] += dt * L[3];
+      eps[2] += 0.5 * dt * (L[1] + L[2]);
+    }
+    else
+    {
+      double* eps = &v.strain[6 * p];
+      for (int i = 0; i < 3; ++i)
+        for (int j = i; j < 3; ++j)
+          eps[symmetric_entry(i, j)] += i == j ? dt * L[4 * i] : 0.5 * dt * (L[3 * i + j] + L[3 * j + i]);
+    }
   }
+  template <int Dim>
   void undegraded(const View& v, std::size_t p) const
   {
-    undegraded(&v.strain[3 * p], &v.stress[4 * p]); // K&T eq. 16, g = 1
+    if constexpr (Dim == 2)
+      undegraded(&v.strain[3 * p], &v.stress[4 * p]); // K&T eq. 16, g = 1
+    else
+    {
+      // sigma = lambda tr(eps) I + 2 mu eps
+      const double* eps = &v.strain[6 * p];
+      double* sig = &v.stress[6 * p];
+      const double tr = eps[0] + eps[1] + eps[3];
+      for (int k = 0; k < 6; ++k)
+        sig[k] = 2.0 * _mu * eps[k];
+      for (int d = 0; d < 3; ++d)
+        sig[symmetric_entry(d, d)] += _lambda3 * tr;
+    }
   }
   double degraded(const View& v, std::size_t p, double g) const
   {
@@ -99,7 +128,21 @@ public:
     degraded(&v.strain[3 * p], g, &v.stress[4 * p], plus, minus);
     return plus;
   }
-  double energy(const View& v, std::size_t p) const { return energy_density(&v.strain[3 * p]); }
+  template <int Dim>
+  double energy(const View& v, std::size_t p) const
+  {
+    if constexpr (Dim == 2)
+      return energy_density(&v.strain[3 * p]);
+    else
+    {
+      // psi = lambda/2 tr(eps)^2 + mu eps : eps
+      const double* eps = &v.strain[6 * p];
+      const double tr = eps[0] + eps[1] + eps[3];
+      const double diagonal = eps[0] * eps[0] + eps[1] * eps[1] + eps[3] * eps[3];
+      const double shear = eps[2] * eps[2] + eps[4] * eps[4] + eps[5] * eps[5];
+      return 0.5 * _lambda3 * tr * tr + _mu * (diagonal + 2.0 * shear);
+    }
+  }
   void split(const View& v, std::size_t p, double& plus, double& minus) const
   {
     double sig[4];
@@ -203,6 +246,7 @@ private:
   Plane _plane;
   Split _split;
   double _lambda, _mu, _zz; // _zz: sigma_zz per unit in-plane trace
+  double _lambda3;          // the 3D lambda, E nu / ((1 + nu)(1 - 2 nu))
   double _bulk;             // bulk modulus: 3D in plane strain, 2D in plane stress
   double _mean_fraction;    // 1/3 (3D trace) or 1/2 (2D trace)
 };

@@ -14,6 +14,7 @@
 #pragma once
 
 #include "pfmpm/common/parameters.h"
+#include "pfmpm/common/symmetric.h"
 #include "pfmpm/particles/particles.h"
 
 #include <algorithm>
@@ -23,6 +24,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -60,7 +62,7 @@ struct UpdateResult
 /// @brief A constitutive model: its particle state and the stress it gives.
 ///
 /// Kinematics: G2P hands each batch the velocity gradient L_p = sum_I v_I (x)
-/// grad N_I (K&T eq. 78, H&H eq. 7), row-major 2 x 2 per particle; the model
+/// grad N_I (K&T eq. 78, H&H eq. 7), row-major Dim x Dim per particle (Dim the particles' directions); the model
 /// advances its own kinematic measure with it (the small strain, or the
 /// deformation gradient F <- (I + dt L) F) and computes the Cauchy stress.
 /// A Material holds parameters only; bind() attaches it to a particle set,
@@ -71,8 +73,11 @@ public:
   virtual ~Material() = default;
   /// The name the model is registered under.
   virtual std::string model() const = 0;
-  /// The particle columns the model keeps, beyond the core arrays.
-  virtual std::vector<ColumnSpec> columns() const = 0;
+  /// The particle columns the model keeps, beyond the core arrays, for
+  /// particles in `dim` directions (2 or 3).
+  virtual std::vector<ColumnSpec> columns(int dim) const = 0;
+  /// Whether the model runs in 3D too (else 2D alone: plane strain or stress).
+  virtual bool solid() const = 0;
   /// Mass density.
   virtual double density() const = 0;
   /// P-wave speed of the undeformed material, sqrt((K + 4G/3) / rho).
@@ -85,7 +90,7 @@ public:
   {
   public:
     virtual ~Bound() = default;
-    /// @brief Advance the batch's kinematic measure by dt with L (2 x 2 per
+    /// @brief Advance the batch's kinematic measure by dt with L (Dim x Dim per
     /// particle, in batch order) and set its stress; with `degradation`, the
     /// stress of K&T eq. 16 with g(c) and the history raised to psi+ (K&T eq. 20),
     /// and the stress only when `stress` is set: a cracking particle's stress
@@ -103,7 +108,8 @@ public:
     /// P-wave speed of particle p in its current state.
     virtual double wave_speed(std::size_t p) const = 0;
   };
-  /// @brief Attach the model to `P`, which has its columns.
+  /// @brief Attach the model to `P`, which has its columns (for P.dim()).
+  /// @throws std::invalid_argument for 3D particles and a 2D model.
   virtual std::unique_ptr<Bound> bind(Particles& P) const = 0;
 };
 
@@ -176,31 +182,49 @@ inline double isotropic_rayleigh_speed(double E, double nu, double density)
 
 /// @brief The batch loops of Material, written once for every model.
 ///
-/// `Model` provides:
+/// `Model` provides, with Dim the directions of the particles (2, or 3
+/// where `solid`):
+/// - `static constexpr bool solid`: whether it runs in 3D;
 /// - `struct View` with the pointers it needs and `View view(Particles&) const`;
-/// - `void advance(const View&, std::size_t p, const double* L, double dt) const`;
-/// - `void undegraded(const View&, std::size_t p) const`, the stress without
-///   a phase field;
-/// - `double degraded(const View&, std::size_t p, double g) const`, the stress
-///   of K&T eq. 16 with g(c), returning psi+;
-/// - `double energy(const View&, std::size_t p) const` and
-///   `void split(const View&, std::size_t p, double& plus, double& minus) const`
-///   (energy densities per unit current volume);
+/// - `template <int Dim> void advance(const View&, std::size_t p, const double* L,
+///   double dt) const`, L the velocity gradient, row-major Dim x Dim;
+/// - `template <int Dim> void undegraded(const View&, std::size_t p) const`,
+///   the stress without a phase field (symmetric_size(Dim) entries);
+/// - `template <int Dim> double energy(const View&, std::size_t p) const`, the
+///   energy density per unit current volume;
+/// - in 2D, with a phase field: `double degraded(const View&, std::size_t p,
+///   double g) const`, the stress of K&T eq. 16 with g(c), returning psi+, and
+///   `void split(const View&, std::size_t p, double& plus, double& minus) const`;
 /// - `static constexpr bool constant_wave_speed` and, if false,
-///   `double state_wave_speed(const View&, std::size_t p) const`.
+///   `template <int Dim> double state_wave_speed(const View&, std::size_t p) const`.
 template <class Model>
 class MaterialModel : public Material
 {
 public:
+  bool solid() const final { return Model::solid; }
+
   std::unique_ptr<Bound> bind(Particles& P) const final
   {
-    return std::make_unique<Attached>(static_cast<const Model&>(*this), P);
+    const Model& model = static_cast<const Model&>(*this);
+    if (P.dim() == 3)
+    {
+      if constexpr (Model::solid)
+        return std::make_unique<Attached<3>>(model, P);
+      else
+        throw std::invalid_argument("material model " + model.model()
+                                    + " is two-dimensional (plane strain or plane stress)");
+    }
+    return std::make_unique<Attached<2>>(model, P);
   }
 
 private:
+  template <int Dim>
   class Attached final : public Bound
   {
   public:
+    static constexpr int LL = Dim * Dim;              ///< entries of a velocity gradient
+    static constexpr int T = symmetric_size(Dim); ///< entries of a stress
+
     Attached(const Model& model, Particles& P)
         : _model(model), _view(model.view(P)), _volume(P.volume.data()), _stress(P.stress.data())
     {
@@ -212,13 +236,29 @@ private:
       UpdateResult r;
       if constexpr (Model::constant_wave_speed)
         r.wave = _model.wave_speed();
+      if constexpr (Dim == 3)
+      {
+        if (degradation)
+          throw std::logic_error("the phase field is two-dimensional");
+        each(b, [&](auto at)
+             {
+               for (std::size_t k = 0; k < b.n; ++k)
+               {
+                 const std::size_t p = at(k);
+                 _model.template advance<Dim>(_view, p, &L[LL * k], dt);
+                 _model.template undegraded<Dim>(_view, p);
+                 note(r, p, stress_sum(p));
+               }
+             });
+        return r;
+      }
       each(b, [&](auto at)
            {
              if (degradation && stress)
                for (std::size_t k = 0; k < b.n; ++k)
                {
                  const std::size_t p = at(k);
-                 _model.advance(_view, p, &L[4 * k], dt);
+                 _model.template advance<Dim>(_view, p, &L[LL * k], dt);
                  // K&T eqs. 14-16 with this step's phase field; the history takes
                  // the largest tensile energy so far (K&T eq. 20, Kuhn-Tucker conditions).
                  const double plus = _model.degraded(_view, p, degradation->g(degradation->c[p]));
@@ -229,7 +269,7 @@ private:
                for (std::size_t k = 0; k < b.n; ++k)
                {
                  const std::size_t p = at(k);
-                 _model.advance(_view, p, &L[4 * k], dt);
+                 _model.template advance<Dim>(_view, p, &L[LL * k], dt);
                  // K&T eq. 20 as above, psi+ without the stress
                  double plus, minus;
                  _model.split(_view, p, plus, minus);
@@ -240,8 +280,8 @@ private:
                for (std::size_t k = 0; k < b.n; ++k)
                {
                  const std::size_t p = at(k);
-                 _model.advance(_view, p, &L[4 * k], dt);
-                 _model.undegraded(_view, p);
+                 _model.template advance<Dim>(_view, p, &L[LL * k], dt);
+                 _model.template undegraded<Dim>(_view, p);
                  note(r, p, stress_sum(p));
                }
            });
@@ -250,6 +290,9 @@ private:
 
     void stress(const Batch& b, const Degradation& degradation) const override
     {
+      if constexpr (Dim == 3)
+        throw std::logic_error("the phase field is two-dimensional");
+      else
       each(b, [&](auto at)
            {
              for (std::size_t k = 0; k < b.n; ++k)
@@ -267,15 +310,16 @@ private:
              for (std::size_t k = 0; k < b.n; ++k)
              {
                const std::size_t p = at(k);
-               if (degradation)
-               {
-                 double plus, minus;
-                 _model.split(_view, p, plus, minus);
-                 // K&T eq. 14
-                 sum += _volume[p] * (degradation->g(degradation->c[p]) * plus + minus);
-               }
-               else
-                 sum += _volume[p] * _model.energy(_view, p);
+               if constexpr (Dim == 2)
+                 if (degradation)
+                 {
+                   double plus, minus;
+                   _model.split(_view, p, plus, minus);
+                   // K&T eq. 14
+                   sum += _volume[p] * (degradation->g(degradation->c[p]) * plus + minus);
+                   continue;
+                 }
+               sum += _volume[p] * _model.template energy<Dim>(_view, p);
              }
            });
     }
@@ -285,15 +329,18 @@ private:
       if constexpr (Model::constant_wave_speed)
         return _model.wave_speed();
       else
-        return _model.state_wave_speed(_view, p);
+        return _model.template state_wave_speed<Dim>(_view, p);
     }
 
   private:
     /// The sum of particle p's stress components (finite when each is).
     double stress_sum(std::size_t p) const
     {
-      const double* sig = &_stress[4 * p];
-      return sig[0] + sig[1] + sig[2] + sig[3];
+      const double* sig = &_stress[T * p];
+      double sum = sig[0];
+      for (int k = 1; k < T; ++k)
+        sum += sig[k];
+      return sum;
     }
     /// The checks of particle p after its update: `state`, a sum of its new
     /// state's numbers, is finite, and its wave speed when that follows the
@@ -303,7 +350,7 @@ private:
       if (!std::isfinite(state))
         r.bad = std::min(r.bad, p);
       if constexpr (!Model::constant_wave_speed)
-        r.wave = std::max(r.wave, _model.state_wave_speed(_view, p));
+        r.wave = std::max(r.wave, _model.template state_wave_speed<Dim>(_view, p));
     }
     /// f(at) with at(k) the k-th particle of the batch, listed or contiguous.
     template <class F>

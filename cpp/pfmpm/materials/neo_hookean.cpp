@@ -95,12 +95,18 @@ NeoHookean<Damage>::NeoHookean(double E, double nu, double density, DeformationU
 }
 
 template <class Damage>
-std::vector<ColumnSpec> NeoHookean<Damage>::columns() const
+std::vector<ColumnSpec> NeoHookean<Damage>::columns(int dim) const
 {
-  std::vector<ColumnSpec> out{
-      {"F", 4, DType::f64, {1.0, 0.0, 0.0, 1.0}, "deformation gradient F (H&H eq. 8)",
-       "xx,xy,yx,yy", ""},
-      {"J", 1, DType::f64, {1.0}, "J = det F, the volume ratio V / V_0", "", "J"}};
+  if (dim == 3 && !solid)
+    throw std::invalid_argument("neo_hookean with damage is two-dimensional for now");
+  std::vector<ColumnSpec> out;
+  if (dim == 3)
+    out.push_back({"F", 9, DType::f64, {1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0},
+                   "deformation gradient F (H&H eq. 8)", "xx,xy,xz,yx,yy,yz,zx,zy,zz", ""});
+  else
+    out.push_back({"F", 4, DType::f64, {1.0, 0.0, 0.0, 1.0}, "deformation gradient F (H&H eq. 8)",
+                   "xx,xy,yx,yy", ""});
+  out.push_back({"J", 1, DType::f64, {1.0}, "J = det F, the volume ratio V / V_0", "", "J"});
   if constexpr (damages)
   {
     out.push_back({"damage", 1, DType::f64, {0.0},

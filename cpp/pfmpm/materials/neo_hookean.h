@@ -7,6 +7,7 @@
 #include "pfmpm/materials/damage.h"
 #include "pfmpm/materials/deformation.h"
 #include "pfmpm/materials/material.h"
+#include "pfmpm/common/symmetric.h"
 
 #include <algorithm>
 #include <cmath>
@@ -51,12 +52,18 @@ namespace pfmpm
 /// The phase field (MaterialModel's `degraded`) multiplies the whole stress
 /// by g(c) and takes psi+ = the stored energy (no split); scenes do not
 /// combine it with this model yet.
+///
+/// In 3D (without damage, for now) the same equations hold on the 3 x 3 F
+/// (`F` row-major xx, xy, xz, yx, .., zz) and B: sigma = mu/J (B - I) +
+/// lambda ln J / J I, W = mu/2 (tr C - 3) - mu ln J + lambda/2 (ln J)^2.
 template <class Damage>
 class NeoHookean final : public MaterialModel<NeoHookean<Damage>>
 {
 public:
   /// Whether the model carries damage.
   static constexpr bool damages = !std::is_same_v<Damage, NoDamage>;
+  /// In 3D without damage (the principal stresses of the damage models are 2D yet).
+  static constexpr bool solid = !damages;
 
   /// @param E Young's modulus (> 0).
   /// @param nu Poisson ratio (-1 < nu < 0.5).
@@ -80,7 +87,7 @@ public:
   /// Rayleigh wave speed of the undeformed material.
   double rayleigh_speed() const override { return isotropic_rayleigh_speed(_E, _nu, _density); }
   std::string model() const override { return "neo_hookean"; }
-  std::vector<ColumnSpec> columns() const override;
+  std::vector<ColumnSpec> columns(int dim) const override;
 
   /// @name Per-particle functions of MaterialModel
   /// @{
@@ -99,22 +106,21 @@ public:
   static constexpr bool constant_wave_speed = false;
 
   /// H&H eq. 8 (DeformationUpdate), J, and with damage the growth of D (H&H eqs. 23-24).
+  template <int Dim>
   void advance(const View& v, std::size_t p, const double* L, double dt) const
   {
-    double* F = &v.F[4 * p];
+    double* F = &v.F[Dim * Dim * p];
     [[maybe_unused]] double before[5]; // F and J at the start of the step
     if constexpr (damages)
     {
+      static_assert(Dim == 2, "damage is two-dimensional");
       std::copy(F, F + 4, before);
       before[4] = v.J[p];
     }
-    _update(F, L, dt);
-    const double J = determinant(F);
+    _update.template apply<Dim>(F, L, dt);
+    const double J = determinant<Dim>(F);
     if (!_volume_as_g2p)
-    {
-      const double step = (1.0 + dt * L[0]) * (1.0 + dt * L[3]) - dt * dt * L[1] * L[2];
-      v.volume[p] *= J / (v.J[p] * step);
-    }
+      v.volume[p] *= J / (v.J[p] * volume_ratio<Dim>(L, dt));
     v.J[p] = J;
     if constexpr (damages)
     {
@@ -132,27 +138,29 @@ public:
     }
   }
   /// The stress of the current state: H&H eq. 22, with damage H&H eqs. 26-27.
+  template <int Dim>
   void undegraded(const View& v, std::size_t p) const
   {
-    double* sig = &v.stress[4 * p];
-    trial_stress(&v.F[4 * p], v.J[p], sig);
+    double* sig = &v.stress[symmetric_size(Dim) * p];
+    trial_stress<Dim>(&v.F[Dim * Dim * p], v.J[p], sig);
     if constexpr (damages)
       if (v.damage[p] > 0.0)
         degrade_tensile(sig, v.damage[p]);
   }
   double degraded(const View& v, std::size_t p, double g) const
   {
-    undegraded(v, p);
+    undegraded<2>(v, p);
     for (int k = 0; k < 4; ++k)
       v.stress[4 * p + k] *= g;
-    return energy(v, p);
+    return energy<2>(v, p);
   }
   /// Stored energy per unit current volume, (W - D W+) / J.
+  template <int Dim>
   double energy(const View& v, std::size_t p) const
   {
-    const double* F = &v.F[4 * p];
+    const double* F = &v.F[Dim * Dim * p];
     const double J = v.J[p];
-    double psi = stored_energy(F, J);
+    double psi = stored_energy<Dim>(F, J);
     if constexpr (damages)
       if (v.damage[p] > 0.0)
         psi -= v.damage[p] * tensile_energy(Principal(*this, F, J));
@@ -160,7 +168,7 @@ public:
   }
   void split(const View& v, std::size_t p, double& plus, double& minus) const
   {
-    plus = energy(v, p);
+    plus = energy<2>(v, p);
     minus = 0.0;
   }
   /// @brief P-wave speed in the current state, for the stability check: the
@@ -176,11 +184,23 @@ public:
   /// that of the stiffer. (A failed particle drawn out between two fragments,
   /// b_1 ~ 1e9 with sigma_1 > 0 > sigma_2, has no stiffness along its
   /// stretch: the speed is the compressive direction's, not mu b_1's.)
+  template <int Dim>
   double state_wave_speed(const View& v, std::size_t p) const
   {
-    const double* F = &v.F[4 * p];
+    const double* F = &v.F[Dim * Dim * p];
     const double J = v.J[p];
     const double compression = _lambda * std::max(1.0 / J - 1.0, 0.0);
+    if constexpr (Dim == 3)
+    {
+      // The largest eigenvalue of B, bounded by its largest Gershgorin disc
+      // (B is symmetric positive definite): no eigen-solve per particle.
+      double B[3][3];
+      left_cauchy_green<3>(F, B);
+      double b_max = 0.0;
+      for (int i = 0; i < 3; ++i)
+        b_max = std::max(b_max, B[i][i] + std::abs(B[i][(i + 1) % 3]) + std::abs(B[i][(i + 2) % 3]));
+      return std::sqrt((_mu * b_max + _lambda + _mu + compression) / _density);
+    }
     if constexpr (damages)
       if (v.damage[p] > 0.0)
       {
@@ -195,29 +215,48 @@ public:
   }
   /// @}
 
+  /// @brief B = F F^T of a Dim x Dim F.
+  template <int Dim>
+  static void left_cauchy_green(const double* F, double (&B)[Dim][Dim])
+  {
+    for (int i = 0; i < Dim; ++i)
+      for (int j = 0; j < Dim; ++j)
+      {
+        double b = F[Dim * i] * F[Dim * j];
+        for (int k = 1; k < Dim; ++k)
+          b += F[Dim * i + k] * F[Dim * j + k];
+        B[i][j] = b;
+      }
+  }
+
   /// @brief The trial stress of H&H eq. 22.
-  /// @param F Deformation gradient (xx, xy, yx, yy).
+  /// @param F Deformation gradient, row-major Dim x Dim.
   /// @param J det F.
-  /// @param[out] sig Cauchy stress (xx, yy, xy, zz).
+  /// @param[out] sig Cauchy stress (xx, yy, xy, zz[, yz, xz]; plane strain in 2D).
+  template <int Dim>
   void trial_stress(const double* F, double J, double* sig) const
   {
     const double iJ = 1.0 / J, lnJ = std::log(J);
-    const double Bxx = F[0] * F[0] + F[1] * F[1], Byy = F[2] * F[2] + F[3] * F[3];
-    const double Bxy = F[0] * F[2] + F[1] * F[3];
+    double B[Dim][Dim];
+    left_cauchy_green<Dim>(F, B);
     const double vol = _lambda * lnJ;
-    sig[0] = (_mu * (Bxx - 1.0) + vol) * iJ;
-    sig[1] = (_mu * (Byy - 1.0) + vol) * iJ;
-    sig[2] = _mu * Bxy * iJ;
-    sig[3] = vol * iJ;
+    for (int i = 0; i < Dim; ++i)
+      for (int j = i; j < Dim; ++j)
+        sig[symmetric_entry(i, j)] = i == j ? (_mu * (B[i][i] - 1.0) + vol) * iJ : _mu * B[i][j] * iJ;
+    if constexpr (Dim == 2)
+      sig[3] = vol * iJ; // F_33 = 1: B_zz - 1 = 0
   }
 
   /// @brief W = mu/2 (tr C - 3) - mu ln J + lambda/2 (ln J)^2 per unit
-  /// reference volume (tr C = |F|^2 + 1 in plane strain).
+  /// reference volume (tr C = |F|^2, + 1 in plane strain).
+  template <int Dim>
   double stored_energy(const double* F, double J) const
   {
     const double lnJ = std::log(J);
-    const double FF = F[0] * F[0] + F[1] * F[1] + F[2] * F[2] + F[3] * F[3];
-    return 0.5 * _mu * (FF - 2.0) - _mu * lnJ + 0.5 * _lambda * lnJ * lnJ;
+    double FF = F[0] * F[0];
+    for (int k = 1; k < Dim * Dim; ++k)
+      FF += F[k] * F[k];
+    return 0.5 * _mu * (FF - (Dim == 2 ? 2.0 : 3.0)) - _mu * lnJ + 0.5 * _lambda * lnJ * lnJ;
   }
 
 private:

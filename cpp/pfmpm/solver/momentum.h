@@ -9,6 +9,7 @@
 #include "pfmpm/common/symmetric.h"
 #include "pfmpm/contact/coulomb.h"
 #include "pfmpm/fields/fields.h"
+#include "pfmpm/materials/deformation.h"
 #include "pfmpm/materials/material.h"
 #include "pfmpm/shape/cpdi.h"
 #include "pfmpm/transfer/apic.h"
@@ -158,7 +159,14 @@ template <class Shape, bool External, int F, bool Surface, bool Damage, class Se
   static_assert(!Surface || Dim == 2, "contact is two-dimensional");
   const double *v = a.v, *mass = a.mass, *volume = a.volume, *stress = a.stress, *fext = a.fext;
   // Local arrays, which the compiler keeps apart from the particle arrays.
-  double m[F][K]{}, mv[Dim][F][K]{}, fi[Dim][F][K]{}, ext[Dim][F][K]{};
+  // One block per direction, each aligned for the vector units (a
+  // [Dim][F][K] array would start its second direction mid-vector).
+  struct alignas(32) Block
+  {
+    double v[F][K];
+  };
+  double m[F][K]{};
+  Block mv[Dim]{}, fi[Dim]{}, ext[Dim]{};
   [[maybe_unused]] double gx[S][K]{}, gy[S][K]{}, V[S][K]{};
   [[maybe_unused]] double md[D][K]{}, full[D][K]{};
   each(
@@ -167,27 +175,33 @@ template <class Shape, bool External, int F, bool Surface, bool Damage, class Se
         const auto fp = select.particle(p);
         const double mp = mass[p];
         double mvp[Dim];
+#pragma GCC unroll 3
         for (int d = 0; d < Dim; ++d)
           mvp[d] = mp * v[Dim * p + d];
         const double Vp = volume[p];
         // V_p sigma_p, the entries the force reads (zz in 2D is out of plane).
         double Vs[Dim][Dim];
+#pragma GCC unroll 3
         for (int d = 0; d < Dim; ++d)
-          for (int k = d; k < Dim; ++k)
-            Vs[d][k] = Vs[k][d] = Vp * stress[T * p + symmetric_entry(d, k)];
+#pragma GCC unroll 3
+          for (int k = 0; k < Dim; ++k)
+            Vs[d][k] = Vp * stress[T * p + symmetric_entry(d, k)];
         s.each_node(
             [&](int i, double w, const double* g)
             {
               const int f = Select::at(fp, i);
               m[f][i] += w * mp; // K&T eq. 46
+#pragma GCC unroll 3
               for (int d = 0; d < Dim; ++d)
-                mv[d][f][i] += w * mvp[d]; // K&T eq. 61
+                mv[d].v[f][i] += w * mvp[d]; // K&T eq. 61
+#pragma GCC unroll 3
               for (int d = 0; d < Dim; ++d)
               {
                 double t = Vs[d][0] * g[0]; // K&T eq. 62
+#pragma GCC unroll 3
                 for (int k = 1; k < Dim; ++k)
                   t += Vs[d][k] * g[k];
-                fi[d][f][i] -= t;
+                fi[d].v[f][i] -= t;
               }
               if constexpr (Surface)
               {
@@ -221,14 +235,17 @@ template <class Shape, bool External, int F, bool Surface, bool Damage, class Se
                 {
                   const int f = Select::at(fp, i);
                   for (int d = 0; d < Dim; ++d)
-                    ext[d][f][i] += w * fext[Dim * p + d];
+                    ext[d].v[f][i] += w * fext[Dim * p + d];
                 });
         }
       });
   std::memcpy(block.m, m, sizeof m);
-  std::memcpy(block.p, mv, sizeof mv);
-  std::memcpy(block.f, fi, sizeof fi);
-  std::memcpy(block.e, ext, sizeof ext);
+  for (int d = 0; d < Dim; ++d)
+  {
+    std::memcpy(block.p[d], mv[d].v, sizeof mv[d].v);
+    std::memcpy(block.f[d], fi[d].v, sizeof fi[d].v);
+    std::memcpy(block.e[d], ext[d].v, sizeof ext[d].v);
+  }
   if constexpr (Surface)
   {
     std::memcpy(block.gx, gx, sizeof gx);
@@ -526,22 +543,6 @@ struct G2PBlock
 {
   double nodal[F][K][2 * Dim];
 };
-
-/// @brief det(I + dt L) of a velocity gradient L (row-major Dim x Dim): the
-/// volume ratio over a step (K&T eq. 78's F increment).
-template <int Dim>
-double volume_ratio(const double* L, double dt)
-{
-  if constexpr (Dim == 2)
-    return (1.0 + dt * L[0]) * (1.0 + dt * L[3]) - dt * dt * L[1] * L[2];
-  else
-  {
-    const double a = 1.0 + dt * L[0], b = dt * L[1], c = dt * L[2];
-    const double d = dt * L[3], e = 1.0 + dt * L[4], f = dt * L[5];
-    const double g = dt * L[6], h = dt * L[7], i = 1.0 + dt * L[8];
-    return a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g);
-  }
-}
 
 /// The particle arrays that G2P moves.
 struct G2PArrays

@@ -74,7 +74,7 @@ Solver::Solver(Grid<2>& grid, Particles& particles,
                                   + std::to_string(particles.material[i]) + " out of range");
   // The models' state, then the phase field's (only where something cracks).
   for (const auto& m : _materials)
-    for (const ColumnSpec& c : m->columns())
+    for (const ColumnSpec& c : m->columns(particles.dim()))
       particles.add(c);
   const bool cracks = std::any_of(_fracture.begin(), _fracture.end(),
                                   [](const auto& f) { return f.has_value(); });
@@ -123,7 +123,7 @@ Solver::Solver(Grid<2>& grid, Particles& particles,
     std::vector<DamageSource> source;
     for (std::size_t m = 0; m < _materials.size(); ++m)
     {
-      const auto columns = _materials[m]->columns();
+      const auto columns = _materials[m]->columns(particles.dim());
       const bool column = std::any_of(columns.begin(), columns.end(),
                                       [](const ColumnSpec& c) { return c.name == "damage"; });
       source.push_back(column          ? DamageSource::column
@@ -771,7 +771,7 @@ Energies Solver::energies() const
   // keep it per particle (ColumnSpec::dissipation), each column once.
   std::map<std::string, std::string> kept; // column -> kind
   for (const auto& m : _materials)
-    for (const ColumnSpec& c : m->columns())
+    for (const ColumnSpec& c : m->columns(_particles.dim()))
       if (!c.dissipation.empty())
         kept.emplace(c.name, c.dissipation);
   for (const auto& [column, kind] : kept)
