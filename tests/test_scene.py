@@ -354,7 +354,8 @@ BAD = [
     ("bodies.plate.shape.type=square", "bodies[0].shape.type = 'square': must be one of 'rectangle'"),
     (_set(("loads",), [dict(TRACTION, type="pressure")]), "loads[0].type = 'pressure': must be one of"),
     (_set(("loads",), [dict(TRACTION, edge="middle")]), "loads[0].edge = 'middle': must be one of"),
-    ("walls.0.side=front", "walls[0].side = 'front': must be one of"),
+    ("walls.0.side=front", "walls[0].side = 'front': a side of a 3D grid (z min or max); a 2D grid has left, right, bottom, top"),
+    ("walls.0.side=aft", "walls[0].side = 'aft': must be one of"),
     ("walls.0.type=sticky", "walls[0].type = 'sticky': must be one of 'fixed', 'slip'"),
     ("materials.glass.model=plastic", "materials[0].model = 'plastic': must be one of 'linear_elastic'"),
     # duplicates and dangling references

@@ -12,11 +12,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 rev=${1:-HEAD}
 root=/tmp/instructions
-rm -rf "$root"
-mkdir -p "$root/new"
-git worktree add --detach "$root/old" "$rev" > /dev/null
-trap 'git worktree remove --force "$root/old"' EXIT
-git ls-files -co --exclude-standard -z | xargs -0 cp --parents -t "$root/new"
+source tools/two_trees.sh
 
 cat > "$root/step.py" <<'PY'
 import sys

@@ -11,12 +11,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 rev=${1:-HEAD}
 root=/tmp/same_bits
-rm -rf "$root"
-mkdir -p "$root/new"
-git worktree add --detach "$root/old" "$rev" > /dev/null
-trap 'git worktree remove --force "$root/old"' EXIT
-# The working tree as it is, committed or not, without its builds.
-git ls-files -co --exclude-standard -z | xargs -0 cp --parents -t "$root/new"
+source tools/two_trees.sh
 
 runs=(
   "borden_sf demos/borden_plate.toml --set grid.h=1.0 --set materials.concrete.fracture.l0=2.0 --set bodies.plate.particles_per_cell=2"

@@ -58,7 +58,9 @@ void bind_grid(py::module_& m)
       .value("left", Side::left)
       .value("right", Side::right)
       .value("bottom", Side::bottom)
-      .value("top", Side::top);
+      .value("top", Side::top)
+      .value("back", Side::back)
+      .value("front", Side::front);
   py::enum_<Wall>(m, "Wall").value("free", Wall::free).value("fixed", Wall::fixed).value("slip", Wall::slip);
 
   py::class_<Grid<2>>(m, "Grid", "Uniform grid with a tensor-product B-spline basis")

@@ -3,9 +3,12 @@
 /// G2P drives them: neo-Hookean stress (H&H eq. 22) under uniaxial stretch,
 /// simple shear and volumetric compression against the closed forms, reached
 /// by the deformation update (H&H eq. 8) with a constant velocity gradient;
-/// objectivity of the exponential update under a rotation; linear elasticity
-/// in 3D; the 2D-only models refuse 3D particles.
+/// objectivity of the exponential update under a rotation; the tensile
+/// degradation and Rankine damage in 3D (H&H eqs. 23, 26-27), and a
+/// plane-strain state giving the 2D model's numbers; linear elasticity in 3D;
+/// the 2D-only models refuse 3D particles.
 #include "pfmpm/common/symmetric.h"
+#include "pfmpm/materials/damage.h"
 #include "pfmpm/materials/deformation.h"
 #include "pfmpm/materials/linear_elastic.h"
 #include "pfmpm/materials/material.h"
@@ -14,6 +17,7 @@
 
 #include <cmath>
 #include <map>
+#include <random>
 #include <string>
 
 using namespace pfmpm;
@@ -194,9 +198,115 @@ TEST(Material3, TwoDimensionalModelsRefuseThreeDimensionalParticles)
   const auto stress = MaterialRegistry::make(
       "linear_elastic", Parameters({{"E", E}, {"nu", nu}, {"density", rho}}, {{"plane", "stress"}}));
   EXPECT_THROW(stress->columns(3), std::invalid_argument);
-  const auto damaged = MaterialRegistry::make(
-      "neo_hookean", Parameters({{"E", E}, {"nu", nu}, {"density", rho}, {"sigma_f", 1.0}, {"Gf", 1.0}, {"l_ch", 0.1}},
-                                {{"damage", "rankine"}}));
-  EXPECT_THROW(damaged->columns(3), std::invalid_argument);
   EXPECT_THROW(Particles(3, 4), std::invalid_argument);
+}
+
+TEST(Damage3, TensileDegradationOfAPlaneStressIsThePlaneFormula)
+{
+  // A stress with no yz and xz is degraded in 3D as by the 2D formula (its
+  // zz a principal value); a general one keeps its principal directions,
+  // each tensile value scaled by 1 - D.
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int k = 0; k < 200; ++k)
+  {
+    const double D = 0.5 * (1.0 + u(rng));
+    double plane[4] = {u(rng), u(rng), u(rng), u(rng)};
+    double solid[6] = {plane[0], plane[1], plane[2], plane[3], 0.0, 0.0};
+    degrade_tensile<2>(plane, D);
+    degrade_tensile<3>(solid, D);
+    for (int c = 0; c < 4; ++c)
+      EXPECT_NEAR(solid[c], plane[c], 1e-14) << k << " " << c;
+    EXPECT_EQ(solid[4], 0.0);
+    EXPECT_EQ(solid[5], 0.0);
+
+    double sig[6];
+    for (double& s : sig)
+      s = u(rng);
+    Eigen::Matrix3d S, Sd;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j)
+        S(i, j) = sig[symmetric_entry(i, j)];
+    degrade_tensile<3>(sig, D);
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j)
+        Sd(i, j) = sig[symmetric_entry(i, j)];
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> before(S);
+    for (int i = 0; i < 3; ++i)
+    {
+      const Eigen::Vector3d v = before.eigenvectors().col(i);
+      const double l = before.eigenvalues()(i);
+      const Eigen::Vector3d expected = (l > 0.0 ? 1.0 - D : 1.0) * l * v;
+      EXPECT_LT((Sd * v - expected).norm(), 1e-13) << k << " " << i;
+    }
+  }
+}
+
+TEST(NeoHookean3, RankineDamageOfAUniaxialStretch)
+{
+  // F = diag(s, 1, 1) past the strength: D of H&H eq. 23 from the largest
+  // trial principal stress, and every tensile principal stress scaled by 1 - D.
+  const double sigma_f = 2.0, Gf = 0.05, l_ch = 0.1;
+  Point3 point("neo_hookean", {{"E", E}, {"nu", nu}, {"density", rho}, {"sigma_f", sigma_f}, {"Gf", Gf}, {"l_ch", l_ch}},
+               {{"integration", "exponential"}, {"damage", "rankine"}});
+  const double r = 0.5, dt = 0.01;
+  const double L[9] = {r, 0, 0, 0, 0, 0, 0, 0, 0};
+  point.steps(L, dt, 10);
+  const double s = std::exp(r * dt * 10), J = s, lnJ = std::log(J);
+  const double trial_xx = (mu * (s * s - 1.0) + lam * lnJ) / J, trial_yy = lam * lnJ / J;
+  ASSERT_GT(trial_xx, sigma_f);
+  const double a = l_ch / (2.0 * E * Gf);
+  const double D = (1.0 - sigma_f / trial_xx) / (1.0 - a * sigma_f * sigma_f);
+  EXPECT_NEAR(point.P.f64("damage")[0], D, 1e-12);
+  EXPECT_NEAR(point.sigma(0, 0), (1.0 - D) * trial_xx, 1e-10 * mu);
+  EXPECT_NEAR(point.sigma(1, 1), (1.0 - D) * trial_yy, 1e-10 * mu);
+  EXPECT_NEAR(point.sigma(2, 2), (1.0 - D) * trial_yy, 1e-10 * mu);
+  EXPECT_GT(point.P.f64("dissipated")[0], 0.0);
+}
+
+TEST(NeoHookean3, APlaneStrainStateIsThe2DModelsToRoundOff)
+{
+  // A 3D point with F = [[F_2D, 0], [0, 1]], driven by L = [[L_2D, 0], [0, 0]],
+  // against the 2D (plane-strain) point: the same stress, damage, dissipated
+  // work and wave speed, through softening (Rankine) and time to failure.
+  for (const std::string damage : {"rankine", "time_to_failure"})
+  {
+    std::map<std::string, double> numbers{{"E", E}, {"nu", nu}, {"density", rho}, {"sigma_f", 1.5}, {"l_ch", 0.1}};
+    numbers[damage == "rankine" ? "Gf" : "c_f"] = damage == "rankine" ? 0.05 : 2.0;
+    const std::map<std::string, std::string> words{{"damage", damage}};
+    Point3 solid("neo_hookean", numbers, words);
+    const auto model = MaterialRegistry::make("neo_hookean", Parameters(numbers, words));
+    Particles P(1, 2);
+    for (const ColumnSpec& c : model->columns(2))
+      P.add(c);
+    P.volume[0] = 2.0;
+    const auto plane = model->bind(P);
+    const double dt = 0.01;
+    int partial = 0; // steps with 0 < D < 1: softening, not yet failed
+    for (int k = 0; k < 60; ++k)
+    {
+      const double t = k * dt;
+      const double L2[4] = {0.4 + 0.1 * std::sin(7 * t), 0.3 * std::cos(3 * t), -0.2, -0.1 + 0.05 * t};
+      const double L3[9] = {L2[0], L2[1], 0, L2[2], L2[3], 0, 0, 0, 0};
+      P.volume[0] *= volume_ratio<2>(L2, dt);
+      plane->update(Batch{nullptr, 0, 1}, L2, dt, nullptr, true);
+      solid.steps(L3, dt, 1);
+      const double D = P.f64("damage")[0];
+      partial += D > 0.0 && D < 1.0;
+      ASSERT_NEAR(solid.P.f64("damage")[0], D, 1e-12) << damage << " step " << k;
+      ASSERT_NEAR(solid.P.f64("dissipated")[0], P.f64("dissipated")[0], 1e-12 * (1.0 + P.f64("dissipated")[0]))
+          << damage << " step " << k;
+      for (int c = 0; c < 4; ++c)
+        ASSERT_NEAR(solid.P.stress[c], P.stress[c], 1e-11 * mu) << damage << " step " << k << " " << c;
+      ASSERT_NEAR(solid.P.stress[4], 0.0, 1e-14 * mu);
+      ASSERT_NEAR(solid.P.stress[5], 0.0, 1e-14 * mu);
+      // The 3D speed weighs the out-of-plane direction too (b_zz = 1), where
+      // 2D takes the in-plane ones alone.
+      ASSERT_GE(solid.bound->wave_speed(0), plane->wave_speed(0) * (1.0 - 1e-12)) << damage << " step " << k;
+      double e = 0.0;
+      plane->add_energy(Batch{nullptr, 0, 1}, nullptr, e);
+      ASSERT_NEAR(solid.energy(), e, 1e-12 * mu * P.volume[0]) << damage << " step " << k;
+    }
+    EXPECT_GE(partial, 5) << damage;
+  }
 }

@@ -362,13 +362,13 @@ TEST(Damage, TensilePrincipalStressesAreDegradedAndCompressiveOnesKept)
   };
   const auto trial = tensor(3.0, -2.0), expected = tensor((1.0 - D) * 3.0, -2.0);
   double sig[4] = {trial[0], trial[1], trial[2], 1.0};
-  degrade_tensile(sig, D);
+  degrade_tensile<2>(sig, D);
   for (int k = 0; k < 3; ++k)
     EXPECT_NEAR(sig[k], expected[k], 1e-14);
   EXPECT_NEAR(sig[3], 0.75, 1e-15);
   // Equal principal values: the whole tensor scales, in any basis.
   double iso[4] = {2.0, 2.0, 0.0, -1.0};
-  degrade_tensile(iso, D);
+  degrade_tensile<2>(iso, D);
   EXPECT_DOUBLE_EQ(iso[0], 1.5);
   EXPECT_DOUBLE_EQ(iso[1], 1.5);
   EXPECT_DOUBLE_EQ(iso[3], -1.0);

@@ -9,6 +9,7 @@
 /// a particle of strength sigma_f (its own, with a Weibull field, H&H eq. 25).
 #pragma once
 
+#include "pfmpm/common/symmetric.h"
 #include "pfmpm/materials/deformation.h"
 
 #include <algorithm>
@@ -84,24 +85,49 @@ private:
 
 /// @brief H&H eqs. 26-27: sigma = sum_i sigma_i^+ v_i (x) v_i with sigma_i^+ =
 /// (1 - D) sigma_i where sigma_i > 0 and sigma_i otherwise, over the principal
-/// values of the trial stress, the out-of-plane one (zz) among them.
+/// values of the trial stress (in 2D the out-of-plane one, zz, among them).
 ///
 /// In the plane, sum_i <sigma_i>+ v_i (x) v_i = (p1 + p2)/2 I + q (sigma - m I)
 /// with p_i = <sigma_i>+ and the difference quotient q = (p1 - p2) / (sigma_1
 /// - sigma_2), which stays bounded as the principal values meet (and the
-/// deviator vanishes): equal principal values need no special case.
-/// @param[in,out] sig Stress (xx, yy, xy, zz): the trial stress in, the degraded one out.
+/// deviator vanishes): equal principal values need no special case. In 3D
+/// the principal values and directions come from Eigen's closed-form
+/// eigensolver of a symmetric 3 x 3 matrix, and the degraded stress is
+/// sigma - D sum_i <sigma_i>+ v_i (x) v_i, which a repeated value does not
+/// disturb either (any basis of its eigenspace gives the same sum).
+/// @param[in,out] sig Stress (symmetric layout, common/symmetric.h): the trial
+///        stress in, the degraded one out.
 /// @param D Damage in [0, 1].
-inline void degrade_tensile(double* sig, double D)
+template <int Dim>
+void degrade_tensile(double* sig, double D)
 {
-  const Mohr s(sig[0], sig[1], sig[2]);
-  const double p1 = std::max(s.max(), 0.0), p2 = std::max(s.min(), 0.0);
-  const double q = s.r > 0.0 ? (p1 - p2) / (2.0 * s.r) : 0.0;
-  const double iso = 0.5 * (p1 + p2), dev = 0.5 * (sig[0] - sig[1]);
-  sig[0] -= D * (iso + q * dev);
-  sig[1] -= D * (iso - q * dev);
-  sig[2] -= D * q * sig[2];
-  sig[3] -= D * std::max(sig[3], 0.0);
+  if constexpr (Dim == 2)
+  {
+    const Mohr s(sig[0], sig[1], sig[2]);
+    const double p1 = std::max(s.max(), 0.0), p2 = std::max(s.min(), 0.0);
+    const double q = s.r > 0.0 ? (p1 - p2) / (2.0 * s.r) : 0.0;
+    const double iso = 0.5 * (p1 + p2), dev = 0.5 * (sig[0] - sig[1]);
+    sig[0] -= D * (iso + q * dev);
+    sig[1] -= D * (iso - q * dev);
+    sig[2] -= D * q * sig[2];
+    sig[3] -= D * std::max(sig[3], 0.0);
+  }
+  else
+  {
+    Eigen::Matrix3d S;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j)
+        S(i, j) = sig[symmetric_entry(i, j)];
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen;
+    eigen.computeDirect(S);
+    Eigen::Matrix3d tensile = Eigen::Matrix3d::Zero();
+    for (int k = 0; k < 3; ++k)
+      if (eigen.eigenvalues()(k) > 0.0)
+        tensile += eigen.eigenvalues()(k) * eigen.eigenvectors().col(k) * eigen.eigenvectors().col(k).transpose();
+    for (int i = 0; i < 3; ++i)
+      for (int j = i; j < 3; ++j)
+        sig[symmetric_entry(i, j)] -= D * tensile(i, j);
+  }
 }
 
 } // namespace pfmpm

@@ -222,7 +222,7 @@ private:
   class Attached final : public Bound
   {
   public:
-    static constexpr int LL = Dim * Dim;              ///< entries of a velocity gradient
+    static constexpr int LL = Dim * Dim;          ///< entries of a velocity gradient
     static constexpr int T = symmetric_size(Dim); ///< entries of a stress
 
     Attached(const Model& model, Particles& P)
@@ -237,53 +237,48 @@ private:
       if constexpr (Model::constant_wave_speed)
         r.wave = _model.wave_speed();
       if constexpr (Dim == 3)
-      {
         if (degradation)
           throw std::logic_error("the phase field is two-dimensional");
-        each(b, [&](auto at)
-             {
-               for (std::size_t k = 0; k < b.n; ++k)
-               {
-                 const std::size_t p = at(k);
-                 _model.template advance<Dim>(_view, p, &L[LL * k], dt);
-                 _model.template undegraded<Dim>(_view, p);
-                 note(r, p, stress_sum(p));
-               }
-             });
-        return r;
-      }
       each(b, [&](auto at)
            {
-             if (degradation && stress)
-               for (std::size_t k = 0; k < b.n; ++k)
+             if constexpr (Dim == 2)
+             {
+               if (degradation && stress)
                {
-                 const std::size_t p = at(k);
-                 _model.template advance<Dim>(_view, p, &L[LL * k], dt);
-                 // K&T eqs. 14-16 with this step's phase field; the history takes
-                 // the largest tensile energy so far (K&T eq. 20, Kuhn-Tucker conditions).
-                 const double plus = _model.degraded(_view, p, degradation->g(degradation->c[p]));
-                 degradation->history[p] = std::max(degradation->history[p], plus);
-                 note(r, p, stress_sum(p) + degradation->history[p]);
+                 for (std::size_t k = 0; k < b.n; ++k)
+                 {
+                   const std::size_t p = at(k);
+                   _model.template advance<Dim>(_view, p, &L[LL * k], dt);
+                   // K&T eqs. 14-16 with this step's phase field; the history takes
+                   // the largest tensile energy so far (K&T eq. 20, Kuhn-Tucker conditions).
+                   const double plus = _model.degraded(_view, p, degradation->g(degradation->c[p]));
+                   degradation->history[p] = std::max(degradation->history[p], plus);
+                   note(r, p, stress_sum(p) + degradation->history[p]);
+                 }
+                 return;
                }
-             else if (degradation)
-               for (std::size_t k = 0; k < b.n; ++k)
+               if (degradation)
                {
-                 const std::size_t p = at(k);
-                 _model.template advance<Dim>(_view, p, &L[LL * k], dt);
-                 // K&T eq. 20 as above, psi+ without the stress
-                 double plus, minus;
-                 _model.split(_view, p, plus, minus);
-                 degradation->history[p] = std::max(degradation->history[p], plus);
-                 note(r, p, plus + minus);
+                 for (std::size_t k = 0; k < b.n; ++k)
+                 {
+                   const std::size_t p = at(k);
+                   _model.template advance<Dim>(_view, p, &L[LL * k], dt);
+                   // K&T eq. 20 as above, psi+ without the stress
+                   double plus, minus;
+                   _model.split(_view, p, plus, minus);
+                   degradation->history[p] = std::max(degradation->history[p], plus);
+                   note(r, p, plus + minus);
+                 }
+                 return;
                }
-             else
-               for (std::size_t k = 0; k < b.n; ++k)
-               {
-                 const std::size_t p = at(k);
-                 _model.template advance<Dim>(_view, p, &L[LL * k], dt);
-                 _model.template undegraded<Dim>(_view, p);
-                 note(r, p, stress_sum(p));
-               }
+             }
+             for (std::size_t k = 0; k < b.n; ++k)
+             {
+               const std::size_t p = at(k);
+               _model.template advance<Dim>(_view, p, &L[LL * k], dt);
+               _model.template undegraded<Dim>(_view, p);
+               note(r, p, stress_sum(p));
+             }
            });
       return r;
     }

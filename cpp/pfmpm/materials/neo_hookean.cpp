@@ -97,8 +97,6 @@ NeoHookean<Damage>::NeoHookean(double E, double nu, double density, DeformationU
 template <class Damage>
 std::vector<ColumnSpec> NeoHookean<Damage>::columns(int dim) const
 {
-  if (dim == 3 && !solid)
-    throw std::invalid_argument("neo_hookean with damage is two-dimensional for now");
   std::vector<ColumnSpec> out;
   if (dim == 3)
     out.push_back({"F", 9, DType::f64, {1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0},

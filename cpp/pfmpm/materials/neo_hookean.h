@@ -53,17 +53,18 @@ namespace pfmpm
 /// by g(c) and takes psi+ = the stored energy (no split); scenes do not
 /// combine it with this model yet.
 ///
-/// In 3D (without damage, for now) the same equations hold on the 3 x 3 F
-/// (`F` row-major xx, xy, xz, yx, .., zz) and B: sigma = mu/J (B - I) +
-/// lambda ln J / J I, W = mu/2 (tr C - 3) - mu ln J + lambda/2 (ln J)^2.
+/// In 3D the same equations hold on the 3 x 3 F (`F` row-major xx, xy, xz,
+/// yx, .., zz) and B: sigma = mu/J (B - I) + lambda ln J / J I, W = mu/2
+/// (tr C - 3) - mu ln J + lambda/2 (ln J)^2; the principal values are the
+/// three eigenvalues of B (of the in-plane B and b_zz = 1 in 2D).
 template <class Damage>
 class NeoHookean final : public MaterialModel<NeoHookean<Damage>>
 {
 public:
   /// Whether the model carries damage.
   static constexpr bool damages = !std::is_same_v<Damage, NoDamage>;
-  /// In 3D without damage (the principal stresses of the damage models are 2D yet).
-  static constexpr bool solid = !damages;
+  /// In 3D too, with or without damage.
+  static constexpr bool solid = true;
 
   /// @param E Young's modulus (> 0).
   /// @param nu Poisson ratio (-1 < nu < 0.5).
@@ -109,13 +110,13 @@ public:
   template <int Dim>
   void advance(const View& v, std::size_t p, const double* L, double dt) const
   {
-    double* F = &v.F[Dim * Dim * p];
-    [[maybe_unused]] double before[5]; // F and J at the start of the step
+    constexpr int FF = Dim * Dim;
+    double* F = &v.F[FF * p];
+    [[maybe_unused]] double before[FF + 1]; // F and J at the start of the step
     if constexpr (damages)
     {
-      static_assert(Dim == 2, "damage is two-dimensional");
-      std::copy(F, F + 4, before);
-      before[4] = v.J[p];
+      std::copy(F, F + FF, before);
+      before[FF] = v.J[p];
     }
     _update.template apply<Dim>(F, L, dt);
     const double J = determinant<Dim>(F);
@@ -124,15 +125,15 @@ public:
     v.J[p] = J;
     if constexpr (damages)
     {
-      const Principal s(*this, F, J);
+      const Principal s = Principal::template of<Dim>(*this, F, J);
       const double D0 = v.damage[p];
       const double D = _damage.grow(D0, s.max_stress(), v.sigma_f[p], dt);
       v.softening[p] = D > D0 ? 1 : 0;
       if (D > D0)
       {
         // int W+ dD over the step by the trapezoidal rule, W+ at F^n and F^{n+1}.
-        const double released = tensile_energy(Principal(*this, before, before[4]));
-        v.dissipated[p] += v.volume[p] / J * (D - D0) * 0.5 * (released + tensile_energy(s));
+        const double released = tensile_energy<Dim>(Principal::template of<Dim>(*this, before, before[FF]));
+        v.dissipated[p] += v.volume[p] / J * (D - D0) * 0.5 * (released + tensile_energy<Dim>(s));
         v.damage[p] = D;
       }
     }
@@ -145,7 +146,7 @@ public:
     trial_stress<Dim>(&v.F[Dim * Dim * p], v.J[p], sig);
     if constexpr (damages)
       if (v.damage[p] > 0.0)
-        degrade_tensile(sig, v.damage[p]);
+        degrade_tensile<Dim>(sig, v.damage[p]);
   }
   double degraded(const View& v, std::size_t p, double g) const
   {
@@ -163,7 +164,7 @@ public:
     double psi = stored_energy<Dim>(F, J);
     if constexpr (damages)
       if (v.damage[p] > 0.0)
-        psi -= v.damage[p] * tensile_energy(Principal(*this, F, J));
+        psi -= v.damage[p] * tensile_energy<Dim>(Principal::template of<Dim>(*this, F, J));
     return psi / J;
   }
   void split(const View& v, std::size_t p, double& plus, double& minus) const
@@ -174,7 +175,8 @@ public:
   /// @brief P-wave speed in the current state, for the stability check: the
   /// largest longitudinal speed of the tangent of H&H eq. 22, along the larger
   /// principal stretch, is c^2 = (mu b_max + lambda + mu - lambda ln J) /
-  /// rho_0, with b_max the largest in-plane eigenvalue of B; we take its
+  /// rho_0, with b_max the largest eigenvalue of B (in 2D the in-plane one,
+  /// as the plane carries no wave along z); we take its
   /// bound with -ln J <= max(1/J - 1, 0), equal at J = 1 and within a few
   /// per cent for |ln J| < 0.1, which saves a logarithm per particle and
   /// step. With damage, H&H eqs. 26-27 scale the stress along each tensile
@@ -190,26 +192,23 @@ public:
     const double* F = &v.F[Dim * Dim * p];
     const double J = v.J[p];
     const double compression = _lambda * std::max(1.0 / J - 1.0, 0.0);
-    if constexpr (Dim == 3)
-    {
-      // The largest eigenvalue of B, bounded by its largest Gershgorin disc
-      // (B is symmetric positive definite): no eigen-solve per particle.
-      double B[3][3];
-      left_cauchy_green<3>(F, B);
-      double b_max = 0.0;
-      for (int i = 0; i < 3; ++i)
-        b_max = std::max(b_max, B[i][i] + std::abs(B[i][(i + 1) % 3]) + std::abs(B[i][(i + 2) % 3]));
-      return std::sqrt((_mu * b_max + _lambda + _mu + compression) / _density);
-    }
     if constexpr (damages)
       if (v.damage[p] > 0.0)
       {
-        const Principal s(*this, F, J);
+        // Along each principal direction (the in-plane ones in 2D).
+        const Principal s = Principal::template of<Dim>(*this, F, J);
         const double kept = 1.0 - v.damage[p];
-        const double c1 = (_mu * s.b1 + _lambda + _mu + compression) * (s.sigma1 > 0.0 ? kept : 1.0);
-        const double c2 = (_mu * s.b2 + _lambda + _mu + compression) * (s.sigma2 > 0.0 ? kept : 1.0);
-        return std::sqrt(std::max(c1, c2) / _density);
+        double c = 0.0;
+        for (int i = 0; i < Dim; ++i)
+          c = std::max(c, (_mu * s.b[i] + _lambda + _mu + compression) * (s.sigma[i] > 0.0 ? kept : 1.0));
+        return std::sqrt(c / _density);
       }
+    if constexpr (Dim == 3)
+    {
+      double b[3];
+      squared_stretches<3>(F, b);
+      return std::sqrt((_mu * b[0] + _lambda + _mu + compression) / _density);
+    }
     const Mohr b(F[0] * F[0] + F[1] * F[1], F[2] * F[2] + F[3] * F[3], F[0] * F[2] + F[1] * F[3]);
     return std::sqrt((_mu * b.max() + _lambda + _mu + compression) / _density);
   }
@@ -260,38 +259,77 @@ public:
   }
 
 private:
-  /// The principal values of a state: in-plane eigenvalues b1 >= b2 of B
-  /// (the squared principal stretches), ln J, and the trial principal
-  /// stresses sigma_i = (mu (b_i - 1) + lambda ln J) / J, sigma_zz = lambda ln J / J.
+  /// @brief The principal values of a state: the eigenvalues b_1 >= b_2 >=
+  /// b_3 of B (the squared principal stretches; in 2D the in-plane two and
+  /// b_zz = 1), ln J, and the trial principal stresses sigma_i = (mu (b_i -
+  /// 1) + lambda ln J) / J (in 2D sigma_zz = lambda ln J / J).
   struct Principal
   {
-    double b1, b2, lnJ, sigma1, sigma2, sigma_zz;
-    Principal(const NeoHookean& m, const double* F, double J)
+    double b[3], sigma[3], lnJ;
+    template <int Dim>
+    static Principal of(const NeoHookean& m, const double* F, double J)
     {
-      const Mohr b(F[0] * F[0] + F[1] * F[1], F[2] * F[2] + F[3] * F[3],
-                   F[0] * F[2] + F[1] * F[3]);
-      b1 = b.max();
-      b2 = b.min();
-      lnJ = std::log(J);
-      const double iJ = 1.0 / J, vol = m._lambda * lnJ;
-      sigma1 = (m._mu * (b1 - 1.0) + vol) * iJ;
-      sigma2 = (m._mu * (b2 - 1.0) + vol) * iJ;
-      sigma_zz = vol * iJ;
+      Principal s;
+      squared_stretches<Dim>(F, s.b);
+      s.lnJ = std::log(J);
+      const double iJ = 1.0 / J, vol = m._lambda * s.lnJ;
+      for (int i = 0; i < Dim; ++i)
+        s.sigma[i] = (m._mu * (s.b[i] - 1.0) + vol) * iJ;
+      if constexpr (Dim == 2)
+        s.sigma[2] = vol * iJ;
+      return s;
     }
-    /// The largest trial principal stress, the zz one included.
-    double max_stress() const { return std::max(sigma1, sigma_zz); }
+    /// The largest trial principal stress (in 2D the zz one included).
+    double max_stress() const { return std::max(std::max(sigma[0], sigma[1]), sigma[2]); }
   };
 
+  /// @brief The eigenvalues b_1 >= b_2 >= b_3 of B = F F^T (in 2D the
+  /// in-plane two, by the Mohr circle, and b_zz = 1; in 3D by Eigen's
+  /// closed-form symmetric eigensolver).
+  template <int Dim>
+  static void squared_stretches(const double* F, double (&b)[3])
+  {
+    if constexpr (Dim == 2)
+    {
+      const Mohr m(F[0] * F[0] + F[1] * F[1], F[2] * F[2] + F[3] * F[3], F[0] * F[2] + F[1] * F[3]);
+      b[0] = m.max();
+      b[1] = m.min();
+      b[2] = 1.0;
+    }
+    else
+    {
+      double B[3][3];
+      left_cauchy_green<3>(F, B);
+      Eigen::Matrix3d matrix;
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j)
+          matrix(i, j) = B[i][j];
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen;
+      eigen.computeDirect(matrix, Eigen::EigenvaluesOnly); // ascending
+      for (int i = 0; i < 3; ++i)
+        b[i] = eigen.eigenvalues()(2 - i);
+    }
+  }
+
   /// @brief W+ per unit reference volume: the part of W that damage
-  /// releases (see the class description); ln b2 = 2 ln J - ln b1.
+  /// releases (see the class description); in 2D ln b_2 = 2 ln J - ln b_1,
+  /// and b_zz = 1 releases nothing.
+  template <int Dim>
   double tensile_energy(const Principal& s) const
   {
-    const double ln1 = std::log(s.b1), ln2 = 2.0 * s.lnJ - ln1;
+    double ln[3];
+    ln[0] = std::log(s.b[0]);
+    if constexpr (Dim == 2)
+      ln[1] = 2.0 * s.lnJ - ln[0];
+    else
+    {
+      ln[1] = std::log(s.b[1]);
+      ln[2] = std::log(s.b[2]);
+    }
     double w = s.lnJ > 0.0 ? 0.5 * _lambda * s.lnJ * s.lnJ : 0.0;
-    if (s.sigma1 > 0.0)
-      w += 0.5 * _mu * (s.b1 - 1.0 - ln1);
-    if (s.sigma2 > 0.0)
-      w += 0.5 * _mu * (s.b2 - 1.0 - ln2);
+    for (int i = 0; i < Dim; ++i)
+      if (s.sigma[i] > 0.0)
+        w += 0.5 * _mu * (s.b[i] - 1.0 - ln[i]);
     return w;
   }
 

@@ -317,6 +317,9 @@ class WallSpec:
     type: str
 
     def __post_init__(self):
+        if self.side in ("back", "front"):
+            raise SceneError("side", "a side of a 3D grid (z min or max); a 2D grid has "
+                             + ", ".join(SIDES), self.side)
         store(self, "side", choice("side", self.side, SIDES))
         store(self, "type", choice("type", self.type, WALL_TYPES))
 
