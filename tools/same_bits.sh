@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Whether the working tree computes the same bits as revision REV (default
-# HEAD) on a set of short 2D runs: both are built with -ffp-contract=off, so
+# HEAD) on ten short 2D runs (single field, both partitions, finite strain
+# with damage, contact, APIC, CPDI): both are built with -ffp-contract=off, so
 # that a refactor that keeps every operation in its order gives identical
 # files whatever the compiler inlines (with contraction on, the fused
 # multiply-adds it forms depend on inlining: docs/performance/determinism.md).
@@ -21,6 +22,9 @@ runs=(
   "wedge_disk_block demos/wedge_disk_block.toml --set time.end=40"
   "brazilian demos/brazilian.toml --set time.end=5"
   "vibrating_bar demos/vibrating_bar.toml --set time.end=10"
+  "borden_apic demos/borden_plate.toml --set grid.h=1.0 --set materials.concrete.fracture.l0=2.0 --set bodies.plate.particles_per_cell=2 --set transfer.scheme=apic"
+  "bar_cpdi demos/vibrating_bar.toml --set time.end=10 --set grid.degree=1 --set grid.shape=cpdi"
+  "disk_beam_cpdi demos/disk_beam.toml --set time.end=5 --set grid.degree=1 --set grid.shape=cpdi"
 )
 for side in old new; do
   (cd "$root/$side" && CMAKE_ARGS="-DCMAKE_CXX_FLAGS=-ffp-contract=off" bash tools/setup.sh > "$root/$side.log" 2>&1)
