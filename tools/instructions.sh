@@ -47,7 +47,7 @@ for physics in elastic phasefield; do
     (cd "$root" && OMP_NUM_THREADS=1 PYTHONPATH="$root/$side/pkg" valgrind --tool=callgrind \
       --toggle-collect='pfmpm::Solver::advance*' --callgrind-out-file="$out" \
       /usr/bin/python3 -P step.py "$physics" > /dev/null 2>&1)
-    count[$side]=$(callgrind_annotate --inclusive=yes "$out" | awk '/PROGRAM TOTALS/ {gsub(",", "", $1); print $1}')
+    count[$side]=$(callgrind_annotate --inclusive=yes "$out" 2> /dev/null | awk '/PROGRAM TOTALS/ {gsub(",", "", $1); print $1}')
   done
   awk -v c="$physics" -v o="${count[old]}" -v n="${count[new]}" \
     'BEGIN { printf "%-12s %12.1f %12.1f %8.4f\n", c, o / 1e6, n / 1e6, n / o }'

@@ -259,7 +259,7 @@ template <class Shape, bool External, int F, bool Surface, bool Damage, class Se
   }
 }
 
-/// @brief APIC: add to a cell's momentum sums `px`, `py` (of sum_cell) the
+/// @brief APIC: add to a cell's momentum sums `momentum` (of sum_cell) the
 /// affine part of each particle's momentum, m_p N_i C_p (x_i - x_p) with
 /// C_p = B_p D_p^-1 (Jiang et al. 2015, eq. 8; apic.h), D_p at the particle's
 /// position (`points`: the Greville abscissae of the cell's nodes), each
@@ -268,36 +268,49 @@ template <class Shape, bool External, int F, bool Surface, bool Damage, class Se
 template <class Shape, int F, class Select>
 [[gnu::noinline]] void sum_affine(const detail::EachParticle<Shape>& each, const double* mass,
                                   const double* affine, const Select& select,
-                                  const BlockPoints<Shape>& points, double (&px)[F][Shape::size],
-                                  double (&py)[F][Shape::size])
+                                  const BlockPoints<Shape>& points,
+                                  double (&momentum)[Shape::dim][F][Shape::size])
 {
-  static_assert(Shape::dim == 2, "APIC is two-dimensional");
+  constexpr int Dim = Shape::dim;
   constexpr int K = Shape::size;
-  double ax[F][K]{}, ay[F][K]{};
+  // One aligned block per direction, as in sum_cell.
+  struct alignas(32) Block
+  {
+    double v[F][K];
+  };
+  Block a[Dim]{};
   each(
       [&](std::size_t p, const Shape& s)
       {
         const auto fp = select.particle(p);
         const AffineFrame<Shape> frame = affine_frame<true>(s, points);
-        double c[4];
-        affine_velocity<Shape>(&affine[4 * p], frame.D, c);
+        double c[Dim * Dim];
+        affine_velocity<Shape>(&affine[Dim * Dim * p], frame.D, c);
         for (double& ck : c)
           ck *= mass[p];
         s.each_node(
             [&](int i, double w, const double*)
             {
               const int f = Select::at(fp, i);
-              const double rx = frame.r[0][Shape::offset(i, 0)], ry = frame.r[1][Shape::offset(i, 1)];
-              ax[f][i] += w * (c[0] * rx + c[1] * ry);
-              ay[f][i] += w * (c[2] * rx + c[3] * ry);
+              double r[Dim];
+#pragma GCC unroll 3
+              for (int k = 0; k < Dim; ++k)
+                r[k] = frame.r[k][Shape::offset(i, k)];
+#pragma GCC unroll 3
+              for (int d = 0; d < Dim; ++d)
+              {
+                double t = c[Dim * d] * r[0];
+#pragma GCC unroll 3
+                for (int k = 1; k < Dim; ++k)
+                  t += c[Dim * d + k] * r[k];
+                a[d].v[f][i] += w * t;
+              }
             });
       });
-  for (int f = 0; f < F; ++f)
-    for (int i = 0; i < K; ++i)
-    {
-      px[f][i] += ax[f][i];
-      py[f][i] += ay[f][i];
-    }
+  for (int d = 0; d < Dim; ++d)
+    for (int f = 0; f < F; ++f)
+      for (int i = 0; i < K; ++i)
+        momentum[d][f][i] += a[d].v[f][i];
 }
 
 /// @brief The slot of local field f of a cell at active node a: a with one
@@ -374,7 +387,7 @@ struct MomentumP2G
     sum_cell<Shape, External, F, Surface, Damage>(each, arrays, select, b);
     if constexpr (Affine)
       sum_affine<Shape, F>(each, arrays.mass, arrays.affine, select, BlockPoints<Shape>(grid, cell),
-                           b.p[0], b.p[1]);
+                           b.p);
     const int nf = F == 1 ? 1 : Fields::per_pair ? 2 * local.n : local.n;
     const CellNodes<Shape> nodes(grid, cell);
     for (int f = 0; f < nf; ++f)
@@ -578,7 +591,6 @@ template <class Shape, int F, bool Affine, class Select>
   constexpr int Dim = Shape::dim;
   constexpr int K = Shape::size;
   constexpr int Q = 2 * Dim; // nodal v and a
-  static_assert(!Affine || Dim == 2, "APIC is two-dimensional");
   double *x = a.x, *v = a.v, *volume = a.volume;
   // APIC (Jiang et al. 2015, eq. 10): B_p = sum_i N_i v_i (x_i - x_p)^T at
   // the particle's position before it moves (apic.h). Generic, so that it
@@ -586,18 +598,24 @@ template <class Shape, int F, bool Affine, class Select>
   [[maybe_unused]] auto affine = [&](std::size_t p, const auto& s, const double (*nodal)[Q])
   {
     const AffineFrame<Shape> frame = affine_frame<false>(s, *points);
-    double b[4] = {0.0, 0.0, 0.0, 0.0};
+    double b[Dim * Dim] = {};
     s.each_node(
         [&](int i, double w, const double*)
         {
-          const double rx = frame.r[0][Shape::offset(i, 0)], ry = frame.r[1][Shape::offset(i, 1)];
-          const double wx = w * nodal[i][0], wy = w * nodal[i][1];
-          b[0] += wx * rx;
-          b[1] += wx * ry;
-          b[2] += wy * rx;
-          b[3] += wy * ry;
+          double r[Dim];
+#pragma GCC unroll 3
+          for (int k = 0; k < Dim; ++k)
+            r[k] = frame.r[k][Shape::offset(i, k)];
+#pragma GCC unroll 3
+          for (int d = 0; d < Dim; ++d)
+          {
+            const double wv = w * nodal[i][d];
+#pragma GCC unroll 3
+            for (int k = 0; k < Dim; ++k)
+              b[Dim * d + k] += wv * r[k];
+          }
         });
-    std::copy(b, b + 4, &a.affine[4 * p]);
+    std::copy(b, b + Dim * Dim, &a.affine[Dim * Dim * p]);
   };
   each(
       [&](std::size_t p, const Shape& s)

@@ -84,7 +84,7 @@ Solver::Solver(Grid<2>& grid, Particles& particles,
     for (const ColumnSpec& c : PhaseField::columns(fourth))
       particles.add(c);
   if (transfer == TransferScheme::apic)
-    particles.add(affine_column());
+    particles.add(affine_column(particles.dim()));
   if (grid.has_particle_regions())
     particles.add({"held_by", 1, DType::i32, {0.0},
                    "bit k set where the particle belongs to prescribed region k (a body, its face "
@@ -908,8 +908,7 @@ void Solver::set_velocity_gradients(const std::vector<double>& G)
                   each(
                       [&](std::size_t p, const Shape& s)
                       {
-                        const AffineFrame<Shape> frame = affine_frame<true>(s, X);
-                        const double* D = frame.D;
+                        const std::array<double, 3> D = plane_inertia(affine_frame<true>(s, X));
                         const double* g = &G[4 * p];
                         B[4 * p] = g[0] * D[0] + g[1] * D[1];
                         B[4 * p + 1] = g[0] * D[1] + g[1] * D[2];

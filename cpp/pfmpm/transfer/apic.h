@@ -37,6 +37,8 @@
 /// G2P would divide by the D_p of the position before the move.
 #pragma once
 
+#include <array>
+
 #include "pfmpm/grid/grid.h"
 #include "pfmpm/particles/particles.h"
 #include "pfmpm/shape/cpdi.h"
@@ -53,13 +55,13 @@ enum class TransferScheme : int
   apic = 1  ///< v_p = sum_i N_i v_i with the affine matrix B_p (Jiang et al. 2015)
 };
 
-/// @brief The column of the APIC affine matrix B_p (Jiang et al. 2015, eq. 10), (xx, xy, yx, yy)
-/// per particle, B_ij = sum_k N_k v_k,i (x_k - x_p)_j.
-inline ColumnSpec affine_column()
+/// @brief The column of the APIC affine matrix B_p (Jiang et al. 2015, eq. 10), row-major
+/// Dim x Dim per particle (xx, xy, yx, yy in 2D), B_ij = sum_k N_k v_k,i (x_k - x_p)_j.
+inline ColumnSpec affine_column(int dim = 2)
 {
-  return ColumnSpec{"affine", 4, DType::f64, {0.0},
+  return ColumnSpec{"affine", dim * dim, DType::f64, {0.0},
                     "APIC affine matrix B_p = sum_i N_i v_i (x_i - x_p)^T (Jiang et al. 2015, eq. 10)",
-                    "xx,xy,yx,yy", ""};
+                    dim == 2 ? "xx,xy,yx,yy" : "xx,xy,xz,yx,yy,yz,zx,zy,zz", ""};
 }
 
 /// @brief The Greville abscissae of the nodes of a cell's stencil block, per
@@ -68,17 +70,16 @@ inline ColumnSpec affine_column()
 template <class Shape>
 struct BlockPoints
 {
-  static_assert(Shape::dim == 2, "the grid is two-dimensional");
-  double u[2][Shape::width];
+  static constexpr int Dim = Shape::dim;
+  double u[Dim][Shape::width];
   double h; ///< the cell size
 
-  BlockPoints(const Grid<2>& grid, const Cell<2>& cell) : h(grid.h())
+  BlockPoints(const Grid<Dim>& grid, const Cell<Dim>& cell) : h(grid.h())
   {
-    const int c[2] = {cell.index[0], cell.index[1]};
-    for (int d = 0; d < 2; ++d)
+    for (int d = 0; d < Dim; ++d)
     {
       const BSpline1D& basis = grid.basis(d);
-      const int first = Shape::first(c[d], basis.size());
+      const int first = Shape::first(cell.index[d], basis.size());
       for (int a = 0; a < Shape::width; ++a)
         u[d][a] = basis.greville_coordinate(first + a) - first;
     }
@@ -87,9 +88,9 @@ struct BlockPoints
 
 /// @brief The frame of a particle's affine velocity: the offsets x_i - x_p
 /// of its block's nodes per direction (node i of the stencil lies at
-/// (r[0][offset(i, 0)], r[1][offset(i, 1)]) from the particle) and, where
-/// asked for (inertia), D_p = sum_i N_i (x_i - x_p)(x_i - x_p)^T as
-/// (xx, xy, yy).
+/// (r[0][offset(i, 0)], r[1][offset(i, 1)], ..) from the particle) and, where
+/// asked for (inertia), D_p = sum_i N_i (x_i - x_p)(x_i - x_p)^T: with
+/// B-splines its diagonal (D_00, D_11[, D_22]), with CPDI (2D) as (xx, xy, yy).
 ///
 /// The offsets are measured from the point the weights reproduce,
 /// sum_i N_i x_i / sum_i N_i (x_p up to round-off), in the block's cells:
@@ -102,17 +103,17 @@ struct BlockPoints
 template <class Shape>
 struct AffineFrame
 {
-  double r[2][Shape::width];
-  double D[3];
+  double r[Shape::dim][Shape::width];
+  double D[Shape::domains ? 3 : Shape::dim];
 };
 
 /// @brief The offsets of the frame with B-splines, per direction.
-template <int P>
-[[gnu::always_inline]] inline void offsets(const BSplineStencil<2, P>& s,
-                                           const BlockPoints<BSplineStencil<2, P>>& X,
-                                           AffineFrame<BSplineStencil<2, P>>& f)
+template <int Dim, int P>
+[[gnu::always_inline]] inline void offsets(const BSplineStencil<Dim, P>& s,
+                                           const BlockPoints<BSplineStencil<Dim, P>>& X,
+                                           AffineFrame<BSplineStencil<Dim, P>>& f)
 {
-  for (int d = 0; d < 2; ++d)
+  for (int d = 0; d < Dim; ++d)
   {
     double weight = 0.0, first = 0.0;
     for (int a = 0; a <= P; ++a)
@@ -147,17 +148,17 @@ template <int P>
 
 /// @brief D_p of the frame from its offsets: with B-splines diagonal, per
 /// direction (the cross sums are products of sum_a N_a (X_a - x_d) = 0).
-template <int P>
-[[gnu::always_inline]] inline void inertia(const BSplineStencil<2, P>& s,
-                                           AffineFrame<BSplineStencil<2, P>>& f)
+template <int Dim, int P>
+[[gnu::always_inline]] inline void inertia(const BSplineStencil<Dim, P>& s,
+                                           AffineFrame<BSplineStencil<Dim, P>>& f)
 {
-  double diagonal[2] = {0.0, 0.0};
-  for (int d = 0; d < 2; ++d)
+  for (int d = 0; d < Dim; ++d)
+  {
+    double diagonal = 0.0;
     for (int a = 0; a <= P; ++a)
-      diagonal[d] += s.n[d][a] * f.r[d][a] * f.r[d][a];
-  f.D[0] = diagonal[0];
-  f.D[1] = 0.0;
-  f.D[2] = diagonal[1];
+      diagonal += s.n[d][a] * f.r[d][a] * f.r[d][a];
+    f.D[d] = diagonal;
+  }
 }
 
 /// @brief D_p of the frame with CPDI, in full over the 4 x 4 nodes.
@@ -173,6 +174,17 @@ template <int P>
   }
 }
 
+/// @brief D_p of a 2D frame as (xx, xy, yy), the B-splines' xy zero.
+template <class Shape>
+std::array<double, 3> plane_inertia(const AffineFrame<Shape>& f)
+{
+  static_assert(Shape::dim == 2, "a 2D frame");
+  if constexpr (Shape::domains)
+    return {f.D[0], f.D[1], f.D[2]};
+  else
+    return {f.D[0], 0.0, f.D[1]};
+}
+
 /// @brief The frame of a particle with stencil s: its offsets and, with
 /// `Inertia`, D_p.
 template <bool Inertia, class Shape>
@@ -186,14 +198,17 @@ template <bool Inertia, class Shape>
   return f;
 }
 
-/// @brief The affine velocity C_p = B_p D_p^-1 of Jiang et al. 2015, eq. 8, (xx, xy, yx, yy).
-/// With B-splines D_p is diagonal, and a direction with D_dd = 0 (a particle
-/// on a degree-1 grid line or on the grid's edge: all its weight at distance
-/// 0) gets no affine velocity; with CPDI D_p is positive definite.
+/// @brief The affine velocity C_p = B_p D_p^-1 of Jiang et al. 2015, eq. 8,
+/// row-major Dim x Dim. With B-splines D_p is diagonal, and a direction with
+/// D_dd = 0 (a particle on a degree-1 grid line or on the grid's edge: all
+/// its weight at distance 0) gets no affine velocity; with CPDI D_p is
+/// positive definite.
 template <class Shape>
-[[gnu::always_inline]] inline void affine_velocity(const double* B, const double (&D)[3],
-                                                   double (&C)[4])
+[[gnu::always_inline]] inline void affine_velocity(const double* B,
+                                                   const double (&D)[Shape::domains ? 3 : Shape::dim],
+                                                   double (&C)[Shape::dim * Shape::dim])
 {
+  constexpr int Dim = Shape::dim;
   if constexpr (Shape::domains)
   {
     const double det = D[0] * D[2] - D[1] * D[1];
@@ -205,11 +220,12 @@ template <class Shape>
   }
   else
   {
-    const double ixx = D[0] > 0.0 ? 1.0 / D[0] : 0.0, iyy = D[2] > 0.0 ? 1.0 / D[2] : 0.0;
-    C[0] = B[0] * ixx;
-    C[1] = B[1] * iyy;
-    C[2] = B[2] * ixx;
-    C[3] = B[3] * iyy;
+    double inverse[Dim];
+    for (int j = 0; j < Dim; ++j)
+      inverse[j] = D[j] > 0.0 ? 1.0 / D[j] : 0.0;
+    for (int i = 0; i < Dim; ++i)
+      for (int j = 0; j < Dim; ++j)
+        C[Dim * i + j] = B[Dim * i + j] * inverse[j];
   }
 }
 
