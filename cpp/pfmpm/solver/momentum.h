@@ -570,13 +570,13 @@ struct G2PArrays
 /// position before the move: `points` are the Greville abscissae of the
 /// cell's nodes); position from the nodal velocities, each (particle,
 /// node) pair reading the values of its local field (`select`); the velocity
-/// gradient L_ij = dv_i/dx_j into `L` (4 per particle, in sorted order; H&H
+/// gradient L_ij = dv_i/dx_j into `L` (Dim x Dim per particle, in sorted order; H&H
 /// eq. 7 on the same fields) and the volume from det(I + dt L). Notes the
 /// smallest particle with a non-finite position or velocity in `bad`, the
 /// largest |v_p|^2 in `speed2` and the largest squared nodal velocity a
 /// particle moved with in `drift2`.
 ///
-/// The four nodal quantities are interpolated together (Shape::interpolate).
+/// The 2 Dim nodal quantities (v and a) are interpolated together (Shape::interpolate).
 /// With more than one field a particle first gathers the values of its
 /// fields into one block, so that every partition runs the same arithmetic
 /// on the values it reads; not inlined, on purpose, for the same reason (see
