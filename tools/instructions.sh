@@ -2,8 +2,9 @@
 # Instructions the step executes, the working tree against revision REV
 # (default HEAD): callgrind of Solver::advance (inclusive) on the bench block
 # of 40,000 particles, 20 steps after 2 warm-up steps, one thread, for the
-# elastic and the phase-field step. Instruction counts do not depend on the
-# machine's load. Both sides are built for x86-64-v3 (valgrind does not run
+# elastic step, the phase-field step and the damage-gradient partition (a
+# fully damaged band along each midline). Instruction counts do not depend
+# on the machine's load. Both sides are built for x86-64-v3 (valgrind does not run
 # AVX-512) with symbols.
 #   bash tools/instructions.sh [REV]
 # Builds in /tmp/instructions (a few minutes per side); prints M instructions
@@ -40,7 +41,7 @@ for side in old new; do
     && mkdir -p pkg && cp -r src/pfmpm pkg/ && cp build/callgrind/_core*.so pkg/pfmpm/)
 done
 printf '%-12s %12s %12s %8s\n' case "old (M)" "new (M)" ratio
-for physics in elastic phasefield; do
+for physics in elastic phasefield damage_gradient; do
   declare -A count
   for side in old new; do
     out="$root/$side-$physics.callgrind"

@@ -175,6 +175,72 @@ bool holds(const NeighbourList& list, const std::vector<std::vector<std::int32_t
 }
 } // namespace
 
+TEST(KernelField, ThreeDimensionsOnAPlaneIsTheTwoDimensionalFieldAndALinearDamageAGradientAlongIt)
+{
+  // A 7^3 cubic lattice of spacing 0.5 with p at its centre, radius 1.2:
+  // (1) the particles of p's z plane alone, in 3D, give the 2D field's bits
+  // and no z gradient; (2) uniform damage, zero gradient exactly; (3) a
+  // linear damage D = D_p + a . (x - x_p): by the lattice's symmetry D-bar =
+  // D_p and grad D-bar = k a, one factor k for every direction.
+  const double h = 0.5, radius = 1.2;
+  std::vector<double> x3, x2, plane_damage, uniform, linear;
+  std::vector<std::int32_t> all, plane;
+  const double a[3] = {0.3, -0.7, 0.45};
+  std::size_t centre = 0;
+  for (int i = 0; i < 7; ++i)
+    for (int j = 0; j < 7; ++j)
+      for (int k = 0; k < 7; ++k)
+      {
+        const double p[3] = {i * h, j * h, k * h};
+        if (i == 3 && j == 3 && k == 3)
+          centre = x3.size() / 3;
+        all.push_back(static_cast<std::int32_t>(x3.size() / 3));
+        x3.insert(x3.end(), p, p + 3);
+        uniform.push_back(0.4);
+        linear.push_back(0.5 + a[0] * (p[0] - 1.5) + a[1] * (p[1] - 1.5) + a[2] * (p[2] - 1.5));
+      }
+  // The z = 1.5 plane, in 3D (its indices in x3) and in 2D.
+  std::vector<double> damage3(x3.size() / 3, 0.0);
+  std::vector<std::int32_t> list2;
+  std::size_t centre2 = 0;
+  for (std::size_t q = 0; q < x3.size() / 3; ++q)
+  {
+    damage3[q] = std::sin(3.0 * x3[3 * q]) * std::cos(2.0 * x3[3 * q + 1]) + 0.5;
+    if (x3[3 * q + 2] == 1.5)
+    {
+      if (q == centre)
+        centre2 = x2.size() / 2;
+      plane.push_back(static_cast<std::int32_t>(q));
+      list2.push_back(static_cast<std::int32_t>(x2.size() / 2));
+      x2.push_back(x3[3 * q]);
+      x2.push_back(x3[3 * q + 1]);
+      plane_damage.push_back(damage3[q]);
+    }
+  }
+  const KernelValue<3> f3 = kernel_field<3>(centre, plane.data(), static_cast<std::int64_t>(plane.size()),
+                                            x3.data(), damage3.data(), radius);
+  const KernelValue<2> f2 = kernel_field<2>(centre2, list2.data(), static_cast<std::int64_t>(list2.size()),
+                                            x2.data(), plane_damage.data(), radius);
+  EXPECT_EQ(f3.S, f2.S);
+  EXPECT_EQ(f3.D, f2.D);
+  EXPECT_EQ(f3.grad[0], f2.grad[0]);
+  EXPECT_EQ(f3.grad[1], f2.grad[1]);
+  EXPECT_EQ(f3.grad[2], 0.0);
+  EXPECT_GT(std::abs(f2.grad[0]), 1e-3); // a field that varies
+
+  const auto n = static_cast<std::int64_t>(all.size());
+  const KernelValue<3> u = kernel_field<3>(centre, all.data(), n, x3.data(), uniform.data(), radius);
+  for (int c = 0; c < 3; ++c)
+    EXPECT_EQ(u.grad[c], 0.0);
+  EXPECT_EQ(u.D, 0.4);
+  const KernelValue<3> l = kernel_field<3>(centre, all.data(), n, x3.data(), linear.data(), radius);
+  EXPECT_NEAR(l.D, 0.5, 1e-15);
+  const double k = l.grad[0] / a[0];
+  EXPECT_GT(k, 0.0);
+  for (int c = 1; c < 3; ++c)
+    EXPECT_NEAR(l.grad[c] / a[c], k, 1e-13 * k) << c;
+}
+
 TEST(NeighbourList, ListsEveryPairWithinTheCutoffSorted)
 {
   // A jittered lattice, 2 per cell, and cutoffs below, at and above a cell.

@@ -110,8 +110,8 @@ KernelField kernel_damage_field(const Grid<2>& grid, const std::vector<double>& 
   for (std::ptrdiff_t p = 0; p < np; ++p)
   {
     const auto listed = list.of(p);
-    const KernelValue v =
-        kernel_field(p, listed.first, listed.size, x.data(), damage.data(), radius);
+    const KernelValue<2> v =
+        kernel_field<2>(p, listed.first, listed.size, x.data(), damage.data(), radius);
     out.S[p] = v.S;
     out.D[p] = v.D;
     out.grad[2 * p] = v.grad[0];
@@ -572,7 +572,7 @@ void DamageFields::gradients(Particles& particles, const CellSort& sort)
   auto evaluate = [&](std::int32_t p)
   {
     const auto listed = list.of(p);
-    const KernelValue v = kernel_field(p, listed.first, listed.size, x, damage, radius);
+    const KernelValue<2> v = kernel_field<2>(p, listed.first, listed.size, x, damage, radius);
     grad[2 * p] = v.grad[0];
     grad[2 * p + 1] = v.grad[1];
     set[p] = 1;

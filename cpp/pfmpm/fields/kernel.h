@@ -16,18 +16,20 @@ namespace pfmpm
 /// 0 <= r <= 1 and 0 beyond, with r the distance over the kernel radius.
 inline double kernel_weight(double r) { return r < 1.0 ? 1.0 - r * r * (3.0 - 2.0 * r) : 0.0; }
 
-/// @brief The normalised damage field at one particle and its gradient.
+/// @brief The normalised damage field at one particle and its gradient, in
+/// Dim directions.
+template <int Dim>
 struct KernelValue
 {
-  double S;        ///< kernel sum (H&H eq. 19), >= 1 (the particle's own term)
-  double D;        ///< normalised damage D-bar = D / S (H&H eqs. 17, 19)
-  double grad[2];  ///< gradient of D-bar at the particle
+  double S;         ///< kernel sum (H&H eq. 19), >= 1 (the particle's own term)
+  double D;         ///< normalised damage D-bar = D / S (H&H eqs. 17, 19)
+  double grad[Dim]; ///< gradient of D-bar at the particle
 };
 
 /// @brief The normalised kernel damage field (H&H eqs. 17-19) and its gradient
 /// at particle p, from the neighbours `q[0, n)` (any superset of those within
 /// `radius`, sorted by index so that the sums have an order fixed by the
-/// positions alone).
+/// positions alone), in Dim directions.
 ///
 /// With d_q = D_q - D_p, the ratio of H&H eqs. 17 and 19 is D-bar = D_p + sum_q d_q w_q / S
 /// and its gradient (S sum_q d_q grad w_q - sum_q d_q w_q grad S) / S^2, where
@@ -35,21 +37,23 @@ struct KernelValue
 /// and the particle's own term adds 1 to S and nothing to the gradients. Sums
 /// of differences make a uniform damage give exactly zero gradient (check U1).
 /// The sums are unweighted, as in the paper (GEOS weights them by V_q).
-/// @param x Positions, N x 2.
+/// @param x Positions, N x Dim.
 /// @param damage D_p per particle (with surface flags, max(s_p, D_p)).
-inline KernelValue kernel_field(std::size_t p, const std::int32_t* q, std::int64_t n,
-                                const double* x, const double* damage, double radius)
+template <int Dim>
+KernelValue<Dim> kernel_field(std::size_t p, const std::int32_t* q, std::int64_t n, const double* x,
+                              const double* damage, double radius)
 {
   const double inv_r = 1.0 / radius, inv_r2 = inv_r * inv_r;
-  const double xp = x[2 * p], yp = x[2 * p + 1], dp = damage[p];
-  double S = 1.0, dS[2] = {0.0, 0.0}, Dw = 0.0, dD[2] = {0.0, 0.0};
+  const double* const xp = &x[Dim * p];
+  const double dp = damage[p];
+  double S = 1.0, dS[Dim] = {}, Dw = 0.0, dD[Dim] = {};
   // A chunk of the list at a time: first the neighbours within the radius,
   // in list order, found without a branch (one in three is beyond it, in
   // the list's skin, and would be mispredicted); then their terms. Those
   // beyond add nothing (w = g = 0), so the sums stay a function of the
   // positions alone, whenever the list was built.
   constexpr int chunk = 64;
-  double rx[chunk], ry[chunk], r2[chunk];
+  double e[Dim][chunk], r2[chunk];
   std::int32_t j[chunk];
   for (std::int64_t k0 = 0; k0 < n; k0 += chunk)
   {
@@ -58,10 +62,18 @@ inline KernelValue kernel_field(std::size_t p, const std::int32_t* q, std::int64
     for (int k = 0; k < m; ++k)
     {
       const std::size_t i = static_cast<std::size_t>(q[k0 + k]);
-      const double ex = xp - x[2 * i], ey = yp - x[2 * i + 1];
-      const double s2 = (ex * ex + ey * ey) * inv_r2;
-      rx[within] = ex;
-      ry[within] = ey;
+      double ed[Dim];
+#pragma GCC unroll 3
+      for (int d = 0; d < Dim; ++d)
+        ed[d] = xp[d] - x[Dim * i + d];
+      double s2 = ed[0] * ed[0];
+#pragma GCC unroll 3
+      for (int d = 1; d < Dim; ++d)
+        s2 += ed[d] * ed[d];
+      s2 *= inv_r2;
+#pragma GCC unroll 3
+      for (int d = 0; d < Dim; ++d)
+        e[d][within] = ed[d];
       r2[within] = s2;
       j[within] = q[k0 + k];
       within += s2 < 1.0;
@@ -73,19 +85,21 @@ inline KernelValue kernel_field(std::size_t p, const std::int32_t* q, std::int64
       const double g = 6.0 * (r - 1.0) * inv_r2;       // grad w = g (x_p - x_q)
       const double d = damage[j[k]] - dp;
       S += w;
-      dS[0] += g * rx[k];
-      dS[1] += g * ry[k];
+#pragma GCC unroll 3
+      for (int c = 0; c < Dim; ++c)
+        dS[c] += g * e[c][k];
       Dw += d * w;
-      dD[0] += d * g * rx[k];
-      dD[1] += d * g * ry[k];
+#pragma GCC unroll 3
+      for (int c = 0; c < Dim; ++c)
+        dD[c] += d * g * e[c][k];
     }
   }
   const double inv_S = 1.0 / S;
-  KernelValue out;
+  KernelValue<Dim> out;
   out.S = S;
   out.D = dp + Dw * inv_S;
-  out.grad[0] = (S * dD[0] - Dw * dS[0]) * inv_S * inv_S;
-  out.grad[1] = (S * dD[1] - Dw * dS[1]) * inv_S * inv_S;
+  for (int c = 0; c < Dim; ++c)
+    out.grad[c] = (S * dD[c] - Dw * dS[c]) * inv_S * inv_S;
   return out;
 }
 
