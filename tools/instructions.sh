@@ -40,7 +40,7 @@ for side in old new; do
     && cmake --build build/callgrind --target _core -j 2 >> "$root/$side.log" 2>&1 \
     && mkdir -p pkg && cp -r src/pfmpm pkg/ && cp build/callgrind/_core*.so pkg/pfmpm/)
 done
-printf '%-12s %12s %12s %8s\n' case "old (M)" "new (M)" ratio
+printf '%-16s %12s %12s %8s\n' case "old (M)" "new (M)" ratio
 for physics in elastic phasefield damage_gradient; do
   declare -A count
   for side in old new; do
@@ -51,5 +51,5 @@ for physics in elastic phasefield damage_gradient; do
     count[$side]=$(callgrind_annotate --inclusive=yes "$out" 2> /dev/null | awk '/PROGRAM TOTALS/ {gsub(",", "", $1); print $1}')
   done
   awk -v c="$physics" -v o="${count[old]}" -v n="${count[new]}" \
-    'BEGIN { printf "%-12s %12.1f %12.1f %8.4f\n", c, o / 1e6, n / 1e6, n / o }'
+    'BEGIN { printf "%-16s %12.1f %12.1f %8.4f\n", c, o / 1e6, n / 1e6, n / o }'
 done
