@@ -293,9 +293,7 @@ template <class Shape, int F, class Select>
             {
               const int f = Select::at(fp, i);
               double r[Dim];
-#pragma GCC unroll 3
-              for (int k = 0; k < Dim; ++k)
-                r[k] = frame.r[k][Shape::offset(i, k)];
+              frame.node(i, r);
 #pragma GCC unroll 3
               for (int d = 0; d < Dim; ++d)
               {
@@ -603,9 +601,7 @@ template <class Shape, int F, bool Affine, class Select>
         [&](int i, double w, const double*)
         {
           double r[Dim];
-#pragma GCC unroll 3
-          for (int k = 0; k < Dim; ++k)
-            r[k] = frame.r[k][Shape::offset(i, k)];
+          frame.node(i, r);
 #pragma GCC unroll 3
           for (int d = 0; d < Dim; ++d)
           {

@@ -105,6 +105,14 @@ struct AffineFrame
 {
   double r[Shape::dim][Shape::width];
   double D[Shape::domains ? 3 : Shape::dim];
+
+  /// The offset x_i - x_p of stencil node i, per direction.
+  [[gnu::always_inline]] void node(int i, double (&x)[Shape::dim]) const
+  {
+#pragma GCC unroll 3
+    for (int k = 0; k < Shape::dim; ++k)
+      x[k] = r[k][Shape::offset(i, k)];
+  }
 };
 
 /// @brief The offsets of the frame with B-splines, per direction.
