@@ -23,6 +23,32 @@ using namespace pfmpm;
 namespace pfmpm::bindings
 {
 
+namespace
+{
+/// The grid of Dim directions as the Python class `name`.
+template <int Dim>
+void bind_grid_class(py::module_& m, const char* name)
+{
+  py::class_<Grid<Dim>>(m, name, "Uniform grid with a tensor-product B-spline basis")
+      .def(py::init<int, std::array<int, Dim>, double, std::array<double, Dim>>(), py::arg("degree"),
+           py::arg("cells"), py::arg("h"), py::arg("origin"))
+      .def_property_readonly("degree", &Grid<Dim>::degree)
+      .def_property_readonly("cells", &Grid<Dim>::cells)
+      .def_property_readonly("nodes", &Grid<Dim>::nodes)
+      .def_property_readonly("num_active", &Grid<Dim>::num_active, "active nodes in the last step")
+      .def("set_wall", &Grid<Dim>::set_wall, py::arg("side"), py::arg("wall"))
+      .def("add_region", &Grid<Dim>::add_region, py::arg("min"), py::arg("max"), py::arg("components"),
+           py::arg("moves") = false,
+           "a box of nodes whose velocity components (bit d: direction d) are prescribed; with "
+           "moves, the box follows the region's displacement; its index")
+      .def("add_particle_region", &Grid<Dim>::add_particle_region, py::arg("components"),
+           "a region of the nodes its particles reach (those whose column held_by has the bit of "
+           "its index), followed as they move; its index")
+      .def("set_region_velocity", &Grid<Dim>::set_region_velocity, py::arg("k"), py::arg("velocity"),
+           "the velocity region k prescribes from the next step on");
+}
+} // namespace
+
 void bind_grid(py::module_& m)
 {
   py::class_<BSpline1D>(m, "BSpline1D", "B-spline basis on a uniform open knot vector")
@@ -63,23 +89,8 @@ void bind_grid(py::module_& m)
       .value("front", Side::front);
   py::enum_<Wall>(m, "Wall").value("free", Wall::free).value("fixed", Wall::fixed).value("slip", Wall::slip);
 
-  py::class_<Grid<2>>(m, "Grid", "Uniform grid with a tensor-product B-spline basis")
-      .def(py::init<int, std::array<int, 2>, double, std::array<double, 2>>(), py::arg("degree"),
-           py::arg("cells"), py::arg("h"), py::arg("origin"))
-      .def_property_readonly("degree", &Grid<2>::degree)
-      .def_property_readonly("cells", &Grid<2>::cells)
-      .def_property_readonly("nodes", &Grid<2>::nodes)
-      .def_property_readonly("num_active", &Grid<2>::num_active, "active nodes in the last step")
-      .def("set_wall", &Grid<2>::set_wall, py::arg("side"), py::arg("wall"))
-      .def("add_region", &Grid<2>::add_region, py::arg("min"), py::arg("max"), py::arg("components"),
-           py::arg("moves") = false,
-           "a box of nodes whose velocity components (bit 0: x, bit 1: y) are prescribed; with "
-           "moves, the box follows the region's displacement; its index")
-      .def("add_particle_region", &Grid<2>::add_particle_region, py::arg("components"),
-           "a region of the nodes its particles reach (those whose column held_by has the bit of "
-           "its index), followed as they move; its index")
-      .def("set_region_velocity", &Grid<2>::set_region_velocity, py::arg("k"), py::arg("velocity"),
-           "the velocity region k prescribes from the next step on");
+  bind_grid_class<2>(m, "Grid");
+  bind_grid_class<3>(m, "Grid3");
 }
 
 } // namespace pfmpm::bindings

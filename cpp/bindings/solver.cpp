@@ -49,6 +49,36 @@ py::dict contact_dict(const ContactStats& st, bool damage)
   return d;
 }
 
+/// A solver state as a dict of `scalars` and `arrays` (taken over, no copy).
+py::dict dict_of(SolverState st)
+{
+  py::dict scalars, arrays;
+  for (const auto& [key, value] : st.scalars)
+    scalars[py::str(key)] = value;
+  for (auto& [key, value] : st.arrays)
+    arrays[py::str(key)] = array_of(std::move(value));
+  py::dict d;
+  d["scalars"] = scalars;
+  d["arrays"] = arrays;
+  return d;
+}
+
+/// The solver state of a dict made by dict_of.
+SolverState state_of(const py::dict& d)
+{
+  SolverState st;
+  for (const auto& [key, value] : d["scalars"].cast<py::dict>())
+    st.scalars[key.cast<std::string>()] = value.cast<double>();
+  for (const auto& [key, value] : d["arrays"].cast<py::dict>())
+  {
+    const auto a = value.cast<py::array_t<double, py::array::c_style | py::array::forcecast>>();
+    if (a.ndim() != 1)
+      throw py::value_error("solver state: " + key.cast<std::string>() + " must be one-dimensional");
+    st.arrays[key.cast<std::string>()] = std::vector<double>(a.data(), a.data() + a.size());
+  }
+  return st;
+}
+
 /// A copy of `data` as a numpy array.
 template <class T>
 py::array_t<T> copy_of(const std::vector<T>& data)
@@ -56,6 +86,218 @@ py::array_t<T> copy_of(const std::vector<T>& data)
   py::array_t<T> out(static_cast<py::ssize_t>(data.size()));
   std::copy(data.begin(), data.end(), out.mutable_data());
   return out;
+}
+
+/// The solver of Dim directions as the Python class `name`.
+template <int Dim>
+void bind_solver_class(py::module_& m, const char* name)
+{
+  py::class_<Solver<Dim>>(m, name, Dim == 2 ? "Explicit MPM stepping with a staggered phase field (Algorithm 1)"
+                                          : "Explicit MPM stepping in 3D (one velocity field, B-splines)")
+      .def(py::init(
+               [](Grid<Dim>& grid, Particles& particles,
+                  const std::vector<std::shared_ptr<Material>>& materials, double dt,
+                  std::vector<std::optional<Fracture>> fracture, double tol, int max_iterations,
+                  Partition partition, std::vector<double> friction, DamageGradientOptions damage,
+                  ShapeFunctions shape, bool scale_failed, double failed_c, TransferScheme transfer)
+               {
+                 StepConfig step(dt);
+                 step.fracture = std::move(fracture);
+                 step.tol = tol;
+                 step.max_iterations = max_iterations;
+                 step.partition = partition;
+                 step.friction = std::move(friction);
+                 step.damage = std::move(damage);
+                 step.shape = shape;
+                 step.scaling = DomainScaling{scale_failed, failed_c};
+                 step.transfer = transfer;
+                 return std::make_unique<Solver<Dim>>(
+                     grid, particles,
+                     std::vector<std::shared_ptr<const Material>>(materials.begin(), materials.end()),
+                     std::move(step));
+               }),
+           py::arg("grid"), py::arg("particles"), py::arg("materials"), py::arg("dt"),
+           py::arg("fracture") = std::vector<std::optional<Fracture>>{}, py::arg("tol") = PhaseField::default_tol,
+           py::arg("max_iterations") = PhaseField::default_max_iterations, py::arg("partition") = Partition::single,
+           py::arg("friction") = std::vector<double>{}, py::arg("damage") = DamageGradientOptions{}, py::arg("shape") = ShapeFunctions::bspline,
+           py::arg("scale_failed") = true, py::arg("failed_c") = 0.0,
+           py::arg("transfer") = TransferScheme::flip, py::keep_alive<1, 2>(),
+           py::keep_alive<1, 3>(),
+           "materials: pfmpm._core.Material per material index (see pfmpm._core.material); "
+           "partition: the velocity-field partition (Partition: single, bodies, "
+           "damage_gradient); friction: with discrete fields the n x n (row-major) Coulomb "
+           "coefficients between them (bodies, or contact groups), empty with one field; damage: "
+           "with damage_gradient its pfmpm._core.DamageGradient; shape: the shape functions (CPDI adds the "
+           "domain columns, to be set before the first step); scale_failed, failed_c: with CPDI, "
+           "scale the domains of failed particles (damage D = 1, or phase field c < failed_c) to "
+           "a diagonal of at most a cell; transfer: FLIP or APIC (which adds the column "
+           "`affine`, B_p). Adds the models' particle columns.")
+      .def("advance", &Solver<Dim>::advance, py::arg("steps"),
+           py::call_guard<py::gil_scoped_release>(),
+           "take `steps` steps, each on the thread count the solver's ThreadGovernor chooses "
+           "(at most num_threads(), restored on return) unless adaptive_threads is False")
+      .def_property("adaptive_threads", &Solver<Dim>::adaptive_threads, &Solver<Dim>::set_adaptive_threads,
+                    "whether advance adapts the thread count to the machine's load (default True)")
+      .def_property_readonly("reduced_thread_steps", &Solver<Dim>::reduced_thread_steps,
+                             "steps run on fewer threads than num_threads() so far")
+      .def("prepare", [](Solver<Dim>& s) { s.prepare(); }, py::call_guard<py::gil_scoped_release>(),
+           "sort, activate and solve the phase field for the current state")
+      .def("phase_field_stats",
+           [](const Solver<Dim>& s)
+           {
+             py::dict d = stats_dict(s.phase_field_stats());
+             d["fourth_order"] = s.fourth_order();
+             d["bounded"] = s.bounded();
+             return d;
+           })
+      .def(
+          "phase_field_system",
+          [](const Solver<Dim>& s)
+          {
+            const PhaseFieldSystem k = s.phase_field_system();
+            auto copy = [](const auto& v)
+            {
+              using T = typename std::decay_t<decltype(v)>::value_type;
+              return py::array_t<T>(static_cast<py::ssize_t>(v.size()), v.data());
+            };
+            py::dict d;
+            d["nodes"] = copy(k.nodes);
+            d["row_start"] = copy(k.row_start);
+            d["column"] = copy(k.column);
+            d["value"] = copy(k.value);
+            d["rhs"] = copy(k.rhs);
+            d["solution"] = copy(k.solution);
+            return d;
+          },
+          "the last phase-field system K c = F in compressed rows over the active nodes "
+          "(nodes, row_start, column, value, rhs) and its solution (one velocity field only)")
+      .def("set_phase_field_preconditioner", &Solver<Dim>::set_phase_field_preconditioner,
+           py::arg("preconditioner"),
+           "the phase-field CG preconditioner from the next solve on (automatic: ssor for "
+           "the second-order model, multigrid for the fourth-order one)")
+      .def("set_stability_length", &Solver<Dim>::set_stability_length, py::arg("length"),
+           "check dt (c_p + |v_p|) <= length after every step (0: no check)")
+      .def("set_touch_fill", &Solver<Dim>::set_touch_fill, py::arg("fill"),
+           "with contact, fields touch at a node where their volumes fill this fraction of "
+           "its volume (0: on approach alone)")
+      .def("fastest_signal", &Solver<Dim>::fastest_signal,
+           "the largest c_p + |v_p| over the particles now (c_p the P-wave speed in the "
+           "particle's state): the speed the stability check holds dt to")
+      .def_property_readonly("light_nodes", &Solver<Dim>::light_nodes,
+                             "slot-steps so far too light to divide by (given zero velocity)")
+      .def_property_readonly("mass_tol", &Solver<Dim>::mass_tol,
+                             "the mass at or below which a node slot is too light to divide by "
+                             "(1e-12 of the heaviest particle's)")
+      .def(
+          "state",
+          [](const Solver<Dim>& s) { return dict_of(s.state()); },
+          "the state besides the particle columns, for a checkpoint: a dict of `scalars` "
+          "(name: float) and `arrays` (name: 1D array, a copy)")
+      .def(
+          "restore",
+          [](Solver<Dim>& s, const py::dict& d) { s.restore(state_of(d)); },
+          py::arg("state"), "continue from a state() dict; restore the particle columns beside it")
+      .def_property_readonly("dt", &Solver<Dim>::dt)
+      .def_property_readonly("transfer", &Solver<Dim>::transfer)
+      .def(
+          "set_velocity_gradients",
+          [](Solver<Dim>& s, const py::array_t<double, py::array::c_style | py::array::forcecast>& G)
+          {
+            if (G.ndim() != 3 || G.shape(1) != Dim || G.shape(2) != Dim)
+              throw py::value_error("velocity gradients: an (n, " + std::to_string(Dim) + ", "
+                                    + std::to_string(Dim) + ") array is needed");
+            const std::vector<double> g(G.data(), G.data() + G.size());
+            s.set_velocity_gradients(g);
+          },
+          py::arg("G"),
+          "with APIC: each particle's affine matrix B_p = G_p D_p for the velocity field "
+          "v_p + G_p (x - x_p) about it (G: (n, dim, dim), G[p, i, j] = dv_i/dx_j)")
+      .def_property_readonly("time", &Solver<Dim>::time)
+      .def_property_readonly("step_count", &Solver<Dim>::step_count)
+      .def("energies",
+           [](const Solver<Dim>& s)
+           {
+             const Energies<Dim> e = s.energies();
+             py::dict d;
+             Energies<Dim>::each([&](const char* name, const auto& value) { d[name] = value; }, e);
+             return d;
+           })
+      .def(
+          "contact_stats",
+          [](const Solver<Dim>& s) -> py::object
+          {
+            const ContactStats* c = s.contact_stats();
+            if (!c)
+              return py::none();
+            return contact_dict(*c, s.damage_fields() != nullptr);
+          },
+          "contact record (None with one field): contact nodes in the last step, node-pairs "
+          "examined, active (K&T eq. 77) and sliding (K&T eq. 75) ones, violations of "
+          "C.1-C.4, work of the friction forces since t = 0; with damage-gradient fields also "
+          "the nodes where a group has both sides (split) and of them the separable ones "
+          "(H&H eq. 21) in the last step, and the separable ones summed over the steps "
+          "(separable_total)")
+      .def(
+          "detect_surfaces",
+          [](Solver<Dim>& s, const std::vector<double>& spacing, double threshold)
+          { return copy_of(s.detect_surfaces(spacing, threshold)); },
+          py::arg("spacing"), py::arg("threshold") = 0.99,
+          "surface flags at t = 0 (H&H section 2.4) into the `surface` column: S < threshold "
+          "S_bulk over each body's own particles, S_bulk from the body's lattice spacing; "
+          "returns S / S_bulk per particle")
+      .def(
+          "stage_seconds",
+          [](const Solver<Dim>& s)
+          {
+            const StageTimers& t = s.timers();
+            return py::dict(py::arg("sort") = t.sort, py::arg("phase_field") = t.phase_field,
+                            py::arg("fields") = t.fields, py::arg("p2g") = t.p2g,
+                            py::arg("grid") = t.grid, py::arg("g2p") = t.g2p);
+          },
+          "wall seconds per stage of the steps so far: cell sort and active nodes, phase field, "
+          "the partition's build (fields; damage_partition()['seconds'] splits the damage "
+          "gradient's), P2G, grid update with contact, G2P with the materials' update")
+      .def(
+          "damage_partition",
+          [](const Solver<Dim>& s) -> py::object
+          {
+            const DamageFields* d = s.damage_fields();
+            if (!d)
+              return py::none();
+            py::dict out;
+            out["mask"] = copy_of(d->masks());
+            const auto rows = d->nodal_gradients(s.particles());
+            py::array_t<double> G({py::ssize_t(rows.size()), py::ssize_t(4)});
+            const auto* flat = reinterpret_cast<const double*>(rows.data());
+            std::copy(flat, flat + 4 * rows.size(), G.mutable_data());
+            out["nodal_gradient"] = G;
+            out["radius"] = d->radius();
+            out["neighbour_builds"] = d->neighbour_builds();
+            out["kernel_evaluations"] = d->kernel_evaluations();
+            const DamageTimers& t = d->timers();
+            out["seconds"] = py::dict(py::arg("damage") = t.damage,
+                                      py::arg("neighbours") = t.neighbours,
+                                      py::arg("gradient") = t.gradient,
+                                      py::arg("partition") = t.partition);
+            return out;
+          },
+          "the damage-gradient partition of the last step (None without it): per particle the "
+          "mask of its stencil nodes where it chose field B (bit i: stencil node i, x-major), "
+          "per (active node, group) the nodal gradient (node, group, G_x, G_y) of Algorithm 1, "
+          "the kernel radius, the neighbour-list builds and kernel-field evaluations so far and the "
+          "seconds spent per block")
+      .def(
+          "nodal_mass_momentum",
+          [](Solver<Dim>& s)
+          {
+            const auto rows = s.nodal_mass_momentum();
+            constexpr int width = 2 + Dim;
+            py::array_t<double> out({py::ssize_t(rows.size()), py::ssize_t(width)});
+            const auto* flat = reinterpret_cast<const double*>(rows.data());
+            std::copy(flat, flat + width * rows.size(), out.mutable_data());
+            return out;
+          },
+          "P2G of the current state: (node, mass, momentum per direction) per active node (a copy)");;
 }
 } // namespace
 
@@ -136,235 +378,8 @@ void bind_solver(py::module_& m)
       .value("flip", TransferScheme::flip)
       .value("apic", TransferScheme::apic);
 
-  py::class_<Solver>(m, "Solver", "Explicit MPM stepping with a staggered phase field (Algorithm 1)")
-      .def(py::init(
-               [](Grid<2>& grid, Particles& particles,
-                  const std::vector<std::shared_ptr<Material>>& materials, double dt,
-                  std::vector<std::optional<Fracture>> fracture, double tol, int max_iterations,
-                  Partition partition, std::vector<double> friction, DamageGradientOptions damage,
-                  ShapeFunctions shape, bool scale_failed, double failed_c, TransferScheme transfer)
-               {
-                 StepConfig step(dt);
-                 step.fracture = std::move(fracture);
-                 step.tol = tol;
-                 step.max_iterations = max_iterations;
-                 step.partition = partition;
-                 step.friction = std::move(friction);
-                 step.damage = std::move(damage);
-                 step.shape = shape;
-                 step.scaling = DomainScaling{scale_failed, failed_c};
-                 step.transfer = transfer;
-                 return std::make_unique<Solver>(
-                     grid, particles,
-                     std::vector<std::shared_ptr<const Material>>(materials.begin(), materials.end()),
-                     std::move(step));
-               }),
-           py::arg("grid"), py::arg("particles"), py::arg("materials"), py::arg("dt"),
-           py::arg("fracture") = std::vector<std::optional<Fracture>>{}, py::arg("tol") = PhaseField::default_tol,
-           py::arg("max_iterations") = PhaseField::default_max_iterations, py::arg("partition") = Partition::single,
-           py::arg("friction") = std::vector<double>{}, py::arg("damage") = DamageGradientOptions{}, py::arg("shape") = ShapeFunctions::bspline,
-           py::arg("scale_failed") = true, py::arg("failed_c") = 0.0,
-           py::arg("transfer") = TransferScheme::flip, py::keep_alive<1, 2>(),
-           py::keep_alive<1, 3>(),
-           "materials: pfmpm._core.Material per material index (see pfmpm._core.material); "
-           "partition: the velocity-field partition (Partition: single, bodies, "
-           "damage_gradient); friction: with discrete fields the n x n (row-major) Coulomb "
-           "coefficients between them (bodies, or contact groups), empty with one field; damage: "
-           "with damage_gradient its pfmpm._core.DamageGradient; shape: the shape functions (CPDI adds the "
-           "domain columns, to be set before the first step); scale_failed, failed_c: with CPDI, "
-           "scale the domains of failed particles (damage D = 1, or phase field c < failed_c) to "
-           "a diagonal of at most a cell; transfer: FLIP or APIC (which adds the column "
-           "`affine`, B_p). Adds the models' particle columns.")
-      .def("advance", &Solver::advance, py::arg("steps"),
-           py::call_guard<py::gil_scoped_release>(),
-           "take `steps` steps, each on the thread count the solver's ThreadGovernor chooses "
-           "(at most num_threads(), restored on return) unless adaptive_threads is False")
-      .def_property("adaptive_threads", &Solver::adaptive_threads, &Solver::set_adaptive_threads,
-                    "whether advance adapts the thread count to the machine's load (default True)")
-      .def_property_readonly("reduced_thread_steps", &Solver::reduced_thread_steps,
-                             "steps run on fewer threads than num_threads() so far")
-      .def("prepare", [](Solver& s) { s.prepare(); }, py::call_guard<py::gil_scoped_release>(),
-           "sort, activate and solve the phase field for the current state")
-      .def("phase_field_stats",
-           [](const Solver& s)
-           {
-             py::dict d = stats_dict(s.phase_field_stats());
-             d["fourth_order"] = s.fourth_order();
-             d["bounded"] = s.bounded();
-             return d;
-           })
-      .def(
-          "phase_field_system",
-          [](const Solver& s)
-          {
-            const PhaseFieldSystem k = s.phase_field_system();
-            auto copy = [](const auto& v)
-            {
-              using T = typename std::decay_t<decltype(v)>::value_type;
-              return py::array_t<T>(static_cast<py::ssize_t>(v.size()), v.data());
-            };
-            py::dict d;
-            d["nodes"] = copy(k.nodes);
-            d["row_start"] = copy(k.row_start);
-            d["column"] = copy(k.column);
-            d["value"] = copy(k.value);
-            d["rhs"] = copy(k.rhs);
-            d["solution"] = copy(k.solution);
-            return d;
-          },
-          "the last phase-field system K c = F in compressed rows over the active nodes "
-          "(nodes, row_start, column, value, rhs) and its solution (one velocity field only)")
-      .def("set_phase_field_preconditioner", &Solver::set_phase_field_preconditioner,
-           py::arg("preconditioner"),
-           "the phase-field CG preconditioner from the next solve on (automatic: ssor for "
-           "the second-order model, multigrid for the fourth-order one)")
-      .def("set_stability_length", &Solver::set_stability_length, py::arg("length"),
-           "check dt (c_p + |v_p|) <= length after every step (0: no check)")
-      .def("set_touch_fill", &Solver::set_touch_fill, py::arg("fill"),
-           "with contact, fields touch at a node where their volumes fill this fraction of "
-           "its volume (0: on approach alone)")
-      .def("fastest_signal", &Solver::fastest_signal,
-           "the largest c_p + |v_p| over the particles now (c_p the P-wave speed in the "
-           "particle's state): the speed the stability check holds dt to")
-      .def_property_readonly("light_nodes", &Solver::light_nodes,
-                             "slot-steps so far too light to divide by (given zero velocity)")
-      .def_property_readonly("mass_tol", &Solver::mass_tol,
-                             "the mass at or below which a node slot is too light to divide by "
-                             "(1e-12 of the heaviest particle's)")
-      .def(
-          "state",
-          [](const Solver& s)
-          {
-            SolverState st = s.state();
-            py::dict scalars, arrays;
-            for (const auto& [key, value] : st.scalars)
-              scalars[py::str(key)] = value;
-            for (auto& [key, value] : st.arrays)
-              arrays[py::str(key)] = array_of(std::move(value));
-            py::dict d;
-            d["scalars"] = scalars;
-            d["arrays"] = arrays;
-            return d;
-          },
-          "the state besides the particle columns, for a checkpoint: a dict of `scalars` "
-          "(name: float) and `arrays` (name: 1D array, a copy)")
-      .def(
-          "restore",
-          [](Solver& s, const py::dict& d)
-          {
-            SolverState st;
-            for (const auto& [key, value] : d["scalars"].cast<py::dict>())
-              st.scalars[key.cast<std::string>()] = value.cast<double>();
-            for (const auto& [key, value] : d["arrays"].cast<py::dict>())
-            {
-              const auto a = value.cast<py::array_t<double, py::array::c_style | py::array::forcecast>>();
-              if (a.ndim() != 1)
-                throw py::value_error("solver state: " + key.cast<std::string>()
-                                      + " must be one-dimensional");
-              st.arrays[key.cast<std::string>()] = std::vector<double>(a.data(), a.data() + a.size());
-            }
-            s.restore(st);
-          },
-          py::arg("state"), "continue from a state() dict; restore the particle columns beside it")
-      .def_property_readonly("dt", &Solver::dt)
-      .def_property_readonly("transfer", &Solver::transfer)
-      .def(
-          "set_velocity_gradients",
-          [](Solver& s, const py::array_t<double, py::array::c_style | py::array::forcecast>& G)
-          {
-            if (G.ndim() != 3 || G.shape(1) != 2 || G.shape(2) != 2)
-              throw py::value_error("velocity gradients: an (n, 2, 2) array is needed");
-            const std::vector<double> g(G.data(), G.data() + G.size());
-            s.set_velocity_gradients(g);
-          },
-          py::arg("G"),
-          "with APIC: each particle's affine matrix B_p = G_p D_p for the velocity field "
-          "v_p + G_p (x - x_p) about it (G: (n, 2, 2), G[p, i, j] = dv_i/dx_j)")
-      .def_property_readonly("time", &Solver::time)
-      .def_property_readonly("step_count", &Solver::step_count)
-      .def("energies",
-           [](const Solver& s)
-           {
-             const Energies e = s.energies();
-             py::dict d;
-             Energies::each([&](const char* name, const auto& value) { d[name] = value; }, e);
-             return d;
-           })
-      .def(
-          "contact_stats",
-          [](const Solver& s) -> py::object
-          {
-            const ContactStats* c = s.contact_stats();
-            if (!c)
-              return py::none();
-            return contact_dict(*c, s.damage_fields() != nullptr);
-          },
-          "contact record (None with one field): contact nodes in the last step, node-pairs "
-          "examined, active (K&T eq. 77) and sliding (K&T eq. 75) ones, violations of "
-          "C.1-C.4, work of the friction forces since t = 0; with damage-gradient fields also "
-          "the nodes where a group has both sides (split) and of them the separable ones "
-          "(H&H eq. 21) in the last step, and the separable ones summed over the steps "
-          "(separable_total)")
-      .def(
-          "detect_surfaces",
-          [](Solver& s, const std::vector<double>& spacing, double threshold)
-          { return copy_of(s.detect_surfaces(spacing, threshold)); },
-          py::arg("spacing"), py::arg("threshold") = 0.99,
-          "surface flags at t = 0 (H&H section 2.4) into the `surface` column: S < threshold "
-          "S_bulk over each body's own particles, S_bulk from the body's lattice spacing; "
-          "returns S / S_bulk per particle")
-      .def(
-          "stage_seconds",
-          [](const Solver& s)
-          {
-            const StageTimers& t = s.timers();
-            return py::dict(py::arg("sort") = t.sort, py::arg("phase_field") = t.phase_field,
-                            py::arg("fields") = t.fields, py::arg("p2g") = t.p2g,
-                            py::arg("grid") = t.grid, py::arg("g2p") = t.g2p);
-          },
-          "wall seconds per stage of the steps so far: cell sort and active nodes, phase field, "
-          "the partition's build (fields; damage_partition()['seconds'] splits the damage "
-          "gradient's), P2G, grid update with contact, G2P with the materials' update")
-      .def(
-          "damage_partition",
-          [](const Solver& s) -> py::object
-          {
-            const DamageFields* d = s.damage_fields();
-            if (!d)
-              return py::none();
-            py::dict out;
-            out["mask"] = copy_of(d->masks());
-            const auto rows = d->nodal_gradients(s.particles());
-            py::array_t<double> G({py::ssize_t(rows.size()), py::ssize_t(4)});
-            const auto* flat = reinterpret_cast<const double*>(rows.data());
-            std::copy(flat, flat + 4 * rows.size(), G.mutable_data());
-            out["nodal_gradient"] = G;
-            out["radius"] = d->radius();
-            out["neighbour_builds"] = d->neighbour_builds();
-            out["kernel_evaluations"] = d->kernel_evaluations();
-            const DamageTimers& t = d->timers();
-            out["seconds"] = py::dict(py::arg("damage") = t.damage,
-                                      py::arg("neighbours") = t.neighbours,
-                                      py::arg("gradient") = t.gradient,
-                                      py::arg("partition") = t.partition);
-            return out;
-          },
-          "the damage-gradient partition of the last step (None without it): per particle the "
-          "mask of its stencil nodes where it chose field B (bit i: stencil node i, x-major), "
-          "per (active node, group) the nodal gradient (node, group, G_x, G_y) of Algorithm 1, "
-          "the kernel radius, the neighbour-list builds and kernel-field evaluations so far and the "
-          "seconds spent per block")
-      .def(
-          "nodal_mass_momentum",
-          [](Solver& s)
-          {
-            const auto rows = s.nodal_mass_momentum();
-            py::array_t<double> out({py::ssize_t(rows.size()), py::ssize_t(4)});
-            const auto* flat = reinterpret_cast<const double*>(rows.data());
-            std::copy(flat, flat + 4 * rows.size(), out.mutable_data());
-            return out;
-          },
-          "P2G of the current state: (node, mass, px, py) per active node (a copy)");
+  bind_solver_class<2>(m, "Solver");
+  bind_solver_class<3>(m, "Solver3");
 }
 
 } // namespace pfmpm::bindings

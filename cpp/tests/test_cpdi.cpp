@@ -112,14 +112,14 @@ struct Disk
 {
   Grid<2> grid{1, {40, 40}, 0.25, {-1.0, -2.0}};
   Particles P{0};
-  std::unique_ptr<Solver> solver;
+  std::unique_ptr<Solver<2>> solver;
 
   Disk() : P(count())
   {
     add_model_columns(P, false);
     StepConfig step(1e-3);
     step.shape = ShapeFunctions::cpdi;
-    solver = std::make_unique<Solver>(grid, P, elastic(100.0, 0.3, 1.0), step);
+    solver = std::make_unique<Solver<2>>(grid, P, elastic(100.0, 0.3, 1.0), step);
     const double d = 4.0 / 60;
     std::size_t k = 0;
     std::vector<double>& strain = P.f64("strain");

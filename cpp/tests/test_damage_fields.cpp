@@ -65,7 +65,7 @@ struct BandedBlock
 {
   Grid<2> grid{2, {24, 16}, 0.25, {0.0, 0.0}};
   Particles P = make_rectangle(1.0, 1.0, 5.0, 3.0, 0.25, 2);
-  std::unique_ptr<Solver> solver;
+  std::unique_ptr<Solver<2>> solver;
 
   explicit BandedBlock(std::optional<DamageGradientOptions> options = DamageGradientOptions{},
                        double band = 0.125)
@@ -88,7 +88,7 @@ struct BandedBlock
       step.partition = Partition::damage_gradient;
       step.damage = *options;
     }
-    solver = std::make_unique<Solver>(grid, P, elastic(100.0, 0.3, 1.0), step);
+    solver = std::make_unique<Solver<2>>(grid, P, elastic(100.0, 0.3, 1.0), step);
     if (options)
       for (std::size_t p = 0; p < P.size(); ++p)
         if (std::abs(P.x[2 * p] - 3.0) < band)

@@ -72,7 +72,7 @@ struct PlateRun
 {
   Grid<2> grid;
   Particles particles;
-  Solver solver;
+  Solver<2> solver;
   PlateRun(int degree, double h, Particles P, const Fracture& f, Preconditioner preconditioner,
            double tol)
       : PlateRun(degree, h,

@@ -40,13 +40,13 @@ bool any_occupied(const std::array<int, Dim>& lo, const std::array<int, Dim>& hi
       return false;
   }
 }
+} // namespace
 
 const char* side_name(int side)
 {
   static const char* const names[] = {"left", "right", "bottom", "top", "back", "front"};
   return names[side];
 }
-} // namespace
 
 template <int Dim>
 Grid<Dim>::Grid(int degree, std::array<int, Dim> cells, double h, std::array<double, Dim> origin)

@@ -25,6 +25,9 @@ enum class Side : int
   front = 5
 };
 
+/// The name of side `side` (0 <= side < 6): left, right, bottom, top, back, front.
+const char* side_name(int side);
+
 /// Number of sides of a grid of `dim` directions.
 constexpr int num_sides(int dim) { return 2 * dim; }
 

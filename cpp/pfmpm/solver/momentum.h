@@ -683,7 +683,7 @@ template <class Shape, class Fields, bool Affine>
 struct KinematicsG2P
 {
   static constexpr int Dim = Shape::dim;
-  static_assert(Dim == 2, "the materials take 2 x 2 velocity gradients");
+  static_assert(Dim == 2 || !Fields::discrete, "contact is two-dimensional");
   const Grid<Dim>& grid;
   const Fields& fields;
   const NodeKinematics<Dim>* kinematics;

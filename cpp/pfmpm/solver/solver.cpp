@@ -36,19 +36,36 @@ std::string phase_key(std::size_t k, const char* name)
   return "phase_field/" + std::to_string(k) + "/" + name;
 }
 
-std::string wall_impulse_key(int side, int d)
+/// The name of direction d, and "/" before it.
+std::string component(int d)
 {
-  static const char* const sides[4] = {"left", "right", "bottom", "top"};
-  return std::string("wall_impulse/") + sides[side] + (d == 0 ? "/x" : "/y");
+  static const char* const names[3] = {"/x", "/y", "/z"};
+  return names[d];
 }
 
-std::string region_key(int k, const char* name)
+std::string wall_impulse_key(int side, int d)
+{
+  return std::string("wall_impulse/") + side_name(side) + component(d);
+}
+
+/// The squared length of a vector of Dim components.
+template <int Dim>
+double squared_length(const double* v)
+{
+  double sum = v[0] * v[0];
+  for (int d = 1; d < Dim; ++d)
+    sum += v[d] * v[d];
+  return sum;
+}
+
+std::string region_key(int k, const std::string& name)
 {
   return "region/" + std::to_string(k) + "/" + name;
 }
 } // namespace
 
-Solver::Solver(Grid<2>& grid, Particles& particles,
+template <int Dim>
+Solver<Dim>::Solver(Grid<Dim>& grid, Particles& particles,
                std::vector<std::shared_ptr<const Material>> materials, StepConfig step)
     : _grid(grid), _particles(particles), _materials(std::move(materials)), _dt(step.dt),
       _transfer(step.transfer)
@@ -57,15 +74,25 @@ Solver::Solver(Grid<2>& grid, Particles& particles,
   auto& [dt, fracture, tol, max_iterations, partition, friction, damage, shape, scaling, transfer] = step;
   if (!(dt > 0.0) || !std::isfinite(dt))
     throw std::invalid_argument("dt = " + std::to_string(dt) + ": must be > 0");
-  if (particles.dim() != 2)
+  if (particles.dim() != Dim)
     throw std::invalid_argument("particles in " + std::to_string(particles.dim())
-                                + " directions: the solver steps 2D particles");
+                                + " directions on a grid of " + std::to_string(Dim));
   if (_materials.empty())
     throw std::invalid_argument("materials: at least one material is needed");
   for (const auto& m : _materials)
     if (!m)
       throw std::invalid_argument("materials: a material is missing");
   _fracture = per_material(std::move(fracture), _materials.size());
+  if constexpr (Dim == 3)
+  {
+    // What is two-dimensional yet (issue 50's later steps and issue 51).
+    if (std::any_of(_fracture.begin(), _fracture.end(), [](const auto& f) { return f.has_value(); }))
+      throw std::invalid_argument("fracture: the phase field is two-dimensional yet");
+    if (partition != Partition::single)
+      throw std::invalid_argument("partition: contact (discrete fields) is two-dimensional yet");
+    if (shape == ShapeFunctions::cpdi)
+      throw std::invalid_argument("shape: CPDI is two-dimensional yet");
+  }
 
   const auto nmat = static_cast<std::int32_t>(_materials.size());
   for (std::size_t i = 0; i < particles.size(); ++i)
@@ -103,7 +130,8 @@ Solver::Solver(Grid<2>& grid, Particles& particles,
     if (grid.degree() != 1)
       throw std::invalid_argument("CPDI runs on the degree-1 grid, not degree "
                                   + std::to_string(grid.degree()));
-    if (std::min(grid.cells()[0], grid.cells()[1]) < CpdiStencil::width - 1)
+    const auto cells = grid.cells();
+    if (*std::min_element(cells.begin(), cells.end()) < CpdiStencil::width - 1)
       throw std::invalid_argument("CPDI needs at least 3 cells a side");
     if (!(scaling.c_failed >= 0.0 && scaling.c_failed < 1.0))
       throw std::invalid_argument("CPDI failed phase field c = " + std::to_string(scaling.c_failed)
@@ -117,60 +145,65 @@ Solver::Solver(Grid<2>& grid, Particles& particles,
     throw std::invalid_argument("friction: one velocity field has no contact to take it");
   if (partition != Partition::single && friction.empty())
     throw std::invalid_argument("friction: the contact of discrete fields needs the matrix between them");
-  if (partition == Partition::damage_gradient)
+  if constexpr (Dim == 2)
   {
-    // Each material's damage: a damage model's column, else the phase field's.
-    std::vector<DamageSource> source;
-    for (std::size_t m = 0; m < _materials.size(); ++m)
+    if (partition == Partition::damage_gradient)
     {
-      const auto columns = _materials[m]->columns(particles.dim());
-      const bool column = std::any_of(columns.begin(), columns.end(),
-                                      [](const ColumnSpec& c) { return c.name == "damage"; });
-      source.push_back(column          ? DamageSource::column
-                       : _fracture[m] ? DamageSource::phase_field
-                                      : DamageSource::none);
+      // Each material's damage: a damage model's column, else the phase field's.
+      std::vector<DamageSource> source;
+      for (std::size_t m = 0; m < _materials.size(); ++m)
+      {
+        const auto columns = _materials[m]->columns(particles.dim());
+        const bool column = std::any_of(columns.begin(), columns.end(),
+                                        [](const ColumnSpec& c) { return c.name == "damage"; });
+        source.push_back(column          ? DamageSource::column
+                         : _fracture[m] ? DamageSource::phase_field
+                                        : DamageSource::none);
+      }
+      _fields.template emplace<DamageFields>(grid, particles, std::move(friction), std::move(source),
+                                    std::move(damage), shape);
     }
-    _fields.emplace<DamageFields>(grid, particles, std::move(friction), std::move(source),
-                                  std::move(damage), shape);
+    else if (partition == Partition::bodies)
+      _fields.template emplace<BodyFields>(grid, particles, std::move(friction));
+    if (!cracks)
+      return;
+    // The phase fields: one over all crackable particles, or with discrete
+    // fields one per crackable body (K&T eq. 28), each from its own particles
+    // (with damage-gradient fields, one per crackable contact group).
+    const std::int32_t* field_of = phase_field_of();
+    std::vector<char> crackable_body;
+    bool all_crackable = true;
+    for (std::size_t p = 0; p < particles.size(); ++p)
+    {
+      const bool c = _fracture[particles.material[p]].has_value();
+      all_crackable = all_crackable && c;
+      const std::size_t b = static_cast<std::size_t>(field_of[p]);
+      if (c && b >= crackable_body.size())
+        crackable_body.resize(b + 1, 0);
+      if (c)
+        crackable_body[b] = 1;
+    }
+    if (std::holds_alternative<SingleField>(_fields))
+      _phase.push_back(PhaseFieldGroup{PhaseField(grid, _fracture, tol, max_iterations), -1,
+                                       !all_crackable, {}});
+    else
+      for (std::size_t b = 0; b < crackable_body.size(); ++b)
+        if (crackable_body[b])
+          _phase.push_back(PhaseFieldGroup{PhaseField(grid, _fracture, tol, max_iterations),
+                                           static_cast<std::int32_t>(b), true, {}});
   }
-  else if (partition == Partition::bodies)
-    _fields.emplace<BodyFields>(grid, particles, std::move(friction));
-  if (!cracks)
-    return;
-  // The phase fields: one over all crackable particles, or with discrete
-  // fields one per crackable body (K&T eq. 28), each from its own particles
-  // (with damage-gradient fields, one per crackable contact group).
-  const std::int32_t* field_of = phase_field_of();
-  std::vector<char> crackable_body;
-  bool all_crackable = true;
-  for (std::size_t p = 0; p < particles.size(); ++p)
-  {
-    const bool c = _fracture[particles.material[p]].has_value();
-    all_crackable = all_crackable && c;
-    const std::size_t b = static_cast<std::size_t>(field_of[p]);
-    if (c && b >= crackable_body.size())
-      crackable_body.resize(b + 1, 0);
-    if (c)
-      crackable_body[b] = 1;
-  }
-  if (std::holds_alternative<SingleField>(_fields))
-    _phase.push_back(PhaseFieldGroup{PhaseField(grid, _fracture, tol, max_iterations), -1,
-                                     !all_crackable, {}});
-  else
-    for (std::size_t b = 0; b < crackable_body.size(); ++b)
-      if (crackable_body[b])
-        _phase.push_back(PhaseFieldGroup{PhaseField(grid, _fracture, tol, max_iterations),
-                                         static_cast<std::int32_t>(b), true, {}});
 }
 
-const std::int32_t* Solver::phase_field_of() const
+template <int Dim>
+const std::int32_t* Solver<Dim>::phase_field_of() const
 {
-  if (const auto* d = std::get_if<DamageFields>(&_fields))
+  if (const DamageFields* d = damage_fields())
     return d->group().data();
   return _particles.body.data();
 }
 
-void Solver::set_stability_length(double length)
+template <int Dim>
+void Solver<Dim>::set_stability_length(double length)
 {
   if (!(length >= 0.0) || !std::isfinite(length))
     throw std::invalid_argument("stability length = " + std::to_string(length)
@@ -178,35 +211,38 @@ void Solver::set_stability_length(double length)
   _stability_length = length;
 }
 
-void Solver::set_touch_fill(double fill)
+template <int Dim>
+void Solver<Dim>::set_touch_fill(double fill)
 {
   if (!(fill >= 0.0 && fill <= 1.0))
     throw std::invalid_argument("touch_fill = " + std::to_string(fill) + ": must lie in [0, 1]");
   _touch_fill = fill;
 }
 
+template <int Dim>
 template <class Self, class Visit>
-void Solver::each_scalar(Self& s, Visit&& visit)
+void Solver<Dim>::each_scalar(Self& s, Visit&& visit)
 {
   visit("time", s._time);
   visit("step", s._step);
   visit("external_work", s._external_work);
   visit("wall_work", s._wall_work);
-  for (int side = 0; side < 4; ++side)
-    for (int d = 0; d < 2; ++d)
+  for (int side = 0; side < num_sides(Dim); ++side)
+    for (int d = 0; d < Dim; ++d)
       visit(wall_impulse_key(side, d), s._wall_impulse[side][d]);
   for (int k = 0; k < max_regions; ++k)
   {
     visit(region_key(k, "work"), s._region_work[k]);
-    visit(region_key(k, "impulse/x"), s._region_impulse[k][0]);
-    visit(region_key(k, "impulse/y"), s._region_impulse[k][1]);
-    visit(region_key(k, "displacement/x"), s._region_displacement[k][0]);
-    visit(region_key(k, "displacement/y"), s._region_displacement[k][1]);
+    for (int d = 0; d < Dim; ++d)
+      visit(region_key(k, "impulse") + component(d), s._region_impulse[k][d]);
+    for (int d = 0; d < Dim; ++d)
+      visit(region_key(k, "displacement") + component(d), s._region_displacement[k][d]);
   }
   visit("light_nodes", s._light_nodes);
 }
 
-SolverState Solver::state() const
+template <int Dim>
+SolverState Solver<Dim>::state() const
 {
   SolverState s;
   each_scalar(*this, [&](const std::string& key, const auto& value)
@@ -232,7 +268,8 @@ SolverState Solver::state() const
   return s;
 }
 
-void Solver::restore(const SolverState& state)
+template <int Dim>
+void Solver<Dim>::restore(const SolverState& state)
 {
   // What this solver's state has: the same keys, arrays of the same sizes.
   const SolverState mine = this->state();
@@ -270,8 +307,9 @@ void Solver::restore(const SolverState& state)
     _phase[k].field.restore(PhaseFieldState{state.arrays.at(phase_key(k, "c")),
                                             state.arrays.at(phase_key(k, "c_previous")), stats});
   }
-  if (auto* fields = std::get_if<DamageFields>(&_fields))
-    fields->forget(); // the particles' gradients were restored beside this state
+  if constexpr (Dim == 2)
+    if (auto* fields = std::get_if<DamageFields>(&_fields))
+      fields->forget(); // the particles' gradients were restored beside this state
   if (const ContactStats* stats = contact_stats())
   {
     ContactStats& c = const_cast<ContactStats&>(*stats);
@@ -281,7 +319,7 @@ void Solver::restore(const SolverState& state)
         damage_fields() != nullptr, c);
     const std::vector<double>& impulse = state.arrays.at("contact/pair_impulse");
     for (int q = 0; q < max_field_pairs; ++q)
-      _pair_impulse[q] = {impulse[2 * q], impulse[2 * q + 1]};
+      std::copy_n(&impulse[Dim * q], Dim, _pair_impulse[q].begin());
   }
   each_scalar(*this, [&](const std::string& key, auto& value)
               { value = static_cast<std::decay_t<decltype(value)>>(state.scalars.at(key)); });
@@ -299,8 +337,9 @@ struct Tag
 };
 } // namespace
 
+template <int Dim>
 template <class F>
-void Solver::dispatch(F&& f)
+void Solver<Dim>::dispatch(F&& f)
 {
   auto with_transfer = [&](auto shape, auto& fields)
   {
@@ -312,31 +351,34 @@ void Solver::dispatch(F&& f)
   std::visit(
       [&](auto& fields)
       {
-        if (_domains)
-          return with_transfer(Tag<CpdiStencil>{}, fields);
+        if constexpr (Dim == 2)
+          if (_domains)
+            return with_transfer(Tag<CpdiStencil>{}, fields);
         switch (_grid.degree())
         {
         case 1:
-          with_transfer(Tag<BSplineStencil<2, 1>>{}, fields);
+          with_transfer(Tag<BSplineStencil<Dim, 1>>{}, fields);
           break;
         case 2:
-          with_transfer(Tag<BSplineStencil<2, 2>>{}, fields);
+          with_transfer(Tag<BSplineStencil<Dim, 2>>{}, fields);
           break;
         default:
-          with_transfer(Tag<BSplineStencil<2, 3>>{}, fields);
+          with_transfer(Tag<BSplineStencil<Dim, 3>>{}, fields);
         }
       },
       _fields);
 }
 
-Points Solver::points() const
+template <int Dim>
+Points Solver<Dim>::points() const
 {
-  if (_domains)
+  if (Dim == 2 && _domains)
     return Points{_particles.x.data(), _domains->r1(), _domains->r2()};
   return Points{_particles.x.data()};
 }
 
-void Solver::advance(std::int64_t steps)
+template <int Dim>
+void Solver<Dim>::advance(std::int64_t steps)
 {
   // P2G skips the external force when there is none (fext only changes
   // between calls).
@@ -372,14 +414,16 @@ void Solver::advance(std::int64_t steps)
       });
 }
 
-void Solver::prepare()
+template <int Dim>
+void Solver<Dim>::prepare()
 {
   bind();
   dispatch([&](auto shape, auto& fields, auto)
            { prepare<typename decltype(shape)::type>(fields, true); });
 }
 
-void Solver::bind()
+template <int Dim>
+void Solver<Dim>::bind()
 {
   _bound.clear();
   for (const auto& m : _materials)
@@ -400,7 +444,8 @@ void Solver::bind()
     }
 }
 
-const std::vector<std::vector<std::int64_t>>& Solver::region_cells()
+template <int Dim>
+const std::vector<std::vector<std::int64_t>>& Solver<Dim>::region_cells()
 {
   const auto& regions = _grid.regions();
   const std::vector<std::int64_t>& start = _sort.cell_start();
@@ -430,8 +475,9 @@ const std::vector<std::vector<std::int64_t>>& Solver::region_cells()
   return _region_cells;
 }
 
+template <int Dim>
 template <class Shape, class Fields>
-void Solver::prepare(Fields& fields, bool energy)
+void Solver<Dim>::prepare(Fields& fields, bool energy)
 {
   constexpr int P = Shape::degree;
   {
@@ -491,43 +537,49 @@ void Solver::prepare(Fields& fields, bool energy)
   }
 }
 
-void Solver::check_domains() const
+template <int Dim>
+void Solver<Dim>::check_domains() const
 {
-  const std::size_t n = _particles.size();
-  if (_step == 0)
-    if (const std::size_t p = _domains->oversized(n); p < n)
+  // CPDI is two-dimensional yet: the constructor refuses it in 3D.
+  if constexpr (Dim == 2)
+  {
+    const std::size_t n = _particles.size();
+    if (_step == 0)
+      if (const std::size_t p = _domains->oversized(n); p < n)
+      {
+        const double* r1 = &_domains->r1()[2 * p];
+        const double* r2 = &_domains->r2()[2 * p];
+        std::ostringstream msg;
+        msg << "particle " << p << ": CPDI domain with half-edges r1 = (" << r1[0] << ", " << r1[1]
+            << "), r2 = (" << r2[0] << ", " << r2[1] << ") is wider than a cell (h = " << _grid.h()
+            << ") or not positively oriented at t = 0";
+        throw std::invalid_argument(msg.str());
+      }
+    // The integration domains of this step (failed particles scaled), each
+    // within the cells next to its particle's.
+    if (const std::size_t p = _domains->update(_grid, _particles.x.data(), n); p < n)
     {
       const double* r1 = &_domains->r1()[2 * p];
       const double* r2 = &_domains->r2()[2 * p];
       std::ostringstream msg;
-      msg << "particle " << p << ": CPDI domain with half-edges r1 = (" << r1[0] << ", " << r1[1]
-          << "), r2 = (" << r2[0] << ", " << r2[1] << ") is wider than a cell (h = " << _grid.h()
-          << ") or not positively oriented at t = 0";
-      throw std::invalid_argument(msg.str());
+      msg << "the CPDI domain of " << where(p) << ", half-edges r1 = (" << r1[0] << ", " << r1[1]
+          << "), r2 = (" << r2[0] << ", " << r2[1]
+          << "), reaches past the cells next to its own";
+      throw SimulationError(msg.str());
     }
-  // The integration domains of this step (failed particles scaled), each
-  // within the cells next to its particle's.
-  if (const std::size_t p = _domains->update(_grid, _particles.x.data(), n); p < n)
-  {
-    const double* r1 = &_domains->r1()[2 * p];
-    const double* r2 = &_domains->r2()[2 * p];
-    std::ostringstream msg;
-    msg << "the CPDI domain of " << where(p) << ", half-edges r1 = (" << r1[0] << ", " << r1[1]
-        << "), r2 = (" << r2[0] << ", " << r2[1]
-        << "), reaches past the cells next to its own";
-    throw SimulationError(msg.str());
   }
 }
 
+template <int Dim>
 template <class Shape, bool Affine, class Fields>
-void Solver::step(Fields& fields, bool energy)
+void Solver<Dim>::step(Fields& fields, bool energy)
 {
   prepare<Shape>(fields, energy);
   {
     Stopwatch clock{_timers.p2g};
     particle_to_grid<Shape, Affine>(fields);
   }
-  using U = GridUpdate<2>;
+  using U = GridUpdate<Dim>;
   std::array<double, U::size> sums;
   {
     Stopwatch clock{_timers.grid};
@@ -535,18 +587,19 @@ void Solver::step(Fields& fields, bool energy)
   }
   _external_work += sums[U::external_work];
   _wall_work += sums[U::wall_work];
-  for (int side = 0; side < Grid<2>::sides; ++side)
-    for (int d = 0; d < 2; ++d)
-      _wall_impulse[side][d] += sums[U::hold_impulse + 2 * side + d];
-  const std::vector<Region<2>>& regions = _grid.regions();
+  constexpr int sides = Grid<Dim>::sides;
+  for (int side = 0; side < sides; ++side)
+    for (int d = 0; d < Dim; ++d)
+      _wall_impulse[side][d] += sums[U::hold_impulse + Dim * side + d];
+  const std::vector<Region<Dim>>& regions = _grid.regions();
   for (std::size_t k = 0; k < regions.size(); ++k)
   {
     _region_work[k] += sums[U::region_work + k];
-    for (int d = 0; d < 2; ++d)
+    for (int d = 0; d < Dim; ++d)
     {
-      _region_impulse[k][d] += sums[U::hold_impulse + 2 * (Grid<2>::sides + k) + d];
+      _region_impulse[k][d] += sums[U::hold_impulse + Dim * (sides + k) + d];
       if (regions[k].components & (1 << d))
-        _region_displacement[k][d] += _dt * _grid.holder_velocity()[Grid<2>::sides + k][d];
+        _region_displacement[k][d] += _dt * _grid.holder_velocity()[sides + k][d];
     }
     _grid.move_region(static_cast<int>(k), _region_displacement[k]);
   }
@@ -554,8 +607,8 @@ void Solver::step(Fields& fields, bool energy)
   if constexpr (Fields::discrete)
   {
     for (int q = 0; q < max_field_pairs; ++q)
-      for (int d = 0; d < 2; ++d)
-        _pair_impulse[q][d] += sums[U::pair_impulse + 2 * q + d];
+      for (int d = 0; d < Dim; ++d)
+        _pair_impulse[q][d] += sums[U::pair_impulse + Dim * q + d];
     ContactStats& c = fields.stats();
     c.friction_work += sums[U::friction_work];
     c.pairs += static_cast<std::int64_t>(sums[U::contact + count_pairs]);
@@ -589,8 +642,9 @@ const std::int32_t* field_of_particles(const Fields& fields, const Particles& pa
 }
 } // namespace
 
+template <int Dim>
 template <class Shape, bool Affine, class Fields>
-void Solver::particle_to_grid(Fields& fields)
+void Solver<Dim>::particle_to_grid(Fields& fields)
 {
   std::size_t slots = static_cast<std::size_t>(_grid.num_active());
   if constexpr (Fields::discrete)
@@ -598,7 +652,7 @@ void Solver::particle_to_grid(Fields& fields)
   _sums.resize(slots);
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t a = 0; a < static_cast<std::ptrdiff_t>(slots); ++a)
-    _sums[a] = NodeSums<2>{};
+    _sums[a] = NodeSums<Dim>{};
   if constexpr (Fields::discrete)
     _surface.assign(slots, SurfaceSums{});
   const Particles& P_ = _particles;
@@ -625,11 +679,12 @@ void Solver::particle_to_grid(Fields& fields)
     run(std::false_type{});
 }
 
+template <int Dim>
 template <class Shape, bool Affine, class Fields>
-void Solver::grid_to_particle(Fields& fields, bool stress)
+void Solver<Dim>::grid_to_particle(Fields& fields, bool stress)
 {
   const bool check_stability = _stability_length > 0.0;
-  const ParticleDomains* domains = _domains ? &*_domains : nullptr;
+  const ParticleDomains* domains = Dim == 2 && _domains ? &*_domains : nullptr;
   KinematicsG2P<Shape, Fields, Affine> kernel{_grid,
                                               fields,
                                               _kinematics.data(),
@@ -653,34 +708,40 @@ void Solver::grid_to_particle(Fields& fields, bool stress)
     check_stability_exactly();
 }
 
-std::string Solver::where(std::size_t i) const
+template <int Dim>
+std::string Solver<Dim>::where(std::size_t i) const
 {
   std::ostringstream s;
-  s << "particle " << i << " (body " << _particles.body[i] << ") at x = (" << _particles.x[2 * i]
-    << ", " << _particles.x[2 * i + 1] << ") during the step after step " << _step
-    << " (t = " << _time << ")";
+  s << "particle " << i << " (body " << _particles.body[i] << ") at x = (";
+  for (int d = 0; d < Dim; ++d)
+    s << (d ? ", " : "") << _particles.x[Dim * i + d];
+  s << ") during the step after step " << _step << " (t = " << _time << ")";
   return s.str();
 }
 
-void Solver::non_finite(std::size_t p) const
+template <int Dim>
+void Solver<Dim>::non_finite(std::size_t p) const
 {
   auto finite = [](const std::vector<double>& a, std::size_t begin, std::size_t k)
   { return std::all_of(&a[begin], &a[begin] + k, [](double u) { return std::isfinite(u); }); };
   const Particles& s = _particles;
-  const char* what = !finite(s.v, 2 * p, 2)        ? "velocity"
-                     : !finite(s.x, 2 * p, 2)      ? "position"
-                     : !finite(s.stress, 4 * p, 4) ? "stress"
+  constexpr int T = symmetric_size(Dim);
+  const char* what = !finite(s.v, Dim * p, Dim)      ? "velocity"
+                     : !finite(s.x, Dim * p, Dim)    ? "position"
+                     : !finite(s.stress, T * p, T) ? "stress"
                                                    : "material state (strain, history)";
   throw SimulationError(std::string(what) + " of " + where(p) + " is not finite");
 }
 
-double Solver::signal_speed(std::size_t p) const
+template <int Dim>
+double Solver<Dim>::signal_speed(std::size_t p) const
 {
-  const double vx = _particles.v[2 * p], vy = _particles.v[2 * p + 1];
-  return _bound[_particles.material[p]]->wave_speed(p) + std::sqrt(vx * vx + vy * vy);
+  return _bound[_particles.material[p]]->wave_speed(p)
+         + std::sqrt(squared_length<Dim>(&_particles.v[Dim * p]));
 }
 
-double Solver::max_signal_speed() const
+template <int Dim>
+double Solver<Dim>::max_signal_speed() const
 {
   const auto n = static_cast<std::ptrdiff_t>(_particles.size());
   double fastest = 0.0;
@@ -690,13 +751,15 @@ double Solver::max_signal_speed() const
   return fastest;
 }
 
-double Solver::fastest_signal()
+template <int Dim>
+double Solver<Dim>::fastest_signal()
 {
   bind();
   return max_signal_speed();
 }
 
-void Solver::check_stability_exactly() const
+template <int Dim>
+void Solver<Dim>::check_stability_exactly() const
 {
   const double fastest = max_signal_speed();
   if (_dt * fastest <= stability_limit())
@@ -704,8 +767,7 @@ void Solver::check_stability_exactly() const
   std::size_t p = 0; // the first particle that fast
   while (p + 1 < _particles.size() && signal_speed(p) < fastest)
     ++p;
-  const double vx = _particles.v[2 * p], vy = _particles.v[2 * p + 1];
-  const double speed = std::sqrt(vx * vx + vy * vy);
+  const double speed = std::sqrt(squared_length<Dim>(&_particles.v[Dim * p]));
   std::ostringstream msg;
   msg << "time step dt = " << _dt << " became unstable: " << where(p)
       << " has P-wave speed " << fastest - speed << " and speed " << speed
@@ -714,7 +776,8 @@ void Solver::check_stability_exactly() const
   throw SimulationError(msg.str());
 }
 
-Energies Solver::energies() const
+template <int Dim>
+Energies<Dim> Solver<Dim>::energies() const
 {
   const auto n = _particles.size();
   const Particles& P = _particles;
@@ -735,22 +798,34 @@ Energies Solver::energies() const
   // With APIC, the angular momentum of each particle's affine velocity.
   const Column* affine = P.find("affine");
   const double* B = affine ? affine->f64.data() : nullptr;
-  const auto sums = deterministic_block_sum<7>(
+  // The sums: kinetic, elastic, mass, fracture, momentum (Dim), angular
+  // momentum (its z component in 2D, 3 in 3D).
+  constexpr int first_axis = Dim == 2 ? 2 : 0; // of the angular momentum's components
+  constexpr int momentum = 4, angular = momentum + Dim - first_axis;
+  constexpr int N = angular + 3;
+  const auto sums = deterministic_block_sum<N>(
       n,
-      [&](std::size_t begin, std::size_t end, std::array<double, 7>& acc)
+      [&](std::size_t begin, std::size_t end, std::array<double, N>& acc)
       {
         for (std::size_t p = begin; p < end; ++p)
         {
-          const double m = P.mass[p], vx = P.v[2 * p], vy = P.v[2 * p + 1];
-          acc[0] += 0.5 * m * (vx * vx + vy * vy);
-          acc[2] += m * vx;
-          acc[3] += m * vy;
-          acc[4] += m;
+          const double m = P.mass[p];
+          const double* x = &P.x[Dim * p];
+          const double* v = &P.v[Dim * p];
+          acc[0] += 0.5 * m * squared_length<Dim>(v);
+          acc[2] += m;
           if (fe)
-            acc[5] += fe[p];
-          acc[6] += m * (P.x[2 * p] * vy - P.x[2 * p + 1] * vx);
-          if (B)
-            acc[6] += m * (B[4 * p + 2] - B[4 * p + 1]);
+            acc[3] += fe[p];
+          for (int d = 0; d < Dim; ++d)
+            acc[momentum + d] += m * v[d];
+          // (x_p x v_p)_a, and with APIC eps_abc (B_p)_cb
+          for (int a = first_axis; a < 3; ++a)
+          {
+            const int b = (a + 1) % 3, c = (a + 2) % 3;
+            acc[angular + a] += m * (x[b] * v[c] - x[c] * v[b]);
+            if (B)
+              acc[angular + a] += m * (B[Dim * (Dim * p + c) + b] - B[Dim * (Dim * p + b) + c]);
+          }
         }
         // The elastic energy of each run of one material, in index order.
         for (std::size_t p = begin; p < end;)
@@ -763,10 +838,10 @@ Energies Solver::energies() const
           p = stop;
         }
       });
-  Energies e;
+  Energies<Dim> e;
   e.kinetic = sums[0];
   e.elastic = sums[1];
-  e.fracture = sums[5];
+  e.fracture = sums[3];
   // The work the models dissipated, summed per kind over the columns that
   // keep it per particle (ColumnSpec::dissipation), each column once.
   std::map<std::string, std::string> kept; // column -> kind
@@ -787,9 +862,12 @@ Energies Solver::energies() const
   e.region_work = _region_work;
   e.region_displacement = _region_displacement;
   e.pair_impulse = _pair_impulse;
-  e.momentum = {sums[2], sums[3]};
-  e.angular_momentum = sums[6];
-  e.mass = sums[4];
+  std::copy_n(&sums[momentum], Dim, e.momentum.begin());
+  if constexpr (Dim == 2)
+    e.angular_momentum = sums[angular + 2];
+  else
+    std::copy_n(&sums[angular], 3, e.angular_momentum.begin());
+  e.mass = sums[2];
   if (const ContactStats* stats = contact_stats())
   {
     // Fracture energy per body (with damage-gradient fields too).
@@ -812,23 +890,27 @@ Energies Solver::energies() const
   return e;
 }
 
-bool Solver::fourth_order() const
+template <int Dim>
+bool Solver<Dim>::fourth_order() const
 {
   return !_phase.empty() && _phase.front().field.fourth_order();
 }
 
-void Solver::set_phase_field_preconditioner(Preconditioner preconditioner)
+template <int Dim>
+void Solver<Dim>::set_phase_field_preconditioner(Preconditioner preconditioner)
 {
   for (PhaseFieldGroup& g : _phase)
     g.field.set_preconditioner(preconditioner);
 }
 
-Preconditioner Solver::phase_field_preconditioner() const
+template <int Dim>
+Preconditioner Solver<Dim>::phase_field_preconditioner() const
 {
   return _phase.empty() ? Preconditioner::automatic : _phase.front().field.preconditioner();
 }
 
-PhaseFieldSystem Solver::phase_field_system() const
+template <int Dim>
+PhaseFieldSystem Solver<Dim>::phase_field_system() const
 {
   if (_phase.size() != 1)
     throw std::logic_error("phase_field_system: the run has " + std::to_string(_phase.size())
@@ -836,12 +918,14 @@ PhaseFieldSystem Solver::phase_field_system() const
   return _phase.front().field.system();
 }
 
-bool Solver::bounded() const
+template <int Dim>
+bool Solver<Dim>::bounded() const
 {
   return !_phase.empty() && _phase.front().field.bounded();
 }
 
-PhaseFieldStats Solver::phase_field_stats() const
+template <int Dim>
+PhaseFieldStats Solver<Dim>::phase_field_stats() const
 {
   PhaseFieldStats total;
   for (const PhaseFieldGroup& g : _phase)
@@ -854,42 +938,53 @@ PhaseFieldStats Solver::phase_field_stats() const
   return total;
 }
 
-const ContactStats* Solver::contact_stats() const
+template <int Dim>
+const ContactStats* Solver<Dim>::contact_stats() const
 {
-  if (const auto* fields = std::get_if<BodyFields>(&_fields))
-    return &fields->stats();
-  if (const auto* fields = std::get_if<DamageFields>(&_fields))
-    return &fields->stats();
+  if constexpr (Dim == 2)
+  {
+    if (const auto* fields = std::get_if<BodyFields>(&_fields))
+      return &fields->stats();
+    if (const auto* fields = std::get_if<DamageFields>(&_fields))
+      return &fields->stats();
+  }
   return nullptr;
 }
 
-std::vector<double> Solver::detect_surfaces(const std::vector<double>& spacing, double threshold)
+template <int Dim>
+std::vector<double> Solver<Dim>::detect_surfaces(const std::vector<double>& spacing, double threshold)
 {
-  auto* fields = std::get_if<DamageFields>(&_fields);
-  if (!fields)
-    throw std::logic_error("surface detection needs the damage-gradient partition");
-  if (const std::size_t outside = _sort.sort(_grid, _particles.x); outside < _particles.size())
-    throw SimulationError(where(outside) + " is outside the grid");
-  return fields->detect_surfaces(_particles, _sort, spacing, threshold);
+  if constexpr (Dim == 2)
+    if (auto* fields = std::get_if<DamageFields>(&_fields))
+    {
+      if (const std::size_t outside = _sort.sort(_grid, _particles.x); outside < _particles.size())
+        throw SimulationError(where(outside) + " is outside the grid");
+      return fields->detect_surfaces(_particles, _sort, spacing, threshold);
+    }
+  throw std::logic_error("surface detection needs the damage-gradient partition");
 }
 
-bool Solver::has_external_force() const
+template <int Dim>
+bool Solver<Dim>::has_external_force() const
 {
   return std::any_of(_particles.fext.begin(), _particles.fext.end(),
                      [](double f) { return f != 0.0; });
 }
 
-void Solver::set_velocity_gradients(const std::vector<double>& G)
+template <int Dim>
+void Solver<Dim>::set_velocity_gradients(const std::vector<double>& G)
 {
   if (_transfer != TransferScheme::apic)
     throw std::logic_error("velocity gradients set the affine matrices of APIC, not of this run");
   const std::size_t n = _particles.size();
-  if (G.size() != 4 * n)
+  constexpr int LL = Dim * Dim;
+  if (G.size() != LL * n)
     throw std::invalid_argument("velocity gradients: " + std::to_string(G.size())
-                                + " values for " + std::to_string(n) + " particles (4 each)");
+                                + " values for " + std::to_string(n) + " particles ("
+                                + std::to_string(LL) + " each)");
   if (const std::size_t outside = _sort.sort(_grid, _particles.x); outside < n)
     throw SimulationError(where(outside) + " is outside the grid");
-  if (_domains)
+  if (Dim == 2 && _domains)
   {
     _domains->bind(_particles);
     check_domains();
@@ -902,27 +997,33 @@ void Solver::set_velocity_gradients(const std::vector<double>& G)
         pfmpm::grid_to_particle<Shape>(
             _grid, _sort, points(),
             unreduced(
-                [&](const Cell<2>& cell, const detail::EachParticle<Shape>& each)
+                [&](const Cell<Dim>& cell, const detail::EachParticle<Shape>& each)
                 {
                   const BlockPoints<Shape> X(_grid, cell);
                   each(
                       [&](std::size_t p, const Shape& s)
                       {
-                        const std::array<double, 3> D = plane_inertia(affine_frame<true>(s, X));
-                        const double* g = &G[4 * p];
-                        B[4 * p] = g[0] * D[0] + g[1] * D[1];
-                        B[4 * p + 1] = g[0] * D[1] + g[1] * D[2];
-                        B[4 * p + 2] = g[2] * D[0] + g[3] * D[1];
-                        B[4 * p + 3] = g[2] * D[1] + g[3] * D[2];
+                        // B_p = G_p D_p (Jiang et al. 2015, eq. 10 for a linear field)
+                        const auto D = inertia_matrix(affine_frame<true>(s, X));
+                        const double* g = &G[LL * p];
+                        for (int i = 0; i < Dim; ++i)
+                          for (int j = 0; j < Dim; ++j)
+                          {
+                            double b = g[Dim * i] * D[j];
+                            for (int k = 1; k < Dim; ++k)
+                              b += g[Dim * i + k] * D[Dim * k + j];
+                            B[LL * p + Dim * i + j] = b;
+                          }
                       });
                 }));
       });
 }
 
-std::vector<std::array<double, 4>> Solver::nodal_mass_momentum()
+template <int Dim>
+std::vector<std::array<double, 2 + Dim>> Solver<Dim>::nodal_mass_momentum()
 {
   _external = has_external_force();
-  std::vector<std::array<double, 4>> out;
+  std::vector<std::array<double, 2 + Dim>> out;
   dispatch(
       [&](auto shape, auto& fields, auto affine)
       {
@@ -945,12 +1046,15 @@ std::vector<std::array<double, 4>> Solver::nodal_mass_momentum()
           for (std::int32_t s = s0; s < s1; ++s)
           {
             out[a][1] += _sums[s].m;
-            out[a][2] += _sums[s].p[0];
-            out[a][3] += _sums[s].p[1];
+            for (int d = 0; d < Dim; ++d)
+              out[a][2 + d] += _sums[s].p[d];
           }
         }
       });
   return out;
 }
+
+template class Solver<2>;
+template class Solver<3>;
 
 } // namespace pfmpm

@@ -22,47 +22,55 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <type_traits>
 #include <variant>
 #include <vector>
 
 namespace pfmpm
 {
 
-/// Global quantities of the particle state.
+/// Global quantities of the particle state, with vectors of Dim components.
+template <int Dim>
 struct Energies
 {
+  /// The angular momentum: its z component in 2D, the vector in 3D.
+  using Angular = std::conditional_t<Dim == 2, double, std::array<double, 3>>;
+
   double kinetic = 0.0;        ///< sum of M_p |v_p|^2 / 2
   double elastic = 0.0;        ///< sum of V_p psi_p (with a phase field g(c_p) psi+ + psi-: K&T eq. 14)
   double fracture = 0.0;       ///< sum of G_c V_p Z(c_p) (K&T eqs. 3-4)
   double external_work = 0.0;  ///< work of the external forces since t = 0
   double friction_work = 0.0;  ///< work of the friction (tangential contact) forces since t = 0 (<= 0)
   double wall_work = 0.0;      ///< work of the wall constraints since t = 0 (<= 0, see finish_slot)
-  /// impulse of each side's wall on the bodies since t = 0, (x, y) per Side
-  std::array<std::array<double, 2>, 4> wall_impulse{};
+  /// impulse of each side's wall on the bodies since t = 0, Dim components per Side
+  std::array<std::array<double, Dim>, num_sides(Dim)> wall_impulse{};
   /// impulse and work of each prescribed-velocity region on the bodies since
   /// t = 0, and how far its nodes have moved along the components it holds
-  std::array<std::array<double, 2>, max_regions> region_impulse{};
+  std::array<std::array<double, Dim>, max_regions> region_impulse{};
   std::array<double, max_regions> region_work{};
-  std::array<std::array<double, 2>, max_regions> region_displacement{};
+  std::array<std::array<double, Dim>, max_regions> region_displacement{};
   /// contact impulse since t = 0 of field b on field a, per pair a < b
   /// (field_pair): bodies, or with damage-gradient fields contact groups
-  std::array<std::array<double, 2>, max_field_pairs> pair_impulse{};
+  std::array<std::array<double, Dim>, max_field_pairs> pair_impulse{};
   /// work the models dissipated since t = 0, by kind ("damage", "plastic":
   /// the columns declared with ColumnSpec::dissipation)
   std::map<std::string, double> dissipation;
-  std::array<double, 2> momentum{}; ///< sum of M_p v_p
-  /// sum of M_p (x_p x v_p), about the origin; with APIC plus M_p ((B_p)_yx - (B_p)_xy),
+  std::array<double, Dim> momentum{}; ///< sum of M_p v_p
+  /// sum of M_p (x_p x v_p), about the origin; with APIC plus M_p eps_abc (B_p)_cb,
   /// the angular momentum of the particles' affine velocities (Jiang et al. 2015)
-  double angular_momentum = 0.0;
+  Angular angular_momentum{};
   double mass = 0.0;           ///< sum of M_p
   std::vector<double> fracture_by_field; ///< with discrete fields: fracture energy per field
 
   /// @brief Call `visit(name, member)` for every entry, by the names the
-  /// bindings give them (momentum as momentum_x and momentum_y; the by-body
-  /// fracture energies as fracture_by_body): the one list of them.
+  /// bindings give them (momentum as momentum_x, momentum_y (, momentum_z);
+  /// the angular momentum as angular_momentum in 2D and angular_momentum_x,
+  /// _y, _z in 3D; the by-body fracture energies as fracture_by_body): the
+  /// one list of them.
   template <class Visit, class Self>
   static void each(Visit&& visit, Self& e)
   {
+    static const char* const momentum[3] = {"momentum_x", "momentum_y", "momentum_z"};
     visit("kinetic", e.kinetic);
     visit("elastic", e.elastic);
     visit("fracture", e.fracture);
@@ -76,9 +84,17 @@ struct Energies
     visit("pair_impulse", e.pair_impulse);
     visit("dissipation", e.dissipation);
     visit("fracture_by_body", e.fracture_by_field);
-    visit("momentum_x", e.momentum[0]);
-    visit("momentum_y", e.momentum[1]);
-    visit("angular_momentum", e.angular_momentum);
+    for (int d = 0; d < Dim; ++d)
+      visit(momentum[d], e.momentum[d]);
+    if constexpr (Dim == 2)
+      visit("angular_momentum", e.angular_momentum);
+    else
+    {
+      static const char* const angular[3] = {"angular_momentum_x", "angular_momentum_y",
+                                             "angular_momentum_z"};
+      for (int d = 0; d < 3; ++d)
+        visit(angular[d], e.angular_momentum[d]);
+    }
     visit("mass", e.mass);
   }
 };
@@ -87,9 +103,10 @@ struct Energies
 /// one step to the next, by name: with the columns it is the complete state
 /// of a run.
 ///
-/// Scalars: `time`, `step`, `external_work`, `wall_work`, `wall_impulse/<side>/<x|y>`
-/// (side: left, right, bottom, top), `region/<k>/work`, `region/<k>/impulse/<x|y>` and
-/// `region/<k>/displacement/<x|y>` (k < max_regions), `light_nodes`; per phase field k
+/// Scalars: `time`, `step`, `external_work`, `wall_work`, `wall_impulse/<side>/<x|y|z>`
+/// (side: left, right, bottom, top, and in 3D back, front; z in 3D), `region/<k>/work`,
+/// `region/<k>/impulse/<x|y|z>` and `region/<k>/displacement/<x|y|z>` (k < max_regions),
+/// `light_nodes`; per phase field k
 /// (the single field's is 0; with discrete fields, one per crackable body in
 /// body order) `phase_field/k/solves`, `.../iterations`,
 /// `.../last_iterations`, `.../start_residual`, `.../last_residual`,
@@ -165,8 +182,22 @@ struct StepConfig
   TransferScheme transfer = TransferScheme::flip;
 };
 
+/// @brief The velocity-field partitions a run in Dim directions may take:
+/// contact (discrete fields) is two-dimensional for now, so a 3D run has one field.
+template <int Dim>
+struct Partitions
+{
+  using type = std::variant<SingleField, BodyFields, DamageFields>;
+};
+template <>
+struct Partitions<3>
+{
+  using type = std::variant<SingleField>;
+};
+
 /// @brief Explicit update-stress-last MPM in the momentum formulation, with
-/// a staggered phase-field solve for materials that can crack.
+/// a staggered phase-field solve for materials that can crack, in Dim = 2 or
+/// 3 directions (explicitly instantiated for both in solver.cpp).
 ///
 /// One step (step()): sort the particles by cell and activate the grid nodes
 /// they touch; lay out the velocity fields' slots; if some material can crack,
@@ -189,6 +220,10 @@ struct StepConfig
 /// the stresses fixed at its start, so the staggered loop of Algorithm 1
 /// converges in one pass: the phase field solved at the start of step m+1
 /// uses the history left by step m.
+///
+/// In 3D a run has one velocity field, B-spline shape functions (FLIP or
+/// APIC) and no phase field yet; the constructor refuses the rest.
+template <int Dim>
 class Solver
 {
 public:
@@ -197,7 +232,9 @@ public:
   ///        solver). The materials' and the phase field's columns are added.
   /// @param materials Materials indexed by Particles::material.
   /// @param step What each step does (StepConfig).
-  Solver(Grid<2>& grid, Particles& particles, std::vector<std::shared_ptr<const Material>> materials,
+  /// @throws std::invalid_argument for a bad configuration, or in 3D for one
+  ///         that is two-dimensional yet (contact, CPDI, a phase field).
+  Solver(Grid<Dim>& grid, Particles& particles, std::vector<std::shared_ptr<const Material>> materials,
          StepConfig step);
 
   /// @brief Take `steps` explicit steps, each on the OpenMP thread count
@@ -259,13 +296,13 @@ public:
   void restore(const SolverState& state);
 
   /// @brief Energies and momentum of the current particle state.
-  Energies energies() const;
+  Energies<Dim> energies() const;
 
   /// @brief With APIC: set each particle's affine matrix to that of the
   /// velocity field v_p + G_p (x - x_p) about it, B_p = G_p D_p, D_p at its
   /// present position (transfer/apic.h): a body seeded with a velocity
   /// gradient starts with it.
-  /// @param G The gradients G_p, (xx, xy, yx, yy) per particle, G_ij = dv_i/dx_j.
+  /// @param G The gradients G_p, Dim x Dim row-major per particle, G_ij = dv_i/dx_j.
   /// @throws std::logic_error without APIC; std::invalid_argument for a
   ///         wrong size; SimulationError for a particle outside the grid.
   void set_velocity_gradients(const std::vector<double>& G);
@@ -288,7 +325,13 @@ public:
   /// @throws std::logic_error without a phase field or with several.
   PhaseFieldSystem phase_field_system() const;
   /// The damage-gradient partition, or nullptr.
-  const DamageFields* damage_fields() const { return std::get_if<DamageFields>(&_fields); }
+  const DamageFields* damage_fields() const
+  {
+    if constexpr (Dim == 2)
+      return std::get_if<DamageFields>(&_fields);
+    else
+      return nullptr;
+  }
   /// The particles the solver advances.
   const Particles& particles() const { return _particles; }
   /// Wall time per stage so far.
@@ -309,9 +352,9 @@ public:
   std::vector<double> detect_surfaces(const std::vector<double>& spacing, double threshold);
 
   /// @brief Map the current particle state to the grid (P2G only) and return,
-  /// per active node, (node index, mass, momentum x, momentum y), summed over
+  /// per active node, (node index, mass, momentum in Dim directions), summed over
   /// the node's fields. For checks.
-  std::vector<std::array<double, 4>> nodal_mass_momentum();
+  std::vector<std::array<double, 2 + Dim>> nodal_mass_momentum();
 
 private:
   /// One step; `energy`: the particles' fracture energy and the cracking
@@ -373,7 +416,7 @@ private:
     CellSort sort;     ///< the selection, when select
   };
 
-  Grid<2>& _grid;
+  Grid<Dim>& _grid;
   Particles& _particles;
   std::vector<std::shared_ptr<const Material>> _materials;
   std::vector<std::unique_ptr<Material::Bound>> _bound; // per material, on _particles
@@ -385,25 +428,25 @@ private:
   std::int64_t _step = 0;
   double _external_work = 0.0;
   double _wall_work = 0.0;
-  std::array<std::array<double, 2>, 4> _wall_impulse{};
-  std::array<std::array<double, 2>, max_regions> _region_impulse{};
+  std::array<std::array<double, Dim>, num_sides(Dim)> _wall_impulse{};
+  std::array<std::array<double, Dim>, max_regions> _region_impulse{};
   std::array<double, max_regions> _region_work{};
-  std::array<std::array<double, 2>, max_regions> _region_displacement{};
-  std::array<std::array<double, 2>, max_field_pairs> _pair_impulse{};
+  std::array<std::array<double, Dim>, max_regions> _region_displacement{};
+  std::array<std::array<double, Dim>, max_field_pairs> _pair_impulse{};
   double _mass_tol;
   std::int64_t _light_nodes = 0;
   double _stability_length = 0.0; // 0: no check
   double _touch_fill = default_touch_fill;
   bool _external = false; // some particle carries an external force
-  std::variant<SingleField, BodyFields, DamageFields> _fields;
+  typename Partitions<Dim>::type _fields;
   TransferScheme _transfer;
   std::optional<ParticleDomains> _domains; // with CPDI
   std::vector<PhaseFieldGroup> _phase;
 
   CellSort _sort;
-  std::vector<NodeSums<2>> _sums;          // per slot
-  std::vector<SurfaceSums> _surface;       // per slot, at contact cells
-  std::vector<NodeKinematics<2>> _kinematics; // per slot
+  std::vector<NodeSums<Dim>> _sums;          // per slot
+  std::vector<SurfaceSums> _surface;         // per slot, at contact cells
+  std::vector<NodeKinematics<Dim>> _kinematics; // per slot
   std::vector<std::vector<std::int64_t>> _region_cells; // per region (region_cells)
   StageTimers _timers;
   bool _adaptive_threads = true;

@@ -182,15 +182,18 @@ template <int Dim, int P>
   }
 }
 
-/// @brief D_p of a 2D frame as (xx, xy, yy), the B-splines' xy zero.
+/// @brief D_p of a frame in full, Dim x Dim row-major (the B-splines' off-diagonal zero).
 template <class Shape>
-std::array<double, 3> plane_inertia(const AffineFrame<Shape>& f)
+std::array<double, Shape::dim * Shape::dim> inertia_matrix(const AffineFrame<Shape>& f)
 {
-  static_assert(Shape::dim == 2, "a 2D frame");
+  constexpr int Dim = Shape::dim;
+  std::array<double, Dim * Dim> D{};
   if constexpr (Shape::domains)
-    return {f.D[0], f.D[1], f.D[2]};
+    D = {f.D[0], f.D[1], f.D[1], f.D[2]};
   else
-    return {f.D[0], 0.0, f.D[1]};
+    for (int d = 0; d < Dim; ++d)
+      D[Dim * d + d] = f.D[d];
+  return D;
 }
 
 /// @brief The frame of a particle with stencil s: its offsets and, with

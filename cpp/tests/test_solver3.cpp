@@ -1,0 +1,326 @@
+/// @file test_solver3.cpp
+/// @brief The solver in 3D: a slab one cell thick between slip walls steps as
+/// the 2D plane-strain run; a free bar rings at its longitudinal period; a
+/// body spinning about an oblique axis keeps its angular momentum with APIC;
+/// 1 and 2 threads, and a resumed run, give the same bits.
+#include "helpers.h"
+#include "pfmpm/grid/grid.h"
+#include "pfmpm/materials/material.h"
+#include "pfmpm/solver/solver.h"
+
+#include <gtest/gtest.h>
+
+#include <omp.h>
+
+#include <array>
+#include <cmath>
+#include <functional>
+#include <vector>
+
+using namespace pfmpm;
+using namespace pfmpm::test;
+
+namespace
+{
+/// Particles on the lattice of spacing `d` whose cells' centres lie in the
+/// box [lo, hi] and in `inside` (true everywhere if null), density 1,
+/// in lexicographic order (the last direction fastest).
+template <int Dim>
+Particles lattice(const std::array<double, Dim>& lo, const std::array<double, Dim>& hi, double d,
+                  const std::function<bool(const double*)>& inside = nullptr)
+{
+  std::array<int, Dim> n;
+  for (int k = 0; k < Dim; ++k)
+    n[k] = static_cast<int>(std::lround((hi[k] - lo[k]) / d));
+  std::vector<double> points;
+  std::array<int, Dim> i{};
+  for (;;)
+  {
+    double x[Dim];
+    for (int k = 0; k < Dim; ++k)
+      x[k] = lo[k] + (i[k] + 0.5) * d;
+    if (!inside || inside(x))
+      points.insert(points.end(), x, x + Dim);
+    int k = Dim - 1;
+    for (; k >= 0 && ++i[k] == n[k]; --k)
+      i[k] = 0;
+    if (k < 0)
+      break;
+  }
+  Particles P(points.size() / Dim, Dim);
+  P.x = points;
+  const double volume = std::pow(d, Dim);
+  for (std::size_t p = 0; p < P.size(); ++p)
+  {
+    P.volume[p] = volume;
+    P.mass[p] = volume;
+  }
+  return P;
+}
+
+/// One linear elastic material (3D, or plane strain in 2D).
+std::vector<std::shared_ptr<const Material>> steel() { return elastic(100.0, 0.3, 1.0); }
+
+/// The bar of the slab test: [0, 16] x [0, 2] with spacing 0.5, a
+/// longitudinal and a transverse velocity wave.
+void bar_velocity(const double* x, double* v)
+{
+  const double pi = std::acos(-1.0);
+  v[0] = 0.1 * std::cos(pi * x[0] / 16.0);
+  v[1] = 0.05 * std::sin(pi * x[0] / 16.0) + 0.01;
+}
+
+/// The relative gap |a - b| / scale.
+double gap(double a, double b, double scale) { return std::abs(a - b) / scale; }
+} // namespace
+
+/// The slab's thickness in cells: the fewest the B-splines of the degree take.
+class SlabOfDegree : public ::testing::TestWithParam<int>
+{
+};
+
+TEST_P(SlabOfDegree, BetweenSlipWallsIsThePlaneStrainRun)
+{
+  // The 2D bar, and its 3D slab between slip walls, as thin as the grid
+  // allows: one cell (h = 1) with degree 1, two with degree 2. Each 2D
+  // particle is two per cell across, at 1/4 and 3/4 of it; these quadrature
+  // points integrate the derivative of a degree-2 basis function exactly, so
+  // the z forces on the free nodes between the walls cancel and the slab
+  // stays in plane strain to round-off.
+  const int degree = GetParam();
+  const double thickness = degree;
+  Grid<2> grid2(degree, {20, 6}, 1.0, {-2.0, -2.0});
+  Particles P = lattice<2>({0.0, 0.0}, {16.0, 2.0}, 0.5);
+  for (std::size_t p = 0; p < P.size(); ++p)
+    bar_velocity(&P.x[2 * p], &P.v[2 * p]);
+  Grid<3> grid3(degree, {20, 6, degree}, 1.0, {-2.0, -2.0, 0.0});
+  grid3.set_wall(Side::back, Wall::slip);
+  grid3.set_wall(Side::front, Wall::slip);
+  Particles Q = lattice<3>({0.0, 0.0, 0.0}, {16.0, 2.0, thickness}, 0.5);
+  for (std::size_t q = 0; q < Q.size(); ++q)
+    bar_velocity(&Q.x[3 * q], &Q.v[3 * q]);
+  ASSERT_EQ(Q.size(), 2 * degree * P.size());
+  Solver plane(grid2, P, steel(), StepConfig(0.02));
+  Solver slab(grid3, Q, steel(), StepConfig(0.02));
+  EXPECT_THROW(plane.restore(slab.state()), std::invalid_argument); // z components and sides
+
+  const Energies<2> start = plane.energies();
+  const double energy = start.kinetic, momentum = start.mass * 0.11, angular = 16.0 * momentum;
+  double worst = 0.0;
+  for (int step = 0; step < 200; ++step)
+  {
+    plane.advance(1);
+    slab.advance(1);
+    const Energies<2> a = plane.energies();
+    const Energies<3> b = slab.energies();
+    // The slab's totals per unit thickness are the plane run's.
+    const double t = thickness;
+    for (double g : {gap(a.kinetic, b.kinetic / t, energy), gap(a.elastic, b.elastic / t, energy),
+                     gap(a.momentum[0], b.momentum[0] / t, momentum),
+                     gap(a.momentum[1], b.momentum[1] / t, momentum),
+                     gap(a.angular_momentum, b.angular_momentum[2] / t, angular),
+                     gap(a.mass, b.mass / t, a.mass)})
+      worst = std::max(worst, g);
+    ASSERT_LT(worst, 1e-10) << "at step " << step + 1;
+    // No motion out of the plane: z momentum and the in-plane angular momentum stay zero.
+    // (The in-plane angular momentum about the origin is that of the z = t/2 plane.)
+    EXPECT_LT(std::abs(b.momentum[2]), 1e-12 * momentum * t);
+    EXPECT_LT(std::abs(b.angular_momentum[0] + 0.5 * t * b.momentum[1])
+                  + std::abs(b.angular_momentum[1] - 0.5 * t * b.momentum[0]),
+              1e-12 * angular * t);
+  }
+  EXPECT_GT(plane.energies().elastic, 0.1 * energy) << "the bar should have deformed";
+  std::cout << "slab of degree " << degree << " against plane strain, 200 steps: largest relative gap "
+            << worst << "\n";
+}
+
+INSTANTIATE_TEST_SUITE_P(Solver3, SlabOfDegree, ::testing::Values(1, 2));
+
+TEST(Solver3, FreeBarRingsAtItsLongitudinalPeriod)
+{
+  // A free bar 40 x 2 x 2 (h = 1, 8 particles a cell) in its first
+  // longitudinal mode, v_x = v0 cos(pi x / L): its left half's momentum is
+  // cos(2 pi t / T), T = 2 L / c with c = sqrt(E / rho) (a thin bar; the
+  // lateral inertia's correction is nu^2 pi^2 r^2 / (2 L^2) ~ 2e-4).
+  const double L = 40.0, pi = std::acos(-1.0), dt = 0.02;
+  Grid<3> grid(2, {44, 6, 6}, 1.0, {-2.0, -2.0, -2.0});
+  Particles P = lattice<3>({0.0, 0.0, 0.0}, {L, 2.0, 2.0}, 0.5);
+  std::vector<char> left(P.size());
+  for (std::size_t p = 0; p < P.size(); ++p)
+  {
+    P.v[3 * p] = 0.01 * std::cos(pi * P.x[3 * p] / L);
+    left[p] = P.x[3 * p] < 0.5 * L;
+  }
+  Solver solver(grid, P, steel(), StepConfig(dt));
+  auto left_momentum = [&]
+  {
+    double sum = 0.0;
+    for (std::size_t p = 0; p < P.size(); ++p)
+      sum += left[p] ? P.mass[p] * P.v[3 * p] : 0.0;
+    return sum;
+  };
+  std::vector<double> crossings; // times the left half's momentum changes sign
+  double before = left_momentum();
+  for (int step = 1; step <= 640 && crossings.size() < 2; ++step)
+  {
+    solver.advance(1);
+    const double now = left_momentum();
+    if ((before > 0.0) != (now > 0.0))
+      crossings.push_back(dt * (step - now / (now - before))); // linear between the steps
+    before = now;
+  }
+  ASSERT_EQ(crossings.size(), 2u);
+  const double period = 2.0 * (crossings[1] - crossings[0]), exact = 2.0 * L / 10.0;
+  std::cout << "free bar period " << period << " against 2 L / c = " << exact << " (relative "
+            << period / exact - 1.0 << ")\n";
+  EXPECT_NEAR(period / exact, 1.0, 0.01);
+  // The momentum of the whole bar stays zero.
+  EXPECT_LT(std::abs(solver.energies().momentum[0]), 1e-12 * solver.energies().mass * 0.01);
+}
+
+TEST(Solver3, ObliqueSpinKeepsItsAngularMomentumWithApic)
+{
+  // A neo-Hookean ball of radius 3 spinning at omega about the axis (1, 2, 2) / 3
+  // through its centre, seeded with the affine matrices of the rigid field
+  // v = omega x (x - centre), for one turn.
+  const std::array<double, 3> centre{5.0, 5.0, 5.0};
+  const double R = 3.0, rate = 1.0 / 3.0, pi = std::acos(-1.0);
+  const std::array<double, 3> omega{rate / 3.0, 2.0 * rate / 3.0, 2.0 * rate / 3.0};
+  Grid<3> grid(2, {10, 10, 10}, 1.0, {0.0, 0.0, 0.0});
+  Particles P = lattice<3>({2.0, 2.0, 2.0}, {8.0, 8.0, 8.0}, 0.5,
+                           [&](const double* x)
+                           {
+                             double r2 = 0.0;
+                             for (int k = 0; k < 3; ++k)
+                               r2 += (x[k] - centre[k]) * (x[k] - centre[k]);
+                             return r2 < R * R;
+                           });
+  const std::size_t n = P.size();
+  std::vector<double> G(9 * n);
+  for (std::size_t p = 0; p < n; ++p)
+  {
+    double r[3];
+    for (int k = 0; k < 3; ++k)
+      r[k] = P.x[3 * p + k] - centre[k];
+    for (int i = 0; i < 3; ++i)
+    {
+      const int j = (i + 1) % 3, k = (i + 2) % 3;
+      P.v[3 * p + i] = omega[j] * r[k] - omega[k] * r[j];
+      // G_ij = dv_i/dx_j = eps_ikj omega_k
+      G[9 * p + 3 * i + k] = omega[j];
+      G[9 * p + 3 * i + j] = -omega[k];
+    }
+  }
+  const auto ball = MaterialRegistry::make(
+      "neo_hookean", Parameters({{"E", 100.0}, {"nu", 0.3}, {"density", 1.0}}, {}));
+  StepConfig step(0.03);
+  step.transfer = TransferScheme::apic;
+  Solver solver(grid, P, {ball}, step);
+  solver.set_velocity_gradients(G);
+  const Energies<3> start = solver.energies();
+  // The angular momentum about the origin: the particles' own, sum m r x v
+  // about the centre (their momentum is zero), plus with APIC that of their
+  // affine velocities, eps_abc (B_p)_cb m_p = 2 m_p D omega_a with the
+  // quadratic B-splines' D_p = h^2 / 4 (Jiang et al. 2015).
+  double length = 0.0;
+  for (int a = 0; a < 3; ++a)
+  {
+    const int b = (a + 1) % 3, c = (a + 2) % 3;
+    double expected = 2.0 * 0.25 * start.mass * omega[a];
+    for (std::size_t p = 0; p < n; ++p)
+      expected += P.mass[p] * ((P.x[3 * p + b] - centre[b]) * P.v[3 * p + c]
+                               - (P.x[3 * p + c] - centre[c]) * P.v[3 * p + b]);
+    EXPECT_NEAR(start.angular_momentum[a], expected, 1e-12 * std::abs(expected));
+    length += expected * expected;
+  }
+  length = std::sqrt(length);
+  const double turn = 2.0 * pi / rate;
+  const int steps = static_cast<int>(std::lround(turn / 0.03));
+  double drift = 0.0;
+  solver.advance(steps);
+  const Energies<3> end = solver.energies();
+  for (int d = 0; d < 3; ++d)
+    drift = std::max(drift, std::abs(end.angular_momentum[d] - start.angular_momentum[d]) / length);
+  std::cout << "oblique spin, " << steps << " steps (one turn): angular momentum drifts " << drift
+            << " of |L|, kinetic energy " << end.kinetic / start.kinetic << " of its start\n";
+  EXPECT_LT(drift, 1e-10);
+  for (int d = 0; d < 3; ++d)
+    EXPECT_LT(std::abs(end.momentum[d]), 1e-12 * start.mass * rate * R);
+  EXPECT_NEAR(end.kinetic / start.kinetic, 1.0, 0.01);
+}
+
+namespace
+{
+/// The free bar of FreeBarRingsAtItsLongitudinalPeriod, shorter and with a
+/// shear wave too, for the bitwise checks.
+Particles ringing_bar()
+{
+  Particles P = lattice<3>({0.0, 0.0, 0.0}, {8.0, 2.0, 2.0}, 0.5);
+  for (std::size_t p = 0; p < P.size(); ++p)
+  {
+    P.v[3 * p] = 0.05 * std::cos(0.4 * P.x[3 * p]);
+    P.v[3 * p + 2] = 0.02 * std::sin(0.4 * P.x[3 * p] + P.x[3 * p + 1]);
+  }
+  return P;
+}
+} // namespace
+
+TEST(Solver3, OneAndTwoThreadsGiveTheSameBits)
+{
+  const int threads = omp_get_max_threads();
+  std::vector<Particles> runs;
+  for (int t : {1, 2})
+  {
+    omp_set_num_threads(t);
+    Grid<3> grid(2, {12, 6, 6}, 1.0, {-2.0, -2.0, -2.0});
+    runs.push_back(ringing_bar());
+    Solver solver(grid, runs.back(), steel(), StepConfig(0.02));
+    solver.set_adaptive_threads(false);
+    solver.advance(60);
+  }
+  omp_set_num_threads(threads);
+  EXPECT_TRUE(same_bits(runs[0].x, runs[1].x));
+  EXPECT_TRUE(same_bits(runs[0].v, runs[1].v));
+  EXPECT_TRUE(same_bits(runs[0].stress, runs[1].stress));
+}
+
+TEST(Solver3, ResumedRunContinuesBitwise)
+{
+  Grid<3> grid(2, {12, 6, 6}, 1.0, {-2.0, -2.0, -2.0});
+  grid.set_wall(Side::bottom, Wall::slip);
+  Particles P = ringing_bar();
+  Solver original(grid, P, steel(), StepConfig(0.02));
+  original.advance(40);
+  Grid<3> grid2(2, {12, 6, 6}, 1.0, {-2.0, -2.0, -2.0});
+  grid2.set_wall(Side::bottom, Wall::slip);
+  Particles Q = P;
+  Solver resumed(grid2, Q, steel(), StepConfig(0.02));
+  const SolverState state = original.state();
+  EXPECT_EQ(state.scalars.count("wall_impulse/front/z"), 1u);
+  EXPECT_EQ(state.scalars.count("region/0/displacement/z"), 1u);
+  resumed.restore(state);
+  original.advance(40);
+  resumed.advance(40);
+  EXPECT_TRUE(same_bits(P.x, Q.x));
+  EXPECT_TRUE(same_bits(P.v, Q.v));
+  EXPECT_TRUE(same_bits(P.stress, Q.stress));
+  const Energies<3> a = original.energies(), b = resumed.energies();
+  EXPECT_EQ(a.wall_impulse, b.wall_impulse);
+  EXPECT_EQ(a.wall_work, b.wall_work);
+  EXPECT_EQ(original.time(), resumed.time());
+}
+
+TEST(Solver3, TwoDimensionalFeaturesAreRefused)
+{
+  Grid<3> grid(2, {12, 6, 6}, 1.0, {-2.0, -2.0, -2.0});
+  Particles P = ringing_bar();
+  StepConfig cracks(0.02);
+  cracks.fracture = {Fracture{1.0, 2.0, 0.0}};
+  EXPECT_THROW(Solver(grid, P, steel(), cracks), std::invalid_argument);
+  StepConfig contact(0.02);
+  contact.partition = Partition::bodies;
+  contact.friction = {0.0, 0.3, 0.3, 0.0};
+  EXPECT_THROW(Solver(grid, P, steel(), contact), std::invalid_argument);
+  Particles flat(4, 2);
+  EXPECT_THROW(Solver(grid, flat, steel(), StepConfig(0.02)), std::invalid_argument);
+}
