@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Instructions the step executes, the working tree against revision REV
-# (default HEAD): callgrind of Solver::advance (inclusive) on the bench block
+# (default HEAD): callgrind of Solver::advance (Solver<2>::advance; inclusive) on the bench block
 # of 40,000 particles, 20 steps after 2 warm-up steps, one thread, for the
 # elastic step, the phase-field step and the damage-gradient partition (a
 # fully damaged band along each midline). Instruction counts do not depend
@@ -46,7 +46,7 @@ for physics in elastic phasefield damage_gradient; do
   for side in old new; do
     out="$root/$side-$physics.callgrind"
     (cd "$root" && OMP_NUM_THREADS=1 PYTHONPATH="$root/$side/pkg" valgrind --tool=callgrind \
-      --toggle-collect='pfmpm::Solver::advance*' --callgrind-out-file="$out" \
+      --toggle-collect='pfmpm::Solver*::advance*' --callgrind-out-file="$out" \
       /usr/bin/python3 -P step.py "$physics" > /dev/null 2>&1)
     count[$side]=$(callgrind_annotate --inclusive=yes "$out" 2> /dev/null | awk '/PROGRAM TOTALS/ {gsub(",", "", $1); print $1}')
   done
