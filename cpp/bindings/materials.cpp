@@ -95,6 +95,8 @@ void bind_materials(py::module_& m)
                              "P-wave speed of the undeformed material")
       .def_property_readonly("rayleigh_speed", &Material::rayleigh_speed,
                              "Rayleigh wave speed of the undeformed material")
+      .def_property_readonly("solid", &Material::solid,
+                             "whether the model runs in 3D too (else in plane strain or stress alone)")
       .def_property_readonly(
           "dissipation",
           [](const Material& mat)
