@@ -13,7 +13,9 @@ import pytest
 from pfmpm import Scene, Simulation, SimulationError, _core
 from pfmpm.scene import (
     CRITICAL_FACTOR,
+    CRITICAL_FACTOR_3D,
     LONE_PARTICLE_FACTOR,
+    LONE_PARTICLE_FACTOR_3D,
     Body,
     BodyForce,
     Disk,
@@ -229,7 +231,8 @@ def test_critical_factor_table_matches_the_basis(degree):
     # Recompute the limits in units of h / c: the grid's 1D lumped-mass limits
     # 2 / sqrt(max eig(M_L^-1 K)) of CRITICAL_FACTOR, and a lone particle's,
     # 2 / sqrt(2 max_x sum_I N_I'(x)^2 / N_I(x)) over the interior cells, of
-    # LONE_PARTICLE_FACTOR (unbounded for degree 1).
+    # LONE_PARTICLE_FACTOR (unbounded for degree 1); in 3D, over sqrt(3) and
+    # with 3 max_x sum (CRITICAL_FACTOR_3D, LONE_PARTICLE_FACTOR_3D).
     n = 30
     basis = _core.BSpline1D(degree, n, 1.0)
     g, w = np.polynomial.legendre.leggauss(4)
@@ -249,15 +252,18 @@ def test_critical_factor_table_matches_the_basis(degree):
 
     interior = limit(np.arange(degree, basis.size - degree))
     full = limit(np.arange(basis.size))
-    expected = [min(1.0, interior / math.sqrt(2)), min(1.0, full / math.sqrt(2))]
-    assert CRITICAL_FACTOR[degree] == pytest.approx(expected, abs=2e-3)
     x = np.linspace(degree + 1, n - degree - 1, 40001)[1:-1]
     _, N, dN, _ = basis.evaluate(x)
-    lone = 2 / math.sqrt(2 * np.where(N > 0, dN * dN / np.where(N > 0, N, 1), 0).sum(axis=1).max())
-    if degree == 1:
-        assert lone < 0.02 and degree not in LONE_PARTICLE_FACTOR  # unbounded as x nears a node
-    else:
-        assert LONE_PARTICLE_FACTOR[degree] == pytest.approx(lone, abs=5e-4)
+    largest = np.where(N > 0, dN * dN / np.where(N > 0, N, 1), 0).sum(axis=1).max()
+    for dim, grid, alone in ((2, CRITICAL_FACTOR, LONE_PARTICLE_FACTOR),
+                             (3, CRITICAL_FACTOR_3D, LONE_PARTICLE_FACTOR_3D)):
+        expected = [min(1.0, interior / math.sqrt(dim)), min(1.0, full / math.sqrt(dim))]
+        assert grid[degree] == pytest.approx(expected, abs=2e-3)
+        lone = 2 / math.sqrt(dim * largest)
+        if degree == 1:
+            assert lone < 0.02 and degree not in alone  # unbounded as x nears a node
+        else:
+            assert alone[degree] == pytest.approx(lone, abs=5e-4)
 
 
 def sliding_on_a_sticky_wall(h: float) -> Scene:

@@ -293,7 +293,8 @@ def test_a_whole_body_region_moves_the_body_rigidly():
 @pytest.mark.parametrize("region, message", [
     ({"body": "bar", "min": [0.0, 0.0]}, r"^prescribed\[0\]\.min = \[0\.0, 0\.0\]: give a box or a body, not both$"),
     ({"face": "left", "min": [0.0, 0.0], "max": [1.0, 1.0]}, r"^prescribed\[0\]\.face = 'left': needs a body$"),
-    ({"body": "bar", "face": "front"}, r"^prescribed\[0\]\.face = 'front': must be one of 'left', 'right', 'bottom', 'top'$"),
+    ({"body": "bar", "face": "front"},
+     r"^prescribed\[0\]\.face = 'front': a side of a 3D grid \(z min or max\); a 2D grid has left, right, bottom, top$"),
     ({"body": "bar", "face": "left", "particles": [1]}, r"^prescribed\[0\]\.particles: give a face or particles, not both$"),
     ({"body": "bar", "particles": [1, 1]}, r"^prescribed\[0\]\.particles = \[1, 1\]: names a particle twice$"),
     ({"body": "beam"}, r"^prescribed\[0\]\.body = 'beam': no body with that name \(have: 'bar'\)$"),

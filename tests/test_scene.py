@@ -309,8 +309,9 @@ BAD = [
     ("bodies.plate.particles_per_cell=true", "bodies[0].particles_per_cell = true: must be an integer"),
     ("output.every=10.5", "output.every = 10.5: must be an integer"),
     ("output.particles=1", "output.particles = 1: must be true or false"),
-    ("grid.size=[10]", "grid.size = [10]: must be a list of 2 numbers"),
-    ("bodies.plate.velocity=[1,2,3]", "bodies[0].velocity = [1, 2, 3]: must be a list of 2 numbers"),
+    ("grid.size=[10]", "grid.size = [10]: must be a list of 2 or 3 numbers (one per direction)"),
+    ("bodies.plate.velocity=[1,2,3]", "bodies[0].velocity = [1.0, 2.0, 3.0]: has 3 components, but the scene is"
+                                      " 2D (grid.size has 2 entries)"),
     ("bodies.plate.material=3", "bodies[0].material = 3: must be a string"),
     ("grid=3", "grid = 3: must be a table"),
     ("materials.0=4", "materials[0] = 4: must be a table"),
@@ -396,7 +397,8 @@ BAD = [
     (_set(("cracks",), [{"points": [[0, 2], [5, 2]], "body": "ghost"}]),
      "cracks[0].body = 'ghost': no body with that name"),
     ("bodies.plate.velocity_gradient=[[0.0, 1.0]]",
-     "bodies[0].velocity_gradient = [[0.0, 1.0]]: must have 2 rows of 2 numbers"),
+     "bodies[0].velocity_gradient = [[0.0, 1.0]]: must have 2 or 3 rows of as many numbers (one per"
+     " direction)"),
     ("bodies.plate.velocity_gradient=[[0.0, 1.0], [1.0]]", "bodies[0].velocity_gradient[1]"),
     ("bodies.plate.velocity_gradient=[[0.0, 1e308], [0.0, 0.0]]",
      "bodies[0].velocity_gradient = [[0.0, 1e+308], [0.0, 0.0]]: gives a speed that is not finite"),

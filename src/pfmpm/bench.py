@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from . import _core
-from .scene import (Anisotropy, Body, Contact, Crack, FractureSpec, GridSpec, LinearElasticSpec,
+from .scene import (Anisotropy, Body, Box, Contact, Crack, FractureSpec, GridSpec, LinearElasticSpec,
                     NeoHookeanSpec, PhaseFieldSpec, Rectangle, Scene, Time, TransferSpec)
 from .simulation import Simulation
 
@@ -26,8 +26,9 @@ MODELS = ("linear_elastic", "neo_hookean")
 
 def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str = "elastic",
                 model: str = "linear_elastic", bands: int = 1, shape: str = "bspline",
-                transfer: str = "flip") -> Scene:
-    """A square block of about ``particles`` points, 3x3 per cell, with a margin of empty cells.
+                transfer: str = "flip", dim: int = 2) -> Scene:
+    """A square block of about ``particles`` points, ``per_cell`` per cell and
+    direction, with a margin of empty cells; with ``dim=3`` a cube of them.
 
     ``physics="phasefield"`` makes the block crackable (l0 = 2 h, spectral
     split) with an initial crack from its left edge to its centre, and a
@@ -50,7 +51,8 @@ def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str
     step, no damage) with the same E, nu and density; it has no phase field.
     ``shape="cpdi"`` (with ``degree=1``) maps with CPDI1 over the particle
     domains instead of B-splines at the centres. ``transfer="apic"`` moves
-    momentum with APIC (``[transfer] scheme``).
+    momentum with APIC (``[transfer] scheme``). A cube (``dim=3``) is elastic
+    (either model) on B-splines: the physics the core runs in 3D.
     """
     if bands < 1:
         raise ValueError(f"bands = {bands}: must be >= 1")
@@ -58,6 +60,21 @@ def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str
         raise ValueError(f"model = {model!r}: must be one of {', '.join(MODELS)}")
     if model == "neo_hookean" and physics not in ("elastic", "contact"):
         raise ValueError(f"model = 'neo_hookean': physics must be elastic or contact, not {physics!r}")
+    if dim not in (2, 3):
+        raise ValueError(f"dim = {dim}: must be 2 or 3")
+    if dim == 3:
+        if physics != "elastic" or shape != "bspline":
+            raise ValueError(f"dim = 3: physics must be elastic and shape bspline (not {physics!r},"
+                             f" {shape!r}): the core runs no phase field, contact or CPDI in 3D yet")
+        cells = max(4, math.ceil((particles / per_cell**3) ** (1 / 3) - 1e-9))
+        lo, hi = 4.0, 4.0 + cells
+        material = (NeoHookeanSpec(name="m", E=1.0, nu=0.3, density=1.0) if model == "neo_hookean"
+                    else LinearElasticSpec(name="m", E=1.0, nu=0.3, density=1.0))
+        return Scene(name="bench-cube", grid=GridSpec(size=(cells + 8.0,) * 3, h=1.0, degree=degree),
+                     time=Time(end=1.0), materials=(material,),
+                     bodies=(Body(name="block", material="m", shape=Box(min=(lo,) * 3, max=(hi,) * 3),
+                                  particles_per_cell=per_cell),),
+                     transfer=TransferSpec(transfer))
     cells = max(4, math.ceil(math.sqrt(particles / per_cell**2)))
     margin = 4
     side = cells + 2 * margin
@@ -98,25 +115,34 @@ def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str
 
 
 def bench(physics: str = "elastic", particles: int = 1_000_000, steps: int = 20, repeats: int = 3,
-          degree: int = 2, model: str = "linear_elastic", per_cell: int = 3, bands: int = 1,
-          shape: str = "bspline", transfer: str = "flip") -> dict:
+          degree: int = 2, model: str = "linear_elastic", per_cell: int | None = None, bands: int = 1,
+          shape: str = "bspline", transfer: str = "flip", dim: int = 2) -> dict:
     """Time ``steps`` core steps ``repeats`` times and report the median
-    (``per_cell`` particles per cell and direction; ``bands`` damaged bands
-    per direction with ``physics="damage_gradient"``; ``shape`` the shape
-    functions and ``transfer`` the particle-grid transfer, :func:`block_scene`).
+    (``per_cell`` particles per cell and direction, by default 3 in 2D and 2
+    in 3D; ``bands`` damaged bands per direction with
+    ``physics="damage_gradient"``; ``shape`` the shape functions,
+    ``transfer`` the particle-grid transfer and ``dim`` the dimension,
+    :func:`block_scene`).
 
     The block vibrates in a smooth mode (velocity amplitude 1e-3 of the wave
     speed), so strains and stresses are nonzero and nothing leaves the grid.
+    Besides the speed it reports the peak memory per particle, as
+    :func:`scene_bench` does (the process's peak resident size less its size
+    before the block was built, over the particle count: so in a process of
+    its own, as ``pfmpm bench`` runs it).
     """
     if physics not in PHYSICS:
         raise ValueError(f"physics = {physics!r}: must be one of {', '.join(PHYSICS)}")
+    if per_cell is None:
+        per_cell = 3 if dim == 2 else 2
+    resident = _rss_bytes()
     sim = Simulation(block_scene(particles, degree, per_cell, physics=physics, model=model, bands=bands,
-                                 shape=shape, transfer=transfer))
+                                 shape=shape, transfer=transfer, dim=dim))
     x = sim.particles.x
     lo, hi = x.min(axis=0), x.max(axis=0)
     s = (x - lo) / (hi - lo)
-    sim.particles.v[:, 0] = 1e-3 * np.sin(np.pi * s[:, 1])
-    sim.particles.v[:, 1] = 1e-3 * np.sin(np.pi * s[:, 0])
+    for d in range(dim):  # v_x of y, v_y of x (2D); v_x of y, v_y of z, v_z of x (3D)
+        sim.particles.v[:, d] = 1e-3 * np.sin(np.pi * s[:, (d + 1) % dim])
     sim.solver.adaptive_threads = False  # the kernels on the threads asked for
     sim.advance(2)  # warm-up: allocations, first sort
     before = _damage_seconds(sim)
@@ -128,9 +154,11 @@ def bench(physics: str = "elastic", particles: int = 1_000_000, steps: int = 20,
     seconds = statistics.median(times)
     n = len(sim.particles)
     stats = sim.solver.phase_field_stats()
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
     return {
         "physics": physics,
         "model": model,
+        "dim": dim,
         "degree": degree,
         "per_cell": per_cell,
         "shape": shape,
@@ -141,6 +169,7 @@ def bench(physics: str = "elastic", particles: int = 1_000_000, steps: int = 20,
         "threads": _core.num_threads(),
         "seconds": seconds,
         "particle_steps_per_s": n * steps / seconds,
+        "peak_bytes_per_particle": (peak - resident) / n,
         "phase_field_iterations_per_step": stats["iterations"] / max(stats["solves"], 1),
         "contact_nodes": (sim.solver.contact_stats() or {"nodes": 0})["nodes"],
         **({"bands": bands} if physics == "damage_gradient" else {}),
@@ -213,7 +242,7 @@ def scene_bench(path: Path | str, steps: int = 20, overrides: list[str] | tuple[
         "seconds": seconds,
         "particle_steps_per_s": n * steps / seconds,
         "cg_iterations_per_solve": (stats["iterations"] - iterations) / solved if solved else 0.0,
-        "peak_bytes_per_particle": (peak - before) / n,
+        "peak_bytes_per_particle": (peak - resident) / n,
     }
 
 

@@ -139,7 +139,7 @@ def _bench(args: argparse.Namespace) -> int:
         return 0
     try:
         r = bench(args.physics, args.particles, args.steps, args.repeats, args.degree, args.model,
-                  args.per_cell, args.bands, args.shape, args.transfer)
+                  args.per_cell, args.bands, args.shape, args.transfer, args.dim)
     except SceneError as err:  # the block's grid: --degree with --shape
         print(f"error: --degree, --shape: {err}", file=sys.stderr)
         return 2
@@ -370,9 +370,10 @@ def main(argv: list[str] | None = None) -> int:
 
     bench = sub.add_parser("bench", help="time the core step on a synthetic block",
                            description="Time the core's explicit step on a square block of particles"
-                                       " (3 x 3 per cell, vibrating in a smooth mode) and report the"
-                                       " median of the repeats: particle-steps per second, and the"
-                                       " phase-field iterations where there is one.")
+                                       " (3 x 3 per cell, vibrating in a smooth mode), or with --dim 3"
+                                       " a cube (2 x 2 x 2 per cell), and report the median of the"
+                                       " repeats: particle-steps per second, the peak memory per"
+                                       " particle, and the phase-field iterations where there is one.")
     bench.add_argument("--physics", default="elastic", choices=PHYSICS,
                        help="elastic: the momentum step alone; phasefield: a crackable block with an"
                             " initial crack, the AT2 phase field solved every step; anisotropic: the"
@@ -390,7 +391,10 @@ def main(argv: list[str] | None = None) -> int:
                        help="shape functions: B-splines, or CPDI1 (with --degree 1)")
     bench.add_argument("--model", default="linear_elastic", choices=MODELS,
                        help="material model (neo_hookean: with --physics elastic or contact)")
-    bench.add_argument("--per-cell", type=int, default=3, help="particles per cell and direction")
+    bench.add_argument("--per-cell", type=int, default=None,
+                       help="particles per cell and direction (default 3 in 2D, 2 in 3D)")
+    bench.add_argument("--dim", type=int, default=2, choices=[2, 3],
+                       help="2: a square block; 3: a cube, elastic on B-splines (default %(default)d)")
     bench.add_argument("--transfer", default="flip", choices=TRANSFER_SCHEMES,
                        help="particle-grid transfer: FLIP (default) or APIC ([transfer] scheme)")
     bench.add_argument("--bands", type=int, default=1,

@@ -116,6 +116,7 @@ from .run_folder import check_fresh
 from .scene import (Body, BodyForce, LinearElasticSpec, MaterialSpec, Rectangle, Scene, SceneError,
                     Traction)
 from .scene.report import snapshot_warnings
+from .scene.validation import planar
 from .simulation import core_materials
 
 __all__ = ["FemSimulation", "MESH_DIAGONAL", "run_command", "main"]
@@ -951,6 +952,8 @@ def _quiet_jit():
 
 def _supported(scene: Scene) -> tuple[Body, MaterialSpec]:
     """Check that the FEM path can run the scene; return its body and material."""
+    if scene.dim != 2:
+        raise planar("grid.size", "the FEM path", scene.grid.size)
     if len(scene.bodies) != 1:
         raise SceneError("bodies", f"the FEM path needs exactly one body, not {len(scene.bodies)}")
     body = scene.bodies[0]

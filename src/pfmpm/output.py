@@ -39,12 +39,16 @@ def check_directory(path: Path | str) -> Path:
 
 
 def vtk_values(values: np.ndarray, layout: str) -> np.ndarray:
-    """A particle column as VTK point data: a plane tensor (layout ``xx,yy,xy``,
-    or ``xx,yy,xy,zz`` with its out-of-plane entry) becomes the symmetric
-    tensor (xx, yy, zz, xy, yz, xz) ParaView reads, zz = 0 where the column
-    has none (the strain of a plane-strain run; a plane-stress run keeps no
-    out-of-plane strain); a 2-component vector gets z = 0 so ParaView draws it
-    as a vector; every other column is written as it is."""
+    """A particle column as VTK point data: a symmetric tensor becomes the six
+    components (xx, yy, zz, xy, yz, xz) ParaView reads as a symmetric tensor.
+    A 3D one (layout ``xx,yy,xy,zz,yz,xz``) is reordered; a plane one
+    (``xx,yy,xy``, or ``xx,yy,xy,zz`` with its out-of-plane entry) gets
+    yz = xz = 0, and zz = 0 where the column has none (the strain of a
+    plane-strain run; a plane-stress run keeps no out-of-plane strain); a
+    2-component vector gets z = 0 so ParaView draws it as a vector; every
+    other column is written as it is."""
+    if layout == "xx,yy,xy,zz,yz,xz":
+        return values[:, [0, 1, 3, 2, 4, 5]]
     if layout in ("xx,yy,xy", "xx,yy,xy,zz"):
         tensor = np.zeros((len(values), 6))
         if layout == "xx,yy,xy":
@@ -102,14 +106,14 @@ def _write_data_array(f: BinaryIO, name: str, values: "np.ndarray | Rows", layou
 
 def write_vtu(path: Path, points: np.ndarray, point_data: Iterable[tuple[str, np.ndarray, str]],
               field_data: Mapping[str, int] | None = None) -> None:
-    """Write 2D points as VTK vertices with point data.
+    """Write 2D or 3D points as VTK vertices with point data.
 
     Parameters
     ----------
     path : Path
         File to write.
-    points : (N, 2) ndarray
-        Coordinates (z = 0 is added).
+    points : (N, 2) or (N, 3) ndarray
+        Coordinates (z = 0 is added to 2D ones).
     point_data : iterable of (name, (N,) or (N, k) ndarray or Rows, layout)
         Fields, written as :func:`vtk_values` of their layout (``""`` for
         none). The arrays are read, never copied whole, and may be made as

@@ -55,7 +55,7 @@ from .observe import Observer, default_observers
 from .output import CsvLog
 from .scene import Scene
 
-__all__ = ["ENERGY_COLUMNS", "SIDES", "wall_columns", "region_columns", "RunResult", "Figures",
+__all__ = ["ENERGY_COLUMNS", "SIDES", "energy_columns", "wall_columns", "region_columns", "RunResult", "Figures",
            "run_to_end", "step_to_end"]
 
 ENERGY_COLUMNS = ["step", "t", "kinetic", "elastic", "fracture", "external_work", "total",
@@ -66,30 +66,41 @@ work of the prescribed regions``, the
 energy balance: it keeps its value at t = 0 where energy is conserved.  The
 friction dissipation is zero without a ``[contact]`` table, the damage
 dissipation without a damage model, the wall work without walls."""
-SIDES = ("left", "right", "bottom", "top")
-"""The grid's sides, in the order of the core's ``Side``."""
+SIDES = ("left", "right", "bottom", "top", "back", "front")
+"""The grid's sides, in the order of the core's ``Side`` (a 2D grid has the first four)."""
 
 
-def wall_columns(walls) -> list[str]:
+def energy_columns(dim: int = 2) -> list[str]:
+    """The columns of ``energies.csv`` that every run of a ``dim``-dimensional
+    scene has: :data:`ENERGY_COLUMNS`, and in 3D also ``momentum_z`` and the
+    angular momentum about the origin, ``angular_momentum_x|y|z``."""
+    if dim == 2:
+        return list(ENERGY_COLUMNS)
+    return ENERGY_COLUMNS + ["momentum_z", "angular_momentum_x", "angular_momentum_y", "angular_momentum_z"]
+
+
+def wall_columns(walls, dim: int = 2) -> list[str]:
     """Extra ``energies.csv`` columns of a scene with ``walls``: ``wall_work``,
     the work the walls did on the bodies since t = 0 (<= 0: the kinetic energy
-    they stopped), and per wall ``impulse_<side>_x`` and ``impulse_<side>_y``,
-    the impulse of its reaction on the bodies since t = 0 (force x time; at a
-    corner a direction that two walls hold counts as the one it is normal to).
-    :func:`pfmpm.post.forces.wall_forces` turns them into forces."""
+    they stopped), and per wall ``impulse_<side>_x`` and ``impulse_<side>_y``
+    (and ``_z`` in 3D), the impulse of its reaction on the bodies since t = 0
+    (force x time; at a corner a direction that two walls hold counts as the
+    one it is normal to). :func:`pfmpm.post.forces.wall_forces` turns them
+    into forces."""
     if not walls:
         return []
-    return ["wall_work"] + [f"impulse_{w.side}_{d}" for w in walls for d in "xy"]
+    return ["wall_work"] + [f"impulse_{w.side}_{d}" for w in walls for d in "xyz"[:dim]]
 
 
-def region_columns(regions) -> list[str]:
+def region_columns(regions, dim: int = 2) -> list[str]:
     """Extra ``energies.csv`` columns of a scene's ``[[prescribed]]``
     regions, per region: ``work_<name>``, the work it did on the bodies
-    since t = 0 (part of ``total``); ``impulse_<name>_x|y``, the impulse of
-    its reaction; ``displacement_<name>_x|y``, how far its nodes have moved
-    along the components it holds."""
-    return [c for r in regions for c in (f"work_{r.name}", f"impulse_{r.name}_x", f"impulse_{r.name}_y",
-                                         f"displacement_{r.name}_x", f"displacement_{r.name}_y")]
+    since t = 0 (part of ``total``); ``impulse_<name>_x|y`` (``|z`` in 3D),
+    the impulse of its reaction; ``displacement_<name>_x|y`` (``|z``), how
+    far its nodes have moved along the components it holds."""
+    axes = "xyz"[:dim]
+    return [c for r in regions for c in (f"work_{r.name}", *(f"impulse_{r.name}_{d}" for d in axes),
+                                         *(f"displacement_{r.name}_{d}" for d in axes))]
 
 @dataclass
 class RunResult:

@@ -13,7 +13,7 @@ import numpy as np
 from . import _core
 from .crack import initial_history
 from .output import ParticleSeries, Rows
-from .run import ENERGY_COLUMNS, SIDES, RunResult, region_columns, run_to_end, wall_columns
+from .run import SIDES, RunResult, energy_columns, region_columns, run_to_end, wall_columns
 from .scene import Scene, SceneError, seeding
 from .scene.report import SetupReport, setup_report
 from .scene.validation import at
@@ -73,17 +73,19 @@ any figure, and a bound on what the images of a run hold."""
 
 
 class Simulation:
-    """A :class:`~pfmpm.scene.Scene` set up on the C++ core.
+    """A :class:`~pfmpm.scene.Scene` set up on the C++ core, in 2D or 3D.
 
     Attributes
     ----------
     scene : Scene
-    grid : pfmpm._core.Grid
+    grid : pfmpm._core.Grid or pfmpm._core.Grid3
     particles : pfmpm._core.Particles
         Particle arrays as zero-copy numpy views, one attribute per column
         (``x``, ``v``, ``stress``, ...: ``dir(sim.particles)`` lists them,
-        ``sim.particles.columns()`` says what each holds).
-    solver : pfmpm._core.Solver
+        ``sim.particles.columns()`` says what each holds); ``x`` and ``v``
+        are (N, 2) or (N, 3), the stress (N, 4) or (N, 6) (xx, yy, xy, zz,
+        then in 3D yz, xz).
+    solver : pfmpm._core.Solver or pfmpm._core.Solver3
     cracks : bool
         Whether a body can crack (its material has a fracture table).
     """
@@ -96,7 +98,8 @@ class Simulation:
     def __init__(self, scene: Scene):
         self.scene = scene
         g = scene.grid
-        self.grid = _core.Grid(g.degree, list(g.cells), g.h, list(g.origin))
+        three = g.dim == 3
+        self.grid = (_core.Grid3 if three else _core.Grid)(g.degree, list(g.cells), g.h, list(g.origin))
         for wall in scene.walls:
             self.grid.set_wall(_core.Side.__members__[wall.side], _core.Wall.__members__[wall.type])
         for i, region in enumerate(scene.prescribed):
@@ -112,7 +115,7 @@ class Simulation:
             if region.steady:
                 self.grid.set_region_velocity(i, list(region.velocity))
         xs = seeding.positions(scene)
-        self.particles = _core.Particles(sum(len(x) for x in xs))
+        self.particles = _core.Particles(sum(len(x) for x in xs), g.dim)
         core = self._fill(xs)
         materials, fracture = core_materials(scene)
         self.cracks = any(fracture)
@@ -131,10 +134,10 @@ class Simulation:
                 "skin": contact.skin, "phase_field_threshold": contact.phase_field_threshold,
                 "parting": contact.parting})
         # The solver adds the models' columns; then their initial values.
-        self.solver = _core.Solver(self.grid, self.particles, materials, scene.dt(), fracture,
-                                   pf.tol, pf.max_iterations, partition, friction, damage,
-                                   _core.ShapeFunctions.__members__[g.shape], g.scale_failed,
-                                   g.failed_c, _core.TransferScheme.__members__[scene.transfer.scheme])
+        self.solver = (_core.Solver3 if three else _core.Solver)(
+            self.grid, self.particles, materials, scene.dt(), fracture, pf.tol, pf.max_iterations, partition,
+            friction, damage, _core.ShapeFunctions.__members__[g.shape], g.scale_failed, g.failed_c,
+            _core.TransferScheme.__members__[scene.transfer.scheme])
         self.solver.adaptive_threads = adaptive_threads()
         self.solver.set_phase_field_preconditioner(_core.Preconditioner.__members__[pf.preconditioner])
         if self.contact:
@@ -239,15 +242,19 @@ class Simulation:
         return [(a, b) for b in range(n) for a in range(b)]
 
     def columns(self, observed: list[str] = ()) -> list[str]:
-        """Columns of ``energies.csv`` for this scene: with more than one body
-        also each body's momentum, ``momentum_x_<body>`` and ``momentum_y_<body>``,
+        """Columns of ``energies.csv`` for this scene (:func:`pfmpm.run.energy_columns`,
+        the walls' and the prescribed regions'): with more than one body
+        also each body's momentum, ``momentum_x_<body>`` and ``momentum_y_<body>``
+        (and ``momentum_z_<body>`` in 3D),
         then the columns ``observed`` of the run's observers
         (:meth:`pfmpm.observe.Observer.columns`), then those of the models
         and of contact: with each body its own field the contact impulse of
         each pair, ``contact_<a>_<b>_x|y`` (of body b on body a since t = 0)."""
-        columns = ENERGY_COLUMNS + wall_columns(self.scene.walls) + region_columns(self.scene.prescribed)
+        dim = self.scene.dim
+        columns = (energy_columns(dim) + wall_columns(self.scene.walls, dim)
+                   + region_columns(self.scene.prescribed, dim))
         if len(self.scene.bodies) > 1:
-            columns += [f"momentum_{d}_{b.name}" for b in self.scene.bodies for d in "xy"]
+            columns += [f"momentum_{d}_{b.name}" for b in self.scene.bodies for d in "xyz"[:dim]]
         columns += list(observed)
         columns += dissipation_columns(self.dissipation)
         if self.contact:
@@ -305,7 +312,7 @@ class Simulation:
         loads = [(load.amplitude, rows, force) for load, rows, force in forces if load.amplitude is not None]
         n = len(self.particles)
         touched = np.unique(np.concatenate([np.arange(n)[rows] for _, rows, _ in loads]))
-        steady = np.zeros((n, 2))
+        steady = np.zeros((n, self.scene.dim))
         for load, rows, force in forces:
             if load.amplitude is None:
                 steady[rows] += force
@@ -314,10 +321,12 @@ class Simulation:
     def energies(self) -> dict[str, float]:
         """Energies and momentum now, with the columns of ``energies.csv``."""
         e = self.solver.energies()
+        axes = "xyz"[:self.scene.dim]
         by_body = e.pop("fracture_by_body")
         impulse = e.pop("wall_impulse")
         for wall in self.scene.walls:
-            e[f"impulse_{wall.side}_x"], e[f"impulse_{wall.side}_y"] = impulse[SIDES.index(wall.side)]
+            for d, value in zip(axes, impulse[SIDES.index(wall.side)]):
+                e[f"impulse_{wall.side}_{d}"] = value
         region_impulse, region_work = e.pop("region_impulse"), e.pop("region_work")
         region_displacement = e.pop("region_displacement")
         pair_impulse = e.pop("pair_impulse")
@@ -326,12 +335,13 @@ class Simulation:
             e[f"{name}_x"], e[f"{name}_y"] = pair_impulse[_core.field_pair(a, b)]
         for k, region in enumerate(self.scene.prescribed):
             name = region.name
-            e[f"impulse_{name}_x"], e[f"impulse_{name}_y"] = region_impulse[k]
-            e[f"displacement_{name}_x"], e[f"displacement_{name}_y"] = region_displacement[k]
+            for d, impulse_d, displacement_d in zip(axes, region_impulse[k], region_displacement[k]):
+                e[f"impulse_{name}_{d}"] = impulse_d
+                e[f"displacement_{name}_{d}"] = displacement_d
             e[f"work_{name}"] = region_work[k]
         if len(self.scene.bodies) > 1:
             p = self.particles
-            for d, name in enumerate("xy"):
+            for d, name in enumerate(axes):
                 momentum = np.bincount(p.body, weights=p.mass * p.v[:, d], minlength=len(self.scene.bodies))
                 for body, value in zip(self.scene.bodies, momentum):
                     e[f"momentum_{name}_{body.name}"] = float(value)

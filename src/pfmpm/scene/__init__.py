@@ -1,6 +1,6 @@
 """Scene declaration for pfmpm: what a run is made of, validated.
 
-A scene describes one 2D explicit MPM run: the background grid, the time
+A scene describes one explicit MPM run, in 2D or 3D: the background grid, the time
 interval, the output cadence, the materials, the bodies (shapes filled with
 particles), the loads and the grid walls.  Scenes are written in TOML (see
 ``docs/scenes.md``) or built directly from the classes below; both routes run
@@ -23,7 +23,9 @@ The modules, one concern each:
 ``shapes``, ``bodies``
     :class:`Rectangle`, :class:`Disk`, :class:`Ring`, :class:`Polygon`,
     :class:`MeshShape` (the cells of a mesh file), :class:`ImageShape` (the
-    pixels of one colour of a PNG mask); :class:`Body`.
+    pixels of one colour of a PNG mask); in 3D :class:`Box`, :class:`Sphere`,
+    :class:`Cylinder` and :class:`Extrusion` (of a 2D shape along z);
+    :class:`Body`.
 ``loads``
     :class:`Traction`, :class:`BodyForce` and their amplitudes over time,
     :class:`Ramp` and :class:`Table`; :class:`WallSpec`; :class:`Prescribed`
@@ -58,16 +60,17 @@ against them.
 from .bodies import Body
 from .components import DEGREES, TRANSFER_SCHEMES, GridSpec, Output, PhaseFieldSpec, Time, TransferSpec
 from .contact import Contact, ContactPair
-from .loads import (AMPLITUDES, EDGES, LOADS, SIDES, WALL_TYPES, BodyForce, Crack, Prescribed, Ramp, Table,
-                    Traction, WallSpec)
+from .loads import (AMPLITUDES, EDGES, LOADS, SIDES, SIDES_3D, WALL_TYPES, BodyForce, Crack, Prescribed, Ramp,
+                    Table, Traction, WallSpec)
 from .damage import (DAMAGE_MODELS, DamageSpec, InitialDamage, RankineSpec, TimeToFailureSpec,
                      WeibullSpec)
 from .materials import (DEFAULT_MODEL, MATERIALS, PLANES, SPLITS, SYMMETRIES, Anisotropy,
                         FractureSpec, LinearElasticSpec, MaterialSpec, NeoHookeanSpec,
                         material_class, rayleigh_speed, register_material, wave_speed)
 from .scene import Scene
-from .shapes import SHAPES, Disk, ImageShape, MeshShape, Polygon, Rectangle, Ring, Shape, image_colors
-from .stability import CRITICAL_FACTOR, LONE_PARTICLE_FACTOR
+from .shapes import (SHAPES, Box, Cylinder, Disk, Extrusion, ImageShape, MeshShape, Polygon, Rectangle, Ring, Shape,
+                     Sphere, image_colors)
+from .stability import CRITICAL_FACTOR, CRITICAL_FACTOR_3D, LONE_PARTICLE_FACTOR, LONE_PARTICLE_FACTOR_3D
 from .toml import apply_overrides
 from .validation import SceneError
 
@@ -109,6 +112,10 @@ __all__ = [
     "Polygon",
     "MeshShape",
     "ImageShape",
+    "Box",
+    "Sphere",
+    "Cylinder",
+    "Extrusion",
     "image_colors",
     "SHAPES",
     "Body",
@@ -127,13 +134,16 @@ __all__ = [
     "wave_speed",
     "rayleigh_speed",
     "CRITICAL_FACTOR",
+    "CRITICAL_FACTOR_3D",
     "LONE_PARTICLE_FACTOR",
+    "LONE_PARTICLE_FACTOR_3D",
     "PLANES",
     "DEGREES",
     "SPLITS",
     "SYMMETRIES",
     "EDGES",
     "SIDES",
+    "SIDES_3D",
     "WALL_TYPES",
     "Grid",
     "Wall",

@@ -8,8 +8,8 @@ import math
 from dataclasses import dataclass
 
 from .declared import check_declared, parameter, phase_field_parameters
-from .validation import (MAX_COUNT, WHOLE_TOL, SceneError, boolean, choice, integer, real, seq, store,
-                         vec2)
+from .validation import (MAX_COUNT, WHOLE_TOL, SceneError, boolean, choice, integer, planar, real, same_dimension,
+                         seq, store, vector)
 
 __all__ = ["DEGREES", "SHAPES", "TRANSFER_SCHEMES", "GridSpec", "Time", "Output", "PhaseFieldSpec",
            "TransferSpec"]
@@ -36,23 +36,25 @@ TRANSFER_SCHEMES = ("flip", "apic")
 
 @dataclass(frozen=True)
 class GridSpec:
-    """Uniform background grid of square cells (``[grid]``); the core builds its
-    ``pfmpm._core.Grid`` from it.
+    """Uniform background grid of square (cubic) cells (``[grid]``); the core
+    builds its ``pfmpm._core.Grid`` (``Grid3`` in 3D) from it.
 
     Parameters
     ----------
-    size : (float, float)
-        Extent in x and y; each must be a whole number of cells of ``h``.
+    size : (float, float) or (float, float, float)
+        Extent in x and y, and in z for a 3D scene: the number of entries is
+        the scene's dimension (:attr:`dim`). Each must be a whole number of
+        cells of ``h``.
     h : float
         Cell side.
-    origin : (float, float)
-        Lower-left corner.
+    origin : (float, float) or (float, float, float) or None
+        Lower-left (back) corner, one entry per direction; ``None``: the origin.
     degree : int
         B-spline degree of the shape functions, 1, 2 or 3.
     shape : str
         Shape functions of the momentum transfers: ``"bspline"`` (at the particle
         centres) or ``"cpdi"`` (CPDI1 averages over the particle domains, on the
-        degree-1 grid; the phase field keeps B-splines).
+        degree-1 grid; the phase field keeps B-splines; 2D only).
     scale_failed : bool
         With CPDI: scale the domain of a failed particle (damage D = 1, or phase
         field c below ``failed_c``) to a diagonal of at most ``h`` (Homel & Herbold §2.6).
@@ -61,18 +63,21 @@ class GridSpec:
         damage D = 1 alone.
     """
 
-    size: tuple[float, float]
+    size: tuple[float, ...]
     h: float
-    origin: tuple[float, float] = (0.0, 0.0)
+    origin: tuple[float, ...] | None = None
     degree: int = 2
     shape: str = "bspline"
     scale_failed: bool = True
     failed_c: float = 0.0
 
     def __post_init__(self):
-        store(self, "size", vec2("size", self.size, gt=0))
+        store(self, "size", vector("size", self.size, gt=0))
         store(self, "h", real("h", self.h, gt=0))
-        store(self, "origin", vec2("origin", self.origin))
+        if self.origin is None:
+            store(self, "origin", (0.0,) * self.dim)
+        store(self, "origin", vector("origin", self.origin))
+        same_dimension("origin", self.origin, self.dim)
         store(self, "degree", choice("degree", integer("degree", self.degree), DEGREES))
         for s in self.size:
             n = s / self.h
@@ -83,37 +88,43 @@ class GridSpec:
                 raise SceneError("size", f"smaller than one cell of h = {self.h:g}", self.size)
             if abs(n - round(n)) > WHOLE_TOL * n:
                 raise SceneError("size", f"not a whole number of cells of h = {self.h:g}", self.size)
-        nx, ny = self.cells
-        if min(nx, ny) < self.degree:
-            raise SceneError("size", f"{nx} x {ny} cells of h = {self.h:g}: degree {self.degree}"
+        cells = " x ".join(map(str, self.cells))
+        if min(self.cells) < self.degree:
+            raise SceneError("size", f"{cells} cells of h = {self.h:g}: degree {self.degree}"
                                      f" B-splines need at least {self.degree} cells a side", self.size)
-        if nx * ny > MAX_COUNT:
-            raise SceneError("size", f"{nx} x {ny} cells exceed the limit of {MAX_COUNT}", self.size)
+        if math.prod(self.cells) > MAX_COUNT:
+            raise SceneError("size", f"{cells} cells exceed the limit of {MAX_COUNT}", self.size)
         if not all(math.isfinite(o + s) for o, s in zip(self.origin, self.size)):
             raise SceneError("origin", "origin + size is not finite", self.origin)
         store(self, "shape", choice("shape", self.shape, SHAPES))
         store(self, "scale_failed", boolean("scale_failed", self.scale_failed))
         store(self, "failed_c", real("failed_c", self.failed_c, ge=0, lt=1))
         if self.shape == "cpdi":
+            if self.dim == 3:
+                raise planar("shape", "CPDI", self.shape)
             if self.degree != 1:
                 raise SceneError("degree", "shape \"cpdi\" runs on the degree-1 grid (CPDI1);"
                                            " set degree = 1", self.degree)
-            if min(nx, ny) < 3:
-                raise SceneError("size", f"{nx} x {ny} cells: shape \"cpdi\" needs at least 3"
+            if min(self.cells) < 3:
+                raise SceneError("size", f"{cells} cells: shape \"cpdi\" needs at least 3"
                                          " cells a side", self.size)
         elif self.failed_c or not self.scale_failed:
             raise SceneError("failed_c" if self.failed_c else "scale_failed",
                              "applies to shape = \"cpdi\" only", self.failed_c or self.scale_failed)
 
     @property
-    def cells(self) -> tuple[int, int]:
-        """Number of cells ``(nx, ny)``."""
-        return (round(self.size[0] / self.h), round(self.size[1] / self.h))
+    def dim(self) -> int:
+        """The scene's dimension: 2, or 3 with three ``size`` entries."""
+        return len(self.size)
+
+    @property
+    def cells(self) -> tuple[int, ...]:
+        """Number of cells per direction, ``(nx, ny)`` or ``(nx, ny, nz)``."""
+        return tuple(round(s / self.h) for s in self.size)
 
     def box(self) -> str:
-        """The grid rectangle as text, ``[x0, x1] x [y0, y1]``."""
-        (x0, y0), (sx, sy) = self.origin, self.size
-        return f"[{x0:g}, {x0 + sx:g}] x [{y0:g}, {y0 + sy:g}]"
+        """The grid's extent as text, ``[x0, x1] x [y0, y1]`` (``x [z0, z1]`` in 3D)."""
+        return " x ".join(f"[{o:g}, {o + s:g}]" for o, s in zip(self.origin, self.size))
 
 
 @dataclass(frozen=True)

@@ -29,7 +29,8 @@ import numpy as np
 
 from .declared import check_declared, declaration
 from .shapes import distance_to_polyline
-from .validation import MAX_COUNT, SceneError, fmt, integer, polyline, real, seq, store, text, vec2
+from .validation import (MAX_COUNT, SceneError, fmt, integer, planar, polyline, real, same_dimension, seq, store,
+                         text, vector)
 
 __all__ = ["DAMAGE_MODELS", "damage_class", "DamageSpec", "RankineSpec", "TimeToFailureSpec",
            "WeibullSpec", "cell_diagonal", "localisation_width", "InitialDamage"]
@@ -64,10 +65,11 @@ def damage_class(model) -> type["DamageSpec"]:
     return cls
 
 
-def cell_diagonal(h: float) -> float:
-    """The cell diagonal sqrt(2) h of the 2D grid: H&H's l_ch (§2.7, Table III)
-    and the default length of time-to-failure damage (H&H eq. 24)."""
-    return math.sqrt(2.0) * h
+def cell_diagonal(h: float, dim: int = 2) -> float:
+    """The cell diagonal sqrt(dim) h of the grid (sqrt(2) h in 2D, sqrt(3) h in
+    3D): H&H's l_ch (§2.7, Table III) and the default length of time-to-failure
+    damage (H&H eq. 24)."""
+    return math.sqrt(dim) * h
 
 
 def localisation_width(grid) -> float:
@@ -280,7 +282,7 @@ class TimeToFailureSpec(DamageSpec):
 
     @staticmethod
     def default_length(grid) -> float:
-        return cell_diagonal(grid.h)
+        return cell_diagonal(grid.h, grid.dim)
 
     def core_parameters(self, grid) -> dict[str, float | str]:
         return {"damage": self.model, "sigma_f": self.sigma_f, "c_f": self.c_f, "l_ch": self.length(grid)}
@@ -301,9 +303,9 @@ class InitialDamage:
     One region per entry, given by its keys:
 
     - a box, ``min`` and ``max``: the particles whose position at t = 0 lies
-      in the closed box ``min <= (x, y) <= max``;
+      in the closed box ``min <= (x, y) <= max`` (``(x, y, z)`` in 3D);
     - a band, ``points`` and ``half_width``: those within ``half_width``
-      (closed) of the polyline through ``points``;
+      (closed) of the polyline through ``points`` (2D only);
     - ``particles``: indices into the body's particles (0 to n - 1, in the
       order of the seeding: the body's rows of ``Scene.particles()`` and of
       ``Simulation.particles``), or a boolean mask over them, one entry per
@@ -327,9 +329,9 @@ class InitialDamage:
         material has a damage model (with ``particles``, there must be one).
     D : float
         The damage, in ``(0, 1]``; 1 is failed.
-    min, max : (float, float) or None
+    min, max : sequence of float or None
         A box: its lower-left and upper-right corners, ``min < max``
-        componentwise.
+        componentwise, one component per direction.
     points : sequence of (float, float) or None
         A band: its polyline, at least two points, each segment of positive
         length.
@@ -350,8 +352,8 @@ class InitialDamage:
 
     body: str | None = None
     D: float = 1.0
-    min: tuple[float, float] | None = None
-    max: tuple[float, float] | None = None
+    min: tuple[float, ...] | None = None
+    max: tuple[float, ...] | None = None
     points: tuple[tuple[float, float], ...] | None = None
     half_width: float | None = None
     particles: tuple[int, ...] | tuple[bool, ...] | None = None
@@ -376,9 +378,11 @@ class InitialDamage:
                 raise SceneError(key, f"missing required key (a {region} needs"
                                       f" {' and '.join(_REGIONS[region])})")
         if region == "box":
-            store(self, "min", vec2("min", self.min))
-            store(self, "max", vec2("max", self.max))
-            if not (self.min[0] < self.max[0] and self.min[1] < self.max[1]):
+            store(self, "min", vector("min", self.min))
+            store(self, "max", vector("max", self.max))
+            if len(self.max) != len(self.min):
+                raise SceneError("max", f"must have {len(self.min)} components, as min has", self.max)
+            if not all(a < b for a, b in zip(self.min, self.max)):
                 raise SceneError("max", f"must exceed min = {fmt(self.min)} componentwise", self.max)
         elif region == "band":
             store(self, "points", polyline("points", self.points))
@@ -421,6 +425,13 @@ class InitialDamage:
                 raise SceneError(f"particles[{k}]", f"duplicate index (also particles[{first}])", items[k])
         object.__setattr__(self, "_array", array)
 
+    def check_dimension(self, dim: int) -> None:
+        """Check the region against a ``dim``-dimensional scene."""
+        if self.region == "box":
+            same_dimension("min", self.min, dim)
+        elif self.region == "band" and dim == 3:
+            raise planar("points", "a band along a polyline", self.points)
+
     @property
     def region(self) -> str:
         """``"box"``, ``"band"`` or ``"particles"``."""
@@ -441,8 +452,9 @@ class InitialDamage:
 
     def select(self, x: np.ndarray, first: int = 0) -> np.ndarray:
         """Which of a body's particles ``first`` to ``first + len(x)``, at
-        positions ``x`` (k, 2) at t = 0, the region holds (a boolean array)."""
-        x = np.asarray(x, dtype=float).reshape(-1, 2)
+        positions ``x`` (k, dim) at t = 0, the region holds (a boolean array)."""
+        x = np.asarray(x, dtype=float)
+        x = x.reshape(-1, x.shape[-1])
         if self.region == "box":
             return np.all((x >= self.min) & (x <= self.max), axis=1)
         if self.region == "band":

@@ -9,15 +9,29 @@ from typing import ClassVar
 
 import numpy as np
 
-from .validation import SceneError, boolean, choice, fmt, integer, polyline, real, seq, store, text, vec2
+from .validation import (SceneError, boolean, choice, fmt, integer, planar, polyline, real, same_dimension, seq,
+                         store, text, vec2, vector)
 
-__all__ = ["EDGES", "SIDES", "WALL_TYPES", "COMPONENTS", "Ramp", "Table", "AMPLITUDES", "Traction", "BodyForce",
-           "LOADS", "WallSpec", "Prescribed", "MAX_REGIONS", "Crack"]
+__all__ = ["EDGES", "SIDES", "SIDES_3D", "WALL_TYPES", "COMPONENTS", "COMPONENTS_3D", "Ramp", "Table",
+           "AMPLITUDES", "Traction", "BodyForce", "LOADS", "WallSpec", "Prescribed", "MAX_REGIONS", "Crack"]
 
 EDGES = ("top", "bottom", "left", "right")
 SIDES = ("left", "right", "bottom", "top")
+"""The sides of a 2D grid (and the edges of a 2D body), in the order of the core's ``Side``."""
+SIDES_3D = SIDES + ("back", "front")
+"""The sides of a 3D grid: those of 2D, then z min (back) and z max (front)."""
 WALL_TYPES = ("fixed", "slip")
 COMPONENTS = ("x", "y", "xy")
+"""The components a prescribed region of a 2D scene may hold."""
+COMPONENTS_3D = ("x", "y", "z", "xy", "xz", "yz", "xyz")
+"""The components a prescribed region of a 3D scene may hold."""
+
+
+def _check_side(path: str, side: str, dim: int) -> None:
+    """Check that ``side`` (a grid side or a body's face) exists in ``dim`` directions."""
+    if dim == 2 and side in ("back", "front"):
+        raise SceneError(path, "a side of a 3D grid (z min or max); a 2D grid has "
+                         + ", ".join(SIDES), side)
 MAX_REGIONS = 4  # the core's max_regions
 
 
@@ -102,9 +116,11 @@ class Traction:
     body : str
         Name of the loaded body.
     edge : str
-        ``"top"``, ``"bottom"``, ``"left"`` or ``"right"``.
-    traction : (float, float)
-        Traction vector (force per unit boundary area, stress units).
+        ``"top"``, ``"bottom"``, ``"left"`` or ``"right"``; in 3D also
+        ``"back"`` (z min) and ``"front"`` (z max), the edge then a face.
+    traction : sequence of float
+        Traction vector (force per unit boundary area, stress units), one
+        component per direction.
     amplitude : Ramp or Table or None
         The factor of the traction over time; ``None``: constant (a step at
         t = 0).
@@ -112,26 +128,33 @@ class Traction:
         Only the part of the edge between these two coordinates along it (x
         on the top and bottom edges, y on the left and right ones): the
         particles of the layer whose coordinate lies in ``[a, b]``, each
-        carrying its spacing's share. ``None``: the whole edge.
+        carrying its spacing's share. ``None``: the whole edge (2D only).
     """
 
     kind: ClassVar[str] = "traction"
     body: str
     edge: str
-    traction: tuple[float, float]
+    traction: tuple[float, ...]
     amplitude: Ramp | Table | None = None
     span: tuple[float, float] | None = None
 
     def __post_init__(self):
         store(self, "body", text("body", self.body))
-        store(self, "edge", choice("edge", self.edge, EDGES))
-        store(self, "traction", vec2("traction", self.traction))
+        store(self, "edge", choice("edge", self.edge, EDGES + ("back", "front")))
+        store(self, "traction", vector("traction", self.traction))
         store(self, "amplitude", _amplitude(self.amplitude))
         if self.span is not None:
             span = vec2("span", self.span)
             if not span[0] < span[1]:
                 raise SceneError("span", "must be [a, b] with a < b", self.span)
             store(self, "span", span)
+
+    def check_dimension(self, dim: int) -> None:
+        """Check the edge and the traction against a ``dim``-dimensional scene."""
+        _check_side("edge", self.edge, dim)
+        same_dimension("traction", self.traction, dim)
+        if dim == 3 and self.span is not None:
+            raise planar("span", "a traction's span", self.span)
 
 
 @dataclass(frozen=True)
@@ -140,8 +163,8 @@ class BodyForce:
 
     Parameters
     ----------
-    acceleration : (float, float)
-        Acceleration vector.
+    acceleration : sequence of float
+        Acceleration vector, one component per direction.
     body : str or None
         Name of the loaded body; ``None`` loads all bodies.
     amplitude : Ramp or Table or None
@@ -149,15 +172,19 @@ class BodyForce:
     """
 
     kind: ClassVar[str] = "body_force"
-    acceleration: tuple[float, float]
+    acceleration: tuple[float, ...]
     body: str | None = None
     amplitude: Ramp | Table | None = None
 
     def __post_init__(self):
-        store(self, "acceleration", vec2("acceleration", self.acceleration))
+        store(self, "acceleration", vector("acceleration", self.acceleration))
         if self.body is not None:
             store(self, "body", text("body", self.body))
         store(self, "amplitude", _amplitude(self.amplitude))
+
+    def check_dimension(self, dim: int) -> None:
+        """Check the acceleration against a ``dim``-dimensional scene."""
+        same_dimension("acceleration", self.acceleration, dim)
 
 
 LOADS: dict[str, type] = {cls.kind: cls for cls in (Traction, BodyForce)}
@@ -174,33 +201,36 @@ class Prescribed:
     all held move with them; those partly over them are pulled along. The
     reaction (the momentum it adds to the bodies), the work it does on them
     and its displacement are in ``energies.csv`` (``impulse_<name>_x|y``,
-    ``work_<name>``, part of ``total``, ``displacement_<name>_x|y``).
+    ``work_<name>``, part of ``total``, ``displacement_<name>_x|y``; and
+    ``_z`` in 3D). Its vectors have one component per direction.
 
     Parameters
     ----------
     name : str
         Unique name, in the column names (not a grid side's).
-    min, max : (float, float) or None
+    min, max : sequence of float or None
         A box: its corners, min < max; it must hold a grid node.
     body : str or None
         Instead of a box, the particles of this body: all of them, or with
         ``face`` or ``particles`` some.
     face : str or None
-        With ``body``: ``"left"``, ``"right"``, ``"bottom"`` or ``"top"``,
+        With ``body``: ``"left"``, ``"right"``, ``"bottom"`` or ``"top"``
+        (and in 3D ``"back"`` or ``"front"``),
         the body's particle layer on that side at t = 0 (within 0.51
         particle spacings of its outermost particle there, as a traction's
         edge).
     particles : sequence of int or None
         With ``body``: indices into the body's particles (0 to n - 1, in
         seeding order, as ``initial_damage``'s), each once.
-    velocity : (float, float) or None
+    velocity : sequence of float or None
         The velocity, times ``amplitude(t)`` at each step's midpoint.
-    displacement : (float, float) or None
+    displacement : sequence of float or None
         The displacement ``U (a(t) - a(0))``: each step the nodes move by
         ``U (a(t + dt) - a(t))``, so it is exact at every step; needs an
         ``amplitude``. Exactly one of ``velocity`` and ``displacement``.
-    components : str
-        ``"x"``, ``"y"`` or ``"xy"``: the components held.
+    components : str or None
+        ``"x"``, ``"y"`` or ``"xy"`` (in 3D also ``"z"``, ``"xz"``, ``"yz"``
+        and ``"xyz"``): the components held; ``None``: all of them.
     amplitude : Ramp or Table or None
         The factor over time; ``None``: constant (velocity only).
     moving : bool
@@ -212,11 +242,11 @@ class Prescribed:
     """
 
     name: str
-    min: tuple[float, float] | None = None
-    max: tuple[float, float] | None = None
-    velocity: tuple[float, float] | None = None
-    displacement: tuple[float, float] | None = None
-    components: str = "xy"
+    min: tuple[float, ...] | None = None
+    max: tuple[float, ...] | None = None
+    velocity: tuple[float, ...] | None = None
+    displacement: tuple[float, ...] | None = None
+    components: str | None = None
     amplitude: Ramp | Table | None = None
     moving: bool = False
     body: str | None = None
@@ -225,7 +255,7 @@ class Prescribed:
 
     def __post_init__(self):
         store(self, "name", text("name", self.name))
-        if self.name in SIDES:
+        if self.name in SIDES_3D:
             raise SceneError("name", "is a grid side's, which names the walls' columns", self.name)
         if self.body is None:
             self._check_box()
@@ -234,12 +264,21 @@ class Prescribed:
         if (self.velocity is None) == (self.displacement is None):
             raise SceneError("velocity", "give exactly one of velocity and displacement")
         if self.velocity is not None:
-            store(self, "velocity", vec2("velocity", self.velocity))
+            store(self, "velocity", vector("velocity", self.velocity))
         else:
-            store(self, "displacement", vec2("displacement", self.displacement))
+            store(self, "displacement", vector("displacement", self.displacement))
             if self.amplitude is None:
                 raise SceneError("amplitude", "a displacement needs one (it is U (a(t) - a(0)))")
-        store(self, "components", choice("components", self.components, COMPONENTS))
+        if self.box:
+            motion = "velocity" if self.velocity is not None else "displacement"
+            for key in ("min", "max"):
+                if len(getattr(self, key)) != self.dim:
+                    raise SceneError(key, f"must have {self.dim} components, as {motion} has",
+                                     getattr(self, key))
+        if self.components is None:
+            store(self, "components", "xyz"[:self.dim])
+        store(self, "components", choice("components", self.components,
+                                         COMPONENTS if self.dim == 2 else COMPONENTS_3D))
         store(self, "amplitude", _amplitude(self.amplitude))
         store(self, "moving", boolean("moving", self.moving))
         if self.moving and self.body is not None:
@@ -252,10 +291,11 @@ class Prescribed:
         for key in ("min", "max"):
             if getattr(self, key) is None:
                 raise SceneError(key, "missing: give a box (min and max) or a body")
-        store(self, "min", vec2("min", self.min))
-        store(self, "max", vec2("max", self.max))
-        if not (self.min[0] < self.max[0] and self.min[1] < self.max[1]):
-            raise SceneError("max", f"must exceed min = {fmt(self.min)} in both directions", self.max)
+        store(self, "min", vector("min", self.min))
+        store(self, "max", vector("max", self.max))
+        if not all(a < b for a, b in zip(self.min, self.max)):
+            every = "both directions" if len(self.min) == 2 else "every direction"
+            raise SceneError("max", f"must exceed min = {fmt(self.min)} in {every}", self.max)
 
     def _check_body(self) -> None:
         store(self, "body", text("body", self.body))
@@ -263,7 +303,7 @@ class Prescribed:
             if getattr(self, key) is not None:
                 raise SceneError(key, "give a box or a body, not both", getattr(self, key))
         if self.face is not None:
-            store(self, "face", choice("face", self.face, SIDES))
+            store(self, "face", choice("face", self.face, SIDES_3D))
         if self.particles is not None:
             if self.face is not None:
                 raise SceneError("particles", "give a face or particles, not both")
@@ -281,22 +321,34 @@ class Prescribed:
         return self.body is None
 
     @property
+    def dim(self) -> int:
+        """The directions of its velocity or displacement: 2 or 3."""
+        return len(self.velocity if self.velocity is not None else self.displacement)
+
+    def check_dimension(self, dim: int) -> None:
+        """Check the region's vectors and face against a ``dim``-dimensional scene."""
+        key = "velocity" if self.velocity is not None else "displacement"
+        same_dimension(key, getattr(self, key), dim)
+        if self.face is not None:
+            _check_side("face", self.face, dim)
+
+    @property
     def mask(self) -> int:
-        """The held components as the core's bits (1: x, 2: y)."""
-        return ("x" in self.components) | ("y" in self.components) << 1
+        """The held components as the core's bits (1: x, 2: y, 4: z)."""
+        return sum(1 << d for d, name in enumerate("xyz") if name in self.components)
 
     @property
     def steady(self) -> bool:
         """Whether its velocity is the same at every step."""
         return self.amplitude is None
 
-    def velocity_over(self, t: float, dt: float) -> tuple[float, float]:
+    def velocity_over(self, t: float, dt: float) -> tuple[float, ...]:
         """The nodes' velocity over the step from ``t`` to ``t + dt``."""
         if self.velocity is not None:
             a = 1.0 if self.amplitude is None else self.amplitude(t + 0.5 * dt)
-            return (a * self.velocity[0], a * self.velocity[1])
+            return tuple(a * v for v in self.velocity)
         rate = (self.amplitude(t + dt) - self.amplitude(t)) / dt
-        return (rate * self.displacement[0], rate * self.displacement[1])
+        return tuple(rate * u for u in self.displacement)
 
 
 @dataclass(frozen=True)
@@ -307,9 +359,10 @@ class WallSpec:
     Parameters
     ----------
     side : str
-        ``"left"``, ``"right"``, ``"bottom"`` or ``"top"``.
+        ``"left"``, ``"right"``, ``"bottom"`` or ``"top"``; in 3D also
+        ``"back"`` (z min) and ``"front"`` (z max).
     type : str
-        ``"fixed"`` (both velocity components zero) or ``"slip"`` (normal
+        ``"fixed"`` (every velocity component zero) or ``"slip"`` (normal
         component zero).
     """
 
@@ -317,11 +370,12 @@ class WallSpec:
     type: str
 
     def __post_init__(self):
-        if self.side in ("back", "front"):
-            raise SceneError("side", "a side of a 3D grid (z min or max); a 2D grid has "
-                             + ", ".join(SIDES), self.side)
-        store(self, "side", choice("side", self.side, SIDES))
+        store(self, "side", choice("side", self.side, SIDES_3D))
         store(self, "type", choice("type", self.type, WALL_TYPES))
+
+    def check_dimension(self, dim: int) -> None:
+        """Check that the side exists in a ``dim``-dimensional scene."""
+        _check_side("side", self.side, dim)
 
 
 @dataclass(frozen=True)

@@ -273,6 +273,11 @@ class MaterialSpec(abc.ABC):
         grid); a :class:`SceneError` names a key of the material's table.
         Nothing to check by default."""
 
+    def solid(self) -> bool:
+        """Whether the model runs in 3D too (else in plane strain or stress
+        alone); not by default."""
+        return False
+
     def initial_columns(self, scene: "Scene", volume: np.ndarray) -> dict[str, np.ndarray]:
         """Initial values of the core model's particle columns for this
         material's particles, by column name, given their initial volumes
@@ -329,6 +334,10 @@ class DeclaredMaterial(MaterialSpec):
     def rayleigh_speed(self) -> float:
         """Rayleigh wave speed of the undeformed material, the core model's."""
         return _core.material(self.model, self._values(self._planes()[0])).rayleigh_speed
+
+    def solid(self) -> bool:
+        """Whether the core's model runs in 3D too."""
+        return _core.material(self.model, self._values(self._planes()[0])).solid
 
     def check_scene(self, scene: "Scene") -> None:
         """The scene's plane is one the model takes."""

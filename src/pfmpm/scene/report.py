@@ -39,12 +39,13 @@ class Extent:
     particles : int
     spacing : float
         Its particle spacing ``h / particles_per_cell``.
-    lo, hi : (float, float)
+    lo, hi : tuple of float
         The lower-left and upper-right corners of its particles' bounding box
-        widened by half a spacing: each particle stands for a square of side
-        ``spacing``, so this is the box of the material the run has.
-    shape : (float, float, float, float)
-        The bounds of its shape as declared, ``(xmin, ymin, xmax, ymax)``.
+        widened by half a spacing: each particle stands for a square (a cube
+        in 3D) of side ``spacing``, so this is the box of the material the run has.
+    shape : tuple of float
+        The bounds of its shape as declared, ``(xmin, ymin, xmax, ymax)``
+        (``(xmin, ymin, zmin, xmax, ymax, zmax)`` in 3D).
     """
 
     body: str
@@ -125,7 +126,8 @@ class SetupReport:
             line = (f"body {e.body} ({e.material}): {e.particles} particles {e.spacing:g}{length} apart,"
                     f" from {_point(e.lo, tol)} to {_point(e.hi, tol)}{length}")
             if not np.allclose((*e.lo, *e.hi), e.shape, rtol=0, atol=tol):
-                line += f"; its shape spans {_point(e.shape[:2], tol)} to {_point(e.shape[2:], tol)}"
+                dim = len(e.lo)
+                line += f"; its shape spans {_point(e.shape[:dim], tol)} to {_point(e.shape[dim:], tol)}"
             lines.append(line)
         for g in self.gaps:
             a, b = g.bodies
@@ -219,26 +221,26 @@ def _narrowest(tree, xb: np.ndarray, reach: float) -> tuple[float, int, int, np.
     the points of ``tree`` and those about ``xb``: its width, the two points
     and the vector across it (from the first to the second).
 
-    A pair of centres ``d`` apart has squares ``|g|`` apart with ``g_i =
-    sign(d_i) max(|d_i| - reach, 0)``, between ``|d| - sqrt(2) reach`` and
-    ``|d| - reach``; so only pairs within ``sqrt(2) - 1`` reaches of the
-    nearest centres can be narrowest."""
+    A pair of centres ``d`` apart has squares (cubes in 3D) ``|g|`` apart
+    with ``g_i = sign(d_i) max(|d_i| - reach, 0)``, between ``|d| - sqrt(dim)
+    reach`` and ``|d| - reach``; so only pairs within ``sqrt(dim) - 1``
+    reaches of the nearest centres can be narrowest."""
     from scipy.spatial import cKDTree
 
     distance, _ = tree.query(xb)
-    within = distance.min() + (np.sqrt(2.0) - 1.0) * reach
+    within = distance.min() + (np.sqrt(float(xb.shape[1])) - 1.0) * reach
     close = np.flatnonzero(distance <= within)
     pairs = cKDTree(xb[close]).sparse_distance_matrix(tree, within, output_type="ndarray")
     ib, ia = close[pairs["i"]], pairs["j"]
     d = xb[ib] - tree.data[ia]
     across = np.sign(d) * np.maximum(np.abs(d) - reach, 0.0)
-    width = np.hypot(across[:, 0], across[:, 1])
+    width = np.hypot.reduce(across, axis=1)
     k = int(np.argmin(width))
     return float(width[k]), int(ia[k]), int(ib[k]), across[k]
 
 
 def _point(p, tol: float) -> str:
-    """``(x, y)``, each to 6 digits, round-off about 0 written as 0."""
+    """``(x, y)`` (or ``(x, y, z)``), each to 6 digits, round-off about 0 written as 0."""
     return "(" + ", ".join(f"{0.0 if abs(v) < tol else v:.6g}" for v in p) + ")"
 
 

@@ -20,7 +20,7 @@ from .loads import MAX_REGIONS, BodyForce, Crack, Prescribed, Traction, WallSpec
 from .materials import PLANES, FractureSpec, MaterialSpec
 from .toml import build_scene, plain, read_toml
 from .units import SOLID_WAVE_SPEEDS, UNIT_SYSTEMS, UnitSystem, unit_system
-from .validation import (MAX_COUNT, SceneError, at, choice, fmt, real, reference, seq, store,
+from .validation import (MAX_COUNT, SceneError, at, choice, fmt, planar, real, reference, seq, store,
                          text)
 
 __all__ = ["Scene"]
@@ -40,7 +40,12 @@ this and the stencil give 204 + 30)."""
 
 @dataclass(frozen=True)
 class Scene:
-    """A complete, validated scene.
+    """A complete, validated scene, in two or three dimensions: a grid with
+    three ``size`` entries makes a 3D scene (:attr:`dim`), whose bodies have
+    3D shapes and whose vectors have three components. A 3D scene runs one
+    velocity field on B-splines with elastic and neo-Hookean materials (with
+    damage); the phase field, initial cracks, contact, CPDI, plane stress and
+    Drucker-Prager are two-dimensional yet and refused there.
 
     Parameters
     ----------
@@ -53,9 +58,10 @@ class Scene:
         one particle and has none outside the grid.
     name, description : str
     plane : str
-        ``"strain"`` or ``"stress"``.
+        ``"strain"`` or ``"stress"`` (a 3D scene keeps ``"strain"``, the
+        plane modes' 3D parent).
     thickness : float
-        Out-of-plane thickness, > 0.
+        Out-of-plane thickness, > 0 (a 3D scene keeps 1).
     loads : sequence of Traction or BodyForce
     walls : sequence of WallSpec
         At most one per grid side.
@@ -150,6 +156,7 @@ class Scene:
         for i, region in enumerate(self.prescribed):
             if region.body is not None:
                 reference(f"prescribed[{i}].body", region.body, bodies, "body")
+        self._check_dimension()
         for i, body in enumerate(self.bodies):
             with at(f"bodies[{i}]"):
                 self._check_particles(body)
@@ -183,28 +190,63 @@ class Scene:
             seen[value] = i
         return seen
 
+    def _check_dimension(self) -> None:
+        """Check that every part has the grid's dimension: the bodies' shapes
+        and vectors, the loads', walls' and regions' vectors and sides; and
+        that a 3D scene asks for nothing that is two-dimensional yet."""
+        dim = self.grid.dim
+        for key in ("bodies", "loads", "walls", "prescribed", "initial_damage"):
+            for i, item in enumerate(getattr(self, key)):
+                with at(f"{key}[{i}]"):
+                    item.check_dimension(dim)
+        if dim == 2:
+            return
+        if self.plane != "strain":
+            raise planar("plane", "plane stress", self.plane)
+        if self.thickness != 1.0:
+            raise planar("thickness", "an out-of-plane thickness", self.thickness)
+        for i, material in enumerate(self.materials):
+            if material.fracture is not None:
+                raise planar(f"materials[{i}].fracture", "the phase field (a fracture table)")
+            if not material.solid():
+                raise planar(f"materials[{i}].model", f"the {material.model} model", material.model)
+        if self.cracks:
+            raise planar("cracks", "an initial crack (it seeds the phase field)")
+        if self.contact is not None:
+            raise planar("contact", "contact")
+        if self.output.snapshots:
+            raise planar("output.snapshots", "an image of the phase field", self.output.snapshots)
+
     def _check_particles(self, body: Body) -> None:
         """Check that the body has particles, all inside the grid, and not too many."""
         grid = self.grid
-        (ox, oy), h, (nx, ny) = grid.origin, grid.h, grid.cells
-        xmin, ymin, xmax, ymax = body.shape.bounds()
-        if xmin < ox - h or ymin < oy - h or xmax > ox + (nx + 1) * h or ymax > oy + (ny + 1) * h:
-            raise SceneError("shape", f"bounds {fmt(body.shape.bounds())} extend more than"
+        h, dim = grid.h, grid.dim
+        bounds = body.shape.bounds()
+        if any(lo < o - h or hi > o + (n + 1) * h
+               for lo, hi, o, n in zip(bounds[:dim], bounds[dim:], grid.origin, grid.cells)):
+            raise SceneError("shape", f"bounds {fmt(bounds)} extend more than"
                                       f" one cell beyond the grid {grid.box()}")
-        (i0, i1), (j0, j1) = seeding.cell_range(body, grid, margin=1)
+        ranges = seeding.cell_range(body, grid, margin=1)
         n = body.particles_per_cell
-        candidates = (i1 - i0) * (j1 - j0) * n * n
+        candidates = math.prod(b - a for a, b in ranges) * n ** dim
         if candidates > MAX_COUNT:
             raise SceneError("", f"would need {candidates:.3g} candidate particles"
                                  f" (limit {MAX_COUNT}); coarsen the grid or particles_per_cell")
-        inner_i, inner_j = (max(i0, 0), min(i1, nx)), (max(j0, 0), min(j1, ny))
-        strips = [((i0, i1), (j0, min(j1, 0))), ((i0, i1), (max(j0, ny), j1)),
-                  ((i0, min(i1, 0)), inner_j), ((max(i0, nx), i1), inner_j)]
+        inner = [(max(a, 0), min(b, cells)) for (a, b), cells in zip(ranges, grid.cells)]
+        # The cells outside the grid, as slabs below and above it in each
+        # direction, within the grid in the directions after it (2D: the
+        # strips below and above in y, then left and right of the grid in x).
+        strips = []
+        for d in reversed(range(dim)):
+            (a, b), cells = ranges[d], grid.cells[d]
+            for part in ((a, min(b, 0)), (max(a, cells), b)):
+                strips.append((*ranges[:d], part, *inner[d + 1:]))
         outside = sum(len(p) for cells in strips for p in seeding.lattice(body, grid, *cells))
         if outside:
             raise SceneError("", f"{outside} particles lie outside the grid {grid.box()}")
-        if not any(len(p) for p in seeding.lattice(body, grid, inner_i, inner_j)):
-            raise SceneError("", f"has no particles (no sub-cell centre of the {n} x {n}"
+        if not any(len(p) for p in seeding.lattice(body, grid, *inner)):
+            lattice = " x ".join([str(n)] * dim)
+            raise SceneError("", f"has no particles (no sub-cell centre of the {lattice}"
                                  f" lattice per cell of h = {h:g} lies in its shape minus holes)")
 
     def _check_loads(self) -> None:
@@ -229,16 +271,16 @@ class Scene:
         """A rough upper estimate of the core's storage for this scene, in
         bytes: (grid, particles, the particle bound of each body), from the
         ``_BYTES_*`` constants."""
-        (nx, ny), p = self.grid.cells, self.grid.degree
-        nodes = (nx + 2 * p) * (ny + 2 * p)  # the phase field's padded layout
+        cells, p, dim = self.grid.cells, self.grid.degree, self.grid.dim
+        nodes = math.prod(n + 2 * p for n in cells)  # the phase field's padded layout
         stencil = ((2 * p + 1) ** 2 + 1) // 2
         cracks = any(m.fracture is not None for m in self.materials)
-        grid = (_BYTES_PER_TABLE_CELL * (nx + ny) + (8 + 8 * (os.cpu_count() or 1)) * nx * ny
+        grid = (_BYTES_PER_TABLE_CELL * sum(cells) + (8 + 8 * (os.cpu_count() or 1)) * math.prod(cells)
                 + nodes * (_BYTES_PER_NODE + (_BYTES_PER_CRACK_NODE + 8 * stencil if cracks else 0)))
         counts = []
         for body in self.bodies:
-            (i0, i1), (j0, j1) = seeding.cell_range(body, self.grid)
-            counts.append((i1 - i0) * (j1 - j0) * body.particles_per_cell ** 2)
+            ranges = seeding.cell_range(body, self.grid)
+            counts.append(math.prod(b - a for a, b in ranges) * body.particles_per_cell ** dim)
         return grid, _BYTES_PER_PARTICLE * sum(counts), counts
 
     def _check_memory(self) -> None:
@@ -250,9 +292,9 @@ class Scene:
         need = grid + particles
         have = os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
         if need > have:
-            (nx, ny), i = self.grid.cells, int(np.argmax(counts))
+            cells, i = " x ".join(map(str, self.grid.cells)), int(np.argmax(counts))
             key = "grid.size" if grid >= _BYTES_PER_PARTICLE * counts[i] else f"bodies[{i}].particles_per_cell"
-            raise SceneError(key, f"{nx} x {ny} cells and up to {sum(counts):.3g} particles need about"
+            raise SceneError(key, f"{cells} cells and up to {sum(counts):.3g} particles need about"
                                   f" {need / 1e9:.3g} GB, more than this machine's {have / 1e9:.3g} GB")
 
     def _check_fracture(self, bodies: Mapping[str, int]) -> None:
@@ -279,9 +321,9 @@ class Scene:
         if self.output.snapshots and not crackable:
             raise SceneError("output.snapshots", "draws the phase field, but no body's material"
                                                  " has a fracture table", self.output.snapshots)
-        (x0, y0), (sx, sy) = self.grid.origin, self.grid.size
-        reach = max(sx, sy)
-        for i, crack in enumerate(self.cracks):
+        for i, crack in enumerate(self.cracks):  # only a 2D scene has cracks
+            (x0, y0), (sx, sy) = self.grid.origin, self.grid.size
+            reach = max(sx, sy)
             for j, (x, y) in enumerate(crack.points):
                 if not (x0 - reach <= x <= x0 + sx + reach and y0 - reach <= y <= y0 + sy + reach):
                     raise SceneError(f"cracks[{i}].points[{j}]", "lies farther from the grid"
@@ -378,7 +420,7 @@ class Scene:
                 if a == b:
                     continue
                 x = lattices[b]
-                inside = int(np.count_nonzero(body.contains(x[:, 0], x[:, 1])))
+                inside = int(np.count_nonzero(body.contains(*x.T)))
                 if inside:
                     raise SceneError(f"bodies[{b}]", f"{inside} of its particles lie inside"
                                      f" bodies[{a}] ({body.name!r}) at t = 0; bodies in contact"
@@ -453,6 +495,11 @@ class Scene:
                                          f" (limit {_MAX_STEPS})", self.time.end)
 
     # -- parts and derived quantities ----------------------------------------
+
+    @property
+    def dim(self) -> int:
+        """The scene's dimension, the grid's: 2 or 3."""
+        return self.grid.dim
 
     def material_of(self, body: Body) -> MaterialSpec:
         """A body's material."""

@@ -23,37 +23,41 @@ _CHUNK = 1 << 16  # candidate particles examined per vectorised batch
 _EDGE_TOL = 0.51  # edge layer thickness in particle spacings
 
 
-def cell_range(body: Body, grid: GridSpec, margin: int = 0) -> tuple[tuple[int, int], tuple[int, int]]:
-    """Cell index ranges of the body's bounding box, clipped to the grid plus ``margin`` cells."""
-    xmin, ymin, xmax, ymax = body.shape.bounds()
-    (ox, oy), h, (nx, ny) = grid.origin, grid.h, grid.cells
-    lo_x, hi_x = np.clip([(xmin - ox) / h, (xmax - ox) / h], -margin, nx + margin)
-    lo_y, hi_y = np.clip([(ymin - oy) / h, (ymax - oy) / h], -margin, ny + margin)
-    return ((math.floor(lo_x), math.ceil(hi_x)), (math.floor(lo_y), math.ceil(hi_y)))
+def cell_range(body: Body, grid: GridSpec, margin: int = 0) -> tuple[tuple[int, int], ...]:
+    """Cell index ranges of the body's bounding box, one ``(first, end)`` per
+    direction, clipped to the grid plus ``margin`` cells."""
+    bounds, dim, h = body.shape.bounds(), grid.dim, grid.h
+    ranges = []
+    for lo, hi, o, n in zip(bounds[:dim], bounds[dim:], grid.origin, grid.cells):
+        a, b = np.clip([(lo - o) / h, (hi - o) / h], -margin, n + margin)
+        ranges.append((math.floor(a), math.ceil(b)))
+    return tuple(ranges)
 
 
-def lattice(body: Body, grid: GridSpec, i_range: tuple[int, int],
-            j_range: tuple[int, int]) -> Iterator[np.ndarray]:
-    """Yield the body's particles in cells ``[i0, i1) x [j0, j1)``, a batch at a time.
+def lattice(body: Body, grid: GridSpec, *ranges: tuple[int, int]) -> Iterator[np.ndarray]:
+    """Yield the body's particles in the cells of ``ranges`` (``[i0, i1) x
+    [j0, j1)``, and ``x [k0, k1)`` in 3D), a batch at a time.
 
-    Particles sit at the centres of an ``n x n`` sub-cell lattice in each
-    cell, kept if inside the body's shape and outside its holes.  Candidates
-    are numbered by cell, column by column (x outer: the order in which the
-    transfers visit the cells, so that a column's particles lie together in
-    memory), then by sub-position (row-major), and examined ``_CHUNK`` at a
-    time, so memory stays bounded; each yielded (k, 2) array keeps that order.
+    Particles sit at the centres of an ``n x n`` (``n x n x n``) sub-cell
+    lattice in each cell, kept if inside the body's shape and outside its
+    holes.  Candidates are numbered by cell, the last direction fastest (x
+    outer: the order in which the transfers visit the cells, so that a
+    column's particles lie together in memory), then by sub-position (x
+    fastest), and examined ``_CHUNK`` at a time, so memory stays bounded;
+    each yielded (k, dim) array keeps that order.
     """
-    (i0, i1), (j0, j1) = i_range, j_range
-    rows, n, h, (ox, oy) = j1 - j0, body.particles_per_cell, grid.h, grid.origin
-    total = max(i1 - i0, 0) * max(rows, 0) * n * n
+    n, h, dim = body.particles_per_cell, grid.h, len(ranges)
+    counts = [max(end - first, 0) for first, end in ranges]
+    per_cell = n ** dim
+    total = math.prod(counts) * per_cell
     for start in range(0, total, _CHUNK):
-        cell, sub = np.divmod(np.arange(start, min(start + _CHUNK, total)), n * n)
-        i, j = np.divmod(cell, rows)
-        b, a = np.divmod(sub, n)
-        x = ox + (i0 + i + (a + 0.5) / n) * h
-        y = oy + (j0 + j + (b + 0.5) / n) * h
-        keep = body.contains(x, y)
-        yield np.column_stack((x[keep], y[keep]))
+        cell, sub = np.divmod(np.arange(start, min(start + _CHUNK, total)), per_cell)
+        index = np.unravel_index(cell, counts)  # row-major: the last direction fastest
+        offset = np.unravel_index(sub, (n,) * dim)[::-1]  # x fastest
+        coords = [o + (first + i + (a + 0.5) / n) * h
+                  for o, (first, _), i, a in zip(grid.origin, ranges, index, offset)]
+        keep = body.contains(*coords)
+        yield np.column_stack([c[keep] for c in coords])
 
 
 def count(scene: "Scene") -> int:
@@ -63,8 +67,8 @@ def count(scene: "Scene") -> int:
 
 
 def positions(scene: "Scene") -> list[np.ndarray]:
-    """Each body's particle positions, (k, 2), in the order of :func:`lattice`."""
-    return [np.concatenate([np.empty((0, 2)), *lattice(body, scene.grid, *cell_range(body, scene.grid))])
+    """Each body's particle positions, (k, dim), in the order of :func:`lattice`."""
+    return [np.concatenate([np.empty((0, scene.dim)), *lattice(body, scene.grid, *cell_range(body, scene.grid))])
             for body in scene.bodies]
 
 
@@ -83,10 +87,10 @@ def fill(scene: "Scene", xs: list[np.ndarray], columns: Mapping[str, np.ndarray]
     the names below that it holds is written, in place, so no array of all
     particles is made on the way:
 
-    ``x`` (N, 2) positions, ``v`` (N, 2) velocities, ``mass`` (N,),
-    ``volume`` (N,) ``= (h/n)^2 * thickness``, ``body`` (N,) body index,
-    ``material`` (N,) material index, ``phi`` (N,) material orientation in
-    radians (clockwise from x) and ``fext`` (N, 2) the external forces at
+    ``x`` (N, dim) positions, ``v`` (N, dim) velocities, ``mass`` (N,),
+    ``volume`` (N,) ``= (h/n)^2 * thickness`` (``(h/n)^3`` in 3D), ``body``
+    (N,) body index, ``material`` (N,) material index, ``phi`` (N,) material
+    orientation in radians (clockwise from x) and ``fext`` (N, dim) the external forces at
     t = 0, those of :func:`load_forces` times each load's amplitude then.  With ``grid.shape = "cpdi"`` also the
     half-edges of the particle domains, the ``h/n`` squares of the lattice:
     ``convected_r1`` and ``domain_r1`` (N, 2) ``= (h/2n, 0)``,
@@ -98,7 +102,7 @@ def fill(scene: "Scene", xs: list[np.ndarray], columns: Mapping[str, np.ndarray]
         part = slice(start, start + len(x))
         m = materials[body.material]
         spacing = body.spacing(scene.grid.h)
-        volume = spacing * spacing * scene.thickness
+        volume = math.prod([spacing] * scene.dim) * scene.thickness
         values = {"x": x, "volume": volume, "mass": scene.materials[m].density * volume,
                   "body": b, "material": m, "phi": math.radians(body.orientation),
                   # CPDI: the domains are the lattice's h/n squares (half-edges h/2n)
@@ -136,11 +140,12 @@ def load_forces(scene: "Scene", xs: list[np.ndarray], mass: np.ndarray) -> list[
     -------
     list of (load, rows, force)
         Per entry of ``scene.loads``: its particles (a slice or indices into
-        all particles) and the force on them, ``(2,)`` or ``(len(rows), 2)``.
+        all particles) and the force on them, ``(dim,)`` or ``(len(rows), dim)``.
         A traction gives each particle of the body's edge layer (within
         ``0.51 h/n`` of its extreme particle coordinate on that side; with a
         ``span``, those whose coordinate along the edge lies in it)
-        ``traction * (h/n) * thickness``; a body force gives each particle
+        ``traction * (h/n) * thickness``, in 3D ``traction * (h/n)^2`` (the
+        face area a particle stands for); a body force gives each particle
         of its body (or of all) ``mass * acceleration``.
 
     Raises
@@ -159,7 +164,7 @@ def load_forces(scene: "Scene", xs: list[np.ndarray], mass: np.ndarray) -> list[
             forces.append((load, rows, mass[rows, None] * np.asarray(load.acceleration)))
             continue
         part, spacing, x = parts[load.body]
-        normal = 0 if load.edge in ("left", "right") else 1
+        normal = _NORMALS[load.edge]
         layer = edge_layer(x, spacing, load.edge)
         if load.span is not None:
             along = x[:, 1 - normal]
@@ -169,17 +174,22 @@ def load_forces(scene: "Scene", xs: list[np.ndarray], mass: np.ndarray) -> list[
                 raise SceneError(f"loads[{i}].span", f"holds no particle of the {load.edge} edge layer"
                                                      f" of body {load.body!r}", load.span)
         rows = part.start + np.flatnonzero(layer)
-        forces.append((load, rows, np.multiply(load.traction, spacing * scene.thickness)))
+        area = math.prod([spacing] * (scene.dim - 1)) * scene.thickness  # a particle's share of the face
+        forces.append((load, rows, np.multiply(load.traction, area)))
     return forces
 
 
+_NORMALS = {"left": 0, "right": 0, "bottom": 1, "top": 1, "back": 2, "front": 2}
+"""The direction normal to each edge (face) of a body."""
+
+
 def edge_layer(x: np.ndarray, spacing: float, edge: str) -> np.ndarray:
-    """Which of a body's particles ``x`` (k, 2) form its layer on ``edge``:
+    """Which of a body's particles ``x`` (k, dim) form its layer on ``edge``:
     those within 0.51 particle ``spacing`` of its outermost particle
     coordinate on that side."""
-    coord = x[:, 0 if edge in ("left", "right") else 1]
+    coord = x[:, _NORMALS[edge]]
     tol = _EDGE_TOL * spacing
-    return coord >= coord.max() - tol if edge in ("right", "top") else coord <= coord.min() + tol
+    return coord >= coord.max() - tol if edge in ("right", "top", "front") else coord <= coord.min() + tol
 
 
 def region_particles(scene: "Scene", xs: list[np.ndarray]) -> list[np.ndarray | None]:
@@ -219,10 +229,10 @@ def particles(scene: "Scene") -> dict[str, np.ndarray]:
     :func:`fill`. Bodies come in order; within a body particles are sorted
     by cell (column by column, x outer) then by sub-position (see :func:`lattice`)."""
     xs = positions(scene)
-    n = sum(len(x) for x in xs)
-    out = {"x": np.empty((n, 2)), "v": np.empty((n, 2)), "mass": np.empty(n), "volume": np.empty(n),
+    n, dim = sum(len(x) for x in xs), scene.dim
+    out = {"x": np.empty((n, dim)), "v": np.empty((n, dim)), "mass": np.empty(n), "volume": np.empty(n),
            "body": np.empty(n, dtype=np.int32), "material": np.empty(n, dtype=np.int32),
-           "phi": np.empty(n), "fext": np.empty((n, 2))}
+           "phi": np.empty(n), "fext": np.empty((n, dim))}
     if scene.grid.shape == "cpdi":
         out.update({name: np.empty((n, 2)) for name in
                     ("convected_r1", "domain_r1", "convected_r2", "domain_r2")})

@@ -1,6 +1,7 @@
-"""The 2D shapes bodies and their holes are made of (TOML ``type`` of a
-``shape`` or ``holes`` table): rectangles, disks, rings, polygons, the cells
-of a mesh file and the pixels of one colour of an image."""
+"""The shapes bodies and their holes are made of (TOML ``type`` of a
+``shape`` or ``holes`` table). In 2D: rectangles, disks, rings, polygons, the
+cells of a mesh file and the pixels of one colour of an image; in 3D: boxes,
+spheres, cylinders and the extrusion of any 2D shape along z."""
 
 from __future__ import annotations
 
@@ -10,10 +11,10 @@ from typing import ClassVar
 
 import numpy as np
 
-from .validation import SceneError, fmt, integer, real, seq, store, text, vec2
+from .validation import SceneError, fmt, integer, real, seq, store, text, vec2, vector
 
-__all__ = ["Shape", "Rectangle", "Disk", "Ring", "Polygon", "MeshShape", "ImageShape", "SHAPES",
-           "image_colors", "distance_to_polyline"]
+__all__ = ["Shape", "Rectangle", "Disk", "Ring", "Polygon", "MeshShape", "ImageShape", "Box", "Sphere",
+           "Cylinder", "Extrusion", "SHAPES", "image_colors", "distance_to_polyline"]
 
 
 def distance_to_polyline(xy: np.ndarray, points) -> np.ndarray:
@@ -30,20 +31,24 @@ def distance_to_polyline(xy: np.ndarray, points) -> np.ndarray:
 
 
 class Shape:
-    """Base of the 2D shapes that bodies and holes are made of.
+    """Base of the shapes that bodies and holes are made of.
 
-    Subclasses set ``kind`` (the TOML ``type``) and implement
-    :meth:`contains` and :meth:`bounds`.
+    Subclasses set ``kind`` (the TOML ``type``) and, for a 3D shape,
+    ``dim = 3``, and implement :meth:`contains` and :meth:`bounds`.
     """
 
     kind: ClassVar[str]
+    dim: ClassVar[int] = 2
+    """The directions of the space the shape lies in: 2 or 3."""
 
-    def contains(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        """Return a boolean array, True where the point ``(x, y)`` is inside."""
+    def contains(self, *coords: np.ndarray) -> np.ndarray:
+        """Return a boolean array, True where the point of coordinates
+        ``coords`` (``x, y``, or ``x, y, z`` in 3D) is inside."""
         raise NotImplementedError
 
-    def bounds(self) -> tuple[float, float, float, float]:
-        """Return the bounding box ``(xmin, ymin, xmax, ymax)``."""
+    def bounds(self) -> tuple[float, ...]:
+        """Return the bounding box: ``(xmin, ymin, xmax, ymax)``, or in 3D
+        ``(xmin, ymin, zmin, xmax, ymax, zmax)``."""
         raise NotImplementedError
 
 
@@ -375,6 +380,160 @@ class ImageShape(Shape):
         return (ox + cols.min() * p, oy + rows.min() * p, ox + (cols.max() + 1) * p, oy + (rows.max() + 1) * p)
 
 
+def _vec3(path: str, value) -> tuple[float, float, float]:
+    """Check a point or vector of 3D space."""
+    v = vector(path, value)
+    if len(v) != 3:
+        raise SceneError(path, "must be a list of 3 numbers (a 3D point)", value)
+    return v
+
+
+@dataclass(frozen=True)
+class Box(Shape):
+    """Axis-aligned box ``min <= (x, y, z) <= max`` (closed), a 3D shape.
+
+    Parameters
+    ----------
+    min, max : (float, float, float)
+        Opposite corners, ``min < max`` componentwise.
+    """
+
+    kind: ClassVar[str] = "box"
+    dim: ClassVar[int] = 3
+    min: tuple[float, float, float]
+    max: tuple[float, float, float]
+
+    def __post_init__(self):
+        store(self, "min", _vec3("min", self.min))
+        store(self, "max", _vec3("max", self.max))
+        if not all(a < b for a, b in zip(self.min, self.max)):
+            raise SceneError("max", f"must exceed min = {fmt(self.min)} componentwise", self.max)
+
+    def contains(self, x, y, z):
+        inside = np.ones(np.broadcast(x, y, z).shape, dtype=bool)
+        for c, lo, hi in zip((x, y, z), self.min, self.max):
+            c = np.asarray(c, dtype=float)
+            inside &= (c >= lo) & (c <= hi)
+        return inside
+
+    def bounds(self):
+        return (*self.min, *self.max)
+
+
+@dataclass(frozen=True)
+class Sphere(Shape):
+    """Closed ball, a 3D shape.
+
+    Parameters
+    ----------
+    center : (float, float, float)
+        Centre.
+    radius : float
+        Radius, > 0.
+    """
+
+    kind: ClassVar[str] = "sphere"
+    dim: ClassVar[int] = 3
+    center: tuple[float, float, float]
+    radius: float
+
+    def __post_init__(self):
+        store(self, "center", _vec3("center", self.center))
+        store(self, "radius", real("radius", self.radius, gt=0))
+
+    def contains(self, x, y, z):
+        with np.errstate(over="ignore"):
+            r2 = sum((np.asarray(c, dtype=float) - o) ** 2 for c, o in zip((x, y, z), self.center))
+            return r2 <= self.radius * self.radius
+
+    def bounds(self):
+        r = self.radius
+        return (*(o - r for o in self.center), *(o + r for o in self.center))
+
+
+@dataclass(frozen=True)
+class Cylinder(Shape):
+    """Closed circular cylinder about the segment from ``start`` to ``end``
+    (its axis, with flat ends there), a 3D shape.
+
+    Parameters
+    ----------
+    start, end : (float, float, float)
+        The centres of its two ends, apart.
+    radius : float
+        Radius, > 0.
+    """
+
+    kind: ClassVar[str] = "cylinder"
+    dim: ClassVar[int] = 3
+    start: tuple[float, float, float]
+    end: tuple[float, float, float]
+    radius: float
+
+    def __post_init__(self):
+        store(self, "start", _vec3("start", self.start))
+        store(self, "end", _vec3("end", self.end))
+        store(self, "radius", real("radius", self.radius, gt=0))
+        axis = np.subtract(self.end, self.start)
+        if not 0 < float(np.sqrt(axis @ axis)) < np.inf:
+            raise SceneError("end", f"must lie a finite distance from start = {fmt(self.start)}", self.end)
+
+    def contains(self, x, y, z):
+        a, axis = np.asarray(self.start), np.subtract(self.end, self.start)
+        d = [np.asarray(c, dtype=float) - o for c, o in zip((x, y, z), a)]
+        length2 = float(axis @ axis)
+        with np.errstate(over="ignore", invalid="ignore"):
+            along = sum(di * ai for di, ai in zip(d, axis))  # (p - start) . axis
+            across2 = sum(di * di for di in d) - along * along / length2
+            return (along >= 0) & (along <= length2) & (across2 <= self.radius * self.radius)
+
+    def bounds(self):
+        a, b = np.asarray(self.start), np.asarray(self.end)
+        e = (b - a) / np.sqrt((b - a) @ (b - a))
+        reach = self.radius * np.sqrt(np.maximum(1.0 - e * e, 0.0))  # an end disk's extent per direction
+        lo, hi = np.minimum(a, b) - reach, np.maximum(a, b) + reach
+        return (*map(float, lo), *map(float, hi))
+
+
+@dataclass(frozen=True)
+class Extrusion(Shape):
+    """A 2D shape extruded along z from ``z0`` to ``z1`` (closed), a 3D shape:
+    a disk makes a cylinder along z, a rectangle a box, a mesh or an image
+    a prism of its outline.
+
+    Parameters
+    ----------
+    shape : Shape
+        Any 2D shape (rectangle, disk, ring, polygon, mesh, image).
+    z0, z1 : float
+        The extent along z, ``z0 < z1``.
+    """
+
+    kind: ClassVar[str] = "extrusion"
+    dim: ClassVar[int] = 3
+    shape: Shape
+    z0: float
+    z1: float
+
+    def __post_init__(self):
+        if not isinstance(self.shape, Shape):
+            raise SceneError("shape", "must be a 2D shape (" + ", ".join(
+                k for k, cls in SHAPES.items() if cls.dim == 2) + ")", self.shape)
+        if self.shape.dim != 2:
+            raise SceneError("shape", f"a {self.shape.dim}D shape ({self.shape.kind}): an extrusion"
+                                      " takes a 2D one", self.shape.kind)
+        store(self, "z0", real("z0", self.z0))
+        store(self, "z1", real("z1", self.z1, gt=self.z0))
+
+    def contains(self, x, y, z):
+        z = np.asarray(z, dtype=float)
+        return self.shape.contains(x, y) & (z >= self.z0) & (z <= self.z1)
+
+    def bounds(self):
+        x0, y0, x1, y1 = self.shape.bounds()
+        return (x0, y0, self.z0, x1, y1, self.z1)
+
+
 SHAPES: dict[str, type[Shape]] = {cls.kind: cls for cls in (Rectangle, Disk, Ring, Polygon, MeshShape,
-                                                             ImageShape)}
+                                                             ImageShape, Box, Sphere, Cylinder, Extrusion)}
 """Shape classes by their TOML ``type``."""

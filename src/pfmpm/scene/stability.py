@@ -14,8 +14,8 @@ from .validation import WHOLE_TOL
 if TYPE_CHECKING:
     from .scene import Scene
 
-__all__ = ["CRITICAL_FACTOR", "LONE_PARTICLE_FACTOR", "StepLimit", "step_limit", "stable_dt", "grid_dt",
-           "critical_length", "steps"]
+__all__ = ["CRITICAL_FACTOR", "LONE_PARTICLE_FACTOR", "CRITICAL_FACTOR_3D", "LONE_PARTICLE_FACTOR_3D",
+           "StepLimit", "step_limit", "stable_dt", "grid_dt", "critical_length", "steps"]
 
 #: Critical time step of the lumped-mass B-spline grid in units of h / c, per
 #: degree, as (bodies clear of the grid sides, bodies on a side). Each is the
@@ -36,6 +36,18 @@ CRITICAL_FACTOR = {1: (0.707, 0.707), 2: (1.0, 0.609), 3: (1.0, 0.461)}
 #: instability of linear shape functions). The default step keeps below it
 #: (docs/method.md, "Time step"). tests/test_elastic.py recomputes these.
 LONE_PARTICLE_FACTOR = {2: 0.577, 3: 0.798}
+
+#: :data:`CRITICAL_FACTOR` of a 3D grid: the same 1D limits over sqrt(3) for
+#: three directions (capped at 1).
+CRITICAL_FACTOR_3D = {1: (0.577, 0.577), 2: (0.943, 0.497), 3: (1.0, 0.377)}
+
+#: :data:`LONE_PARTICLE_FACTOR` of a 3D grid: the largest sum over a lone
+#: particle's nodes is three times the 1D one, so 2 / sqrt(18) = 0.471 for
+#: degree 2 and 0.652 for degree 3.
+LONE_PARTICLE_FACTOR_3D = {2: 0.471, 3: 0.652}
+
+_FACTORS = {2: (CRITICAL_FACTOR, LONE_PARTICLE_FACTOR), 3: (CRITICAL_FACTOR_3D, LONE_PARTICLE_FACTOR_3D)}
+"""The grid's and a lone particle's factors by the scene's dimension."""
 
 
 @dataclass(frozen=True)
@@ -82,7 +94,7 @@ def step_limit(scene: "Scene") -> StepLimit:
     speeds = [b.max_speed() for b in scene.bodies]
     c_max, v_max = max(waves), max(speeds)
     grid, side = _kappa(scene)
-    kappa = min(grid, LONE_PARTICLE_FACTOR.get(scene.grid.degree, grid))
+    kappa = min(grid, _FACTORS[scene.dim][1].get(scene.grid.degree, grid))
     return StepLimit(limit=scene.time.cfl * (kappa * scene.grid.h) / (c_max + v_max), cfl=scene.time.cfl,
                      kappa=kappa, h=scene.grid.h, wave_speed=c_max,
                      wave_body=scene.bodies[waves.index(c_max)].name, speed=v_max,
@@ -102,8 +114,9 @@ def stable_dt(scene: "Scene") -> float:
     filled with particles, let a Borden plate's corner particle blow up),
     0.707 for degree 1, and 0.461 for cubic B-splines when bodies start within
     ``degree`` cells of a grid side, where the open knot vector's end
-    functions carry little lumped mass. :func:`step_limit` says which bodies
-    set each.
+    functions carry little lumped mass. A 3D scene takes the 3D tables
+    (:data:`CRITICAL_FACTOR_3D`, :data:`LONE_PARTICLE_FACTOR_3D`).
+    :func:`step_limit` says which bodies set each.
     """
     return step_limit(scene).limit
 
@@ -123,17 +136,17 @@ def critical_length(scene: "Scene") -> float:
 
 
 def _kappa(scene: "Scene") -> tuple[float, str | None]:
-    """``kappa`` of :data:`CRITICAL_FACTOR`, and the first body near a grid side that lowers it (or ``None``)."""
-    interior, boundary = CRITICAL_FACTOR[scene.grid.degree]
+    """``kappa`` of :data:`CRITICAL_FACTOR` (:data:`CRITICAL_FACTOR_3D` in 3D),
+    and the first body near a grid side that lowers it (or ``None``)."""
+    interior, boundary = _FACTORS[scene.dim][0][scene.grid.degree]
     side = next((b.name for b in scene.bodies if _near_side(scene, b)), None)
     return (boundary if side is not None else interior), side
 
 
 def _near_side(scene: "Scene", body: Body) -> bool:
     """Whether the body's bounding box reaches the end functions of the grid."""
-    (i0, i1), (j0, j1) = cell_range(body, scene.grid)
-    p, (nx, ny) = scene.grid.degree, scene.grid.cells
-    return i0 < p or j0 < p or i1 > nx - p or j1 > ny - p
+    p = scene.grid.degree
+    return any(a < p or b > n - p for (a, b), n in zip(cell_range(body, scene.grid), scene.grid.cells))
 
 
 def steps(end: float, dt: float) -> int:

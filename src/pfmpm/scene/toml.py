@@ -90,15 +90,18 @@ def read_toml(path: Path | str) -> dict:
 
 def _files_from(tables: dict, folder: Path) -> None:
     """Make the relative ``file`` of every body's shape and holes (mesh and
-    image shapes) relative to ``folder``, the scene file's."""
+    image shapes, also those an extrusion extrudes) relative to ``folder``,
+    the scene file's."""
     bodies = tables.get("bodies")
     for body in bodies if isinstance(bodies, list) else ():
         if not isinstance(body, dict):
             continue
         holes = body.get("holes")
         for shape in [body.get("shape"), *(holes if isinstance(holes, list) else ())]:
-            if isinstance(shape, dict) and isinstance(shape.get("file"), str) and shape["file"]:
-                shape["file"] = str(folder / shape["file"])
+            while isinstance(shape, dict):
+                if isinstance(shape.get("file"), str) and shape["file"]:
+                    shape["file"] = str(folder / shape["file"])
+                shape = shape.get("shape")  # the 2D shape of an extrusion
 
 
 def plain(value: Any) -> Any:
@@ -238,11 +241,17 @@ def _damage(table: Any) -> Any:
                   {"weibull": lambda w: _build(WeibullSpec, w)}, extra=("model",))
 
 
+def _shape(table: Any) -> Any:
+    """Build a shape: its ``type`` key selects the class, and an extrusion's
+    ``shape`` is a shape table in turn."""
+    return _typed(table, SHAPES, {"shape": _shape})
+
+
 def _body(table: Any) -> Body:
     """Build a :class:`Body`, converting its shape and holes tables."""
     return _build(Body, table, {
-        "shape": lambda t: _typed(t, SHAPES),
-        "holes": lambda v: _tables(v, lambda t: _typed(t, SHAPES)),
+        "shape": _shape,
+        "holes": lambda v: _tables(v, _shape),
     })
 
 

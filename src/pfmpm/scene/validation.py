@@ -18,13 +18,15 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["SceneError", "MAX_COUNT", "WHOLE_TOL", "at", "fmt", "key_text", "real", "integer",
-           "vec2", "text", "choice", "seq", "store", "reference"]
+__all__ = ["SceneError", "MAX_COUNT", "WHOLE_TOL", "DIMENSIONS", "at", "fmt", "key_text", "real", "integer",
+           "vec2", "vector", "same_dimension", "planar", "text", "choice", "seq", "store", "reference"]
 
 MAX_COUNT = 2**31 - 1
 """Cells, particles and iteration limits are indexed with int32 in the core."""
 WHOLE_TOL = 1e-9
 """Relative tolerance of "a whole number" (of cells, of steps)."""
+DIMENSIONS = (2, 3)
+"""The directions a scene may have: its grid's ``size`` gives 2 or 3."""
 
 _NO_VALUE = object()
 _BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")
@@ -145,6 +147,31 @@ def vec2(path: str, value: Any, **bounds: float) -> tuple[float, float]:
     if not isinstance(value, (list, tuple)) or len(value) != 2:
         raise SceneError(path, "must be a list of 2 numbers", value)
     return (real(f"{path}[0]", value[0], **bounds), real(f"{path}[1]", value[1], **bounds))
+
+
+def vector(path: str, value: Any, **bounds: float) -> tuple[float, ...]:
+    """Check a vector of one finite number per direction, 2 or 3 of them
+    (:data:`DIMENSIONS`), each within ``bounds``; whether their count is the
+    scene's is checked against the whole scene (:func:`same_dimension`)."""
+    if isinstance(value, np.ndarray):
+        value = value.tolist()
+    if not isinstance(value, (list, tuple)) or len(value) not in DIMENSIONS:
+        raise SceneError(path, "must be a list of 2 or 3 numbers (one per direction)", value)
+    return tuple(real(f"{path}[{i}]", v, **bounds) for i, v in enumerate(value))
+
+
+def same_dimension(path: str, value: Any, dim: int) -> None:
+    """Check that a vector (or a square matrix, by its rows) has one entry
+    per direction of a ``dim``-dimensional scene."""
+    if len(value) != dim:
+        raise SceneError(path, f"has {len(value)} components, but the scene is {dim}D"
+                               f" (grid.size has {dim} entries)", value)
+
+
+def planar(path: str, what: str, value: Any = _NO_VALUE) -> SceneError:
+    """The error of a two-dimensional feature, ``what``, used in a 3D scene."""
+    return SceneError(path, f"{what} is two-dimensional yet, and the scene is 3D"
+                            " (grid.size has 3 entries)", value)
 
 
 def text(path: str, value: Any, *, empty: bool = False) -> str:
