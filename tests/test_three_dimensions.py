@@ -1,0 +1,262 @@
+"""Scenes in three dimensions: a slab between slip walls against the 2D
+plane-strain run, the 3D shapes' seeding, the VTU output, a resumed run, the
+bench's cube, and the one-line errors of a 2D feature in 3D and of a 3D key
+in 2D."""
+
+from __future__ import annotations
+
+import copy
+import math
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import meshio
+import numpy as np
+import pytest
+
+from pfmpm import Scene, Simulation, checkpoint
+from pfmpm.bench import bench
+from pfmpm.cli import main
+from pfmpm.output import read_csv
+from pfmpm.scene import Body, Box, Cylinder, Disk, Extrusion, GridSpec, LinearElasticSpec, SceneError, Sphere, Time
+from pfmpm.scene.toml import read_toml
+
+ROOT = Path(__file__).resolve().parents[1]
+BAR = ROOT / "demos" / "vibrating_bar.toml"
+BAR3D = ROOT / "demos" / "bar3d.toml"
+STEPS, DT = 200, 0.03
+"""The slab runs 200 steps of a fixed dt below both dimensions' limits."""
+RUN = [f"time.dt={DT}", f"time.end={STEPS * DT}", "output.energies_every=1", "output.particles=false",
+       "bodies.bar.particles_per_cell=2"]
+
+
+def slab(tables: dict) -> dict:
+    """The 2D scene ``tables`` as a slab two cells thick (z in [-h, h], so its
+    mid-plane is z = 0) between slip walls normal to z: every shape extruded,
+    every vector given a zero z component."""
+    d = copy.deepcopy(tables)
+    h = d["grid"]["h"]
+    d["grid"]["size"] = [*d["grid"]["size"], 2 * h]
+    d["grid"]["origin"] = [*d["grid"].get("origin", [0.0, 0.0]), -h]
+    for body in d["bodies"]:
+        body["shape"] = {"type": "extrusion", "shape": body["shape"], "z0": -h, "z1": h}
+    for load in d.get("loads", []):
+        load["traction"] = [*load["traction"], 0.0]
+    d["walls"] = d.get("walls", []) + [{"side": "back", "type": "slip"}, {"side": "front", "type": "slip"}]
+    return d
+
+
+def test_slab_between_slip_walls_is_the_plane_strain_run(tmp_path):
+    """The vibrating bar (quadratic B-splines, 2 x 2 particles per cell at 1/4
+    and 3/4 of a cell, fixed left wall, traction step) and its slab two cells
+    thick: per unit thickness the slab's energies.csv is the plane-strain
+    run's to 1e-10 over 200 steps, as are its mass and its angular momentum
+    about z (the 2D scalar), and nothing moves out of the plane."""
+    plane = Scene.from_toml(BAR, RUN)
+    solid = Scene.from_dict(slab(read_toml(BAR)), RUN)
+    assert solid.dim == 3 and solid.dt() == plane.dt() == DT
+    thickness = 2.0 * plane.grid.h
+    for scene, out in ((plane, tmp_path / "plane"), (solid, tmp_path / "slab")):
+        assert Simulation(scene).run(out, progress=False).status == "completed"
+    a, b = read_csv(tmp_path / "plane" / "energies.csv"), read_csv(tmp_path / "slab" / "energies.csv")
+    assert len(a["step"]) == len(b["step"]) == STEPS + 1
+    energy, momentum = np.abs(a["external_work"]).max(), np.abs(a["momentum_x"]).max()
+    scales = {"kinetic": energy, "elastic": energy, "external_work": energy, "total": energy,
+              "wall_work": energy, "momentum_x": momentum, "momentum_y": momentum,
+              "impulse_left_x": momentum, "impulse_left_y": momentum}
+    gaps = {k: np.abs(a[k] - b[k] / thickness).max() / scale for k, scale in scales.items()}
+    assert max(gaps.values()) < 1e-10, gaps
+    assert a["elastic"].max() > 0.3 * energy, "the bar should have stretched"
+    assert np.abs(b["momentum_z"]).max() < 1e-12 * momentum * thickness
+    # About the mid-plane z = 0 the in-plane components of L cancel pair by pair.
+    assert np.abs(b["angular_momentum_x"]).max() + np.abs(b["angular_momentum_y"]).max() < 1e-12 * momentum
+    # The mass and the 2D angular momentum are not columns of a 2D run: step by step.
+    sims = Simulation(plane), Simulation(solid)
+    worst = 0.0
+    for _ in range(STEPS):
+        for sim in sims:
+            sim.advance(1)
+        e2, e3 = (sim.energies() for sim in sims)
+        worst = max(worst, abs(e2["mass"] - e3["mass"] / thickness) / e2["mass"],
+                    abs(e2["angular_momentum"] - e3["angular_momentum_z"] / thickness) / (25.0 * momentum))
+        assert e2["momentum_x"] == pytest.approx(e3["momentum_x"] / thickness, rel=0, abs=1e-10 * momentum)
+    assert worst < 1e-10
+
+
+@pytest.mark.parametrize("shape, volume", [
+    (Sphere(center=(5.0, 5.0, 5.0), radius=3.0), 4.0 / 3.0 * math.pi * 27.0),
+    (Cylinder(start=(2.0, 3.0, 4.0), end=(8.0, 6.0, 6.0), radius=1.5), math.pi * 2.25 * 7.0),
+    (Extrusion(Disk(center=(5.0, 5.0), radius=3.0), z0=1.0, z1=9.0), math.pi * 9.0 * 8.0),
+])
+def test_3d_shapes_seed_their_volume(shape, volume):
+    """The particles' volumes add up to the shape's within 2 % (a lattice of
+    spacing h/2 at h = 0.5), and every particle lies in the shape."""
+    scene = Scene(grid=GridSpec(size=(10.0, 10.0, 10.0), h=0.5), time=Time(end=1.0),
+                  materials=(LinearElasticSpec(name="m", E=100.0, nu=0.3, density=2.0),),
+                  bodies=(Body(name="b", material="m", shape=shape),))
+    p = scene.particles()
+    assert p["x"].shape[1] == 3 and shape.contains(*p["x"].T).all()
+    assert p["volume"] == pytest.approx(0.25**3)
+    assert p["volume"].sum() == pytest.approx(volume, rel=0.02)
+    assert p["mass"].sum() == pytest.approx(2.0 * p["volume"].sum())
+
+
+def test_a_box_seeds_n_cubed_per_cell_in_cell_order():
+    """A box of 2 x 3 x 4 cells with 3 x 3 x 3 per cell: 648 particles at the
+    sub-cell centres, numbered by cell (x outer, z fastest), then x fastest
+    within it."""
+    scene = Scene(grid=GridSpec(size=(4.0, 4.0, 5.0), h=1.0, origin=(0.0, 0.0, -1.0)), time=Time(end=1.0),
+                  materials=(LinearElasticSpec(name="m", E=100.0, nu=0.3, density=1.0),),
+                  bodies=(Body(name="b", material="m", shape=Box(min=(1.0, 0.0, -1.0), max=(3.0, 3.0, 3.0)),
+                               particles_per_cell=3, velocity=(1.0, 2.0, 3.0)),))
+    p = scene.particles()
+    x = p["x"]
+    assert len(x) == 2 * 3 * 4 * 27
+    assert np.allclose(x[:4], [[1 + 1 / 6, 1 / 6, -1 + 1 / 6], [1.5, 1 / 6, -1 + 1 / 6],
+                              [1 + 5 / 6, 1 / 6, -1 + 1 / 6], [1 + 1 / 6, 0.5, -1 + 1 / 6]])
+    cells = np.floor(x - [0.0, 0.0, -1.0]).astype(int)
+    key = (cells[:, 0] * 4 + cells[:, 1]) * 5 + cells[:, 2]
+    assert np.all(np.diff(key) >= 0)
+    assert np.allclose(p["v"], [1.0, 2.0, 3.0]) and p["volume"].sum() == pytest.approx(24.0)
+
+
+def test_3d_run_writes_3d_points_and_six_stress_components(tmp_path):
+    """The VTU files of a 3D run hold 3D points and the symmetric stress as
+    ParaView's six components (xx, yy, zz, xy, yz, xz), read back with
+    meshio; energies.csv has the z momentum, the angular momentum and the
+    walls' impulses in z."""
+    out = tmp_path / "bar3d"
+    scene = Scene.from_toml(BAR3D, ["time.end=1.0", "output.every=20", "bodies.bar.particles_per_cell=1",
+                                    "grid.h=1.0"])
+    sim = Simulation(scene)
+    assert sim.particles.x.shape == (len(sim.particles), 3) and sim.particles.stress.shape[1] == 6
+    assert np.shares_memory(sim.particles.x, sim.particles.x)  # a view of the core's column
+    result = sim.run(out, progress=False)
+    last = meshio.read(out / f"particles_{result.steps:06d}.vtu")
+    assert np.array_equal(last.points, sim.particles.x)
+    assert np.ptp(last.points[:, 2]) > 0.5
+    stress = last.point_data["stress"]
+    assert stress.shape == (len(sim.particles), 6)
+    assert np.array_equal(stress, sim.particles.stress[:, [0, 1, 3, 2, 4, 5]])
+    assert np.abs(stress[:, 0]).max() > 0.01  # the traction's sigma_xx
+    assert last.point_data["velocity"].shape[1] == 3
+    e = read_csv(out / "energies.csv")
+    assert {"momentum_z", "angular_momentum_z", "impulse_left_z", "wall_work"} <= e.keys()
+    assert e["impulse_left_x"][-1] < 0.0  # the fixed wall holds the bar against the traction
+
+
+def test_3d_run_resumes_bitwise(tmp_path):
+    """A 3D run resumed from its checkpoint writes the same files as the run
+    that went on."""
+    full = tmp_path / "full"
+    args = ["run", str(BAR3D), "--set", "time.end=4.0", "--set", "output.every=25", "--set", "grid.h=1.0",
+            "--set", "bodies.bar.particles_per_cell=1", "--quiet"]
+    assert main([*args, "--out", str(full), "--checkpoint-every", "50", "--keep", "5"]) == 0
+    names = [p.name for p in checkpoint.list_checkpoints(full / "checkpoints")]
+    assert names[:2] == ["step_000000050.h5", "step_000000100.h5"]
+    part = tmp_path / "part"
+    shutil.copytree(full, part)
+    for name in names[1:]:
+        (part / "checkpoints" / name).unlink()
+    assert main(["run", "--resume", str(part), "--quiet"]) == 0
+    files = [p.name for p in sorted(full.iterdir()) if p.suffix in (".csv", ".vtu", ".pvd")]
+    assert len(files) >= 5
+    for name in files:
+        assert (full / name).read_bytes() == (part / name).read_bytes(), f"{name} differs after resuming"
+
+
+def test_bench_cube():
+    r = bench(particles=1000, steps=2, repeats=1, dim=3)
+    assert r["dim"] == 3 and r["per_cell"] == 2 and r["particles"] == 5**3 * 8  # 5 cells a side
+    assert r["particle_steps_per_s"] == pytest.approx(r["particles"] * 2 / r["seconds"])
+    with pytest.raises(ValueError, match="dim = 3: physics must be elastic"):
+        bench(physics="contact", particles=1000, dim=3)
+
+
+def solid() -> dict:
+    """A small valid 3D scene, as tables."""
+    return {"name": "cube", "grid": {"size": [6.0, 6.0, 6.0], "h": 1.0}, "time": {"end": 1.0},
+            "materials": [{"name": "m", "E": 100.0, "nu": 0.3, "density": 1.0}],
+            "bodies": [{"name": "b", "material": "m",
+                        "shape": {"type": "box", "min": [2.0, 2.0, 2.0], "max": [4.0, 4.0, 4.0]}}]}
+
+
+def flat() -> dict:
+    """A small valid 2D scene, as tables."""
+    return {"name": "square", "grid": {"size": [6.0, 6.0], "h": 1.0}, "time": {"end": 1.0},
+            "materials": [{"name": "m", "E": 100.0, "nu": 0.3, "density": 1.0}],
+            "bodies": [{"name": "b", "material": "m",
+                        "shape": {"type": "rectangle", "min": [2.0, 2.0], "max": [4.0, 4.0]}}]}
+
+
+BAD = [
+    # a 2D feature in a 3D scene
+    (solid, ['bodies.b.shape={type = "rectangle", min = [2.0, 2.0], max = [4.0, 4.0]}'],
+     "bodies[0].shape = 'rectangle': a 2D shape (rectangle) in a 3D scene (grid.size has 3 entries); extrude it"),
+    (solid, ['bodies.b.holes=[{type = "disk", center = [3.0, 3.0], radius = 0.5}]'],
+     "bodies[0].holes[0] = 'disk': a 2D shape (disk) in a body of the 3D shape box"),
+    (solid, ["materials.m.fracture={Gc = 1.0, l0 = 2.0}"],
+     "materials[0].fracture: the phase field (a fracture table) is two-dimensional yet, and the scene is 3D"),
+    (solid, ['materials.m.model="drucker_prager"', "materials.m.friction_angle=30.0", "materials.m.cohesion=1.0"],
+     "materials[0].model = 'drucker_prager': the drucker_prager model is two-dimensional yet"),
+    (solid, ['plane="stress"'], "plane = 'stress': plane stress is two-dimensional yet"),
+    (solid, ['grid.shape="cpdi"', "grid.degree=1"], "grid.shape = 'cpdi': CPDI is two-dimensional yet"),
+    (solid, ['contact={friction = 0.3}'], "contact: contact is two-dimensional yet"),
+    (solid, ["cracks=[{points = [[2.0, 3.0], [3.0, 3.0]]}]"],
+     "cracks: an initial crack (it seeds the phase field) is two-dimensional yet"),
+    (solid, ["bodies.b.orientation=30.0"], "bodies[0].orientation = 30.0: the material orientation is"
+                                           " two-dimensional yet"),
+    (solid, ["bodies.b.velocity=[1.0, 0.0]"],
+     "bodies[0].velocity = [1.0, 0.0]: has 2 components, but the scene is 3D (grid.size has 3 entries)"),
+    (solid, ['loads=[{type = "body_force", acceleration = [0.0, -1.0]}]'],
+     "loads[0].acceleration = [0.0, -1.0]: has 2 components, but the scene is 3D"),
+    (solid, ['loads=[{type = "traction", body = "b", edge = "top", traction = [0.0, 1.0, 0.0], span = [2.0, 3.0]}]'],
+     "loads[0].span = [2.0, 3.0]: a traction's span is two-dimensional yet"),
+    (solid, ["grid.origin=[0.0, 0.0]"], "grid.origin = [0.0, 0.0]: has 2 components, but the scene is 3D"),
+    (solid, ['bodies.b.shape={type = "extrusion", shape = {type = "box", min = [0, 0, 0], max = [1, 1, 1]},'
+             " z0 = 0.0, z1 = 1.0}"], "bodies[0].shape.shape = 'box': a 3D shape (box): an extrusion takes a 2D one"),
+    (solid, ['bodies.b.shape={type = "cylinder", start = [1.0, 1.0, 1.0], end = [1.0, 1.0, 1.0], radius = 1.0}'],
+     "bodies[0].shape.end = [1.0, 1.0, 1.0]: must lie a finite distance from start"),
+    # a 3D key in a 2D scene
+    (flat, ['walls=[{side = "back", type = "slip"}]'],
+     "walls[0].side = 'back': a side of a 3D grid (z min or max); a 2D grid has left, right, bottom, top"),
+    (flat, ["grid.size=[6.0, 6.0, 6.0]"],
+     "bodies[0].shape = 'rectangle': a 2D shape (rectangle) in a 3D scene"),
+    (flat, ["grid.origin=[0.0, 0.0, 0.0]"], "grid.origin = [0.0, 0.0, 0.0]: has 3 components, but the scene is 2D"),
+    (flat, ['bodies.b.shape={type = "sphere", center = [3.0, 3.0, 3.0], radius = 1.0}'],
+     "bodies[0].shape = 'sphere': a 3D shape (sphere) in a 2D scene (grid.size has 2 entries)"),
+    (flat, ['loads=[{type = "traction", body = "b", edge = "front", traction = [0.0, 1.0]}]'],
+     "loads[0].edge = 'front': a side of a 3D grid (z min or max)"),
+    (flat, ['loads=[{type = "traction", body = "b", edge = "top", traction = [0.0, 1.0, 0.0]}]'],
+     "loads[0].traction = [0.0, 1.0, 0.0]: has 3 components, but the scene is 2D"),
+    (flat, ['prescribed=[{name = "grip", body = "b", velocity = [0.0, 1.0], components = "z"}]'],
+     "prescribed[0].components = 'z': must be one of 'x', 'y', 'xy'"),
+    (flat, ['initial_damage=[{min = [0.0, 0.0, 0.0], max = [1.0, 1.0, 1.0]}]'],
+     "initial_damage[0].min = [0.0, 0.0, 0.0]: has 3 components, but the scene is 2D"),
+]
+
+
+@pytest.mark.parametrize("tables, sets, message", BAD, ids=[m.split(":")[0] for _, _, m in BAD])
+def test_bad_dimensions_are_one_line_errors(tables, sets, message):
+    with pytest.raises(SceneError) as err:
+        Scene.from_dict(tables(), sets)
+    assert str(err.value).startswith(message) and "\n" not in str(err.value)
+
+
+def test_pfmpm_run_of_a_bad_3d_scene_is_one_line(tmp_path):
+    """No traceback from the command line either; and the FEM path says it is 2D."""
+    scene = tmp_path / "bad.toml"
+    scene.write_text(BAR3D.read_text().replace('type = "cylinder"', 'type = "disk"'))
+    for command in ("run", "fem"):
+        r = subprocess.run([sys.executable, "-m", "pfmpm.cli", command, str(scene), "--out", str(tmp_path / "o"),
+                            "--quiet"], capture_output=True, text=True)
+        lines = r.stderr.strip().splitlines()
+        assert r.returncode == 2 and len(lines) == 1 and "Traceback" not in r.stderr, r.stderr
+        assert lines[0].startswith("error: bodies[0].shape")
+    r = subprocess.run([sys.executable, "-m", "pfmpm.cli", "fem", str(BAR3D), "--out", str(tmp_path / "f"),
+                        "--quiet"], capture_output=True, text=True)
+    assert r.returncode == 2 and r.stderr.strip() == ("error: grid.size = [30.0, 4.0, 4.0]: the FEM path is"
+                                                      " two-dimensional yet, and the scene is 3D (grid.size has"
+                                                      " 3 entries)")
