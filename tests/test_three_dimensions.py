@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 from pfmpm import Scene, Simulation, checkpoint
+from pfmpm.animate import animate
 from pfmpm.bench import bench
 from pfmpm.cli import main
 from pfmpm.output import read_csv
@@ -128,7 +129,7 @@ def test_3d_run_writes_3d_points_and_six_stress_components(tmp_path):
     """The VTU files of a 3D run hold 3D points and the symmetric stress as
     ParaView's six components (xx, yy, zz, xy, yz, xz), read back with
     meshio; energies.csv has the z momentum, the angular momentum and the
-    walls' impulses in z."""
+    walls' impulses in z; pfmpm animate, which draws 2D runs, says so."""
     out = tmp_path / "bar3d"
     scene = Scene.from_toml(BAR3D, ["time.end=1.0", "output.every=20", "bodies.bar.particles_per_cell=1",
                                     "grid.h=1.0"])
@@ -147,6 +148,8 @@ def test_3d_run_writes_3d_points_and_six_stress_components(tmp_path):
     e = read_csv(out / "energies.csv")
     assert {"momentum_z", "angular_momentum_z", "impulse_left_z", "wall_work"} <= e.keys()
     assert e["impulse_left_x"][-1] < 0.0  # the fixed wall holds the bar against the traction
+    with pytest.raises(ValueError, match="a 3D run, and pfmpm animate draws 2D ones"):
+        animate(out, field="volume")
 
 
 def test_3d_run_resumes_bitwise(tmp_path):

@@ -105,7 +105,8 @@ def animate(run_dir: Path | str, output: Path | str | None = None, field: str = 
     FileNotFoundError, KeyError
         See :func:`frames`.
     ValueError
-        For an output other than .gif and .mp4, or .mp4 without ffmpeg.
+        For an output other than .gif and .mp4, or .mp4 without ffmpeg, or
+        the run of a 3D scene.
     """
     from matplotlib import animation
 
@@ -119,9 +120,13 @@ def animate(run_dir: Path | str, output: Path | str | None = None, field: str = 
         writer = animation.FFMpegWriter(fps=fps)
     else:
         raise ValueError(f"{output}: write a .gif or an .mp4")
-    shots = frames(run_dir, field)
     summary = run_dir / "summary.json"
-    units = unit_system(json.loads(summary.read_text()).get("units", "") if summary.is_file() else "")
+    written = json.loads(summary.read_text()) if summary.is_file() else {}
+    if len(written.get("grid", {}).get("cells", ())) == 3:
+        raise ValueError(f"{run_dir}: a 3D run, and pfmpm animate draws 2D ones; open its particles.pvd"
+                         " in ParaView")
+    shots = frames(run_dir, field)
+    units = unit_system(written.get("units", ""))
     # One pixel per point spacing of the first frame, over the box of all frames.
     from scipy.spatial import cKDTree
 
