@@ -100,7 +100,9 @@ public:
     else
     {
       double* eps = &v.strain[6 * p];
+#pragma GCC unroll 3
       for (int i = 0; i < 3; ++i)
+#pragma GCC unroll 3
         for (int j = i; j < 3; ++j)
           eps[symmetric_entry(i, j)] += i == j ? dt * L[4 * i] : 0.5 * dt * (L[3 * i + j] + L[3 * j + i]);
     }
@@ -116,8 +118,10 @@ public:
       const double* eps = &v.strain[6 * p];
       double* sig = &v.stress[6 * p];
       const double tr = eps[0] + eps[1] + eps[3];
+#pragma GCC unroll 6
       for (int k = 0; k < 6; ++k)
         sig[k] = 2.0 * _mu * eps[k];
+#pragma GCC unroll 3
       for (int d = 0; d < 3; ++d)
         sig[symmetric_entry(d, d)] += _lambda3 * tr;
     }
