@@ -125,6 +125,31 @@ def test_a_box_seeds_n_cubed_per_cell_in_cell_order():
     assert np.allclose(p["v"], [1.0, 2.0, 3.0]) and p["volume"].sum() == pytest.approx(24.0)
 
 
+def test_weibull_strengths_scale_with_the_3d_particle_volume():
+    """A neo-Hookean cube with Rankine damage and a Weibull strength field (H&H
+    eq. 25): its 13,824 strengths, drawn for particles of volume (h/2)^3, pass
+    a Kolmogorov-Smirnov test against P(sigma_f < s) = 1 - exp(-ln 2 (V /
+    V_ref) (s / sigma_ref)^m) with that volume, and fail it with the volume a
+    2D scene's particle of the same lattice would have, (h/2)^2 times a unit
+    thickness."""
+    from scipy import stats
+
+    from pfmpm.scene import NeoHookeanSpec, RankineSpec, WeibullSpec
+    h = 0.5
+    weibull = WeibullSpec(m=6.0, V_ref=0.01, seed=5)
+    rock = NeoHookeanSpec(name="rock", E=100.0, nu=0.3, density=1.0,
+                          damage=RankineSpec(sigma_f=2.0, Gf=1.0, weibull=weibull))
+    scene = Scene(grid=GridSpec(size=(8.0, 8.0, 8.0), h=h), time=Time(end=1.0), materials=(rock,),
+                  bodies=(Body(name="cube", material="rock", shape=Box(min=(1.0, 1.0, 1.0), max=(7.0, 7.0, 7.0))),))
+    sim = Simulation(scene)
+    strength = np.asarray(sim.particles.sigma_f)
+    V = (h / 2) ** 3
+    assert len(strength) == 13_824 and np.asarray(sim.particles.volume) == pytest.approx(V)
+    assert stats.kstest(strength, lambda s: weibull.cdf(s, 2.0, V)).pvalue > 0.01
+    assert stats.kstest(strength, lambda s: weibull.cdf(s, 2.0, (h / 2) ** 2)).pvalue < 1e-6
+    assert np.median(strength) == pytest.approx(weibull.median(2.0, V), rel=0.03)
+
+
 def test_3d_run_writes_3d_points_and_six_stress_components(tmp_path):
     """The VTU files of a 3D run hold 3D points and the symmetric stress as
     ParaView's six components (xx, yy, zz, xy, yz, xz), read back with
