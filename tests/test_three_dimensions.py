@@ -150,6 +150,31 @@ def test_weibull_strengths_scale_with_the_3d_particle_volume():
     assert np.median(strength) == pytest.approx(weibull.median(2.0, V), rel=0.03)
 
 
+def test_three_failed_planes_cut_a_cube_into_eight_fragments():
+    """A cube 4 x 4 x 4 (h = 0.5, 2 x 2 x 2 per cell: spacing 0.25) failed at
+    t = 0 on the two layers of particles at each midplane: its intact
+    particles link (within 1.5 spacings, scipy's connected components) into
+    eight fragments, each of 7^3 particles, whose equivalent diameter is that
+    of the ball of their volume, (6 V / pi)^(1/3)."""
+    from pfmpm.post.fragments import LINK, failed, fragment_sizes
+    from pfmpm.scene import InitialDamage, NeoHookeanSpec, RankineSpec
+    rock = NeoHookeanSpec(name="rock", E=100.0, nu=0.3, density=2.0, damage=RankineSpec(sigma_f=1.0, Gf=1.0))
+    planes = tuple(InitialDamage(D=1.0, min=tuple(1.8 if k == d else -1.0 for k in range(3)),
+                                 max=tuple(2.2 if k == d else 5.0 for k in range(3))) for d in range(3))
+    scene = Scene(grid=GridSpec(size=(6.0, 6.0, 6.0), h=0.5, origin=(-1.0, -1.0, -1.0)), time=Time(end=1.0),
+                  materials=(rock,), initial_damage=planes,
+                  bodies=(Body(name="cube", material="rock", shape=Box(min=(0.0, 0.0, 0.0), max=(4.0, 4.0, 4.0))),))
+    p = Simulation(scene).particles
+    intact = ~failed(p.damage)
+    assert np.count_nonzero(~intact) == 16**3 - 14**3  # the two layers of particles at each midplane
+    sizes, masses = fragment_sizes(np.asarray(p.x)[intact], np.asarray(p.volume)[intact],
+                                   np.asarray(p.mass)[intact], LINK * 0.25)
+    volume = 7**3 * 0.25**3
+    assert len(sizes) == 8
+    assert sizes == pytest.approx(np.full(8, (6.0 * volume / math.pi) ** (1 / 3)), rel=1e-14)
+    assert masses == pytest.approx(np.full(8, 2.0 * volume), rel=1e-14)
+
+
 def test_3d_run_writes_3d_points_and_six_stress_components(tmp_path):
     """The VTU files of a 3D run hold 3D points and the symmetric stress as
     ParaView's six components (xx, yy, zz, xy, yz, xz), read back with

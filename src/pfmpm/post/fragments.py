@@ -39,7 +39,7 @@ MIN_POINTS = 4
 
 
 def linked_sets(x: np.ndarray, radius: float) -> np.ndarray:
-    """Label of the connected set of each point of ``x`` (N, 2), two points
+    """Label of the connected set of each point of ``x`` (N, 2) or (N, 3), two points
     linked when closer than ``radius`` (scipy's connected components)."""
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
@@ -60,26 +60,32 @@ def count_fragments(x: np.ndarray, spacing: float) -> int:
     return int(np.count_nonzero(np.bincount(linked_sets(x, LINK * spacing)) >= MIN_POINTS))
 
 
-def fragment_sizes(x: np.ndarray, area: np.ndarray, mass: np.ndarray,
+def fragment_sizes(x: np.ndarray, measure: np.ndarray, mass: np.ndarray,
                    radius: float) -> tuple[np.ndarray, np.ndarray]:
-    """Sizes and masses of the fragments that the particles ``x`` (N, 2) form.
+    """Sizes and masses of the fragments that the particles ``x`` (N, 2) or
+    (N, 3) form.
 
     Two particles belong to one fragment when closer than ``radius`` (in the
     configuration ``x``; linked through others, as connected components). A
-    fragment's size is its equivalent diameter sqrt(4 A / pi), A the sum of
-    its particles' ``area``; its mass the sum of their ``mass``.
+    fragment's size is its equivalent diameter, that of the disk of its area
+    in 2D, sqrt(4 A / pi), or of the ball of its volume in 3D, (6 V / pi)^(1/3),
+    with A or V the sum of its particles' ``measure``; its mass the sum of
+    their ``mass``.
 
     Returns
     -------
     sizes, masses : ndarray
         One entry per fragment, in no particular order (empty for no particles).
     """
-    x = np.asarray(x, dtype=float).reshape(-1, 2)
+    x = np.asarray(x, dtype=float)
+    if x.ndim != 2:
+        x = x.reshape(-1, 2)
     if len(x) == 0:
         return np.zeros(0), np.zeros(0)
     labels = linked_sets(x, radius)
-    areas = np.bincount(labels, weights=np.asarray(area, dtype=float))
-    return np.sqrt(4.0 * areas / math.pi), np.bincount(labels, weights=np.asarray(mass, dtype=float))
+    total = np.bincount(labels, weights=np.asarray(measure, dtype=float))
+    sizes = np.sqrt(4.0 * total / math.pi) if x.shape[1] == 2 else np.cbrt(6.0 * total / math.pi)
+    return sizes, np.bincount(labels, weights=np.asarray(mass, dtype=float))
 
 
 def size_distribution(sizes: np.ndarray, masses: np.ndarray,
@@ -114,9 +120,12 @@ def median_size(sizes: np.ndarray, masses: np.ndarray, smallest: float) -> float
 
 
 def mean_speed(v: np.ndarray, mass: np.ndarray) -> float:
-    """Mass-weighted mean particle speed ``sum M_p |v_p| / sum M_p``."""
-    v, mass = np.asarray(v, dtype=float).reshape(-1, 2), np.asarray(mass, dtype=float)
-    return float(np.sum(mass * np.hypot(v[:, 0], v[:, 1])) / np.sum(mass))
+    """Mass-weighted mean particle speed ``sum M_p |v_p| / sum M_p`` of
+    velocities ``v`` (N, 2) or (N, 3)."""
+    v, mass = np.asarray(v, dtype=float), np.asarray(mass, dtype=float)
+    if v.ndim != 2:
+        v = v.reshape(-1, 2)
+    return float(np.sum(mass * np.linalg.norm(v, axis=1)) / np.sum(mass))
 
 
 def _spacing(scene: Scene) -> float:
