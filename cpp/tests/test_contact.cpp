@@ -207,7 +207,7 @@ Correction correct(const std::vector<NodeField>& fields, const std::vector<doubl
   const int n = static_cast<int>(fields.size());
   const int nfields = static_cast<int>(std::lround(std::sqrt(friction.size())));
   std::vector<NodeSums<2>> sums(n);
-  std::vector<SurfaceSums> surface(n);
+  std::vector<SurfaceSums<2>> surface(n);
   std::vector<std::int32_t> field(n);
   std::vector<NodeKinematics<2>> k(n);
   Correction c;
@@ -215,7 +215,7 @@ Correction correct(const std::vector<NodeField>& fields, const std::vector<doubl
   {
     const NodeField& f = fields[j];
     sums[j] = NodeSums<2>{f.m, {f.m * f.vx, f.m * f.vy}, {0.0, 0.0}, {0.0, 0.0}};
-    surface[j] = SurfaceSums{f.gx, f.gy, f.V, 0.0, 0.0};
+    surface[j] = SurfaceSums<2>{{f.gx, f.gy}, f.V, 0.0, 0.0};
     field[j] = f.field;
     const double v[2] = {sums[j].p[0] / f.m, sums[j].p[1] / f.m}; // the trial velocity (eq. 64)
     c.ke0 += 0.5 * f.m * (v[0] * v[0] + v[1] * v[1]);
@@ -224,8 +224,8 @@ Correction correct(const std::vector<NodeField>& fields, const std::vector<doubl
     c.pscale += f.m * std::hypot(v[0], v[1]);
   }
   std::array<double, GridUpdate<2>::size> acc{};
-  update_contact_node(n, sums.data(), surface.data(), field.data(), friction.data(), nfields,
-                      touch_fill, NodeHold{}, nullptr, dt, 1e-300, k.data(), acc.data());
+  update_contact_node<2>(n, sums.data(), surface.data(), field.data(), friction.data(), nfields,
+                         touch_fill, NodeHold{}, nullptr, dt, 1e-300, k.data(), acc.data());
   for (int j = 0; j < n; ++j)
   {
     c.ke1 += 0.5 * fields[j].m * (k[j].v[0] * k[j].v[0] + k[j].v[1] * k[j].v[1]);

@@ -663,8 +663,8 @@ TEST(Coulomb, PairForcesAreExactlyOpposite)
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   for (int k = 0; k < 1000; ++k)
   {
-    TrialField f[2];
-    for (TrialField& t : f)
+    TrialField<2> f[2];
+    for (TrialField<2>& t : f)
     {
       t.m = 1.0 + u(rng) * u(rng);
       for (int d = 0; d < 2; ++d)
@@ -679,7 +679,7 @@ TEST(Coulomb, PairForcesAreExactlyOpposite)
     const std::int32_t field[2] = {0, 1};
     const double friction[4] = {0.0, 0.4, 0.4, 0.0};
     double fn[2][2]{}, ft[2][2]{}, count[contact_counts]{}, impulse[2 * max_field_pairs]{};
-    ContactPair pairs[1];
+    ContactPair<2> pairs[1];
     coulomb_forces(2, f, live, field, friction, 2, 1.0, 1e-2, fn, ft, pairs, count, impulse);
     for (int d = 0; d < 2; ++d)
     {

@@ -2,7 +2,8 @@
 /// @brief The solver in 3D: a slab one cell thick between slip walls steps as
 /// the 2D plane-strain run; a free bar rings at its longitudinal period; a
 /// body spinning about an oblique axis keeps its angular momentum with APIC;
-/// 1 and 2 threads, and a resumed run, give the same bits.
+/// two spheres collide as Hertz's; 1 and 2 threads, and a resumed run, give
+/// the same bits.
 #include "helpers.h"
 #include "pfmpm/grid/grid.h"
 #include "pfmpm/materials/material.h"
@@ -317,10 +318,88 @@ TEST(Solver3, TwoDimensionalFeaturesAreRefused)
   StepConfig cracks(0.02);
   cracks.fracture = {Fracture{1.0, 2.0, 0.0}};
   EXPECT_THROW(Solver(grid, P, steel(), cracks), std::invalid_argument);
-  StepConfig contact(0.02);
-  contact.partition = Partition::bodies;
-  contact.friction = {0.0, 0.3, 0.3, 0.0};
-  EXPECT_THROW(Solver(grid, P, steel(), contact), std::invalid_argument);
+  StepConfig damage(0.02);
+  damage.partition = Partition::damage_gradient;
+  damage.friction = {0.3};
+  EXPECT_THROW(Solver(grid, P, steel(), damage), std::invalid_argument);
   Particles flat(4, 2);
   EXPECT_THROW(Solver(grid, flat, steel(), StepConfig(0.02)), std::invalid_argument);
+}
+
+TEST(Solver3, SpheresCollideAsHertzs)
+{
+  // Two elastic spheres of radius 10 h (20 cells per diameter, 8 particles a
+  // cell), each its own field with frictionless contact, meeting head-on at
+  // a relative speed of 0.3 (0.026 of the P-wave speed) after a gap of one
+  // cell. Hertz's quasi-static impact of identical spheres: E* = E / (2 (1 -
+  // nu^2)), R* = R / 2, m* = M / 2, the duration 2.868 (m*^2 / (R* E*^2 v))^(1/5)
+  // and the peak force (4/3) E* R*^(1/2) d^(3/2) at the largest approach d =
+  // (15 m* v^2 / (16 E* R*^(1/2)))^(2/5). The force is the contact impulse's
+  // change per step (Energies::pair_impulse).
+  const double R = 10.0, speed = 0.3, E = 100.0, nu = 0.3, pi = std::acos(-1.0);
+  const std::array<double, 3> centre[2] = {{14.0, 14.0, 14.0}, {35.0, 14.0, 14.0}};
+  Grid<3> grid(2, {49, 28, 28}, 1.0, {0.0, 0.0, 0.0});
+  std::vector<Particles> balls;
+  for (int b = 0; b < 2; ++b)
+    balls.push_back(lattice<3>({centre[b][0] - R, 4.0, 4.0}, {centre[b][0] + R, 24.0, 24.0}, 0.5,
+                               [&](const double* x)
+                               {
+                                 double r2 = 0.0;
+                                 for (int k = 0; k < 3; ++k)
+                                   r2 += (x[k] - centre[b][k]) * (x[k] - centre[b][k]);
+                                 return r2 <= R * R;
+                               }));
+  const std::size_t n0 = balls[0].size();
+  Particles P(n0 + balls[1].size(), 3);
+  for (int b = 0; b < 2; ++b)
+    for (std::size_t q = 0; q < balls[b].size(); ++q)
+    {
+      const std::size_t p = b == 0 ? q : n0 + q;
+      std::copy_n(&balls[b].x[3 * q], 3, &P.x[3 * p]);
+      P.v[3 * p] = b == 0 ? 0.5 * speed : -0.5 * speed;
+      P.volume[p] = P.mass[p] = 0.125;
+      P.body[p] = b;
+    }
+  ASSERT_EQ(balls[1].size(), n0);
+  const double c = plane_strain_wave_speed(E, nu, 1.0), dt = 0.3 / (c + speed);
+  StepConfig step(dt);
+  step.partition = Partition::bodies;
+  step.friction = {0.0, 0.0, 0.0, 0.0};
+  Solver solver(grid, P, elastic(E, nu, 1.0), step);
+
+  const double M = 0.125 * static_cast<double>(n0), Es = E / (2.0 * (1.0 - nu * nu)), Rs = 0.5 * R,
+               ms = 0.5 * M;
+  const double duration = 2.868 * std::pow(ms * ms / (Rs * Es * Es * speed), 0.2);
+  const double approach = std::pow(15.0 * ms * speed * speed / (16.0 * Es * std::sqrt(Rs)), 0.4);
+  const double peak = 4.0 / 3.0 * Es * std::sqrt(Rs) * std::pow(approach, 1.5);
+  EXPECT_NEAR(M, 4.0 / 3.0 * pi * R * R * R, 0.01 * M);
+  // The gap closes in 1 / speed; run on to 1.6 contact durations after.
+  const int steps = static_cast<int>((1.0 / speed + 1.6 * duration) / dt);
+  double impulse = 0.0, largest = 0.0, momentum = 0.0;
+  int first = -1, last = -1;
+  std::vector<double> force(steps);
+  for (int k = 0; k < steps; ++k)
+  {
+    solver.advance(1);
+    const Energies<3> e = solver.energies();
+    force[k] = -(e.pair_impulse[0][0] - impulse) / dt; // the push of sphere 1 on sphere 0
+    impulse = e.pair_impulse[0][0];
+    largest = std::max(largest, force[k]);
+    for (int d = 0; d < 3; ++d)
+      momentum = std::max(momentum, std::abs(e.momentum[d]));
+  }
+  for (int k = 0; k < steps; ++k)
+    if (force[k] > 1e-3 * largest)
+      last = k, first = first < 0 ? k : first;
+  ASSERT_GE(first, 0);
+  ASSERT_LT(last, steps - 1) << "the spheres should have parted";
+  const double measured = (last - first + 1) * dt;
+  std::cout << "Hertz spheres, " << P.size() << " particles: duration " << measured << " against "
+            << duration << " (" << measured / duration - 1.0 << "), peak force " << largest
+            << " against " << peak << " (" << largest / peak - 1.0 << "), momentum "
+            << momentum / (M * speed) << " of M v\n";
+  EXPECT_NEAR(measured / duration, 1.0, 0.05);
+  EXPECT_NEAR(largest / peak, 1.0, 0.05);
+  EXPECT_LT(momentum, 1e-10 * M * speed);
+  EXPECT_EQ(solver.contact_stats()->violations, (std::array<std::int64_t, 4>{}));
 }

@@ -15,23 +15,44 @@ namespace
 /// Relative tolerance of the round-off checks C.1-C.4.
 constexpr double check_tol = 1e-9;
 
-double dot(const double* a, const double* b) { return a[0] * b[0] + a[1] * b[1]; }
+template <int Dim>
+double dot(const double* a, const double* b)
+{
+  double sum = a[0] * b[0];
+  for (int d = 1; d < Dim; ++d)
+    sum += a[d] * b[d];
+  return sum;
+}
+
+/// The length of a vector.
+template <int Dim>
+double length(const double* a)
+{
+  if constexpr (Dim == 2)
+    return std::hypot(a[0], a[1]);
+  else
+    return std::sqrt(dot<Dim>(a, a));
+}
 
 /// A pair of fields that touch at a node, and its contact frame.
+template <int Dim>
 struct PairFrame
 {
   int i, j;
-  double ni[2], nj[2], ti[2], tj[2]; ///< normals and tangents of each side (K&T eq. 71)
-  double reduced;                    ///< reduced mass M_i M_j / (M_i + M_j)
-  double mu;                         ///< friction coefficient
-  double scale;                      ///< velocity scale of the round-off tolerance
+  double ni[Dim], nj[Dim]; ///< normals of each side (K&T eq. 71)
+  double ti[Dim], tj[Dim]; ///< in 2D the tangents of each side (in 3D the pair law's)
+  double reduced;          ///< reduced mass M_i M_j / (M_i + M_j)
+  double mu;               ///< friction coefficient
+  double scale;            ///< velocity scale of the round-off tolerance
 };
 
 /// The contact force on one side of a pair.
+template <int Dim>
 struct SideForce
 {
-  double fn, ft; ///< normal force (K&T eqs. 69, 72) and friction (K&T eq. 75)
-  double fts;    ///< the stick force (K&T eq. 74)
+  double fn, ft; ///< normal force (K&T eqs. 69, 72) and friction (K&T eq. 75) along t
+  double fts;    ///< the stick force (K&T eq. 74) along t
+  double t[Dim]; ///< the tangent the friction acts along
 };
 
 /// @brief The pair law on the velocities vi, vj of the pair's fields: the
@@ -40,37 +61,87 @@ struct SideForce
 /// Coulomb (K&T eq. 75), on each side. With K&T eq. 66, M_i (u_cm - u_i) =
 /// M_i M_j / (M_i + M_j) (u_j - u_i): K&T eqs. 69 and 74 are evaluated in that
 /// form, which has no cancellation when one field's mass at the node is tiny.
-void pair_law(const PairFrame& c, const double* vi, const double* vj, double dt, SideForce& si,
-              SideForce& sj)
+/// In 2D along the frame's tangent; in 3D along the relative velocity's
+/// component in the tangent plane (none where it has none).
+template <int Dim>
+void pair_law(const PairFrame<Dim>& c, const double* vi, const double* vj, double dt,
+              SideForce<Dim>& si, SideForce<Dim>& sj)
 {
-  const double ri[2] = {vj[0] - vi[0], vj[1] - vi[1]};
-  const double rj[2] = {vi[0] - vj[0], vi[1] - vj[1]};
-  si.fn = std::min(0.0, c.reduced / dt * dot(ri, c.ni));
-  sj.fn = std::min(0.0, c.reduced / dt * dot(rj, c.nj));
-  si.fts = c.reduced / dt * dot(ri, c.ti);
-  sj.fts = c.reduced / dt * dot(rj, c.tj);
+  double ri[Dim], rj[Dim];
+  for (int d = 0; d < Dim; ++d)
+    ri[d] = vj[d] - vi[d];
+  for (int d = 0; d < Dim; ++d)
+    rj[d] = vi[d] - vj[d];
+  si.fn = std::min(0.0, c.reduced / dt * dot<Dim>(ri, c.ni));
+  sj.fn = std::min(0.0, c.reduced / dt * dot<Dim>(rj, c.nj));
+  if constexpr (Dim == 2)
+  {
+    std::copy(c.ti, c.ti + 2, si.t);
+    std::copy(c.tj, c.tj + 2, sj.t);
+    si.fts = c.reduced / dt * dot<2>(ri, c.ti);
+    sj.fts = c.reduced / dt * dot<2>(rj, c.tj);
+  }
+  else
+  {
+    auto tangent = [&](const double* r, const double* n, SideForce<Dim>& side)
+    {
+      const double rn = dot<Dim>(r, n);
+      double rt[Dim];
+      for (int d = 0; d < Dim; ++d)
+        rt[d] = r[d] - rn * n[d];
+      const double slip = length<Dim>(rt);
+      for (int d = 0; d < Dim; ++d)
+        side.t[d] = slip > 0.0 ? rt[d] / slip : 0.0;
+      side.fts = c.reduced / dt * slip;
+    };
+    tangent(ri, c.ni, si);
+    tangent(rj, c.nj, sj);
+  }
   si.ft = std::copysign(std::min(c.mu * std::abs(si.fn), std::abs(si.fts)), si.fts);
   sj.ft = std::copysign(std::min(c.mu * std::abs(sj.fn), std::abs(sj.fts)), sj.fts);
 }
 
 /// Force vector of one side.
-void force_of(const SideForce& s, const double* n, const double* t, double* F)
+template <int Dim>
+void force_of(const SideForce<Dim>& s, const double* n, double* F)
 {
-  F[0] = s.fn * n[0] + s.ft * t[0];
-  F[1] = s.fn * n[1] + s.ft * t[1];
+  for (int d = 0; d < Dim; ++d)
+    F[d] = s.fn * n[d] + s.ft * s.t[d];
+}
+
+/// The record of a pair, with side i's force.
+template <int Dim>
+ContactPair<Dim> record(const PairFrame<Dim>& c, const SideForce<Dim>& si)
+{
+  ContactPair<Dim> p{c.i, c.j, {}, {}, si.fn, si.ft, si.fts, c.mu, c.scale};
+  std::copy(c.ni, c.ni + Dim, p.n);
+  std::copy(si.t, si.t + Dim, p.s);
+  return p;
 }
 
 /// C.3 and C.4 of one pair on the velocities vn, with relative tolerance tol.
-void pair_checks(const ContactPair& c, const double (*vn)[2], double tol, bool& c3, bool& c4)
+template <int Dim>
+void pair_checks(const ContactPair<Dim>& c, const double (*vn)[Dim], double tol, bool& c3, bool& c4)
 {
-  const double g[2] = {vn[c.i][0] - vn[c.j][0], vn[c.i][1] - vn[c.j][1]};
-  const double gn = dot(g, c.n), gs = dot(g, c.s), vtol = tol * c.scale;
+  double g[Dim];
+  for (int d = 0; d < Dim; ++d)
+    g[d] = vn[c.i][d] - vn[c.j][d];
+  const double gn = dot<Dim>(g, c.n), gs = dot<Dim>(g, c.s), vtol = tol * c.scale;
   // K&T eqs. 22c-22e: no tension, no approach, and no gap rate where a force acts.
   c3 = c.fn > 0.0 || gn > vtol || (c.fn < 0.0 && std::abs(gn) > vtol);
   // K&T eqs. 23c-23e: stick has no slip; slip has friction at the cap, against the slip.
+  // In 3D the slip of a stuck pair is the whole tangential relative velocity.
+  double slip = std::abs(gs);
+  if constexpr (Dim == 3)
+  {
+    double gt[Dim];
+    for (int d = 0; d < Dim; ++d)
+      gt[d] = g[d] - gn * c.n[d];
+    slip = length<Dim>(gt);
+  }
   const bool stick = std::abs(c.fts) <= c.mu * std::abs(c.fn);
   const double cap = c.mu * std::abs(c.fn);
-  c4 = stick ? std::abs(gs) > vtol
+  c4 = stick ? slip > vtol
              : (std::abs(std::abs(c.ft) - cap) > tol * cap || c.ft * gs > vtol * std::abs(c.ft));
 }
 
@@ -82,14 +153,15 @@ constexpr double sweep_tol = 1e-2 * check_tol;
 constexpr int max_sweeps = 10000;
 } // namespace
 
-int coulomb_forces(int n, const TrialField* f, const bool* live, const std::int32_t* field,
+template <int Dim>
+int coulomb_forces(int n, const TrialField<Dim>* f, const bool* live, const std::int32_t* field,
                    const double* friction, int nfields, double touch_volume, double dt,
-                   double (*fn)[2], double (*ft)[2], ContactPair* pairs, double* count,
+                   double (*fn)[Dim], double (*ft)[Dim], ContactPair<Dim>* pairs, double* count,
                    double* impulse)
 {
   // The pairs that touch and have a normal, in the order (i, j), i < j.
-  constexpr int max_pairs = BodyFields::max_fields * (BodyFields::max_fields - 1) / 2;
-  PairFrame frame[max_pairs];
+  constexpr int max_pairs = max_node_fields * (max_node_fields - 1) / 2;
+  PairFrame<Dim> frame[max_pairs];
   int np = 0;
   for (int i = 0; i < n; ++i)
     for (int j = i + 1; j < n; ++j)
@@ -97,8 +169,8 @@ int coulomb_forces(int n, const TrialField* f, const bool* live, const std::int3
       if (!live[i] || !live[j])
         continue;
       count[count_pairs] += 1.0;
-      const TrialField& si = f[i];
-      const TrialField& sj = f[j];
+      const TrialField<Dim>& si = f[i];
+      const TrialField<Dim>& sj = f[j];
       // Only bodies that touch: their volumes must fill the node's support
       // (docs/contact.md, "Touching").
       if (si.V + sj.V < touch_volume)
@@ -109,45 +181,58 @@ int coulomb_forces(int n, const TrialField* f, const bool* live, const std::int3
       // its mass gradient, so where one field has little mass at the node (a
       // block's corner over the ground) the other's surface sets the normal;
       // with unit vectors first, such a corner would push along a tilted
-      // normal and brake a sliding block (docs/contact.md). Tangents complete
-      // right-handed bases.
-      const double di[2] = {si.g[0] - sj.g[0], si.g[1] - sj.g[1]};
-      const double dj[2] = {sj.g[0] - si.g[0], sj.g[1] - si.g[1]};
-      const double ldi = std::hypot(di[0], di[1]), ldj = std::hypot(dj[0], dj[1]);
+      // normal and brake a sliding block (docs/contact.md). In 2D tangents
+      // complete right-handed bases.
+      double di[Dim], dj[Dim];
+      for (int d = 0; d < Dim; ++d)
+        di[d] = si.g[d] - sj.g[d];
+      for (int d = 0; d < Dim; ++d)
+        dj[d] = sj.g[d] - si.g[d];
+      const double ldi = length<Dim>(di), ldj = length<Dim>(dj);
       if (!(ldi > 0.0))
         continue; // no normal to push along
-      PairFrame& c = frame[np++];
+      PairFrame<Dim>& c = frame[np++];
       c.i = i;
       c.j = j;
-      c.ni[0] = di[0] / ldi;
-      c.ni[1] = di[1] / ldi;
-      c.nj[0] = dj[0] / ldj;
-      c.nj[1] = dj[1] / ldj;
-      c.ti[0] = -c.ni[1];
-      c.ti[1] = c.ni[0];
-      c.tj[0] = -c.nj[1];
-      c.tj[1] = c.nj[0];
-      // C.1: n_i = -n_j, s_i = -s_j.
-      if (std::hypot(c.ni[0] + c.nj[0], c.ni[1] + c.nj[1]) > check_tol
-          || std::hypot(c.ti[0] + c.tj[0], c.ti[1] + c.tj[1]) > check_tol)
+      for (int d = 0; d < Dim; ++d)
+        c.ni[d] = di[d] / ldi;
+      for (int d = 0; d < Dim; ++d)
+        c.nj[d] = dj[d] / ldj;
+      double sum[Dim];
+      for (int d = 0; d < Dim; ++d)
+        sum[d] = c.ni[d] + c.nj[d];
+      if constexpr (Dim == 2)
+      {
+        c.ti[0] = -c.ni[1];
+        c.ti[1] = c.ni[0];
+        c.tj[0] = -c.nj[1];
+        c.tj[1] = c.nj[0];
+        // C.1: n_i = -n_j, s_i = -s_j.
+        if (length<2>(sum) > check_tol || std::hypot(c.ti[0] + c.tj[0], c.ti[1] + c.tj[1]) > check_tol)
+          count[count_c1] += 1.0;
+      }
+      else if (length<Dim>(sum) > check_tol) // C.1: n_i = -n_j (the tangents follow)
         count[count_c1] += 1.0;
       // Centre-of-mass velocity of the pair (K&T eq. 66), for the tolerance's scale.
       const double m = si.m + sj.m;
-      const double vcm[2] = {(si.pt[0] + sj.pt[0]) / m, (si.pt[1] + sj.pt[1]) / m};
+      double vcm[Dim];
+      for (int d = 0; d < Dim; ++d)
+        vcm[d] = (si.pt[d] + sj.pt[d]) / m;
       c.reduced = si.m * sj.m / m;
       c.mu = friction[field[i] * nfields + field[j]];
-      c.scale = std::hypot(si.vt[0], si.vt[1]) + std::hypot(sj.vt[0], sj.vt[1])
-                + std::hypot(vcm[0], vcm[1]);
+      c.scale = length<Dim>(si.vt) + length<Dim>(sj.vt) + length<Dim>(vcm);
     }
-  SideForce side[max_pairs][2];
+  SideForce<Dim> side[max_pairs][2];
   int active = 0;
   if (np == 1)
   {
     // One pair: K&T's algorithm, from the trial velocities. Where it does
     // not approach (K&T eq. 77), there is no contact force at all.
-    const PairFrame& c = frame[0];
-    const double ri[2] = {f[c.j].vt[0] - f[c.i].vt[0], f[c.j].vt[1] - f[c.i].vt[1]};
-    if (!(-dot(ri, c.ni) > 0.0))
+    const PairFrame<Dim>& c = frame[0];
+    double ri[Dim];
+    for (int d = 0; d < Dim; ++d)
+      ri[d] = f[c.j].vt[d] - f[c.i].vt[d];
+    if (!(-dot<Dim>(ri, c.ni) > 0.0))
       return 0;
     pair_law(c, f[c.i].vt, f[c.j].vt, dt, side[0][0], side[0][1]);
   }
@@ -158,25 +243,26 @@ int coulomb_forces(int n, const TrialField* f, const bool* live, const std::int3
     // velocities all the other pairs' current forces leave, and replaces its
     // previous one; the sweeps stop when the velocities pass C.3 and C.4
     // (docs/contact.md, "Three or more fields at a node").
-    double v[BodyFields::max_fields][2] = {}, Fi[max_pairs][2] = {}, Fj[max_pairs][2] = {};
+    double v[max_node_fields][Dim] = {}, Fi[max_pairs][Dim] = {}, Fj[max_pairs][Dim] = {};
     for (int a = 0; a < n; ++a)
       if (live[a])
-      {
-        v[a][0] = f[a].vt[0];
-        v[a][1] = f[a].vt[1];
-      }
+        for (int d = 0; d < Dim; ++d)
+          v[a][d] = f[a].vt[d];
     for (int sweep = 0; sweep < max_sweeps; ++sweep)
     {
       for (int q = 0; q < np; ++q)
       {
-        const PairFrame& c = frame[q];
+        const PairFrame<Dim>& c = frame[q];
         const double mi = f[c.i].m, mj = f[c.j].m;
-        const double vi[2] = {v[c.i][0] - dt * Fi[q][0] / mi, v[c.i][1] - dt * Fi[q][1] / mi};
-        const double vj[2] = {v[c.j][0] - dt * Fj[q][0] / mj, v[c.j][1] - dt * Fj[q][1] / mj};
+        double vi[Dim], vj[Dim];
+        for (int d = 0; d < Dim; ++d)
+          vi[d] = v[c.i][d] - dt * Fi[q][d] / mi;
+        for (int d = 0; d < Dim; ++d)
+          vj[d] = v[c.j][d] - dt * Fj[q][d] / mj;
         pair_law(c, vi, vj, dt, side[q][0], side[q][1]);
-        force_of(side[q][0], c.ni, c.ti, Fi[q]);
-        force_of(side[q][1], c.nj, c.tj, Fj[q]);
-        for (int d = 0; d < 2; ++d)
+        force_of(side[q][0], c.ni, Fi[q]);
+        force_of(side[q][1], c.nj, Fj[q]);
+        for (int d = 0; d < Dim; ++d)
         {
           v[c.i][d] = vi[d] + dt * Fi[q][d] / mi;
           v[c.j][d] = vj[d] + dt * Fj[q][d] / mj;
@@ -185,11 +271,8 @@ int coulomb_forces(int n, const TrialField* f, const bool* live, const std::int3
       bool done = true;
       for (int q = 0; q < np && done; ++q)
       {
-        const PairFrame& c = frame[q];
-        const ContactPair p{c.i, c.j, {c.ni[0], c.ni[1]}, {c.ti[0], c.ti[1]}, side[q][0].fn,
-                            side[q][0].ft, side[q][0].fts, c.mu, c.scale};
         bool c3, c4;
-        pair_checks(p, v, sweep_tol, c3, c4);
+        pair_checks(record(frame[q], side[q][0]), v, sweep_tol, c3, c4);
         done = !c3 && !c4;
       }
       if (done)
@@ -199,45 +282,46 @@ int coulomb_forces(int n, const TrialField* f, const bool* live, const std::int3
   // The forces (K&T eq. 76) of the pairs that push, and their record.
   for (int q = 0; q < np; ++q)
   {
-    const PairFrame& c = frame[q];
-    const SideForce &si = side[q][0], &sj = side[q][1];
+    const PairFrame<Dim>& c = frame[q];
+    const SideForce<Dim> &si = side[q][0], &sj = side[q][1];
     // Every pair that pushed is checked (C.3, C.4), and with two or more
     // pairs every pair, pushing or not.
-    pairs[active++] = ContactPair{c.i, c.j, {c.ni[0], c.ni[1]}, {c.ti[0], c.ti[1]}, si.fn, si.ft,
-                                  si.fts, c.mu, c.scale};
+    pairs[active++] = record(c, si);
     if (np > 1 && !(si.fn < 0.0))
       continue;
     count[count_active] += 1.0;
     if (c.mu * std::abs(si.fn) < std::abs(si.fts))
       count[count_sliding] += 1.0;
     // K&T eq. 76 on both sides; C.2: equal and opposite.
-    double Fi[2], Fj[2];
-    force_of(si, c.ni, c.ti, Fi);
-    force_of(sj, c.nj, c.tj, Fj);
-    if (std::hypot(Fi[0] + Fj[0], Fi[1] + Fj[1])
-        > check_tol * (std::hypot(Fi[0], Fi[1]) + std::hypot(Fj[0], Fj[1])))
+    double Fi[Dim], Fj[Dim], net[Dim];
+    force_of(si, c.ni, Fi);
+    force_of(sj, c.nj, Fj);
+    for (int d = 0; d < Dim; ++d)
+      net[d] = Fi[d] + Fj[d];
+    if (length<Dim>(net) > check_tol * (length<Dim>(Fi) + length<Dim>(Fj)))
       count[count_c2] += 1.0;
-    for (int d = 0; d < 2; ++d)
+    for (int d = 0; d < Dim; ++d)
     {
       fn[c.i][d] += si.fn * c.ni[d];
-      ft[c.i][d] += si.ft * c.ti[d];
+      ft[c.i][d] += si.ft * si.t[d];
       fn[c.j][d] += sj.fn * c.nj[d];
-      ft[c.j][d] += sj.ft * c.tj[d];
+      ft[c.j][d] += sj.ft * sj.t[d];
     }
     // The pair's impulse, on its lower-numbered field.
     const int a = field[c.i], b = field[c.j];
     if (a != b && std::max(a, b) < max_pair_fields)
     {
       const double* F = a < b ? Fi : Fj;
-      double* out = &impulse[2 * field_pair(std::min(a, b), std::max(a, b))];
-      out[0] += dt * F[0];
-      out[1] += dt * F[1];
+      double* out = &impulse[Dim * field_pair(std::min(a, b), std::max(a, b))];
+      for (int d = 0; d < Dim; ++d)
+        out[d] += dt * F[d];
     }
   }
   return active;
 }
 
-void check_contact(int active, const ContactPair* pairs, const double (*vn)[2], double* count)
+template <int Dim>
+void check_contact(int active, const ContactPair<Dim>* pairs, const double (*vn)[Dim], double* count)
 {
   for (int q = 0; q < active; ++q)
   {
@@ -247,5 +331,14 @@ void check_contact(int active, const ContactPair* pairs, const double (*vn)[2], 
     count[count_c4] += c4 ? 1.0 : 0.0;
   }
 }
+
+template int coulomb_forces(int, const TrialField<2>*, const bool*, const std::int32_t*, const double*,
+                            int, double, double, double (*)[2], double (*)[2], ContactPair<2>*,
+                            double*, double*);
+template int coulomb_forces(int, const TrialField<3>*, const bool*, const std::int32_t*, const double*,
+                            int, double, double, double (*)[3], double (*)[3], ContactPair<3>*,
+                            double*, double*);
+template void check_contact(int, const ContactPair<2>*, const double (*)[2], double*);
+template void check_contact(int, const ContactPair<3>*, const double (*)[3], double*);
 
 } // namespace pfmpm

@@ -62,21 +62,27 @@ constexpr int max_field_pairs = max_pair_fields * (max_pair_fields - 1) / 2;
 /// The index of the pair of fields a < b < max_pair_fields.
 constexpr int field_pair(int a, int b) { return b * (b - 1) / 2 + a; }
 
-/// A field at a contact node after its trial update, as the contact law sees it.
+/// A field at a contact node after its trial update, as the contact law
+/// sees it, in Dim directions.
+template <int Dim>
 struct TrialField
 {
-  double m;     ///< mass at the node (K&T eq. 46)
-  double pt[2]; ///< trial momentum p + dt (F^ext - F^int) (K&T eq. 63)
-  double vt[2]; ///< trial velocity (K&T eq. 64)
-  double g[2];  ///< mass gradient (K&T eq. 70)
-  double V;     ///< volume sum_p N_I V_p
+  double m;       ///< mass at the node (K&T eq. 46)
+  double pt[Dim]; ///< trial momentum p + dt (F^ext - F^int) (K&T eq. 63)
+  double vt[Dim]; ///< trial velocity (K&T eq. 64)
+  double g[Dim];  ///< mass gradient (K&T eq. 70)
+  double V;       ///< volume sum_p N_I V_p
 };
 
 /// A pair of fields a contact force acted on, kept for the checks C.3 and C.4.
+template <int Dim>
 struct ContactPair
 {
   int i, j;
-  double n[2], s[2]; ///< normal and tangent of field i
+  /// Normal and tangent of field i: in 2D the normal turned a quarter
+  /// counter-clockwise; in 3D the direction of the other field's tangential
+  /// velocity relative to field i's, along which friction acts (the tangent plane).
+  double n[Dim], s[Dim];
   double fn, ft;     ///< normal force (K&T eq. 72) and friction (K&T eq. 75) on field i
   double fts;        ///< the stick force (K&T eq. 74) on field i
   double mu;         ///< friction coefficient
@@ -107,7 +113,9 @@ enum ContactCount : int
 /// or more (three or more fields), projected Gauss-Seidel sweeps over the
 /// pairs: each pair's force is the pair law applied to the velocities the
 /// other pairs' forces leave, until no pair approaches, none pulls, none
-/// pushes while parting and none slips against Coulomb (C.3, C.4). Each
+/// pushes while parting and none slips against Coulomb (C.3, C.4). In 3D
+/// the stick force and friction lie in the tangent plane, along the pair's
+/// tangential relative velocity, and Coulomb caps their length. Each
 /// side's force is computed and the two are checked to be equal and
 /// opposite (C.2), so momentum is conserved to round-off.
 /// @param n Fields at the node; live[i] false for one too light to act.
@@ -119,15 +127,18 @@ enum ContactCount : int
 ///             with more, all of them. Returns how many.
 /// @param[in,out] count Counters, indexed by ContactCount.
 /// @param[in,out] impulse Per pair of fields a < b (field_pair), the impulse
-///        dt F of b's contact force on a, (x, y), added to; pairs of a field
-///        with itself or numbered from max_pair_fields on are not kept.
-int coulomb_forces(int n, const TrialField* f, const bool* live, const std::int32_t* field,
+///        dt F of b's contact force on a, Dim components, added to; pairs of a
+///        field with itself or numbered from max_pair_fields on are not kept.
+template <int Dim>
+int coulomb_forces(int n, const TrialField<Dim>* f, const bool* live, const std::int32_t* field,
                    const double* friction, int nfields, double touch_volume, double dt,
-                   double (*fn)[2], double (*ft)[2], ContactPair* pairs, double* count,
+                   double (*fn)[Dim], double (*ft)[Dim], ContactPair<Dim>* pairs, double* count,
                    double* impulse);
 
 /// @brief C.3 and C.4 on the corrected velocities vn of the fields.
-void check_contact(int active, const ContactPair* pairs, const double (*vn)[2], double* count);
+template <int Dim>
+void check_contact(int active, const ContactPair<Dim>* pairs, const double (*vn)[Dim],
+                   double* count);
 
 /// Two fields touch at a node when their volumes there, sum_p N_I V_p, add up
 /// to at least a fraction of the node's volume (the integral of N_I), by

@@ -49,7 +49,8 @@ int friction_fields(const std::vector<double>& friction, int at_least)
   return n;
 }
 
-BodyFields::BodyFields(const Grid<2>& grid, const Particles& particles, std::vector<double> friction,
+template <int Dim>
+BodyFields<Dim>::BodyFields(const Grid<Dim>& grid, const Particles& particles, std::vector<double> friction,
                        const std::int32_t* field)
     : _grid(grid), _field(field), _friction(std::move(friction))
 {
@@ -62,7 +63,8 @@ BodyFields::BodyFields(const Grid<2>& grid, const Particles& particles, std::vec
                                   + std::to_string(_fields) + ")");
 }
 
-int BodyFields::cell_fields(std::size_t key, std::int32_t* out) const
+template <int Dim>
+int BodyFields<Dim>::cell_fields(std::size_t key, std::int32_t* out) const
 {
   const std::int32_t tag = _cell_field[key];
   if (tag >= 0)
@@ -75,32 +77,31 @@ int BodyFields::cell_fields(std::size_t key, std::int32_t* out) const
   return _mixed_start[m + 1] - _mixed_start[m];
 }
 
-int BodyFields::node_fields(int ix, int iy, std::int32_t* out) const
+template <int Dim>
+int BodyFields<Dim>::node_fields(std::int32_t node, std::int32_t* out) const
 {
-  const NodeBlock& block = _grid.block();
-  const int ncx = _grid.cells()[0], ncy = _grid.cells()[1];
-  int cx0, cx1, cy0, cy1;
-  block.holders(ix, ncx, _grid.nodes()[0], cx0, cx1);
-  block.holders(iy, ncy, _grid.nodes()[1], cy0, cy1);
   int n = 0;
-  for (int cx = cx0; cx <= cx1; ++cx)
-    for (int cy = cy0; cy <= cy1; ++cy)
-    {
-      const std::size_t key = static_cast<std::size_t>(cx) * ncy + cy;
-      if (_cell_field[key] == -1)
-        continue;
-      std::int32_t list[max_fields];
-      const int k = cell_fields(key, list);
-      for (int i = 0; i < k; ++i)
-        if (!insert_sorted(list[i], out, n, max_fields))
-          return -1;
-    }
+  _grid.for_each_holder_cell(node,
+                             [&](std::size_t key)
+                             {
+                               if (_cell_field[key] == -1)
+                                 return true;
+                               std::int32_t list[max_fields];
+                               const int k = cell_fields(key, list);
+                               for (int i = 0; i < k; ++i)
+                                 if (!insert_sorted(list[i], out, n, max_fields))
+                                 {
+                                   n = -1;
+                                   return false;
+                                 }
+                               return true;
+                             });
   return n;
 }
 
-void BodyFields::build(const Particles& particles, const CellSort& sort, bool mark_touches)
+template <int Dim>
+void BodyFields<Dim>::build(const Particles& particles, const CellSort& sort, bool mark_touches)
 {
-  const int nny = _grid.nodes()[1];
   const auto ncells = static_cast<std::ptrdiff_t>(_grid.num_cells());
   const std::int32_t* body = _field ? _field : particles.body.data();
   const std::int32_t* order = sort.order().data();
@@ -153,7 +154,7 @@ void BodyFields::build(const Particles& particles, const CellSort& sort, bool ma
   for (std::ptrdiff_t a = 0; a < na; ++a)
   {
     std::int32_t list[max_fields];
-    const int n = node_fields(nodes[a] / nny, nodes[a] % nny, list);
+    const int n = node_fields(nodes[a], list);
     _slot_start[a + 1] = n;
     _lone_field[a] = n > 0 ? list[0] : -1; // for the nodes of one field, nearly all
     if (n < 0)
@@ -176,33 +177,28 @@ void BodyFields::build(const Particles& particles, const CellSort& sort, bool ma
     if (_slot_start[a + 1] - _slot_start[a] == 1)
       _slot_field[_slot_start[a]] = _lone_field[a];
     else
-      node_fields(nodes[a] / nny, nodes[a] % nny, &_slot_field[_slot_start[a]]);
+      node_fields(nodes[a], &_slot_field[_slot_start[a]]);
 
   if (mark_touches)
     mark_contact_cells(_grid, sort, _slot_start, contact, nullptr, _touches);
 }
 
-void mark_holders(const Grid<2>& grid, const CellSort& sort, std::int32_t a,
+template <int Dim>
+void mark_holders(const Grid<Dim>& grid, const CellSort& sort, std::int32_t a,
                   const std::uint8_t* only, std::uint8_t* cells)
 {
-  const NodeBlock& block = grid.block();
-  const int ncx = grid.cells()[0], ncy = grid.cells()[1];
-  const int nnx = grid.nodes()[0], nny = grid.nodes()[1];
   const std::int64_t* start = sort.cell_start().data();
-  const std::int32_t node = grid.active_nodes()[a];
-  int cx0, cx1, cy0, cy1;
-  block.holders(node / nny, ncx, nnx, cx0, cx1);
-  block.holders(node % nny, ncy, nny, cy0, cy1);
-  for (int cx = cx0; cx <= cx1; ++cx)
-    for (int cy = cy0; cy <= cy1; ++cy)
-    {
-      const std::size_t cell = static_cast<std::size_t>(cx) * ncy + cy;
-      if (start[cell + 1] > start[cell] && (!only || only[cell]))
-        cells[cell] = 1;
-    }
+  grid.for_each_holder_cell(grid.active_nodes()[a],
+                            [&](std::size_t cell)
+                            {
+                              if (start[cell + 1] > start[cell] && (!only || only[cell]))
+                                cells[cell] = 1;
+                              return true;
+                            });
 }
 
-void mark_contact_cells(const Grid<2>& grid, const CellSort& sort,
+template <int Dim>
+void mark_contact_cells(const Grid<Dim>& grid, const CellSort& sort,
                         const std::vector<std::int32_t>& slot_start, std::int32_t contact_nodes,
                         const std::uint8_t* only, std::vector<std::uint8_t>& touches)
 {
@@ -215,5 +211,14 @@ void mark_contact_cells(const Grid<2>& grid, const CellSort& sort,
     if (slot_start[a + 1] - slot_start[a] >= 2)
       mark_holders(grid, sort, a, only, touches.data());
 }
+
+template class BodyFields<2>;
+template class BodyFields<3>;
+template void mark_holders(const Grid<2>&, const CellSort&, std::int32_t, const std::uint8_t*,
+                           std::uint8_t*);
+template void mark_contact_cells(const Grid<2>&, const CellSort&, const std::vector<std::int32_t>&,
+                                 std::int32_t, const std::uint8_t*, std::vector<std::uint8_t>&);
+template void mark_contact_cells(const Grid<3>&, const CellSort&, const std::vector<std::int32_t>&,
+                                 std::int32_t, const std::uint8_t*, std::vector<std::uint8_t>&);
 
 } // namespace pfmpm

@@ -317,7 +317,7 @@ struct CellSlots
   /// Nodes of a cell's block: (degree + 1)^2 with B-splines, 16 with CPDI.
   static constexpr int K = std::max((max_degree + 1) * (max_degree + 1), CpdiStencil::size);
   int n = 0;                                       ///< groups in the cell
-  std::int32_t group[BodyFields::max_fields];      ///< their indices, sorted
+  std::int32_t group[max_node_fields];      ///< their indices, sorted
   std::int32_t slot[DamageFields::max_groups][K];  ///< slot of group f at stencil node i
   /// Local index of group g (one of the cell's).
   int local(std::int32_t g) const
@@ -333,7 +333,7 @@ struct CellSlots
 /// stencil order (Grid::block()): looked up once per cell, not per particle
 /// and node. `groups`: the group slots, or none with one group (the slot of
 /// a node is then its active index).
-void cell_slots(const Grid<2>& grid, const DamageFields& fields, const std::optional<BodyFields>& groups,
+void cell_slots(const Grid<2>& grid, const DamageFields& fields, const std::optional<BodyFields<2>>& groups,
                 int cx, int cy, CellSlots& c)
 {
   const NodeBlock& block = grid.block();
@@ -355,7 +355,7 @@ void cell_slots(const Grid<2>& grid, const DamageFields& fields, const std::opti
 /// (for_each_listed_cell_by_strips), so that f may add into its cell's nodes.
 template <class F>
 void for_each_listed_cell(const Grid<2>& grid, const DamageFields& fields,
-                          const std::optional<BodyFields>& groups, const CellSort& sort,
+                          const std::optional<BodyFields<2>>& groups, const CellSort& sort,
                           const std::vector<std::int32_t>& cells, F&& f)
 {
   for_each_listed_cell_by_strips<2>(grid.cells(), sort.cell_start(), cells,

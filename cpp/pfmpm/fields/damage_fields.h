@@ -136,7 +136,7 @@ public:
   static constexpr bool discrete = true;
   static constexpr bool per_pair = true;
   /// The most contact groups that may meet at a node (two fields each).
-  static constexpr int max_groups = BodyFields::max_fields / 2;
+  static constexpr int max_groups = max_node_fields / 2;
 
   /// @param grid The background grid (kept by reference).
   /// @param particles Particles (kept by reference); gains the columns
@@ -303,7 +303,7 @@ private:
   bool _cpdi;                         // the transfers' shape functions are CPDI1
   double _radius;
   std::vector<std::int32_t> _group;   // per particle
-  std::optional<BodyFields> _groups;  // with two or more groups: their slots
+  std::optional<BodyFields<2>> _groups;  // with two or more groups: their slots
   NeighbourList _neighbours;
 
   std::vector<double> _damage;        // per particle: D~_p

@@ -34,15 +34,19 @@ struct NodeSums
   double e[Dim]; ///< external force alone, for the work it does
 };
 
-/// Surface sums of one slot at a contact node.
+/// Surface sums of one slot at a contact node, in Dim directions.
+template <int Dim>
 struct SurfaceSums
 {
-  double gx, gy; ///< mass gradient sum_p grad N_I M_p (K&T eq. 70, before normalisation)
+  double g[Dim]; ///< mass gradient sum_p grad N_I M_p (K&T eq. 70, before normalisation)
   double V;      ///< volume sum_p N_I V_p (the touch check, docs/contact.md)
   /// With damage fields only: sum_p N_I M_p D_p, the numerator of the mean
   /// damage (H&H eq. 21), and whether a fully damaged particle maps here (1 or 0).
   double md, full;
 };
+
+/// The most fields (bodies, or damage-gradient sides) that may meet in one cell or at one node.
+constexpr int max_node_fields = 16;
 
 /// Velocity and acceleration of one slot after the grid update (K&T eqs. 63-65).
 template <int Dim>
@@ -60,7 +64,8 @@ int friction_fields(const std::vector<double>& friction, int at_least);
 /// cells of `sort` whose block holds active node a (NodeBlock::holders),
 /// given `only`, of those where it is not 0: from a node, which is cheaper
 /// than from every cell to its nodes where such nodes are few.
-void mark_holders(const Grid<2>& grid, const CellSort& sort, std::int32_t a,
+template <int Dim>
+void mark_holders(const Grid<Dim>& grid, const CellSort& sort, std::int32_t a,
                   const std::uint8_t* only, std::uint8_t* cells);
 
 /// @brief Per cell of `sort`, whether a node of its block has two or more
@@ -68,7 +73,8 @@ void mark_holders(const Grid<2>& grid, const CellSort& sort, std::int32_t a,
 /// `touches`, 0 for every cell when there are no `contact_nodes`, and for
 /// the empty cells and, given `only`, the cells where it is 0.
 /// @param slot_start Slots of active node a: [slot_start[a], slot_start[a + 1]).
-void mark_contact_cells(const Grid<2>& grid, const CellSort& sort,
+template <int Dim>
+void mark_contact_cells(const Grid<Dim>& grid, const CellSort& sort,
                         const std::vector<std::int32_t>& slot_start, std::int32_t contact_nodes,
                         const std::uint8_t* only, std::vector<std::uint8_t>& touches);
 
@@ -86,13 +92,14 @@ struct SingleField
 /// each active node one slot per body in its support, in body order; a node
 /// with two or more is a contact node. A cell touches contact when one of its
 /// nodes is one: only there does P2G sum the surface quantities.
+template <int Dim>
 class BodyFields
 {
 public:
   static constexpr bool discrete = true;
   static constexpr bool per_pair = false;
   /// The most bodies that may meet in one cell or at one node.
-  static constexpr int max_fields = 16;
+  static constexpr int max_fields = max_node_fields;
 
   /// @param grid The background grid (kept by reference).
   /// @param particles Particles; Particles::body is the field index, in [0, fields).
@@ -100,7 +107,7 @@ public:
   ///        fields x fields, symmetric, >= 0, at least 2 x 2.
   /// @param field The field index of each particle instead of
   ///        Particles::body (the contact groups of DamageFields; kept by pointer).
-  BodyFields(const Grid<2>& grid, const Particles& particles, std::vector<double> friction,
+  BodyFields(const Grid<Dim>& grid, const Particles& particles, std::vector<double> friction,
              const std::int32_t* field = nullptr);
 
   /// Number of fields.
@@ -139,12 +146,12 @@ public:
   const ContactStats& stats() const { return _stats; }
 
 private:
-  /// Distinct fields of the cells whose block holds node (ix, iy) (its
+  /// Distinct fields of the cells whose block holds node `node` (its
   /// support: NodeBlock::holders, with CPDI the cells whose 4 x 4 blocks hold it), sorted, into
   /// `out` (capacity max_fields); returns how many, or -1 past capacity.
-  int node_fields(int ix, int iy, std::int32_t* out) const;
+  int node_fields(std::int32_t node, std::int32_t* out) const;
 
-  const Grid<2>& _grid;
+  const Grid<Dim>& _grid;
   const std::int32_t* _field;             // per particle, or null: Particles::body
   int _fields;
   std::vector<double> _friction;          // fields x fields

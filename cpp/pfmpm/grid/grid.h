@@ -228,6 +228,29 @@ public:
   void set_block(const NodeBlock& block) { _block = block; }
   const NodeBlock& block() const { return _block; }
 
+  /// @brief f(cell key) for each cell whose block (block()) holds node
+  /// `node` (a node key), in key order, until f returns false.
+  template <class F>
+  void for_each_holder_cell(std::int32_t node, F&& f) const
+  {
+    const std::array<int, Dim> n = nodes(), c = cells();
+    const std::array<int, Dim> i = lattice_indices<Dim>(static_cast<std::size_t>(node), n);
+    std::array<int, Dim> lo, hi;
+    for (int d = 0; d < Dim; ++d)
+      _block.holders(i[d], c[d], n[d], lo[d], hi[d]);
+    std::array<int, Dim> cell = lo;
+    for (;;)
+    {
+      if (!f(lattice_key<Dim>(cell, c)))
+        return;
+      int d = Dim - 1; // the next cell: the last direction fastest
+      for (; d >= 0 && ++cell[d] > hi[d]; --d)
+        cell[d] = lo[d];
+      if (d < 0)
+        return;
+    }
+  }
+
   /// @brief Set the kinematic condition on one side.
   /// @throws std::invalid_argument for a side the grid does not have (back
   ///         or front in 2D).

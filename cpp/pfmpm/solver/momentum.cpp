@@ -75,20 +75,21 @@ template void update_free_slot<2>(const NodeSums<2>&, NodeHold, const Velocity<2
 template void update_free_slot<3>(const NodeSums<3>&, NodeHold, const Velocity<3>*, double, double,
                                   NodeKinematics<3>&, double*);
 
-void update_contact_node(int n, const NodeSums<2>* sums, const SurfaceSums* surface,
+template <int Dim>
+void update_contact_node(int n, const NodeSums<Dim>* sums, const SurfaceSums<Dim>* surface,
                          const std::int32_t* field, const double* friction, int nfields,
-                         double touch_volume, NodeHold hold, const Velocity<2>* held, double dt,
-                         double mass_tol, NodeKinematics<2>* k, double* acc)
+                         double touch_volume, NodeHold hold, const Velocity<Dim>* held, double dt,
+                         double mass_tol, NodeKinematics<Dim>* k, double* acc)
 {
-  using U = GridUpdate<2>;
-  constexpr int F = BodyFields::max_fields;
-  TrialField trial[F]{};
+  using U = GridUpdate<Dim>;
+  constexpr int F = max_node_fields;
+  TrialField<Dim> trial[F]{};
   bool live[F]{};
-  double vo[F][2], fn[F][2]{}, ft[F][2]{};
+  double vo[F][Dim], fn[F][Dim]{}, ft[F][Dim]{};
   for (int j = 0; j < n; ++j)
   {
-    const NodeSums<2>& s = sums[j];
-    const SurfaceSums& u = surface[j];
+    const NodeSums<Dim>& s = sums[j];
+    const SurfaceSums<Dim>& u = surface[j];
     live[j] = s.m > mass_tol;
     if (!live[j])
     {
@@ -96,46 +97,49 @@ void update_contact_node(int n, const NodeSums<2>* sums, const SurfaceSums* surf
         acc[U::light] += 1.0;
       continue;
     }
-    vo[j][0] = s.p[0] / s.m;
-    vo[j][1] = s.p[1] / s.m;
-    trial[j] = TrialField{s.m,
-                          {s.p[0] + dt * s.f[0], s.p[1] + dt * s.f[1]},                 // K&T eq. 63
-                          {vo[j][0] + dt * s.f[0] / s.m, vo[j][1] + dt * s.f[1] / s.m}, // K&T eq. 64
-                          {u.gx, u.gy},
-                          u.V};
+    TrialField<Dim>& t = trial[j];
+    t.m = s.m;
+    for (int d = 0; d < Dim; ++d)
+    {
+      vo[j][d] = s.p[d] / s.m;
+      t.pt[d] = s.p[d] + dt * s.f[d];             // K&T eq. 63
+      t.vt[d] = vo[j][d] + dt * s.f[d] / s.m;     // K&T eq. 64
+      t.g[d] = u.g[d];
+    }
+    t.V = u.V;
   }
-  ContactPair pairs[F * (F - 1) / 2];
-  const int active = coulomb_forces(n, trial, live, field, friction, nfields, touch_volume, dt, fn,
-                                    ft, pairs, &acc[U::contact], &acc[U::pair_impulse]);
+  ContactPair<Dim> pairs[F * (F - 1) / 2];
+  const int active = coulomb_forces<Dim>(n, trial, live, field, friction, nfields, touch_volume, dt,
+                                         fn, ft, pairs, &acc[U::contact], &acc[U::pair_impulse]);
   // Corrected velocities (K&T eq. 65), checked (C.3, C.4) before the walls act
   // on them; walls, and the work done.
-  double vn[F][2]{}, vc[F][2]{};
+  double vn[F][Dim]{}, vc[F][Dim]{};
   for (int j = 0; j < n; ++j)
     if (live[j])
-      for (int d = 0; d < 2; ++d)
+      for (int d = 0; d < Dim; ++d)
         vc[j][d] = vn[j][d] = trial[j].vt[d] + dt * (fn[j][d] + ft[j][d]) / sums[j].m;
-  check_contact(active, pairs, vc, &acc[U::contact]);
+  check_contact<Dim>(active, pairs, vc, &acc[U::contact]);
   for (int j = 0; j < n; ++j)
   {
     if (!live[j])
-      k[j] = NodeKinematics<2>{};
+      k[j] = NodeKinematics<Dim>{};
     else
-      finish_slot<2>(sums[j], vo[j], vn[j], hold, held, ft[j], dt, k[j], acc);
+      finish_slot<Dim>(sums[j], vo[j], vn[j], hold, held, ft[j], dt, k[j], acc);
   }
 }
 
-void update_damage_node(int n, const NodeSums<2>* sums, const SurfaceSums* surface,
+void update_damage_node(int n, const NodeSums<2>* sums, const SurfaceSums<2>* surface,
                         const std::int32_t* field, const double* friction, int groups,
                         double separability, double touch_volume, NodeHold hold,
                         const Velocity<2>* held, double dt, double mass_tol, NodeKinematics<2>* k,
                         double* acc)
 {
   using U = GridUpdate<2>;
-  constexpr int F = BodyFields::max_fields;
+  constexpr int F = max_node_fields;
   // The fields that act: a separable side on its own, the two sides of a
   // group that are not separable summed into one.
   NodeSums<2> unit[F];
-  SurfaceSums usurf[F];
+  SurfaceSums<2> usurf[F];
   std::int32_t group[F], of[F];
   int units = 0;
   for (int j = 0; j < n; ++j)
@@ -146,7 +150,7 @@ void update_damage_node(int n, const NodeSums<2>* sums, const SurfaceSums* surfa
       // Sides A (slot j - 1) and B (slot j) of one group: H&H eq. 21.
       acc[U::contact + count_split] += 1.0;
       const NodeSums<2> &a = sums[j - 1], &b = sums[j];
-      const SurfaceSums &sa = surface[j - 1], &sb = surface[j];
+      const SurfaceSums<2> &sa = surface[j - 1], &sb = surface[j];
       const bool apart = a.m > mass_tol && b.m > mass_tol && std::max(sa.full, sb.full) > 0.0
                          && std::min(sa.md / a.m, sb.md / b.m) > separability;
       if (apart)
@@ -161,9 +165,9 @@ void update_damage_node(int n, const NodeSums<2>* sums, const SurfaceSums* surfa
           u.f[d] += b.f[d];
         for (int d = 0; d < 2; ++d)
           u.e[d] += b.e[d];
-        SurfaceSums& v = usurf[units - 1];
-        v.gx += sb.gx;
-        v.gy += sb.gy;
+        SurfaceSums<2>& v = usurf[units - 1];
+        for (int d = 0; d < 2; ++d)
+          v.g[d] += sb.g[d];
         v.V += sb.V;
         of[j] = units - 1;
         continue;
@@ -178,10 +182,17 @@ void update_damage_node(int n, const NodeSums<2>* sums, const SurfaceSums* surfa
   if (units == 1)
     update_free_slot<2>(unit[0], hold, held, dt, mass_tol, kin[0], acc);
   else
-    update_contact_node(units, unit, usurf, group, friction, groups, touch_volume, hold, held, dt,
+    update_contact_node<2>(units, unit, usurf, group, friction, groups, touch_volume, hold, held, dt,
                         mass_tol, kin, acc);
   for (int j = 0; j < n; ++j)
     k[j] = kin[of[j]];
 }
+
+template void update_contact_node<2>(int, const NodeSums<2>*, const SurfaceSums<2>*, const std::int32_t*,
+                                  const double*, int, double, NodeHold, const Velocity<2>*, double,
+                                  double, NodeKinematics<2>*, double*);
+template void update_contact_node<3>(int, const NodeSums<3>*, const SurfaceSums<3>*, const std::int32_t*,
+                                  const double*, int, double, NodeHold, const Velocity<3>*, double,
+                                  double, NodeKinematics<3>*, double*);
 
 } // namespace pfmpm

@@ -67,7 +67,7 @@ private:
 struct CellFields
 {
   int n = 1;                                      ///< local fields (groups)
-  std::int32_t field[BodyFields::max_fields] = {}; ///< their field (group) indices
+  std::int32_t field[max_node_fields] = {}; ///< their field (group) indices
   /// Local field of a particle of field `body`.
   int local(std::int32_t body) const
   {
@@ -132,7 +132,7 @@ template <int Dim, int F, int K, bool Surface, bool Damage>
 struct P2GBlock
 {
   double m[F][K], p[Dim][F][K], f[Dim][F][K], e[Dim][F][K];
-  double gx[Surface ? F : 1][K], gy[Surface ? F : 1][K], V[Surface ? F : 1][K];
+  double g[Dim][Surface ? F : 1][K], V[Surface ? F : 1][K];
   double md[Damage ? F : 1][K], full[Damage ? F : 1][K];
 };
 
@@ -156,7 +156,7 @@ template <class Shape, bool External, int F, bool Surface, bool Damage, class Se
   constexpr int S = Surface ? F : 1;
   constexpr int D = Damage ? F : 1;
   constexpr int T = symmetric_size(Dim);
-  static_assert(!Surface || Dim == 2, "contact is two-dimensional");
+  static_assert(!Damage || Dim == 2, "the damage-gradient partition is two-dimensional");
   const double *v = a.v, *mass = a.mass, *volume = a.volume, *stress = a.stress, *fext = a.fext;
   // Local arrays, which the compiler keeps apart from the particle arrays.
   // One block per direction, each aligned for the vector units (a
@@ -167,7 +167,12 @@ template <class Shape, bool External, int F, bool Surface, bool Damage, class Se
   };
   double m[F][K]{};
   Block mv[Dim]{}, fi[Dim]{}, ext[Dim]{};
-  [[maybe_unused]] double gx[S][K]{}, gy[S][K]{}, V[S][K]{};
+  struct alignas(32) SurfaceBlock
+  {
+    double v[S][K];
+  };
+  [[maybe_unused]] SurfaceBlock mg[Dim]{};
+  [[maybe_unused]] double V[S][K]{};
   [[maybe_unused]] double md[D][K]{}, full[D][K]{};
   each(
       [&](std::size_t p, const Shape& s)
@@ -232,8 +237,9 @@ template <class Shape, bool External, int F, bool Surface, bool Damage, class Se
               }
               if constexpr (Surface)
               {
-                gx[f][i] += g[0] * mp; // K&T eq. 70, before normalisation
-                gy[f][i] += g[1] * mp;
+#pragma GCC unroll 3
+                for (int d = 0; d < Dim; ++d)
+                  mg[d].v[f][i] += g[d] * mp; // K&T eq. 70, before normalisation
                 V[f][i] += w * Vp; // for the touch check
               }
               if constexpr (Damage)
@@ -275,8 +281,8 @@ template <class Shape, bool External, int F, bool Surface, bool Damage, class Se
   }
   if constexpr (Surface)
   {
-    std::memcpy(block.gx, gx, sizeof gx);
-    std::memcpy(block.gy, gy, sizeof gy);
+    for (int d = 0; d < Dim; ++d)
+      std::memcpy(block.g[d], mg[d].v, sizeof mg[d].v);
     std::memcpy(block.V, V, sizeof V);
   }
   if constexpr (Damage)
@@ -365,13 +371,13 @@ template <class Shape, bool External, class Fields, bool Affine>
 struct MomentumP2G
 {
   static constexpr int Dim = Shape::dim;
-  static_assert(Dim == 2 || !Fields::discrete, "contact is two-dimensional");
+  static_assert(Dim == 2 || !Fields::per_pair, "the damage-gradient partition is two-dimensional");
   const Grid<Dim>& grid;
   const Fields& fields;
   P2GArrays arrays;
   const std::int32_t* field_of; ///< per particle: its body (discrete) or group (damage fields)
   NodeSums<Dim>* sums;
-  SurfaceSums* surface;
+  SurfaceSums<Dim>* surface;
 
   void operator()(const Cell<Dim>& cell, const detail::EachParticle<Shape>& each) const
   {
@@ -382,7 +388,7 @@ struct MomentumP2G
     {
       local.n = fields.cell_fields(cell.key, local.field);
       if (local.n > 1)
-        scatter<BodyFields::max_fields, true, false>(cell, each, ByBody{field_of, local}, local);
+        scatter<max_node_fields, true, false>(cell, each, ByBody{field_of, local}, local);
       else if (fields.touches(cell.key))
         scatter<1, true, false>(cell, each, OneField{}, local);
       else
@@ -431,9 +437,9 @@ struct MomentumP2G
         }
         if constexpr (Surface)
         {
-          SurfaceSums& u = surface[slot];
-          u.gx += b.gx[f][i];
-          u.gy += b.gy[f][i];
+          SurfaceSums<Dim>& u = surface[slot];
+          for (int d = 0; d < Dim; ++d)
+            u.g[d] += b.g[d][f][i];
           u.V += b.V[f][i];
           if constexpr (Damage)
           {
@@ -502,10 +508,11 @@ void finish_slot(const NodeSums<Dim>& s, const double* vo, double* vn, NodeHold 
 /// the work done, and the checks C.3 and C.4.
 /// @param field Field index of each slot, into `friction` (nfields x nfields).
 /// @param touch_volume What two fields fill where they touch (coulomb_forces).
-void update_contact_node(int n, const NodeSums<2>* sums, const SurfaceSums* surface,
+template <int Dim>
+void update_contact_node(int n, const NodeSums<Dim>* sums, const SurfaceSums<Dim>* surface,
                          const std::int32_t* field, const double* friction, int nfields,
-                         double touch_volume, NodeHold hold, const Velocity<2>* held, double dt,
-                         double mass_tol, NodeKinematics<2>* k, double* acc);
+                         double touch_volume, NodeHold hold, const Velocity<Dim>* held, double dt,
+                         double mass_tol, NodeKinematics<Dim>* k, double* acc);
 
 /// @brief The update of the n >= 2 damage-gradient fields at a node (H&H
 /// eq. 21 in Algorithm 3): the two sides of a group are separable where
@@ -516,7 +523,7 @@ void update_contact_node(int n, const NodeSums<2>* sums, const SurfaceSums* surf
 /// (update_contact_node), with the friction of their groups' pair (a
 /// group's own for its crack faces).
 /// @param field Field index of each slot, 2 group + side, sorted.
-void update_damage_node(int n, const NodeSums<2>* sums, const SurfaceSums* surface,
+void update_damage_node(int n, const NodeSums<2>* sums, const SurfaceSums<2>* surface,
                         const std::int32_t* field, const double* friction, int groups,
                         double separability, double touch_volume, NodeHold hold,
                         const Velocity<2>* held, double dt, double mass_tol, NodeKinematics<2>* k,
@@ -531,10 +538,10 @@ void update_damage_node(int n, const NodeSums<2>* sums, const SurfaceSums* surfa
 template <int Dim, class Fields>
 std::array<double, GridUpdate<Dim>::size>
 update_grid(const Grid<Dim>& grid, Fields& fields, const std::vector<NodeSums<Dim>>& sums,
-            const std::vector<SurfaceSums>& surface, std::vector<NodeKinematics<Dim>>& kinematics,
+            const std::vector<SurfaceSums<Dim>>& surface, std::vector<NodeKinematics<Dim>>& kinematics,
             double dt, double mass_tol, double touch_fill)
 {
-  static_assert(Dim == 2 || !Fields::discrete, "contact is two-dimensional");
+  static_assert(Dim == 2 || !Fields::per_pair, "the damage-gradient partition is two-dimensional");
   constexpr int sums_n = GridUpdate<Dim>::size;
   const std::vector<NodeHold>& constrained = grid.constraints();
   const bool holds = !constrained.empty();
@@ -558,16 +565,19 @@ update_grid(const Grid<Dim>& grid, Fields& fields, const std::vector<NodeSums<Di
         {
           // The volume of two touching fields: a fraction of the node's, the
           // integral of its basis function.
-          const std::int32_t id = grid.active_nodes()[a], ny = grid.nodes()[1];
-          const double touch = touch_fill * (grid.basis(0).integral(id / ny)
-                                             * grid.basis(1).integral(id % ny));
+          const std::array<int, Dim> i = lattice_indices<Dim>(
+              static_cast<std::size_t>(grid.active_nodes()[a]), grid.nodes());
+          double volume = grid.basis(0).integral(i[0]);
+          for (int d = 1; d < Dim; ++d)
+            volume *= grid.basis(d).integral(i[d]);
+          const double touch = touch_fill * volume;
           if constexpr (Fields::per_pair)
             update_damage_node(n, &sums[s0], &surface[s0], &fields.slot_field()[s0],
                                fields.friction().data(), fields.size(),
                                fields.options().separability, touch, hold, held, dt, mass_tol,
                                &kinematics[s0], acc.data());
           else
-            update_contact_node(n, &sums[s0], &surface[s0], &fields.slot_field()[s0],
+            update_contact_node<Dim>(n, &sums[s0], &surface[s0], &fields.slot_field()[s0],
                                 fields.friction().data(), fields.size(), touch, hold, held, dt,
                                 mass_tol, &kinematics[s0], acc.data());
         }
@@ -710,7 +720,7 @@ template <class Shape, class Fields, bool Affine>
 struct KinematicsG2P
 {
   static constexpr int Dim = Shape::dim;
-  static_assert(Dim == 2 || !Fields::discrete, "contact is two-dimensional");
+  static_assert(Dim == 2 || !Fields::per_pair, "the damage-gradient partition is two-dimensional");
   const Grid<Dim>& grid;
   const Fields& fields;
   const NodeKinematics<Dim>* kinematics;
@@ -751,7 +761,7 @@ struct KinematicsG2P
     {
       fields_of.n = fields.cell_fields(cell.key, fields_of.field);
       if (fields_of.n > 1)
-        return gather<BodyFields::max_fields>(local, cell, each, ByBody{field_of, fields_of},
+        return gather<max_node_fields>(local, cell, each, ByBody{field_of, fields_of},
                                               fields_of);
     }
     if constexpr (Fields::per_pair)

@@ -88,8 +88,8 @@ Solver<Dim>::Solver(Grid<Dim>& grid, Particles& particles,
     // What is two-dimensional yet (issue 50's later steps and issue 51).
     if (std::any_of(_fracture.begin(), _fracture.end(), [](const auto& f) { return f.has_value(); }))
       throw std::invalid_argument("fracture: the phase field is two-dimensional yet");
-    if (partition != Partition::single)
-      throw std::invalid_argument("partition: contact (discrete fields) is two-dimensional yet");
+    if (partition == Partition::damage_gradient)
+      throw std::invalid_argument("partition: the damage-gradient partition is two-dimensional yet");
     if (shape == ShapeFunctions::cpdi)
       throw std::invalid_argument("shape: CPDI is two-dimensional yet");
   }
@@ -145,6 +145,8 @@ Solver<Dim>::Solver(Grid<Dim>& grid, Particles& particles,
     throw std::invalid_argument("friction: one velocity field has no contact to take it");
   if (partition != Partition::single && friction.empty())
     throw std::invalid_argument("friction: the contact of discrete fields needs the matrix between them");
+  if (partition == Partition::bodies)
+    _fields.template emplace<BodyFields<Dim>>(grid, particles, std::move(friction));
   if constexpr (Dim == 2)
   {
     if (partition == Partition::damage_gradient)
@@ -161,10 +163,8 @@ Solver<Dim>::Solver(Grid<Dim>& grid, Particles& particles,
                                         : DamageSource::none);
       }
       _fields.template emplace<DamageFields>(grid, particles, std::move(friction), std::move(source),
-                                    std::move(damage), shape);
+                                             std::move(damage), shape);
     }
-    else if (partition == Partition::bodies)
-      _fields.template emplace<BodyFields>(grid, particles, std::move(friction));
     if (!cracks)
       return;
     // The phase fields: one over all crackable particles, or with discrete
@@ -654,7 +654,7 @@ void Solver<Dim>::particle_to_grid(Fields& fields)
   for (std::ptrdiff_t a = 0; a < static_cast<std::ptrdiff_t>(slots); ++a)
     _sums[a] = NodeSums<Dim>{};
   if constexpr (Fields::discrete)
-    _surface.assign(slots, SurfaceSums{});
+    _surface.assign(slots, SurfaceSums<Dim>{});
   const Particles& P_ = _particles;
   P2GArrays arrays{P_.v.data(), P_.mass.data(), P_.volume.data(), P_.stress.data(),
                    P_.fext.data(), nullptr, nullptr};
@@ -941,13 +941,11 @@ PhaseFieldStats Solver<Dim>::phase_field_stats() const
 template <int Dim>
 const ContactStats* Solver<Dim>::contact_stats() const
 {
+  if (const auto* fields = std::get_if<BodyFields<Dim>>(&_fields))
+    return &fields->stats();
   if constexpr (Dim == 2)
-  {
-    if (const auto* fields = std::get_if<BodyFields>(&_fields))
-      return &fields->stats();
     if (const auto* fields = std::get_if<DamageFields>(&_fields))
       return &fields->stats();
-  }
   return nullptr;
 }
 

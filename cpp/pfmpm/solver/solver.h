@@ -183,16 +183,16 @@ struct StepConfig
 };
 
 /// @brief The velocity-field partitions a run in Dim directions may take:
-/// contact (discrete fields) is two-dimensional for now, so a 3D run has one field.
+/// the damage-gradient partition is two-dimensional for now.
 template <int Dim>
 struct Partitions
 {
-  using type = std::variant<SingleField, BodyFields, DamageFields>;
+  using type = std::variant<SingleField, BodyFields<Dim>, DamageFields>;
 };
 template <>
 struct Partitions<3>
 {
-  using type = std::variant<SingleField>;
+  using type = std::variant<SingleField, BodyFields<3>>;
 };
 
 /// @brief Explicit update-stress-last MPM in the momentum formulation, with
@@ -221,8 +221,9 @@ struct Partitions<3>
 /// converges in one pass: the phase field solved at the start of step m+1
 /// uses the history left by step m.
 ///
-/// In 3D a run has one velocity field, B-spline shape functions (FLIP or
-/// APIC) and no phase field yet; the constructor refuses the rest.
+/// In 3D a run has one velocity field or every body its own, B-spline shape
+/// functions (FLIP or APIC) and no phase field yet; the constructor refuses
+/// the rest.
 template <int Dim>
 class Solver
 {
@@ -233,7 +234,8 @@ public:
   /// @param materials Materials indexed by Particles::material.
   /// @param step What each step does (StepConfig).
   /// @throws std::invalid_argument for a bad configuration, or in 3D for one
-  ///         that is two-dimensional yet (contact, CPDI, a phase field).
+  ///         that is two-dimensional yet (the damage-gradient partition,
+  ///         CPDI, a phase field).
   Solver(Grid<Dim>& grid, Particles& particles, std::vector<std::shared_ptr<const Material>> materials,
          StepConfig step);
 
@@ -445,7 +447,7 @@ private:
 
   CellSort _sort;
   std::vector<NodeSums<Dim>> _sums;          // per slot
-  std::vector<SurfaceSums> _surface;         // per slot, at contact cells
+  std::vector<SurfaceSums<Dim>> _surface;    // per slot, at contact cells
   std::vector<NodeKinematics<Dim>> _kinematics; // per slot
   std::vector<std::vector<std::int64_t>> _region_cells; // per region (region_cells)
   StageTimers _timers;
