@@ -230,6 +230,31 @@ def test_bench_cube():
         bench(physics="contact", particles=1000, dim=3)
 
 
+def test_3d_bodies_in_contact_exchange_the_impulse_they_record(tmp_path):
+    """A ball thrown obliquely at a block, each its own field with Coulomb
+    contact (mu = 0.3): every component of the ball's momentum changes by the
+    contact impulse of the block on it (``contact_ball_block_x|y|z``), and the
+    total momentum stays its initial value, to 1e-12 at every row."""
+    d = {"name": "throw", "grid": {"size": [8.0, 6.0, 6.0], "h": 0.5}, "time": {"end": 2.0},
+         "output": {"energies_every": 5, "particles": False},
+         "materials": [{"name": "m", "E": 100.0, "nu": 0.3, "density": 1.0}],
+         "bodies": [{"name": "ball", "material": "m", "velocity": [1.0, 0.3, -0.2],
+                     "shape": {"type": "sphere", "center": [2.0, 3.0, 3.0], "radius": 1.0}},
+                    {"name": "block", "material": "m",
+                     "shape": {"type": "box", "min": [3.5, 1.0, 1.0], "max": [6.5, 5.0, 5.0]}}],
+         "contact": {"friction": 0.3}}
+    scene = Scene.from_dict(d)
+    assert Simulation(scene).run(tmp_path, progress=False).status == "completed"
+    e = read_csv(tmp_path / "energies.csv")
+    mass = Simulation(scene).particles.mass
+    scale = float(np.sum(mass)) * 1.0
+    assert np.abs(e["contact_ball_block_x"]).max() > 0.1 * scale, "the ball should have hit the block"
+    for axis in "xyz":
+        gained = e[f"momentum_{axis}_ball"] - e[f"momentum_{axis}_ball"][0]
+        assert np.abs(gained - e[f"contact_ball_block_{axis}"]).max() < 1e-12 * scale
+        assert np.abs(e[f"momentum_{axis}"] - e[f"momentum_{axis}"][0]).max() < 1e-12 * scale
+
+
 def solid() -> dict:
     """A small valid 3D scene, as tables."""
     return {"name": "cube", "grid": {"size": [6.0, 6.0, 6.0], "h": 1.0}, "time": {"end": 1.0},
@@ -258,7 +283,8 @@ BAD = [
      "materials[0].model = 'drucker_prager': the drucker_prager model is two-dimensional yet"),
     (solid, ['plane="stress"'], "plane = 'stress': plane stress is two-dimensional yet"),
     (solid, ['grid.shape="cpdi"', "grid.degree=1"], "grid.shape = 'cpdi': CPDI is two-dimensional yet"),
-    (solid, ['contact={friction = 0.3}'], "contact: contact is two-dimensional yet"),
+    (solid, ['contact={partition = "damage_gradient", friction = 0.3}'],
+     "contact.partition = 'damage_gradient': the damage-gradient partition is two-dimensional yet"),
     (solid, ["cracks=[{points = [[2.0, 3.0], [3.0, 3.0]]}]"],
      "cracks: an initial crack (it seeds the phase field) is two-dimensional yet"),
     (solid, ["bodies.b.orientation=30.0"], "bodies[0].orientation = 30.0: the material orientation is"

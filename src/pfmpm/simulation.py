@@ -249,7 +249,7 @@ class Simulation:
         then the columns ``observed`` of the run's observers
         (:meth:`pfmpm.observe.Observer.columns`), then those of the models
         and of contact: with each body its own field the contact impulse of
-        each pair, ``contact_<a>_<b>_x|y`` (of body b on body a since t = 0)."""
+        each pair, ``contact_<a>_<b>_x|y`` (and ``_z`` in 3D; of body b on body a since t = 0)."""
         dim = self.scene.dim
         columns = (energy_columns(dim) + wall_columns(self.scene.walls, dim)
                    + region_columns(self.scene.prescribed, dim))
@@ -260,7 +260,8 @@ class Simulation:
         if self.contact:
             columns += CONTACT_COLUMNS + [f"fracture_{b.name}" for b in self.scene.bodies]
         names = [b.name for b in self.scene.bodies]
-        columns += [f"contact_{names[a]}_{names[b]}_{d}" for a, b in self._body_pairs() for d in "xy"]
+        columns += [f"contact_{names[a]}_{names[b]}_{d}" for a, b in self._body_pairs()
+                    for d in "xyz"[:self.scene.dim]]
         return columns
 
     @property
@@ -332,7 +333,8 @@ class Simulation:
         pair_impulse = e.pop("pair_impulse")
         for a, b in self._body_pairs():
             name = f"contact_{self.scene.bodies[a].name}_{self.scene.bodies[b].name}"
-            e[f"{name}_x"], e[f"{name}_y"] = pair_impulse[_core.field_pair(a, b)]
+            for d, value in zip(axes, pair_impulse[_core.field_pair(a, b)]):
+                e[f"{name}_{d}"] = value
         for k, region in enumerate(self.scene.prescribed):
             name = region.name
             for d, impulse_d, displacement_d in zip(axes, region_impulse[k], region_displacement[k]):
