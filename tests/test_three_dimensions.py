@@ -255,6 +255,45 @@ def test_3d_bodies_in_contact_exchange_the_impulse_they_record(tmp_path):
         assert np.abs(e[f"momentum_{axis}"] - e[f"momentum_{axis}"][0]).max() < 1e-12 * scale
 
 
+def test_a_block_sliding_obliquely_decelerates_at_mu_g(tmp_path):
+    """A 2 x 2 x 1 block sliding at speed 1 along (1, 1, 0) / sqrt(2) on a slab
+    100 times heavier and stiffer (on a fixed back wall), gravity g = 0.25
+    along -z on the block, mu = 0.5: friction in the tangent plane opposes
+    the slip, so the block keeps its direction, decelerates at mu g, stops
+    after v0^2 / (2 mu g), and friction takes its kinetic energy."""
+    import json
+
+    mu, g, v0 = 0.5, 0.25, 1.0
+    c = v0 / math.sqrt(2.0)
+    d = {"name": "slide", "grid": {"size": [9.0, 9.0, 3.0], "h": 0.5, "origin": [-0.5, -0.5, 0.0]},
+         "time": {"end": 9.0, "cfl": 0.5}, "output": {"energies_every": 10, "particles": False},
+         "materials": [{"name": "block", "E": 1000.0, "nu": 0.3, "density": 1.0},
+                       {"name": "slab", "E": 1e5, "nu": 0.3, "density": 100.0}],
+         "bodies": [{"name": "slab", "material": "slab",
+                     "shape": {"type": "box", "min": [0.0, 0.0, 0.0], "max": [8.0, 8.0, 1.0]}},
+                    {"name": "block", "material": "block", "velocity": [c, c, 0.0],
+                     "shape": {"type": "box", "min": [1.0, 1.0, 1.0], "max": [3.0, 3.0, 2.0]}}],
+         "loads": [{"type": "body_force", "body": "block", "acceleration": [0.0, 0.0, -g]}],
+         "walls": [{"side": "back", "type": "fixed"}],
+         "contact": {"friction": 0.0, "pairs": [{"bodies": ["slab", "block"], "friction": mu}]}}
+    sim = Simulation(Scene.from_dict(d))
+    assert sim.run(tmp_path, progress=False).status == "completed"
+    e = read_csv(tmp_path / "energies.csv")
+    block = sim.particles.body == 1
+    M = float(sim.particles.mass[block].sum())
+    vx, vy = e["momentum_x_block"] / M, e["momentum_y_block"] / M
+    sliding = (e["t"] > 0.5) & (e["t"] < 3.0)  # settled on the slab, far from stopping (t = 8)
+    deceleration = -np.polyfit(e["t"][sliding], np.hypot(vx, vy)[sliding], 1)[0]
+    assert deceleration == pytest.approx(mu * g, rel=0.03)
+    assert np.abs(vy[sliding] / vx[sliding] - 1.0).max() < 1e-12
+    moved = sim.particles.x[block, :2].mean(axis=0) - 2.0
+    assert moved == pytest.approx(np.full(2, v0**2 / (2 * mu * g) / math.sqrt(2.0)), rel=0.03)
+    assert np.abs(sim.particles.v[block]).max() < 0.01 * v0
+    assert sim.energies()["friction_dissipation"] == pytest.approx(0.5 * M * v0**2, rel=0.02)
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["contact"]["violations"] == {"C1": 0, "C2": 0, "C3": 0, "C4": 0}
+
+
 def solid() -> dict:
     """A small valid 3D scene, as tables."""
     return {"name": "cube", "grid": {"size": [6.0, 6.0, 6.0], "h": 1.0}, "time": {"end": 1.0},
