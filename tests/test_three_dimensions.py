@@ -226,8 +226,10 @@ def test_bench_cube():
     r = bench(particles=1000, steps=2, repeats=1, dim=3)
     assert r["dim"] == 3 and r["per_cell"] == 2 and r["particles"] == 5**3 * 8  # 5 cells a side
     assert r["particle_steps_per_s"] == pytest.approx(r["particles"] * 2 / r["seconds"])
-    with pytest.raises(ValueError, match="dim = 3: physics must be elastic"):
-        bench(physics="contact", particles=1000, dim=3)
+    with pytest.raises(ValueError, match="dim = 3: physics must be elastic or contact"):
+        bench(physics="phasefield", particles=1000, dim=3)
+    r = bench(physics="contact", particles=1000, steps=2, repeats=1, dim=3)
+    assert r["particles"] == 5**3 * 8 and r["physics"] == "contact"
 
 
 def test_3d_bodies_in_contact_exchange_the_impulse_they_record(tmp_path):
