@@ -543,7 +543,7 @@ def three_bodies(*entries: dict, rock: dict = NEO) -> dict:
      "initial_damage[0].points = [[1.0, 2.0], [3.0, 2.0]]: a second region: the entry has a box"
      " already (min and max); give one region per entry"),
     ({}, "initial_damage[0]: needs a region: min and max (a box), points and half_width (a band along"
-         " a polyline), or particles"),
+         " a polyline, in 3D a patch over a planar polygon), or particles"),
     ({"min": [20.0, 10.0], "max": [30.0, 20.0]},
      "initial_damage[0]: the box min = [20.0, 10.0], max = [30.0, 20.0] selects no particle of body"
      " 'plate' (at their positions at t = 0)"),

@@ -175,6 +175,65 @@ def test_three_failed_planes_cut_a_cube_into_eight_fragments():
     assert masses == pytest.approx(np.full(8, 2.0 * volume), rel=1e-14)
 
 
+def cube_with_damage(*entries) -> Simulation:
+    """A neo-Hookean cube 4 x 4 x 4 with Rankine damage (h = 0.5, 2 x 2 x 2
+    per cell: particle spacing 0.25, centres at 0.125 + 0.25 k) and the
+    initial damage ``entries``."""
+    from pfmpm.scene import InitialDamage, NeoHookeanSpec, RankineSpec
+    rock = NeoHookeanSpec(name="rock", E=100.0, nu=0.3, density=2.0, damage=RankineSpec(sigma_f=1.0, Gf=1.0))
+    return Simulation(Scene(grid=GridSpec(size=(6.0, 6.0, 6.0), h=0.5, origin=(-1.0, -1.0, -1.0)),
+                            time=Time(end=1.0), materials=(rock,),
+                            initial_damage=tuple(InitialDamage(**e) for e in entries),
+                            bodies=(Body(name="cube", material="rock",
+                                         shape=Box(min=(0.0, 0.0, 0.0), max=(4.0, 4.0, 4.0))),)))
+
+
+def test_a_patch_damages_the_particles_near_its_planar_polygon():
+    """A square patch in the plane x = 2, corners (2, 1, 1) to (2, 3, 3), half
+    width 0.15: the particles within 0.15 of the square, the two layers
+    x = 1.875 and 2.125 over the 8 x 8 centres whose (y, z) lies in it (the
+    nearest outside, 0.125 past its rim and 0.125 off its plane, are 0.177
+    away). A patch across the whole cube at D = 1 cuts it into two
+    fragments of 7 x 16 x 16 particles; one over its lower half leaves it whole."""
+    from pfmpm.post.fragments import LINK, failed, fragment_sizes
+    square = [(2.0, 1.0, 1.0), (2.0, 3.0, 1.0), (2.0, 3.0, 3.0), (2.0, 1.0, 3.0)]
+    p = cube_with_damage({"D": 0.5, "points": square, "half_width": 0.15}).particles
+    x, hit = np.asarray(p.x), np.asarray(p.damage) > 0
+    assert np.count_nonzero(hit) == 2 * 8 * 8
+    assert np.all(np.abs(x[hit, 0] - 2.0) == 0.125) and np.all((x[hit, 1:] > 1.0) & (x[hit, 1:] < 3.0))
+    assert np.all(np.asarray(p.damage)[hit] == 0.5)
+    for zmax, pieces in ((5.0, 2), (2.0, 1)):
+        wall = [(2.0, -1.0, -1.0), (2.0, 5.0, -1.0), (2.0, 5.0, zmax), (2.0, -1.0, zmax)]
+        p = cube_with_damage({"D": 1.0, "points": wall, "half_width": 0.15}).particles
+        intact = ~failed(p.damage)
+        sizes, masses = fragment_sizes(np.asarray(p.x)[intact], np.asarray(p.volume)[intact],
+                                       np.asarray(p.mass)[intact], LINK * 0.25)
+        assert len(sizes) == pieces
+        if pieces == 2:
+            assert masses == pytest.approx(np.full(2, 2.0 * 7 * 16 * 16 * 0.25**3), rel=1e-14)
+
+
+@pytest.mark.parametrize("points, message", [
+    ([[2.0, 1.0, 1.0], [2.0, 3.0, 1.0]],
+     "initial_damage[0].points = [[2.0, 1.0, 1.0], [2.0, 3.0, 1.0]]: a patch needs at least three corners"),
+    ([[2.0, 1.0, 1.0], [2.0, 3.0, 1.0], [2.0, 3.0, 3.0], [2.1, 1.0, 3.0]],
+     "off the patch's plane (a patch is a planar polygon)"),
+    ([[2.0, 1.0, 1.0], [2.0, 2.0, 1.0], [2.0, 3.0, 1.0]],
+     "initial_damage[0].points = [[2.0, 1.0, 1.0], [2.0, 2.0, 1.0], [2.0, 3.0, 1.0]]: the corners enclose"
+     " no area"),
+    ([[1.0, 1.0], [3.0, 3.0]],
+     "initial_damage[0].points = [[1.0, 1.0], [3.0, 3.0]]: a band's 2D polyline in a 3D scene"),
+])
+def test_bad_patches_are_one_line_errors(points, message):
+    """Through the TOML tables, as a user writes them: one line naming the key."""
+    tables = solid()
+    tables["materials"][0].update(model="neo_hookean", damage={"model": "rankine", "sigma_f": 1.0, "Gf": 1.0})
+    tables["initial_damage"] = [{"points": points, "half_width": 0.1}]
+    with pytest.raises(SceneError) as err:
+        Scene.from_dict(tables)
+    assert message in str(err.value) and "\n" not in str(err.value)
+
+
 def test_3d_run_writes_3d_points_and_six_stress_components(tmp_path):
     """The VTU files of a 3D run hold 3D points and the symmetric stress as
     ParaView's six components (xx, yy, zz, xy, yz, xz), read back with

@@ -41,7 +41,7 @@ The modules, one concern each:
     The damage tables of the neo-Hookean model: :class:`RankineSpec`,
     :class:`TimeToFailureSpec`, with a :class:`WeibullSpec` strength field;
     and the scene's damage at t = 0, :class:`InitialDamage`
-    (``[[initial_damage]]``: a box, a band along a polyline, or particles).
+    (``[[initial_damage]]``: a box, a band along a polyline (in 3D a patch over a planar polygon), or particles).
 ``validation``
     :class:`SceneError` and the value checkers.
 ``seeding``, ``stability``

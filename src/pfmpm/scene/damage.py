@@ -14,7 +14,8 @@ drawn per particle (H&H eq. 25).
 
 The scene's ``[[initial_damage]]`` tables (:class:`InitialDamage`) give
 particles of such materials a damage D at t = 0: pre-failed surfaces and
-pre-broken parts (a box, a band along a polyline, or a set of particles).
+pre-broken parts (a box, a band along a polyline or in 3D a patch over a
+planar polygon, or a set of particles).
 """
 
 from __future__ import annotations
@@ -29,7 +30,7 @@ import numpy as np
 
 from .declared import check_declared, declaration
 from .shapes import distance_to_polyline
-from .validation import (MAX_COUNT, SceneError, fmt, integer, planar, polyline, real, same_dimension, seq, store,
+from .validation import (MAX_COUNT, SceneError, fmt, integer, polyline, real, same_dimension, seq, store,
                          text, vector)
 
 __all__ = ["DAMAGE_MODELS", "damage_class", "DamageSpec", "RankineSpec", "TimeToFailureSpec",
@@ -290,6 +291,61 @@ class TimeToFailureSpec(DamageSpec):
 
 # -- initial damage (the scene's [[initial_damage]]) -------------------------------
 
+def _plane_frame(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A planar polygon's unit normal (Newell's method) and two unit in-plane
+    axes, the first along its first edge."""
+    n = np.cross(corners, np.roll(corners, -1, axis=0)).sum(axis=0)
+    n = n / np.linalg.norm(n)
+    e1 = corners[1] - corners[0]
+    e1 = e1 / np.linalg.norm(e1)
+    return n, e1, np.cross(n, e1)
+
+
+def planar_polygon(path: str, value) -> tuple[tuple[float, float, float], ...]:
+    """Check the corners of a simple planar polygon in 3D: three or more
+    [x, y, z] points, in order around it, with an area and all within 1e-9 of
+    its size of its plane (through the first corner, normal by Newell's
+    method); return them as tuples."""
+    points = seq(path, value, "[x, y, z] points")
+    if len(points) < 3:
+        raise SceneError(path, "a patch needs at least three corners", value)
+    corners = []
+    for i, p in enumerate(points):
+        v = vector(f"{path}[{i}]", p)
+        if len(v) != 3:
+            raise SceneError(f"{path}[{i}]", "must be an [x, y, z] point, as the first corner is", p)
+        corners.append(v)
+    c = np.asarray(corners)
+    size = float(np.ptp(c, axis=0).max())
+    area2 = float(np.linalg.norm(np.cross(c, np.roll(c, -1, axis=0)).sum(axis=0)))
+    if not (size > 0 and area2 > 1e-12 * size * size and np.isfinite(area2)):
+        raise SceneError(path, "the corners enclose no area (a patch is a planar polygon)", value)
+    n, _, _ = _plane_frame(c)
+    off = np.abs((c - c[0]) @ n)
+    if off.max() > 1e-9 * size:
+        k = int(np.argmax(off))
+        raise SceneError(f"{path}[{k}]", f"is {off[k]:.3g} off the patch's plane (a patch is"
+                                         " a planar polygon)", points[k])
+    return tuple(tuple(map(float, p)) for p in corners)
+
+
+def distance_to_polygon(x: np.ndarray, corners) -> np.ndarray:
+    """Distance of each point of ``x`` (N, 3) to the closed planar polygon with
+    ``corners``: to its plane where the point's projection falls inside it,
+    else to its boundary (the patch of :class:`InitialDamage`)."""
+    from matplotlib.path import Path
+
+    c = np.asarray(corners, dtype=float)
+    n, e1, e2 = _plane_frame(c)
+    d = np.asarray(x, dtype=float).reshape(-1, 3) - c[0]
+    normal = d @ n
+    flat = np.stack([d @ e1, d @ e2], axis=1)
+    outline = np.stack([(c - c[0]) @ e1, (c - c[0]) @ e2], axis=1)
+    inside = Path(outline).contains_points(flat)
+    rim = distance_to_polyline(flat, np.vstack([outline, outline[:1]]))
+    return np.where(inside, np.abs(normal), np.hypot(normal, rim))
+
+
 _REGIONS = {"box": ("min", "max"), "band": ("points", "half_width"), "particles": ("particles",)}
 """The regions of an :class:`InitialDamage` by name, each with its keys."""
 
@@ -305,7 +361,10 @@ class InitialDamage:
     - a box, ``min`` and ``max``: the particles whose position at t = 0 lies
       in the closed box ``min <= (x, y) <= max`` (``(x, y, z)`` in 3D);
     - a band, ``points`` and ``half_width``: those within ``half_width``
-      (closed) of the polyline through ``points`` (2D only);
+      (closed) of the polyline through ``points`` in 2D; in 3D, a patch:
+      those within ``half_width`` of the planar polygon whose corners are
+      ``points`` (the region between them and on it, a failed plane of finite
+      extent, the 3D form of the band);
     - ``particles``: indices into the body's particles (0 to n - 1, in the
       order of the seeding: the body's rows of ``Scene.particles()`` and of
       ``Simulation.particles``), or a boolean mask over them, one entry per
@@ -332,11 +391,12 @@ class InitialDamage:
     min, max : sequence of float or None
         A box: its lower-left and upper-right corners, ``min < max``
         componentwise, one component per direction.
-    points : sequence of (float, float) or None
+    points : sequence of (float, float), or of (float, float, float), or None
         A band: its polyline, at least two points, each segment of positive
-        length.
+        length; or a patch: the corners of a simple planar polygon, at least
+        three 3D points, in order around it.
     half_width : float or None
-        The band's half width, > 0.
+        The band's (patch's) half width, > 0.
     particles : sequence of int, or of bool, or None
         Indices into the body's particles (each once), or a boolean mask
         over them.
@@ -365,7 +425,7 @@ class InitialDamage:
         given = [name for name, keys in _REGIONS.items() if any(getattr(self, k) is not None for k in keys)]
         if not given:
             raise SceneError("", "needs a region: min and max (a box), points and half_width"
-                                 " (a band along a polyline), or particles")
+                                 " (a band along a polyline, in 3D a patch over a planar polygon), or particles")
         if len(given) > 1:
             first, second = given[0], given[1]
             key = next(k for k in _REGIONS[second] if getattr(self, k) is not None)
@@ -385,7 +445,9 @@ class InitialDamage:
             if not all(a < b for a, b in zip(self.min, self.max)):
                 raise SceneError("max", f"must exceed min = {fmt(self.min)} componentwise", self.max)
         elif region == "band":
-            store(self, "points", polyline("points", self.points))
+            points = seq("points", self.points, "points")
+            three = bool(points) and isinstance(points[0], (list, tuple, np.ndarray)) and len(points[0]) == 3
+            store(self, "points", planar_polygon("points", points) if three else polyline("points", points))
             store(self, "half_width", real("half_width", self.half_width, gt=0))
         else:
             self._check_particles()
@@ -429,8 +491,11 @@ class InitialDamage:
         """Check the region against a ``dim``-dimensional scene."""
         if self.region == "box":
             same_dimension("min", self.min, dim)
-        elif self.region == "band" and dim == 3:
-            raise planar("points", "a band along a polyline", self.points)
+        elif self.region == "band" and len(self.points[0]) != dim:
+            what = "a patch's 3D polygon" if dim == 2 else "a band's 2D polyline"
+            raise SceneError("points", f"{what} in a {dim}D scene (grid.size has {dim} entries): a band"
+                                       " takes [x, y] points in 2D, a patch [x, y, z] corners in 3D",
+                             self.points)
 
     @property
     def region(self) -> str:
@@ -447,7 +512,8 @@ class InitialDamage:
         if self.region == "box":
             return f"the box min = {fmt(self.min)}, max = {fmt(self.max)}"
         if self.region == "band":
-            return f"the band of half_width = {self.half_width:g} along points = {fmt(self.points)}"
+            what = "patch" if len(self.points[0]) == 3 else "band"
+            return f"the {what} of half_width = {self.half_width:g} along points = {fmt(self.points)}"
         return f"particles = {fmt(self.particles)}"
 
     def select(self, x: np.ndarray, first: int = 0) -> np.ndarray:
@@ -458,6 +524,8 @@ class InitialDamage:
         if self.region == "box":
             return np.all((x >= self.min) & (x <= self.max), axis=1)
         if self.region == "band":
+            if len(self.points[0]) == 3:
+                return distance_to_polygon(x, self.points) <= self.half_width
             return distance_to_polyline(x, self.points) <= self.half_width
         out = np.zeros(len(x), dtype=bool)
         if self.is_mask:
