@@ -9,7 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .shapes import SHAPES, Shape
-from .validation import SceneError, integer, planar, real, same_dimension, seq, store, text, vector
+from .validation import SceneError, at, integer, planar, real, same_dimension, seq, store, text, vector
 
 __all__ = ["Body"]
 
@@ -26,7 +26,7 @@ class Body:
         Name of the body's material.
     shape : Shape
         Region filled with particles: a 2D shape in a 2D scene, a 3D one
-        (a box, sphere, cylinder or extrusion) in a 3D scene.
+        (a box, sphere, cylinder, volume mesh or extrusion) in a 3D scene.
     holes : sequence of Shape
         Regions removed from ``shape`` (notches, holes), of its dimension.
     particles_per_cell : int
@@ -94,11 +94,8 @@ class Body:
     def check_dimension(self, dim: int) -> None:
         """Check that the body fits a ``dim``-dimensional scene: its shape,
         velocity and velocity gradient; in 3D no material orientation."""
-        if self.dim != dim:
-            hint = ("; extrude it (type = \"extrusion\") or use a box, sphere or cylinder" if dim == 3
-                    else "")
-            raise SceneError("shape", f"a {self.dim}D shape ({self.shape.kind}) in a {dim}D scene"
-                                      f" (grid.size has {dim} entries){hint}", self.shape.kind)
+        with at("shape"):
+            self.shape.check_dimension(dim)
         same_dimension("velocity", self.velocity, dim)
         same_dimension("velocity_gradient", self.velocity_gradient, dim)
         if dim == 3 and self.orientation:

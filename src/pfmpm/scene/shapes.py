@@ -1,7 +1,8 @@
 """The shapes bodies and their holes are made of (TOML ``type`` of a
 ``shape`` or ``holes`` table). In 2D: rectangles, disks, rings, polygons, the
 cells of a mesh file and the pixels of one colour of an image; in 3D: boxes,
-spheres, cylinders and the extrusion of any 2D shape along z."""
+spheres, cylinders, the volume cells of a mesh file and the extrusion of any
+2D shape along z."""
 
 from __future__ import annotations
 
@@ -34,7 +35,8 @@ class Shape:
     """Base of the shapes that bodies and holes are made of.
 
     Subclasses set ``kind`` (the TOML ``type``) and, for a 3D shape,
-    ``dim = 3``, and implement :meth:`contains` and :meth:`bounds`.
+    ``dim = 3`` (a mesh sets it per instance, as its file's cells are), and
+    implement :meth:`contains` and :meth:`bounds`.
     """
 
     kind: ClassVar[str]
@@ -50,6 +52,14 @@ class Shape:
         """Return the bounding box: ``(xmin, ymin, xmax, ymax)``, or in 3D
         ``(xmin, ymin, zmin, xmax, ymax, zmax)``."""
         raise NotImplementedError
+
+    def check_dimension(self, dim: int) -> None:
+        """Check that the shape fits a ``dim``-dimensional scene (the grid's)."""
+        if self.dim != dim:
+            hint = ("; extrude it (type = \"extrusion\") or use a box, sphere or cylinder" if dim == 3
+                    else "")
+            raise SceneError("", f"a {self.dim}D shape ({self.kind}) in a {dim}D scene"
+                                 f" (grid.size has {dim} entries){hint}", self.kind)
 
 
 @dataclass(frozen=True)
@@ -195,14 +205,123 @@ class Polygon(Shape):
 #: meshio cell types read as triangles, each by its corner vertices (and quads cut in two).
 _MESH_CELLS = {"triangle": 3, "triangle6": 3, "triangle7": 3, "quad": 4, "quad8": 4, "quad9": 4}
 
+_HEX_TETS = ((0, 1, 2, 6), (0, 2, 3, 6), (0, 3, 7, 6), (0, 7, 4, 6), (0, 4, 5, 6), (0, 5, 1, 6))
+"""A hexahedron (meshio's and VTK's corner order: 0-3 one face, 4-7 the
+opposite one, 4 across from 0) as six tetrahedra about its diagonal 0-6: each
+face is cut along a diagonal that a neighbour sharing the face, numbered the
+same way, cuts it along too."""
+
+#: meshio volume cell types, each as tetrahedra of its corner vertices (higher-order cells by their corners).
+_VOLUME_CELLS = {
+    **dict.fromkeys(("tetra", "tetra10"), ((0, 1, 2, 3),)),
+    **dict.fromkeys(("hexahedron", "hexahedron20", "hexahedron24", "hexahedron27"), _HEX_TETS),
+    **dict.fromkeys(("wedge", "wedge15", "wedge18"), ((0, 1, 2, 3), (1, 2, 3, 4), (2, 3, 4, 5))),
+    **dict.fromkeys(("pyramid", "pyramid13", "pyramid14"), ((0, 1, 2, 4), (0, 2, 3, 4))),
+}
+
+_BARY_TOL = 1e-9
+"""Barycentric slack of a point in a tetrahedron, relative to its size: a
+point on a face that two cells share is inside both, and on the mesh's outer
+surface inside it."""
+_PAIRS = 1 << 18
+"""(point, candidate tetrahedron) pairs tested per vectorised batch (~50 MB)."""
+
+
+class _TetLocator:
+    """Which points lie in some tetrahedron of a set: a uniform grid of bins
+    over the tetrahedra's bounding box, each bin listing the tetrahedra whose
+    bounding boxes reach it (a CSR table), and a barycentric test of each
+    point against the tetrahedra of its bin, ``_PAIRS`` pairs at a time.
+
+    Parameters
+    ----------
+    points : (n, 3) array
+        The vertices.
+    tets : (m, 4) array of int
+        The tetrahedra's vertices, of non-zero volume (either orientation).
+    """
+
+    def __init__(self, points: np.ndarray, tets: np.ndarray):
+        corners = points[tets]  # (m, 4, 3)
+        self._origin = corners[:, 0]
+        # lambda_{1,2,3} = inv([v1 - v0, v2 - v0, v3 - v0]) (p - v0); lambda_0 = 1 - their sum
+        self._inverse = np.linalg.inv(np.swapaxes(corners[:, 1:] - corners[:, :1], 1, 2))
+        lo, hi = corners.min(axis=1), corners.max(axis=1)
+        pad = _BARY_TOL * (hi - lo).max(axis=1, keepdims=True)
+        lo, hi = lo - pad, hi + pad
+        self._lo = lo.min(axis=0)
+        extent = hi.max(axis=0) - self._lo
+        # Bins half a typical cell's extent in each direction: a cell's box
+        # reaches about 3 x 3 x 3 bins, and a bin meets the boxes of a few
+        # tens of tetrahedra.
+        side = 0.5 * np.median(hi - lo, axis=0)
+        while np.prod(np.ceil(extent / side)) > 8 * len(tets) + 64:
+            side *= 1.25
+        self._side = side
+        self._bins = np.maximum(np.ceil(extent / side).astype(np.int64), 1)
+        index = np.int32 if max(len(tets), int(np.prod(self._bins))) < 2**31 else np.int64  # of bins and tetrahedra
+        bins, owners = [], []
+        step = max(_PAIRS // 27, 1)
+        for a in range(0, len(tets), step):  # the (bin, tetrahedron) pairs, a batch of tetrahedra at a time
+            first, last = self._cell(lo[a:a + step]), self._cell(hi[a:a + step])
+            span = last - first + 1  # bins reached in each direction
+            reach = np.prod(span, axis=1)
+            tet = np.repeat(np.arange(len(span)), reach)
+            k = np.arange(len(tet)) - np.repeat(np.cumsum(reach) - reach, reach)  # 0 .. reach - 1 per tetrahedron
+            k, dz = np.divmod(k, span[tet, 2])
+            dx, dy = np.divmod(k, span[tet, 1])
+            bins.append(self._flat(first[tet] + np.column_stack([dx, dy, dz])).astype(index))
+            owners.append((tet + a).astype(index))
+        bins = np.concatenate(bins)
+        order = np.argsort(bins, kind="stable")
+        self._tets = np.concatenate(owners)[order]
+        self._start = np.concatenate([[0], np.cumsum(np.bincount(bins, minlength=int(np.prod(self._bins))))])
+
+    def _cell(self, p: np.ndarray) -> np.ndarray:
+        """The bin indices (k, 3) of points (k, 3), clipped to the grid of bins."""
+        return np.clip(np.floor((p - self._lo) / self._side), 0, self._bins - 1).astype(np.int64)
+
+    def _flat(self, ijk: np.ndarray) -> np.ndarray:
+        return (ijk[:, 0] * self._bins[1] + ijk[:, 1]) * self._bins[2] + ijk[:, 2]
+
+    def contains(self, p: np.ndarray) -> np.ndarray:
+        """True for each point of ``p`` (k, 3) inside (or on) a tetrahedron."""
+        inside = np.zeros(len(p), dtype=bool)
+        with np.errstate(invalid="ignore", over="ignore"):
+            outer = self._lo + self._side * self._bins
+            near = np.all((p >= self._lo) & (p <= outer), axis=1)  # NaN and inf are not
+        near = np.flatnonzero(near)
+        b = self._flat(self._cell(p[near]))
+        first, count = self._start[b], self._start[b + 1] - self._start[b]
+        ends = np.cumsum(count)
+        a = 0
+        while a < len(near):  # batches of whole points, about _PAIRS pairs each
+            z = max(int(np.searchsorted(ends, ends[a] - count[a] + _PAIRS, side="right")), a + 1)
+            n = count[a:z]
+            which = np.repeat(np.arange(a, z), n)
+            k = np.arange(len(which)) - np.repeat(np.cumsum(n) - n, n) + np.repeat(first[a:z], n)
+            tet = self._tets[k]
+            lam = np.einsum("kij,kj->ki", self._inverse[tet], p[near[which]] - self._origin[tet])
+            hit = np.all(lam >= -_BARY_TOL, axis=1) & (lam.sum(axis=1) <= 1.0 + _BARY_TOL)
+            inside[near[which[hit]]] = True
+            a = z
+        return inside
+
 
 @dataclass(frozen=True)
 class MeshShape(Shape):
-    """The region covered by the 2D cells of a mesh file that meshio reads
-    (gmsh ``.msh``, VTK ``.vtk``/``.vtu``, ...): its triangles and
-    quadrilaterals (higher-order ones by their corners); line and vertex cells
-    are ignored.  A body of this shape is filled with the scene's particle
-    lattice like any other, so its particles' volume is the area of the
+    """The region covered by the cells of a mesh file that meshio reads
+    (gmsh ``.msh``, VTK ``.vtk``/``.vtu``, ...), a 2D or a 3D shape as the
+    file's cells are.
+
+    A mesh with volume cells is a 3D shape (``dim = 3``): its tetrahedra and
+    hexahedra (also wedges and pyramids; higher-order cells by their
+    corners), each hexahedron cut into six tetrahedra, its other cells
+    ignored.  Any other is a 2D shape of its triangles and quadrilaterals
+    (by their corners), its points all at one z.  Line and vertex cells are
+    ignored.  Where no cell lies there is no body: a cavity the mesh leaves
+    out stays empty.  A body of this shape is filled with the scene's
+    particle lattice like any other, so its particles' volume is that of the
     lattice cells inside the mesh.
 
     Parameters
@@ -213,19 +332,20 @@ class MeshShape(Shape):
     scale : float
         Factor applied to the mesh coordinates (e.g. 1000 for a mesh in m in
         an mm scene), > 0.
-    offset : (float, float)
-        Added to the coordinates after scaling.
+    offset : (float, float) or (float, float, float)
+        Added to the coordinates after scaling, one entry per direction of
+        the mesh; default zero.
     """
 
     kind: ClassVar[str] = "mesh"
     file: str
     scale: float = 1.0
-    offset: tuple[float, float] = (0.0, 0.0)
+    offset: tuple[float, ...] | None = None
 
     def __post_init__(self):
         store(self, "file", str(Path(text("file", self.file)).absolute()))
         store(self, "scale", real("scale", self.scale, gt=0))
-        store(self, "offset", vec2("offset", self.offset))
+        offset = None if self.offset is None else vector("offset", self.offset)
         import meshio
 
         try:
@@ -233,6 +353,39 @@ class MeshShape(Shape):
         except (Exception, SystemExit) as err:  # meshio raises many kinds, and exits on some files
             raise SceneError("file", f"cannot be read as a mesh ({type(err).__name__}: {err})",
                              self.file) from None
+        have = ", ".join(sorted({b.type for b in mesh.cells})) or "none"
+        object.__setattr__(self, "_have", have)
+        points = np.asarray(mesh.points, dtype=float)
+        tets = [block.data[:, list(tet)] for block in mesh.cells for tet in _VOLUME_CELLS.get(block.type, ())]
+        if tets:
+            self._volume_cells(points, np.concatenate(tets).astype(np.int64), offset)
+        else:
+            self._plane_cells(mesh, points, offset)
+
+    def _volume_cells(self, points: np.ndarray, tets: np.ndarray, offset) -> None:
+        """Keep the tetrahedra of a 3D mesh, its points scaled and offset."""
+        if points.shape[1] != 3:
+            raise SceneError("file", f"has volume cells ({self._have}) but {points.shape[1]}D points", self.file)
+        object.__setattr__(self, "dim", 3)
+        store(self, "offset", (0.0,) * 3 if offset is None else offset)
+        if len(self.offset) != 3:
+            raise SceneError("offset", f"has {len(self.offset)} components, but the mesh is 3D (it has"
+                                       f" {self._have})", self.offset)
+        used, tets = np.unique(tets, return_inverse=True)
+        xyz = points[used] * self.scale + np.asarray(self.offset)
+        tets = tets.reshape(-1, 4)
+        edges = xyz[tets[:, 1:]] - xyz[tets[:, :1]]
+        volume = np.abs(np.linalg.det(edges)) / 6.0
+        solid = volume > 1e-12 * np.abs(edges).max(axis=(1, 2)) ** 3  # flat ones cover no volume: left out
+        if not solid.any():
+            raise SceneError("file", f"has volume cells ({self._have}) but all of zero volume", self.file)
+        tets, volume = tets[solid], volume[solid]
+        object.__setattr__(self, "_points", xyz)
+        object.__setattr__(self, "_tets", tets)
+        object.__setattr__(self, "_measure", float(volume.sum()))
+
+    def _plane_cells(self, mesh, points: np.ndarray, offset) -> None:
+        """Keep the triangles of a 2D mesh, its points scaled and offset."""
         triangles = []
         for block in mesh.cells:
             corners = _MESH_CELLS.get(block.type)
@@ -242,11 +395,16 @@ class MeshShape(Shape):
                 quads = block.data[:, :4]
                 triangles += [quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]]
         if not triangles:
-            have = ", ".join(sorted({b.type for b in mesh.cells})) or "none"
-            raise SceneError("file", f"has no triangle or quadrilateral cells (it has {have})", self.file)
-        points = np.asarray(mesh.points, dtype=float)
+            raise SceneError("file", f"has no triangle or quadrilateral cells (it has {self._have}) and no"
+                                     " tetrahedra or hexahedra", self.file)
         if points.shape[1] > 2 and np.ptp(points[:, 2]) > 1e-9 * max(np.ptp(points[:, :2]), 1e-300):
-            raise SceneError("file", "is not flat: its points have different z", self.file)
+            raise SceneError("file", f"has no tetrahedra or hexahedra (it has {self._have}) and is not flat"
+                                     " (its points have different z): a 3D body needs volume cells, a 2D"
+                                     " one a flat mesh", self.file)
+        store(self, "offset", (0.0,) * 2 if offset is None else offset)
+        if len(self.offset) != 2:
+            raise SceneError("file", f"has no tetrahedra or hexahedra (it has {self._have}): a 2D mesh, but"
+                                     f" offset = {fmt(self.offset)} has {len(self.offset)} components", self.file)
         tri = np.concatenate(triangles).astype(np.int64)
         used, tri = np.unique(tri, return_inverse=True)
         xy = points[used, :2] * self.scale + np.asarray(self.offset)
@@ -255,26 +413,53 @@ class MeshShape(Shape):
         area = 0.5 * ((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (c[:, 0] - a[:, 0]) * (b[:, 1] - a[:, 1]))
         if not np.all(np.abs(area) > 0):
             raise SceneError("file", f"has {int(np.sum(area == 0))} cells of zero area", self.file)
-        object.__setattr__(self, "_xy", xy)
+        object.__setattr__(self, "_points", xy)
         object.__setattr__(self, "_triangles", tri)
-        object.__setattr__(self, "_area", float(np.abs(area).sum()))
+        object.__setattr__(self, "_measure", float(np.abs(area).sum()))
 
     @property
     def area(self) -> float:
-        """The area of the mesh's cells (after ``scale``)."""
-        return self._area
+        """The area of a 2D mesh's cells (after ``scale``)."""
+        if self.dim != 2:
+            raise AttributeError(f"a {self.dim}D mesh has a volume, not an area")
+        return self._measure
 
-    def contains(self, x, y):
-        x, y = np.broadcast_arrays(np.asarray(x, dtype=float), np.asarray(y, dtype=float))
+    @property
+    def volume(self) -> float:
+        """The volume of a 3D mesh's cells (after ``scale``)."""
+        if self.dim != 3:
+            raise AttributeError(f"a {self.dim}D mesh has an area, not a volume")
+        return self._measure
+
+    def check_dimension(self, dim: int) -> None:
+        if self.dim == dim:
+            return
+        if dim == 3:
+            reason = (f"has no tetrahedra or hexahedra (it has {self._have}): a 2D mesh in a 3D scene"
+                      " (grid.size has 3 entries); mesh its volume, or extrude it (type = \"extrusion\")")
+        else:
+            reason = (f"has volume cells (it has {self._have}): a 3D mesh in a 2D scene (grid.size has 2"
+                      " entries)")
+        raise SceneError("file", reason, self.file)
+
+    def contains(self, *coords):
+        if len(coords) != self.dim:
+            raise ValueError(f"a {self.dim}D mesh takes {self.dim} coordinates, not {len(coords)}")
+        coords = np.broadcast_arrays(*(np.asarray(c, dtype=float) for c in coords))
+        if self.dim == 3:
+            if not hasattr(self, "_locator"):
+                object.__setattr__(self, "_locator", _TetLocator(self._points, self._tets))
+            shape = coords[0].shape
+            return self._locator.contains(np.column_stack([c.ravel() for c in coords])).reshape(shape)
         if not hasattr(self, "_finder"):
             from matplotlib.tri import Triangulation
 
-            finder = Triangulation(self._xy[:, 0], self._xy[:, 1], self._triangles).get_trifinder()
+            finder = Triangulation(self._points[:, 0], self._points[:, 1], self._triangles).get_trifinder()
             object.__setattr__(self, "_finder", finder)
-        return self._finder(x, y) >= 0
+        return self._finder(*coords) >= 0
 
     def bounds(self):
-        return (*map(float, self._xy.min(axis=0)), *map(float, self._xy.max(axis=0)))
+        return (*map(float, self._points.min(axis=0)), *map(float, self._points.max(axis=0)))
 
 
 def _read_image(path: str) -> np.ndarray:
