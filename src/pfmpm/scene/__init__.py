@@ -24,8 +24,8 @@ The modules, one concern each:
     :class:`Rectangle`, :class:`Disk`, :class:`Ring`, :class:`Polygon`,
     :class:`MeshShape` (the cells of a mesh file), :class:`ImageShape` (the
     pixels of one colour of a PNG mask); in 3D :class:`Box`, :class:`Sphere`,
-    :class:`Cylinder` and :class:`Extrusion` (of a 2D shape along z);
-    :class:`Body`.
+    :class:`Cylinder`, :class:`MeshShape` (of a file with tetrahedra or
+    hexahedra) and :class:`Extrusion` (of a 2D shape along z); :class:`Body`.
 ``loads``
     :class:`Traction`, :class:`BodyForce` and their amplitudes over time,
     :class:`Ramp` and :class:`Table`; :class:`WallSpec`; :class:`Prescribed`
