@@ -420,7 +420,7 @@ void dilate(const std::vector<std::uint8_t>& in, int ncx, int ncy, int reach,
 } // namespace
 
 template <class Stencil>
-void DamageFields::open_nodes(const Particles& particles, const CellSort& sort)
+void DamageFields::open_nodes(const Particles& particles, const CellSort& sort, const Points& points)
 {
   constexpr int K = Stencil::size;
   const std::size_t ngs = num_group_slots();
@@ -437,8 +437,8 @@ void DamageFields::open_nodes(const Particles& particles, const CellSort& sort)
   const double* damage = _damage.data();
   const double* full = _full.data();
   const std::uint8_t* softening = _softening.data();
-  const double* r1 = Stencil::domains ? particles.f64("domain_r1").data() : nullptr;
-  const double* r2 = Stencil::domains ? particles.f64("domain_r2").data() : nullptr;
+  const double* r1 = points.r1;
+  const double* r2 = points.r2;
   // The sums of H&H eq. 21 over A and B together, with the terms P2G adds into
   // its md and full, cell by cell; strips of one parity share no node.
   list_cells(_near, _near_cells);
@@ -516,7 +516,7 @@ void DamageFields::open_nodes(const Particles& particles, const CellSort& sort)
   list_cells(_open, _open_cells);
 }
 
-void DamageFields::open_cells(const Particles& particles, const CellSort& sort)
+void DamageFields::open_cells(const Particles& particles, const CellSort& sort, const Points& points)
 {
   // Cells within reach() cells of a fully damaged particle: only their
   // particles' stencils reach a node where one maps (the cells whose block
@@ -526,13 +526,13 @@ void DamageFields::open_cells(const Particles& particles, const CellSort& sort)
   dilate(_full_cell, _grid.cells()[0], _grid.cells()[1], _grid.block().reach(), _dilated_y, _near);
   // The open nodes, with the transfers' shape functions.
   if (_cpdi)
-    open_nodes<CpdiStencil>(particles, sort);
+    open_nodes<CpdiStencil>(particles, sort, points);
   else if (_grid.degree() == 1)
-    open_nodes<BSplineStencil<2, 1>>(particles, sort);
+    open_nodes<BSplineStencil<2, 1>>(particles, sort, points);
   else if (_grid.degree() == 2)
-    open_nodes<BSplineStencil<2, 2>>(particles, sort);
+    open_nodes<BSplineStencil<2, 2>>(particles, sort, points);
   else
-    open_nodes<BSplineStencil<2, 3>>(particles, sort);
+    open_nodes<BSplineStencil<2, 3>>(particles, sort, points);
 }
 
 void DamageFields::gradients(Particles& particles, const CellSort& sort)
@@ -636,7 +636,8 @@ void DamageFields::gradients(Particles& particles, const CellSort& sort)
   _evaluated += evaluated;
 }
 
-void DamageFields::sides(const Particles& particles, const CellSort& sort, const double* grad)
+void DamageFields::sides(const Particles& particles, const CellSort& sort, const Points& points,
+                         const double* grad)
 {
   constexpr int K = CellSlots::K;
   const NodeBlock& block = _grid.block();
@@ -654,8 +655,8 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
   // domains) those where its averaged shape function is positive, the
   // nodes of the cells its domain's corners lie in (above round-off:
   // cpdi_maps_to).
-  const double* domain_r1 = _cpdi ? particles.f64("domain_r1").data() : nullptr;
-  const double* domain_r2 = _cpdi ? particles.f64("domain_r2").data() : nullptr;
+  const double* domain_r1 = _cpdi ? points.r1 : nullptr;
+  const double* domain_r2 = _cpdi ? points.r2 : nullptr;
   const std::uint32_t all = nk >= 32 ? ~0u : (1u << nk) - 1u;
   const std::array<const BSpline1D*, 2> basis{&_grid.basis(0), &_grid.basis(1)};
   auto reached = [&](std::int32_t p, int cx, int cy) -> std::uint32_t
@@ -923,8 +924,10 @@ void DamageFields::clear(Particles& particles)
   }
 }
 
-void DamageFields::build(Particles& particles, const CellSort& sort)
+void DamageFields::build(Particles& particles, const CellSort& sort, const Points& points)
 {
+  if (_cpdi != (points.r1 != nullptr))
+    throw std::logic_error("damage-gradient fields: the points' domains do not match the shape functions");
   if (_groups)
     _groups->build(particles, sort, false);
   const auto ncells = static_cast<std::size_t>(_grid.num_cells());
@@ -935,13 +938,13 @@ void DamageFields::build(Particles& particles, const CellSort& sort)
     Stopwatch clock{_timers.damage};
     any_full = particle_damage(particles, sort);
     if (any_full)
-      open_cells(particles, sort);
+      open_cells(particles, sort, points);
   }
   if (any_full)
   {
     gradients(particles, sort);
     Stopwatch clock{_timers.partition};
-    sides(particles, sort, particles.f64("damage_gradient").data());
+    sides(particles, sort, points, particles.f64("damage_gradient").data());
     _dirty = true;
   }
   else

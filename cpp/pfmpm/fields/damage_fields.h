@@ -13,6 +13,7 @@
 #include "pfmpm/particles/cell_sort.h"
 #include "pfmpm/particles/particles.h"
 #include "pfmpm/shape/cpdi.h"
+#include "pfmpm/transfer/transfer.h"
 
 #include <array>
 #include <cstdint>
@@ -163,8 +164,9 @@ public:
   const std::vector<std::int32_t>& group() const { return _group; }
 
   /// @brief The partition of this step: damage, gradients, Algorithms 1 and
-  /// 2, slots (see the class comment).
-  void build(Particles& particles, const CellSort& sort);
+  /// 2, slots (see the class comment). `points` are the particle data the
+  /// transfers' stencil reads (the centres, and with CPDI this step's domains).
+  void build(Particles& particles, const CellSort& sort, const Points& points);
 
   /// @brief Surface flags at t = 0 (H&H section 2.4): s_p = 1 where the kernel
   /// sum of H&H eq. 19 over the particles of p's own body is below `threshold`
@@ -263,13 +265,13 @@ private:
   /// particle; returns whether some particle is.
   bool particle_damage(const Particles& particles, const CellSort& sort);
   /// The cells near full damage, then the open nodes and cells.
-  void open_cells(const Particles& particles, const CellSort& sort);
+  void open_cells(const Particles& particles, const CellSort& sort, const Points& points);
   /// The open nodes and cells (class comment; H&H eq. 21 for the two sides
   /// together): per group slot the sums of N_ip m_p and N_ip m_p D~_p over
   /// the cells near full damage, with the shape functions of `Stencil`, the
   /// transfers' own.
   template <class Stencil>
-  void open_nodes(const Particles& particles, const CellSort& sort);
+  void open_nodes(const Particles& particles, const CellSort& sort, const Points& points);
   /// The kernel-field gradient at the particles whose stencil reaches an
   /// open node and at their neighbours. The other particles get zero
   /// gradient, and every particle all pairs A (sides() sets the masks of
@@ -290,7 +292,8 @@ private:
   }
   /// Algorithms 1 and 2 from the particle gradients `grad`: nodal
   /// gradients, the pairs' sides, the split cells.
-  void sides(const Particles& particles, const CellSort& sort, const double* grad);
+  void sides(const Particles& particles, const CellSort& sort, const Points& points,
+             const double* grad);
   /// Slots from the group slots and their sides; the cells next to a node
   /// with two or more.
   void layout(const CellSort& sort, bool any_split);

@@ -530,7 +530,12 @@ void Solver<Dim>::prepare(Fields& fields, bool energy)
     check_domains();
   // The velocity fields, after the phase field: damage-gradient fields read
   // the new c (Remark 4; H&H Algorithms 1 and 2).
-  if constexpr (Fields::discrete)
+  if constexpr (Fields::per_pair)
+  {
+    Stopwatch clock{_timers.fields};
+    fields.build(_particles, _sort, points());
+  }
+  else if constexpr (Fields::discrete)
   {
     Stopwatch clock{_timers.fields};
     fields.build(_particles, _sort);
