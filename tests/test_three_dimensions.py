@@ -355,6 +355,27 @@ def test_a_block_sliding_obliquely_decelerates_at_mu_g(tmp_path):
     assert summary["contact"]["violations"] == {"C1": 0, "C2": 0, "C3": 0, "C4": 0}
 
 
+def test_run_fragments_reads_3d_frames(tmp_path):
+    """Two balls one above the other (the same x and y, 1.0 apart in z
+    between their surfaces) at rest: in the run's frames each is one
+    fragment and their closest particles 1.0 + a spacing apart, which a
+    frame read in x and y alone would show overlapping."""
+    from pfmpm.post.fragments import run_fragments
+    d = {"name": "stack", "grid": {"size": [6.0, 6.0, 9.0], "h": 0.5}, "time": {"end": 0.1},
+         "output": {"every": 5},
+         "materials": [{"name": "m", "E": 100.0, "nu": 0.3, "density": 1.0}],
+         "bodies": [{"name": "low", "material": "m", "shape": {"type": "sphere", "center": [3.0, 3.0, 2.5], "radius": 1.5}},
+                    {"name": "high", "material": "m", "shape": {"type": "sphere", "center": [3.0, 3.0, 6.5], "radius": 1.5}}]}
+    scene = Scene.from_dict(d)
+    assert Simulation(scene).run(tmp_path, progress=False).status == "completed"
+    rows = run_fragments(scene, tmp_path)
+    assert len(rows) >= 2
+    for row in rows:
+        assert row["fragments"] == {"low": 1, "high": 1}
+        # particle centres 0.125 inside each surface: 1.0 + 2 x 0.125 apart at the poles, in spacings of 0.25
+        assert row["closest"] == pytest.approx((1.0 + 0.25) / 0.25, rel=1e-6)
+
+
 def solid() -> dict:
     """A small valid 3D scene, as tables."""
     return {"name": "cube", "grid": {"size": [6.0, 6.0, 6.0], "h": 1.0}, "time": {"end": 1.0},

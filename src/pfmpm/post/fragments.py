@@ -232,7 +232,7 @@ def run_fragments(scene: Scene, run_dir) -> list[dict]:
 
     rows = []
     for t, path in series(run_dir):
-        frame = read_frame(t, path)
+        frame = read_frame(t, path, scene.dim)
         body = frame.data["body"]
         c = frame.data.get("c", np.ones(len(body)))  # no phase field: nothing can crack
         rows.append({"t": t, "fragments": fragments(scene, frame.x, body, c),

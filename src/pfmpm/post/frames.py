@@ -19,8 +19,8 @@ class Frame:
     ----------
     t : float
         Time.
-    x : ndarray (N, 2)
-        Positions.
+    x : ndarray (N, 2) or (N, 3)
+        Positions, in the run's dimensions.
     data : dict of str to ndarray
         Point data by name (``c``, ``body``, ``velocity``, ...), 1D for scalars.
     """
@@ -46,11 +46,13 @@ def series(run_dir: Path | str) -> list[tuple[float, Path]]:
             for item in ElementTree.parse(index).iter("DataSet")]
 
 
-def read_frame(t: float, path: Path | str) -> Frame:
-    """Read one VTU snapshot written by :class:`pfmpm.output.ParticleSeries`."""
+def read_frame(t: float, path: Path | str, dim: int = 2) -> Frame:
+    """Read one VTU snapshot written by :class:`pfmpm.output.ParticleSeries`
+    of a ``dim``-dimensional run (VTU points always have three coordinates;
+    a 2D run's third is zero)."""
     import meshio
 
     mesh = meshio.read(path)
     data = {name: (v.ravel() if v.ndim == 2 and v.shape[1] == 1 else v)
             for name, v in mesh.point_data.items()}
-    return Frame(t=t, x=np.ascontiguousarray(mesh.points[:, :2]), data=data)
+    return Frame(t=t, x=np.ascontiguousarray(mesh.points[:, :dim]), data=data)
