@@ -56,6 +56,7 @@ RULES = [
     (r"pfmpm post crack-tip out/borden$", []),
     (r"pfmpm run demos/vibrating_bar\.toml --out out/bar --set time\.end=20$", ["--quiet"]),
     (r"pfmpm run demos/bar3d\.toml --out out/bar3d$", ["--quiet"]),
+    (r"pfmpm animate out/bar3d --field velocity --output out/bar3d/speed\.png$", []),
     (r"pfmpm post forces out/bar$", []),
     (r"pfmpm run demos/three_point_bending\.toml --out out/bending$", ["--set", "time.end=30", "--quiet"]),
     (r"pfmpm post load-displacement out/bending --region striker$", []),

@@ -238,7 +238,8 @@ def test_3d_run_writes_3d_points_and_six_stress_components(tmp_path):
     """The VTU files of a 3D run hold 3D points and the symmetric stress as
     ParaView's six components (xx, yy, zz, xy, yz, xz), read back with
     meshio; energies.csv has the z momentum, the angular momentum and the
-    walls' impulses in z; pfmpm animate, which draws 2D runs, says so."""
+    walls' impulses in z; pfmpm animate reads the frames in 3D (speeds the
+    velocity's magnitude) and draws them as particles in perspective."""
     out = tmp_path / "bar3d"
     scene = Scene.from_toml(BAR3D, ["time.end=1.0", "output.every=20", "bodies.bar.particles_per_cell=1",
                                     "grid.h=1.0"])
@@ -257,8 +258,21 @@ def test_3d_run_writes_3d_points_and_six_stress_components(tmp_path):
     e = read_csv(out / "energies.csv")
     assert {"momentum_z", "angular_momentum_z", "impulse_left_z", "wall_work"} <= e.keys()
     assert e["impulse_left_x"][-1] < 0.0  # the fixed wall holds the bar against the traction
-    with pytest.raises(ValueError, match="a 3D run, and pfmpm animate draws 2D ones"):
-        animate(out, field="volume")
+    # The last frame as a picture: its particles in perspective, coloured by speed.
+    import matplotlib.image
+
+    from pfmpm.animate import frames
+    t, x, speed = frames(out, "velocity", 3)[-1]
+    assert np.array_equal(x, last.points) and np.allclose(speed, np.linalg.norm(last.point_data["velocity"], axis=1))
+
+    picture = animate(out, out / "speed.png", field="velocity")
+    pixels = matplotlib.image.imread(picture)
+    assert pixels.shape[0] > 500 and pixels[..., :3].std() > 0.05  # drawn, not blank
+    assert len(list(out.glob("*.gif"))) == 0
+    gif = animate(out, field="velocity")
+    from PIL import Image
+    with Image.open(gif) as image:
+        assert image.n_frames == len(list(out.glob("particles_*.vtu")))
 
 
 def test_3d_run_resumes_bitwise(tmp_path):

@@ -471,12 +471,14 @@ def main(argv: list[str] | None = None) -> int:
     measure.add_argument("--json", action="store_true", help="print one JSON object")
     measure.set_defaults(func=_post)
 
-    anim = sub.add_parser("animate", help="an animation (GIF, or MP4 with ffmpeg) of a field over a run's frames")
+    anim = sub.add_parser("animate", help="an animation (GIF, or MP4 with ffmpeg) of a field over a run's"
+                                          " frames, or a PNG of its last; 3D runs as particles in perspective")
     anim.add_argument("run_dir", help="the run's output directory (particles.pvd or fields.xdmf)")
     anim.add_argument("--field", default="c",
                       help="the field: c (the phase field), damage, velocity, displacement, ..."
                            " (default %(default)s)")
-    anim.add_argument("--output", help="a .gif or .mp4 file (default RUN_DIR/<field>.gif)")
+    anim.add_argument("--output", help="a .gif or .mp4 file, or a .png of the last frame (default"
+                                       " RUN_DIR/<field>.gif)")
     anim.add_argument("--fps", type=float, default=6.0, help="frames per second (default %(default)g)")
     anim.set_defaults(func=_animate)
 
