@@ -390,6 +390,41 @@ def test_run_fragments_reads_3d_frames(tmp_path):
         assert row["closest"] == pytest.approx((1.0 + 0.25) / 0.25, rel=1e-6)
 
 
+def test_a_slab_disk_hitting_a_block_against_the_plane_run(tmp_path):
+    """A disk thrown at a block (each its own field, mu = 0.3) and its slab two
+    cells thick between slip walls. Until the two share a node the slab is
+    the plane-strain run to round-off; momentum agrees throughout. In
+    contact it is not: the normal of K&T eqs. 70-71, from the two fields'
+    mass gradients, has a z component wherever their nodal masses differ
+    (the slab's faces z = +-t/2 are in each body's mass gradient), so the
+    pair law pushes along a tilted normal. The gap it leaves in the kinetic
+    energy (4.1 % of the peak over these 200 steps) is recorded on
+    docs/verification/three-dimensions.md; the 1e-10 the issue asks for
+    needs z-periodic boundaries or a normal held in the plane."""
+    d = {"name": "hit", "grid": {"size": [8.0, 4.0], "h": 0.25}, "time": {"end": 1.0, "dt": 0.005},
+         "output": {"energies_every": 1, "particles": False},
+         "materials": [{"name": "m", "E": 100.0, "nu": 0.3, "density": 1.0}],
+         "bodies": [{"name": "disk", "material": "m", "velocity": [1.0, 0.2],
+                     "shape": {"type": "disk", "center": [2.0, 2.0], "radius": 1.0}},
+                    {"name": "block", "material": "m",
+                     "shape": {"type": "rectangle", "min": [3.25, 0.5], "max": [6.0, 3.5]}}],
+         "contact": {"friction": 0.3}}
+    solid = slab(d)
+    solid["bodies"][0]["velocity"] = [1.0, 0.2, 0.0]
+    for name, tables in (("plane", d), ("slab", solid)):
+        assert Simulation(Scene.from_dict(tables)).run(tmp_path / name, progress=False).status == "completed"
+    a, b = read_csv(tmp_path / "plane" / "energies.csv"), read_csv(tmp_path / "slab" / "energies.csv")
+    thickness = 0.5
+    energy, momentum = np.abs(a["kinetic"]).max(), np.abs(a["momentum_x"]).max()
+    gap = np.abs(a["kinetic"] - b["kinetic"] / thickness) / energy
+    touch = int(np.argmax(gap > 1e-12))  # the first row in contact
+    assert 20 < touch < int(np.argmax(np.abs(a["contact_disk_block_x"]) > 0))
+    assert np.abs(a["elastic"][:touch] - b["elastic"][:touch] / thickness).max() < 1e-12 * energy
+    for k in ("momentum_x", "momentum_y"):
+        assert np.abs(a[k] - b[k] / thickness).max() < 1e-10 * momentum
+    assert 1e-3 < gap.max() < 0.1
+
+
 def solid() -> dict:
     """A small valid 3D scene, as tables."""
     return {"name": "cube", "grid": {"size": [6.0, 6.0, 6.0], "h": 1.0}, "time": {"end": 1.0},
