@@ -121,10 +121,9 @@ KernelField kernel_damage_field(const Grid<2>& grid, const std::vector<double>& 
 }
 
 DamageFields::DamageFields(const Grid<2>& grid, Particles& particles, std::vector<double> friction,
-                           std::vector<DamageSource> source, DamageGradientOptions options,
-                           ShapeFunctions shape)
+                           std::vector<DamageSource> source, DamageGradientOptions options)
     : _grid(grid), _friction(std::move(friction)), _source(std::move(source)),
-      _options(std::move(options)), _cpdi(shape == ShapeFunctions::cpdi)
+      _options(std::move(options))
 {
   _groups_n = friction_fields(_friction, 1);
   const DamageGradientOptions& o = _options;
@@ -525,7 +524,7 @@ void DamageFields::open_cells(const Particles& particles, const CellSort& sort, 
   // grid's ends).
   dilate(_full_cell, _grid.cells()[0], _grid.cells()[1], _grid.block().reach(), _dilated_y, _near);
   // The open nodes, with the transfers' shape functions.
-  if (_cpdi)
+  if (points.r1) // CPDI: the points carry domains
     open_nodes<CpdiStencil>(particles, sort, points);
   else if (_grid.degree() == 1)
     open_nodes<BSplineStencil<2, 1>>(particles, sort, points);
@@ -655,8 +654,8 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
   // domains) those where its averaged shape function is positive, the
   // nodes of the cells its domain's corners lie in (above round-off:
   // cpdi_maps_to).
-  const double* domain_r1 = _cpdi ? points.r1 : nullptr;
-  const double* domain_r2 = _cpdi ? points.r2 : nullptr;
+  const double* domain_r1 = points.r1;
+  const double* domain_r2 = points.r2;
   const std::uint32_t all = nk >= 32 ? ~0u : (1u << nk) - 1u;
   const std::array<const BSpline1D*, 2> basis{&_grid.basis(0), &_grid.basis(1)};
   auto reached = [&](std::int32_t p, int cx, int cy) -> std::uint32_t
@@ -926,8 +925,6 @@ void DamageFields::clear(Particles& particles)
 
 void DamageFields::build(Particles& particles, const CellSort& sort, const Points& points)
 {
-  if (_cpdi != (points.r1 != nullptr))
-    throw std::logic_error("damage-gradient fields: the points' domains do not match the shape functions");
   if (_groups)
     _groups->build(particles, sort, false);
   const auto ncells = static_cast<std::size_t>(_grid.num_cells());

@@ -146,12 +146,8 @@ public:
   ///        groups x groups, symmetric, >= 0; the diagonal entry of a group
   ///        is that of its crack faces.
   /// @param source Per material, where its particles' damage comes from.
-  /// @param shape The transfers' shape functions: with CPDI the particles
-  ///        carry domains (ParticleDomains), and a particle maps to the
-  ///        nodes where its averaged shape function is positive.
   DamageFields(const Grid<2>& grid, Particles& particles, std::vector<double> friction,
-               std::vector<DamageSource> source, DamageGradientOptions options,
-               ShapeFunctions shape);
+               std::vector<DamageSource> source, DamageGradientOptions options);
 
   /// Number of contact groups.
   int size() const { return _groups_n; }
@@ -165,7 +161,9 @@ public:
 
   /// @brief The partition of this step: damage, gradients, Algorithms 1 and
   /// 2, slots (see the class comment). `points` are the particle data the
-  /// transfers' stencil reads (the centres, and with CPDI this step's domains).
+  /// transfers' stencil reads: the centres, and with CPDI this step's
+  /// domains, where a particle maps to the nodes its averaged shape function
+  /// is positive at.
   void build(Particles& particles, const CellSort& sort, const Points& points);
 
   /// @brief Surface flags at t = 0 (H&H section 2.4): s_p = 1 where the kernel
@@ -303,7 +301,6 @@ private:
   std::vector<double> _friction;
   std::vector<DamageSource> _source;
   DamageGradientOptions _options;
-  bool _cpdi;                         // the transfers' shape functions are CPDI1
   double _radius;
   std::vector<std::int32_t> _group;   // per particle
   std::optional<BodyFields<2>> _groups;  // with two or more groups: their slots

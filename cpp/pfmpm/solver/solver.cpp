@@ -163,7 +163,7 @@ Solver<Dim>::Solver(Grid<Dim>& grid, Particles& particles,
                                         : DamageSource::none);
       }
       _fields.template emplace<DamageFields>(grid, particles, std::move(friction), std::move(source),
-                                             std::move(damage), shape);
+                                             std::move(damage));
     }
     if (!cracks)
       return;
@@ -530,15 +530,13 @@ void Solver<Dim>::prepare(Fields& fields, bool energy)
     check_domains();
   // The velocity fields, after the phase field: damage-gradient fields read
   // the new c (Remark 4; H&H Algorithms 1 and 2).
-  if constexpr (Fields::per_pair)
+  if constexpr (Fields::discrete)
   {
     Stopwatch clock{_timers.fields};
-    fields.build(_particles, _sort, points());
-  }
-  else if constexpr (Fields::discrete)
-  {
-    Stopwatch clock{_timers.fields};
-    fields.build(_particles, _sort);
+    if constexpr (Fields::per_pair)
+      fields.build(_particles, _sort, points());
+    else
+      fields.build(_particles, _sort);
   }
 }
 
