@@ -453,8 +453,9 @@ BAD = [
      "materials[0].model = 'drucker_prager': the drucker_prager model is two-dimensional yet"),
     (solid, ['plane="stress"'], "plane = 'stress': plane stress is two-dimensional yet"),
     (solid, ['grid.shape="cpdi"', "grid.degree=1"], "grid.shape = 'cpdi': CPDI is two-dimensional yet"),
-    (solid, ['contact={partition = "damage_gradient", friction = 0.3}'],
-     "contact.partition = 'damage_gradient': the damage-gradient partition is two-dimensional yet"),
+    (solid, ['contact={partition = "damage_gradient", friction = 0.3, surfaces = [{type = "rectangle",'
+             ' min = [2.0, 2.0], max = [3.0, 3.0]}]}'],
+     "contact.surfaces[0] = 'rectangle': a 2D shape (rectangle) in a 3D scene (grid.size has 3 entries)"),
     (solid, ["cracks=[{points = [[2.0, 3.0], [3.0, 3.0]]}]"],
      "cracks: an initial crack (it seeds the phase field) is two-dimensional yet"),
     (solid, ["bodies.b.orientation=30.0"], "bodies[0].orientation = 30.0: the material orientation is"

@@ -46,28 +46,42 @@ void bind_fields(py::module_& m)
       .def_readonly("phase_field_threshold", &DamageGradientOptions::phase_field_threshold)
       .def_readonly("part_when_softened", &DamageGradientOptions::part_when_softened);
 
+  // The kernel field on a grid of either dimension: x is (N, Dim).
+  auto kernel = [](const auto& grid, py::array_t<double, py::array::c_style | py::array::forcecast> x,
+                   py::array_t<double, py::array::c_style | py::array::forcecast> damage,
+                   double radius)
+  {
+    constexpr int Dim = std::decay_t<decltype(grid)>::dim;
+    if (x.ndim() != 2 || x.shape(1) != Dim)
+      throw py::value_error("x must have shape (N, " + std::to_string(Dim) + ")");
+    std::vector<double> xs(x.data(), x.data() + x.size());
+    std::vector<double> ds(damage.data(), damage.data() + damage.size());
+    KernelField f = kernel_damage_field(grid, xs, ds, radius);
+    const auto n = static_cast<py::ssize_t>(f.S.size());
+    py::array_t<double> S(n), D(n), grad({n, py::ssize_t(Dim)});
+    std::copy(f.S.begin(), f.S.end(), S.mutable_data());
+    std::copy(f.D.begin(), f.D.end(), D.mutable_data());
+    std::copy(f.grad.begin(), f.grad.end(), grad.mutable_data());
+    return py::make_tuple(S, D, grad);
+  };
+  const char* kernel_doc =
+      "(S, D-bar, grad D-bar) at every particle: the kernel sum (H&H eq. 19), the normalised "
+      "kernel damage field (H&H eqs. 17-19) and its gradient, neighbours within radius";
   m.def(
       "kernel_damage_field",
-      [](const Grid<2>& grid, py::array_t<double, py::array::c_style | py::array::forcecast> x,
-         py::array_t<double, py::array::c_style | py::array::forcecast> damage, double radius)
-      {
-        if (x.ndim() != 2 || x.shape(1) != 2)
-          throw py::value_error("x must have shape (N, 2)");
-        std::vector<double> xs(x.data(), x.data() + x.size());
-        std::vector<double> ds(damage.data(), damage.data() + damage.size());
-        KernelField f = kernel_damage_field(grid, xs, ds, radius);
-        const auto n = static_cast<py::ssize_t>(f.S.size());
-        py::array_t<double> S(n), D(n), grad({n, py::ssize_t(2)});
-        std::copy(f.S.begin(), f.S.end(), S.mutable_data());
-        std::copy(f.D.begin(), f.D.end(), D.mutable_data());
-        std::copy(f.grad.begin(), f.grad.end(), grad.mutable_data());
-        return py::make_tuple(S, D, grad);
-      },
-      py::arg("grid"), py::arg("x"), py::arg("damage"), py::arg("radius"),
-      "(S, D-bar, grad D-bar) at every particle: the kernel sum (H&H eq. 19), the normalised "
-      "kernel damage field (H&H eqs. 17-19) and its gradient, neighbours within radius");
-  m.def("lattice_kernel_sum", &DamageFields::lattice_kernel_sum, py::arg("spacing"),
-        py::arg("radius"), "kernel sum (H&H eq. 19) at the interior of a square lattice");
+      [=](const Grid<2>& grid, py::array_t<double, py::array::c_style | py::array::forcecast> x,
+          py::array_t<double, py::array::c_style | py::array::forcecast> damage, double radius)
+      { return kernel(grid, x, damage, radius); },
+      py::arg("grid"), py::arg("x"), py::arg("damage"), py::arg("radius"), kernel_doc);
+  m.def(
+      "kernel_damage_field",
+      [=](const Grid<3>& grid, py::array_t<double, py::array::c_style | py::array::forcecast> x,
+          py::array_t<double, py::array::c_style | py::array::forcecast> damage, double radius)
+      { return kernel(grid, x, damage, radius); },
+      py::arg("grid"), py::arg("x"), py::arg("damage"), py::arg("radius"), kernel_doc);
+  m.def("lattice_kernel_sum", &lattice_kernel_sum, py::arg("dim"), py::arg("spacing"),
+        py::arg("radius"),
+        "kernel sum (H&H eq. 19) at the interior of a square (dim 2) or cubic (dim 3) lattice");
 }
 
 } // namespace pfmpm::bindings

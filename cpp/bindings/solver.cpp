@@ -261,15 +261,16 @@ void bind_solver_class(py::module_& m, const char* name)
           "damage_partition",
           [](const Solver<Dim>& s) -> py::object
           {
-            const DamageFields* d = s.damage_fields();
+            const DamageFields<Dim>* d = s.damage_fields();
             if (!d)
               return py::none();
             py::dict out;
             out["mask"] = copy_of(d->masks());
             const auto rows = d->nodal_gradients(s.particles());
-            py::array_t<double> G({py::ssize_t(rows.size()), py::ssize_t(4)});
+            constexpr int width = 2 + Dim;
+            py::array_t<double> G({py::ssize_t(rows.size()), py::ssize_t(width)});
             const auto* flat = reinterpret_cast<const double*>(rows.data());
-            std::copy(flat, flat + 4 * rows.size(), G.mutable_data());
+            std::copy(flat, flat + width * rows.size(), G.mutable_data());
             out["nodal_gradient"] = G;
             out["radius"] = d->radius();
             out["neighbour_builds"] = d->neighbour_builds();
@@ -282,8 +283,9 @@ void bind_solver_class(py::module_& m, const char* name)
             return out;
           },
           "the damage-gradient partition of the last step (None without it): per particle the "
-          "mask of its stencil nodes where it chose field B (bit i: stencil node i, x-major), "
-          "per (active node, group) the nodal gradient (node, group, G_x, G_y) of Algorithm 1, "
+          "mask of its stencil nodes where it chose field B (bit i: stencil node i, the last "
+          "direction fastest), per (active node, group) the nodal gradient (node, group, G_x, "
+          "G_y[, G_z]) of Algorithm 1, "
           "the kernel radius, the neighbour-list builds and kernel-field evaluations so far and the "
           "seconds spent per block")
       .def(

@@ -1,12 +1,16 @@
 /// @file helpers.h
-/// @brief Helpers of the C++ tests: materials, model columns and bitwise comparison.
+/// @brief Helpers of the C++ tests: materials, model columns, lattices of
+/// particles and bitwise comparison.
 #pragma once
 
 #include "pfmpm/fracture/phasefield.h"
 #include "pfmpm/materials/linear_elastic.h"
 #include "pfmpm/particles/particles.h"
 
+#include <array>
+#include <cmath>
 #include <cstring>
+#include <functional>
 #include <memory>
 #include <vector>
 
@@ -33,6 +37,42 @@ inline void add_model_columns(Particles& P, bool phase_field)
   if (phase_field)
     for (const ColumnSpec& c : PhaseField::columns(/*fourth_order=*/true)) // with phi, which some tests set
       P.add(c);
+}
+
+/// Particles on the lattice of spacing `d` whose cells' centres lie in the
+/// box [lo, hi] and in `inside` (true everywhere if null), density 1,
+/// in lexicographic order (the last direction fastest).
+template <int Dim>
+Particles lattice(const std::array<double, Dim>& lo, const std::array<double, Dim>& hi, double d,
+                  const std::function<bool(const double*)>& inside = nullptr)
+{
+  std::array<int, Dim> n;
+  for (int k = 0; k < Dim; ++k)
+    n[k] = static_cast<int>(std::lround((hi[k] - lo[k]) / d));
+  std::vector<double> points;
+  std::array<int, Dim> i{};
+  for (;;)
+  {
+    double x[Dim];
+    for (int k = 0; k < Dim; ++k)
+      x[k] = lo[k] + (i[k] + 0.5) * d;
+    if (!inside || inside(x))
+      points.insert(points.end(), x, x + Dim);
+    int k = Dim - 1;
+    for (; k >= 0 && ++i[k] == n[k]; --k)
+      i[k] = 0;
+    if (k < 0)
+      break;
+  }
+  Particles P(points.size() / Dim, Dim);
+  P.x = points;
+  const double volume = std::pow(d, Dim);
+  for (std::size_t p = 0; p < P.size(); ++p)
+  {
+    P.volume[p] = volume;
+    P.mass[p] = volume;
+  }
+  return P;
 }
 
 inline bool same_bits(const std::vector<double>& a, const std::vector<double>& b)

@@ -118,8 +118,8 @@ TEST(KernelField, UniformDamageHasZeroGradient)
 TEST(KernelField, LatticeSums)
 {
   // The card's table (shared/homel-herbold-method.md section 9).
-  EXPECT_NEAR(DamageFields::lattice_kernel_sum(0.5, std::sqrt(2.0)), 7.588, 5e-4);
-  EXPECT_NEAR(DamageFields::lattice_kernel_sum(1.0 / 3.0, std::sqrt(2.0)), 16.949, 5e-4);
+  EXPECT_NEAR(lattice_kernel_sum(2, 0.5, std::sqrt(2.0)), 7.588, 5e-4);
+  EXPECT_NEAR(lattice_kernel_sum(2, 1.0 / 3.0, std::sqrt(2.0)), 16.949, 5e-4);
 }
 
 TEST(KernelField, GradientPointsAtADamagedBand)
@@ -162,7 +162,7 @@ std::vector<std::vector<std::int32_t>> pairs_within(const std::vector<double>& x
 }
 
 /// Whether every pair of `needed` is in `list`.
-bool holds(const NeighbourList& list, const std::vector<std::vector<std::int32_t>>& needed)
+bool holds(const NeighbourList<2>& list, const std::vector<std::vector<std::int32_t>>& needed)
 {
   for (std::size_t p = 0; p < needed.size(); ++p)
   {
@@ -254,7 +254,7 @@ TEST(NeighbourList, ListsEveryPairWithinTheCutoffSorted)
   ASSERT_EQ(sort.sort(grid, P.x), P.size());
   for (double cutoff : {0.2, 0.25, 0.4243})
   {
-    NeighbourList list;
+    NeighbourList<2> list;
     list.build(grid, sort, P.x, cutoff);
     const auto expected = pairs_within(P.x, cutoff);
     for (std::size_t p = 0; p < P.size(); ++p)
@@ -286,7 +286,7 @@ TEST(NeighbourList, StaysValidUnderCommonMotionOnly)
   ASSERT_EQ(sort.sort(grid, start.x), start.size());
   auto check = [&](const std::vector<double>& x, bool expect_stale, const char* what)
   {
-    NeighbourList list;
+    NeighbourList<2> list;
     list.build(grid, sort, start.x, r + 2.0 * delta);
     list.moved(1e3); // past the cheap bound: the exact tests decide
     CellSort now;
@@ -340,7 +340,7 @@ TEST(DamageFields, BandSplitsItsTwoSides)
   // the two sides are in different fields.
   BandedBlock b;
   b.solver->prepare();
-  const DamageFields& fields = *b.solver->damage_fields();
+  const DamageFields<2>& fields = *b.solver->damage_fields();
   const std::vector<std::uint32_t>& mask = fields.masks();
   std::map<std::pair<int, int>, std::set<std::pair<int, int>>> at; // node -> (half, side)
   for (std::size_t p = 0; p < b.P.size(); ++p)
@@ -380,7 +380,7 @@ TEST(DamageFields, FlatFailedParticlesTakeTheSideOfTheirNearestSlopedNeighbour)
   // block's top and bottom, the two columns are in different fields.
   BandedBlock b(DamageGradientOptions{}, 0.375);
   b.solver->prepare();
-  const DamageFields& fields = *b.solver->damage_fields();
+  const DamageFields<2>& fields = *b.solver->damage_fields();
   const std::vector<std::uint32_t>& mask = fields.masks();
   const std::vector<double>& grad = b.P.f64("damage_gradient");
   std::map<std::pair<long, long>, std::size_t> at; // (x, y) in 1/16 -> particle

@@ -23,42 +23,6 @@ using namespace pfmpm::test;
 
 namespace
 {
-/// Particles on the lattice of spacing `d` whose cells' centres lie in the
-/// box [lo, hi] and in `inside` (true everywhere if null), density 1,
-/// in lexicographic order (the last direction fastest).
-template <int Dim>
-Particles lattice(const std::array<double, Dim>& lo, const std::array<double, Dim>& hi, double d,
-                  const std::function<bool(const double*)>& inside = nullptr)
-{
-  std::array<int, Dim> n;
-  for (int k = 0; k < Dim; ++k)
-    n[k] = static_cast<int>(std::lround((hi[k] - lo[k]) / d));
-  std::vector<double> points;
-  std::array<int, Dim> i{};
-  for (;;)
-  {
-    double x[Dim];
-    for (int k = 0; k < Dim; ++k)
-      x[k] = lo[k] + (i[k] + 0.5) * d;
-    if (!inside || inside(x))
-      points.insert(points.end(), x, x + Dim);
-    int k = Dim - 1;
-    for (; k >= 0 && ++i[k] == n[k]; --k)
-      i[k] = 0;
-    if (k < 0)
-      break;
-  }
-  Particles P(points.size() / Dim, Dim);
-  P.x = points;
-  const double volume = std::pow(d, Dim);
-  for (std::size_t p = 0; p < P.size(); ++p)
-  {
-    P.volume[p] = volume;
-    P.mass[p] = volume;
-  }
-  return P;
-}
-
 /// One linear elastic material (3D, or plane strain in 2D).
 std::vector<std::shared_ptr<const Material>> steel() { return elastic(100.0, 0.3, 1.0); }
 
@@ -318,10 +282,12 @@ TEST(Solver3, TwoDimensionalFeaturesAreRefused)
   StepConfig cracks(0.02);
   cracks.fracture = {Fracture{1.0, 2.0, 0.0}};
   EXPECT_THROW(Solver(grid, P, steel(), cracks), std::invalid_argument);
-  StepConfig damage(0.02);
-  damage.partition = Partition::damage_gradient;
-  damage.friction = {0.3};
-  EXPECT_THROW(Solver(grid, P, steel(), damage), std::invalid_argument);
+  Grid<3> linear(1, {12, 6, 6}, 1.0, {-2.0, -2.0, -2.0});
+  StepConfig damage_cpdi(0.02);
+  damage_cpdi.partition = Partition::damage_gradient;
+  damage_cpdi.friction = {0.3};
+  damage_cpdi.shape = ShapeFunctions::cpdi;
+  EXPECT_THROW(Solver(linear, P, steel(), damage_cpdi), std::invalid_argument);
   Particles flat(4, 2);
   EXPECT_THROW(Solver(grid, flat, steel(), StepConfig(0.02)), std::invalid_argument);
 }

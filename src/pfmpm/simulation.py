@@ -130,7 +130,7 @@ class Simulation:
         damage = _core.DamageGradient()
         if self.damage_gradient:
             damage = _core.DamageGradient(contact.group_indices(names), {
-                "separability": contact.separability, "kernel_radius": contact.resolved_radius(g.h),
+                "separability": contact.separability, "kernel_radius": contact.resolved_radius(g.h, g.dim),
                 "skin": contact.skin, "phase_field_threshold": contact.phase_field_threshold,
                 "parting": contact.parting})
         # The solver adds the models' columns; then their initial values.
@@ -173,7 +173,7 @@ class Simulation:
         contact = self.scene.contact
         x = self.particles.x
         for shape in contact.surfaces:
-            self.particles.surface[shape.contains(x[:, 0], x[:, 1])] = 1
+            self.particles.surface[shape.contains(*x.T)] = 1
         if contact.surface_detection == "kernel_sum":
             spacing = [b.spacing(self.scene.grid.h) for b in self.scene.bodies]
             self.solver.detect_surfaces(spacing, contact.surface_threshold)

@@ -2,6 +2,7 @@
 /// @brief The pair contact law at a node (K&T eqs. 66-77), its projected
 /// Gauss-Seidel sweeps where three or more fields meet, and checks C.1-C.4.
 #include "pfmpm/contact/coulomb.h"
+#include "pfmpm/common/vector.h"
 #include "pfmpm/fields/fields.h"
 
 #include <algorithm>
@@ -14,25 +15,6 @@ namespace
 {
 /// Relative tolerance of the round-off checks C.1-C.4.
 constexpr double check_tol = 1e-9;
-
-template <int Dim>
-double dot(const double* a, const double* b)
-{
-  double sum = a[0] * b[0];
-  for (int d = 1; d < Dim; ++d)
-    sum += a[d] * b[d];
-  return sum;
-}
-
-/// The length of a vector.
-template <int Dim>
-double length(const double* a)
-{
-  if constexpr (Dim == 2)
-    return std::hypot(a[0], a[1]);
-  else
-    return std::sqrt(dot<Dim>(a, a));
-}
 
 /// A pair of fields that touch at a node, and its contact frame.
 template <int Dim>

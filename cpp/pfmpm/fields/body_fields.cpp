@@ -216,6 +216,8 @@ template class BodyFields<2>;
 template class BodyFields<3>;
 template void mark_holders(const Grid<2>&, const CellSort&, std::int32_t, const std::uint8_t*,
                            std::uint8_t*);
+template void mark_holders(const Grid<3>&, const CellSort&, std::int32_t, const std::uint8_t*,
+                           std::uint8_t*);
 template void mark_contact_cells(const Grid<2>&, const CellSort&, const std::vector<std::int32_t>&,
                                  std::int32_t, const std::uint8_t*, std::vector<std::uint8_t>&);
 template void mark_contact_cells(const Grid<3>&, const CellSort&, const std::vector<std::int32_t>&,

@@ -3,6 +3,7 @@
 /// particle damage, kernel field, Algorithms 1 and 2, slots, surface flags.
 #include "pfmpm/fields/damage_fields.h"
 #include "pfmpm/common/stopwatch.h"
+#include "pfmpm/common/vector.h"
 #include "pfmpm/common/strips.h"
 #include "pfmpm/fields/kernel.h"
 #include "pfmpm/shape/cpdi.h"
@@ -92,36 +93,96 @@ DamageGradientOptions DamageGradientOptions::from(std::vector<std::int32_t> grou
   return o;
 }
 
-KernelField kernel_damage_field(const Grid<2>& grid, const std::vector<double>& x,
+template <int Dim>
+KernelField kernel_damage_field(const Grid<Dim>& grid, const std::vector<double>& x,
                                 const std::vector<double>& damage, double radius)
 {
-  const std::size_t n = x.size() / 2;
+  const std::size_t n = x.size() / Dim;
   if (damage.size() != n)
     throw std::invalid_argument("damage: " + std::to_string(damage.size()) + " values for "
                                 + std::to_string(n) + " particles");
   CellSort sort;
   if (const std::size_t outside = sort.sort(grid, x); outside < n)
     throw std::invalid_argument("particle " + std::to_string(outside) + " is outside the grid");
-  NeighbourList list;
+  NeighbourList<Dim> list;
   list.build(grid, sort, x, radius);
-  KernelField out{std::vector<double>(n), std::vector<double>(n), std::vector<double>(2 * n)};
+  KernelField out{std::vector<double>(n), std::vector<double>(n), std::vector<double>(Dim * n)};
   const auto np = static_cast<std::ptrdiff_t>(n);
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t p = 0; p < np; ++p)
   {
     const auto listed = list.of(p);
-    const KernelValue<2> v =
-        kernel_field<2>(p, listed.first, listed.size, x.data(), damage.data(), radius);
+    const KernelValue<Dim> v =
+        kernel_field<Dim>(p, listed.first, listed.size, x.data(), damage.data(), radius);
     out.S[p] = v.S;
     out.D[p] = v.D;
-    out.grad[2 * p] = v.grad[0];
-    out.grad[2 * p + 1] = v.grad[1];
+    for (int d = 0; d < Dim; ++d)
+      out.grad[Dim * p + d] = v.grad[d];
   }
   return out;
 }
 
-DamageFields::DamageFields(const Grid<2>& grid, Particles& particles, std::vector<double> friction,
-                           std::vector<DamageSource> source, DamageGradientOptions options)
+template KernelField kernel_damage_field(const Grid<2>&, const std::vector<double>&,
+                                         const std::vector<double>&, double);
+template KernelField kernel_damage_field(const Grid<3>&, const std::vector<double>&,
+                                         const std::vector<double>&, double);
+
+double lattice_kernel_sum(int dim, double spacing, double radius)
+{
+  if (dim != 2 && dim != 3)
+    throw std::invalid_argument("dim = " + std::to_string(dim) + ": must be 2 or 3");
+  const int n = static_cast<int>(std::ceil(radius / spacing));
+  double S = 0.0;
+  for (int i = -n; i <= n; ++i)
+    for (int j = -n; j <= n; ++j)
+      if (dim == 2)
+        S += kernel_weight(std::hypot(i * spacing, j * spacing) / radius);
+      else
+        for (int k = -n; k <= n; ++k)
+          S += kernel_weight(std::hypot(i * spacing, j * spacing, k * spacing) / radius);
+  return S;
+}
+
+namespace
+{
+/// The distance between points a and b: std::hypot, of two or three differences.
+template <int Dim>
+double distance(const double* a, const double* b)
+{
+  if constexpr (Dim == 2)
+    return std::hypot(a[0] - b[0], a[1] - b[1]);
+  else
+    return std::hypot(a[0] - b[0], a[1] - b[1], a[2] - b[2]);
+}
+
+/// The squared distance between points a and b, summed from the first direction.
+template <int Dim>
+double distance2(const double* a, const double* b)
+{
+  double e = a[0] - b[0];
+  double sum = e * e;
+  for (int d = 1; d < Dim; ++d)
+  {
+    e = a[d] - b[d];
+    sum += e * e;
+  }
+  return sum;
+}
+
+/// Whether some entry of the Dim-vector v is not zero.
+template <int Dim>
+bool nonzero(const double* v)
+{
+  bool any = false;
+  for (int d = 0; d < Dim; ++d)
+    any = any || v[d] != 0.0;
+  return any;
+}
+} // namespace
+
+template <int Dim>
+DamageFields<Dim>::DamageFields(const Grid<Dim>& grid, Particles& particles, std::vector<double> friction,
+                                std::vector<DamageSource> source, DamageGradientOptions options)
     : _grid(grid), _friction(std::move(friction)), _source(std::move(source)),
       _options(std::move(options))
 {
@@ -138,34 +199,26 @@ DamageFields::DamageFields(const Grid<2>& grid, Particles& particles, std::vecto
   if (_groups_n > max_groups)
     throw std::invalid_argument("friction: " + std::to_string(_groups_n) + " contact groups; at most "
                                 + std::to_string(max_groups));
-  _radius = o.kernel_radius > 0.0 ? o.kernel_radius : std::sqrt(2.0) * grid.h();
+  // The cell diagonal, sqrt(Dim) h, unless given.
+  _radius = o.kernel_radius > 0.0 ? o.kernel_radius : std::sqrt(double(Dim)) * grid.h();
   _group = particle_groups(particles, o.groups, _groups_n);
   if (_groups_n > 1)
     _groups.emplace(grid, particles, _friction, _group.data());
-  particles.add({"damage_gradient", 2, DType::f64, {0.0},
+  particles.add({"damage_gradient", Dim, DType::f64, {0.0},
                  "gradient of the normalised kernel damage field at the particle (H&H eqs. 17-19), "
                  "where it partitions the fields (near nodes whose fields may separate), else 0",
-                 "x,y", "damage_gradient"});
+                 Dim == 2 ? "x,y" : "x,y,z", "damage_gradient"});
   particles.add({"surface", 1, DType::i32, {0.0},
                  "surface flag s_p (H&H section 2.4): 1 on a surface, damage max(s_p, D_p)", "",
                  "surface"});
 }
 
-double DamageFields::lattice_kernel_sum(double spacing, double radius)
+template <int Dim>
+std::vector<double> DamageFields<Dim>::detect_surfaces(Particles& particles, const CellSort& sort,
+                                                       const std::vector<double>& spacing,
+                                                       double threshold)
 {
-  const int n = static_cast<int>(std::ceil(radius / spacing));
-  double S = 0.0;
-  for (int i = -n; i <= n; ++i)
-    for (int j = -n; j <= n; ++j)
-      S += kernel_weight(std::hypot(i * spacing, j * spacing) / radius);
-  return S;
-}
-
-std::vector<double> DamageFields::detect_surfaces(Particles& particles, const CellSort& sort,
-                                                  const std::vector<double>& spacing,
-                                                  double threshold)
-{
-  NeighbourList list;
+  NeighbourList<Dim> list;
   list.build(_grid, sort, particles.x, _radius);
   const auto n = static_cast<std::ptrdiff_t>(particles.size());
   const double* x = particles.x.data();
@@ -177,7 +230,7 @@ std::vector<double> DamageFields::detect_surfaces(Particles& particles, const Ce
     if (!(spacing[b] > 0.0) || !std::isfinite(spacing[b]))
       throw std::invalid_argument("spacing[" + std::to_string(b) + "] = "
                                   + std::to_string(spacing[b]) + ": must be > 0");
-    bulk[b] = lattice_kernel_sum(spacing[b], _radius);
+    bulk[b] = lattice_kernel_sum(Dim, spacing[b], _radius);
   }
   for (std::ptrdiff_t p = 0; p < n; ++p)
     if (body[p] < 0 || static_cast<std::size_t>(body[p]) >= spacing.size())
@@ -185,20 +238,23 @@ std::vector<double> DamageFields::detect_surfaces(Particles& particles, const Ce
                                   + " has no lattice spacing");
   // Walls are mirror planes: per direction, the coordinates of a point and
   // of its images across the walled grid sides.
-  std::array<std::array<double, 2>, 2> plane{};
-  std::array<std::array<bool, 2>, 2> walled{};
-  for (int d = 0; d < 2; ++d)
+  std::array<std::array<double, 2>, Dim> plane{};
+  std::array<std::array<bool, 2>, Dim> walled{};
+  for (int d = 0; d < Dim; ++d)
   {
     const BSpline1D& b = _grid.basis(d);
     plane[d] = {b.origin(), b.origin() + b.length()};
     walled[d] = {_grid.wall(static_cast<Side>(2 * d)) != Wall::free,
                  _grid.wall(static_cast<Side>(2 * d + 1)) != Wall::free};
   }
-  auto images = [&](const double* q, double (*out)[2])
+  // The images of point q, combinations of its coordinate or an image of it
+  // along each direction, the first direction slowest, q itself left out.
+  constexpr int most_images = Dim == 2 ? 8 : 26;
+  auto images = [&](const double* q, double (*out)[Dim])
   {
-    double c[2][3];
-    int m[2];
-    for (int d = 0; d < 2; ++d)
+    double c[Dim][3];
+    int m[Dim];
+    for (int d = 0; d < Dim; ++d)
     {
       m[d] = 0;
       c[d][m[d]++] = q[d];
@@ -207,14 +263,24 @@ std::vector<double> DamageFields::detect_surfaces(Particles& particles, const Ce
           c[d][m[d]++] = 2.0 * plane[d][e] - q[d];
     }
     int k = 0;
-    for (int i = 0; i < m[0]; ++i)
-      for (int j = 0; j < m[1]; ++j)
-        if (i + j > 0)
-        {
-          out[k][0] = c[0][i];
-          out[k++][1] = c[1][j];
-        }
-    return k;
+    int i[Dim] = {};
+    for (;;)
+    {
+      int sum = 0;
+      for (int d = 0; d < Dim; ++d)
+        sum += i[d];
+      if (sum > 0)
+      {
+        for (int d = 0; d < Dim; ++d)
+          out[k][d] = c[d][i[d]];
+        ++k;
+      }
+      int d = Dim - 1;
+      for (; d >= 0 && ++i[d] == m[d]; --d)
+        i[d] = 0;
+      if (d < 0)
+        return k;
+    }
   };
   std::vector<double> ratio(particles.size());
   const double inv_r = 1.0 / _radius;
@@ -223,22 +289,22 @@ std::vector<double> DamageFields::detect_surfaces(Particles& particles, const Ce
   {
     // H&H eq. 19 over p's own body and its mirror images in the walls (a face
     // on a wall, such as a symmetry plane, is no surface).
-    const double* xp = &x[2 * p];
+    const double* xp = &x[Dim * p];
     double S = 1.0;
     auto add = [&](const double* xq, bool self)
     {
       if (!self)
-        S += kernel_weight(std::hypot(xp[0] - xq[0], xp[1] - xq[1]) * inv_r);
-      double image[8][2];
+        S += kernel_weight(distance<Dim>(xp, xq) * inv_r);
+      double image[most_images][Dim];
       const int k = images(xq, image);
       for (int i = 0; i < k; ++i)
-        S += kernel_weight(std::hypot(xp[0] - image[i][0], xp[1] - image[i][1]) * inv_r);
+        S += kernel_weight(distance<Dim>(xp, image[i]) * inv_r);
     };
     add(xp, true);
     for (const std::int32_t q : list.of(p))
     {
       if (body[q] == body[p])
-        add(&x[2 * q], false);
+        add(&x[Dim * q], false);
     }
     ratio[p] = S / bulk[body[p]];
     if (ratio[p] < threshold)
@@ -247,7 +313,8 @@ std::vector<double> DamageFields::detect_surfaces(Particles& particles, const Ce
   return ratio;
 }
 
-bool DamageFields::particle_damage(const Particles& particles, const CellSort& sort)
+template <int Dim>
+bool DamageFields<Dim>::particle_damage(const Particles& particles, const CellSort& sort)
 {
   const auto n = static_cast<std::ptrdiff_t>(particles.size());
   _damage.resize(n);
@@ -310,14 +377,19 @@ bool DamageFields::particle_damage(const Particles& particles, const CellSort& s
 
 namespace
 {
+/// n^Dim.
+constexpr int power(int n, int dim) { return dim == 0 ? 1 : n * power(n, dim - 1); }
+
 /// The group slots of a cell's stencil nodes, per group of the cell.
+template <int Dim>
 struct CellSlots
 {
-  /// Nodes of a cell's block: (degree + 1)^2 with B-splines, 16 with CPDI.
-  static constexpr int K = std::max((max_degree + 1) * (max_degree + 1), CpdiStencil::size);
-  int n = 0;                                       ///< groups in the cell
-  std::int32_t group[max_node_fields];      ///< their indices, sorted
-  std::int32_t slot[DamageFields::max_groups][K];  ///< slot of group f at stencil node i
+  /// Nodes of a cell's block: (degree + 1)^Dim with B-splines, 4^Dim with CPDI.
+  static constexpr int K = std::max(power(max_degree + 1, Dim), power(4, Dim));
+  static_assert(K <= 8 * static_cast<int>(sizeof(NodeMask<Dim>)), "a bit per node of the block");
+  int n = 0;                                               ///< groups in the cell
+  std::int32_t group[max_node_fields];                     ///< their indices, sorted
+  std::int32_t slot[DamageFields<Dim>::max_groups][K];     ///< slot of group f at stencil node i
   /// Local index of group g (one of the cell's).
   int local(std::int32_t g) const
   {
@@ -328,42 +400,50 @@ struct CellSlots
   }
 };
 
-/// The groups of cell (cx, cy) and their slots at its stencil nodes, in
-/// stencil order (Grid::block()): looked up once per cell, not per particle
-/// and node. `groups`: the group slots, or none with one group (the slot of
-/// a node is then its active index).
-void cell_slots(const Grid<2>& grid, const DamageFields& fields, const std::optional<BodyFields<2>>& groups,
-                int cx, int cy, CellSlots& c)
+/// The groups of cell `cell` and their slots at its stencil nodes, in
+/// stencil order (Grid::block(), the last direction fastest): looked up once
+/// per cell, not per particle and node. `groups`: the group slots, or none
+/// with one group (the slot of a node is then its active index). A line of
+/// the block along the last direction is a run of consecutive active nodes.
+template <int Dim>
+void cell_slots(const Grid<Dim>& grid, const DamageFields<Dim>& fields,
+                const std::optional<BodyFields<Dim>>& groups, const Cell<Dim>& cell, CellSlots<Dim>& c)
 {
   const NodeBlock& block = grid.block();
-  const int width = block.width, ncy = grid.cells()[1];
-  c.n = fields.cell_groups(static_cast<std::size_t>(cx) * ncy + cy, c.group);
-  const int x0 = block.first(cx, grid.nodes()[0]), y0 = block.first(cy, grid.nodes()[1]);
-  for (int a = 0; a < width; ++a)
+  const int width = block.width;
+  const std::array<int, Dim> nodes = grid.nodes();
+  c.n = fields.cell_groups(cell.key, c.group);
+  std::array<int, Dim> first, node;
+  for (int d = 0; d < Dim; ++d)
+    first[d] = block.first(cell.index[d], nodes[d]);
+  const int lines = power(width, Dim - 1);
+  for (int l = 0; l < lines; ++l)
   {
-    const std::int32_t row = grid.active_index(x0 + a, y0);
+    node = first;
+    for (int d = Dim - 2, rest = l; d >= 0; --d, rest /= width)
+      node[d] += rest % width;
+    const std::int32_t row = grid.active().index(node);
     for (int b = 0; b < width; ++b)
       for (int f = 0; f < c.n; ++f)
-        c.slot[f][a * width + b] = groups ? groups->slot(row + b, c.group[f]) : row + b;
+        c.slot[f][l * width + b] = groups ? groups->slot(row + b, c.group[f]) : row + b;
   }
 }
 
-/// f(cx, cy, begin, end, slots) for each occupied cell (cx, cy) of `cells`
-/// (keys in increasing order), its particles order[begin, end) of the sort
-/// and its group slots: cells of one strip parity in parallel
+/// f(cell, slots) for each occupied cell of `cells` (keys in increasing
+/// order), with its group slots: cells of one strip parity in parallel
 /// (for_each_listed_cell_by_strips), so that f may add into its cell's nodes.
-template <class F>
-void for_each_listed_cell(const Grid<2>& grid, const DamageFields& fields,
-                          const std::optional<BodyFields<2>>& groups, const CellSort& sort,
+template <int Dim, class F>
+void for_each_listed_cell(const Grid<Dim>& grid, const DamageFields<Dim>& fields,
+                          const std::optional<BodyFields<Dim>>& groups, const CellSort& sort,
                           const std::vector<std::int32_t>& cells, F&& f)
 {
-  for_each_listed_cell_by_strips<2>(grid.cells(), sort.cell_start(), cells,
-                                    [&](const Cell<2>& cell)
-                                    {
-                                      CellSlots c;
-                                      cell_slots(grid, fields, groups, cell.index[0], cell.index[1], c);
-                                      f(cell.index[0], cell.index[1], cell.begin, cell.end, c);
-                                    });
+  for_each_listed_cell_by_strips<Dim>(grid.cells(), sort.cell_start(), cells,
+                                      [&](const Cell<Dim>& cell)
+                                      {
+                                        CellSlots<Dim> c;
+                                        cell_slots<Dim>(grid, fields, groups, cell, c);
+                                        f(cell, c);
+                                      });
 }
 
 /// The cells whose entry of `flag` is set, in key order, into `out` (the
@@ -381,45 +461,88 @@ void list_cells(const std::vector<std::uint8_t>& flag, std::vector<std::int32_t>
 /// arguments alias nothing, so that the loop vectorises (in the parallel
 /// loop below, a byte store may alias the bounds it shares, which are then
 /// read again at every element).
-void or_into(std::uint8_t* __restrict o, const std::uint8_t* __restrict c, int n)
+void or_into(std::uint8_t* __restrict o, const std::uint8_t* __restrict c, std::size_t n)
 {
-  for (int i = 0; i < n; ++i)
+  for (std::size_t i = 0; i < n; ++i)
     o[i] |= c[i];
 }
 
-/// Into `out`, the cells within `reach` cells (along each axis) of a marked
-/// cell of `in`: dilated along y into `along_y`, then along x, each column
-/// of cells ORed with the columns' entries up to `reach` cells away along
-/// the axis.
-void dilate(const std::vector<std::uint8_t>& in, int ncx, int ncy, int reach,
-            std::vector<std::uint8_t>& along_y, std::vector<std::uint8_t>& out)
+/// @brief Into `to`, the cells of `from` dilated by `reach` cells along
+/// direction d of a lattice of `cells` cells: each cell ORed with the
+/// cells up to `reach` away along d. Along the last direction a line's
+/// entries are ORed shifted; along another, whole rows of the cells after d.
+template <int Dim>
+void dilate_along(const std::uint8_t* from, std::uint8_t* to, const std::array<int, Dim>& cells,
+                  int d, int reach)
 {
-  const auto ncells = static_cast<std::size_t>(ncx) * ncy;
-  along_y.assign(ncells, 0);
-  out.assign(ncells, 0);
-  const std::uint8_t* from = in.data();
-  std::uint8_t* mid = along_y.data();
-  std::uint8_t* to = out.data();
-#pragma omp parallel for schedule(static)
-  for (int cx = 0; cx < ncx; ++cx)
+  std::size_t stride = 1, outer = 1;
+  for (int e = d + 1; e < Dim; ++e)
+    stride *= cells[e];
+  for (int e = 0; e < d; ++e)
+    outer *= cells[e];
+  const int n = cells[d];
+  const auto rows = static_cast<std::ptrdiff_t>(outer * n);
+  std::fill(to, to + outer * n * stride, std::uint8_t{0});
+  if (stride == 1)
   {
-    const std::size_t column = static_cast<std::size_t>(cx) * ncy;
-    for (int d = -reach; d <= reach; ++d)
+    // Lines along d: shifted copies of each line.
+    const auto lines = static_cast<std::ptrdiff_t>(outer);
+#pragma omp parallel for schedule(static)
+    for (std::ptrdiff_t l = 0; l < lines; ++l)
     {
-      const int first = std::max(0, -d), last = std::min(ncy, ncy - d);
-      or_into(mid + column + first, from + column + first + d, last - first);
+      const std::size_t line = static_cast<std::size_t>(l) * n;
+      for (int s = -reach; s <= reach; ++s)
+      {
+        const int first = std::max(0, -s), last = std::min(n, n - s);
+        if (last > first)
+          or_into(to + line + first, from + line + first + s, last - first);
+      }
     }
+    return;
   }
 #pragma omp parallel for schedule(static)
-  for (int cx = 0; cx < ncx; ++cx)
-    for (int d = std::max(-reach, -cx); d <= std::min(reach, ncx - 1 - cx); ++d)
-      or_into(to + static_cast<std::size_t>(cx) * ncy, mid + static_cast<std::size_t>(cx + d) * ncy,
-              ncy);
+  for (std::ptrdiff_t r = 0; r < rows; ++r)
+  {
+    const int c = static_cast<int>(r % n);
+    for (int s = std::max(-reach, -c); s <= std::min(reach, n - 1 - c); ++s)
+      or_into(to + static_cast<std::size_t>(r) * stride, from + static_cast<std::size_t>(r + s) * stride,
+              stride);
+  }
+}
+
+/// Into `out`, the cells within `reach` cells (along each axis) of a marked
+/// cell of `in`: dilated along the last direction first, then along each
+/// one before it, through `scratch`.
+template <int Dim>
+void dilate(const std::vector<std::uint8_t>& in, const std::array<int, Dim>& cells, int reach,
+            std::vector<std::uint8_t>& scratch, std::vector<std::uint8_t>& out)
+{
+  scratch.resize(in.size());
+  out.resize(in.size());
+  const std::uint8_t* from = in.data();
+  for (int d = Dim - 1; d >= 0; --d)
+  {
+    // Ending in `out`: the first direction writes it, the one before scratch.
+    std::uint8_t* to = d % 2 == 0 ? out.data() : scratch.data();
+    dilate_along<Dim>(from, to, cells, d, reach);
+    from = to;
+  }
+}
+
+/// The cell key of point x on `grid`.
+template <int Dim>
+std::size_t cell_of(const Grid<Dim>& grid, const double* x)
+{
+  std::array<int, Dim> i;
+  for (int d = 0; d < Dim; ++d)
+    i[d] = grid.basis(d).cell(x[d]);
+  return lattice_key<Dim>(i, grid.cells());
 }
 } // namespace
 
+template <int Dim>
 template <class Stencil>
-void DamageFields::open_nodes(const Particles& particles, const CellSort& sort, const Points& points)
+void DamageFields<Dim>::open_nodes(const Particles& particles, const CellSort& sort, const Points& points)
 {
   constexpr int K = Stencil::size;
   const std::size_t ngs = num_group_slots();
@@ -428,7 +551,7 @@ void DamageFields::open_nodes(const Particles& particles, const CellSort& sort, 
   _group_full.assign(ngs, 0);
   _group_softening.assign(ngs, 0);
   _open_slot.resize(ngs);
-  const std::array<const BSpline1D*, 2> basis{&_grid.basis(0), &_grid.basis(1)};
+  const std::array<const BSpline1D*, Dim> basis = _grid.bases();
   const std::int32_t* order = sort.order().data();
   const std::int32_t* group = _group.data();
   const double* x = particles.x.data();
@@ -436,17 +559,17 @@ void DamageFields::open_nodes(const Particles& particles, const CellSort& sort, 
   const double* damage = _damage.data();
   const double* full = _full.data();
   const std::uint8_t* softening = _softening.data();
-  const double* r1 = points.r1;
-  const double* r2 = points.r2;
+  [[maybe_unused]] const double* r1 = points.r1;
+  [[maybe_unused]] const double* r2 = points.r2;
   // The sums of H&H eq. 21 over A and B together, with the terms P2G adds into
   // its md and full, cell by cell; strips of one parity share no node.
   list_cells(_near, _near_cells);
-  for_each_listed_cell(
+  for_each_listed_cell<Dim>(
       _grid, *this, _groups, sort, _near_cells,
-      [&](int cx, int cy, std::int64_t begin, std::int64_t end, const CellSlots& c)
+      [&](const Cell<Dim>& cell, const CellSlots<Dim>& c)
       {
         double m[max_groups][K], md[max_groups][K];
-        std::uint32_t any_full[max_groups], any_softening[max_groups];
+        Mask any_full[max_groups], any_softening[max_groups];
         for (int f = 0; f < c.n; ++f) // the cell's groups only
         {
           std::fill_n(m[f], K, 0.0);
@@ -454,15 +577,14 @@ void DamageFields::open_nodes(const Particles& particles, const CellSort& sort, 
           any_full[f] = 0;
           any_softening[f] = 0;
         }
-        const int cell[2] = {cx, cy};
-        for (std::int64_t k = begin; k < end; ++k)
+        for (std::int64_t k = cell.begin; k < cell.end; ++k)
         {
           const std::int32_t p = order[k];
           Stencil s;
           if constexpr (Stencil::domains)
-            s.evaluate(basis, cell, &x[2 * p], &r1[2 * p], &r2[2 * p]);
+            s.evaluate(basis, cell.index.data(), &x[Dim * p], &r1[Dim * p], &r2[Dim * p]);
           else
-            s.evaluate(basis, cell, &x[2 * p]);
+            s.evaluate(basis, cell.index.data(), &x[Dim * p]);
           const int f = c.local(group[p]);
           const double mp = mass[p], Dp = damage[p];
           const bool failed = full[p] != 0.0, soft = softening[p] != 0;
@@ -473,8 +595,8 @@ void DamageFields::open_nodes(const Particles& particles, const CellSort& sort, 
                 md[f][i] += w * mp * Dp;
                 // Where its shape function is positive (CPDI: above round-off).
                 const bool maps = Stencil::domains ? w > cpdi_maps_to : true;
-                any_full[f] |= failed && maps ? 1u << i : 0u;
-                any_softening[f] |= soft && maps ? 1u << i : 0u;
+                any_full[f] |= failed && maps ? Mask{1} << i : Mask{0};
+                any_softening[f] |= soft && maps ? Mask{1} << i : Mask{0};
               });
         }
         for (int f = 0; f < c.n; ++f)
@@ -515,28 +637,34 @@ void DamageFields::open_nodes(const Particles& particles, const CellSort& sort, 
   list_cells(_open, _open_cells);
 }
 
-void DamageFields::open_cells(const Particles& particles, const CellSort& sort, const Points& points)
+template <int Dim>
+void DamageFields<Dim>::open_cells(const Particles& particles, const CellSort& sort, const Points& points)
 {
   // Cells within reach() cells of a fully damaged particle: only their
   // particles' stencils reach a node where one maps (the cells whose block
   // shares a node with a cell's are within reach() of it: the degree with
   // B-splines, up to 5 with CPDI's 4 x 4 blocks, which move inwards at the
   // grid's ends).
-  dilate(_full_cell, _grid.cells()[0], _grid.cells()[1], _grid.block().reach(), _dilated_y, _near);
+  dilate<Dim>(_full_cell, _grid.cells(), _grid.block().reach(), _dilated, _near);
   // The open nodes, with the transfers' shape functions.
   if (points.r1) // CPDI: the points carry domains
-    open_nodes<CpdiStencil>(particles, sort, points);
+  {
+    if constexpr (Dim == 2)
+      open_nodes<CpdiStencil>(particles, sort, points);
+    else
+      throw std::logic_error("the damage-gradient partition with CPDI is two-dimensional yet");
+  }
   else if (_grid.degree() == 1)
-    open_nodes<BSplineStencil<2, 1>>(particles, sort, points);
+    open_nodes<BSplineStencil<Dim, 1>>(particles, sort, points);
   else if (_grid.degree() == 2)
-    open_nodes<BSplineStencil<2, 2>>(particles, sort, points);
+    open_nodes<BSplineStencil<Dim, 2>>(particles, sort, points);
   else
-    open_nodes<BSplineStencil<2, 3>>(particles, sort, points);
+    open_nodes<BSplineStencil<Dim, 3>>(particles, sort, points);
 }
 
-void DamageFields::gradients(Particles& particles, const CellSort& sort)
+template <int Dim>
+void DamageFields<Dim>::gradients(Particles& particles, const CellSort& sort)
 {
-  const int ncy = _grid.cells()[1];
   const std::int32_t* order = sort.order().data();
   const std::int64_t* start = sort.cell_start().data();
   {
@@ -548,7 +676,7 @@ void DamageFields::gradients(Particles& particles, const CellSort& sort)
   const double* x = particles.x.data();
   const double* damage = _damage.data();
   double* grad = particles.f64("damage_gradient").data();
-  const NeighbourList& list = _neighbours;
+  const NeighbourList<Dim>& list = _neighbours;
   const double radius = _radius;
   // Where every listed neighbour has p's damage, the kernel field is flat
   // and its gradient exactly zero (the sums of differences in kernel_field
@@ -564,16 +692,14 @@ void DamageFields::gradients(Particles& particles, const CellSort& sort)
   const double reach2 = radius * radius;
   const double* full = _full.data();
   const std::int32_t* body = particles.body.data();
-  const BSpline1D& bx = _grid.basis(0);
-  const BSpline1D& by = _grid.basis(1);
   // The kernel field's gradient at particle p into its column.
   std::uint8_t* set = _set.data();
   auto evaluate = [&](std::int32_t p)
   {
     const auto listed = list.of(p);
-    const KernelValue<2> v = kernel_field<2>(p, listed.first, listed.size, x, damage, radius);
-    grad[2 * p] = v.grad[0];
-    grad[2 * p + 1] = v.grad[1];
+    const KernelValue<Dim> v = kernel_field<Dim>(p, listed.first, listed.size, x, damage, radius);
+    for (int d = 0; d < Dim; ++d)
+      grad[Dim * p + d] = v.grad[d];
     set[p] = 1;
   };
   std::int64_t evaluated = 0;
@@ -599,17 +725,16 @@ void DamageFields::gradients(Particles& particles, const CellSort& sort)
       // (A listed neighbour in the skin, beyond r_p, may differ where every
       // one within r_p has p's damage: the gradient is then zero all the
       // same, and p a flat particle like the uniform ones.)
-      if (full[p] == 0.0 || grad[2 * p] != 0.0 || grad[2 * p + 1] != 0.0)
+      if (full[p] == 0.0 || nonzero<Dim>(&grad[Dim * p]))
         continue;
       // A fully damaged particle without a gradient takes its side from its
       // nearest neighbour of the same body with one within r_p (sides()):
       // those of them outside the open cells need theirs too.
       for (const std::int32_t q : list.of(p))
       {
-        const double dx = x[2 * q] - x[2 * p], dy = x[2 * q + 1] - x[2 * p + 1];
-        if (body[q] != body[p] || dx * dx + dy * dy >= reach2)
+        if (body[q] != body[p] || distance2<Dim>(&x[Dim * q], &x[Dim * p]) >= reach2)
           continue;
-        const std::size_t cell = static_cast<std::size_t>(bx.cell(x[2 * q])) * ncy + by.cell(x[2 * q + 1]);
+        const std::size_t cell = cell_of<Dim>(_grid, &x[Dim * q]);
         if (!_open[cell] && _near[cell])
         {
 #pragma omp atomic write
@@ -635,13 +760,13 @@ void DamageFields::gradients(Particles& particles, const CellSort& sort)
   _evaluated += evaluated;
 }
 
-void DamageFields::sides(const Particles& particles, const CellSort& sort, const Points& points,
-                         const double* grad)
+template <int Dim>
+void DamageFields<Dim>::sides(const Particles& particles, const CellSort& sort, const Points& points,
+                              const double* grad)
 {
-  constexpr int K = CellSlots::K;
+  constexpr int K = CellSlots<Dim>::K;
   const NodeBlock& block = _grid.block();
-  const int width = block.width, nk = width * width;
-  const int ncy = _grid.cells()[1];
+  const int nk = power(block.width, Dim);
   const std::size_t ngs = num_group_slots();
   _best_norm.assign(ngs, 0.0);
   _best.assign(ngs, -1);
@@ -655,20 +780,26 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
   // nodes of the cells its domain's corners lie in (above round-off:
   // cpdi_maps_to).
   const double* domain_r1 = points.r1;
-  const double* domain_r2 = points.r2;
-  const std::uint32_t all = nk >= 32 ? ~0u : (1u << nk) - 1u;
-  const std::array<const BSpline1D*, 2> basis{&_grid.basis(0), &_grid.basis(1)};
-  auto reached = [&](std::int32_t p, int cx, int cy) -> std::uint32_t
+  [[maybe_unused]] const double* domain_r2 = points.r2;
+  constexpr int bits = 8 * static_cast<int>(sizeof(Mask));
+  const Mask all = nk >= bits ? ~Mask{0} : (Mask{1} << nk) - 1u;
+  const std::array<const BSpline1D*, Dim> basis = _grid.bases();
+  auto reached = [&](std::int32_t p, const Cell<Dim>& cell) -> Mask
   {
     if (!domain_r1)
       return all;
-    CpdiStencil stencil;
-    const int cell[2] = {cx, cy};
-    stencil.evaluate(basis, cell, &particles.x[2 * p], &domain_r1[2 * p], &domain_r2[2 * p]);
-    std::uint32_t m = 0;
-    for (int i = 0; i < CpdiStencil::size; ++i)
-      m |= stencil.n[i] > cpdi_maps_to ? 1u << i : 0u;
-    return m;
+    if constexpr (Dim == 2)
+    {
+      CpdiStencil stencil;
+      stencil.evaluate(basis, cell.index.data(), &particles.x[2 * p], &domain_r1[2 * p],
+                       &domain_r2[2 * p]);
+      Mask m = 0;
+      for (int i = 0; i < CpdiStencil::size; ++i)
+        m |= stencil.n[i] > cpdi_maps_to ? Mask{1} << i : Mask{0};
+      return m;
+    }
+    else
+      return all; // (the constructor of the solver refuses CPDI with this partition in 3D)
   };
   // Algorithm 1, over the open cells (every cell whose block holds an open
   // node): per node and group, the particle gradient of largest magnitude,
@@ -676,9 +807,9 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
   // node first (the largest, ties to the smaller index, is the same in any
   // order of comparison), then compares it with the node's. Strips of one
   // parity share no node, so the comparisons need no atomics.
-  for_each_listed_cell(
+  for_each_listed_cell<Dim>(
       _grid, *this, _groups, sort, _open_cells,
-      [&](int cx, int cy, std::int64_t begin, std::int64_t end, const CellSlots& c)
+      [&](const Cell<Dim>& cell, const CellSlots<Dim>& c)
       {
         double norm[max_groups][K];
         std::int32_t best[max_groups][K];
@@ -688,14 +819,14 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
             norm[f][i] = 0.0;
             best[f][i] = -1;
           }
-        for (std::int64_t k = begin; k < end; ++k)
+        for (std::int64_t k = cell.begin; k < cell.end; ++k)
         {
           const std::int32_t p = order[k];
-          const double n2 = grad[2 * p] * grad[2 * p] + grad[2 * p + 1] * grad[2 * p + 1];
+          const double n2 = dot<Dim>(&grad[Dim * p], &grad[Dim * p]);
           if (n2 == 0.0)
             continue; // nothing to note
           const int f = c.local(group[p]);
-          const std::uint32_t nodes = reached(p, cx, cy);
+          const Mask nodes = reached(p, cell);
           for (int i = 0; i < nk; ++i)
             if ((nodes >> i & 1u) && (n2 > norm[f][i] || (n2 == norm[f][i] && p < best[f][i])))
             {
@@ -729,7 +860,7 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
   const std::int32_t* body = particles.body.data();
   const double reach2 = _radius * _radius;
   const double* x = particles.x.data();
-  const NeighbourList& list = _neighbours;
+  const NeighbourList<Dim>& list = _neighbours;
   // The nearest, the first in the list (the smallest index) among equals;
   // without a branch per neighbour (which of them qualify is unpredictable
   // inside a fragment).
@@ -738,45 +869,44 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
     std::int32_t best = -1;
     double closest = reach2;
     const std::int32_t bp = body[p];
-    const double xp = x[2 * p], yp = x[2 * p + 1];
+    const double* xp = &x[Dim * p];
     for (const std::int32_t q : list.of(p))
     {
-      const double dx = x[2 * q] - xp, dy = x[2 * q + 1] - yp;
-      const bool sloped = grad[2 * q] != 0.0 || grad[2 * q + 1] != 0.0;
-      const double d2 = body[q] == bp && sloped ? dx * dx + dy * dy : reach2;
+      const double d2 = body[q] == bp && nonzero<Dim>(&grad[Dim * q])
+                            ? distance2<Dim>(&x[Dim * q], xp)
+                            : reach2;
       best = d2 < closest ? q : best;
       closest = d2 < closest ? d2 : closest;
     }
     return best;
   };
-  std::uint32_t* mask = _mask.data();
+  Mask* mask = _mask.data();
   std::uint8_t* set = _set.data();
-  for_each_listed_cell(
+  for_each_listed_cell<Dim>(
       _grid, *this, _groups, sort, _open_cells,
-      [&](int cx, int cy, std::int64_t begin, std::int64_t end, const CellSlots& c)
+      [&](const Cell<Dim>& cell, const CellSlots<Dim>& c)
       {
-        const std::size_t cell = static_cast<std::size_t>(cx) * ncy + cy;
         // Per group and node: G_i, and the position of its particle p*
         // (none: G_i = 0, and every pair chooses A); per group, whether
         // some node's G_i is not zero (else all its pairs choose A: the
         // sides below are +-0).
-        double G[max_groups][K][2], star[max_groups][K][2];
+        double G[max_groups][K][Dim], star[max_groups][K][Dim];
         bool has_star[max_groups][K], live[max_groups] = {};
-        std::uint32_t chose_b[max_groups] = {};
+        Mask chose_b[max_groups] = {};
         for (int f = 0; f < c.n; ++f)
           for (int i = 0; i < nk; ++i)
           {
             const std::int32_t s = c.slot[f][i], q = _best[s];
-            const std::array<double, 2> Gi = nodal_gradient(s, grad);
-            G[f][i][0] = Gi[0];
-            G[f][i][1] = Gi[1];
-            live[f] |= G[f][i][0] != 0.0 || G[f][i][1] != 0.0;
+            const std::array<double, Dim> Gi = nodal_gradient(s, grad);
+            for (int d = 0; d < Dim; ++d)
+              G[f][i][d] = Gi[d];
+            live[f] |= nonzero<Dim>(G[f][i]);
             has_star[f][i] = q >= 0;
-            star[f][i][0] = q >= 0 ? x[2 * q] : 0.0;
-            star[f][i][1] = q >= 0 ? x[2 * q + 1] : 0.0;
+            for (int d = 0; d < Dim; ++d)
+              star[f][i][d] = q >= 0 ? x[Dim * q + d] : 0.0;
           }
-        std::uint32_t any = 0;
-        for (std::int64_t k = begin; k < end; ++k)
+        Mask any = 0;
+        for (std::int64_t k = cell.begin; k < cell.end; ++k)
         {
           const std::int32_t p = order[k];
           const int f = c.local(group[p]);
@@ -785,31 +915,32 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
             mask[p] = 0;
             continue;
           }
-          const bool flat = grad[2 * p] == 0.0 && grad[2 * p + 1] == 0.0;
+          const bool flat = !nonzero<Dim>(&grad[Dim * p]);
           const std::int32_t near = !flat ? p : full[p] != 0.0 ? proxy(p) : -1;
-          std::uint32_t m = 0;
+          Mask m = 0;
           if (near >= 0)
           {
-            const double gx = grad[2 * near], gy = grad[2 * near + 1];
+            const double* g = &grad[Dim * near];
             for (int i = 0; i < nk; ++i)
             {
-              const double side = gx * G[f][i][0] + gy * G[f][i][1];
-              m |= side < 0.0 ? 1u << i : 0u;
+              const double side = dot<Dim>(g, G[f][i]);
+              m |= side < 0.0 ? Mask{1} << i : Mask{0};
             }
           }
           else if (full[p] == 0.0)
           {
-            const double xp = x[2 * p], yp = x[2 * p + 1];
+            const double* xp = &x[Dim * p];
             for (int i = 0; i < nk; ++i)
             {
-              const double side = has_star[f][i] ? (star[f][i][0] - xp) * G[f][i][0]
-                                                       + (star[f][i][1] - yp) * G[f][i][1]
-                                                 : 0.0;
-              m |= side < 0.0 ? 1u << i : 0u;
+              double behind[Dim];
+              for (int d = 0; d < Dim; ++d)
+                behind[d] = star[f][i][d] - xp[d];
+              const double side = has_star[f][i] ? dot<Dim>(behind, G[f][i]) : 0.0;
+              m |= side < 0.0 ? Mask{1} << i : Mask{0};
             }
           }
           if (domain_r1)
-            m &= reached(p, cx, cy); // no side at a node the particle does not map to
+            m &= reached(p, cell); // no side at a node the particle does not map to
           mask[p] = m;
           set[p] |= m != 0u ? 1 : 0;
           chose_b[f] |= m;
@@ -819,11 +950,12 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
           for (int i = 0; i < nk; ++i)
             if (chose_b[f] >> i & 1u)
               _has_b[c.slot[f][i]] = 1;
-        _split[cell] = any != 0;
+        _split[cell.key] = any != 0;
       });
 }
 
-void DamageFields::layout(const CellSort& sort, bool any_split)
+template <int Dim>
+void DamageFields<Dim>::layout(const CellSort& sort, bool any_split)
 {
   const auto na = static_cast<std::ptrdiff_t>(_grid.num_active());
   if (!any_split)
@@ -868,9 +1000,10 @@ void DamageFields::layout(const CellSort& sort, bool any_split)
                      _touches);
 }
 
-std::vector<std::array<double, 4>> DamageFields::nodal_gradients(const Particles& particles) const
+template <int Dim>
+std::vector<std::array<double, 2 + Dim>> DamageFields<Dim>::nodal_gradients(const Particles& particles) const
 {
-  std::vector<std::array<double, 4>> out;
+  std::vector<std::array<double, 2 + Dim>> out;
   const std::int32_t na = _grid.num_active();
   const double* grad = particles.find("damage_gradient")->f64.data();
   for (std::int32_t a = 0; a < na; ++a)
@@ -878,17 +1011,20 @@ std::vector<std::array<double, 4>> DamageFields::nodal_gradients(const Particles
     const auto [g0, g1] = group_slots(a);
     for (std::int32_t g = g0; g < g1; ++g)
     {
-      const std::array<double, 2> G =
-          _dirty && static_cast<std::size_t>(g) < _best.size() ? nodal_gradient(g, grad)
-                                                                : std::array<double, 2>{0.0, 0.0};
-      out.push_back({static_cast<double>(_grid.active_nodes()[a]),
-                     static_cast<double>(_groups ? _groups->field(g) : 0), G[0], G[1]});
+      const std::array<double, Dim> G = _dirty && static_cast<std::size_t>(g) < _best.size()
+                                            ? nodal_gradient(g, grad)
+                                            : std::array<double, Dim>{};
+      std::array<double, 2 + Dim> row{static_cast<double>(_grid.active_nodes()[a]),
+                                      static_cast<double>(_groups ? _groups->field(g) : 0)};
+      std::copy(G.begin(), G.end(), row.begin() + 2);
+      out.push_back(row);
     }
   }
   return out;
 }
 
-void DamageFields::clear(Particles& particles)
+template <int Dim>
+void DamageFields<Dim>::clear(Particles& particles)
 {
   const auto n = static_cast<std::ptrdiff_t>(particles.size());
   double* grad = particles.f64("damage_gradient").data();
@@ -896,11 +1032,11 @@ void DamageFields::clear(Particles& particles)
   {
     _mask.assign(n, 0u);
     _set.assign(n, 0);
-    std::fill(grad, grad + 2 * n, 0.0);
+    std::fill(grad, grad + Dim * n, 0.0);
     _clear_all = false;
     return;
   }
-  std::uint32_t* mask = _mask.data();
+  Mask* mask = _mask.data();
   std::uint8_t* set = _set.data();
   // Eight flags at a time: the set ones are few, near the damage.
   const std::ptrdiff_t words = (n + 7) / 8;
@@ -915,15 +1051,16 @@ void DamageFields::clear(Particles& particles)
     for (std::ptrdiff_t p = first; p < last; ++p)
       if (set[p])
       {
-        grad[2 * p] = 0.0;
-        grad[2 * p + 1] = 0.0;
+        for (int d = 0; d < Dim; ++d)
+          grad[Dim * p + d] = 0.0;
         mask[p] = 0u;
         set[p] = 0;
       }
   }
 }
 
-void DamageFields::build(Particles& particles, const CellSort& sort, const Points& points)
+template <int Dim>
+void DamageFields<Dim>::build(Particles& particles, const CellSort& sort, const Points& points)
 {
   if (_groups)
     _groups->build(particles, sort, false);
@@ -949,5 +1086,8 @@ void DamageFields::build(Particles& particles, const CellSort& sort, const Point
   Stopwatch clock{_timers.partition};
   layout(sort, any_full);
 }
+
+template class DamageFields<2>;
+template class DamageFields<3>;
 
 } // namespace pfmpm

@@ -19,6 +19,7 @@
 #include <cstdint>
 #include <limits>
 #include <optional>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -73,14 +74,24 @@ struct KernelField
 {
   std::vector<double> S;    ///< kernel sum (H&H eq. 19)
   std::vector<double> D;    ///< D-bar
-  std::vector<double> grad; ///< grad D-bar, N x 2
+  std::vector<double> grad; ///< grad D-bar, N x Dim
 };
 
 /// @brief The kernel damage field and its gradient at every particle of
-/// positions `x` (N x 2) with damage `damage`, neighbours within `radius`
+/// positions `x` (N x Dim) with damage `damage`, neighbours within `radius`
 /// found through the cell sort of `grid` (for checks and figures).
-KernelField kernel_damage_field(const Grid<2>& grid, const std::vector<double>& x,
+template <int Dim>
+KernelField kernel_damage_field(const Grid<Dim>& grid, const std::vector<double>& x,
                                 const std::vector<double>& damage, double radius);
+
+/// @brief Kernel sum (H&H eq. 19) at the interior of a square (Dim = 2) or
+/// cubic (Dim = 3) lattice of `spacing`, kernel radius `radius`.
+double lattice_kernel_sum(int dim, double spacing, double radius);
+
+/// @brief A bit per node of a cell's block (Grid::block()): 16 nodes at
+/// most in 2D, 64 in 3D (cubic B-splines, CPDI).
+template <int Dim>
+using NodeMask = std::conditional_t<Dim == 2, std::uint32_t, std::uint64_t>;
 
 /// Per-block wall time of the partition, seconds since construction.
 struct DamageTimers
@@ -108,8 +119,8 @@ struct DamageTimers
 ///   does not depend on the visiting order;
 /// - per (particle, node) pair the side: field A if grad D_p . G_i >= 0,
 ///   else B (Algorithm 2), as a bit per node of the particle's cell's block
-///   (Grid::block(): the B-spline's (degree + 1)^2 nodes, CPDI's 4 x 4) in a
-///   per-particle mask; a pair exists where the particle maps to the node
+///   (Grid::block(): the B-spline's (degree + 1)^Dim nodes, CPDI's 4 x 4) in a
+///   per-particle mask (NodeMask); a pair exists where the particle maps to the node
 ///   (with B-splines every node of the block, with CPDI those where its
 ///   averaged shape function exceeds cpdi_maps_to);
 ///   a particle with zero gradient (no damage variation within r_p, which a
@@ -131,9 +142,15 @@ struct DamageTimers
 /// be merged again. Only particles whose stencil reaches an open node need
 /// their gradient, and the neighbours within r_p of the fully damaged ones
 /// among them without one (whose side is such a neighbour's).
+///
+/// One source for Dim = 2 and 3 (explicitly instantiated): the kernel field
+/// and the tests are the paper's in Dim directions, r_p the cell diagonal
+/// sqrt(Dim) h. CPDI is two-dimensional yet.
+template <int Dim>
 class DamageFields
 {
 public:
+  using Mask = NodeMask<Dim>;
   static constexpr bool discrete = true;
   static constexpr bool per_pair = true;
   /// The most contact groups that may meet at a node (two fields each).
@@ -146,7 +163,7 @@ public:
   ///        groups x groups, symmetric, >= 0; the diagonal entry of a group
   ///        is that of its crack faces.
   /// @param source Per material, where its particles' damage comes from.
-  DamageFields(const Grid<2>& grid, Particles& particles, std::vector<double> friction,
+  DamageFields(const Grid<Dim>& grid, Particles& particles, std::vector<double> friction,
                std::vector<DamageSource> source, DamageGradientOptions options);
 
   /// Number of contact groups.
@@ -177,9 +194,6 @@ public:
   /// @return S / S_bulk per particle.
   std::vector<double> detect_surfaces(Particles& particles, const CellSort& sort,
                                       const std::vector<double>& spacing, double threshold);
-
-  /// Kernel sum at the interior of a square lattice of `spacing` (H&H eq. 19).
-  static double lattice_kernel_sum(double spacing, double radius);
 
   // -- what the transfers read ---------------------------------------------
 
@@ -215,17 +229,17 @@ public:
   /// Whether cell `key` has a node with two or more slots.
   bool touches(std::size_t key) const { return _touches[key] != 0; }
   /// Per particle: bit i set when the pair with stencil node i chose field B.
-  const std::uint32_t* mask() const { return _mask.data(); }
+  const Mask* mask() const { return _mask.data(); }
   /// Per particle: D~_p = max(s_p, D_p).
   const double* damage() const { return _damage.data(); }
   /// Per particle: 1 when fully damaged (or a surface particle), else 0.
   const double* full() const { return _full.data(); }
   /// Per particle: the masks of the last build.
-  const std::vector<std::uint32_t>& masks() const { return _mask; }
+  const std::vector<Mask>& masks() const { return _mask; }
   /// @brief The nodal gradients G_i of the last build (Algorithm 1): per
-  /// active node and group in its support, (node, group, G_x, G_y), from the
-  /// `damage_gradient` column of `particles` as that build left it.
-  std::vector<std::array<double, 4>> nodal_gradients(const Particles& particles) const;
+  /// active node and group in its support, (node, group, G_x, G_y[, G_z]),
+  /// from the `damage_gradient` column of `particles` as that build left it.
+  std::vector<std::array<double, 2 + Dim>> nodal_gradients(const Particles& particles) const;
 
   ContactStats& stats() { return _stats; }
   const ContactStats& stats() const { return _stats; }
@@ -281,12 +295,13 @@ private:
   /// G_i of group slot s: the gradient (in `grad`) of the particle that
   /// Algorithm 1 chose, zero where the node is not open (there the fields
   /// cannot be separable: one field) or no particle there has a gradient.
-  std::array<double, 2> nodal_gradient(std::int32_t s, const double* grad) const
+  std::array<double, Dim> nodal_gradient(std::int32_t s, const double* grad) const
   {
+    std::array<double, Dim> G{};
     const std::int32_t q = _best[s];
-    if (!_open_slot[s] || q < 0)
-      return {0.0, 0.0};
-    return {grad[2 * q], grad[2 * q + 1]};
+    if (_open_slot[s] && q >= 0)
+      std::copy(&grad[Dim * q], &grad[Dim * q] + Dim, G.begin());
+    return G;
   }
   /// Algorithms 1 and 2 from the particle gradients `grad`: nodal
   /// gradients, the pairs' sides, the split cells.
@@ -296,22 +311,22 @@ private:
   /// with two or more.
   void layout(const CellSort& sort, bool any_split);
 
-  const Grid<2>& _grid;
+  const Grid<Dim>& _grid;
   int _groups_n;
   std::vector<double> _friction;
   std::vector<DamageSource> _source;
   DamageGradientOptions _options;
   double _radius;
   std::vector<std::int32_t> _group;   // per particle
-  std::optional<BodyFields<2>> _groups;  // with two or more groups: their slots
-  NeighbourList _neighbours;
+  std::optional<BodyFields<Dim>> _groups;  // with two or more groups: their slots
+  NeighbourList<Dim> _neighbours;
 
   std::vector<double> _damage;        // per particle: D~_p
   std::vector<double> _full;          // per particle: 0 or 1
   std::vector<std::uint8_t> _softening; // per particle: a damage model's D grew in the last step
-  std::vector<std::uint32_t> _mask;   // per particle
+  std::vector<Mask> _mask;            // per particle
   std::vector<std::uint8_t> _full_cell; // per cell: it holds a fully damaged particle
-  std::vector<std::uint8_t> _dilated_y; // per cell: _full_cell dilated along y (scratch)
+  std::vector<std::uint8_t> _dilated; // per cell: _full_cell dilated along some directions (scratch)
   std::vector<std::uint8_t> _near;    // per cell: a fully damaged particle within reach() cells
   std::vector<std::uint8_t> _open;    // per cell: its block holds an open node
   std::vector<std::int32_t> _near_cells, _open_cells; // the cells of each, in key order
@@ -341,5 +356,8 @@ private:
   DamageTimers _timers;
   std::int64_t _evaluated = 0;
 };
+
+extern template class DamageFields<2>;
+extern template class DamageFields<3>;
 
 } // namespace pfmpm

@@ -29,17 +29,19 @@ namespace pfmpm
 /// does not make the lists stale, only motion relative to the particles
 /// around. Each look also gives its slack: how far any particle may move
 /// before either test could fail (a displacement grows by at most that
-/// distance, a box's diagonal by 2 sqrt 2 times it). Until the sum over the
+/// distance, a box's diagonal by 2 sqrt(Dim) times it). Until the sum over the
 /// steps of the largest distance any particle moved in the step (moved(),
 /// which the step knows at no cost) uses the slack up, stale() does not look.
 /// Each particle's list is sorted by particle index, so a sum over the
 /// neighbours within r has an order fixed by the positions alone, whenever
 /// the list was built (a resumed run gives the bits of an uninterrupted one).
+/// Explicitly instantiated for Dim = 2 and 3.
+template <int Dim>
 class NeighbourList
 {
 public:
   NeighbourList() = default;
-  // The lists point into the column buffers: a copy would point into the
+  // The lists point into the slabs' buffers: a copy would point into the
   // original's. A move keeps the buffers, and so the lists.
   NeighbourList(const NeighbourList&) = delete;
   NeighbourList& operator=(const NeighbourList&) = delete;
@@ -50,13 +52,13 @@ public:
   /// `cutoff() - 2 skin` are taken at positions `x`, sorted into the cells
   /// of `grid` by `sort`: it was never built, the particle count changed, or
   /// a pair may have come within that radius from beyond the cutoff.
-  bool stale(const Grid<2>& grid, const CellSort& sort, const std::vector<double>& x, double skin);
+  bool stale(const Grid<Dim>& grid, const CellSort& sort, const std::vector<double>& x, double skin);
   /// @brief Note that no particle moved more than `distance` in a step.
   void moved(double distance) { _drift += distance; }
 
   /// @brief For every particle, the others within `cutoff` of it, searched in
   /// the cells of `sort` around its own.
-  void build(const Grid<2>& grid, const CellSort& sort, const std::vector<double>& x, double cutoff);
+  void build(const Grid<Dim>& grid, const CellSort& sort, const std::vector<double>& x, double cutoff);
 
   /// The neighbours of particle p, by index.
   struct Range
@@ -73,20 +75,23 @@ public:
   double cutoff() const { return _cutoff; }
 
 private:
-  // Per particle: its list, in the buffer of its cell column, and its length.
+  // Per particle: its list, in the buffer of its slab of cells, and its length.
   std::vector<const std::int32_t*> _first;
   std::vector<std::int32_t> _count;
-  std::vector<double> _built_at;    // positions at the build, N x 2
+  std::vector<double> _built_at;    // positions at the build, N x Dim
   double _drift = 0.0;              // bound on any particle's motion since the build
   double _drift_checked = 0.0;      // _drift at the last look at the displacements
   double _slack = -1.0;             // motion the last look allows (< 0: look)
   double _cutoff = 0.0;
   std::int64_t _builds = 0;
-  // Per cell column the lists of its particles in sort order (the lists'
-  // storage); scratch: per block of cells the range of the displacements
-  // (x min, x max, y min, y max).
-  std::vector<std::vector<std::int32_t>> _columns;
+  // Per slab of cells (equal first index) the lists of its particles in
+  // sort order (the lists' storage); scratch: per block of cells the range
+  // of the displacements (min and max along each direction).
+  std::vector<std::vector<std::int32_t>> _slabs;
   std::vector<double> _range;
 };
+
+extern template class NeighbourList<2>;
+extern template class NeighbourList<3>;
 
 } // namespace pfmpm

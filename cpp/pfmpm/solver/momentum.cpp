@@ -128,18 +128,19 @@ void update_contact_node(int n, const NodeSums<Dim>* sums, const SurfaceSums<Dim
   }
 }
 
-void update_damage_node(int n, const NodeSums<2>* sums, const SurfaceSums<2>* surface,
+template <int Dim>
+void update_damage_node(int n, const NodeSums<Dim>* sums, const SurfaceSums<Dim>* surface,
                         const std::int32_t* field, const double* friction, int groups,
                         double separability, double touch_volume, NodeHold hold,
-                        const Velocity<2>* held, double dt, double mass_tol, NodeKinematics<2>* k,
+                        const Velocity<Dim>* held, double dt, double mass_tol, NodeKinematics<Dim>* k,
                         double* acc)
 {
-  using U = GridUpdate<2>;
+  using U = GridUpdate<Dim>;
   constexpr int F = max_node_fields;
   // The fields that act: a separable side on its own, the two sides of a
   // group that are not separable summed into one.
-  NodeSums<2> unit[F];
-  SurfaceSums<2> usurf[F];
+  NodeSums<Dim> unit[F];
+  SurfaceSums<Dim> usurf[F];
   std::int32_t group[F], of[F];
   int units = 0;
   for (int j = 0; j < n; ++j)
@@ -149,24 +150,24 @@ void update_damage_node(int n, const NodeSums<2>* sums, const SurfaceSums<2>* su
     {
       // Sides A (slot j - 1) and B (slot j) of one group: H&H eq. 21.
       acc[U::contact + count_split] += 1.0;
-      const NodeSums<2> &a = sums[j - 1], &b = sums[j];
-      const SurfaceSums<2> &sa = surface[j - 1], &sb = surface[j];
+      const NodeSums<Dim> &a = sums[j - 1], &b = sums[j];
+      const SurfaceSums<Dim> &sa = surface[j - 1], &sb = surface[j];
       const bool apart = a.m > mass_tol && b.m > mass_tol && std::max(sa.full, sb.full) > 0.0
                          && std::min(sa.md / a.m, sb.md / b.m) > separability;
       if (apart)
         acc[U::contact + count_separable] += 1.0;
       else
       {
-        NodeSums<2>& u = unit[units - 1];
+        NodeSums<Dim>& u = unit[units - 1];
         u.m += b.m;
-        for (int d = 0; d < 2; ++d)
+        for (int d = 0; d < Dim; ++d)
           u.p[d] += b.p[d];
-        for (int d = 0; d < 2; ++d)
+        for (int d = 0; d < Dim; ++d)
           u.f[d] += b.f[d];
-        for (int d = 0; d < 2; ++d)
+        for (int d = 0; d < Dim; ++d)
           u.e[d] += b.e[d];
-        SurfaceSums<2>& v = usurf[units - 1];
-        for (int d = 0; d < 2; ++d)
+        SurfaceSums<Dim>& v = usurf[units - 1];
+        for (int d = 0; d < Dim; ++d)
           v.g[d] += sb.g[d];
         v.V += sb.V;
         of[j] = units - 1;
@@ -178,11 +179,11 @@ void update_damage_node(int n, const NodeSums<2>* sums, const SurfaceSums<2>* su
     group[units] = field[j] / 2;
     of[j] = units++;
   }
-  NodeKinematics<2> kin[F];
+  NodeKinematics<Dim> kin[F];
   if (units == 1)
-    update_free_slot<2>(unit[0], hold, held, dt, mass_tol, kin[0], acc);
+    update_free_slot<Dim>(unit[0], hold, held, dt, mass_tol, kin[0], acc);
   else
-    update_contact_node<2>(units, unit, usurf, group, friction, groups, touch_volume, hold, held, dt,
+    update_contact_node<Dim>(units, unit, usurf, group, friction, groups, touch_volume, hold, held, dt,
                         mass_tol, kin, acc);
   for (int j = 0; j < n; ++j)
     k[j] = kin[of[j]];
@@ -194,5 +195,12 @@ template void update_contact_node<2>(int, const NodeSums<2>*, const SurfaceSums<
 template void update_contact_node<3>(int, const NodeSums<3>*, const SurfaceSums<3>*, const std::int32_t*,
                                   const double*, int, double, NodeHold, const Velocity<3>*, double,
                                   double, NodeKinematics<3>*, double*);
+
+template void update_damage_node<2>(int, const NodeSums<2>*, const SurfaceSums<2>*, const std::int32_t*,
+                                    const double*, int, double, double, NodeHold, const Velocity<2>*,
+                                    double, double, NodeKinematics<2>*, double*);
+template void update_damage_node<3>(int, const NodeSums<3>*, const SurfaceSums<3>*, const std::int32_t*,
+                                    const double*, int, double, double, NodeHold, const Velocity<3>*,
+                                    double, double, NodeKinematics<3>*, double*);
 
 } // namespace pfmpm

@@ -102,15 +102,16 @@ struct ByBody
 /// @brief Damage-gradient fields (H&H Algorithm 2): the pair (p, i) maps to
 /// the local field 2 g + side, g the local index of p's group and side the
 /// bit i of p's mask (A if grad D_p . G_i >= 0, B otherwise).
+template <class Mask>
 struct BySide
 {
   const std::int32_t* group;
-  const std::uint32_t* mask;
+  const Mask* mask;
   const CellFields& local;
   struct Particle
   {
     int base;
-    std::uint32_t mask;
+    Mask mask;
   };
   Particle particle(std::size_t p) const { return {2 * local.local(group[p]), mask[p]}; }
   static int at(const Particle& f, int i) { return f.base + static_cast<int>((f.mask >> i) & 1u); }
@@ -156,7 +157,6 @@ template <class Shape, bool External, int F, bool Surface, bool Damage, class Se
   constexpr int S = Surface ? F : 1;
   constexpr int D = Damage ? F : 1;
   constexpr int T = symmetric_size(Dim);
-  static_assert(!Damage || Dim == 2, "the damage-gradient partition is two-dimensional");
   const double *v = a.v, *mass = a.mass, *volume = a.volume, *stress = a.stress, *fext = a.fext;
   // Local arrays, which the compiler keeps apart from the particle arrays.
   // One block per direction, each aligned for the vector units (a
@@ -371,7 +371,6 @@ template <class Shape, bool External, class Fields, bool Affine>
 struct MomentumP2G
 {
   static constexpr int Dim = Shape::dim;
-  static_assert(Dim == 2 || !Fields::per_pair, "the damage-gradient partition is two-dimensional");
   const Grid<Dim>& grid;
   const Fields& fields;
   P2GArrays arrays;
@@ -397,7 +396,7 @@ struct MomentumP2G
     else
     {
       local.n = fields.cell_groups(cell.key, local.field);
-      const BySide sides{field_of, fields.mask(), local};
+      const BySide<typename Fields::Mask> sides{field_of, fields.mask(), local};
       if (local.n > 1)
         scatter<2 * Fields::max_groups, true, true>(cell, each, sides, local);
       else if (fields.split(cell.key))
@@ -523,11 +522,12 @@ void update_contact_node(int n, const NodeSums<Dim>* sums, const SurfaceSums<Dim
 /// (update_contact_node), with the friction of their groups' pair (a
 /// group's own for its crack faces).
 /// @param field Field index of each slot, 2 group + side, sorted.
-void update_damage_node(int n, const NodeSums<2>* sums, const SurfaceSums<2>* surface,
+template <int Dim>
+void update_damage_node(int n, const NodeSums<Dim>* sums, const SurfaceSums<Dim>* surface,
                         const std::int32_t* field, const double* friction, int groups,
                         double separability, double touch_volume, NodeHold hold,
-                        const Velocity<2>* held, double dt, double mass_tol, NodeKinematics<2>* k,
-                        double* acc);
+                        const Velocity<Dim>* held, double dt, double mass_tol,
+                        NodeKinematics<Dim>* k, double* acc);
 
 /// @brief The grid update (K&T eqs. 63-65): trial momentum and velocity of
 /// every slot, frictional contact among the slots of a contact node
@@ -541,7 +541,6 @@ update_grid(const Grid<Dim>& grid, Fields& fields, const std::vector<NodeSums<Di
             const std::vector<SurfaceSums<Dim>>& surface, std::vector<NodeKinematics<Dim>>& kinematics,
             double dt, double mass_tol, double touch_fill)
 {
-  static_assert(Dim == 2 || !Fields::per_pair, "the damage-gradient partition is two-dimensional");
   constexpr int sums_n = GridUpdate<Dim>::size;
   const std::vector<NodeHold>& constrained = grid.constraints();
   const bool holds = !constrained.empty();
@@ -572,7 +571,7 @@ update_grid(const Grid<Dim>& grid, Fields& fields, const std::vector<NodeSums<Di
             volume *= grid.basis(d).integral(i[d]);
           const double touch = touch_fill * volume;
           if constexpr (Fields::per_pair)
-            update_damage_node(n, &sums[s0], &surface[s0], &fields.slot_field()[s0],
+            update_damage_node<Dim>(n, &sums[s0], &surface[s0], &fields.slot_field()[s0],
                                fields.friction().data(), fields.size(),
                                fields.options().separability, touch, hold, held, dt, mass_tol,
                                &kinematics[s0], acc.data());
@@ -720,7 +719,6 @@ template <class Shape, class Fields, bool Affine>
 struct KinematicsG2P
 {
   static constexpr int Dim = Shape::dim;
-  static_assert(Dim == 2 || !Fields::per_pair, "the damage-gradient partition is two-dimensional");
   const Grid<Dim>& grid;
   const Fields& fields;
   const NodeKinematics<Dim>* kinematics;
@@ -767,7 +765,7 @@ struct KinematicsG2P
     if constexpr (Fields::per_pair)
     {
       fields_of.n = fields.cell_groups(cell.key, fields_of.field);
-      const BySide sides{field_of, fields.mask(), fields_of};
+      const BySide<typename Fields::Mask> sides{field_of, fields.mask(), fields_of};
       if (fields_of.n > 1)
         return gather<2 * Fields::max_groups>(local, cell, each, sides, fields_of);
       if (fields.split(cell.key))

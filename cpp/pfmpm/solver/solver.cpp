@@ -88,8 +88,9 @@ Solver<Dim>::Solver(Grid<Dim>& grid, Particles& particles,
     // What is two-dimensional yet (issue 50's later steps and issue 51).
     if (std::any_of(_fracture.begin(), _fracture.end(), [](const auto& f) { return f.has_value(); }))
       throw std::invalid_argument("fracture: the phase field is two-dimensional yet");
-    if (partition == Partition::damage_gradient)
-      throw std::invalid_argument("partition: the damage-gradient partition is two-dimensional yet");
+    if (partition == Partition::damage_gradient && shape == ShapeFunctions::cpdi)
+      throw std::invalid_argument(
+          "partition: the damage-gradient partition with CPDI is two-dimensional yet");
     if (shape == ShapeFunctions::cpdi)
       throw std::invalid_argument("shape: CPDI is two-dimensional yet");
   }
@@ -147,24 +148,24 @@ Solver<Dim>::Solver(Grid<Dim>& grid, Particles& particles,
     throw std::invalid_argument("friction: the contact of discrete fields needs the matrix between them");
   if (partition == Partition::bodies)
     _fields.template emplace<BodyFields<Dim>>(grid, particles, std::move(friction));
+  if (partition == Partition::damage_gradient)
+  {
+    // Each material's damage: a damage model's column, else the phase field's.
+    std::vector<DamageSource> source;
+    for (std::size_t m = 0; m < _materials.size(); ++m)
+    {
+      const auto columns = _materials[m]->columns(particles.dim());
+      const bool column = std::any_of(columns.begin(), columns.end(),
+                                      [](const ColumnSpec& c) { return c.name == "damage"; });
+      source.push_back(column          ? DamageSource::column
+                       : _fracture[m] ? DamageSource::phase_field
+                                      : DamageSource::none);
+    }
+    _fields.template emplace<DamageFields<Dim>>(grid, particles, std::move(friction),
+                                                std::move(source), std::move(damage));
+  }
   if constexpr (Dim == 2)
   {
-    if (partition == Partition::damage_gradient)
-    {
-      // Each material's damage: a damage model's column, else the phase field's.
-      std::vector<DamageSource> source;
-      for (std::size_t m = 0; m < _materials.size(); ++m)
-      {
-        const auto columns = _materials[m]->columns(particles.dim());
-        const bool column = std::any_of(columns.begin(), columns.end(),
-                                        [](const ColumnSpec& c) { return c.name == "damage"; });
-        source.push_back(column          ? DamageSource::column
-                         : _fracture[m] ? DamageSource::phase_field
-                                        : DamageSource::none);
-      }
-      _fields.template emplace<DamageFields>(grid, particles, std::move(friction), std::move(source),
-                                             std::move(damage));
-    }
     if (!cracks)
       return;
     // The phase fields: one over all crackable particles, or with discrete
@@ -197,7 +198,7 @@ Solver<Dim>::Solver(Grid<Dim>& grid, Particles& particles,
 template <int Dim>
 const std::int32_t* Solver<Dim>::phase_field_of() const
 {
-  if (const DamageFields* d = damage_fields())
+  if (const auto* d = damage_fields())
     return d->group().data();
   return _particles.body.data();
 }
@@ -307,9 +308,8 @@ void Solver<Dim>::restore(const SolverState& state)
     _phase[k].field.restore(PhaseFieldState{state.arrays.at(phase_key(k, "c")),
                                             state.arrays.at(phase_key(k, "c_previous")), stats});
   }
-  if constexpr (Dim == 2)
-    if (auto* fields = std::get_if<DamageFields>(&_fields))
-      fields->forget(); // the particles' gradients were restored beside this state
+  if (auto* fields = std::get_if<DamageFields<Dim>>(&_fields))
+    fields->forget(); // the particles' gradients were restored beside this state
   if (const ContactStats* stats = contact_stats())
   {
     ContactStats& c = const_cast<ContactStats&>(*stats);
@@ -946,22 +946,20 @@ const ContactStats* Solver<Dim>::contact_stats() const
 {
   if (const auto* fields = std::get_if<BodyFields<Dim>>(&_fields))
     return &fields->stats();
-  if constexpr (Dim == 2)
-    if (const auto* fields = std::get_if<DamageFields>(&_fields))
-      return &fields->stats();
+  if (const auto* fields = std::get_if<DamageFields<Dim>>(&_fields))
+    return &fields->stats();
   return nullptr;
 }
 
 template <int Dim>
 std::vector<double> Solver<Dim>::detect_surfaces(const std::vector<double>& spacing, double threshold)
 {
-  if constexpr (Dim == 2)
-    if (auto* fields = std::get_if<DamageFields>(&_fields))
-    {
-      if (const std::size_t outside = _sort.sort(_grid, _particles.x); outside < _particles.size())
-        throw SimulationError(where(outside) + " is outside the grid");
-      return fields->detect_surfaces(_particles, _sort, spacing, threshold);
-    }
+  if (auto* fields = std::get_if<DamageFields<Dim>>(&_fields))
+  {
+    if (const std::size_t outside = _sort.sort(_grid, _particles.x); outside < _particles.size())
+      throw SimulationError(where(outside) + " is outside the grid");
+    return fields->detect_surfaces(_particles, _sort, spacing, threshold);
+  }
   throw std::logic_error("surface detection needs the damage-gradient partition");
 }
 

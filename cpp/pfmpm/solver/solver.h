@@ -182,17 +182,11 @@ struct StepConfig
   TransferScheme transfer = TransferScheme::flip;
 };
 
-/// @brief The velocity-field partitions a run in Dim directions may take:
-/// the damage-gradient partition is two-dimensional for now.
+/// @brief The velocity-field partitions a run in Dim directions may take.
 template <int Dim>
 struct Partitions
 {
-  using type = std::variant<SingleField, BodyFields<Dim>, DamageFields>;
-};
-template <>
-struct Partitions<3>
-{
-  using type = std::variant<SingleField, BodyFields<3>>;
+  using type = std::variant<SingleField, BodyFields<Dim>, DamageFields<Dim>>;
 };
 
 /// @brief Explicit update-stress-last MPM in the momentum formulation, with
@@ -327,13 +321,7 @@ public:
   /// @throws std::logic_error without a phase field or with several.
   PhaseFieldSystem phase_field_system() const;
   /// The damage-gradient partition, or nullptr.
-  const DamageFields* damage_fields() const
-  {
-    if constexpr (Dim == 2)
-      return std::get_if<DamageFields>(&_fields);
-    else
-      return nullptr;
-  }
+  const DamageFields<Dim>* damage_fields() const { return std::get_if<DamageFields<Dim>>(&_fields); }
   /// The particles the solver advances.
   const Particles& particles() const { return _particles; }
   /// Wall time per stage so far.

@@ -214,6 +214,7 @@ class Contact:
             mu[a, b] = mu[b, a] = pair.friction
         return mu
 
-    def resolved_radius(self, h: float) -> float:
-        """The kernel radius r_p on a grid of cell side ``h``."""
-        return self.kernel_radius if self.kernel_radius is not None else math.sqrt(2.0) * h
+    def resolved_radius(self, h: float, dim: int) -> float:
+        """The kernel radius r_p on a ``dim``-dimensional grid of cell side ``h``:
+        ``kernel_radius``, or the cell diagonal sqrt(dim) h."""
+        return self.kernel_radius if self.kernel_radius is not None else math.sqrt(dim) * h

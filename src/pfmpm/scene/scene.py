@@ -200,6 +200,10 @@ class Scene:
             for i, item in enumerate(getattr(self, key)):
                 with at(f"{key}[{i}]"):
                     item.check_dimension(dim)
+        if self.contact is not None:
+            for i, shape in enumerate(self.contact.surfaces):
+                with at(f"contact.surfaces[{i}]"):
+                    shape.check_dimension(dim)
         if dim == 2:
             return
         if self.plane != "strain":
@@ -213,8 +217,8 @@ class Scene:
                 raise planar(f"materials[{i}].model", f"the {material.model} model", material.model)
         if self.cracks:
             raise planar("cracks", "an initial crack (it seeds the phase field)")
-        if self.contact is not None and self.contact.damage_gradient:
-            raise planar("contact.partition", "the damage-gradient partition", "damage_gradient")
+        if self.contact is not None and self.contact.damage_gradient and self.grid.shape == "cpdi":
+            raise planar("contact.partition", "the damage-gradient partition with CPDI", "damage_gradient")
         if self.output.snapshots:
             raise planar("output.snapshots", "an image of the phase field", self.output.snapshots)
 
@@ -444,7 +448,7 @@ class Scene:
             if groups[pair.bodies[0]] == groups[pair.bodies[1]]:
                 raise SceneError(f"contact.pairs[{i}].bodies", "both bodies are in one contact"
                                  " group, whose fields meet with contact.friction", pair.bodies)
-        radius = contact.resolved_radius(self.grid.h)
+        radius = contact.resolved_radius(self.grid.h, self.grid.dim)
         spacing = max(b.spacing(self.grid.h) for b in self.bodies)
         if radius <= spacing:
             raise SceneError("contact.kernel_radius", f"must exceed the particle spacing"
