@@ -299,10 +299,14 @@ def test_bench_cube():
     r = bench(particles=1000, steps=2, repeats=1, dim=3)
     assert r["dim"] == 3 and r["per_cell"] == 2 and r["particles"] == 5**3 * 8  # 5 cells a side
     assert r["particle_steps_per_s"] == pytest.approx(r["particles"] * 2 / r["seconds"])
-    with pytest.raises(ValueError, match="dim = 3: physics must be elastic or contact"):
+    with pytest.raises(ValueError, match="dim = 3: physics must be elastic, contact or damage_gradient"):
         bench(physics="phasefield", particles=1000, dim=3)
     r = bench(physics="contact", particles=1000, steps=2, repeats=1, dim=3)
     assert r["particles"] == 5**3 * 8 and r["physics"] == "contact"
+    # Three failed planes one cell thick through the cube's middle: the
+    # partition splits the nodes around them and computes their gradients.
+    r = bench(physics="damage_gradient", particles=1000, steps=2, repeats=1, dim=3)
+    assert r["particles"] == 5**3 * 8 and r["contact_nodes"] > 0 and r["damage_share"]["gradient"] > 0
 
 
 def test_3d_bodies_in_contact_exchange_the_impulse_they_record(tmp_path):
@@ -367,6 +371,55 @@ def test_a_block_sliding_obliquely_decelerates_at_mu_g(tmp_path):
     assert sim.energies()["friction_dissipation"] == pytest.approx(0.5 * M * v0**2, rel=0.02)
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert summary["contact"]["violations"] == {"C1": 0, "C2": 0, "C3": 0, "C4": 0}
+
+
+def test_a_block_sliding_on_a_failed_plane_decelerates_at_mu_g(tmp_path):
+    """The block and slab of the test above in one contact group, so one
+    velocity field until the damage gradient splits it, joined by a failed
+    plane: the particle layers on either side of their interface are
+    surface particles (fully damaged, H&H section 2.4). The partition parts
+    the two at the plane and the crack faces' friction, mu, takes over: the
+    block decelerates at mu g while it slides, keeps its direction, and
+    friction takes its kinetic energy."""
+    import json
+
+    mu, g, v0 = 0.5, 0.25, 1.0
+    c = v0 / math.sqrt(2.0)
+    d = {"name": "slide", "grid": {"size": [9.0, 9.0, 3.0], "h": 0.5, "origin": [-0.5, -0.5, 0.0]},
+         "time": {"end": 4.0, "cfl": 0.5}, "output": {"energies_every": 10, "particles": False},
+         "materials": [{"name": "block", "E": 1000.0, "nu": 0.3, "density": 1.0},
+                       {"name": "slab", "E": 1e5, "nu": 0.3, "density": 100.0}],
+         "bodies": [{"name": "slab", "material": "slab",
+                     "shape": {"type": "box", "min": [0.0, 0.0, 0.0], "max": [8.0, 8.0, 1.0]}},
+                    {"name": "block", "material": "block", "velocity": [c, c, 0.0],
+                     "shape": {"type": "box", "min": [1.0, 1.0, 1.0], "max": [3.0, 3.0, 2.0]}}],
+         "loads": [{"type": "body_force", "body": "block", "acceleration": [0.0, 0.0, -g]}],
+         "walls": [{"side": "back", "type": "fixed"}],
+         "contact": {"partition": "damage_gradient", "friction": mu, "groups": [["slab", "block"]],
+                     "surfaces": [{"type": "box", "min": [0.0, 0.0, 0.75], "max": [8.0, 8.0, 1.25]}]}}
+    sim = Simulation(Scene.from_dict(d))
+    failed = sim.particles.surface == 1
+    assert np.all(np.abs(sim.particles.x[failed, 2] - 1.0) == 0.125)  # the layers either side of z = 1
+    assert sim.run(tmp_path, progress=False).status == "completed"
+    e = read_csv(tmp_path / "energies.csv")
+    block = sim.particles.body == 1
+    M = float(sim.particles.mass[block].sum())
+    vx, vy = e["momentum_x_block"] / M, e["momentum_y_block"] / M
+    sliding = (e["t"] > 0.5) & (e["t"] < 3.0)  # settled on the plane, far from stopping (t = 8)
+    deceleration = -np.polyfit(e["t"][sliding], np.hypot(vx, vy)[sliding], 1)[0]
+    assert deceleration == pytest.approx(mu * g, rel=0.03)
+    assert np.abs(vy[sliding] / vx[sliding] - 1.0).max() < 1e-12
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["contact"]["separable_node_steps"] > 0
+    assert summary["contact"]["violations"] == {"C1": 0, "C2": 0, "C3": 0, "C4": 0}
+    # Friction took the kinetic energy the block lost, less what gravity's
+    # work on its settling and the elastic energy hold.
+    lost = 0.5 * M * (v0**2 - (vx[-1] ** 2 + vy[-1] ** 2))
+    assert e["friction_dissipation"][-1] == pytest.approx(lost, rel=0.03)
+    print(f"\nblock on a failed plane: deceleration / mu g - 1 = {deceleration / (mu * g) - 1:+.2e},"
+          f" direction {np.abs(vy[sliding] / vx[sliding] - 1.0).max():.1e},"
+          f" friction dissipation / kinetic energy lost - 1 = {e['friction_dissipation'][-1] / lost - 1:+.2e},"
+          f" separable node-steps {summary['contact']['separable_node_steps']}")
 
 
 def test_run_fragments_reads_3d_frames(tmp_path):

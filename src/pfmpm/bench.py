@@ -54,7 +54,9 @@ def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str
     momentum with APIC (``[transfer] scheme``). A cube (``dim=3``) is elastic
     (either model) on B-splines, with ``physics="contact"`` cut in two along
     the plane x = its middle, each half its own field with frictional
-    contact: the physics the core runs in 3D.
+    contact, and with ``physics="damage_gradient"`` (linear elastic) cut by
+    failed planes one cell thick, ``bands`` per direction, into (bands + 1)^3
+    fragments: the physics the core runs in 3D.
     """
     if bands < 1:
         raise ValueError(f"bands = {bands}: must be >= 1")
@@ -65,10 +67,10 @@ def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str
     if dim not in (2, 3):
         raise ValueError(f"dim = {dim}: must be 2 or 3")
     if dim == 3:
-        if physics not in ("elastic", "contact") or shape != "bspline":
-            raise ValueError(f"dim = 3: physics must be elastic or contact and shape bspline (not"
-                             f" {physics!r}, {shape!r}): the core runs no phase field, damage-gradient"
-                             " partition or CPDI in 3D yet")
+        if physics not in ("elastic", "contact", "damage_gradient") or shape != "bspline":
+            raise ValueError(f"dim = 3: physics must be elastic, contact or damage_gradient and shape"
+                             f" bspline (not {physics!r}, {shape!r}): the core runs no phase field or"
+                             " CPDI in 3D yet")
         cells = max(4, math.ceil((particles / per_cell**3) ** (1 / 3) - 1e-9))
         lo, hi = 4.0, 4.0 + cells
         material = (NeoHookeanSpec(name="m", E=1.0, nu=0.3, density=1.0) if model == "neo_hookean"
@@ -78,12 +80,18 @@ def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str
             boxes = {"left": Box(min=(lo,) * 3, max=(mid, hi, hi)), "right": Box(min=(mid, lo, lo), max=(hi,) * 3)}
         else:
             boxes = {"block": Box(min=(lo,) * 3, max=(hi,) * 3)}
+        contact = Contact(friction=0.3) if physics == "contact" else None
+        if physics == "damage_gradient":  # failed planes one cell thick normal to each direction
+            at = [lo + cells * k // (bands + 1) for k in range(1, bands + 1)]
+            cuts = tuple(Box(min=tuple(c - 0.5 if e == d else lo for e in range(3)),
+                             max=tuple(c + 0.5 if e == d else hi for e in range(3)))
+                         for c in at for d in range(3))
+            contact = Contact(friction=0.3, partition="damage_gradient", surfaces=cuts)
         return Scene(name="bench-cube", grid=GridSpec(size=(cells + 8.0,) * 3, h=1.0, degree=degree),
                      time=Time(end=1.0), materials=(material,),
                      bodies=tuple(Body(name=name, material="m", shape=box, particles_per_cell=per_cell)
                                   for name, box in boxes.items()),
-                     contact=Contact(friction=0.3) if physics == "contact" else None,
-                     transfer=TransferSpec(transfer))
+                     contact=contact, transfer=TransferSpec(transfer))
     cells = max(4, math.ceil(math.sqrt(particles / per_cell**2)))
     margin = 4
     side = cells + 2 * margin

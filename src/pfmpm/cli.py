@@ -394,11 +394,12 @@ def main(argv: list[str] | None = None) -> int:
     bench.add_argument("--per-cell", type=int, default=None,
                        help="particles per cell and direction (default 3 in 2D, 2 in 3D)")
     bench.add_argument("--dim", type=int, default=2, choices=[2, 3],
-                       help="2: a square block; 3: a cube, elastic on B-splines (default %(default)d)")
+                       help="2: a square block; 3: a cube on B-splines, elastic, in contact or with the"
+                            " damage-gradient partition (default %(default)d)")
     bench.add_argument("--transfer", default="flip", choices=TRANSFER_SCHEMES,
                        help="particle-grid transfer: FLIP (default) or APIC ([transfer] scheme)")
     bench.add_argument("--bands", type=int, default=1,
-                       help="damage_gradient: fully damaged bands per direction (default 1)")
+                       help="damage_gradient: fully damaged bands (planes in 3D) per direction (default 1)")
     bench.add_argument("--json", action="store_true", help="print one JSON object")
     bench.add_argument("--scenes", nargs="*", metavar="SCENE",
                        help="instead of the block, time --steps steps of each scene file (default:"

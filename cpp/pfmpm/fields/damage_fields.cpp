@@ -529,6 +529,10 @@ void dilate(const std::vector<std::uint8_t>& in, const std::array<int, Dim>& cel
   }
 }
 
+/// The cells around the near cells (DamageFields::gradients) whose particles
+/// the neighbour lists also hold.
+constexpr int list_margin = 2;
+
 /// The cell key of point x on `grid`.
 template <int Dim>
 std::size_t cell_of(const Grid<Dim>& grid, const double* x)
@@ -669,8 +673,26 @@ void DamageFields<Dim>::gradients(Particles& particles, const CellSort& sort)
   const std::int64_t* start = sort.cell_start().data();
   {
     Stopwatch clock{_timers.neighbours};
-    if (_neighbours.stale(_grid, sort, particles.x, _options.skin * _radius))
-      _neighbours.build(_grid, sort, particles.x, (1.0 + 2.0 * _options.skin) * _radius);
+    // Only the particles of the near cells need a kernel field (those of the
+    // open cells, and the neighbours within r_p that give the fully damaged
+    // ones among them a side), so only theirs are listed, with those of the
+    // cells within list_margin of them: the damage may spread that far
+    // before the list lacks a particle it needs and is built again.
+    int unlisted = 0;
+    const auto nnear = static_cast<std::ptrdiff_t>(_near_cells.size());
+    if (_neighbours.builds() > 0 && _neighbours.size() == particles.size())
+    {
+#pragma omp parallel for schedule(static) reduction(| : unlisted)
+      for (std::ptrdiff_t i = 0; i < nnear; ++i)
+        for (std::int64_t k = start[_near_cells[i]]; k < start[_near_cells[i] + 1]; ++k)
+          unlisted |= _neighbours.listed(order[k]) ? 0 : 1;
+    }
+    if (unlisted || _neighbours.stale(_grid, sort, particles.x, _options.skin * _radius))
+    {
+      dilate<Dim>(_near, _grid.cells(), list_margin, _dilated, _listed_cells);
+      _neighbours.build(_grid, sort, particles.x, (1.0 + 2.0 * _options.skin) * _radius,
+                        _listed_cells.data());
+    }
   }
   Stopwatch clock{_timers.gradient};
   const double* x = particles.x.data();

@@ -141,7 +141,9 @@ struct DamageTimers
 /// node has one slot: the single field's sums, without a split that would
 /// be merged again. Only particles whose stencil reaches an open node need
 /// their gradient, and the neighbours within r_p of the fully damaged ones
-/// among them without one (whose side is such a neighbour's).
+/// among them without one (whose side is such a neighbour's); all of them lie
+/// in the cells near full damage, and only those cells' particles (and those
+/// of the cells a margin around) are in the neighbour lists.
 ///
 /// One source for Dim = 2 and 3 (explicitly instantiated): the kernel field
 /// and the tests are the paper's in Dim directions, r_p the cell diagonal
@@ -330,6 +332,7 @@ private:
   std::vector<std::uint8_t> _near;    // per cell: a fully damaged particle within reach() cells
   std::vector<std::uint8_t> _open;    // per cell: its block holds an open node
   std::vector<std::int32_t> _near_cells, _open_cells; // the cells of each, in key order
+  std::vector<std::uint8_t> _listed_cells; // per cell: the neighbour lists hold its particles
   std::vector<std::uint8_t> _proxy;   // per particle: its gradient gives a side (gradients())
   std::vector<std::uint8_t> _set;     // per particle: its gradient or mask may be non-zero
   bool _clear_all = true;             // clear() zeroes every particle's (first build, forget())

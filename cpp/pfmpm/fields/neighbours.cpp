@@ -57,7 +57,7 @@ void each_run_within(const std::array<int, Dim>& c, const std::array<int, Dim>& 
 
 template <int Dim>
 void NeighbourList<Dim>::build(const Grid<Dim>& grid, const CellSort& sort, const std::vector<double>& x,
-                               double cutoff)
+                               double cutoff, const std::uint8_t* cells)
 {
   const auto n = x.size() / Dim;
   const std::array<int, Dim> nc = grid.cells();
@@ -73,6 +73,7 @@ void NeighbourList<Dim>::build(const Grid<Dim>& grid, const CellSort& sort, cons
   _slabs.resize(static_cast<std::size_t>(ncx));
   _count.resize(n);
   _first.resize(n);
+  _listed.resize(n);
   // Each slab of cells lists its particles' neighbours, in sort order, into
   // a buffer of its own: one pass over the pairs. The candidates are those
   // of the cells within the cutoff of the particle's cell, gathered once per
@@ -94,6 +95,15 @@ void NeighbourList<Dim>::build(const Grid<Dim>& grid, const CellSort& sort, cons
       {
         if (start[cell] == start[cell + 1])
           continue;
+        if (cells && !cells[cell])
+        {
+          for (std::int64_t k = start[cell]; k < start[cell + 1]; ++k)
+          {
+            _count[order[k]] = 0;
+            _listed[order[k]] = 0;
+          }
+          continue;
+        }
         candidate.clear();
         each_run_within<Dim>(lattice_indices<Dim>(cell, nc), nc, reach, rc,
                              [&](std::size_t first, std::size_t last)
@@ -146,6 +156,7 @@ void NeighbourList<Dim>::build(const Grid<Dim>& grid, const CellSort& sort, cons
             used += in[i] & static_cast<std::uint8_t>(candidate[i] != p);
           }
           _count[p] = static_cast<std::int32_t>(used - first);
+          _listed[p] = 1;
         }
       }
       // Each particle's list where the slab wrote it (out has stopped growing).

@@ -34,7 +34,8 @@ namespace pfmpm
 /// which the step knows at no cost) uses the slack up, stale() does not look.
 /// Each particle's list is sorted by particle index, so a sum over the
 /// neighbours within r has an order fixed by the positions alone, whenever
-/// the list was built (a resumed run gives the bits of an uninterrupted one).
+/// the list was built (a resumed run gives the bits of an uninterrupted one),
+/// and whichever other particles it lists.
 /// Explicitly instantiated for Dim = 2 and 3.
 template <int Dim>
 class NeighbourList
@@ -56,9 +57,14 @@ public:
   /// @brief Note that no particle moved more than `distance` in a step.
   void moved(double distance) { _drift += distance; }
 
-  /// @brief For every particle, the others within `cutoff` of it, searched in
-  /// the cells of `sort` around its own.
-  void build(const Grid<Dim>& grid, const CellSort& sort, const std::vector<double>& x, double cutoff);
+  /// @brief For every particle, or with `cells` those of the cells whose
+  /// entry is set, the others within `cutoff` of it, searched in the cells
+  /// of `sort` around its own. A particle not listed has no neighbours
+  /// (listed() tells).
+  void build(const Grid<Dim>& grid, const CellSort& sort, const std::vector<double>& x, double cutoff,
+             const std::uint8_t* cells = nullptr);
+  /// Whether the last build listed particle p's neighbours.
+  bool listed(std::size_t p) const { return _listed[p] != 0; }
 
   /// The neighbours of particle p, by index.
   struct Range
@@ -69,6 +75,8 @@ public:
     const std::int32_t* end() const { return first + size; }
   };
   Range of(std::size_t p) const { return {_first[p], _count[p]}; }
+  /// Particles of the last build.
+  std::size_t size() const { return _count.size(); }
   /// Builds so far.
   std::int64_t builds() const { return _builds; }
   /// Cutoff of the last build.
@@ -78,6 +86,7 @@ private:
   // Per particle: its list, in the buffer of its slab of cells, and its length.
   std::vector<const std::int32_t*> _first;
   std::vector<std::int32_t> _count;
+  std::vector<std::uint8_t> _listed;
   std::vector<double> _built_at;    // positions at the build, N x Dim
   double _drift = 0.0;              // bound on any particle's motion since the build
   double _drift_checked = 0.0;      // _drift at the last look at the displacements
