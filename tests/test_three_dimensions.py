@@ -334,6 +334,37 @@ def test_3d_bodies_in_contact_exchange_the_impulse_they_record(tmp_path):
         assert np.abs(e[f"momentum_{axis}"] - e[f"momentum_{axis}"][0]).max() < 1e-12 * scale
 
 
+def sliding_block(mu: float, g: float, v0: float, end: float) -> dict:
+    """A 2 x 2 x 1 block at speed v0 along (1, 1, 0) / sqrt(2) on a slab 100
+    times heavier and stiffer (on a fixed back wall), gravity g along -z on
+    the block, h = 0.5, to t = ``end``; without its [contact] table."""
+    c = v0 / math.sqrt(2.0)
+    return {"name": "slide", "grid": {"size": [9.0, 9.0, 3.0], "h": 0.5, "origin": [-0.5, -0.5, 0.0]},
+            "time": {"end": end, "cfl": 0.5}, "output": {"energies_every": 10, "particles": False},
+            "materials": [{"name": "block", "E": 1000.0, "nu": 0.3, "density": 1.0},
+                          {"name": "slab", "E": 1e5, "nu": 0.3, "density": 100.0}],
+            "bodies": [{"name": "slab", "material": "slab",
+                        "shape": {"type": "box", "min": [0.0, 0.0, 0.0], "max": [8.0, 8.0, 1.0]}},
+                       {"name": "block", "material": "block", "velocity": [c, c, 0.0],
+                        "shape": {"type": "box", "min": [1.0, 1.0, 1.0], "max": [3.0, 3.0, 2.0]}}],
+            "loads": [{"type": "body_force", "body": "block", "acceleration": [0.0, 0.0, -g]}],
+            "walls": [{"side": "back", "type": "fixed"}]}
+
+
+def run_slide(sim: Simulation, out: Path):
+    """Run the sliding block to its end: its energies.csv, the block's mass,
+    its velocity (x, y) per row, its deceleration (a line fit of its speed
+    over 0.5 < t < 3: settled, far from stopping at t = 8) and the largest
+    departure of its direction from (1, 1) over that time."""
+    assert sim.run(out, progress=False).status == "completed"
+    e = read_csv(out / "energies.csv")
+    M = float(sim.particles.mass[sim.particles.body == 1].sum())
+    vx, vy = e["momentum_x_block"] / M, e["momentum_y_block"] / M
+    sliding = (e["t"] > 0.5) & (e["t"] < 3.0)
+    deceleration = -np.polyfit(e["t"][sliding], np.hypot(vx, vy)[sliding], 1)[0]
+    return e, M, vx, vy, deceleration, np.abs(vy[sliding] / vx[sliding] - 1.0).max()
+
+
 def test_a_block_sliding_obliquely_decelerates_at_mu_g(tmp_path):
     """A 2 x 2 x 1 block sliding at speed 1 along (1, 1, 0) / sqrt(2) on a slab
     100 times heavier and stiffer (on a fixed back wall), gravity g = 0.25
@@ -343,28 +374,13 @@ def test_a_block_sliding_obliquely_decelerates_at_mu_g(tmp_path):
     import json
 
     mu, g, v0 = 0.5, 0.25, 1.0
-    c = v0 / math.sqrt(2.0)
-    d = {"name": "slide", "grid": {"size": [9.0, 9.0, 3.0], "h": 0.5, "origin": [-0.5, -0.5, 0.0]},
-         "time": {"end": 9.0, "cfl": 0.5}, "output": {"energies_every": 10, "particles": False},
-         "materials": [{"name": "block", "E": 1000.0, "nu": 0.3, "density": 1.0},
-                       {"name": "slab", "E": 1e5, "nu": 0.3, "density": 100.0}],
-         "bodies": [{"name": "slab", "material": "slab",
-                     "shape": {"type": "box", "min": [0.0, 0.0, 0.0], "max": [8.0, 8.0, 1.0]}},
-                    {"name": "block", "material": "block", "velocity": [c, c, 0.0],
-                     "shape": {"type": "box", "min": [1.0, 1.0, 1.0], "max": [3.0, 3.0, 2.0]}}],
-         "loads": [{"type": "body_force", "body": "block", "acceleration": [0.0, 0.0, -g]}],
-         "walls": [{"side": "back", "type": "fixed"}],
-         "contact": {"friction": 0.0, "pairs": [{"bodies": ["slab", "block"], "friction": mu}]}}
+    d = sliding_block(mu, g, v0, end=9.0)
+    d["contact"] = {"friction": 0.0, "pairs": [{"bodies": ["slab", "block"], "friction": mu}]}
     sim = Simulation(Scene.from_dict(d))
-    assert sim.run(tmp_path, progress=False).status == "completed"
-    e = read_csv(tmp_path / "energies.csv")
-    block = sim.particles.body == 1
-    M = float(sim.particles.mass[block].sum())
-    vx, vy = e["momentum_x_block"] / M, e["momentum_y_block"] / M
-    sliding = (e["t"] > 0.5) & (e["t"] < 3.0)  # settled on the slab, far from stopping (t = 8)
-    deceleration = -np.polyfit(e["t"][sliding], np.hypot(vx, vy)[sliding], 1)[0]
+    e, M, vx, vy, deceleration, direction = run_slide(sim, tmp_path)
     assert deceleration == pytest.approx(mu * g, rel=0.03)
-    assert np.abs(vy[sliding] / vx[sliding] - 1.0).max() < 1e-12
+    assert direction < 1e-12
+    block = sim.particles.body == 1
     moved = sim.particles.x[block, :2].mean(axis=0) - 2.0
     assert moved == pytest.approx(np.full(2, v0**2 / (2 * mu * g) / math.sqrt(2.0)), rel=0.03)
     assert np.abs(sim.particles.v[block]).max() < 0.01 * v0
@@ -384,31 +400,15 @@ def test_a_block_sliding_on_a_failed_plane_decelerates_at_mu_g(tmp_path):
     import json
 
     mu, g, v0 = 0.5, 0.25, 1.0
-    c = v0 / math.sqrt(2.0)
-    d = {"name": "slide", "grid": {"size": [9.0, 9.0, 3.0], "h": 0.5, "origin": [-0.5, -0.5, 0.0]},
-         "time": {"end": 4.0, "cfl": 0.5}, "output": {"energies_every": 10, "particles": False},
-         "materials": [{"name": "block", "E": 1000.0, "nu": 0.3, "density": 1.0},
-                       {"name": "slab", "E": 1e5, "nu": 0.3, "density": 100.0}],
-         "bodies": [{"name": "slab", "material": "slab",
-                     "shape": {"type": "box", "min": [0.0, 0.0, 0.0], "max": [8.0, 8.0, 1.0]}},
-                    {"name": "block", "material": "block", "velocity": [c, c, 0.0],
-                     "shape": {"type": "box", "min": [1.0, 1.0, 1.0], "max": [3.0, 3.0, 2.0]}}],
-         "loads": [{"type": "body_force", "body": "block", "acceleration": [0.0, 0.0, -g]}],
-         "walls": [{"side": "back", "type": "fixed"}],
-         "contact": {"partition": "damage_gradient", "friction": mu, "groups": [["slab", "block"]],
-                     "surfaces": [{"type": "box", "min": [0.0, 0.0, 0.75], "max": [8.0, 8.0, 1.25]}]}}
+    d = sliding_block(mu, g, v0, end=4.0)
+    d["contact"] = {"partition": "damage_gradient", "friction": mu, "groups": [["slab", "block"]],
+                    "surfaces": [{"type": "box", "min": [0.0, 0.0, 0.75], "max": [8.0, 8.0, 1.25]}]}
     sim = Simulation(Scene.from_dict(d))
     failed = sim.particles.surface == 1
     assert np.all(np.abs(sim.particles.x[failed, 2] - 1.0) == 0.125)  # the layers either side of z = 1
-    assert sim.run(tmp_path, progress=False).status == "completed"
-    e = read_csv(tmp_path / "energies.csv")
-    block = sim.particles.body == 1
-    M = float(sim.particles.mass[block].sum())
-    vx, vy = e["momentum_x_block"] / M, e["momentum_y_block"] / M
-    sliding = (e["t"] > 0.5) & (e["t"] < 3.0)  # settled on the plane, far from stopping (t = 8)
-    deceleration = -np.polyfit(e["t"][sliding], np.hypot(vx, vy)[sliding], 1)[0]
+    e, M, vx, vy, deceleration, direction = run_slide(sim, tmp_path)
     assert deceleration == pytest.approx(mu * g, rel=0.03)
-    assert np.abs(vy[sliding] / vx[sliding] - 1.0).max() < 1e-12
+    assert direction < 1e-12
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert summary["contact"]["separable_node_steps"] > 0
     assert summary["contact"]["violations"] == {"C1": 0, "C2": 0, "C3": 0, "C4": 0}
@@ -417,7 +417,7 @@ def test_a_block_sliding_on_a_failed_plane_decelerates_at_mu_g(tmp_path):
     lost = 0.5 * M * (v0**2 - (vx[-1] ** 2 + vy[-1] ** 2))
     assert e["friction_dissipation"][-1] == pytest.approx(lost, rel=0.03)
     print(f"\nblock on a failed plane: deceleration / mu g - 1 = {deceleration / (mu * g) - 1:+.2e},"
-          f" direction {np.abs(vy[sliding] / vx[sliding] - 1.0).max():.1e},"
+          f" direction {direction:.1e},"
           f" friction dissipation / kinetic energy lost - 1 = {e['friction_dissipation'][-1] / lost - 1:+.2e},"
           f" separable node-steps {summary['contact']['separable_node_steps']}")
 

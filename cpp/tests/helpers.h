@@ -6,7 +6,9 @@
 #include "pfmpm/fracture/phasefield.h"
 #include "pfmpm/materials/linear_elastic.h"
 #include "pfmpm/particles/particles.h"
+#include "pfmpm/solver/solver.h"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstring>
@@ -73,6 +75,23 @@ Particles lattice(const std::array<double, Dim>& lo, const std::array<double, Di
     P.mass[p] = volume;
   }
   return P;
+}
+
+/// @brief The largest relative gap between a plane run's energies `a` and
+/// its slab's `b` per unit thickness t: the kinetic and elastic energy and
+/// the friction work over `energy`, the momentum along x and y over
+/// `momentum`, the mass over itself.
+inline double slab_gap(const Energies<2>& a, const Energies<3>& b, double t, double energy,
+                       double momentum)
+{
+  auto gap = [](double x, double y, double scale) { return std::abs(x - y) / scale; };
+  double worst = 0.0;
+  for (double g : {gap(a.kinetic, b.kinetic / t, energy), gap(a.elastic, b.elastic / t, energy),
+                   gap(a.friction_work, b.friction_work / t, energy),
+                   gap(a.momentum[0], b.momentum[0] / t, momentum),
+                   gap(a.momentum[1], b.momentum[1] / t, momentum), gap(a.mass, b.mass / t, a.mass)})
+    worst = std::max(worst, g);
+  return worst;
 }
 
 inline bool same_bits(const std::vector<double>& a, const std::vector<double>& b)
