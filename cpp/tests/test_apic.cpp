@@ -116,25 +116,25 @@ TEST(Apic, CpdiInertiaIsTheCornersMeanPlusTheDomain)
   const std::array<const BSpline1D*, 2> basis{&grid.basis(0), &grid.basis(1)};
   const double x[2] = {1.07, 0.61}, r1[2] = {0.09, 0.03}, r2[2] = {-0.04, 0.1};
   const int cell[2] = {4, 2};
-  CpdiStencil s;
+  CpdiStencil<2> s;
   s.evaluate(basis, cell, x, r1, r2);
-  const AffineFrame<CpdiStencil> f = affine_frame<true>(s, BlockPoints<CpdiStencil>(grid, Cell<2>{{4, 2}, 42, 0, 0}));
+  const AffineFrame<CpdiStencil<2>> f = affine_frame<true>(s, BlockPoints<CpdiStencil<2>>(grid, Cell<2>{{4, 2}, 42, 0, 0}));
   double expect[3] = {r1[0] * r1[0] + r2[0] * r2[0], r1[0] * r1[1] + r2[0] * r2[1],
                       r1[1] * r1[1] + r2[1] * r2[1]};
   for (int c = 0; c < 4; ++c)
   {
-    const double xi = CpdiStencil::corner(x, r1, r2, c, 0) / h,
-                 eta = CpdiStencil::corner(x, r1, r2, c, 1) / h;
+    const double xi = CpdiStencil<2>::corner(x, {r1, r2}, c, 0) / h,
+                 eta = CpdiStencil<2>::corner(x, {r1, r2}, c, 1) / h;
     expect[0] += 0.25 * (xi - std::floor(xi)) * (1.0 - xi + std::floor(xi)) * h * h;
     expect[2] += 0.25 * (eta - std::floor(eta)) * (1.0 - eta + std::floor(eta)) * h * h;
   }
   double first[2] = {0.0, 0.0};
-  for (int i = 0; i < CpdiStencil::size; ++i)
+  for (int i = 0; i < CpdiStencil<2>::size; ++i)
   {
-    const double rx = f.r[0][CpdiStencil::offset(i, 0)], ry = f.r[1][CpdiStencil::offset(i, 1)];
+    const double rx = f.r[0][CpdiStencil<2>::offset(i, 0)], ry = f.r[1][CpdiStencil<2>::offset(i, 1)];
     // The block's first node is (3, 1) (a node before the cell's).
-    EXPECT_NEAR(rx, (3 + CpdiStencil::offset(i, 0)) * h - x[0], 1e-15);
-    EXPECT_NEAR(ry, (1 + CpdiStencil::offset(i, 1)) * h - x[1], 1e-15);
+    EXPECT_NEAR(rx, (3 + CpdiStencil<2>::offset(i, 0)) * h - x[0], 1e-15);
+    EXPECT_NEAR(ry, (1 + CpdiStencil<2>::offset(i, 1)) * h - x[1], 1e-15);
     first[0] += s.N(i) * rx;
     first[1] += s.N(i) * ry;
   }
@@ -145,7 +145,7 @@ TEST(Apic, CpdiInertiaIsTheCornersMeanPlusTheDomain)
   // The affine velocity of B_p = D_p is the identity.
   const double B[4] = {f.D[0], f.D[1], f.D[1], f.D[2]};
   double C[4];
-  affine_velocity<CpdiStencil>(B, f.D, C);
+  affine_velocity<CpdiStencil<2>>(B, f.D, C);
   EXPECT_NEAR(C[0], 1.0, 1e-14);
   EXPECT_NEAR(C[1], 0.0, 1e-14);
   EXPECT_NEAR(C[2], 0.0, 1e-14);

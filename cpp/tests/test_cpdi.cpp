@@ -49,17 +49,17 @@ TEST(Cpdi, PartitionOfUnityAndLinearFields)
     {
       const double x[2] = {c[0] - 0.25, c[1]};
       const int cell[2] = {grid.basis(0).cell(x[0]), grid.basis(1).cell(x[1])};
-      CpdiStencil s;
+      CpdiStencil<2> s;
       s.evaluate(basis, cell, x, &r[0], &r[2]);
       // sum_i Sbar_i = 1, sum_i grad Sbar_i = 0, sum_i x_i Sbar_i = x_p and
       // sum_i x_i (x) grad Sbar_i = I: the nodes of degree 1 sit at the knots.
       double sum = 0, grad[2] = {}, first[2] = {}, second[2][2] = {};
-      const int x0 = CpdiStencil::first(cell[0], nodes[0]);
-      const int y0 = CpdiStencil::first(cell[1], nodes[1]);
-      for (int i = 0; i < CpdiStencil::size; ++i)
+      const int x0 = CpdiStencil<2>::first(cell[0], nodes[0]);
+      const int y0 = CpdiStencil<2>::first(cell[1], nodes[1]);
+      for (int i = 0; i < CpdiStencil<2>::size; ++i)
       {
-        const double xi[2] = {-0.25 + h * (x0 + CpdiStencil::offset(i, 0)),
-                              h * (y0 + CpdiStencil::offset(i, 1))};
+        const double xi[2] = {-0.25 + h * (x0 + CpdiStencil<2>::offset(i, 0)),
+                              h * (y0 + CpdiStencil<2>::offset(i, 1))};
         sum += s.N(i);
         for (int a = 0; a < 2; ++a)
         {
@@ -89,7 +89,7 @@ TEST(Cpdi, UndeformedDomainAveragesTheHatFunctions)
   const std::array<const BSpline1D*, 2> basis{&grid.basis(0), &grid.basis(1)};
   const double x[2] = {2.3, 1.2}, r1[2] = {0.06, 0.0}, r2[2] = {0.0, 0.09};
   const int cell[2] = {4, 2};
-  CpdiStencil s;
+  CpdiStencil<2> s;
   s.evaluate(basis, cell, x, r1, r2);
   using B = BSplineStencil<2, 1>;
   B b;
@@ -197,7 +197,7 @@ TEST(Cpdi, FreeMotionConservesMomentumAndConvectsDomains)
 TEST(Cpdi, FailedDomainsAreScaledToACell)
 {
   Particles P(3);
-  for (const ColumnSpec& c : ParticleDomains::columns())
+  for (const ColumnSpec& c : ParticleDomains<2>::columns())
     P.add(c);
   P.add({"damage", 1, DType::f64, {0.0}, "", "", ""});
   // Stretched 3x along x and sheared: a diagonal of about 1.6 cells.
@@ -212,11 +212,11 @@ TEST(Cpdi, FailedDomainsAreScaledToACell)
   P.f64("damage")[1] = 1.0;
   P.f64("damage")[2] = 0.99;
   const Grid<2> grid(1, {10, 10}, h, {0.0, 0.0});
-  ParticleDomains domains(h, DomainScaling{true, 0.0});
+  ParticleDomains<2> domains(h, DomainScaling{true, 0.0});
   domains.bind(P);
   EXPECT_EQ(domains.update(grid, P.x.data(), 3), 3u);
-  const double* d1 = domains.r1();
-  const double* d2 = domains.r2();
+  const double* d1 = domains.r(0);
+  const double* d2 = domains.r(1);
   // Intact and damaged but not failed: the convected domain.
   for (std::size_t p : {0u, 2u})
     for (int a = 0; a < 2; ++a)
@@ -261,7 +261,7 @@ TEST(Cpdi, NodeBlockHoldersAndReach)
     {
       if (cpdi && degree != 1)
         continue;
-      const NodeBlock block = cpdi ? NodeBlock{CpdiStencil::lower, CpdiStencil::width}
+      const NodeBlock block = cpdi ? NodeBlock{CpdiStencil<2>::lower, CpdiStencil<2>::width}
                                    : NodeBlock{0, degree + 1};
       int farthest = 0;
       for (int cells = 3; cells <= 9; ++cells)

@@ -314,7 +314,7 @@ namespace
 struct CellSlots
 {
   /// Nodes of a cell's block: (degree + 1)^2 with B-splines, 16 with CPDI.
-  static constexpr int K = std::max((max_degree + 1) * (max_degree + 1), CpdiStencil::size);
+  static constexpr int K = std::max((max_degree + 1) * (max_degree + 1), CpdiStencil<2>::size);
   int n = 0;                                       ///< groups in the cell
   std::int32_t group[max_node_fields];      ///< their indices, sorted
   std::int32_t slot[DamageFields::max_groups][K];  ///< slot of group f at stencil node i
@@ -525,7 +525,7 @@ void DamageFields::open_cells(const Particles& particles, const CellSort& sort, 
   dilate(_full_cell, _grid.cells()[0], _grid.cells()[1], _grid.block().reach(), _dilated_y, _near);
   // The open nodes, with the transfers' shape functions.
   if (points.r1) // CPDI: the points carry domains
-    open_nodes<CpdiStencil>(particles, sort, points);
+    open_nodes<CpdiStencil<2>>(particles, sort, points);
   else if (_grid.degree() == 1)
     open_nodes<BSplineStencil<2, 1>>(particles, sort, points);
   else if (_grid.degree() == 2)
@@ -662,11 +662,11 @@ void DamageFields::sides(const Particles& particles, const CellSort& sort, const
   {
     if (!domain_r1)
       return all;
-    CpdiStencil stencil;
+    CpdiStencil<2> stencil;
     const int cell[2] = {cx, cy};
     stencil.evaluate(basis, cell, &particles.x[2 * p], &domain_r1[2 * p], &domain_r2[2 * p]);
     std::uint32_t m = 0;
-    for (int i = 0; i < CpdiStencil::size; ++i)
+    for (int i = 0; i < CpdiStencil<2>::size; ++i)
       m |= stencil.n[i] > cpdi_maps_to ? 1u << i : 0u;
     return m;
   };

@@ -25,12 +25,13 @@ namespace pfmpm
 {
 
 /// The particle data a stencil is evaluated from: the centres and, for a
-/// stencil with domains (CPDI, 2D), the half-edges of the particle domains.
+/// stencil with domains (CPDI), the half-edges of the particle domains.
 struct Points
 {
   const double* x;              ///< centres, Dim coordinates per particle
-  const double* r1 = nullptr;   ///< domain half-edge r_1, (x, y) per particle
+  const double* r1 = nullptr;   ///< domain half-edge r_1, Dim components per particle
   const double* r2 = nullptr;   ///< domain half-edge r_2
+  const double* r3 = nullptr;   ///< domain half-edge r_3 (3D)
 };
 
 namespace detail
@@ -56,8 +57,11 @@ struct EachParticle
     {
       const std::size_t p = sorted[k];
       Stencil s;
-      if constexpr (Stencil::domains)
+      if constexpr (Stencil::domains && Dim == 2)
         s.evaluate(local, index.data(), &xs[Dim * p], &points.r1[Dim * p], &points.r2[Dim * p]);
+      else if constexpr (Stencil::domains)
+        s.evaluate(local, index.data(), &xs[Dim * p], &points.r1[Dim * p], &points.r2[Dim * p],
+                   &points.r3[Dim * p]);
       else
         s.evaluate(local, index.data(), &xs[Dim * p]);
       f(p, s);
