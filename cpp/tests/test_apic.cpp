@@ -152,6 +152,56 @@ TEST(Apic, CpdiInertiaIsTheCornersMeanPlusTheDomain)
   EXPECT_NEAR(C[3], 1.0, 1e-14);
 }
 
+TEST(Apic, Cpdi3InertiaIsTheCornersMeanPlusTheDomain)
+{
+  // The 3D parallelepiped across cell faces: D_p = 1/8 sum_c D_lin(x_c) + sum_k r_k r_k^T,
+  // D_lin(x) = diag(xi (1 - xi), eta (1 - eta), zeta (1 - zeta)) h^2; the offsets' first
+  // moment is zero; the affine velocity of B_p = D_p is the identity (the 3 x 3 inverse).
+  using S = CpdiStencil<3>;
+  const double h = 0.25;
+  const Grid<3> grid(1, {10, 10, 10}, h, {0.0, 0.0, 0.0});
+  const double x[3] = {1.07, 0.61, 1.38}, r1[3] = {0.09, 0.03, -0.02}, r2[3] = {-0.04, 0.1, 0.01},
+               r3[3] = {0.02, -0.03, 0.08};
+  const int cell[3] = {4, 2, 5};
+  S s;
+  s.evaluate(grid.bases(), cell, x, r1, r2, r3);
+  const AffineFrame<S> f = affine_frame<true>(s, BlockPoints<S>(grid, Cell<3>{{4, 2, 5}, 0, 0, 0}));
+  const double* r[3] = {r1, r2, r3};
+  double expect[6] = {};
+  int k = 0;
+  for (int a = 0; a < 3; ++a)
+    for (int b = a; b < 3; ++b, ++k)
+      for (const double* e : r)
+        expect[k] += e[a] * e[b];
+  for (int c = 0; c < 8; ++c)
+  {
+    const int diagonal[3] = {0, 3, 5}; // xx, yy, zz
+    for (int d = 0; d < 3; ++d)
+    {
+      const double u = S::corner(x, r, c, d) / h;
+      expect[diagonal[d]] += 0.125 * (u - std::floor(u)) * (1.0 - u + std::floor(u)) * h * h;
+    }
+  }
+  double first[3] = {};
+  for (int i = 0; i < S::size; ++i)
+    for (int d = 0; d < 3; ++d)
+    {
+      const double rd = f.r[d][S::offset(i, d)];
+      // The block's first node is one before the cell's.
+      EXPECT_NEAR(rd, (cell[d] - 1 + S::offset(i, d)) * h - x[d], 1e-15);
+      first[d] += s.N(i) * rd;
+    }
+  for (int d = 0; d < 3; ++d)
+    EXPECT_NEAR(first[d], 0.0, 1e-16);
+  for (k = 0; k < 6; ++k)
+    EXPECT_NEAR(f.D[k], expect[k], 1e-16) << k;
+  const std::array<double, 9> B = inertia_matrix(f);
+  double C[9];
+  affine_velocity<S>(B.data(), f.D, C);
+  for (int i = 0; i < 9; ++i)
+    EXPECT_NEAR(C[i], i % 4 == 0 ? 1.0 : 0.0, 1e-13) << i;
+}
+
 class ApicDegree : public ::testing::TestWithParam<int>
 {
 };
