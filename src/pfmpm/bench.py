@@ -52,7 +52,7 @@ def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str
     ``shape="cpdi"`` (with ``degree=1``) maps with CPDI1 over the particle
     domains instead of B-splines at the centres. ``transfer="apic"`` moves
     momentum with APIC (``[transfer] scheme``). A cube (``dim=3``) is elastic
-    (either model) on B-splines, with ``physics="contact"`` cut in two along
+    (either model) on B-splines or CPDI, with ``physics="contact"`` cut in two along
     the plane x = its middle, each half its own field with frictional
     contact: the physics the core runs in 3D.
     """
@@ -65,10 +65,9 @@ def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str
     if dim not in (2, 3):
         raise ValueError(f"dim = {dim}: must be 2 or 3")
     if dim == 3:
-        if physics not in ("elastic", "contact") or shape != "bspline":
-            raise ValueError(f"dim = 3: physics must be elastic or contact and shape bspline (not"
-                             f" {physics!r}, {shape!r}): the core runs no phase field, damage-gradient"
-                             " partition or CPDI in 3D yet")
+        if physics not in ("elastic", "contact"):
+            raise ValueError(f"dim = 3: physics must be elastic or contact (not {physics!r}): the core"
+                             " runs no phase field or damage-gradient partition in 3D yet")
         cells = max(4, math.ceil((particles / per_cell**3) ** (1 / 3) - 1e-9))
         lo, hi = 4.0, 4.0 + cells
         material = (NeoHookeanSpec(name="m", E=1.0, nu=0.3, density=1.0) if model == "neo_hookean"
@@ -78,7 +77,7 @@ def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str
             boxes = {"left": Box(min=(lo,) * 3, max=(mid, hi, hi)), "right": Box(min=(mid, lo, lo), max=(hi,) * 3)}
         else:
             boxes = {"block": Box(min=(lo,) * 3, max=(hi,) * 3)}
-        return Scene(name="bench-cube", grid=GridSpec(size=(cells + 8.0,) * 3, h=1.0, degree=degree),
+        return Scene(name="bench-cube", grid=GridSpec(size=(cells + 8.0,) * 3, h=1.0, degree=degree, shape=shape),
                      time=Time(end=1.0), materials=(material,),
                      bodies=tuple(Body(name=name, material="m", shape=box, particles_per_cell=per_cell)
                                   for name, box in boxes.items()),
