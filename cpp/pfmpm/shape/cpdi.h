@@ -75,8 +75,9 @@ struct CpdiStencil
   /// in 3D at xi_3 = -1, and 4 .. 7 the same at xi_3 = +1.
   static double xi(int c, int k)
   {
-    const int q = c & 3;
-    return (k == 0 ? q == 1 || q == 2 : k == 1 ? q >= 2 : c >= 4) ? 1.0 : -1.0;
+    static constexpr double sign[8][3] = {{-1, -1, -1}, {1, -1, -1}, {1, 1, -1}, {-1, 1, -1},
+                                          {-1, -1, 1},  {1, -1, 1},  {1, 1, 1},  {-1, 1, 1}};
+    return sign[c][k];
   }
   /// Coordinate d of corner c of the domain with centre x and half-edges r.
   static double corner(const double* x, const double* const (&r)[Dim], int c, int d)
@@ -158,6 +159,7 @@ struct CpdiStencil
     std::fill(n, n + size, 0.0);
     for (int k = 0; k < Dim; ++k)
       std::fill(dn[k], dn[k] + size, 0.0);
+#pragma GCC unroll 8
     for (int c = 0; c < corners; ++c)
     {
       // The corner's gradient weight R^{-T} xi_c and, per direction, its
@@ -178,6 +180,7 @@ struct CpdiStencil
         basis[d]->template evaluate<1>(first_node[d] + a[d], xc, s[d], unused);
       }
       // The 2^Dim nodes of the corner's cell, the last direction fastest.
+#pragma GCC unroll 8
       for (int m = 0; m < corners; ++m)
       {
         int i = 0;
