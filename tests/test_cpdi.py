@@ -1,7 +1,8 @@
 """CPDI particle domains (``[grid] shape = "cpdi"``): the scene keys and their errors, the
-domains convected by F and written to the VTU files, the scaling of failed particles' domains
-(Homel & Herbold 2017, §2.6) and a bar stretched to twice its length without cell-crossing
-noise. The exactness of the averaged shape functions is checked in cpp/tests/test_cpdi.cpp."""
+domains convected by F and written to the VTU files (in 2D and 3D), the scaling of failed
+particles' domains (Homel & Herbold 2017, §2.6) and a bar stretched to twice its length without
+cell-crossing noise. The exactness of the averaged shape functions is checked in
+cpp/tests/test_cpdi.cpp."""
 
 import dataclasses
 import math
@@ -10,7 +11,7 @@ import numpy as np
 import pytest
 
 from pfmpm import Scene, SceneError, SimulationError, Simulation
-from pfmpm.scene import (Body, Crack, FractureSpec, GridSpec, LinearElasticSpec, NeoHookeanSpec,
+from pfmpm.scene import (Body, Box, Crack, FractureSpec, GridSpec, LinearElasticSpec, NeoHookeanSpec,
                          RankineSpec, Rectangle, Time)
 
 from test_elastic import bar_scene, run_bar, zero_crossings
@@ -23,6 +24,10 @@ from test_neo_hookean import LAME, MU, RHO, grips_scene, uniaxial_lateral_stretc
     (dict(degree=1, shape="mpm"), "shape = 'mpm': must be one of 'bspline', 'cpdi'"),
     (dict(degree=1, size=(2.0, 8.0), shape="cpdi"),
      'size = [2.0, 8.0]: 2 x 8 cells: shape "cpdi" needs at least 3 cells a side'),
+    (dict(degree=1, size=(8.0, 8.0, 2.0), shape="cpdi"),
+     'size = [8.0, 8.0, 2.0]: 8 x 8 x 2 cells: shape "cpdi" needs at least 3 cells a side'),
+    (dict(degree=3, size=(8.0, 8.0, 8.0), shape="cpdi"),
+     'degree = 3: shape "cpdi" runs on the degree-1 grid (CPDI1); set degree = 1'),
     (dict(degree=1, failed_c=0.1), 'failed_c = 0.1: applies to shape = "cpdi" only'),
     (dict(degree=1, shape="cpdi", failed_c=1.0), "failed_c = 1.0: must be >= 0 and < 1"),
 ])
@@ -61,6 +66,38 @@ def test_domains_are_convected_by_F_and_written_out():
     assert np.array_equal(P.domain_r1, P.convected_r1)
     data = {name: values for name, values, _ in sim.point_data()}
     assert np.array_equal(data["domain_r2"], P.domain_r2)
+
+
+def test_3d_domains_are_the_lattice_cubes_convected_by_F_and_written_out():
+    # A neo-Hookean block 4 x 2 x 2 (h = 1, 2 x 2 x 2 particles per cell) spinning about an
+    # oblique axis and stretching, with no net momentum: the domains start as the lattice's
+    # cubes, r_k = (h/4) e_k; after 20 steps r_k = F r_k^0 to round-off; the momentum stays
+    # zero; the VTU point data hold domain_r1 .. domain_r3.
+    G = ((0.2, -0.4, 0.3), (0.4, -0.1, -0.2), (-0.3, 0.2, 0.05))
+    centre = np.array([6.0, 4.0, 4.0])
+    body = Body(name="block", material="m", shape=Box((4.0, 3.0, 3.0), (8.0, 5.0, 5.0)),
+                particles_per_cell=2, velocity=tuple(-np.array(G) @ centre), velocity_gradient=G)
+    scene = Scene(name="block", grid=GridSpec(size=(12.0, 8.0, 8.0), h=1.0, degree=1, shape="cpdi"),
+                  time=Time(end=1.0, cfl=0.4),
+                  materials=(NeoHookeanSpec(name="m", E=1.0, nu=0.3, density=1.0),), bodies=(body,))
+    sim = Simulation(scene)
+    P = sim.particles
+    assert len(P) == 128
+    for k in range(3):
+        assert np.array_equal(getattr(P, f"domain_r{k + 1}"), np.tile(0.25 * np.eye(3)[k], (len(P), 1)))
+    mass = np.asarray(P.mass)[:, None]
+    scale = float((mass * np.abs(P.v)).sum())
+    assert np.abs((mass * P.v).sum(axis=0)).max() < 1e-14 * scale
+    sim.advance(20)
+    F = P.F.reshape(-1, 3, 3)
+    for k in range(3):
+        assert np.abs(getattr(P, f"convected_r{k + 1}") - 0.25 * F[:, :, k]).max() < 1e-14
+    assert np.abs(F - np.eye(3)).max() > 0.05  # it did turn and stretch
+    assert np.abs((mass * P.v).sum(axis=0)).max() < 1e-12 * scale
+    sim.solver.prepare()  # the domains of the next step: nothing failed, the convected ones
+    assert np.array_equal(P.domain_r3, P.convected_r3)
+    data = {name: values for name, values, _ in sim.point_data()}
+    assert np.array_equal(data["domain_r3"], P.domain_r3)
 
 
 def test_bar_against_the_grid_edge_keeps_its_period_and_energy():

@@ -236,14 +236,17 @@ def test_bar_pulled_apart_dissipates_gf_per_unit_crack_area(h, shape, partition)
     assert sim.energies()["damage_dissipation"] == pytest.approx(Gf * H, rel=0.05)
 
 
-@pytest.mark.parametrize("h, partition", [(1.0, None), (0.5, None), (1.0, "damage_gradient"),
-                                          (0.5, "damage_gradient")])
-def test_3d_bar_pulled_apart_dissipates_gf_per_unit_crack_area(h, partition):
+@pytest.mark.parametrize("h, shape, partition", [
+    (1.0, "bspline", None), (0.5, "bspline", None),
+    (1.0, "bspline", "damage_gradient"), (0.5, "bspline", "damage_gradient"),
+    (0.5, "cpdi", None), (0.5, "cpdi", "damage_gradient")])
+def test_3d_bar_pulled_apart_dissipates_gf_per_unit_crack_area(h, shape, partition):
     # The bar in 3D, 20 x 2 x 2 with free sides: its band fails completely,
     # nothing else is damaged, and it dissipates G_f per unit area of the
-    # crack, H^2 (1.006 / 1.012 at h = 1 / 0.5 both ways, as in 2D).
+    # crack, H^2 (quadratic B-splines 1.006 / 1.012 at h = 1 / 0.5, CPDI
+    # 1.013 at h = 0.5, both ways, as in 2D).
     Gf, A = 0.02, 4.0
-    sim, band = prestressed_bar(h, Gf=Gf, partition=partition, dim=3)
+    sim, band = prestressed_bar(h, shape=shape, Gf=Gf, partition=partition, dim=3)
     sim.advance(sim.scene.steps())
     P = sim.particles
     assert np.all(P.damage[band] == 1.0) and P.damage[~band].max() < 0.02

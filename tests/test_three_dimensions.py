@@ -275,12 +275,17 @@ def test_3d_run_writes_3d_points_and_six_stress_components(tmp_path):
         assert image.n_frames == len(list(out.glob("particles_*.vtu")))
 
 
-def test_3d_run_resumes_bitwise(tmp_path):
+@pytest.mark.parametrize("shape", ["bspline", "cpdi"])
+def test_3d_run_resumes_bitwise(tmp_path, shape):
     """A 3D run resumed from its checkpoint writes the same files as the run
-    that went on."""
+    that went on; with CPDI the checkpoint carries the domains, and the VTU
+    files hold them."""
     full = tmp_path / "full"
-    args = ["run", str(BAR3D), "--set", "time.end=4.0", "--set", "output.every=25", "--set", "grid.h=1.0",
-            "--set", "bodies.bar.particles_per_cell=1", "--quiet"]
+    # Two checkpoints, at steps 50 and 100: the degree-1 grid of CPDI takes longer steps (87 to
+    # t = 4), so it runs to t = 5 (109 steps).
+    end, grid = ("5.0", ["--set", "grid.degree=1", "--set", 'grid.shape="cpdi"']) if shape == "cpdi" else ("4.0", [])
+    args = ["run", str(BAR3D), "--set", f"time.end={end}", "--set", "output.every=25", "--set", "grid.h=1.0",
+            "--set", "bodies.bar.particles_per_cell=1", *grid, "--quiet"]
     assert main([*args, "--out", str(full), "--checkpoint-every", "50", "--keep", "5"]) == 0
     names = [p.name for p in checkpoint.list_checkpoints(full / "checkpoints")]
     assert names[:2] == ["step_000000050.h5", "step_000000100.h5"]
@@ -293,6 +298,13 @@ def test_3d_run_resumes_bitwise(tmp_path):
     assert len(files) >= 5
     for name in files:
         assert (full / name).read_bytes() == (part / name).read_bytes(), f"{name} differs after resuming"
+    if shape == "cpdi":
+        last = meshio.read(sorted(full.glob("*.vtu"))[-1])
+        r = [last.point_data[f"domain_r{k}"] for k in (1, 2, 3)]
+        assert all(e.shape == (len(last.points), 3) for e in r)
+        # The domains, once the lattice's cubes of half-edge h/2 = 0.5, stretched by the pull.
+        assert np.abs(np.stack(r, axis=1) - 0.5 * np.eye(3)).max() > 1e-6
+        assert np.linalg.det(np.stack(r, axis=2)).min() > 0.9 * 0.125
 
 
 def test_bench_cube():
@@ -307,6 +319,8 @@ def test_bench_cube():
     # partition splits the nodes around them and computes their gradients.
     r = bench(physics="damage_gradient", particles=1000, steps=2, repeats=1, dim=3)
     assert r["particles"] == 5**3 * 8 and r["contact_nodes"] > 0 and r["damage_share"]["gradient"] > 0
+    r = bench(particles=1000, steps=2, repeats=1, dim=3, degree=1, shape="cpdi")
+    assert r["particles"] == 5**3 * 8 and r["shape"] == "cpdi"
 
 
 def test_3d_bodies_in_contact_exchange_the_impulse_they_record(tmp_path):
@@ -505,7 +519,6 @@ BAD = [
     (solid, ['materials.m.model="drucker_prager"', "materials.m.friction_angle=30.0", "materials.m.cohesion=1.0"],
      "materials[0].model = 'drucker_prager': the drucker_prager model is two-dimensional yet"),
     (solid, ['plane="stress"'], "plane = 'stress': plane stress is two-dimensional yet"),
-    (solid, ['grid.shape="cpdi"', "grid.degree=1"], "grid.shape = 'cpdi': CPDI is two-dimensional yet"),
     (solid, ['contact={partition = "damage_gradient", friction = 0.3, surfaces = [{type = "rectangle",'
              ' min = [2.0, 2.0], max = [3.0, 3.0]}]}'],
      "contact.surfaces[0] = 'rectangle': a 2D shape (rectangle) in a 3D scene (grid.size has 3 entries)"),

@@ -14,6 +14,7 @@
 #include <cstring>
 #include <functional>
 #include <memory>
+#include <string>
 #include <vector>
 
 namespace pfmpm::test
@@ -75,6 +76,21 @@ Particles lattice(const std::array<double, Dim>& lo, const std::array<double, Di
     P.mass[p] = volume;
   }
   return P;
+}
+
+/// CPDI: every particle's domain the lattice's cube of side `spacing` (half-edges spacing / 2
+/// along the axes), convected and integration domain alike. The solver adds the columns.
+template <int Dim>
+void lattice_domains(Particles& P, double spacing)
+{
+  for (int k = 0; k < Dim; ++k)
+    for (const std::string name : {"convected_r", "domain_r"})
+    {
+      std::vector<double>& r = P.f64(name + std::to_string(k + 1));
+      for (std::size_t p = 0; p < P.size(); ++p)
+        for (int d = 0; d < Dim; ++d)
+          r[Dim * p + d] = d == k ? 0.5 * spacing : 0.0;
+    }
 }
 
 /// @brief The largest relative gap between a plane run's energies `a` and

@@ -116,25 +116,25 @@ TEST(Apic, CpdiInertiaIsTheCornersMeanPlusTheDomain)
   const std::array<const BSpline1D*, 2> basis{&grid.basis(0), &grid.basis(1)};
   const double x[2] = {1.07, 0.61}, r1[2] = {0.09, 0.03}, r2[2] = {-0.04, 0.1};
   const int cell[2] = {4, 2};
-  CpdiStencil s;
+  CpdiStencil<2> s;
   s.evaluate(basis, cell, x, r1, r2);
-  const AffineFrame<CpdiStencil> f = affine_frame<true>(s, BlockPoints<CpdiStencil>(grid, Cell<2>{{4, 2}, 42, 0, 0}));
+  const AffineFrame<CpdiStencil<2>> f = affine_frame<true>(s, BlockPoints<CpdiStencil<2>>(grid, Cell<2>{{4, 2}, 42, 0, 0}));
   double expect[3] = {r1[0] * r1[0] + r2[0] * r2[0], r1[0] * r1[1] + r2[0] * r2[1],
                       r1[1] * r1[1] + r2[1] * r2[1]};
   for (int c = 0; c < 4; ++c)
   {
-    const double xi = CpdiStencil::corner(x, r1, r2, c, 0) / h,
-                 eta = CpdiStencil::corner(x, r1, r2, c, 1) / h;
+    const double xi = CpdiStencil<2>::corner(x, {r1, r2}, c, 0) / h,
+                 eta = CpdiStencil<2>::corner(x, {r1, r2}, c, 1) / h;
     expect[0] += 0.25 * (xi - std::floor(xi)) * (1.0 - xi + std::floor(xi)) * h * h;
     expect[2] += 0.25 * (eta - std::floor(eta)) * (1.0 - eta + std::floor(eta)) * h * h;
   }
   double first[2] = {0.0, 0.0};
-  for (int i = 0; i < CpdiStencil::size; ++i)
+  for (int i = 0; i < CpdiStencil<2>::size; ++i)
   {
-    const double rx = f.r[0][CpdiStencil::offset(i, 0)], ry = f.r[1][CpdiStencil::offset(i, 1)];
+    const double rx = f.r[0][CpdiStencil<2>::offset(i, 0)], ry = f.r[1][CpdiStencil<2>::offset(i, 1)];
     // The block's first node is (3, 1) (a node before the cell's).
-    EXPECT_NEAR(rx, (3 + CpdiStencil::offset(i, 0)) * h - x[0], 1e-15);
-    EXPECT_NEAR(ry, (1 + CpdiStencil::offset(i, 1)) * h - x[1], 1e-15);
+    EXPECT_NEAR(rx, (3 + CpdiStencil<2>::offset(i, 0)) * h - x[0], 1e-15);
+    EXPECT_NEAR(ry, (1 + CpdiStencil<2>::offset(i, 1)) * h - x[1], 1e-15);
     first[0] += s.N(i) * rx;
     first[1] += s.N(i) * ry;
   }
@@ -145,11 +145,61 @@ TEST(Apic, CpdiInertiaIsTheCornersMeanPlusTheDomain)
   // The affine velocity of B_p = D_p is the identity.
   const double B[4] = {f.D[0], f.D[1], f.D[1], f.D[2]};
   double C[4];
-  affine_velocity<CpdiStencil>(B, f.D, C);
+  affine_velocity<CpdiStencil<2>>(B, f.D, C);
   EXPECT_NEAR(C[0], 1.0, 1e-14);
   EXPECT_NEAR(C[1], 0.0, 1e-14);
   EXPECT_NEAR(C[2], 0.0, 1e-14);
   EXPECT_NEAR(C[3], 1.0, 1e-14);
+}
+
+TEST(Apic, Cpdi3InertiaIsTheCornersMeanPlusTheDomain)
+{
+  // The 3D parallelepiped across cell faces: D_p = 1/8 sum_c D_lin(x_c) + sum_k r_k r_k^T,
+  // D_lin(x) = diag(xi (1 - xi), eta (1 - eta), zeta (1 - zeta)) h^2; the offsets' first
+  // moment is zero; the affine velocity of B_p = D_p is the identity (the 3 x 3 inverse).
+  using S = CpdiStencil<3>;
+  const double h = 0.25;
+  const Grid<3> grid(1, {10, 10, 10}, h, {0.0, 0.0, 0.0});
+  const double x[3] = {1.07, 0.61, 1.38}, r1[3] = {0.09, 0.03, -0.02}, r2[3] = {-0.04, 0.1, 0.01},
+               r3[3] = {0.02, -0.03, 0.08};
+  const int cell[3] = {4, 2, 5};
+  S s;
+  s.evaluate(grid.bases(), cell, x, r1, r2, r3);
+  const AffineFrame<S> f = affine_frame<true>(s, BlockPoints<S>(grid, Cell<3>{{4, 2, 5}, 0, 0, 0}));
+  const double* r[3] = {r1, r2, r3};
+  double expect[6] = {};
+  int k = 0;
+  for (int a = 0; a < 3; ++a)
+    for (int b = a; b < 3; ++b, ++k)
+      for (const double* e : r)
+        expect[k] += e[a] * e[b];
+  for (int c = 0; c < 8; ++c)
+  {
+    const int diagonal[3] = {0, 3, 5}; // xx, yy, zz
+    for (int d = 0; d < 3; ++d)
+    {
+      const double u = S::corner(x, r, c, d) / h;
+      expect[diagonal[d]] += 0.125 * (u - std::floor(u)) * (1.0 - u + std::floor(u)) * h * h;
+    }
+  }
+  double first[3] = {};
+  for (int i = 0; i < S::size; ++i)
+    for (int d = 0; d < 3; ++d)
+    {
+      const double rd = f.r[d][S::offset(i, d)];
+      // The block's first node is one before the cell's.
+      EXPECT_NEAR(rd, (cell[d] - 1 + S::offset(i, d)) * h - x[d], 1e-15);
+      first[d] += s.N(i) * rd;
+    }
+  for (int d = 0; d < 3; ++d)
+    EXPECT_NEAR(first[d], 0.0, 1e-16);
+  for (k = 0; k < 6; ++k)
+    EXPECT_NEAR(f.D[k], expect[k], 1e-16) << k;
+  const std::array<double, 9> B = inertia_matrix(f);
+  double C[9];
+  affine_velocity<S>(B.data(), f.D, C);
+  for (int i = 0; i < 9; ++i)
+    EXPECT_NEAR(C[i], i % 4 == 0 ? 1.0 : 0.0, 1e-13) << i;
 }
 
 class ApicDegree : public ::testing::TestWithParam<int>

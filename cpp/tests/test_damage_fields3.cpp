@@ -4,7 +4,7 @@
 /// damaged plane, the cubic lattice's kernel sum, surface flags of a box
 /// (a face on a wall is none), a slab of a banded block between slip walls
 /// is the plane-strain run, a bar cut by a failed plane parts with no force
-/// across it, and the partition repeats bitwise on 1 and 2 threads and
+/// across it (B-splines and CPDI), and the partition repeats bitwise on 1 and 2 threads and
 /// resumed.
 #include "helpers.h"
 #include "pfmpm/fields/damage_fields.h"
@@ -47,14 +47,16 @@ void banded_velocity(const double* x, double* v)
 
 /// A bar [1, 5] x [1, 2] x [1, 2] (h = 0.25, 2 particles a cell a side)
 /// cut by a failed plane, |x - 3| < 0.125 (surface-flagged), its halves
-/// pulled apart along x and sheared along y and z, on free faces.
+/// pulled apart along x and sheared along y and z, on free faces; on
+/// quadratic B-splines, or with `cpdi` CPDI1 on the linear grid (each
+/// domain its lattice cube).
 struct FailedPlaneBar
 {
-  Grid<3> grid{2, {24, 12, 12}, 0.25, {0.0, 0.0, 0.0}};
+  Grid<3> grid;
   Particles P = lattice<3>({1.0, 1.0, 1.0}, {5.0, 2.0, 2.0}, 0.125);
   std::unique_ptr<Solver<3>> solver;
 
-  FailedPlaneBar()
+  explicit FailedPlaneBar(bool cpdi = false) : grid(cpdi ? 1 : 2, {24, 12, 12}, 0.25, {0.0, 0.0, 0.0})
   {
     for (std::size_t p = 0; p < P.size(); ++p)
     {
@@ -64,7 +66,12 @@ struct FailedPlaneBar
       P.v[3 * p + 1] = 0.01 * s + 0.004 * std::sin(3.0 * x[0]);
       P.v[3 * p + 2] = -0.005 * s;
     }
-    solver = std::make_unique<Solver<3>>(grid, P, elastic(100.0, 0.3, 1.0), damage_step(2e-3));
+    StepConfig step = damage_step(2e-3);
+    if (cpdi)
+      step.shape = ShapeFunctions::cpdi;
+    solver = std::make_unique<Solver<3>>(grid, P, elastic(100.0, 0.3, 1.0), step);
+    if (cpdi)
+      lattice_domains<3>(P, 0.125);
     for (std::size_t p = 0; p < P.size(); ++p)
       if (std::abs(P.x[3 * p] - 3.0) < 0.125)
         P.i32("surface")[p] = 1;
@@ -226,13 +233,18 @@ TEST(DamageFields3, SlabOfABandedBlockIsThePlaneStrainRun)
   std::cout << "banded slab against plane strain, 200 steps: largest relative gap " << worst << "\n";
 }
 
-TEST(DamageFields3, BarWithAFailedPlaneParts)
+/// B-splines (false) or CPDI (true).
+class FailedPlaneOf : public ::testing::TestWithParam<bool>
+{
+};
+
+TEST_P(FailedPlaneOf, BarParts)
 {
   // The two halves of a 3D bar on either side of a failed plane are pulled
   // apart and sheared: the plane's nodes are separable and carry no force,
   // so each half keeps its momentum, and the gap between them opens at
   // their relative speed.
-  FailedPlaneBar b;
+  FailedPlaneBar b(GetParam());
   auto half = [&](bool right)
   {
     // The momentum of the half, the failed layer's particles on its side
@@ -269,6 +281,8 @@ TEST(DamageFields3, BarWithAFailedPlaneParts)
   // elastic recoil at their faces.
   EXPECT_NEAR(right1[3] - left1[3] - opening0, 0.024, 0.1 * 0.024);
 }
+
+INSTANTIATE_TEST_SUITE_P(DamageFields3, FailedPlaneOf, ::testing::Values(false, true));
 
 TEST(DamageFields3, RepeatsBitwiseOnOneOrTwoThreadsAndResumed)
 {

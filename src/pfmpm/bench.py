@@ -52,7 +52,7 @@ def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str
     ``shape="cpdi"`` (with ``degree=1``) maps with CPDI1 over the particle
     domains instead of B-splines at the centres. ``transfer="apic"`` moves
     momentum with APIC (``[transfer] scheme``). A cube (``dim=3``) is elastic
-    (either model) on B-splines, with ``physics="contact"`` cut in two along
+    (either model) on B-splines or CPDI, with ``physics="contact"`` cut in two along
     the plane x = its middle, each half its own field with frictional
     contact, and with ``physics="damage_gradient"`` (linear elastic) cut by
     failed planes one cell thick, ``bands`` per direction, into (bands + 1)^3
@@ -67,10 +67,9 @@ def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str
     if dim not in (2, 3):
         raise ValueError(f"dim = {dim}: must be 2 or 3")
     if dim == 3:
-        if physics not in ("elastic", "contact", "damage_gradient") or shape != "bspline":
-            raise ValueError(f"dim = 3: physics must be elastic, contact or damage_gradient and shape"
-                             f" bspline (not {physics!r}, {shape!r}): the core runs no phase field or"
-                             " CPDI in 3D yet")
+        if physics not in ("elastic", "contact", "damage_gradient"):
+            raise ValueError(f"dim = 3: physics must be elastic, contact or damage_gradient (not"
+                             f" {physics!r}): the core runs no phase field in 3D yet")
         cells = max(4, math.ceil((particles / per_cell**3) ** (1 / 3) - 1e-9))
         lo, hi = 4.0, 4.0 + cells
         material = (NeoHookeanSpec(name="m", E=1.0, nu=0.3, density=1.0) if model == "neo_hookean"
@@ -87,7 +86,7 @@ def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str
                              max=tuple(c + 0.5 if e == d else hi for e in range(3)))
                          for c in at for d in range(3))
             contact = Contact(friction=0.3, partition="damage_gradient", surfaces=cuts)
-        return Scene(name="bench-cube", grid=GridSpec(size=(cells + 8.0,) * 3, h=1.0, degree=degree),
+        return Scene(name="bench-cube", grid=GridSpec(size=(cells + 8.0,) * 3, h=1.0, degree=degree, shape=shape),
                      time=Time(end=1.0), materials=(material,),
                      bodies=tuple(Body(name=name, material="m", shape=box, particles_per_cell=per_cell)
                                   for name, box in boxes.items()),

@@ -394,8 +394,8 @@ def main(argv: list[str] | None = None) -> int:
     bench.add_argument("--per-cell", type=int, default=None,
                        help="particles per cell and direction (default 3 in 2D, 2 in 3D)")
     bench.add_argument("--dim", type=int, default=2, choices=[2, 3],
-                       help="2: a square block; 3: a cube on B-splines, elastic, in contact or with the"
-                            " damage-gradient partition (default %(default)d)")
+                       help="2: a square block; 3: a cube on B-splines or CPDI, elastic, in contact or"
+                            " with the damage-gradient partition (default %(default)d)")
     bench.add_argument("--transfer", default="flip", choices=TRANSFER_SCHEMES,
                        help="particle-grid transfer: FLIP (default) or APIC ([transfer] scheme)")
     bench.add_argument("--bands", type=int, default=1,

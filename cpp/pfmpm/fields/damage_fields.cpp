@@ -558,13 +558,10 @@ void DamageFields<Dim>::open_nodes(const Particles& particles, const CellSort& s
   const std::array<const BSpline1D*, Dim> basis = _grid.bases();
   const std::int32_t* order = sort.order().data();
   const std::int32_t* group = _group.data();
-  const double* x = particles.x.data();
   const double* mass = particles.mass.data();
   const double* damage = _damage.data();
   const double* full = _full.data();
   const std::uint8_t* softening = _softening.data();
-  [[maybe_unused]] const double* r1 = points.r1;
-  [[maybe_unused]] const double* r2 = points.r2;
   // The sums of H&H eq. 21 over A and B together, with the terms P2G adds into
   // its md and full, cell by cell; strips of one parity share no node.
   list_cells(_near, _near_cells);
@@ -585,10 +582,7 @@ void DamageFields<Dim>::open_nodes(const Particles& particles, const CellSort& s
         {
           const std::int32_t p = order[k];
           Stencil s;
-          if constexpr (Stencil::domains)
-            s.evaluate(basis, cell.index.data(), &x[Dim * p], &r1[Dim * p], &r2[Dim * p]);
-          else
-            s.evaluate(basis, cell.index.data(), &x[Dim * p]);
+          evaluate_at(s, basis, cell.index.data(), points, p);
           const int f = c.local(group[p]);
           const double mp = mass[p], Dp = damage[p];
           const bool failed = full[p] != 0.0, soft = softening[p] != 0;
@@ -652,12 +646,7 @@ void DamageFields<Dim>::open_cells(const Particles& particles, const CellSort& s
   dilate<Dim>(_full_cell, _grid.cells(), _grid.block().reach(), _dilated, _near);
   // The open nodes, with the transfers' shape functions.
   if (points.r1) // CPDI: the points carry domains
-  {
-    if constexpr (Dim == 2)
-      open_nodes<CpdiStencil>(particles, sort, points);
-    else
-      throw std::logic_error("the damage-gradient partition with CPDI is two-dimensional yet");
-  }
+    open_nodes<CpdiStencil<Dim>>(particles, sort, points);
   else if (_grid.degree() == 1)
     open_nodes<BSplineStencil<Dim, 1>>(particles, sort, points);
   else if (_grid.degree() == 2)
@@ -801,27 +790,20 @@ void DamageFields<Dim>::sides(const Particles& particles, const CellSort& sort, 
   // domains) those where its averaged shape function is positive, the
   // nodes of the cells its domain's corners lie in (above round-off:
   // cpdi_maps_to).
-  const double* domain_r1 = points.r1;
-  [[maybe_unused]] const double* domain_r2 = points.r2;
+  const bool domains = points.r1 != nullptr;
   constexpr int bits = 8 * static_cast<int>(sizeof(Mask));
   const Mask all = nk >= bits ? ~Mask{0} : (Mask{1} << nk) - 1u;
   const std::array<const BSpline1D*, Dim> basis = _grid.bases();
   auto reached = [&](std::int32_t p, const Cell<Dim>& cell) -> Mask
   {
-    if (!domain_r1)
+    if (!domains)
       return all;
-    if constexpr (Dim == 2)
-    {
-      CpdiStencil stencil;
-      stencil.evaluate(basis, cell.index.data(), &particles.x[2 * p], &domain_r1[2 * p],
-                       &domain_r2[2 * p]);
-      Mask m = 0;
-      for (int i = 0; i < CpdiStencil::size; ++i)
-        m |= stencil.n[i] > cpdi_maps_to ? Mask{1} << i : Mask{0};
-      return m;
-    }
-    else
-      return all; // (the constructor of the solver refuses CPDI with this partition in 3D)
+    CpdiStencil<Dim> stencil;
+    evaluate_at(stencil, basis, cell.index.data(), points, p);
+    Mask m = 0;
+    for (int i = 0; i < CpdiStencil<Dim>::size; ++i)
+      m |= stencil.n[i] > cpdi_maps_to ? Mask{1} << i : Mask{0};
+    return m;
   };
   // Algorithm 1, over the open cells (every cell whose block holds an open
   // node): per node and group, the particle gradient of largest magnitude,
@@ -961,7 +943,7 @@ void DamageFields<Dim>::sides(const Particles& particles, const CellSort& sort, 
               m |= side < 0.0 ? Mask{1} << i : Mask{0};
             }
           }
-          if (domain_r1)
+          if (domains)
             m &= reached(p, cell); // no side at a node the particle does not map to
           mask[p] = m;
           set[p] |= m != 0u ? 1 : 0;

@@ -119,7 +119,7 @@ struct DamageTimers
 ///   does not depend on the visiting order;
 /// - per (particle, node) pair the side: field A if grad D_p . G_i >= 0,
 ///   else B (Algorithm 2), as a bit per node of the particle's cell's block
-///   (Grid::block(): the B-spline's (degree + 1)^Dim nodes, CPDI's 4 x 4) in a
+///   (Grid::block(): the B-spline's (degree + 1)^Dim nodes, CPDI's 4^Dim) in a
 ///   per-particle mask (NodeMask); a pair exists where the particle maps to the node
 ///   (with B-splines every node of the block, with CPDI those where its
 ///   averaged shape function exceeds cpdi_maps_to);
@@ -147,7 +147,7 @@ struct DamageTimers
 ///
 /// One source for Dim = 2 and 3 (explicitly instantiated): the kernel field
 /// and the tests are the paper's in Dim directions, r_p the cell diagonal
-/// sqrt(Dim) h. CPDI is two-dimensional yet.
+/// sqrt(Dim) h, on B-splines or CPDI.
 template <int Dim>
 class DamageFields
 {

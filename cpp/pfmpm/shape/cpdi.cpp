@@ -4,109 +4,173 @@
 #include "pfmpm/shape/cpdi.h"
 
 #include <cmath>
+#include <sstream>
 
 namespace pfmpm
 {
 
-std::vector<ColumnSpec> ParticleDomains::columns()
+template <int Dim>
+std::vector<ColumnSpec> ParticleDomains<Dim>::columns()
 {
-  return {{"convected_r1", 2, DType::f64, {0.0},
-           "CPDI half-edge r_1 = F r_1^0, advanced as F (H&H eq. 8)", "x,y", ""},
-          {"convected_r2", 2, DType::f64, {0.0},
-           "CPDI half-edge r_2 = F r_2^0, advanced as F (H&H eq. 8)", "x,y", ""},
-          {"domain_r1", 2, DType::f64, {0.0},
-           "half-edge r_1 of the CPDI integration domain (scaled when failed, H&H §2.6)", "x,y",
-           "domain_r1"},
-          {"domain_r2", 2, DType::f64, {0.0},
-           "half-edge r_2 of the CPDI integration domain (scaled when failed, H&H §2.6)", "x,y",
-           "domain_r2"}};
+  const char* const components = Dim == 2 ? "x,y" : "x,y,z";
+  std::vector<ColumnSpec> specs;
+  for (int k = 1; k <= Dim; ++k)
+  {
+    const std::string r = "r_" + std::to_string(k);
+    specs.push_back({"convected_r" + std::to_string(k), Dim, DType::f64, {0.0},
+                     "CPDI half-edge " + r + " = F " + r + "^0, advanced as F (H&H eq. 8)",
+                     components, ""});
+  }
+  for (int k = 1; k <= Dim; ++k)
+  {
+    const std::string name = "domain_r" + std::to_string(k);
+    specs.push_back({name, Dim, DType::f64, {0.0},
+                     "half-edge r_" + std::to_string(k)
+                         + " of the CPDI integration domain (scaled when failed, H&H §2.6)",
+                     components, name});
+  }
+  return specs;
 }
 
-void ParticleDomains::bind(Particles& P)
+template <int Dim>
+void ParticleDomains<Dim>::bind(Particles& P)
 {
-  _r1 = P.f64("convected_r1").data();
-  _r2 = P.f64("convected_r2").data();
-  _d1 = P.f64("domain_r1").data();
-  _d2 = P.f64("domain_r2").data();
+  for (int k = 0; k < Dim; ++k)
+  {
+    _r[k] = P.f64("convected_r" + std::to_string(k + 1)).data();
+    _d[k] = P.f64("domain_r" + std::to_string(k + 1)).data();
+  }
   const Column* damage = P.find("damage");
   _damage = damage ? damage->f64.data() : nullptr;
   const Column* c = P.find("c");
   _c = c && _scaling.c_failed > 0.0 ? c->f64.data() : nullptr;
 }
 
-void ParticleDomains::integration_domain(std::size_t p) const
+template <int Dim>
+void ParticleDomains<Dim>::integration_domain(std::size_t p) const
 {
-  const double* r1 = &_r1[2 * p];
-  const double* r2 = &_r2[2 * p];
-  double* d1 = &_d1[2 * p];
-  double* d2 = &_d2[2 * p];
   const bool failed = _scaling.enabled && ((_damage && _damage[p] >= 1.0)
                                            || (_c && _c[p] < _scaling.c_failed));
   if (!failed)
   {
-    d1[0] = r1[0];
-    d1[1] = r1[1];
-    d2[0] = r2[0];
-    d2[1] = r2[1];
+    for (int k = 0; k < Dim; ++k)
+      for (int d = 0; d < Dim; ++d)
+        _d[k][Dim * p + d] = _r[k][Dim * p + d];
     return;
   }
-  // Half-diagonals l_a = r_1 + r_2, l_b = r_1 - r_2, each shortened to at
-  // most h / 2; then r_1 = (l_a + l_b) / 2, r_2 = (l_a - l_b) / 2 (card §1.3).
-  double la[2] = {r1[0] + r2[0], r1[1] + r2[1]};
-  double lb[2] = {r1[0] - r2[0], r1[1] - r2[1]};
-  const double half = 0.5 * _h;
-  for (double* l : {la, lb})
-  {
-    const double length = std::hypot(l[0], l[1]);
-    if (length > half)
+  const double* r1 = &_r[0][Dim * p];
+  const double* r2 = &_r[1][Dim * p];
+  // The half-diagonals l of the domain (card §1.3), each shortened to at
+  // most h / 2; then the half-edges rebuilt from them.
+  constexpr int diagonals = Dim == 2 ? 2 : 4;
+  double l[diagonals][Dim];
+  if constexpr (Dim == 2)
+    // l_a = r_1 + r_2, l_b = r_1 - r_2.
+    for (int d = 0; d < 2; ++d)
     {
-      l[0] *= half / length;
-      l[1] *= half / length;
+      l[0][d] = r1[d] + r2[d];
+      l[1][d] = r1[d] - r2[d];
+    }
+  else
+  {
+    // l_a = r_1 + r_2 + r_3, l_b = r_1 - r_2 + r_3, l_c = -r_1 + r_2 + r_3,
+    // l_d = -r_1 - r_2 + r_3.
+    const double* r3 = &_r[2][Dim * p];
+    for (int d = 0; d < 3; ++d)
+    {
+      l[0][d] = r1[d] + r2[d] + r3[d];
+      l[1][d] = r1[d] - r2[d] + r3[d];
+      l[2][d] = -r1[d] + r2[d] + r3[d];
+      l[3][d] = -r1[d] - r2[d] + r3[d];
     }
   }
-  d1[0] = 0.5 * (la[0] + lb[0]);
-  d1[1] = 0.5 * (la[1] + lb[1]);
-  d2[0] = 0.5 * (la[0] - lb[0]);
-  d2[1] = 0.5 * (la[1] - lb[1]);
+  const double half = 0.5 * _h;
+  for (double(&v)[Dim] : l)
+  {
+    double length;
+    if constexpr (Dim == 2)
+      length = std::hypot(v[0], v[1]);
+    else
+      length = std::hypot(v[0], v[1], v[2]);
+    if (length > half)
+      for (double& vd : v)
+        vd *= half / length;
+  }
+  double* d1 = &_d[0][Dim * p];
+  double* d2 = &_d[1][Dim * p];
+  if constexpr (Dim == 2)
+    // r_1 = (l_a + l_b) / 2, r_2 = (l_a - l_b) / 2.
+    for (int d = 0; d < 2; ++d)
+    {
+      d1[d] = 0.5 * (l[0][d] + l[1][d]);
+      d2[d] = 0.5 * (l[0][d] - l[1][d]);
+    }
+  else
+  {
+    // r_1 = (l_a + l_b - l_c - l_d) / 4, r_2 = (l_a - l_b + l_c - l_d) / 4,
+    // r_3 = (l_a + l_b + l_c + l_d) / 4: the parallelepiped nearest to the
+    // shortened diagonals (they need not be a parallelepiped's).
+    double* d3 = &_d[2][Dim * p];
+    for (int d = 0; d < 3; ++d)
+    {
+      d1[d] = 0.25 * (l[0][d] + l[1][d] - l[2][d] - l[3][d]);
+      d2[d] = 0.25 * (l[0][d] - l[1][d] + l[2][d] - l[3][d]);
+      d3[d] = 0.25 * (l[0][d] + l[1][d] + l[2][d] + l[3][d]);
+    }
+  }
 }
 
-void ParticleDomains::convect(const std::int32_t* index, std::size_t n, const double* L,
-                              double dt) const
+template <int Dim>
+void ParticleDomains<Dim>::convect(const std::int32_t* index, std::size_t n, const double* L,
+                                   double dt) const
 {
-  for (std::size_t k = 0; k < n; ++k, L += 4)
+  for (std::size_t k = 0; k < n; ++k, L += Dim * Dim)
   {
     const std::size_t p = static_cast<std::size_t>(index[k]);
     // r_k <- (I + dt L) r_k: H&H eq. 8 on r_k = F r_k^0.
-    for (double* r : {&_r1[2 * p], &_r2[2 * p]})
+    for (double* const edge : _r)
     {
-      const double rx = r[0], ry = r[1];
-      r[0] = rx + dt * (L[0] * rx + L[1] * ry);
-      r[1] = ry + dt * (L[2] * rx + L[3] * ry);
+      double* r = &edge[Dim * p];
+      double old[Dim];
+      for (int d = 0; d < Dim; ++d)
+        old[d] = r[d];
+      for (int i = 0; i < Dim; ++i)
+      {
+        double Lr = L[Dim * i] * old[0];
+        for (int j = 1; j < Dim; ++j)
+          Lr += L[Dim * i + j] * old[j];
+        r[i] = old[i] + dt * Lr;
+      }
     }
   }
 }
 
-std::size_t ParticleDomains::update(const Grid<2>& grid, const double* x, std::size_t n) const
+template <int Dim>
+std::size_t ParticleDomains<Dim>::update(const Grid<Dim>& grid, const double* x,
+                                         std::size_t n) const
 {
-  const BSpline1D* basis[2] = {&grid.basis(0), &grid.basis(1)};
+  using Stencil = CpdiStencil<Dim>;
+  const std::array<const BSpline1D*, Dim> basis = grid.bases();
   const auto count = static_cast<std::ptrdiff_t>(n);
   std::ptrdiff_t first_bad = count;
 #pragma omp parallel for schedule(static) reduction(min : first_bad)
   for (std::ptrdiff_t p = 0; p < count; ++p)
   {
     integration_domain(static_cast<std::size_t>(p));
-    const double *r1 = &_d1[2 * p], *r2 = &_d2[2 * p];
+    const double* r[Dim];
+    for (int k = 0; k < Dim; ++k)
+      r[k] = &_d[k][Dim * p];
     bool bad = false;
-    for (int d = 0; d < 2; ++d)
+    for (int d = 0; d < Dim; ++d)
     {
       // Each corner, computed as the stencil computes it, in a cell of the
       // particle's node block, and at most one cell beyond the grid's edge
       // (where the edge cell's functions extend).
       const BSpline1D& b = *basis[d];
-      const int first = CpdiStencil::first(b.cell(x[2 * p + d]), b.size());
-      for (int c = 0; c < 4; ++c)
+      const int first = Stencil::first(b.cell(x[Dim * p + d]), b.size());
+      for (int c = 0; c < Stencil::corners; ++c)
       {
-        const double xc = CpdiStencil::corner(&x[2 * p], r1, r2, c, d);
+        const double xc = Stencil::corner(&x[Dim * p], r, c, d);
         const double s = b.coordinate(xc);
         if (!(s >= -1.0 && s < b.cells() + 1.0)) // also NaN
           bad = true;
@@ -120,17 +184,44 @@ std::size_t ParticleDomains::update(const Grid<2>& grid, const double* x, std::s
   return static_cast<std::size_t>(first_bad);
 }
 
-std::size_t ParticleDomains::oversized(std::size_t n) const
+template <int Dim>
+std::size_t ParticleDomains<Dim>::oversized(std::size_t n) const
 {
   for (std::size_t p = 0; p < n; ++p)
   {
-    const double *r1 = &_d1[2 * p], *r2 = &_d2[2 * p];
-    const double wide = 2.0 * std::max(std::abs(r1[0]) + std::abs(r2[0]),
-                                       std::abs(r1[1]) + std::abs(r2[1]));
-    if (!(r1[0] * r2[1] - r2[0] * r1[1] > 0.0) || wide > _h * (1.0 + 1e-12))
+    const double* r[Dim];
+    for (int k = 0; k < Dim; ++k)
+      r[k] = &_d[k][Dim * p];
+    // The domain's extent along direction d is 2 sum_k |r_k,d|.
+    double wide = 0.0;
+    for (int d = 0; d < Dim; ++d)
+    {
+      double extent = std::abs(r[0][d]);
+      for (int k = 1; k < Dim; ++k)
+        extent += std::abs(r[k][d]);
+      wide = std::max(wide, 2.0 * extent);
+    }
+    if (!(CpdiStencil<Dim>::determinant(r) > 0.0) || wide > _h * (1.0 + 1e-12))
       return p;
   }
   return n;
 }
+
+template <int Dim>
+std::string ParticleDomains<Dim>::describe(std::size_t p) const
+{
+  std::ostringstream text;
+  for (int k = 0; k < Dim; ++k)
+  {
+    text << (k ? ", r" : "r") << k + 1 << " = (";
+    for (int d = 0; d < Dim; ++d)
+      text << (d ? ", " : "") << _d[k][Dim * p + d];
+    text << ")";
+  }
+  return text.str();
+}
+
+template class ParticleDomains<2>;
+template class ParticleDomains<3>;
 
 } // namespace pfmpm

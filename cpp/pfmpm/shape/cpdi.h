@@ -13,6 +13,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 namespace pfmpm
@@ -27,47 +28,78 @@ enum class ShapeFunctions : int
 };
 
 /// @brief CPDI1 on the degree-1 grid: the shape functions and their
-/// gradients averaged over a particle's parallelogram domain.
+/// gradients averaged over a particle's domain, a parallelogram in 2D and a
+/// parallelepiped in 3D.
 ///
-/// The domain has centre x_p and half-edge vectors r_1, r_2; its corners are
-/// x_c = x_p + xi_1 r_1 + xi_2 r_2 with xi in {-1, +1}^2. With R = [r_1 r_2],
-/// the averages are (H&H eqs. 1-4 with the CPDI1 functions of the method
-/// card, §1.1)
-///   Sbar_i = 1/4 sum_c S_i(x_c),
-///   grad Sbar_i = 1/(4 det R) sum_c S_i(x_c) cof(R) xi_c
-///              = sum_c S_i(x_c)/4 R^{-T} xi_c,
-/// the exact averages of the bilinear interpolant of S_i between the
+/// The domain has centre x_p and half-edge vectors r_1 .. r_Dim; its 2^Dim
+/// corners are x_c = x_p + sum_k xi_k r_k with xi in {-1, +1}^Dim. With
+/// R = [r_1 .. r_Dim], the averages are (H&H eqs. 1-4 with the CPDI1
+/// functions of the method card, §1.1)
+///   Sbar_i = 2^-Dim sum_c S_i(x_c),
+///   grad Sbar_i = 1/(2^Dim det R) sum_c S_i(x_c) cof(R) xi_c
+///              = sum_c S_i(x_c)/2^Dim R^{-T} xi_c,
+/// the exact averages of the multilinear interpolant of S_i between the
 /// corners. A corner lies in the particle's cell or a neighbour (the
 /// domains' check), so the nodes of the cells c-1 .. c+1 hold them all: a
-/// block of 4 x 4 nodes starting one node before the cell, moved inwards at
-/// the grid's ends (first()). A corner beyond the grid's edge (a body
-/// against it) takes the edge cell's functions, extended linearly: they stay
-/// a partition of unity and reproduce linear fields. Provides the members of
-/// BSplineStencil that the transfers read.
+/// block of 4 nodes per direction (4 x 4, or 4 x 4 x 4) starting one node
+/// before the cell, moved inwards at the grid's ends (first()). A corner
+/// beyond the grid's edge (a body against it) takes the edge cell's
+/// functions, extended linearly: they stay a partition of unity and
+/// reproduce linear fields. Provides the members of BSplineStencil that the
+/// transfers read.
+template <int Dim>
 struct CpdiStencil
 {
-  static constexpr int dim = 2;
+  static_assert(Dim == 2 || Dim == 3, "CPDI domains in 2 or 3 directions");
+  static constexpr int dim = Dim;
   static constexpr int degree = 1;
   static constexpr int width = 4;  ///< nodes per direction
   static constexpr int lower = -1; ///< first node relative to the cell, away from the grid's ends
-  static constexpr int size = width * width;
+  static constexpr int size = Dim == 2 ? width * width : width * width * width;
+  static constexpr int corners = 1 << Dim; ///< of a domain
   /// The stencil reads the particle domains.
   static constexpr bool domains = true;
 
-  static constexpr int offset(int i, int d) { return d == 0 ? i / width : i % width; }
+  /// Offset a_d of stencil node i in direction d (the last direction fastest).
+  static constexpr int offset(int i, int d)
+  {
+    int stride = 1;
+    for (int e = Dim - 1; e > d; --e)
+      stride *= width;
+    return (i / stride) % width;
+  }
   /// First node of the block of `cell` on a line of `nodes` nodes.
   static int first(int cell, int nodes) { return std::clamp(cell + lower, 0, nodes - width); }
 
-  /// xi_k of corner c (0 .. 3: (-,-), (+,-), (+,+), (-,+)).
-  static double xi(int c, int k) { return (k == 0 ? c == 1 || c == 2 : c >= 2) ? 1.0 : -1.0; }
-  /// Coordinate d of corner c of the domain with centre x and half-edges r1, r2.
-  static double corner(const double* x, const double* r1, const double* r2, int c, int d)
+  /// xi_k of corner c: 0 .. 3 are (-,-), (+,-), (+,+), (-,+) in (xi_1, xi_2),
+  /// in 3D at xi_3 = -1, and 4 .. 7 the same at xi_3 = +1.
+  static double xi(int c, int k)
   {
-    return x[d] + xi(c, 0) * r1[d] + xi(c, 1) * r2[d];
+    static constexpr double sign[8][3] = {{-1, -1, -1}, {1, -1, -1}, {1, 1, -1}, {-1, 1, -1},
+                                          {-1, -1, 1},  {1, -1, 1},  {1, 1, 1},  {-1, 1, 1}};
+    return sign[c][k];
+  }
+  /// Coordinate d of corner c of the domain with centre x and half-edges r.
+  static double corner(const double* x, const double* const (&r)[Dim], int c, int d)
+  {
+    double xc = x[d];
+    for (int k = 0; k < Dim; ++k)
+      xc += xi(c, k) * r[k][d];
+    return xc;
+  }
+  /// det R of R = [r_1 .. r_Dim] by columns: the domain's volume over 2^Dim.
+  static double determinant(const double* const (&r)[Dim])
+  {
+    if constexpr (Dim == 2)
+      return r[0][0] * r[1][1] - r[1][0] * r[0][1];
+    else
+      return r[0][0] * (r[1][1] * r[2][2] - r[2][1] * r[1][2])
+             + r[1][0] * (r[2][1] * r[0][2] - r[0][1] * r[2][2])
+             + r[2][0] * (r[0][1] * r[1][2] - r[1][1] * r[0][2]);
   }
 
-  double n[size];     ///< Sbar_i
-  double dn[2][size]; ///< grad Sbar_i
+  double n[size];       ///< Sbar_i
+  double dn[Dim][size]; ///< grad Sbar_i
 
   double N(int i) const { return n[i]; }
   double dN(int k, int i) const { return dn[k][i]; }
@@ -86,46 +118,83 @@ struct CpdiStencil
   {
     for (int i = 0; i < size; ++i)
     {
-      const double g[2] = {dn[0][i], dn[1][i]};
+      double g[Dim];
+      for (int k = 0; k < Dim; ++k)
+        g[k] = dn[k][i];
       f(i, n[i], g);
     }
   }
 
-  /// @brief Average over the domain with centre x and half-edges r1, r2 of
-  /// a particle in cell `cell`.
-  void evaluate(const std::array<const BSpline1D*, 2>& basis, const int* cell, const double* x,
-                const double* r1, const double* r2)
+  /// @brief Average over the domain with centre x and half-edges r_1 ..
+  /// r_Dim (one pointer each) of a particle in cell `cell`.
+  template <class... Edge>
+  void evaluate(const std::array<const BSpline1D*, Dim>& basis, const int* cell, const double* x,
+                const Edge*... edges)
   {
-    const int first_x = first(cell[0], basis[0]->size());
-    const int first_y = first(cell[1], basis[1]->size());
-    // R^{-T} = cof(R) / det R, with R = [r_1 r_2] by columns.
-    const double inv = 1.0 / (r1[0] * r2[1] - r2[0] * r1[1]);
-    const double t[2][2] = {{r2[1] * inv, -r1[1] * inv}, {-r2[0] * inv, r1[0] * inv}};
-    std::fill(n, n + size, 0.0);
-    std::fill(dn[0], dn[0] + size, 0.0);
-    std::fill(dn[1], dn[1] + size, 0.0);
-    for (int c = 0; c < 4; ++c)
+    static_assert(sizeof...(Edge) == Dim, "one half-edge per direction");
+    const double* const r[Dim] = {edges...};
+    int first_node[Dim];
+    for (int d = 0; d < Dim; ++d)
+      first_node[d] = first(cell[d], basis[d]->size());
+    // t = R^{-T} = cof(R) / det R, with R = [r_1 .. r_Dim] by columns: in 3D
+    // the columns of cof(R) are r_2 x r_3, r_3 x r_1, r_1 x r_2.
+    const double inv = 1.0 / determinant(r);
+    double t[Dim][Dim];
+    if constexpr (Dim == 2)
     {
-      const double xi1 = xi(c, 0), xi2 = xi(c, 1);
-      const double xc[2] = {corner(x, r1, r2, c, 0), corner(x, r1, r2, c, 1)};
-      const double g[2] = {t[0][0] * xi1 + t[0][1] * xi2, t[1][0] * xi1 + t[1][1] * xi2};
-      // The corner's cell in the block (the domains' check puts it there; the
-      // clamp only keeps a corner on a cell face, which the check may have
-      // rounded the other way, in the block: the functions are continuous).
-      const int ax = std::clamp(basis[0]->clamped_cell(xc[0]) - first_x, 0, 2);
-      const int ay = std::clamp(basis[1]->clamped_cell(xc[1]) - first_y, 0, 2);
-      double sx[2], sy[2], unused[2];
-      basis[0]->evaluate<1>(first_x + ax, xc[0], sx, unused);
-      basis[1]->evaluate<1>(first_y + ay, xc[1], sy, unused);
-      for (int a = 0; a < 2; ++a)
-        for (int b = 0; b < 2; ++b)
+      t[0][0] = r[1][1] * inv;
+      t[0][1] = -r[0][1] * inv;
+      t[1][0] = -r[1][0] * inv;
+      t[1][1] = r[0][0] * inv;
+    }
+    else
+      for (int k = 0; k < 3; ++k)
+      {
+        const double* a = r[(k + 1) % 3];
+        const double* b = r[(k + 2) % 3];
+        t[0][k] = (a[1] * b[2] - a[2] * b[1]) * inv;
+        t[1][k] = (a[2] * b[0] - a[0] * b[2]) * inv;
+        t[2][k] = (a[0] * b[1] - a[1] * b[0]) * inv;
+      }
+    std::fill(n, n + size, 0.0);
+    for (int k = 0; k < Dim; ++k)
+      std::fill(dn[k], dn[k] + size, 0.0);
+#pragma GCC unroll 8
+    for (int c = 0; c < corners; ++c)
+    {
+      // The corner's gradient weight R^{-T} xi_c and, per direction, its
+      // cell in the block (the domains' check puts it there; the clamp only
+      // keeps a corner on a cell face, which the check may have rounded the
+      // other way, in the block: the functions are continuous) and the two
+      // hat functions of that cell at the corner.
+      double g[Dim], s[Dim][2];
+      int a[Dim];
+      for (int d = 0; d < Dim; ++d)
+      {
+        g[d] = t[d][0] * xi(c, 0);
+        for (int k = 1; k < Dim; ++k)
+          g[d] += t[d][k] * xi(c, k);
+        const double xc = corner(x, r, c, d);
+        a[d] = std::clamp(basis[d]->clamped_cell(xc) - first_node[d], 0, 2);
+        double unused[2];
+        basis[d]->template evaluate<1>(first_node[d] + a[d], xc, s[d], unused);
+      }
+      // The 2^Dim nodes of the corner's cell, the last direction fastest.
+#pragma GCC unroll 8
+      for (int m = 0; m < corners; ++m)
+      {
+        int i = 0;
+        double w = 1.0 / corners;
+        for (int d = 0; d < Dim; ++d)
         {
-          const int i = (ax + a) * width + ay + b;
-          const double w = 0.25 * sx[a] * sy[b];
-          n[i] += w;
-          dn[0][i] += w * g[0];
-          dn[1][i] += w * g[1];
+          const int b = (m >> (Dim - 1 - d)) & 1;
+          i = i * width + a[d] + b;
+          w *= s[d][b];
         }
+        n[i] += w;
+        for (int k = 0; k < Dim; ++k)
+          dn[k][i] += w * g[k];
+      }
     }
   }
 };
@@ -144,21 +213,23 @@ struct DomainScaling
   double c_failed = 0.0;
 };
 
-/// @brief The particle domains of a CPDI run: the half-edge vectors as
-/// named particle columns.
+/// @brief The particle domains of a CPDI run in Dim directions: the
+/// half-edge vectors as named particle columns.
 ///
-/// `convected_r1`, `convected_r2` hold r_k = F r_k^0 (method card §1.1): each step's
-/// G2P advances them with the velocity gradient as H&H eq. 8 advances F,
-/// r_k <- (I + dt L) r_k. `domain_r1`, `domain_r2` hold the integration
-/// domain the stencil reads: the convected one, or for a failed particle
-/// (damage D = 1, or phase field c below DomainScaling::c_failed) with
-/// scaling on, the convected one with each half-diagonal shortened to at
-/// most h / 2 (H&H §2.6, method card §1.3), so its diagonal spans at most a
-/// cell. F, J, V_p and the stress do not change.
+/// `convected_r1` .. `convected_r<Dim>` hold r_k = F r_k^0 (method card
+/// §1.1): each step's G2P advances them with the velocity gradient as H&H
+/// eq. 8 advances F, r_k <- (I + dt L) r_k. `domain_r1` .. `domain_r<Dim>`
+/// hold the integration domain the stencil reads: the convected one, or for
+/// a failed particle (damage D = 1, or phase field c below
+/// DomainScaling::c_failed) with scaling on, the convected one with each
+/// half-diagonal (2 in 2D, 4 in 3D) shortened to at most h / 2 (H&H §2.6,
+/// method card §1.3), so its diagonals span at most a cell. F, J, V_p and
+/// the stress do not change.
+template <int Dim>
 class ParticleDomains
 {
 public:
-  /// The columns of the domains, each (x, y) per particle.
+  /// The columns of the domains, each Dim components per particle.
   static std::vector<ColumnSpec> columns();
 
   ParticleDomains(double h, DomainScaling scaling) : _h(h), _scaling(scaling) {}
@@ -166,12 +237,11 @@ public:
   /// @brief Find the columns in `P` (and its damage and phase field, where present).
   void bind(Particles& P);
 
-  /// The integration domains' half-edges r_1 and r_2, (x, y) per particle.
-  const double* r1() const { return _d1; }
-  const double* r2() const { return _d2; }
+  /// The integration domains' half-edges r_(k+1), Dim components per particle.
+  const double* r(int k) const { return _d[k]; }
 
   /// @brief Advance the convected half-edges of the particles index[0, n)
-  /// by dt with their velocity gradients L (4 per particle, in that order).
+  /// by dt with their velocity gradients L (Dim x Dim per particle, row-major).
   void convect(const std::int32_t* index, std::size_t n, const double* L, double dt) const;
 
   /// @brief Set every particle's integration domain from its convected one
@@ -180,11 +250,14 @@ public:
   /// @return The first particle whose domain reaches past the cells next
   ///         to its own (beyond the grid's edge: past the one cell a corner
   ///         may extend there), or n when there is none.
-  std::size_t update(const Grid<2>& grid, const double* x, std::size_t n) const;
+  std::size_t update(const Grid<Dim>& grid, const double* x, std::size_t n) const;
 
-  /// @brief The first particle whose domain is wider than a cell in x or y,
-  /// or not positively oriented (det R <= 0), or n when there is none.
+  /// @brief The first particle whose domain is wider than a cell in some
+  /// direction, or not positively oriented (det R <= 0), or n when there is none.
   std::size_t oversized(std::size_t n) const;
+
+  /// The half-edges of particle p's integration domain as text, "r1 = (..), r2 = (..)".
+  std::string describe(std::size_t p) const;
 
 private:
   /// The integration domain of particle p from its convected one.
@@ -192,10 +265,10 @@ private:
 
   double _h;
   DomainScaling _scaling;
-  double *_r1 = nullptr, *_r2 = nullptr; // convected, F r^0
-  double *_d1 = nullptr, *_d2 = nullptr; // integration domain
-  const double* _damage = nullptr;       // D per particle, or null
-  const double* _c = nullptr;            // phase field per particle, or null
+  double* _r[Dim] = {}; // convected, F r^0
+  double* _d[Dim] = {}; // integration domain
+  const double* _damage = nullptr; // D per particle, or null
+  const double* _c = nullptr;      // phase field per particle, or null
 };
 
 } // namespace pfmpm

@@ -725,7 +725,7 @@ struct KinematicsG2P
   Particles& particles;
   const std::vector<std::unique_ptr<Material::Bound>>& materials;
   const std::vector<const Degradation*>& degradation;
-  const ParticleDomains* domains; ///< with CPDI, else null
+  const ParticleDomains<Dim>* domains; ///< with CPDI, else null
   double dt;
   const std::int32_t* field_of; ///< per particle: its body (discrete) or group (damage fields)
   /// Whether cracking particles get their stress too (Material::Bound::update).

@@ -85,14 +85,9 @@ Solver<Dim>::Solver(Grid<Dim>& grid, Particles& particles,
   _fracture = per_material(std::move(fracture), _materials.size());
   if constexpr (Dim == 3)
   {
-    // What is two-dimensional yet (issue 50's later steps and issue 51).
+    // What is two-dimensional yet (issue 51).
     if (std::any_of(_fracture.begin(), _fracture.end(), [](const auto& f) { return f.has_value(); }))
       throw std::invalid_argument("fracture: the phase field is two-dimensional yet");
-    if (partition == Partition::damage_gradient && shape == ShapeFunctions::cpdi)
-      throw std::invalid_argument(
-          "partition: the damage-gradient partition with CPDI is two-dimensional yet");
-    if (shape == ShapeFunctions::cpdi)
-      throw std::invalid_argument("shape: CPDI is two-dimensional yet");
   }
 
   const auto nmat = static_cast<std::int32_t>(_materials.size());
@@ -132,14 +127,14 @@ Solver<Dim>::Solver(Grid<Dim>& grid, Particles& particles,
       throw std::invalid_argument("CPDI runs on the degree-1 grid, not degree "
                                   + std::to_string(grid.degree()));
     const auto cells = grid.cells();
-    if (*std::min_element(cells.begin(), cells.end()) < CpdiStencil::width - 1)
+    if (*std::min_element(cells.begin(), cells.end()) < CpdiStencil<Dim>::width - 1)
       throw std::invalid_argument("CPDI needs at least 3 cells a side");
     if (!(scaling.c_failed >= 0.0 && scaling.c_failed < 1.0))
       throw std::invalid_argument("CPDI failed phase field c = " + std::to_string(scaling.c_failed)
                                   + ": must lie in [0, 1)");
-    for (const ColumnSpec& c : ParticleDomains::columns())
+    for (const ColumnSpec& c : ParticleDomains<Dim>::columns())
       particles.add(c);
-    grid.set_block(NodeBlock{CpdiStencil::lower, CpdiStencil::width});
+    grid.set_block(NodeBlock{CpdiStencil<Dim>::lower, CpdiStencil<Dim>::width});
     _domains.emplace(grid.h(), scaling);
   }
   if (partition == Partition::single && !friction.empty())
@@ -351,9 +346,8 @@ void Solver<Dim>::dispatch(F&& f)
   std::visit(
       [&](auto& fields)
       {
-        if constexpr (Dim == 2)
-          if (_domains)
-            return with_transfer(Tag<CpdiStencil>{}, fields);
+        if (_domains)
+          return with_transfer(Tag<CpdiStencil<Dim>>{}, fields);
         switch (_grid.degree())
         {
         case 1:
@@ -372,8 +366,9 @@ void Solver<Dim>::dispatch(F&& f)
 template <int Dim>
 Points Solver<Dim>::points() const
 {
-  if (Dim == 2 && _domains)
-    return Points{_particles.x.data(), _domains->r1(), _domains->r2()};
+  if (_domains)
+    return Points{_particles.x.data(), _domains->r(0), _domains->r(1),
+                  Dim == 3 ? _domains->r(Dim - 1) : nullptr};
   return Points{_particles.x.data()};
 }
 
@@ -543,34 +538,20 @@ void Solver<Dim>::prepare(Fields& fields, bool energy)
 template <int Dim>
 void Solver<Dim>::check_domains() const
 {
-  // CPDI is two-dimensional yet: the constructor refuses it in 3D.
-  if constexpr (Dim == 2)
-  {
-    const std::size_t n = _particles.size();
-    if (_step == 0)
-      if (const std::size_t p = _domains->oversized(n); p < n)
-      {
-        const double* r1 = &_domains->r1()[2 * p];
-        const double* r2 = &_domains->r2()[2 * p];
-        std::ostringstream msg;
-        msg << "particle " << p << ": CPDI domain with half-edges r1 = (" << r1[0] << ", " << r1[1]
-            << "), r2 = (" << r2[0] << ", " << r2[1] << ") is wider than a cell (h = " << _grid.h()
-            << ") or not positively oriented at t = 0";
-        throw std::invalid_argument(msg.str());
-      }
-    // The integration domains of this step (failed particles scaled), each
-    // within the cells next to its particle's.
-    if (const std::size_t p = _domains->update(_grid, _particles.x.data(), n); p < n)
+  const std::size_t n = _particles.size();
+  if (_step == 0)
+    if (const std::size_t p = _domains->oversized(n); p < n)
     {
-      const double* r1 = &_domains->r1()[2 * p];
-      const double* r2 = &_domains->r2()[2 * p];
       std::ostringstream msg;
-      msg << "the CPDI domain of " << where(p) << ", half-edges r1 = (" << r1[0] << ", " << r1[1]
-          << "), r2 = (" << r2[0] << ", " << r2[1]
-          << "), reaches past the cells next to its own";
-      throw SimulationError(msg.str());
+      msg << "particle " << p << ": CPDI domain with half-edges " << _domains->describe(p)
+          << " is wider than a cell (h = " << _grid.h() << ") or not positively oriented at t = 0";
+      throw std::invalid_argument(msg.str());
     }
-  }
+  // The integration domains of this step (failed particles scaled), each
+  // within the cells next to its particle's.
+  if (const std::size_t p = _domains->update(_grid, _particles.x.data(), n); p < n)
+    throw SimulationError("the CPDI domain of " + where(p) + ", half-edges "
+                          + _domains->describe(p) + ", reaches past the cells next to its own");
 }
 
 template <int Dim>
@@ -687,7 +668,7 @@ template <class Shape, bool Affine, class Fields>
 void Solver<Dim>::grid_to_particle(Fields& fields, bool stress)
 {
   const bool check_stability = _stability_length > 0.0;
-  const ParticleDomains* domains = Dim == 2 && _domains ? &*_domains : nullptr;
+  const ParticleDomains<Dim>* domains = _domains ? &*_domains : nullptr;
   KinematicsG2P<Shape, Fields, Affine> kernel{_grid,
                                               fields,
                                               _kinematics.data(),
@@ -983,7 +964,7 @@ void Solver<Dim>::set_velocity_gradients(const std::vector<double>& G)
                                 + std::to_string(LL) + " each)");
   if (const std::size_t outside = _sort.sort(_grid, _particles.x); outside < n)
     throw SimulationError(where(outside) + " is outside the grid");
-  if (Dim == 2 && _domains)
+  if (_domains)
   {
     _domains->bind(_particles);
     check_domains();

@@ -430,7 +430,7 @@ private:
   bool _external = false; // some particle carries an external force
   typename Partitions<Dim>::type _fields;
   TransferScheme _transfer;
-  std::optional<ParticleDomains> _domains; // with CPDI
+  std::optional<ParticleDomains<Dim>> _domains; // with CPDI
   std::vector<PhaseFieldGroup> _phase;
 
   CellSort _sort;

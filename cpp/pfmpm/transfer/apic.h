@@ -28,8 +28,8 @@
 ///   gradient sum_i v_i grad N_i^T. On a grid line D_dd = 0, the whole
 ///   weight sits at distance 0 and that direction's affine term is zero.
 /// - CPDI: D_p = sum_i Sbar_i (x_i - x_p)(x_i - x_p)^T is the corners' mean
-///   of the bilinear D at each corner plus r_1 r_1^T + r_2 r_2^T, positive
-///   definite for every domain with det [r_1 r_2] > 0; a full 2 x 2 inverse.
+///   of the multilinear D at each corner plus sum_k r_k r_k^T, positive
+///   definite for every domain with det R > 0; a full Dim x Dim inverse.
 ///
 /// The column holds B_p, not C_p: P2G divides by D_p at the particle's
 /// position then, which keeps the angular momentum of the transfers exact
@@ -37,6 +37,7 @@
 /// G2P would divide by the D_p of the position before the move.
 #pragma once
 
+#include <algorithm>
 #include <array>
 
 #include "pfmpm/grid/grid.h"
@@ -90,7 +91,8 @@ struct BlockPoints
 /// of its block's nodes per direction (node i of the stencil lies at
 /// (r[0][offset(i, 0)], r[1][offset(i, 1)], ..) from the particle) and, where
 /// asked for (inertia), D_p = sum_i N_i (x_i - x_p)(x_i - x_p)^T: with
-/// B-splines its diagonal (D_00, D_11[, D_22]), with CPDI (2D) as (xx, xy, yy).
+/// B-splines its diagonal (D_00, D_11[, D_22]), with CPDI its upper triangle
+/// row by row, (xx, xy, yy) in 2D and (xx, xy, xz, yy, yz, zz) in 3D.
 ///
 /// The offsets are measured from the point the weights reproduce,
 /// sum_i N_i x_i / sum_i N_i (x_p up to round-off), in the block's cells:
@@ -103,8 +105,11 @@ struct BlockPoints
 template <class Shape>
 struct AffineFrame
 {
+  /// Stored entries of D_p: Dim (the diagonal), with CPDI Dim (Dim + 1) / 2.
+  static constexpr int inertia_size =
+      Shape::domains ? Shape::dim * (Shape::dim + 1) / 2 : Shape::dim;
   double r[Shape::dim][Shape::width];
-  double D[Shape::domains ? 3 : Shape::dim];
+  double D[inertia_size];
 
   /// The offset x_i - x_p of stencil node i, per direction.
   [[gnu::always_inline]] void node(int i, double (&x)[Shape::dim]) const
@@ -135,21 +140,25 @@ template <int Dim, int P>
   }
 }
 
-/// @brief The offsets of the frame with CPDI, from the 4 x 4 nodes.
-[[gnu::always_inline]] inline void offsets(const CpdiStencil& s, const BlockPoints<CpdiStencil>& X,
-                                           AffineFrame<CpdiStencil>& f)
+/// @brief The offsets of the frame with CPDI, from the 4^Dim nodes.
+template <int Dim>
+[[gnu::always_inline]] inline void offsets(const CpdiStencil<Dim>& s,
+                                           const BlockPoints<CpdiStencil<Dim>>& X,
+                                           AffineFrame<CpdiStencil<Dim>>& f)
 {
-  double weight = 0.0, first[2] = {0.0, 0.0};
-  for (int i = 0; i < CpdiStencil::size; ++i)
+  using S = CpdiStencil<Dim>;
+  double weight = 0.0, first[Dim] = {};
+  for (int i = 0; i < S::size; ++i)
   {
     weight += s.n[i];
-    first[0] += s.n[i] * X.u[0][CpdiStencil::offset(i, 0)];
-    first[1] += s.n[i] * X.u[1][CpdiStencil::offset(i, 1)];
+#pragma GCC unroll 3
+    for (int d = 0; d < Dim; ++d)
+      first[d] += s.n[i] * X.u[d][S::offset(i, d)];
   }
-  for (int d = 0; d < 2; ++d)
+  for (int d = 0; d < Dim; ++d)
   {
     const double centre = first[d] * (2.0 - weight);
-    for (int a = 0; a < CpdiStencil::width; ++a)
+    for (int a = 0; a < S::width; ++a)
       f.r[d][a] = X.h * (X.u[d][a] - centre);
   }
 }
@@ -169,16 +178,26 @@ template <int Dim, int P>
   }
 }
 
-/// @brief D_p of the frame with CPDI, in full over the 4 x 4 nodes.
-[[gnu::always_inline]] inline void inertia(const CpdiStencil& s, AffineFrame<CpdiStencil>& f)
+/// @brief D_p of the frame with CPDI, in full over the 4^Dim nodes: its
+/// upper triangle row by row.
+template <int Dim>
+[[gnu::always_inline]] inline void inertia(const CpdiStencil<Dim>& s,
+                                           AffineFrame<CpdiStencil<Dim>>& f)
 {
-  f.D[0] = f.D[1] = f.D[2] = 0.0;
-  for (int i = 0; i < CpdiStencil::size; ++i)
+  using S = CpdiStencil<Dim>;
+  std::fill(f.D, f.D + AffineFrame<S>::inertia_size, 0.0);
+  for (int i = 0; i < S::size; ++i)
   {
-    const double rx = f.r[0][CpdiStencil::offset(i, 0)], ry = f.r[1][CpdiStencil::offset(i, 1)];
-    f.D[0] += s.n[i] * rx * rx;
-    f.D[1] += s.n[i] * rx * ry;
-    f.D[2] += s.n[i] * ry * ry;
+    double r[Dim];
+#pragma GCC unroll 3
+    for (int d = 0; d < Dim; ++d)
+      r[d] = f.r[d][S::offset(i, d)];
+    int k = 0;
+#pragma GCC unroll 3
+    for (int a = 0; a < Dim; ++a)
+#pragma GCC unroll 3
+      for (int b = a; b < Dim; ++b)
+        f.D[k++] += s.n[i] * r[a] * r[b];
   }
 }
 
@@ -189,7 +208,12 @@ std::array<double, Shape::dim * Shape::dim> inertia_matrix(const AffineFrame<Sha
   constexpr int Dim = Shape::dim;
   std::array<double, Dim * Dim> D{};
   if constexpr (Shape::domains)
-    D = {f.D[0], f.D[1], f.D[1], f.D[2]};
+  {
+    int k = 0;
+    for (int a = 0; a < Dim; ++a)
+      for (int b = a; b < Dim; ++b, ++k)
+        D[Dim * a + b] = D[Dim * b + a] = f.D[k];
+  }
   else
     for (int d = 0; d < Dim; ++d)
       D[Dim * d + d] = f.D[d];
@@ -213,14 +237,14 @@ template <bool Inertia, class Shape>
 /// row-major Dim x Dim. With B-splines D_p is diagonal, and a direction with
 /// D_dd = 0 (a particle on a degree-1 grid line or on the grid's edge: all
 /// its weight at distance 0) gets no affine velocity; with CPDI D_p is
-/// positive definite.
+/// positive definite, inverted in full (in 3D by its cofactors).
 template <class Shape>
-[[gnu::always_inline]] inline void affine_velocity(const double* B,
-                                                   const double (&D)[Shape::domains ? 3 : Shape::dim],
-                                                   double (&C)[Shape::dim * Shape::dim])
+[[gnu::always_inline]] inline void affine_velocity(
+    const double* B, const double (&D)[AffineFrame<Shape>::inertia_size],
+    double (&C)[Shape::dim * Shape::dim])
 {
   constexpr int Dim = Shape::dim;
-  if constexpr (Shape::domains)
+  if constexpr (Shape::domains && Dim == 2)
   {
     const double det = D[0] * D[2] - D[1] * D[1];
     const double ixx = D[2] / det, ixy = -D[1] / det, iyy = D[0] / det;
@@ -228,6 +252,21 @@ template <class Shape>
     C[1] = B[0] * ixy + B[1] * iyy;
     C[2] = B[2] * ixx + B[3] * ixy;
     C[3] = B[2] * ixy + B[3] * iyy;
+  }
+  else if constexpr (Shape::domains)
+  {
+    // D = (xx, xy, xz, yy, yz, zz); D^-1 = cof(D) / det D, symmetric.
+    const double xx = D[0], xy = D[1], xz = D[2], yy = D[3], yz = D[4], zz = D[5];
+    const double cxx = yy * zz - yz * yz, cxy = xz * yz - xy * zz, cxz = xy * yz - xz * yy;
+    const double det = xx * cxx + xy * cxy + xz * cxz;
+    const double cyy = xx * zz - xz * xz, cyz = xy * xz - xx * yz, czz = xx * yy - xy * xy;
+    const double inverse[3][3] = {{cxx / det, cxy / det, cxz / det},
+                                  {cxy / det, cyy / det, cyz / det},
+                                  {cxz / det, cyz / det, czz / det}};
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j)
+        C[3 * i + j] = B[3 * i] * inverse[0][j] + B[3 * i + 1] * inverse[1][j]
+                       + B[3 * i + 2] * inverse[2][j];
   }
   else
   {

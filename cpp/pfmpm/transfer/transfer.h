@@ -25,13 +25,32 @@ namespace pfmpm
 {
 
 /// The particle data a stencil is evaluated from: the centres and, for a
-/// stencil with domains (CPDI, 2D), the half-edges of the particle domains.
+/// stencil with domains (CPDI), the half-edges of the particle domains.
 struct Points
 {
   const double* x;              ///< centres, Dim coordinates per particle
-  const double* r1 = nullptr;   ///< domain half-edge r_1, (x, y) per particle
+  const double* r1 = nullptr;   ///< domain half-edge r_1, Dim components per particle
   const double* r2 = nullptr;   ///< domain half-edge r_2
+  const double* r3 = nullptr;   ///< domain half-edge r_3 (3D)
 };
+
+/// @brief Evaluate stencil s at particle p of `points`, a particle of cell
+/// `cell`: at its centre, and over its domain's half-edges where the stencil
+/// reads them (CPDI).
+template <class Stencil>
+[[gnu::always_inline]] inline void evaluate_at(Stencil& s,
+                                               const std::array<const BSpline1D*, Stencil::dim>& basis,
+                                               const int* cell, const Points& points, std::size_t p)
+{
+  constexpr int Dim = Stencil::dim;
+  const double* x = &points.x[Dim * p];
+  if constexpr (Stencil::domains && Dim == 2)
+    s.evaluate(basis, cell, x, &points.r1[Dim * p], &points.r2[Dim * p]);
+  else if constexpr (Stencil::domains)
+    s.evaluate(basis, cell, x, &points.r1[Dim * p], &points.r2[Dim * p], &points.r3[Dim * p]);
+  else
+    s.evaluate(basis, cell, x);
+}
 
 namespace detail
 {
@@ -50,16 +69,13 @@ struct EachParticle
   {
     const std::array<int, Dim> index = cell.index;
     const std::array<const BSpline1D*, Dim> local = basis;
-    const double* const xs = points.x;
+    const Points at = points;
     const std::int32_t* const sorted = order;
     for (std::int64_t k = cell.begin; k < cell.end; ++k)
     {
       const std::size_t p = sorted[k];
       Stencil s;
-      if constexpr (Stencil::domains)
-        s.evaluate(local, index.data(), &xs[Dim * p], &points.r1[Dim * p], &points.r2[Dim * p]);
-      else
-        s.evaluate(local, index.data(), &xs[Dim * p]);
+      evaluate_at(s, local, index.data(), at, p);
       f(p, s);
     }
   }

@@ -8,7 +8,7 @@ import math
 from dataclasses import dataclass
 
 from .declared import check_declared, parameter, phase_field_parameters
-from .validation import (MAX_COUNT, WHOLE_TOL, SceneError, boolean, choice, integer, planar, real, same_dimension,
+from .validation import (MAX_COUNT, WHOLE_TOL, SceneError, boolean, choice, integer, real, same_dimension,
                          seq, store, vector)
 
 __all__ = ["DEGREES", "SHAPES", "TRANSFER_SCHEMES", "GridSpec", "Time", "Output", "PhaseFieldSpec",
@@ -54,10 +54,11 @@ class GridSpec:
     shape : str
         Shape functions of the momentum transfers: ``"bspline"`` (at the particle
         centres) or ``"cpdi"`` (CPDI1 averages over the particle domains, on the
-        degree-1 grid; the phase field keeps B-splines; 2D only).
+        degree-1 grid, in 2D and 3D; the phase field keeps B-splines).
     scale_failed : bool
         With CPDI: scale the domain of a failed particle (damage D = 1, or phase
-        field c below ``failed_c``) to a diagonal of at most ``h`` (Homel & Herbold §2.6).
+        field c below ``failed_c``), each half-diagonal shortened to at most ``h/2``
+        (Homel & Herbold §2.6).
     failed_c : float
         With CPDI: a particle with phase field c below this is failed; 0 counts
         damage D = 1 alone.
@@ -100,8 +101,6 @@ class GridSpec:
         store(self, "scale_failed", boolean("scale_failed", self.scale_failed))
         store(self, "failed_c", real("failed_c", self.failed_c, ge=0, lt=1))
         if self.shape == "cpdi":
-            if self.dim == 3:
-                raise planar("shape", "CPDI", self.shape)
             if self.degree != 1:
                 raise SceneError("degree", "shape \"cpdi\" runs on the degree-1 grid (CPDI1);"
                                            " set degree = 1", self.degree)

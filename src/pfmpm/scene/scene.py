@@ -44,8 +44,8 @@ class Scene:
     three ``size`` entries makes a 3D scene (:attr:`dim`), whose bodies have
     3D shapes and whose vectors have three components. A 3D scene runs one
     velocity field, or every body its own with frictional contact, on
-    B-splines with elastic and neo-Hookean materials (with damage); the phase
-    field, initial cracks, the damage-gradient partition, CPDI, plane stress
+    B-splines or CPDI with elastic and neo-Hookean materials (with damage); the
+    phase field, initial cracks, the damage-gradient partition, plane stress
     and Drucker-Prager are two-dimensional yet and refused there.
 
     Parameters
@@ -217,8 +217,6 @@ class Scene:
                 raise planar(f"materials[{i}].model", f"the {material.model} model", material.model)
         if self.cracks:
             raise planar("cracks", "an initial crack (it seeds the phase field)")
-        if self.contact is not None and self.contact.damage_gradient and self.grid.shape == "cpdi":
-            raise planar("contact.partition", "the damage-gradient partition with CPDI", "damage_gradient")
         if self.output.snapshots:
             raise planar("output.snapshots", "an image of the phase field", self.output.snapshots)
 

@@ -92,9 +92,10 @@ def fill(scene: "Scene", xs: list[np.ndarray], columns: Mapping[str, np.ndarray]
     (N,) body index, ``material`` (N,) material index, ``phi`` (N,) material
     orientation in radians (clockwise from x) and ``fext`` (N, dim) the external forces at
     t = 0, those of :func:`load_forces` times each load's amplitude then.  With ``grid.shape = "cpdi"`` also the
-    half-edges of the particle domains, the ``h/n`` squares of the lattice:
-    ``convected_r1`` and ``domain_r1`` (N, 2) ``= (h/2n, 0)``,
-    ``convected_r2`` and ``domain_r2`` ``= (0, h/2n)``.
+    half-edges of the particle domains, the ``h/n`` squares (cubes in 3D) of the lattice:
+    ``convected_r1`` and ``domain_r1`` (N, dim) ``= (h/2n, 0[, 0])``,
+    ``convected_r2`` and ``domain_r2`` ``= (0, h/2n[, 0])`` and in 3D
+    ``convected_r3`` and ``domain_r3`` ``= (0, 0, h/2n)``.
     """
     materials = {m.name: i for i, m in enumerate(scene.materials)}
     start = 0
@@ -104,10 +105,10 @@ def fill(scene: "Scene", xs: list[np.ndarray], columns: Mapping[str, np.ndarray]
         spacing = body.spacing(scene.grid.h)
         volume = math.prod([spacing] * scene.dim) * scene.thickness
         values = {"x": x, "volume": volume, "mass": scene.materials[m].density * volume,
-                  "body": b, "material": m, "phi": math.radians(body.orientation),
-                  # CPDI: the domains are the lattice's h/n squares (half-edges h/2n)
-                  "convected_r1": (0.5 * spacing, 0.0), "domain_r1": (0.5 * spacing, 0.0),
-                  "convected_r2": (0.0, 0.5 * spacing), "domain_r2": (0.0, 0.5 * spacing)}
+                  "body": b, "material": m, "phi": math.radians(body.orientation)}
+        # CPDI: the domains are the lattice's h/n squares or cubes (half-edges h/2n along the axes)
+        for k, edge in enumerate(0.5 * spacing * np.eye(scene.dim), start=1):
+            values[f"convected_r{k}"] = values[f"domain_r{k}"] = tuple(edge)
         for name, value in values.items():
             if name in columns:
                 columns[name][part] = value
@@ -234,7 +235,7 @@ def particles(scene: "Scene") -> dict[str, np.ndarray]:
            "body": np.empty(n, dtype=np.int32), "material": np.empty(n, dtype=np.int32),
            "phi": np.empty(n), "fext": np.empty((n, dim))}
     if scene.grid.shape == "cpdi":
-        out.update({name: np.empty((n, 2)) for name in
-                    ("convected_r1", "domain_r1", "convected_r2", "domain_r2")})
+        out.update({f"{kind}_r{k}": np.empty((n, dim)) for kind in ("convected", "domain")
+                    for k in range(1, dim + 1)})
     fill(scene, xs, out)
     return out
