@@ -563,8 +563,12 @@ void DamageFields<Dim>::open_nodes(const Particles& particles, const CellSort& s
   const double* full = _full.data();
   const std::uint8_t* softening = _softening.data();
   // The sums of H&H eq. 21 over A and B together, with the terms P2G adds into
-  // its md and full, cell by cell; strips of one parity share no node.
+  // its md and full, cell by cell; strips of one parity share no node. On
+  // the way, whether a particle of a near cell is missing from the
+  // neighbour lists (gradients()).
   list_cells(_near, _near_cells);
+  const bool lists = _neighbours.builds() > 0 && _neighbours.size() == particles.size();
+  int unlisted = lists ? 0 : 1;
   for_each_listed_cell<Dim>(
       _grid, *this, _groups, sort, _near_cells,
       [&](const Cell<Dim>& cell, const CellSlots<Dim>& c)
@@ -586,6 +590,11 @@ void DamageFields<Dim>::open_nodes(const Particles& particles, const CellSort& s
           const int f = c.local(group[p]);
           const double mp = mass[p], Dp = damage[p];
           const bool failed = full[p] != 0.0, soft = softening[p] != 0;
+          if (lists && !_neighbours.listed(p))
+          {
+#pragma omp atomic write
+            unlisted = 1;
+          }
           s.each_node(
               [&](int i, double w, const double*)
               {
@@ -607,6 +616,7 @@ void DamageFields<Dim>::open_nodes(const Particles& particles, const CellSort& s
             _group_softening[slot] |= static_cast<std::uint8_t>(any_softening[f] >> i & 1u);
           }
       });
+  _unlisted = unlisted != 0;
   // Open: a fully damaged particle maps there and the mean damage of both
   // sides together exceeds D-bar_min, less a margin far above the rounding
   // of sums of positive terms taken in another order than P2G's.
@@ -667,16 +677,8 @@ void DamageFields<Dim>::gradients(Particles& particles, const CellSort& sort)
     // ones among them a side), so only theirs are listed, with those of the
     // cells within list_margin of them: the damage may spread that far
     // before the list lacks a particle it needs and is built again.
-    int unlisted = 0;
-    const auto nnear = static_cast<std::ptrdiff_t>(_near_cells.size());
-    if (_neighbours.builds() > 0 && _neighbours.size() == particles.size())
-    {
-#pragma omp parallel for schedule(static) reduction(| : unlisted)
-      for (std::ptrdiff_t i = 0; i < nnear; ++i)
-        for (std::int64_t k = start[_near_cells[i]]; k < start[_near_cells[i] + 1]; ++k)
-          unlisted |= _neighbours.listed(order[k]) ? 0 : 1;
-    }
-    if (unlisted || _neighbours.stale(_grid, sort, particles.x, _options.skin * _radius))
+    // (open_nodes() noted an unlisted particle of a near cell as it passed.)
+    if (_unlisted || _neighbours.stale(_grid, sort, particles.x, _options.skin * _radius))
     {
       dilate<Dim>(_near, _grid.cells(), list_margin, _dilated, _listed_cells);
       _neighbours.build(_grid, sort, particles.x, (1.0 + 2.0 * _options.skin) * _radius,

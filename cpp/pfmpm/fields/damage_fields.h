@@ -333,6 +333,7 @@ private:
   std::vector<std::uint8_t> _open;    // per cell: its block holds an open node
   std::vector<std::int32_t> _near_cells, _open_cells; // the cells of each, in key order
   std::vector<std::uint8_t> _listed_cells; // per cell: the neighbour lists hold its particles
+  bool _unlisted = true;              // a particle of a near cell is not in the lists (open_nodes())
   std::vector<std::uint8_t> _proxy;   // per particle: its gradient gives a side (gradients())
   std::vector<std::uint8_t> _set;     // per particle: its gradient or mask may be non-zero
   bool _clear_all = true;             // clear() zeroes every particle's (first build, forget())
