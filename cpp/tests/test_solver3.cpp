@@ -245,39 +245,63 @@ TEST(Solver3, CpdiFreeBarRingsAtItsLongitudinalPeriod)
   EXPECT_GT(longest - shortest, 1e-5);
 }
 
+namespace
+{
+/// A ball of radius 3 about (5, 5, 5), 2 particles a cell a side (h = 1),
+/// spinning at 1/3 about the axis (1, 2, 2) / 3 through its centre: its
+/// particles with the rigid velocities v = omega x (x - centre), and the
+/// velocity gradients G_ij = dv_i/dx_j = eps_ikj omega_k of the affine
+/// matrices (9 per particle).
+struct SpinningBall
+{
+  struct Shape
+  {
+    std::array<double, 3> centre{5.0, 5.0, 5.0};
+    double R = 3.0, rate = 1.0 / 3.0;
+    std::array<double, 3> omega{rate / 3.0, 2.0 * rate / 3.0, 2.0 * rate / 3.0};
+  } shape;
+  Particles P = lattice<3>({2.0, 2.0, 2.0}, {8.0, 8.0, 8.0}, 0.5,
+                           [this](const double* x)
+                           {
+                             double r2 = 0.0;
+                             for (int k = 0; k < 3; ++k)
+                               r2 += (x[k] - shape.centre[k]) * (x[k] - shape.centre[k]);
+                             return r2 < shape.R * shape.R;
+                           });
+  std::vector<double> G = std::vector<double>(9 * P.size());
+
+  SpinningBall()
+  {
+    const auto& [centre, R, rate, omega] = shape;
+    for (std::size_t p = 0; p < P.size(); ++p)
+    {
+      double r[3];
+      for (int k = 0; k < 3; ++k)
+        r[k] = P.x[3 * p + k] - centre[k];
+      for (int i = 0; i < 3; ++i)
+      {
+        const int j = (i + 1) % 3, k = (i + 2) % 3;
+        P.v[3 * p + i] = omega[j] * r[k] - omega[k] * r[j];
+        G[9 * p + 3 * i + k] = omega[j];
+        G[9 * p + 3 * i + j] = -omega[k];
+      }
+    }
+  }
+};
+} // namespace
+
 TEST(Solver3, ObliqueSpinKeepsItsAngularMomentumWithApic)
 {
   // A neo-Hookean ball of radius 3 spinning at omega about the axis (1, 2, 2) / 3
   // through its centre, seeded with the affine matrices of the rigid field
   // v = omega x (x - centre), for one turn.
-  const std::array<double, 3> centre{5.0, 5.0, 5.0};
-  const double R = 3.0, rate = 1.0 / 3.0, pi = std::acos(-1.0);
-  const std::array<double, 3> omega{rate / 3.0, 2.0 * rate / 3.0, 2.0 * rate / 3.0};
+  SpinningBall spin;
+  const auto& [centre, R, rate, omega] = spin.shape;
+  const double pi = std::acos(-1.0);
   Grid<3> grid(2, {10, 10, 10}, 1.0, {0.0, 0.0, 0.0});
-  Particles P = lattice<3>({2.0, 2.0, 2.0}, {8.0, 8.0, 8.0}, 0.5,
-                           [&](const double* x)
-                           {
-                             double r2 = 0.0;
-                             for (int k = 0; k < 3; ++k)
-                               r2 += (x[k] - centre[k]) * (x[k] - centre[k]);
-                             return r2 < R * R;
-                           });
+  Particles& P = spin.P;
+  const std::vector<double>& G = spin.G;
   const std::size_t n = P.size();
-  std::vector<double> G(9 * n);
-  for (std::size_t p = 0; p < n; ++p)
-  {
-    double r[3];
-    for (int k = 0; k < 3; ++k)
-      r[k] = P.x[3 * p + k] - centre[k];
-    for (int i = 0; i < 3; ++i)
-    {
-      const int j = (i + 1) % 3, k = (i + 2) % 3;
-      P.v[3 * p + i] = omega[j] * r[k] - omega[k] * r[j];
-      // G_ij = dv_i/dx_j = eps_ikj omega_k
-      G[9 * p + 3 * i + k] = omega[j];
-      G[9 * p + 3 * i + j] = -omega[k];
-    }
-  }
   const auto ball = MaterialRegistry::make(
       "neo_hookean", Parameters({{"E", 100.0}, {"nu", 0.3}, {"density", 1.0}}, {}));
   StepConfig step(0.03);
@@ -323,33 +347,12 @@ TEST(Solver3, CpdiObliqueSpinKeepsItsAngularMomentumAndVolume)
   // so a domain's volume 8 det R is J times the lattice cube's: a rotation's own step
   // det(I + dt W) = 1 + dt^2 |omega|^2 would add 2 pi |omega| dt = 6 % a turn, which the
   // neo-Hookean bulk stiffness holds back.
-  const std::array<double, 3> centre{5.0, 5.0, 5.0};
-  const double R = 3.0, rate = 1.0 / 3.0, pi = std::acos(-1.0), dt = 0.03;
-  const std::array<double, 3> omega{rate / 3.0, 2.0 * rate / 3.0, 2.0 * rate / 3.0};
+  SpinningBall spin;
+  const double R = spin.shape.R, rate = spin.shape.rate, pi = std::acos(-1.0), dt = 0.03;
   Grid<3> grid(1, {10, 10, 10}, 1.0, {0.0, 0.0, 0.0});
-  Particles P = lattice<3>({2.0, 2.0, 2.0}, {8.0, 8.0, 8.0}, 0.5,
-                           [&](const double* x)
-                           {
-                             double r2 = 0.0;
-                             for (int k = 0; k < 3; ++k)
-                               r2 += (x[k] - centre[k]) * (x[k] - centre[k]);
-                             return r2 < R * R;
-                           });
+  Particles& P = spin.P;
+  const std::vector<double>& G = spin.G;
   const std::size_t n = P.size();
-  std::vector<double> G(9 * n);
-  for (std::size_t p = 0; p < n; ++p)
-  {
-    double r[3];
-    for (int k = 0; k < 3; ++k)
-      r[k] = P.x[3 * p + k] - centre[k];
-    for (int i = 0; i < 3; ++i)
-    {
-      const int j = (i + 1) % 3, k = (i + 2) % 3;
-      P.v[3 * p + i] = omega[j] * r[k] - omega[k] * r[j];
-      G[9 * p + 3 * i + k] = omega[j];
-      G[9 * p + 3 * i + j] = -omega[k];
-    }
-  }
   const auto ball = MaterialRegistry::make(
       "neo_hookean", Parameters({{"E", 100.0}, {"nu", 0.3}, {"density", 1.0}}, {}));
   StepConfig step = cpdi(dt);
