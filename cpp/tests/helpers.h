@@ -8,6 +8,8 @@
 #include "pfmpm/particles/particles.h"
 #include "pfmpm/solver/solver.h"
 
+#include <gtest/gtest.h>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -107,6 +109,38 @@ inline double slab_gap(const Energies<2>& a, const Energies<3>& b, double t, dou
                    gap(a.momentum[0], b.momentum[0] / t, momentum),
                    gap(a.momentum[1], b.momentum[1] / t, momentum), gap(a.mass, b.mass / t, a.mass)})
     worst = std::max(worst, g);
+  return worst;
+}
+
+/// @brief Step a plane run and its slab of thickness t side by side for
+/// `steps` steps: each step the slab's energies per unit thickness must be
+/// the plane's to 1e-10 (slab_gap, and the angular momentum about z over
+/// `angular`), its z momentum zero to 1e-12 of `momentum` t and its in-plane
+/// angular momentum that of its mid-plane z = t/2 to 1e-12 of `angular` t.
+/// Returns the largest gap; stops at the first step beyond 1e-10.
+inline double step_alongside(Solver<2>& plane, Solver<3>& slab, double t, int steps, double energy,
+                             double momentum, double angular)
+{
+  double worst = 0.0;
+  for (int step = 0; step < steps; ++step)
+  {
+    plane.advance(1);
+    slab.advance(1);
+    const Energies<2> a = plane.energies();
+    const Energies<3> b = slab.energies();
+    worst = std::max({worst, slab_gap(a, b, t, energy, momentum),
+                      std::abs(a.angular_momentum - b.angular_momentum[2] / t) / angular});
+    if (!(worst < 1e-10))
+    {
+      ADD_FAILURE() << "the slab left the plane run at step " << step + 1 << ": gap " << worst;
+      return worst;
+    }
+    EXPECT_LT(std::abs(b.momentum[2]), 1e-12 * momentum * t) << "step " << step + 1;
+    EXPECT_LT(std::abs(b.angular_momentum[0] + 0.5 * t * b.momentum[1])
+                  + std::abs(b.angular_momentum[1] - 0.5 * t * b.momentum[0]),
+              1e-12 * angular * t)
+        << "step " << step + 1;
+  }
   return worst;
 }
 
