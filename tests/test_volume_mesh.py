@@ -14,6 +14,7 @@ import pytest
 from pfmpm import Scene, Simulation
 from pfmpm.cli import main
 from pfmpm.scene import Body, Box, GridSpec, MeshShape, SceneError, seeding
+from pfmpm.scene.toml import toml_text
 
 GRID = GridSpec(size=(4.0, 4.0, 4.0), h=0.25)
 """Particle centres (2 x 2 x 2 per cell) at 0.0625 + 0.125 k: none on the
@@ -147,26 +148,9 @@ def test_pfmpm_run_of_a_scene_with_a_mesh_body(tmp_path):
     particles are the lattice points in the mesh, each of volume (h/2)^3."""
     holed_block(tmp_path / "block.vtu", "tetra")
     toml = tmp_path / "mesh3d.toml"
-    toml.write_text("""name = "mesh3d"
-[grid]
-size = [2.0, 2.0, 2.0]
-h = 0.25
-[time]
-end = 0.05
-[output]
-energies_every = 1
-particles = false
-[[materials]]
-name = "m"
-E = 100.0
-nu = 0.3
-density = 2.0
-[[bodies]]
-name = "b"
-material = "m"
-velocity = [0.5, 0.0, 0.0]
-shape = { type = "mesh", file = "block.vtu", offset = [0.1, 0.1, 0.1] }
-""")
+    tables = scene_tables("block.vtu")  # found beside the scene file
+    tables["grid"]["size"], tables["time"]["end"] = [2.0, 2.0, 2.0], 0.05
+    toml.write_text(toml_text(tables))
     assert main(["run", str(toml), "--out", str(tmp_path / "out"), "--quiet"]) == 0
     scene = Scene.from_toml(toml)
     assert scene.dim == 3 and scene.bodies[0].shape.file == str(tmp_path / "block.vtu")
@@ -219,22 +203,9 @@ def test_wrong_dimensions_and_bad_files_are_one_line_errors(tmp_path, capfd):
         assert err.match("^" + message), str(err.value)
     capfd.readouterr()
     # From the command line: one line, no traceback.
-    (tmp_path / "flat.toml").write_text(f"""name = "x"
-[grid]
-size = [4.0, 4.0, 4.0]
-h = 0.25
-[time]
-end = 0.02
-[[materials]]
-name = "m"
-E = 100.0
-nu = 0.3
-density = 2.0
-[[bodies]]
-name = "b"
-material = "m"
-shape = {{ type = "mesh", file = "flat.vtu" }}
-""")
+    flat = scene_tables("flat.vtu")
+    del flat["bodies"][0]["shape"]["offset"]
+    (tmp_path / "flat.toml").write_text(toml_text(flat))
     assert main(["run", str(tmp_path / "flat.toml"), "--out", str(tmp_path / "o"), "--quiet"]) == 2
     err = capfd.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("error: bodies[0].shape.file = ") and "has no tetrahedra" in err[0]

@@ -533,15 +533,6 @@ void dilate(const std::vector<std::uint8_t>& in, const std::array<int, Dim>& cel
 /// the neighbour lists also hold.
 constexpr int list_margin = 2;
 
-/// The cell key of point x on `grid`.
-template <int Dim>
-std::size_t cell_of(const Grid<Dim>& grid, const double* x)
-{
-  std::array<int, Dim> i;
-  for (int d = 0; d < Dim; ++d)
-    i[d] = grid.basis(d).cell(x[d]);
-  return lattice_key<Dim>(i, grid.cells());
-}
 } // namespace
 
 template <int Dim>
@@ -670,6 +661,7 @@ void DamageFields<Dim>::gradients(Particles& particles, const CellSort& sort)
 {
   const std::int32_t* order = sort.order().data();
   const std::int64_t* start = sort.cell_start().data();
+  const std::int32_t* cell_of = sort.cell().data(); // per particle, at this step's positions
   {
     Stopwatch clock{_timers.neighbours};
     // Only the particles of the near cells need a kernel field (those of the
@@ -747,7 +739,7 @@ void DamageFields<Dim>::gradients(Particles& particles, const CellSort& sort)
       {
         if (body[q] != body[p] || distance2<Dim>(&x[Dim * q], &x[Dim * p]) >= reach2)
           continue;
-        const std::size_t cell = cell_of<Dim>(_grid, &x[Dim * q]);
+        const std::int32_t cell = cell_of[q];
         if (!_open[cell] && _near[cell])
         {
 #pragma omp atomic write
