@@ -21,7 +21,7 @@ using namespace pfmpm;
 namespace
 {
 constexpr int P = 2;
-constexpr int H = SymmetricStencil<P>::size;
+constexpr int H = SymmetricStencil<2, P>::size;
 
 /// A system on an n x n block of grid nodes, padded by P on each side: K is
 /// a sum of rank-one "particle" blocks w N N^T over 3 x 3 nodes (N > 0, as
@@ -74,7 +74,7 @@ struct BoxSystem
     std::vector<double> star(rows.size() / H, 0.0);
     for (std::size_t a : position)
       star[a] = 1.6 * u(rng) - 0.3;
-    const StencilSystem<P> K = system();
+    const StencilSystem<2, P> K = system();
     for (std::size_t a = 0; a < position.size(); ++a)
       rhs.push_back(K.product(a, star.data()) + diagonal[a] * (u(rng) - 0.5));
   }
@@ -85,22 +85,22 @@ struct BoxSystem
   /// K_ij += v for nodes i = (ix, iy), j = (jx, jy) (and K_ji, the same entry).
   void add(int ix, int iy, int jx, int jy, double v)
   {
-    const int k = SymmetricStencil<P>::slot(jx - ix, jy - iy);
+    const int k = SymmetricStencil<2, P>::slot(jx - ix, jy - iy);
     if (k >= 0)
       rows[padded(ix, iy) * H + k] += v;
     else if (ix != jx || iy != jy)
       return; // the pair (j, i) adds it
   }
-  StencilSystem<P> system() const
+  StencilSystem<2, P> system() const
   {
-    return {SymmetricStencil<P>(static_cast<std::size_t>(ny)), rows.data(), position.data(),
+    return {SymmetricStencil<2, P>(static_cast<std::size_t>(ny)), rows.data(), position.data(),
             diagonal.data(), rhs.data(), position.size()};
   }
   /// The minimiser by projected Gauss-Seidel, which converges for any K
   /// positive semi-definite with positive diagonal (each sweep lowers the energy).
   std::vector<double> reference() const
   {
-    const StencilSystem<P> K = system();
+    const StencilSystem<2, P> K = system();
     std::vector<double> c(rows.size() / H, 0.0);
     for (std::size_t a : position)
       c[a] = 0.5;
@@ -150,7 +150,7 @@ TEST(Mprgp, FindsTheBoxMinimiserOfSystemsThatAreNotMMatrices)
     for (double start : {1.0, 0.5})
     {
       std::vector<double> c = padded_fill(s, start), p = padded_fill(s, 0.0), g, q;
-      const MprgpResult r = mprgp<P>(s.system(), c.data(), p.data(), g, q, 1e-13 * norm_f, 1e-13, 100000);
+      const MprgpResult r = mprgp<2, P>(s.system(), c.data(), p.data(), g, q, 1e-13 * norm_f, 1e-13, 100000);
       ASSERT_TRUE(r.converged) << "seed " << seed << ", start " << start;
       for (std::size_t a = 0; a < s.position.size(); ++a)
       {
@@ -181,7 +181,7 @@ TEST(Mprgp, SemiDefiniteSystemWithoutReactionSettlesOnTheBound)
   for (double& f : s.rhs)
     f = 0.25;
   std::vector<double> c = padded_fill(s, 0.3), p = padded_fill(s, 0.0), g, q;
-  const MprgpResult r = mprgp<P>(s.system(), c.data(), p.data(), g, q, 1e-12, 1e-12, 1000);
+  const MprgpResult r = mprgp<2, P>(s.system(), c.data(), p.data(), g, q, 1e-12, 1e-12, 1000);
   ASSERT_TRUE(r.converged);
   for (std::size_t a : s.position)
     EXPECT_EQ(c[a], 1.0);
@@ -195,7 +195,7 @@ TEST(Mprgp, ThreadCountDoesNotChangeBits)
   {
     omp_set_num_threads(threads);
     std::vector<double> c = padded_fill(s, 1.0), p = padded_fill(s, 0.0), g, q;
-    mprgp<P>(s.system(), c.data(), p.data(), g, q, 1e-10, 1e-10, 100000);
+    mprgp<2, P>(s.system(), c.data(), p.data(), g, q, 1e-10, 1e-10, 100000);
     out.push_back(c);
   }
   omp_set_num_threads(omp_get_num_procs());

@@ -189,7 +189,7 @@ TEST(Multigrid, GalerkinOperatorIsTheMatrixOfTheCoarseGrid)
                   Preconditioner::jacobi, 1e-6);
 
   // K_h in the stencil storage, then the multigrid levels built from it.
-  const int p = 2, H = SymmetricStencil<2>::size;
+  const int p = 2, H = SymmetricStencil<2, 2>::size;
   const PhaseFieldSystem k = fine.solver.phase_field_system();
   const int nny = fine.grid.nodes()[1];
   const std::size_t pny = nny + 2 * p, pnx = fine.grid.nodes()[0] + 2 * p;
@@ -203,7 +203,7 @@ TEST(Multigrid, GalerkinOperatorIsTheMatrixOfTheCoarseGrid)
     for (auto e = k.row_start[a]; e < k.row_start[a + 1]; ++e)
     {
       const int jx = k.nodes[k.column[e]] / nny, jy = k.nodes[k.column[e]] % nny;
-      if (const int s = SymmetricStencil<2>::slot(jx - ix, jy - iy); s >= 0)
+      if (const int s = SymmetricStencil<2, 2>::slot(jx - ix, jy - iy); s >= 0)
         rows[padded(ix, iy) * H + s] = k.value[e];
     }
   }

@@ -19,13 +19,13 @@ namespace pfmpm
 {
 
 /// @brief K c = F on the active nodes of a padded node layout, K symmetric
-/// positive semi-definite and stored as SymmetricStencil<P> rows (zero at the
-/// padded nodes that are not active).
-template <int P>
+/// positive semi-definite and stored as SymmetricStencil<Dim, P> rows (zero at
+/// the padded nodes that are not active).
+template <int Dim, int P>
 struct StencilSystem
 {
-  SymmetricStencil<P> stencil;
-  const double* rows;          ///< K: SymmetricStencil<P>::size entries per padded node
+  SymmetricStencil<Dim, P> stencil;
+  const double* rows;          ///< K: SymmetricStencil<Dim, P>::size entries per padded node
   const std::size_t* position; ///< per active node: its padded index
   const double* diagonal;      ///< per active node: K_aa > 0
   const double* rhs;           ///< per active node: F
@@ -84,8 +84,8 @@ struct MprgpResult
 ///        box), then the solution.
 /// @param p A padded work vector, zero at the nodes that are not active; left so.
 /// @param g, q Work vectors (resized to K.size).
-template <int P>
-MprgpResult mprgp(const StencilSystem<P>& K, double* c, double* p, std::vector<double>& g,
+template <int Dim, int P>
+MprgpResult mprgp(const StencilSystem<Dim, P>& K, double* c, double* p, std::vector<double>& g,
                   std::vector<double>& q, double stop, double step, int max_iterations)
 {
   const std::size_t n = K.size;

@@ -185,16 +185,16 @@ double Multigrid::entry(std::size_t level, int ix, int iy, int dx, int dy) const
 template <int P>
 double Multigrid::stencil_entry(const Level& level, int ix, int iy, int dx, int dy) const
 {
-  constexpr int H = SymmetricStencil<P>::size;
+  constexpr int H = SymmetricStencil<2, P>::size;
   if (std::abs(dx) > P || std::abs(dy) > P)
     throw std::out_of_range("multigrid: offset beyond the stencil");
   const int jx = ix + dx, jy = iy + dy;
   if (!level.rows || ix < 0 || ix >= level.nx || iy < 0 || iy >= level.ny || jx < 0
       || jx >= level.nx || jy < 0 || jy >= level.ny)
     return 0.0;
-  if (const int k = SymmetricStencil<P>::slot(dx, dy); k >= 0)
+  if (const int k = SymmetricStencil<2, P>::slot(dx, dy); k >= 0)
     return level.rows[padded(level, ix, iy) * H + k];
-  return level.rows[padded(level, jx, jy) * H + SymmetricStencil<P>::slot(-dx, -dy)];
+  return level.rows[padded(level, jx, jy) * H + SymmetricStencil<2, P>::slot(-dx, -dy)];
 }
 
 void Multigrid::number_unknowns(Level& level) const
@@ -210,7 +210,7 @@ void Multigrid::number_unknowns(Level& level) const
 template <int P>
 void Multigrid::setup(const std::vector<double>& rows, const std::vector<std::size_t>& position)
 {
-  constexpr int H = SymmetricStencil<P>::size;
+  constexpr int H = SymmetricStencil<2, P>::size;
   Level& f = _levels[0];
   if (rows.size() != f.padded_size * H)
     throw std::invalid_argument("multigrid: the stencil does not fit the grid");
@@ -224,7 +224,7 @@ void Multigrid::setup(const std::vector<double>& rows, const std::vector<std::si
   f.r.assign(f.padded_size, 0.0);
   f.inverse.resize(f.live.size());
   _delta.assign(f.padded_size, 0.0);
-  const SymmetricStencil<P> stencil(f.padded_ny);
+  const SymmetricStencil<2, P> stencil(f.padded_ny);
   // A row with no off-diagonal entry (a node no crackable particle touches)
   // is solved exactly by the smoother and stays out of the coarse correction.
 #pragma omp parallel for schedule(static) if (f.live.size() > parallel_nodes)
@@ -254,10 +254,10 @@ namespace
 /// at padded node i, K stored in `rows`, for `at` in a window of rows of U.
 template <int P, int U, std::size_t... K>
 void add_row(double* at, double w, const double* rows, std::size_t i,
-             const SymmetricStencil<P>& stencil, std::index_sequence<K...>)
+             const SymmetricStencil<2, P>& stencil, std::index_sequence<K...>)
 {
-  constexpr int H = SymmetricStencil<P>::size;
-  using S = SymmetricStencil<P>;
+  constexpr int H = SymmetricStencil<2, P>::size;
+  using S = SymmetricStencil<2, P>;
   at[0] += w * rows[i * H];
   ((at[S::column(K + 1) * U + S::row(K + 1)] += w * rows[i * H + K + 1],
     at[-(S::column(K + 1) * U + S::row(K + 1))] += w * rows[(i - stencil.offset[K + 1]) * H + K + 1]),
@@ -274,10 +274,10 @@ void add_row(double* at, double w, const double* rows, std::size_t i,
 template <int P>
 void Multigrid::galerkin(const Level& fine, Level& coarse)
 {
-  constexpr int H = SymmetricStencil<P>::size;
+  constexpr int H = SymmetricStencil<2, P>::size;
   constexpr int W = Refinement::width(P); // fine functions per coarse one, at most
   constexpr int U = W + 2 * P;            // the window of u, per direction
-  const SymmetricStencil<P> fs(fine.padded_ny), cs(coarse.padded_ny);
+  const SymmetricStencil<2, P> fs(fine.padded_ny), cs(coarse.padded_ny);
   const Refinement& rx = fine.refine[0];
   const Refinement& ry = fine.refine[1];
   coarse.stencil.assign(coarse.padded_size * H, 0.0);
@@ -306,7 +306,7 @@ void Multigrid::galerkin(const Level& fine, Level& coarse)
       double* out = &coarse.stencil[padded(coarse, jx, jy) * H];
       for (int k = 0; k < H; ++k)
       {
-        const int lx = jx + cs.dx[k], ly = jy + cs.dy[k];
+        const int lx = jx + cs.d[k][0], ly = jy + cs.d[k][1];
         if (lx >= coarse.nx || ly < 0 || ly >= coarse.ny)
           continue;
         double sum = 0.0;
@@ -355,9 +355,9 @@ void Multigrid::galerkin(const Level& fine, Level& coarse)
 template <int P>
 void Multigrid::factor_coarsest()
 {
-  constexpr int H = SymmetricStencil<P>::size;
+  constexpr int H = SymmetricStencil<2, P>::size;
   Level& c = _levels[_coarsest];
-  const SymmetricStencil<P> stencil(c.padded_ny);
+  const SymmetricStencil<2, P> stencil(c.padded_ny);
   const std::size_t n = c.live.size();
   std::vector<std::ptrdiff_t> index(c.padded_size, -1);
   for (std::size_t u = 0; u < n; ++u)
@@ -515,7 +515,7 @@ void Multigrid::cycle(std::size_t l, double* kx)
     if (kx) // the finest level is the coarsest: K x by a product
     {
       const Level& f = _levels[l];
-      const SymmetricStencil<P> stencil(f.padded_ny);
+      const SymmetricStencil<2, P> stencil(f.padded_ny);
       for (std::size_t u = 0; u < f.live.size(); ++u)
         kx[u] = row_product(stencil, f.rows, f.live[u], f.x.data());
     }
@@ -524,7 +524,7 @@ void Multigrid::cycle(std::size_t l, double* kx)
   constexpr int W = Refinement::width(P);
   Level& f = _levels[l];
   Level& c = _levels[l + 1];
-  const SymmetricStencil<P> stencil(f.padded_ny);
+  const SymmetricStencil<2, P> stencil(f.padded_ny);
   const double* rows = f.rows;
   double* x = f.x.data();
   const double* b = f.b.data();
@@ -533,7 +533,7 @@ void Multigrid::cycle(std::size_t l, double* kx)
                [&](std::size_t u, int left, int right, bool even)
                {
                  const std::size_t i = f.live[u];
-                 x[i] = subtract_neighbours<P, true, false>(stencil, rows, i, left, right, even,
+                 x[i] = subtract_neighbours<2, P, true, false>(stencil, rows, i, left, right, even,
                                                             b[i], x)
                         * f.inverse[u];
                });
@@ -542,7 +542,7 @@ void Multigrid::cycle(std::size_t l, double* kx)
                 [&](std::size_t u, int left, int right, bool even)
                 {
                   if (const std::size_t i = f.live[u]; f.coupled[i])
-                    f.r[i] = subtract_neighbours<P, false, true>(stencil, rows, i, left, right,
+                    f.r[i] = subtract_neighbours<2, P, false, true>(stencil, rows, i, left, right,
                                                                  even, 0.0, x);
                 });
 
@@ -580,7 +580,7 @@ void Multigrid::cycle(std::size_t l, double* kx)
                {
                  const std::size_t i = f.live[u];
                  const double next
-                     = subtract_neighbours<P, true, true>(stencil, rows, i, left, right, even,
+                     = subtract_neighbours<2, P, true, true>(stencil, rows, i, left, right, even,
                                                          b[i], x)
                        * f.inverse[u];
                  if (kx)
@@ -594,7 +594,7 @@ void Multigrid::cycle(std::size_t l, double* kx)
                 {
                   const std::size_t i = f.live[u];
                   // b + sum_{j before i} K_ij delta_j
-                  kx[u] = b[i] - subtract_neighbours<P, true, false>(stencil, rows, i, left,
+                  kx[u] = b[i] - subtract_neighbours<2, P, true, false>(stencil, rows, i, left,
                                                                      right, even, 0.0, delta);
                 });
 }

@@ -541,7 +541,7 @@ void PhaseField::ssor_iterations(double stop, double& start, double& residual, i
       strip(s, true, [&](std::size_t a, int left, int right, bool even)
             {
               const std::size_t i = _position[a];
-              w[i] = subtract_neighbours<P, true, false>(stencil, rows, i, left, right, even,
+              w[i] = subtract_neighbours<2, P, true, false>(stencil, rows, i, left, right, even,
                                                          _r[a], w)
                      * _inverse[a];
             });
@@ -569,7 +569,7 @@ void PhaseField::ssor_iterations(double stop, double& start, double& residual, i
                 {
                   _v[a] = _diagonal[a] * _g[a] + beta * _v[a]; // p~ = r~ + beta p~
                   const std::size_t i = _position[a];
-                  t[i] = subtract_neighbours<P, false, true>(stencil, rows, i, left, right,
+                  t[i] = subtract_neighbours<2, P, false, true>(stencil, rows, i, left, right,
                                                              even, _v[a], t)
                          * _inverse[a];
                 });
@@ -583,7 +583,7 @@ void PhaseField::ssor_iterations(double stop, double& start, double& residual, i
                   const std::size_t i = _position[a];
                   // v - D t - (L w)_a and -(L t)_a
                   double b[2] = {_v[a] - _diagonal[a] * t[i], 0.0};
-                  subtract_neighbours<P, true, false, 2>(stencil, rows, i, left, right, even,
+                  subtract_neighbours<2, P, true, false, 2>(stencil, rows, i, left, right, even,
                                                          {w, t}, b);
                   w[i] = b[0] * _inverse[a];
                   _q[a] = _v[a] - b[1];
@@ -874,9 +874,9 @@ bool PhaseField::bounded_solve()
   if (!settled) // MPRGP from here
   {
     std::fill(_search.begin(), _search.end(), 0.0);
-    const StencilSystem<P> system{Stencil<P>(_padded_ny), _stencil.data(), _position.data(),
+    const StencilSystem<2, P> system{Stencil<P>(_padded_ny), _stencil.data(), _position.data(),
                                   _diagonal.data(), _rhs.data(), na};
-    const MprgpResult r = mprgp<P>(system, _c.data(), _search.data(), _r, _q, stop, _tol, _max_iterations);
+    const MprgpResult r = mprgp<2, P>(system, _c.data(), _search.data(), _r, _q, stop, _tol, _max_iterations);
     it += r.iterations;
     residual = r.residual;
     settled = r.converged;

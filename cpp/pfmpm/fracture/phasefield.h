@@ -326,7 +326,7 @@ private:
   void map_to_particles(Particles& particles, const CellSort& sort);
   /// K's stencil storage (symmetric_stencil.h).
   template <int P>
-  using Stencil = SymmetricStencil<P>;
+  using Stencil = SymmetricStencil<2, P>;
   /// Row `a` (an active node) of K times the padded vector `v`.
   template <int P>
   double row_product(const Stencil<P>& stencil, std::size_t a, const double* v) const

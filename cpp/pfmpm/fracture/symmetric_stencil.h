@@ -1,5 +1,5 @@
 /// @file symmetric_stencil.h
-/// @brief Storage of the symmetric (2p+1)^2-point stencil of the phase-field
+/// @brief Storage of the symmetric (2p+1)^Dim-point stencil of the phase-field
 /// matrix K (K&T eq. 57) on a padded grid-node layout, shared by its assembly, its
 /// conjugate gradients and the multigrid levels built from it.
 #pragma once
@@ -10,41 +10,63 @@
 namespace pfmpm
 {
 
-/// @brief The upper half of a symmetric (2p+1)^2-point stencil: the centre,
-/// then the offsets (0, 1..p), then (1..p, -p..p). The entry for (-dx, -dy)
-/// is the (dx, dy) entry of the neighbour's row.
+/// @brief The upper half of a symmetric (2p+1)^Dim-point stencil: the
+/// offsets that come after the centre in lexicographic order (the first
+/// nonzero component positive), in that order, after the centre. In 2D: the
+/// centre, (0, 1..p), then (1..p, -p..p); in 3D: the centre, (0, 0, 1..p),
+/// (0, 1..p, -p..p), then (1..p, -p..p, -p..p). The entry for -d is the d
+/// entry of the neighbour's row.
 ///
-/// Nodes lie column by column in a layout padded by p nodes on each side, so
-/// every neighbour of a grid node has an index there, at a fixed offset.
-template <int P>
+/// Nodes lie in a layout padded by p nodes on each side, the last direction
+/// fastest, so every neighbour of a grid node has an index there, at a fixed
+/// offset. The slabs of nodes of one first index are the grid's columns
+/// (2D) or planes (3D), the unit of the Gauss-Seidel strips.
+template <int Dim, int P>
 struct SymmetricStencil
 {
-  static constexpr int width = 2 * P + 1, size = (width * width + 1) / 2;
+  static_assert(Dim == 2 || Dim == 3, "a 2D or 3D stencil");
+  static constexpr int width = 2 * P + 1;
+  static constexpr int slab = Dim == 2 ? width : width * width; ///< offsets of one first component
+  static constexpr int centre = (slab * width - 1) / 2;          ///< the centre's rank in the full box
+  static constexpr int size = centre + 1;
+  /// Slots 1 .. own are the offsets within the centre's column or plane (first component 0).
+  static constexpr int own = (slab - 1) / 2;
   std::ptrdiff_t offset[size]; ///< in the padded node layout
-  int dx[size];                ///< the column offset
-  int dy[size];                ///< the row offset
-  /// @param padded_ny Nodes per padded grid column.
-  explicit SymmetricStencil(std::size_t padded_ny)
+  int d[size][Dim];            ///< the offset per direction
+
+  /// @param inner Nodes of the padded layout along each direction but the first.
+  template <class... N>
+  explicit SymmetricStencil(N... inner)
   {
-    for (int x = 0; x <= P; ++x)
-      for (int y = -P; y <= P; ++y)
-        if (const int k = slot(x, y); k >= 0)
-        {
-          offset[k] = x * static_cast<std::ptrdiff_t>(padded_ny) + y;
-          dx[k] = x;
-          dy[k] = y;
-        }
+    static_assert(sizeof...(N) == Dim - 1, "the padded node counts of the directions after the first");
+    const std::size_t n[Dim - 1] = {static_cast<std::size_t>(inner)...};
+    std::ptrdiff_t stride[Dim];
+    stride[Dim - 1] = 1;
+    for (int k = Dim - 2; k >= 0; --k)
+      stride[k] = stride[k + 1] * static_cast<std::ptrdiff_t>(n[k]);
+    for (int k = 0; k < size; ++k)
+    {
+      int rank = centre + k;
+      offset[k] = 0;
+      for (int a = Dim - 1; a >= 0; --a, rank /= width)
+      {
+        d[k][a] = rank % width - P;
+        offset[k] += d[k][a] * stride[a];
+      }
+    }
   }
-  /// The column offset dx of slot k.
-  static constexpr int column(int k) { return k <= P ? 0 : (k - P - 1) / width + 1; }
-  /// The row offset dy of slot k.
-  static constexpr int row(int k) { return k <= P ? k : (k - P - 1) % width - P; }
-  /// Index of offset (dx, dy) in the upper half, or -1 for the lower half.
-  static constexpr int slot(int dx, int dy)
+  /// The first component (the column or plane offset) of slot k.
+  static constexpr int column(int k) { return (centre + k) / slab - P; }
+  /// The second component of slot k.
+  static constexpr int row(int k) { return (centre + k) % slab / (slab / width) - P; }
+  /// Index of offset (d_0, .., d_Dim-1) in the upper half, or -1 for the lower half.
+  template <class... I>
+  static constexpr int slot(I... offset)
   {
-    if (dx < 0 || (dx == 0 && dy < 0))
-      return -1;
-    return dx == 0 ? dy : P + (dx - 1) * width + dy + P + 1;
+    static_assert(sizeof...(I) == Dim, "one offset per direction");
+    int rank = 0;
+    ((rank = rank * width + static_cast<int>(offset) + P), ...);
+    return rank >= centre ? rank - centre : -1;
   }
 };
 
@@ -62,23 +84,24 @@ struct SymmetricStencil
 /// before i and then those after, from the farthest row in. So in a sweep the
 /// term of the node updated just before i (i - 1 forward, i + 1 backward)
 /// comes last, and what waits for that node is one multiply-add.
-template <int P, bool Before, bool After, int Q>
-[[gnu::always_inline]] inline void subtract_neighbours(const SymmetricStencil<P>& stencil,
+template <int Dim, int P, bool Before, bool After, int Q>
+[[gnu::always_inline]] inline void subtract_neighbours(const SymmetricStencil<Dim, P>& stencil,
                                                        const double* rows, std::size_t i,
                                                        int left, int right, bool even,
                                                        const double* const (&x)[Q],
                                                        double (&b)[Q])
 {
-  constexpr int H = SymmetricStencil<P>::size;
+  using S = SymmetricStencil<Dim, P>;
+  constexpr int H = S::size, own = S::own;
   const double* row = &rows[i * H];
   double column[P + 1][Q] = {}; // per column offset dx = 1 .. P
   if (left >= P && right >= P) // away from the strip's edges: the upper half comes after i
   {
 #pragma GCC unroll 32
-    for (int k = P + 1; k < H; ++k)
+    for (int k = own + 1; k < H; ++k)
     {
       const std::ptrdiff_t o = stencil.offset[k];
-      double* c = column[SymmetricStencil<P>::column(k)];
+      double* c = column[S::column(k)];
       for (int q = 0; q < Q; ++q)
       {
         if constexpr (After)
@@ -91,10 +114,10 @@ template <int P, bool Before, bool After, int Q>
   else
   {
 #pragma GCC unroll 32
-    for (int k = P + 1; k < H; ++k)
+    for (int k = own + 1; k < H; ++k)
     {
       const std::ptrdiff_t o = stencil.offset[k];
-      const int dx = SymmetricStencil<P>::column(k);
+      const int dx = S::column(k);
       for (int q = 0; q < Q; ++q)
       {
         if (dx <= right || even ? After : Before) // i + o
@@ -107,37 +130,38 @@ template <int P, bool Before, bool After, int Q>
   for (int q = 0; q < Q; ++q)
     for (int dx = P; dx >= 1; --dx)
       b[q] -= column[dx][q];
-  // The own column (slots 1 .. P, dy = k): i - dy before i, i + dy after it.
+  // The own column or plane (slots 1 .. own, offset o_k > 0 in the node
+  // order): i - o_k before i, i + o_k after it.
   if constexpr (Before)
-    for (int k = P; k >= 1; --k)
+    for (int k = own; k >= 1; --k)
       for (int q = 0; q < Q; ++q)
-        b[q] -= rows[(i - k) * H + k] * x[q][i - k];
+        b[q] -= rows[(i - stencil.offset[k]) * H + k] * x[q][i - stencil.offset[k]];
   if constexpr (After)
-    for (int k = P; k >= 1; --k)
+    for (int k = own; k >= 1; --k)
       for (int q = 0; q < Q; ++q)
-        b[q] -= row[k] * x[q][i + k];
+        b[q] -= row[k] * x[q][i + stencil.offset[k]];
 }
 
 /// subtract_neighbours for one vector x: b - sum_j K_ij x_j.
-template <int P, bool Before, bool After>
-[[gnu::always_inline]] inline double subtract_neighbours(const SymmetricStencil<P>& stencil,
+template <int Dim, int P, bool Before, bool After>
+[[gnu::always_inline]] inline double subtract_neighbours(const SymmetricStencil<Dim, P>& stencil,
                                                          const double* rows, std::size_t i,
                                                          int left, int right, bool even,
                                                          double b, const double* x)
 {
   const double* const v[1] = {x};
   double out[1] = {b};
-  subtract_neighbours<P, Before, After, 1>(stencil, rows, i, left, right, even, v, out);
+  subtract_neighbours<Dim, P, Before, After, 1>(stencil, rows, i, left, right, even, v, out);
   return out[0];
 }
 
-/// @brief Row i (padded index) of the matrix stored in `rows` (SymmetricStencil<P>::size
+/// @brief Row i (padded index) of the matrix stored in `rows` (SymmetricStencil<Dim, P>::size
 /// entries per padded node) times the padded vector `v`.
-template <int P>
-double row_product(const SymmetricStencil<P>& stencil, const double* rows, std::size_t i,
+template <int Dim, int P>
+double row_product(const SymmetricStencil<Dim, P>& stencil, const double* rows, std::size_t i,
                    const double* v)
 {
-  constexpr int H = SymmetricStencil<P>::size;
+  constexpr int H = SymmetricStencil<Dim, P>::size;
   const double* row = &rows[i * H];
   double sum = row[0] * v[i];
   for (int k = 1; k < H; ++k)
@@ -150,11 +174,11 @@ double row_product(const SymmetricStencil<P>& stencil, const double* rows, std::
 
 /// @brief Row i (padded index) of |K|, the entries' magnitudes, times the
 /// padded vector `v` (row_product with |K_ij|): a Gershgorin bound's row sum.
-template <int P>
-double row_magnitude_product(const SymmetricStencil<P>& stencil, const double* rows, std::size_t i,
+template <int Dim, int P>
+double row_magnitude_product(const SymmetricStencil<Dim, P>& stencil, const double* rows, std::size_t i,
                              const double* v)
 {
-  constexpr int H = SymmetricStencil<P>::size;
+  constexpr int H = SymmetricStencil<Dim, P>::size;
   const double* row = &rows[i * H];
   double sum = std::abs(row[0]) * v[i];
   for (int k = 1; k < H; ++k)
