@@ -117,8 +117,8 @@ void bind_solver_class(py::module_& m, const char* name)
                      std::move(step));
                }),
            py::arg("grid"), py::arg("particles"), py::arg("materials"), py::arg("dt"),
-           py::arg("fracture") = std::vector<std::optional<Fracture>>{}, py::arg("tol") = PhaseField::default_tol,
-           py::arg("max_iterations") = PhaseField::default_max_iterations, py::arg("partition") = Partition::single,
+           py::arg("fracture") = std::vector<std::optional<Fracture>>{}, py::arg("tol") = PhaseFieldDeclarations::default_tol,
+           py::arg("max_iterations") = PhaseFieldDeclarations::default_max_iterations, py::arg("partition") = Partition::single,
            py::arg("friction") = std::vector<double>{}, py::arg("damage") = DamageGradientOptions{}, py::arg("shape") = ShapeFunctions::bspline,
            py::arg("scale_failed") = true, py::arg("failed_c") = 0.0,
            py::arg("transfer") = TransferScheme::flip, py::keep_alive<1, 2>(),
@@ -324,7 +324,7 @@ void bind_solver(py::module_& m)
       "parameters)");
   m.def(
       "phase_field_parameters",
-      []() { return parameter_list(PhaseField::solver_parameters()); },
+      []() { return parameter_list(PhaseFieldDeclarations::solver_parameters()); },
       "the declared parameters of the phase-field solve (a scene's [phase_field] keys)");
   py::class_<Fracture>(m, "Fracture", "Fracture parameters of a material that can crack")
       .def(py::init(

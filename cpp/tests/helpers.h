@@ -40,7 +40,7 @@ inline void add_model_columns(Particles& P, bool phase_field)
   for (const ColumnSpec& c : LinearElastic(1.0, 0.0, 1.0, Plane::strain).columns(2))
     P.add(c);
   if (phase_field)
-    for (const ColumnSpec& c : PhaseField::columns(/*fourth_order=*/true)) // with phi, which some tests set
+    for (const ColumnSpec& c : PhaseFieldDeclarations::columns(/*fourth_order=*/true)) // with phi, which some tests set
       P.add(c);
 }
 

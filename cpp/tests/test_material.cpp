@@ -65,6 +65,7 @@ public:
   }
   template <int Dim>
   void undegraded(const View& v, std::size_t p) const { stress(&v.F[4 * p], &v.stress[4 * p]); }
+  template <int Dim>
   double degraded(const View& v, std::size_t p, double g) const
   {
     stress(&v.F[4 * p], &v.stress[4 * p]);
@@ -81,6 +82,7 @@ public:
     const double tr = E[0] + E[1], J = F[0] * F[3] - F[1] * F[2];
     return (0.5 * _lambda * tr * tr + _mu * (E[0] * E[0] + E[1] * E[1] + 2.0 * E[2] * E[2])) / J;
   }
+  template <int Dim>
   void split(const View& v, std::size_t p, double& plus, double& minus) const
   {
     plus = energy<2>(v, p);

@@ -85,12 +85,12 @@ TEST(Anisotropy, FourthOrderNeedsC1Splines)
 {
   const Grid<2> linear(1, {8, 8}, 1.0, {0.0, 0.0});
   const Voigt gamma{1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 2.0};
-  EXPECT_THROW(PhaseField(linear, {Fracture{1.0, 2.0, 0.0, gamma}}, 1e-6, 100),
+  EXPECT_THROW(PhaseField<2>(linear, {Fracture{1.0, 2.0, 0.0, gamma}}, 1e-6, 100),
                std::invalid_argument);
-  EXPECT_NO_THROW(PhaseField(linear, {Fracture{1.0, 2.0, 0.0}}, 1e-6, 100));
+  EXPECT_NO_THROW(PhaseField<2>(linear, {Fracture{1.0, 2.0, 0.0}}, 1e-6, 100));
   const Grid<2> quadratic(2, {8, 8}, 1.0, {0.0, 0.0});
-  EXPECT_TRUE(PhaseField(quadratic, {Fracture{1.0, 2.0, 0.0, gamma}}, 1e-6, 100).fourth_order());
-  EXPECT_FALSE(PhaseField(quadratic, {Fracture{1.0, 2.0, 0.0}}, 1e-6, 100).fourth_order());
+  EXPECT_TRUE(PhaseField<2>(quadratic, {Fracture{1.0, 2.0, 0.0, gamma}}, 1e-6, 100).fourth_order());
+  EXPECT_FALSE(PhaseField<2>(quadratic, {Fracture{1.0, 2.0, 0.0}}, 1e-6, 100).fourth_order());
 }
 
 namespace
@@ -156,16 +156,16 @@ TEST(Models, AT1IsSecondOrderOnly)
 {
   const Grid<2> quadratic(2, {8, 8}, 1.0, {0.0, 0.0});
   const Voigt gamma{1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 2.0};
-  EXPECT_THROW(PhaseField(quadratic, {Fracture{1.0, 2.0, 0.0, gamma, Model::AT1}}, 1e-6, 100),
+  EXPECT_THROW(PhaseField<2>(quadratic, {Fracture{1.0, 2.0, 0.0, gamma, Model::AT1}}, 1e-6, 100),
                std::invalid_argument);
   // Nor in one phase field with a fourth-order AT2 material.
-  EXPECT_THROW(PhaseField(quadratic,
+  EXPECT_THROW(PhaseField<2>(quadratic,
                           {Fracture{1.0, 2.0, 0.0, {}, Model::AT1}, Fracture{1.0, 2.0, 0.0, gamma}},
                           1e-6, 100),
                std::invalid_argument);
-  EXPECT_THROW(PhaseField(quadratic, {Fracture{1.0, 2.0, 0.0, {}, Model::AT1, false}}, 1e-6, 100),
+  EXPECT_THROW(PhaseField<2>(quadratic, {Fracture{1.0, 2.0, 0.0, {}, Model::AT1, false}}, 1e-6, 100),
                std::invalid_argument);
-  EXPECT_TRUE(PhaseField(quadratic, {Fracture{1.0, 2.0, 0.0, {}, Model::AT1}}, 1e-6, 100).bounded());
+  EXPECT_TRUE(PhaseField<2>(quadratic, {Fracture{1.0, 2.0, 0.0, {}, Model::AT1}}, 1e-6, 100).bounded());
 }
 
 TEST(Models, WhichSolvesAreBounded)
@@ -176,10 +176,10 @@ TEST(Models, WhichSolvesAreBounded)
   const Voigt gamma{1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 2.0};
   const Fracture at2{1.0, 2.0, 0.0}, free{1.0, 2.0, 0.0, {}, Model::AT2, false};
   EXPECT_TRUE(at2.bound);
-  EXPECT_TRUE(PhaseField(quadratic, {at2}, 1e-6, 100).bounded());
-  EXPECT_FALSE(PhaseField(quadratic, {free}, 1e-6, 100).bounded());
-  EXPECT_TRUE(PhaseField(quadratic, {free, at2}, 1e-6, 100).bounded());
-  EXPECT_FALSE(PhaseField(quadratic, {Fracture{1.0, 2.0, 0.0, gamma}}, 1e-6, 100).bounded());
+  EXPECT_TRUE(PhaseField<2>(quadratic, {at2}, 1e-6, 100).bounded());
+  EXPECT_FALSE(PhaseField<2>(quadratic, {free}, 1e-6, 100).bounded());
+  EXPECT_TRUE(PhaseField<2>(quadratic, {free, at2}, 1e-6, 100).bounded());
+  EXPECT_FALSE(PhaseField<2>(quadratic, {Fracture{1.0, 2.0, 0.0, gamma}}, 1e-6, 100).bounded());
 }
 
 TEST(BoundedSolve, BelowTheThresholdNothingIsDamaged)

@@ -16,8 +16,10 @@
 
 #include "pfmpm/grid/bspline.h"
 
+#include <algorithm>
 #include <array>
 #include <cstddef>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -27,20 +29,21 @@ namespace pfmpm
 /// @brief The powers 1, xi, .., xi^2P of a particle's local coordinates in
 /// its cell, for particle_to_grid in place of a stencil (it evaluates no
 /// shape function; its block is the B-spline stencil's).
-template <int P>
+template <int Dim, int P>
 struct CellPowers
 {
-  static constexpr int dim = 2; ///< a 2D cell (the phase field is 2D)
+  static constexpr int dim = Dim;
   static constexpr int width = P + 1;
   static constexpr int lower = 0;
   static constexpr bool domains = false;
   static constexpr int count = 2 * P + 1;           ///< powers 0 .. 2P
-  static constexpr int padded = (count + 3) / 4 * 4; ///< y's length: whole vectors
+  static constexpr int padded = (count + 3) / 4 * 4; ///< the last direction's length: whole vectors
 
-  double x[count];  ///< xi^m, xi = (x - origin) / h - cx, as BSpline1D evaluates
-  double y[padded]; ///< eta^n, zero above 2P
+  double x[count];                          ///< xi^m, xi = (x - origin) / h - cx, as BSpline1D evaluates
+  double y[Dim == 2 ? padded : count];      ///< eta^n; in 2D zero above 2P
+  double z[Dim == 3 ? padded : 1];          ///< zeta^n in 3D, zero above 2P
 
-  void evaluate(const std::array<const BSpline1D*, 2>& basis, const int* cell, const double* point)
+  void evaluate(const std::array<const BSpline1D*, Dim>& basis, const int* cell, const double* point)
   {
     const double xi = basis[0]->coordinate(point[0]) - cell[0];
     const double eta = basis[1]->coordinate(point[1]) - cell[1];
@@ -50,8 +53,18 @@ struct CellPowers
       x[m] = x[m - 1] * xi;
       y[m] = y[m - 1] * eta;
     }
-    for (int m = count; m < padded; ++m)
-      y[m] = 0.0;
+    if constexpr (Dim == 2)
+      for (int m = count; m < padded; ++m)
+        y[m] = 0.0;
+    else
+    {
+      const double zeta = basis[2]->coordinate(point[2]) - cell[2];
+      z[0] = 1.0;
+      for (int m = 1; m < count; ++m)
+        z[m] = z[m - 1] * zeta;
+      for (int m = count; m < padded; ++m)
+        z[m] = 0.0;
+    }
   }
 };
 
@@ -103,10 +116,10 @@ namespace moments
 {
 /// @brief One term of K_ij (K&T eq. 57): the x derivatives of N_i and N_j, their
 /// y derivatives, and the particle weight (CellMoments' moment array) it
-/// carries.
+/// carries; in 3D their z derivatives too.
 struct Term
 {
-  int xi, xj, yi, yj, weight;
+  int xi, xj, yi, yj, weight, zi = 0, zj = 0;
 };
 
 /// Weights: reaction(H) V (K&T eq. 49), diffusion V, and with the fourth-order
@@ -130,12 +143,21 @@ inline constexpr std::array<Term, 12> fourth_order{{
     {0, 1, 2, 1, 7}, {1, 0, 1, 2, 7},                                 // yy xy, xy yy
     {1, 2, 1, 0, 6}, {2, 1, 0, 1, 6}}};                               // xy xx, xx xy
 
-/// The terms of the second-order (false) or fourth-order (true) functional.
-template <bool Fourth>
+/// The second-order terms in 3D, grouped by their x derivatives.
+inline constexpr std::array<Term, 4> second_order_3d{{{0, 0, 0, 0, reaction},
+                                                      {0, 0, 0, 0, diffusion, 1, 1},
+                                                      {0, 0, 1, 1, diffusion},
+                                                      {1, 1, 0, 0, diffusion}}};
+
+/// The terms of the second-order (false) or fourth-order (true, 2D only) functional.
+template <int Dim, bool Fourth>
 constexpr auto terms()
 {
+  static_assert(Dim == 2 || !Fourth, "the fourth-order functional is two-dimensional");
   if constexpr (Fourth)
     return fourth_order;
+  else if constexpr (Dim == 3)
+    return second_order_3d;
   else
     return second_order;
 }
@@ -148,16 +170,22 @@ void unrolled(F&& f, std::index_sequence<I...>)
 } // namespace moments
 
 /// @brief The weighted moments of one cell's particles, and the cell's block
-/// of K and entries of F from them, for degree P with (Fourth) or without the
-/// fourth-order term.
-template <int P, bool Fourth>
+/// of K and entries of F from them, for degree P with (Fourth, 2D only) or
+/// without the fourth-order term.
+///
+/// In 3D the moments are M_lmn = sum_p w_p xi^l eta^m zeta^n and each term's
+/// polynomial is contracted one axis at a time, z, then y, then x.
+template <int Dim, int P, bool Fourth>
 struct CellMoments
 {
   static constexpr int W = P + 1, Q = 2 * P + 1, D = CellProducts::derivatives;
   static constexpr int weights = Fourth ? 8 : 2;
   static constexpr int R = CellProducts::row(P); // padded (b, b') pairs
-  static constexpr auto terms = moments::terms<Fourth>();
+  static constexpr int N = CellPowers<Dim, P>::padded; // the last direction's powers, padded
+  static constexpr auto terms = moments::terms<Dim, Fourth>();
   static constexpr int term_count = static_cast<int>(terms.size());
+  /// The block: per pair (a, a') of x nodes, the pairs of the other directions.
+  using Block = std::conditional_t<Dim == 2, double[W * W][R], double[W * W][W * W][R]>;
 
   /// Highest power of xi that weight k's terms need.
   static constexpr int highest(int k)
@@ -168,13 +196,24 @@ struct CellMoments
         h = 2 * P - t.xi - t.xj;
     return h;
   }
+  /// Highest power of eta that weight k's terms need (3D).
+  static constexpr int highest_y(int k)
+  {
+    int h = 0;
+    for (const moments::Term& t : terms)
+      if (t.weight == k && 2 * P - t.yi - t.yj > h)
+        h = 2 * P - t.yi - t.yj;
+    return h;
+  }
 
-  double moment[weights][Q][CellPowers<P>::padded] = {}; ///< sum_p w_p xi^m eta^n
-  double source[W][W] = {};                              ///< sum_p s_p xi^m eta^n, m, n <= P
+  /// sum_p w_p xi^m eta^n (2D) or xi^l eta^m zeta^n (3D)
+  std::conditional_t<Dim == 2, double[weights][Q][N], double[weights][Q][Q][N]> moment = {};
+  /// sum_p s_p xi^m eta^n (zeta^o), each power <= P
+  std::conditional_t<Dim == 2, double[W][W], double[W][W][W]> source = {};
 
   /// Add a particle at `s` with weights `w` (in the order of moments'
   /// weights) and F's coefficient `src` (K&T eq. 52).
-  void add(const CellPowers<P>& s, const double (&w)[weights], double src)
+  void add(const CellPowers<Dim, P>& s, const double (&w)[weights], double src)
   {
     moments::unrolled(
         [&](auto k)
@@ -183,9 +222,20 @@ struct CellMoments
           for (int m = 0; m <= highest(K); ++m)
           {
             const double t = w[K] * s.x[m];
+            if constexpr (Dim == 2)
+            {
 #pragma omp simd
-            for (int n = 0; n < CellPowers<P>::padded; ++n) // one vector; zero above 2P
-              moment[K][m][n] += t * s.y[n];
+              for (int n = 0; n < N; ++n) // one vector; zero above 2P
+                moment[K][m][n] += t * s.y[n];
+            }
+            else
+              for (int l = 0; l <= highest_y(K); ++l)
+              {
+                const double u = t * s.y[l];
+#pragma omp simd
+                for (int n = 0; n < N; ++n)
+                  moment[K][m][l][n] += u * s.z[n];
+              }
           }
         },
         std::make_index_sequence<weights>{});
@@ -193,7 +243,14 @@ struct CellMoments
     {
       const double t = src * s.x[m];
       for (int n = 0; n <= P; ++n)
-        source[m][n] += t * s.y[n];
+        if constexpr (Dim == 2)
+          source[m][n] += t * s.y[n];
+        else
+        {
+          const double u = t * s.y[n];
+          for (int o = 0; o <= P; ++o)
+            source[m][n][o] += u * s.z[o];
+        }
     }
   }
 
@@ -202,13 +259,14 @@ struct CellMoments
   /// block[a W + a'][b W + b'], from the x and y tables of its cell
   /// (CellProducts::products): per term, U_m = sum_n Y_n M_mn along y, then
   /// sum_m X_m U_m along x, the terms that share their x polynomial summed
-  /// in U first. The rows a' < a are zero.
-  void block(const double* x, const double* y, double (&out)[W * W][R]) const
+  /// in U first. The rows a' < a are zero. In 3D, i = (a, b, c) and
+  /// j = (a', b', c') as block[a W + a'][b W + b'][c W + c'], from the
+  /// tables `x`, `y` and `z`, with V_lm = sum_n Z_n M_lmn first.
+  void block(const double* x, const double* y, const double* z, Block& out) const
   {
-    for (auto& row : out)
-      for (double& v : row)
-        v = 0.0;
-    alignas(64) double U[Q][R] = {};
+    zero(out);
+    using Sum = std::conditional_t<Dim == 2, double[Q][R], double[Q][W * W][R]>;
+    alignas(64) Sum U = {};
     moments::unrolled(
         [&](auto index)
         {
@@ -216,19 +274,48 @@ struct CellMoments
           constexpr moments::Term t = terms[T];
           constexpr int DX = 2 * P - t.xi - t.xj, DY = 2 * P - t.yi - t.yj;
           const double* Y = &y[std::size_t((t.yi * (D + 1) + t.yj) * Q) * R];
-          // Each sum in a register over its terms, stored once (a vector read
-          // back soon after partial stores of it would wait for them).
-          for (int m = 0; m <= DX; ++m)
+          if constexpr (Dim == 2)
           {
-            const double* M = moment[t.weight][m];
-#pragma omp simd
-            for (int e = 0; e < R; ++e)
+            // Each sum in a register over its terms, stored once (a vector read
+            // back soon after partial stores of it would wait for them).
+            for (int m = 0; m <= DX; ++m)
             {
-              double sum = U[m][e];
-              for (int n = 0; n <= DY; ++n)
-                sum += M[n] * Y[n * R + e];
-              U[m][e] = sum;
+              const double* M = moment[t.weight][m];
+#pragma omp simd
+              for (int e = 0; e < R; ++e)
+              {
+                double sum = U[m][e];
+                for (int n = 0; n <= DY; ++n)
+                  sum += M[n] * Y[n * R + e];
+                U[m][e] = sum;
+              }
             }
+          }
+          else
+          {
+            constexpr int DZ = 2 * P - t.zi - t.zj;
+            const double* Z = &z[std::size_t((t.zi * (D + 1) + t.zj) * Q) * R];
+            for (int m = 0; m <= DX; ++m)
+              for (int l = 0; l <= DY; ++l)
+              {
+                const double* M = moment[t.weight][m][l];
+                alignas(64) double V[R];
+#pragma omp simd
+                for (int e = 0; e < R; ++e)
+                {
+                  double sum = 0.0;
+                  for (int n = 0; n <= DZ; ++n)
+                    sum += M[n] * Z[n * R + e];
+                  V[e] = sum;
+                }
+                for (int f = 0; f < W * W; ++f)
+                {
+                  const double yf = Y[l * R + f];
+#pragma omp simd
+                  for (int e = 0; e < R; ++e)
+                    U[m][f][e] += yf * V[e];
+                }
+              }
           }
           constexpr bool last = T + 1 == term_count || terms[T + 1].xi != t.xi
                                 || terms[T + 1].xj != t.xj;
@@ -238,38 +325,85 @@ struct CellMoments
             for (int a = 0; a < W; ++a)
               for (int aa = a * W + a; aa < (a + 1) * W; ++aa) // a' >= a
               {
-#pragma omp simd
-                for (int e = 0; e < R; ++e)
+                if constexpr (Dim == 2)
                 {
-                  double sum = out[aa][e];
-                  for (int m = 0; m <= DX; ++m)
-                    sum += X[m * R + aa] * U[m][e];
-                  out[aa][e] = sum;
+#pragma omp simd
+                  for (int e = 0; e < R; ++e)
+                  {
+                    double sum = out[aa][e];
+                    for (int m = 0; m <= DX; ++m)
+                      sum += X[m * R + aa] * U[m][e];
+                    out[aa][e] = sum;
+                  }
                 }
+                else
+                  for (int f = 0; f < W * W; ++f)
+                  {
+#pragma omp simd
+                    for (int e = 0; e < R; ++e)
+                    {
+                      double sum = out[aa][f][e];
+                      for (int m = 0; m <= DX; ++m)
+                        sum += X[m * R + aa] * U[m][f][e];
+                      out[aa][f][e] = sum;
+                    }
+                  }
               }
-            for (auto& row : U)
-              for (double& v : row)
-                v = 0.0;
+            zero(U);
           }
         },
         std::make_index_sequence<term_count>{});
   }
 
-  /// @brief The cell's F_i (K&T eq. 52) for i = (a, b) as f[a W + b], from the
-  /// value tables of its cell (CellProducts::values).
-  void rhs(const double* x, const double* y, double (&f)[W * W]) const
+  /// @brief The cell's F_i (K&T eq. 52) for i = (a, b) as f[a W + b] (3D:
+  /// i = (a, b, c) as f[(a W + b) W + c]), from the value tables of its cell
+  /// (CellProducts::values).
+  void rhs(const double* x, const double* y, const double* z, double* f) const
   {
-    double T[W][W] = {}; // [m][b]
-    for (int m = 0; m <= P; ++m)
-      for (int n = 0; n <= P; ++n)
-        for (int b = 0; b < W; ++b)
-          T[m][b] += source[m][n] * y[n * W + b];
-    for (int i = 0; i < W * W; ++i)
-      f[i] = 0.0;
-    for (int m = 0; m <= P; ++m)
-      for (int a = 0; a < W; ++a)
-        for (int b = 0; b < W; ++b)
-          f[a * W + b] += x[m * W + a] * T[m][b];
+    if constexpr (Dim == 2)
+    {
+      double T[W][W] = {}; // [m][b]
+      for (int m = 0; m <= P; ++m)
+        for (int n = 0; n <= P; ++n)
+          for (int b = 0; b < W; ++b)
+            T[m][b] += source[m][n] * y[n * W + b];
+      for (int i = 0; i < W * W; ++i)
+        f[i] = 0.0;
+      for (int m = 0; m <= P; ++m)
+        for (int a = 0; a < W; ++a)
+          for (int b = 0; b < W; ++b)
+            f[a * W + b] += x[m * W + a] * T[m][b];
+    }
+    else
+    {
+      double T[W][W][W] = {}; // [m][n][c]
+      for (int m = 0; m <= P; ++m)
+        for (int n = 0; n <= P; ++n)
+          for (int o = 0; o <= P; ++o)
+            for (int c = 0; c < W; ++c)
+              T[m][n][c] += source[m][n][o] * z[o * W + c];
+      double S[W][W][W] = {}; // [m][b][c]
+      for (int m = 0; m <= P; ++m)
+        for (int n = 0; n <= P; ++n)
+          for (int b = 0; b < W; ++b)
+            for (int c = 0; c < W; ++c)
+              S[m][b][c] += y[n * W + b] * T[m][n][c];
+      for (int i = 0; i < W * W * W; ++i)
+        f[i] = 0.0;
+      for (int m = 0; m <= P; ++m)
+        for (int a = 0; a < W; ++a)
+          for (int b = 0; b < W; ++b)
+            for (int c = 0; c < W; ++c)
+              f[(a * W + b) * W + c] += x[m * W + a] * S[m][b][c];
+    }
+  }
+
+private:
+  /// Zero a multidimensional array of doubles.
+  template <class A>
+  static void zero(A& a)
+  {
+    std::fill_n(reinterpret_cast<double*>(&a), sizeof(A) / sizeof(double), 0.0);
   }
 };
 

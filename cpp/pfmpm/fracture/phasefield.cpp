@@ -20,7 +20,7 @@
 namespace pfmpm
 {
 
-std::vector<ParameterSpec> PhaseField::solver_parameters()
+std::vector<ParameterSpec> PhaseFieldDeclarations::solver_parameters()
 {
   using P = ParameterSpec;
   return {P::number("tol", "1", "tolerance tol_c of the solve, relative to ||F|| (K&T eq. 52)")
@@ -135,11 +135,14 @@ Voigt Fracture::rotated(double phi) const
   return out;
 }
 
-PhaseField::PhaseField(const Grid<2>& grid, std::vector<std::optional<Fracture>> fracture, double tol,
+template <int Dim>
+PhaseField<Dim>::PhaseField(const Grid<Dim>& grid, std::vector<std::optional<Fracture>> fracture, double tol,
                        int max_iterations)
     : _grid(grid), _fracture(std::move(fracture)), _tol(tol), _max_iterations(max_iterations),
-      _pad(grid.degree()), _padded_ny(static_cast<std::size_t>(grid.nodes()[1] + 2 * grid.degree()))
+      _pad(grid.degree())
 {
+  for (int d = 0; d < Dim; ++d)
+    _padded[d] = static_cast<std::size_t>(grid.nodes()[d] + 2 * grid.degree());
   _active = std::any_of(_fracture.begin(), _fracture.end(), [](const auto& f) { return f.has_value(); });
   _fourth = std::any_of(_fracture.begin(), _fracture.end(),
                         [](const auto& f) { return f && f->fourth_order(); });
@@ -165,6 +168,9 @@ PhaseField::PhaseField(const Grid<2>& grid, std::vector<std::optional<Fracture>>
     for (double g : f.gamma)
       if (!std::isfinite(g))
         throw std::invalid_argument(at + "gamma = " + text(g) + ": must be finite");
+    if (Dim == 3 && f.fourth_order())
+      throw std::invalid_argument(at + "gamma != 0: the fourth-order anisotropic phase field is "
+                                  "two-dimensional; a 3D scene takes the second-order one");
     if (f.fourth_order() && grid.degree() < 2)
       throw std::invalid_argument(at + "gamma != 0 needs second derivatives of the basis: "
                                   "the grid degree must be >= 2, not 1");
@@ -184,20 +190,23 @@ PhaseField::PhaseField(const Grid<2>& grid, std::vector<std::optional<Fracture>>
   declared(solver, "max_iterations").check(max_iterations);
   if (_active)
   {
-    const std::size_t padded_nx = static_cast<std::size_t>(grid.nodes()[0] + 2 * _pad);
-    if (padded_nx * _padded_ny > std::numeric_limits<std::uint32_t>::max())
+    std::size_t padded_size = 1;
+    for (int d = 0; d < Dim; ++d)
+      padded_size *= _padded[d];
+    if (padded_size > std::numeric_limits<std::uint32_t>::max())
       throw std::invalid_argument("grid.nodes = " + std::to_string(grid.num_nodes())
                                   + ": the phase field indexes at most 2^32 padded nodes");
-    _c.assign(padded_nx * _padded_ny, 1.0);
+    _c.assign(padded_size, 1.0);
     _c_previous = _c;
     _search.assign(_c.size(), 0.0);
-    for (int d = 0; d < 2; ++d)
+    for (int d = 0; d < Dim; ++d)
       _products.emplace_back(grid.basis(d));
   }
   set_preconditioner(Preconditioner::automatic);
 }
 
-void PhaseField::set_preconditioner(Preconditioner preconditioner)
+template <int Dim>
+void PhaseField<Dim>::set_preconditioner(Preconditioner preconditioner)
 {
   if (_bounded && preconditioner == Preconditioner::multigrid)
     throw std::invalid_argument(
@@ -207,24 +216,32 @@ void PhaseField::set_preconditioner(Preconditioner preconditioner)
   if (!_active)
     return;
   if (this->preconditioner() == Preconditioner::multigrid)
-    _multigrid = std::make_unique<Multigrid>(_grid.cells(), _grid.degree());
+  {
+    if constexpr (Dim == 2)
+      _multigrid = std::make_unique<Multigrid>(_grid.cells(), _grid.degree());
+    else
+      throw std::invalid_argument("phase_field.preconditioner = multigrid: not yet in 3D; take jacobi or ssor");
+  }
   if (this->preconditioner() == Preconditioner::ssor && _forward.empty())
     _forward.assign(_c.size(), 0.0);
 }
 
-Preconditioner PhaseField::preconditioner() const
+template <int Dim>
+Preconditioner PhaseField<Dim>::preconditioner() const
 {
   if (_preconditioner != Preconditioner::automatic)
     return _preconditioner;
   return _fourth ? Preconditioner::multigrid : Preconditioner::ssor;
 }
 
-PhaseFieldState PhaseField::state() const
+template <int Dim>
+PhaseFieldState PhaseField<Dim>::state() const
 {
   return PhaseFieldState{_c, _c_previous, _stats};
 }
 
-void PhaseField::check(const PhaseFieldState& state) const
+template <int Dim>
+void PhaseField<Dim>::check(const PhaseFieldState& state) const
 {
   if (state.c.size() != _c.size() || state.c_previous.size() != _c.size())
     throw std::invalid_argument("phase field state: " + std::to_string(state.c.size()) + " and "
@@ -232,7 +249,8 @@ void PhaseField::check(const PhaseFieldState& state) const
                                 + " nodal values for a grid of " + std::to_string(_c.size()));
 }
 
-void PhaseField::restore(PhaseFieldState state)
+template <int Dim>
+void PhaseField<Dim>::restore(PhaseFieldState state)
 {
   check(state);
   _c = std::move(state.c);
@@ -240,7 +258,7 @@ void PhaseField::restore(PhaseFieldState state)
   _stats = state.stats;
 }
 
-std::vector<ColumnSpec> PhaseField::columns(bool fourth_order)
+std::vector<ColumnSpec> PhaseFieldDeclarations::columns(bool fourth_order)
 {
   std::vector<ColumnSpec> columns{
       {"c", 1, DType::f64, {1.0}, "phase field: 1 intact, 0 broken (K&T eq. 53)", "", "c"},
@@ -253,7 +271,8 @@ std::vector<ColumnSpec> PhaseField::columns(bool fourth_order)
   return columns;
 }
 
-PhaseFieldSystem PhaseField::system() const
+template <int Dim>
+PhaseFieldSystem PhaseField<Dim>::system() const
 {
   switch (_pad)
   {
@@ -266,42 +285,52 @@ PhaseFieldSystem PhaseField::system() const
   }
 }
 
+template <int Dim>
 template <int P>
-PhaseFieldSystem PhaseField::compressed_rows() const
+PhaseFieldSystem PhaseField<Dim>::compressed_rows() const
 {
   constexpr int H = Stencil<P>::size;
   PhaseFieldSystem out;
   const std::size_t na = _rhs.size();
   if (na == 0)
     return out;
-  const int nnx = _grid.nodes()[0], nny = _grid.nodes()[1];
+  constexpr int width = 2 * P + 1;
+  const std::array<int, Dim> n = _grid.nodes();
   out.nodes.assign(_nodes.nodes().begin(), _nodes.nodes().end());
   out.rhs = _rhs;
   out.row_start.push_back(0);
   for (std::size_t a = 0; a < na; ++a)
   {
-    const int ix = out.nodes[a] / nny, iy = out.nodes[a] % nny;
+    const std::array<int, Dim> i = lattice_indices<Dim>(static_cast<std::size_t>(out.nodes[a]), n);
     out.solution.push_back(_c[_position[a]]);
     // Neighbours in increasing node order, hence increasing active index.
-    for (int dx = -P; dx <= P; ++dx)
-      for (int dy = -P; dy <= P; ++dy)
+    for (int rank = 0; rank < Stencil<P>::size * 2 - 1; ++rank)
+    {
+      std::array<int, Dim> d, j, minus;
+      bool inside = true;
+      for (int e = Dim - 1, r = rank; e >= 0; --e, r /= width)
       {
-        const int jx = ix + dx, jy = iy + dy;
-        if (jx < 0 || jx >= nnx || jy < 0 || jy >= nny || _nodes.index(jx, jy) < 0)
-          continue;
-        const int k = Stencil<P>::slot(dx, dy);
-        const double v = k >= 0 ? _stencil[_position[a] * H + k]
-                                : _stencil[padded(jx, jy) * H + Stencil<P>::slot(-dx, -dy)];
-        out.column.push_back(_nodes.index(jx, jy));
-        out.value.push_back(v);
+        d[e] = r % width - P;
+        j[e] = i[e] + d[e];
+        minus[e] = -d[e];
+        inside = inside && j[e] >= 0 && j[e] < n[e];
       }
+      if (!inside || _nodes.index(j) < 0)
+        continue;
+      const int k = Stencil<P>::slot(d);
+      const double v = k >= 0 ? _stencil[_position[a] * H + k]
+                              : _stencil[padded(j) * H + Stencil<P>::slot(minus)];
+      out.column.push_back(_nodes.index(j));
+      out.value.push_back(v);
+    }
     out.row_start.push_back(static_cast<std::int64_t>(out.column.size()));
   }
   return out;
 }
 
+template <int Dim>
 template <int P>
-bool PhaseField::solve(Particles& particles, const CellSort& sort, bool energy)
+bool PhaseField<Dim>::solve(Particles& particles, const CellSort& sort, bool energy)
 {
   auto run = [&](auto fourth)
   {
@@ -318,21 +347,21 @@ bool PhaseField::solve(Particles& particles, const CellSort& sort, bool energy)
       map_to_particles<P, Fourth, false>(particles, sort);
     return converged;
   };
-  if constexpr (P >= 2) // degree 1 with gamma != 0 is refused by the constructor
+  if constexpr (P >= 2 && Dim == 2) // degree 1 (or 3D) with gamma != 0 is refused by the constructor
     if (_fourth)
       return run(std::true_type{});
   return run(std::false_type{});
 }
 
+template <int Dim>
 template <int P, bool Fourth>
-void PhaseField::assemble(const Particles& particles, const CellSort& sort)
+void PhaseField<Dim>::assemble(const Particles& particles, const CellSort& sort)
 {
-  using Shape = BSplineStencil<2, P>;
-  using Moments = CellMoments<P, Fourth>;
+  using Shape = BSplineStencil<Dim, P>;
+  using Moments = CellMoments<Dim, P, Fourth>;
   constexpr int K = Shape::size;      // nodes of one cell
   constexpr int W = Shape::width;     // nodes of one cell per direction
   constexpr int H = Stencil<P>::size; // stored entries per node
-  const int nny = _grid.nodes()[1];
   // The system's unknowns: the nodes in the support of the sort's particles
   // (with discrete fields, of this body's particles alone).
   _nodes.activate(_grid, sort.cell_start(), NodeBlock{0, _grid.degree() + 1}); // B-spline support
@@ -353,7 +382,7 @@ void PhaseField::assemble(const Particles& particles, const CellSort& sort)
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t a = 0; a < static_cast<std::ptrdiff_t>(na); ++a)
   {
-    _position[a] = padded(nodes[a] / nny, nodes[a] % nny);
+    _position[a] = padded_node(nodes[a]);
     _rhs[a] = 0.0;
   }
   // All nodes, not only active ones: a product reads neighbours' rows.
@@ -364,17 +393,16 @@ void PhaseField::assemble(const Particles& particles, const CellSort& sort)
   // Per cell, the moments of its particles in sorted order (moments.h), and
   // from them its K x K block of K&T eq. 57 and K entries of K&T eq. 52, added to the
   // stencil rows.
-  const CellProducts& along_x = _products[0];
-  const CellProducts& along_y = _products[1];
   [[maybe_unused]] std::vector<RotatedGamma> rotated = per_thread(Fourth);
-  particle_to_grid<CellPowers<P>>(
+  const std::array<std::size_t, Dim> padded_n = _padded;
+  particle_to_grid<CellPowers<Dim, P>>(
       _grid, sort, Points{particles.x.data()},
-      [&](const Cell<2>& cell, const auto& each)
+      [&](const Cell<Dim>& cell, const auto& each)
       {
         Moments sums; // the cell's moments
         [[maybe_unused]] RotatedGamma* mine = Fourth ? &rotated[omp_get_thread_num()] : nullptr;
         each(
-            [&](std::size_t p, const CellPowers<P>& s)
+            [&](std::size_t p, const CellPowers<Dim, P>& s)
             {
               const Fracture& fr = *fracture(material[p]);
               const double V = volume[p];
@@ -397,30 +425,59 @@ void PhaseField::assemble(const Particles& particles, const CellSort& sort)
               }
               sums.add(s, w, fr.source() * V);
             });
-        alignas(64) double block[W * W][CellProducts::row(P)];
+        alignas(64) typename Moments::Block block;
         double f[K];
-        sums.block(along_x.products(cell.index[0]), along_y.products(cell.index[1]), block);
-        sums.rhs(along_x.values(cell.index[0]), along_y.values(cell.index[1]), f);
+        const int* c = cell.index.data();
+        const CellProducts* along = _products.data();
+        const double* z_products = Dim == 3 ? along[Dim - 1].products(c[Dim - 1]) : nullptr;
+        const double* z_values = Dim == 3 ? along[Dim - 1].values(c[Dim - 1]) : nullptr;
+        sums.block(along[0].products(c[0]), along[1].products(c[1]), z_products, block);
+        sums.rhs(along[0].values(c[0]), along[1].values(c[1]), z_values, f);
         for (int i = 0; i < K; ++i)
-          _rhs[_nodes.index(cell.index[0] + i / W, cell.index[1] + i % W)] += f[i];
+        {
+          std::array<int, Dim> node;
+          for (int d = 0; d < Dim; ++d)
+            node[d] = c[d] + Shape::offset(i, d);
+          _rhs[_nodes.index(node)] += f[i];
+        }
         // Node i = (a, b) of the cell, row a W + b of the block, has its
         // stored row at padded(cx, cy) + a padded_ny + b; the row takes its
         // upper half, the nodes j = (a', b') after i (a' > a, or a' = a and
-        // b' >= b). The bounds are constants: the loops unroll to a straight
-        // run of additions.
-        double* corner = &_stencil[padded(cell.index[0], cell.index[1]) * H];
+        // b' >= b). In 3D likewise with i = (a, b, c) and the pairs (b, b')
+        // and (c, c') of the block's other directions. The bounds are
+        // constants: the loops unroll to a straight run of additions.
+        double* corner = &_stencil[padded(cell.index) * H];
+        if constexpr (Dim == 2)
+        {
+          const std::size_t padded_ny = padded_n[1];
 #pragma GCC unroll 4
-        for (int ai = 0; ai < W; ++ai)
+          for (int ai = 0; ai < W; ++ai)
 #pragma GCC unroll 4
-          for (int bi = 0; bi < W; ++bi)
-          {
-            double* row = corner + (ai * _padded_ny + bi) * H;
+            for (int bi = 0; bi < W; ++bi)
+            {
+              double* row = corner + (ai * padded_ny + bi) * H;
 #pragma GCC unroll 4
-            for (int aj = ai; aj < W; ++aj)
+              for (int aj = ai; aj < W; ++aj)
 #pragma GCC unroll 4
-              for (int bj = aj == ai ? bi : 0; bj < W; ++bj)
-                row[Stencil<P>::slot(aj - ai, bj - bi)] += block[ai * W + aj][bi * W + bj];
-          }
+                for (int bj = aj == ai ? bi : 0; bj < W; ++bj)
+                  row[Stencil<P>::slot(aj - ai, bj - bi)] += block[ai * W + aj][bi * W + bj];
+            }
+        }
+        else
+        {
+          const std::size_t ny = padded_n[1], nz = padded_n[2];
+          for (int ai = 0; ai < W; ++ai)
+            for (int bi = 0; bi < W; ++bi)
+              for (int ci = 0; ci < W; ++ci)
+              {
+                double* row = corner + ((ai * ny + bi) * nz + ci) * H;
+                for (int aj = ai; aj < W; ++aj)
+                  for (int bj = 0; bj < W; ++bj)
+                    for (int cj = 0; cj < W; ++cj)
+                      if (const int k = Stencil<P>::slot(aj - ai, bj - bi, cj - ci); k >= 0)
+                        row[k] += block[ai * W + aj][bi * W + bj][ci * W + cj];
+              }
+        }
       });
 
   // Nodes that no crackable particle touches keep c = 1: an identity row.
@@ -434,7 +491,7 @@ void PhaseField::assemble(const Particles& particles, const CellSort& sort)
   // 1e-5, so it is uncoupled: its row and column are zeroed.
   // (Only a node below the bound set by the largest diagonal of all looks
   // at its stencil.)
-  const Stencil<P> stencil(_padded_ny);
+  const Stencil<P> stencil = this->template stencil<P>();
   const double* rows = _stencil.data();
   double heaviest = 0.0;
 #pragma omp parallel for schedule(static) reduction(max : heaviest)
@@ -469,19 +526,21 @@ void PhaseField::assemble(const Particles& particles, const CellSort& sort)
     }
 }
 
+template <int Dim>
 template <int P>
-void PhaseField::multiply(const std::vector<double>& in, std::vector<double>& out) const
+void PhaseField<Dim>::multiply(const std::vector<double>& in, std::vector<double>& out) const
 {
-  const Stencil<P> stencil(_padded_ny);
+  const Stencil<P> stencil = this->template stencil<P>();
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t a = 0; a < static_cast<std::ptrdiff_t>(out.size()); ++a)
     out[a] = row_product(stencil, a, in.data());
 }
 
+template <int Dim>
 template <int P>
-void PhaseField::ssor_iterations(double stop, double& start, double& residual, int& it)
+void PhaseField<Dim>::ssor_iterations(double stop, double& start, double& residual, int& it)
 {
-  const Stencil<P> stencil(_padded_ny);
+  const Stencil<P> stencil = this->template stencil<P>();
   const std::size_t na = _rhs.size();
   const auto strips = static_cast<std::ptrdiff_t>(_strip_column.size()) - 1;
   double* t = _search.data();  // the search direction p
@@ -541,7 +600,7 @@ void PhaseField::ssor_iterations(double stop, double& start, double& residual, i
       strip(s, true, [&](std::size_t a, int left, int right, bool even)
             {
               const std::size_t i = _position[a];
-              w[i] = subtract_neighbours<2, P, true, false>(stencil, rows, i, left, right, even,
+              w[i] = subtract_neighbours<Dim, P, true, false>(stencil, rows, i, left, right, even,
                                                          _r[a], w)
                      * _inverse[a];
             });
@@ -569,7 +628,7 @@ void PhaseField::ssor_iterations(double stop, double& start, double& residual, i
                 {
                   _v[a] = _diagonal[a] * _g[a] + beta * _v[a]; // p~ = r~ + beta p~
                   const std::size_t i = _position[a];
-                  t[i] = subtract_neighbours<2, P, false, true>(stencil, rows, i, left, right,
+                  t[i] = subtract_neighbours<Dim, P, false, true>(stencil, rows, i, left, right,
                                                              even, _v[a], t)
                          * _inverse[a];
                 });
@@ -583,7 +642,7 @@ void PhaseField::ssor_iterations(double stop, double& start, double& residual, i
                   const std::size_t i = _position[a];
                   // v - D t - (L w)_a and -(L t)_a
                   double b[2] = {_v[a] - _diagonal[a] * t[i], 0.0};
-                  subtract_neighbours<2, P, true, false, 2>(stencil, rows, i, left, right, even,
+                  subtract_neighbours<Dim, P, true, false, 2>(stencil, rows, i, left, right, even,
                                                          {w, t}, b);
                   w[i] = b[0] * _inverse[a];
                   _q[a] = _v[a] - b[1];
@@ -612,7 +671,8 @@ void PhaseField::ssor_iterations(double stop, double& start, double& residual, i
   }
 }
 
-void PhaseField::prepare_ssor()
+template <int Dim>
+void PhaseField<Dim>::prepare_ssor()
 {
   const std::vector<std::int32_t>& nodes = _nodes.nodes();
   const auto na = static_cast<std::ptrdiff_t>(_rhs.size());
@@ -621,7 +681,8 @@ void PhaseField::prepare_ssor()
   // each strip at least p columns wide (strips of one parity must not
   // touch); widths differ by at most one column.
   constexpr int multiple = 4;
-  const int nx = _grid.nodes()[0], nny = _grid.nodes()[1];
+  const int nx = _grid.nodes()[0];
+  const std::size_t slab = static_cast<std::size_t>(_grid.num_nodes()) / static_cast<std::size_t>(nx);
   const int wanted = ((nx + sweep_strip - 1) / sweep_strip + multiple - 1) / multiple * multiple;
   const int strips = std::max(1, std::min(wanted, nx / _grid.degree()));
   _strip_column.resize(strips + 1);
@@ -630,7 +691,7 @@ void PhaseField::prepare_ssor()
   _column_start.resize(nx + 1);
   for (int ix = 0; ix <= nx; ++ix)
     _column_start[ix] = static_cast<std::size_t>(
-        std::lower_bound(nodes.begin(), nodes.end(), ix * nny) - nodes.begin());
+        std::lower_bound(nodes.begin(), nodes.end(), static_cast<std::int64_t>(ix * slab)) - nodes.begin());
   _inverse.resize(na);
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t a = 0; a < na; ++a)
@@ -641,8 +702,9 @@ void PhaseField::prepare_ssor()
 
 /// PCG with z = B r, B one V-cycle of Multigrid (symmetric positive definite),
 /// set up for this K only when the warm start has not yet converged.
+template <int Dim>
 template <int P>
-void PhaseField::multigrid_iterations(double norm_f, double stop, double& residual, int& it)
+void PhaseField<Dim>::multigrid_iterations(double norm_f, double stop, double& residual, int& it)
 {
   const std::size_t na = _rhs.size();
   residual = std::sqrt(deterministic_sum<1>(na,
@@ -689,13 +751,15 @@ void PhaseField::multigrid_iterations(double norm_f, double stop, double& residu
   }
 }
 
-double PhaseField::rhs_norm() const
+template <int Dim>
+double PhaseField<Dim>::rhs_norm() const
 {
   return std::sqrt(deterministic_sum<1>(_rhs.size(), [&](std::size_t a, std::array<double, 1>& acc)
                                         { acc[0] += _rhs[a] * _rhs[a]; })[0]);
 }
 
-double PhaseField::warm_start(std::size_t i)
+template <int Dim>
+double PhaseField<Dim>::warm_start(std::size_t i)
 {
   const double trend = _stats.solves >= 2 ? 1.0 : 0.0;
   const double now = _c[i];
@@ -729,8 +793,9 @@ double PhaseField::warm_start(std::size_t i)
 /// gamma_n (l0/h)^4, takes the multigrid V-cycle by default
 /// (multigrid_iterations, Multigrid), a few iterations where Gauss-Seidel
 /// takes hundreds (docs/performance/fourth-order.md).
+template <int Dim>
 template <int P, bool Fourth>
-bool PhaseField::conjugate_gradient()
+bool PhaseField<Dim>::conjugate_gradient()
 {
   const std::size_t na = _rhs.size();
   const double norm_f = rhs_norm();
@@ -814,8 +879,9 @@ bool PhaseField::conjugate_gradient()
 /// Every update is per node and every sum is a deterministic_sum, so the
 /// result has the same bits on any number of threads. The CG iterations of
 /// each pass, and those of MPRGP, are each limited to max_iterations.
+template <int Dim>
 template <int P>
-bool PhaseField::bounded_solve()
+bool PhaseField<Dim>::bounded_solve()
 {
   const std::size_t na = _rhs.size();
   const double norm_f = rhs_norm();
@@ -874,9 +940,9 @@ bool PhaseField::bounded_solve()
   if (!settled) // MPRGP from here
   {
     std::fill(_search.begin(), _search.end(), 0.0);
-    const StencilSystem<2, P> system{Stencil<P>(_padded_ny), _stencil.data(), _position.data(),
+    const StencilSystem<Dim, P> system{this->template stencil<P>(), _stencil.data(), _position.data(),
                                   _diagonal.data(), _rhs.data(), na};
-    const MprgpResult r = mprgp<2, P>(system, _c.data(), _search.data(), _r, _q, stop, _tol, _max_iterations);
+    const MprgpResult r = mprgp<Dim, P>(system, _c.data(), _search.data(), _r, _q, stop, _tol, _max_iterations);
     it += r.iterations;
     residual = r.residual;
     settled = r.converged;
@@ -900,17 +966,19 @@ bool PhaseField::bounded_solve()
   return settled;
 }
 
+template <int Dim>
 template <int P>
-void PhaseField::held_products()
+void PhaseField<Dim>::held_products()
 {
-  const Stencil<P> stencil(_padded_ny);
+  const Stencil<P> stencil = this->template stencil<P>();
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t a = 0; a < static_cast<std::ptrdiff_t>(_bound.size()); ++a)
     if (_bound[a] != 0)
       _q[a] = row_product(stencil, a, _c.data());
 }
 
-std::int64_t PhaseField::update_active_set(double margin)
+template <int Dim>
+std::int64_t PhaseField<Dim>::update_active_set(double margin)
 {
   const auto na = static_cast<std::ptrdiff_t>(_rhs.size());
   std::int64_t changed = 0;
@@ -941,7 +1009,8 @@ std::int64_t PhaseField::update_active_set(double margin)
   return changed;
 }
 
-void PhaseField::list_free()
+template <int Dim>
+void PhaseField<Dim>::list_free()
 {
   _free.clear();
   _free_node.clear();
@@ -955,8 +1024,9 @@ void PhaseField::list_free()
     }
 }
 
+template <int Dim>
 template <int P>
-void PhaseField::free_set_solve(double stop, double& start, double& residual, int& it)
+void PhaseField<Dim>::free_set_solve(double stop, double& start, double& residual, int& it)
 {
   if (preconditioner() == Preconditioner::ssor)
   {
@@ -967,11 +1037,12 @@ void PhaseField::free_set_solve(double stop, double& start, double& residual, in
     free_set_iterations<P>(stop, start, residual, it);
 }
 
+template <int Dim>
 template <int P>
-void PhaseField::free_set_iterations(double stop, double& start, double& residual, int& it)
+void PhaseField<Dim>::free_set_iterations(double stop, double& start, double& residual, int& it)
 {
   const std::size_t nf = _free.size();
-  const Stencil<P> stencil(_padded_ny);
+  const Stencil<P> stencil = this->template stencil<P>();
   const double* rows = _stencil.data();
   const std::uint32_t* node = _free_node.data(); // padded positions of the free nodes
   const double* diagonal = _free_diagonal.data();
@@ -1031,10 +1102,11 @@ void PhaseField::free_set_iterations(double stop, double& start, double& residua
 /// c_p (K&T eq. 53) at the particles; with Energy their fracture energy too,
 /// which the step reads nowhere: the solver asks for it in the last step of
 /// each advance(), after which energies and output read it.
+template <int Dim>
 template <int P, bool Fourth, bool Energy>
-void PhaseField::map_to_particles(Particles& particles, const CellSort& sort)
+void PhaseField<Dim>::map_to_particles(Particles& particles, const CellSort& sort)
 {
-  using Shape = BSplineStencil<2, P, Fourth && Energy ? 2 : 1>;
+  using Shape = BSplineStencil<Dim, P, Fourth && Energy ? 2 : 1>;
   constexpr int K = Shape::size;
   const double* volume = particles.volume.data();
   const double* phi = Fourth ? particles.f64("phi").data() : nullptr;
@@ -1046,14 +1118,18 @@ void PhaseField::map_to_particles(Particles& particles, const CellSort& sort)
   grid_to_particle<Shape>(
       _grid, sort, Points{particles.x.data()},
       unreduced(
-          [&](const Cell<2>& cell, const auto& each)
+          [&](const Cell<Dim>& cell, const auto& each)
           {
             double nodal[K][1];
             [[maybe_unused]] RotatedGamma* mine =
                 Fourth && Energy ? &rotated[omp_get_thread_num()] : nullptr;
             for (int i = 0; i < K; ++i)
-              nodal[i][0] =
-                  _c[padded(cell.index[0] + Shape::offset(i, 0), cell.index[1] + Shape::offset(i, 1))];
+            {
+              std::array<int, Dim> node;
+              for (int d = 0; d < Dim; ++d)
+                node[d] = cell.index[d] + Shape::offset(i, d);
+              nodal[i][0] = _c[padded(node)];
+            }
             each(
                 [&](std::size_t p, const Shape& s)
                 {
@@ -1068,7 +1144,7 @@ void PhaseField::map_to_particles(Particles& particles, const CellSort& sort)
                     const Fracture& fr = *fracture(material[p]);
                     // c_p (K&T eq. 53) and its gradient (K&T eq. 54), with the fourth
                     // order its second derivatives kappa (K&T eq. 55).
-                    double cp[1], g[2][1];
+                    double cp[1], g[Dim][1];
                     [[maybe_unused]] double kappa[3][1];
                     if constexpr (Fourth)
                       s.template interpolate<1>(nodal, cp, g, kappa);
@@ -1076,7 +1152,10 @@ void PhaseField::map_to_particles(Particles& particles, const CellSort& sort)
                       s.template interpolate<1>(nodal, cp, g);
                     c[p] = cp[0];
                     // G_c V Z with Z of K&T eq. 4 (AT1: Fracture::crack_density).
-                    double Z = fr.crack_density(cp[0], g[0][0] * g[0][0] + g[1][0] * g[1][0]);
+                    double grad2 = g[0][0] * g[0][0];
+                    for (int d = 1; d < Dim; ++d)
+                      grad2 += g[d][0] * g[d][0];
+                    double Z = fr.crack_density(cp[0], grad2);
                     if constexpr (Fourth) // zero for a material with gamma = 0
                       Z += fr.l0 * fr.l0 * fr.l0
                            * curvature_energy((*mine)(fr, phi[p]), kappa[0][0], kappa[1][0],
@@ -1087,8 +1166,13 @@ void PhaseField::map_to_particles(Particles& particles, const CellSort& sort)
           }));
 }
 
-template bool PhaseField::solve<1>(Particles&, const CellSort&, bool);
-template bool PhaseField::solve<2>(Particles&, const CellSort&, bool);
-template bool PhaseField::solve<3>(Particles&, const CellSort&, bool);
+template class PhaseField<2>;
+template class PhaseField<3>;
+template bool PhaseField<2>::solve<1>(Particles&, const CellSort&, bool);
+template bool PhaseField<2>::solve<2>(Particles&, const CellSort&, bool);
+template bool PhaseField<2>::solve<3>(Particles&, const CellSort&, bool);
+template bool PhaseField<3>::solve<1>(Particles&, const CellSort&, bool);
+template bool PhaseField<3>::solve<2>(Particles&, const CellSort&, bool);
+template bool PhaseField<3>::solve<3>(Particles&, const CellSort&, bool);
 
 } // namespace pfmpm

@@ -147,7 +147,7 @@ struct PhaseFieldStats
 /// of the last solve: for checks and for comparisons with other solvers.
 struct PhaseFieldSystem
 {
-  std::vector<std::int32_t> nodes;     ///< grid node (ix * nodes_y + iy) of each row
+  std::vector<std::int32_t> nodes;     ///< grid node (its lattice key, ix * nodes_y + iy in 2D) of each row
   std::vector<std::int64_t> row_start; ///< rows + 1 offsets into column and value
   std::vector<std::int32_t> column;    ///< row index of each entry's column, ascending per row
   std::vector<double> value;           ///< K's entries
@@ -192,9 +192,13 @@ struct PhaseFieldState
 /// (Fracture::bound, AT2 only): AT1 has no solution without it, and it keeps
 /// AT2's nodal values, which undershoot next to a band of huge history, in
 /// [0, 1].
-class PhaseField
+///
+/// The phase field is dimension-generic, instantiated for Dim = 2 and 3: the
+/// stencil has (2p+1)^Dim points, the Gauss-Seidel strips are of grid columns
+/// (2D) or planes (3D). The fourth-order model is two-dimensional (its
+/// anisotropy tensor acts on 2D curvatures): the 3D constructor refuses it.
+struct PhaseFieldDeclarations
 {
-public:
   /// @brief The declarations of the solve's parameters, a scene's
   /// [phase_field] keys: tol, max_iterations and preconditioner, with the
   /// defaults StepConfig takes.
@@ -202,16 +206,21 @@ public:
   static constexpr double default_tol = 1e-6;
   static constexpr int default_max_iterations = 1000;
 
+  /// The particle columns of the phase field: c, history H and fracture
+  /// energy G_c V_p Z(c_p); with the fourth-order term also the orientation phi.
+  static std::vector<ColumnSpec> columns(bool fourth_order);
+};
+
+template <int Dim>
+class PhaseField : public PhaseFieldDeclarations
+{
+public:
   /// @param grid The background grid (kept by reference).
   /// @param fracture Per material: its fracture parameters, or none if it cannot crack.
   /// @param tol Relative residual tolerance tol_c.
   /// @param max_iterations CG iteration limit per solve.
-  PhaseField(const Grid<2>& grid, std::vector<std::optional<Fracture>> fracture, double tol,
+  PhaseField(const Grid<Dim>& grid, std::vector<std::optional<Fracture>> fracture, double tol,
              int max_iterations);
-
-  /// The particle columns of the phase field: c, history H and fracture
-  /// energy G_c V_p Z(c_p); with the fourth-order term also the orientation phi.
-  static std::vector<ColumnSpec> columns(bool fourth_order);
 
   /// Whether any material can crack.
   bool active() const { return _active; }
@@ -326,30 +335,53 @@ private:
   void map_to_particles(Particles& particles, const CellSort& sort);
   /// K's stencil storage (symmetric_stencil.h).
   template <int P>
-  using Stencil = SymmetricStencil<2, P>;
+  using Stencil = SymmetricStencil<Dim, P>;
+  /// K's stencil on this grid's padded node layout.
+  template <int P>
+  Stencil<P> stencil() const
+  {
+    if constexpr (Dim == 2)
+      return Stencil<P>(_padded[1]);
+    else
+      return Stencil<P>(_padded[1], _padded[2]);
+  }
   /// Row `a` (an active node) of K times the padded vector `v`.
   template <int P>
   double row_product(const Stencil<P>& stencil, std::size_t a, const double* v) const
   {
     return pfmpm::row_product(stencil, _stencil.data(), _position[a], v);
   }
-  /// Index of node (ix, iy) in the padded node layout.
-  std::size_t padded(int ix, int iy) const
+  /// Index of node (i_0, .., i_Dim-1) in the padded node layout.
+  std::size_t padded(const std::array<int, Dim>& i) const
   {
-    return static_cast<std::size_t>(ix + _pad) * _padded_ny + (iy + _pad);
+    std::size_t k = static_cast<std::size_t>(i[0] + _pad);
+    for (int d = 1; d < Dim; ++d)
+      k = k * _padded[d] + static_cast<std::size_t>(i[d] + _pad);
+    return k;
+  }
+  template <class... I>
+  std::size_t padded(I... i) const
+  {
+    static_assert(sizeof...(I) == Dim, "one index per direction");
+    return padded(std::array<int, Dim>{static_cast<int>(i)...});
+  }
+  /// Index in the padded node layout of the grid node of key `node`.
+  std::size_t padded_node(std::int32_t node) const
+  {
+    return padded(lattice_indices<Dim>(static_cast<std::size_t>(node), _grid.nodes()));
   }
 
-  const Grid<2>& _grid;
-  ActiveNodes<2> _nodes; // the unknowns: the nodes the solve's particles touch
+  const Grid<Dim>& _grid;
+  ActiveNodes<Dim> _nodes; // the unknowns: the nodes the solve's particles touch
   std::vector<std::optional<Fracture>> _fracture;
-  std::vector<CellProducts> _products; // x and y: the basis's products on each cell (moments.h)
+  std::vector<CellProducts> _products; // per direction: the basis's products on each cell (moments.h)
   bool _active;
   bool _fourth; // some material has gamma != 0
   bool _bounded; // second order and some material bounded: 0 <= c <= 1 is imposed
   double _tol;
   int _max_iterations;
   int _pad;                // padding of the node layout: the degree
-  std::size_t _padded_ny;  // nodes per padded column
+  std::array<std::size_t, Dim> _padded{}; // nodes per direction of the padded layout
   std::vector<double> _c;  // nodal phase field, padded layout, kept between steps
   std::vector<double> _c_previous; // the solution before, for the warm start
   std::vector<double> _stencil;       // per padded node: upper-half stencil of K
@@ -359,8 +391,9 @@ private:
   std::vector<double> _r, _z, _q;     // CG work vectors, per active node
   std::vector<double> _search;        // CG search direction, padded layout
   // SSOR-preconditioned CG only: strip s of the Gauss-Seidel
-  // order is the grid columns [_strip_column[s], _strip_column[s + 1]), column
-  // ix the active nodes [_column_start[ix], _column_start[ix + 1]); 1 / K_II per
+  // order is the grid columns (2D) or planes (3D) of first index
+  // [_strip_column[s], _strip_column[s + 1]), column or plane ix the active
+  // nodes [_column_start[ix], _column_start[ix + 1]); 1 / K_II per
   // active node; work vectors _forward (padded layout), _v and _g (per active node).
   std::vector<int> _strip_column;
   std::vector<std::size_t> _column_start;
@@ -378,5 +411,8 @@ private:
   std::unique_ptr<Multigrid> _multigrid; // with Preconditioner::multigrid
   PhaseFieldStats _stats;
 };
+
+extern template class PhaseField<2>;
+extern template class PhaseField<3>;
 
 } // namespace pfmpm

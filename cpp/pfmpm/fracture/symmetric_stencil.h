@@ -4,6 +4,7 @@
 /// conjugate gradients and the multigrid levels built from it.
 #pragma once
 
+#include <array>
 #include <cmath>
 #include <cstddef>
 
@@ -66,6 +67,14 @@ struct SymmetricStencil
     static_assert(sizeof...(I) == Dim, "one offset per direction");
     int rank = 0;
     ((rank = rank * width + static_cast<int>(offset) + P), ...);
+    return rank >= centre ? rank - centre : -1;
+  }
+  /// slot of the offset `offset`.
+  static constexpr int slot(const std::array<int, Dim>& offset)
+  {
+    int rank = 0;
+    for (int a = 0; a < Dim; ++a)
+      rank = rank * width + offset[a] + P;
     return rank >= centre ? rank - centre : -1;
   }
 };

@@ -177,9 +177,10 @@ public:
     static_assert(Dim == 2, "plane strain");
     elastic(&v.strain[3 * p], &v.plastic[4 * p], &v.stress[4 * p]);
   }
+  template <int Dim>
   double degraded(const View& v, std::size_t p, double g) const
   {
-    undegraded<2>(v, p);
+    undegraded<Dim>(v, p);
     for (int i = 0; i < 4; ++i)
       v.stress[4 * p + i] *= g;
     return energy<2>(v, p);
@@ -195,9 +196,10 @@ public:
     return 0.5 * (sig[0] * (eps[0] - ep[0]) + sig[1] * (eps[1] - ep[1])
                   + 2.0 * sig[2] * (eps[2] - ep[2]) - sig[3] * ep[3]);
   }
+  template <int Dim>
   void split(const View& v, std::size_t p, double& plus, double& minus) const
   {
-    plus = energy<2>(v, p);
+    plus = energy<Dim>(v, p);
     minus = 0.0;
   }
   /// @}

@@ -2,6 +2,8 @@
 /// @brief Linear elasticity: moduli, parameters and its registration.
 #include "pfmpm/materials/linear_elastic.h"
 
+#include <Eigen/Dense>
+
 #include <cmath>
 
 namespace pfmpm
@@ -86,5 +88,73 @@ std::vector<ColumnSpec> LinearElastic::columns(int dim) const
 }
 
 PFMPM_REGISTER_MATERIAL(LinearElastic, "linear_elastic")
+
+void LinearElastic::degraded3(const double* eps, double g, double* sig, double& psi_plus,
+                              double& psi_minus) const
+{
+  const double tr = eps[0] + eps[1] + eps[3];
+  const double trp = std::max(tr, 0.0), trn = tr - trp;
+  if (_split == Split::spectral)
+  {
+    // K&T eq. 14 on the principal strains l_i with directions n_i (Miehe et
+    // al. 2010): sigma = lambda (g <tr>+ + <tr>-) I + 2 mu sum_i (g <l_i>+ + <l_i>-) n_i n_i.
+    Eigen::Matrix3d strain;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j)
+        strain(i, j) = eps[symmetric_entry(i, j)];
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(strain); // iterative: orthonormal directions
+    const Eigen::Vector3d& l = eigen.eigenvalues();
+    const Eigen::Matrix3d& n = eigen.eigenvectors();
+    double plus = 0.5 * _lambda3 * trp * trp, minus = 0.5 * _lambda3 * trn * trn;
+    double weight[3];
+    for (int k = 0; k < 3; ++k)
+    {
+      const double lp = std::max(l[k], 0.0), ln = l[k] - lp;
+      plus += _mu * lp * lp;
+      minus += _mu * ln * ln;
+      weight[k] = 2.0 * _mu * (g * lp + ln);
+    }
+    psi_plus = plus;
+    psi_minus = minus;
+    const double vol = _lambda3 * (g * trp + trn);
+    for (int i = 0; i < 3; ++i)
+      for (int j = i; j < 3; ++j)
+      {
+        double s = i == j ? vol : 0.0;
+        for (int k = 0; k < 3; ++k)
+          s += weight[k] * n(i, k) * n(j, k);
+        sig[symmetric_entry(i, j)] = s;
+      }
+    return;
+  }
+  if (_split == Split::volumetric_deviatoric)
+  {
+    // Amor et al. 2009: the bulk part of a compression stays whole.
+    const double mean = tr / 3.0;
+    double dd = 0.0;
+    for (int k = 0; k < 6; ++k)
+    {
+      const double e = k == 0 || k == 1 || k == 3 ? eps[k] - mean : eps[k];
+      dd += (k == 0 || k == 1 || k == 3 ? 1.0 : 2.0) * e * e;
+      sig[k] = 2.0 * _mu * g * e;
+    }
+    psi_plus = 0.5 * _bulk * trp * trp + _mu * dd;
+    psi_minus = 0.5 * _bulk * trn * trn;
+    const double vol = _bulk * (g * trp + trn);
+    sig[0] += vol;
+    sig[1] += vol;
+    sig[3] += vol;
+    return;
+  }
+  // No split: the whole energy degrades.
+  psi_plus = 0.5 * _lambda3 * tr * tr;
+  for (int k = 0; k < 6; ++k)
+  {
+    const bool diagonal = k == 0 || k == 1 || k == 3;
+    psi_plus += _mu * (diagonal ? 1.0 : 2.0) * eps[k] * eps[k];
+    sig[k] = g * (2.0 * _mu * eps[k] + (diagonal ? _lambda3 * tr : 0.0));
+  }
+  psi_minus = 0.0;
+}
 
 } // namespace pfmpm

@@ -126,10 +126,14 @@ public:
         sig[symmetric_entry(d, d)] += _lambda3 * tr;
     }
   }
+  template <int Dim>
   double degraded(const View& v, std::size_t p, double g) const
   {
     double plus, minus;
-    degraded(&v.strain[3 * p], g, &v.stress[4 * p], plus, minus);
+    if constexpr (Dim == 2)
+      degraded(&v.strain[3 * p], g, &v.stress[4 * p], plus, minus);
+    else
+      degraded3(&v.strain[6 * p], g, &v.stress[6 * p], plus, minus);
     return plus;
   }
   template <int Dim>
@@ -147,10 +151,14 @@ public:
       return 0.5 * _lambda3 * tr * tr + _mu * (diagonal + 2.0 * shear);
     }
   }
+  template <int Dim>
   void split(const View& v, std::size_t p, double& plus, double& minus) const
   {
-    double sig[4];
-    degraded(&v.strain[3 * p], 1.0, sig, plus, minus);
+    double sig[Dim == 2 ? 4 : 6];
+    if constexpr (Dim == 2)
+      degraded(&v.strain[3 * p], 1.0, sig, plus, minus);
+    else
+      degraded3(&v.strain[6 * p], 1.0, sig, plus, minus);
   }
   /// @}
 
@@ -197,6 +205,12 @@ public:
       psi_minus = 0.0;
     }
   }
+
+  /// @brief degraded for a 3D strain and stress, symmetric layout
+  /// (common/symmetric.h: xx, yy, xy, zz, yz, xz): the same splits on the
+  /// 3 x 3 strain, the spectral one from its eigenvalues and eigenvectors.
+  void degraded3(const double* eps, double g, double* sig, double& psi_plus,
+                 double& psi_minus) const;
 
 private:
   void spectral(const double* eps, double g, double* sig, double& psi_plus,

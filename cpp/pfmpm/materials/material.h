@@ -192,9 +192,10 @@ inline double isotropic_rayleigh_speed(double E, double nu, double density)
 ///   the stress without a phase field (symmetric_size(Dim) entries);
 /// - `template <int Dim> double energy(const View&, std::size_t p) const`, the
 ///   energy density per unit current volume;
-/// - in 2D, with a phase field: `double degraded(const View&, std::size_t p,
-///   double g) const`, the stress of K&T eq. 16 with g(c), returning psi+, and
-///   `void split(const View&, std::size_t p, double& plus, double& minus) const`;
+/// - with a phase field: `template <int Dim> double degraded(const View&,
+///   std::size_t p, double g) const`, the stress of K&T eq. 16 with g(c),
+///   returning psi+, and `template <int Dim> void split(const View&,
+///   std::size_t p, double& plus, double& minus) const`;
 /// - `static constexpr bool constant_wave_speed` and, if false,
 ///   `template <int Dim> double state_wave_speed(const View&, std::size_t p) const`.
 template <class Model>
@@ -236,41 +237,36 @@ private:
       UpdateResult r;
       if constexpr (Model::constant_wave_speed)
         r.wave = _model.wave_speed();
-      if constexpr (Dim == 3)
-        if (degradation)
-          throw std::logic_error("the phase field is two-dimensional");
       each(b, [&](auto at)
            {
-             if constexpr (Dim == 2)
+             if (degradation && stress)
              {
-               if (degradation && stress)
+               for (std::size_t k = 0; k < b.n; ++k)
                {
-                 for (std::size_t k = 0; k < b.n; ++k)
-                 {
-                   const std::size_t p = at(k);
-                   _model.template advance<Dim>(_view, p, &L[LL * k], dt);
-                   // K&T eqs. 14-16 with this step's phase field; the history takes
-                   // the largest tensile energy so far (K&T eq. 20, Kuhn-Tucker conditions).
-                   const double plus = _model.degraded(_view, p, degradation->g(degradation->c[p]));
-                   degradation->history[p] = std::max(degradation->history[p], plus);
-                   note(r, p, stress_sum(p) + degradation->history[p]);
-                 }
-                 return;
+                 const std::size_t p = at(k);
+                 _model.template advance<Dim>(_view, p, &L[LL * k], dt);
+                 // K&T eqs. 14-16 with this step's phase field; the history takes
+                 // the largest tensile energy so far (K&T eq. 20, Kuhn-Tucker conditions).
+                 const double plus =
+                     _model.template degraded<Dim>(_view, p, degradation->g(degradation->c[p]));
+                 degradation->history[p] = std::max(degradation->history[p], plus);
+                 note(r, p, stress_sum(p) + degradation->history[p]);
                }
-               if (degradation)
+               return;
+             }
+             if (degradation)
+             {
+               for (std::size_t k = 0; k < b.n; ++k)
                {
-                 for (std::size_t k = 0; k < b.n; ++k)
-                 {
-                   const std::size_t p = at(k);
-                   _model.template advance<Dim>(_view, p, &L[LL * k], dt);
-                   // K&T eq. 20 as above, psi+ without the stress
-                   double plus, minus;
-                   _model.split(_view, p, plus, minus);
-                   degradation->history[p] = std::max(degradation->history[p], plus);
-                   note(r, p, plus + minus);
-                 }
-                 return;
+                 const std::size_t p = at(k);
+                 _model.template advance<Dim>(_view, p, &L[LL * k], dt);
+                 // K&T eq. 20 as above, psi+ without the stress
+                 double plus, minus;
+                 _model.template split<Dim>(_view, p, plus, minus);
+                 degradation->history[p] = std::max(degradation->history[p], plus);
+                 note(r, p, plus + minus);
                }
+               return;
              }
              for (std::size_t k = 0; k < b.n; ++k)
              {
@@ -285,15 +281,12 @@ private:
 
     void stress(const Batch& b, const Degradation& degradation) const override
     {
-      if constexpr (Dim == 3)
-        throw std::logic_error("the phase field is two-dimensional");
-      else
       each(b, [&](auto at)
            {
              for (std::size_t k = 0; k < b.n; ++k)
              {
                const std::size_t p = at(k);
-               _model.degraded(_view, p, degradation.g(degradation.c[p]));
+               _model.template degraded<Dim>(_view, p, degradation.g(degradation.c[p]));
              }
            });
     }
@@ -305,15 +298,14 @@ private:
              for (std::size_t k = 0; k < b.n; ++k)
              {
                const std::size_t p = at(k);
-               if constexpr (Dim == 2)
-                 if (degradation)
-                 {
-                   double plus, minus;
-                   _model.split(_view, p, plus, minus);
-                   // K&T eq. 14
-                   sum += _volume[p] * (degradation->g(degradation->c[p]) * plus + minus);
-                   continue;
-                 }
+               if (degradation)
+               {
+                 double plus, minus;
+                 _model.template split<Dim>(_view, p, plus, minus);
+                 // K&T eq. 14
+                 sum += _volume[p] * (degradation->g(degradation->c[p]) * plus + minus);
+                 continue;
+               }
                sum += _volume[p] * _model.template energy<Dim>(_view, p);
              }
            });

@@ -148,12 +148,14 @@ public:
       if (v.damage[p] > 0.0)
         degrade_tensile<Dim>(sig, v.damage[p]);
   }
+  template <int Dim>
   double degraded(const View& v, std::size_t p, double g) const
   {
-    undegraded<2>(v, p);
-    for (int k = 0; k < 4; ++k)
-      v.stress[4 * p + k] *= g;
-    return energy<2>(v, p);
+    constexpr int T = symmetric_size(Dim);
+    undegraded<Dim>(v, p);
+    for (int k = 0; k < T; ++k)
+      v.stress[T * p + k] *= g;
+    return energy<Dim>(v, p);
   }
   /// Stored energy per unit current volume, (W - D W+) / J.
   template <int Dim>
@@ -167,9 +169,10 @@ public:
         psi -= v.damage[p] * tensile_energy<Dim>(Principal::template of<Dim>(*this, F, J));
     return psi / J;
   }
+  template <int Dim>
   void split(const View& v, std::size_t p, double& plus, double& minus) const
   {
-    plus = energy<2>(v, p);
+    plus = energy<Dim>(v, p);
     minus = 0.0;
   }
   /// @brief P-wave speed in the current state, for the stability check: the

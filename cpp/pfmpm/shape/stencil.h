@@ -183,16 +183,18 @@ struct BSplineStencil
     if constexpr (Dim == 2)
       by_columns<Q, 1>(nodal, value, grad, nullptr);
     else
-      by_lines<Q>(nodal, value, grad);
+      by_lines<Q, true>(nodal, value, grad);
   }
   /// @brief The values alone at the point of Q quantities given at the
   /// stencil's nodes, by the same columns: (P + 1)(P + 2) multiply-adds of
-  /// Q-vectors (12 for P = 2).
+  /// Q-vectors (12 for P = 2); in 3D by the same lines.
   template <int Q>
   void interpolate(const double (*nodal)[Q], double (&value)[Q]) const
   {
-    static_assert(Dim == 2, "values alone: in 2D");
-    by_columns<Q, 0>(nodal, value, nullptr, nullptr);
+    if constexpr (Dim == 2)
+      by_columns<Q, 0>(nodal, value, nullptr, nullptr);
+    else
+      by_lines<Q, false>(nodal, value, nullptr);
   }
   /// @brief interpolate with the second derivatives too (`hessian[h][q]`, in
   /// d2N's order xx, yy, xy); only for Order 2, only in 2D. By the same
@@ -268,12 +270,16 @@ private:
   /// sum_a N_a(x) T_a and the derivatives sum_a N_a'(x) T_a, sum_a N_a(x) U_a
   /// and sum_a N_a(x) W_a: (P + 1)(2 (P + 1)^2 + 3 (P + 1) + 4) multiply-adds of
   /// Q-vectors (93 for P = 2), against 4 (P + 1)^3 (108) node by node with the
-  /// products formed.
-  template <int Q>
-  void by_lines(const double (*nodal)[Q], double (&value)[Q], double (&grad)[Dim][Q]) const
+  /// products formed. Without the Gradient, the sums of N alone.
+  template <int Q, bool Gradient>
+  void by_lines(const double (*nodal)[Q], double (&value)[Q], double (*grad)[Q]) const
   {
     for (int q = 0; q < Q; ++q)
-      value[q] = grad[0][q] = grad[1][q] = grad[2][q] = 0.0;
+    {
+      value[q] = 0.0;
+      if constexpr (Gradient)
+        grad[0][q] = grad[1][q] = grad[2][q] = 0.0;
+    }
     for (int a = 0; a < width; ++a)
     {
       double T[Q] = {}, U[Q] = {}, W[Q] = {};
@@ -287,20 +293,27 @@ private:
           for (int c = 0; c < width; ++c)
           {
             t += n[2][c] * line[c * Q + q];
-            u += dn[2][c] * line[c * Q + q];
+            if constexpr (Gradient)
+              u += dn[2][c] * line[c * Q + q];
           }
           T[q] += n[1][b] * t;
-          U[q] += dn[1][b] * t;
-          W[q] += n[1][b] * u;
+          if constexpr (Gradient)
+          {
+            U[q] += dn[1][b] * t;
+            W[q] += n[1][b] * u;
+          }
         }
       }
 #pragma omp simd
       for (int q = 0; q < Q; ++q)
       {
         value[q] += n[0][a] * T[q];
-        grad[0][q] += dn[0][a] * T[q];
-        grad[1][q] += n[0][a] * U[q];
-        grad[2][q] += n[0][a] * W[q];
+        if constexpr (Gradient)
+        {
+          grad[0][q] += dn[0][a] * T[q];
+          grad[1][q] += n[0][a] * U[q];
+          grad[2][q] += n[0][a] * W[q];
+        }
       }
     }
   }

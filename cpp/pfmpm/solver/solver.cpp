@@ -83,12 +83,6 @@ Solver<Dim>::Solver(Grid<Dim>& grid, Particles& particles,
     if (!m)
       throw std::invalid_argument("materials: a material is missing");
   _fracture = per_material(std::move(fracture), _materials.size());
-  if constexpr (Dim == 3)
-  {
-    // What is two-dimensional yet (issue 51).
-    if (std::any_of(_fracture.begin(), _fracture.end(), [](const auto& f) { return f.has_value(); }))
-      throw std::invalid_argument("fracture: the phase field is two-dimensional yet");
-  }
 
   const auto nmat = static_cast<std::int32_t>(_materials.size());
   for (std::size_t i = 0; i < particles.size(); ++i)
@@ -104,7 +98,7 @@ Solver<Dim>::Solver(Grid<Dim>& grid, Particles& particles,
   const bool fourth = std::any_of(_fracture.begin(), _fracture.end(),
                                   [](const auto& f) { return f && f->fourth_order(); });
   if (cracks)
-    for (const ColumnSpec& c : PhaseField::columns(fourth))
+    for (const ColumnSpec& c : PhaseFieldDeclarations::columns(fourth))
       particles.add(c);
   if (transfer == TransferScheme::apic)
     particles.add(affine_column(particles.dim()));
@@ -159,7 +153,6 @@ Solver<Dim>::Solver(Grid<Dim>& grid, Particles& particles,
     _fields.template emplace<DamageFields<Dim>>(grid, particles, std::move(friction),
                                                 std::move(source), std::move(damage));
   }
-  if constexpr (Dim == 2)
   {
     if (!cracks)
       return;
@@ -180,12 +173,12 @@ Solver<Dim>::Solver(Grid<Dim>& grid, Particles& particles,
         crackable_body[b] = 1;
     }
     if (std::holds_alternative<SingleField>(_fields))
-      _phase.push_back(PhaseFieldGroup{PhaseField(grid, _fracture, tol, max_iterations), -1,
+      _phase.push_back(PhaseFieldGroup{PhaseField<Dim>(grid, _fracture, tol, max_iterations), -1,
                                        !all_crackable, {}});
     else
       for (std::size_t b = 0; b < crackable_body.size(); ++b)
         if (crackable_body[b])
-          _phase.push_back(PhaseFieldGroup{PhaseField(grid, _fracture, tol, max_iterations),
+          _phase.push_back(PhaseFieldGroup{PhaseField<Dim>(grid, _fracture, tol, max_iterations),
                                            static_cast<std::int32_t>(b), true, {}});
   }
 }

@@ -154,9 +154,9 @@ struct StepConfig
   /// Per material, its fracture parameters or none; empty: nothing cracks.
   std::vector<std::optional<Fracture>> fracture;
   /// Phase-field tolerance tol_c, relative to ||F|| (K&T eq. 52).
-  double tol = PhaseField::default_tol;
+  double tol = PhaseFieldDeclarations::default_tol;
   /// Phase-field CG iteration limit per step.
-  int max_iterations = PhaseField::default_max_iterations;
+  int max_iterations = PhaseFieldDeclarations::default_max_iterations;
   /// The velocity-field partition: one field (SingleField); every body
   /// (Particles::body) its own discrete field (BodyFields); or two fields per
   /// contact group chosen by the damage gradient (DamageFields).
@@ -400,7 +400,7 @@ private:
   /// A phase field and the particles that assemble it.
   struct PhaseFieldGroup
   {
-    PhaseField field;
+    PhaseField<Dim> field;
     std::int32_t body; ///< its body (contact group), or -1 for all crackable particles of the single field
     bool select;       ///< whether its particles are a selection of the sort
     CellSort sort;     ///< the selection, when select
