@@ -239,8 +239,7 @@ def planar_polygon(path: str, value: Any) -> tuple[tuple[float, float, float], .
     normal /= area2
     off = np.abs((p - p[0]) @ normal)
     if off.max() > 1e-9 * size:
-        raise SceneError(path, f"the points are not on one plane (point {int(off.argmax())} is"
-                               f" {off.max():.3g} off it)", value)
+        raise SceneError(path, f"the points are not on one plane (up to {off.max():.3g} off it)", value)
     lengths = np.sqrt(np.einsum("ij,ij->i", edges, edges))
     if lengths.min() <= 1e-12 * size:
         i = int(lengths.argmin())
