@@ -303,7 +303,7 @@ def test_3d_crack_profile_within_a_quarter_cell_of_the_exact_one(model, division
     Measured max error / (h / l0), 3D against 2D: AT2 l0/h = 4: 0.0035 (2D
     0.0048); AT2 8: 0.0048 (0.0060); AT1 4: 0.0018 (0.0031); AT1 8: 0.0036
     (0.0043).  The crack area ``int Z dV`` over the cross-section: 0.9945,
-    0.9940, 0.9998, 0.9995 (2D: 0.9944, 0.9940, 0.9997, 0.9994).  With the
+    0.9940, 0.9998, 0.9994 (2D: 0.9944, 0.9940, 0.9997, 0.9994).  With the
     2D band (h/2) the face centroids h/3 off the plane get a third of the
     history there and hold the next vertices near 0: 0.46-0.48 h / l0, 1.8-1.9
     times the bound (tests below).
