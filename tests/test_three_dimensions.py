@@ -514,8 +514,9 @@ BAD = [
      "bodies[0].shape = 'rectangle': a 2D shape (rectangle) in a 3D scene (grid.size has 3 entries); extrude it"),
     (solid, ['bodies.b.holes=[{type = "disk", center = [3.0, 3.0], radius = 0.5}]'],
      "bodies[0].holes[0] = 'disk': a 2D shape (disk) in a body of the 3D shape box"),
-    (solid, ["materials.m.fracture={Gc = 1.0, l0 = 2.0}"],
-     "materials[0].fracture: the phase field (a fracture table) is two-dimensional yet, and the scene is 3D"),
+    (solid, ['materials.m.fracture={Gc = 1.0, l0 = 2.0, anisotropy = {symmetry = "orthotropic", g1111 = 1.0,'
+             ' g2222 = 80.0, g1212 = 74.0}}'],
+     "materials[0].fracture.anisotropy = 'orthotropic': an anisotropic crack resistance is two-dimensional yet"),
     (solid, ['materials.m.model="drucker_prager"', "materials.m.friction_angle=30.0", "materials.m.cohesion=1.0"],
      "materials[0].model = 'drucker_prager': the drucker_prager model is two-dimensional yet"),
     (solid, ['plane="stress"'], "plane = 'stress': plane stress is two-dimensional yet"),
@@ -523,7 +524,7 @@ BAD = [
              ' min = [2.0, 2.0], max = [3.0, 3.0]}]}'],
      "contact.surfaces[0] = 'rectangle': a 2D shape (rectangle) in a 3D scene (grid.size has 3 entries)"),
     (solid, ["cracks=[{points = [[2.0, 3.0], [3.0, 3.0]]}]"],
-     "cracks: an initial crack (it seeds the phase field) is two-dimensional yet"),
+     "cracks[0].points = [[2.0, 3.0], [3.0, 3.0]]: 2D points in a 3D scene (grid.size has 3 entries)"),
     (solid, ["bodies.b.orientation=30.0"], "bodies[0].orientation = 30.0: the material orientation is"
                                            " two-dimensional yet"),
     (solid, ["bodies.b.velocity=[1.0, 0.0]"],
@@ -564,7 +565,7 @@ def test_bad_dimensions_are_one_line_errors(tables, sets, message):
 
 
 def test_pfmpm_run_of_a_bad_3d_scene_is_one_line(tmp_path):
-    """No traceback from the command line either; and the FEM path says it is 2D."""
+    """No traceback from the command line either; and the FEM path says which 3D shapes it meshes."""
     scene = tmp_path / "bad.toml"
     scene.write_text(BAR3D.read_text().replace('type = "cylinder"', 'type = "disk"'))
     for command in ("run", "fem"):
@@ -575,6 +576,5 @@ def test_pfmpm_run_of_a_bad_3d_scene_is_one_line(tmp_path):
         assert lines[0].startswith("error: bodies[0].shape")
     r = subprocess.run([sys.executable, "-m", "pfmpm.cli", "fem", str(BAR3D), "--out", str(tmp_path / "f"),
                         "--quiet"], capture_output=True, text=True)
-    assert r.returncode == 2 and r.stderr.strip() == ("error: grid.size = [30.0, 4.0, 4.0]: the FEM path is"
-                                                      " two-dimensional yet, and the scene is 3D (grid.size has"
-                                                      " 3 entries)")
+    assert r.returncode == 2 and r.stderr.strip() == ("error: bodies[0].shape = 'cylinder': the FEM path in 3D"
+                                                      " needs a box or an extruded rectangle")

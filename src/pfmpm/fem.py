@@ -7,7 +7,7 @@ they claim to reproduce (K&T compare with PF-FEM the same way).
 Discretisation
 --------------
 Mesh
-    The body's rectangle in squares of side ``h = grid.h``, each cut into two
+    In 2D the body's rectangle in squares of side ``h = grid.h``, each cut into two
     right triangles by DOLFINx's ``left/right`` pattern: diagonal ``/`` in
     square ``(i, j)`` when ``i + j`` is even, ``\\`` when odd, counted from
     the body's lower-left corner.  The pattern is mirror symmetric about
@@ -15,11 +15,18 @@ Mesh
     y = 20 is 80 h for h = 0.25) has the same mesh on both sides and a
     symmetric branching is not biased by it, as it is by the one-way
     ``right`` pattern.  It also has the larger explicit step of the two
-    (0.80 against 0.69 h / c_p for nu = 0.2, lumped mass).
+    (0.80 against 0.69 h / c_p for nu = 0.2, lumped mass).  In 3D the body's
+    box (a ``box``, or an ``extrusion`` of a rectangle) in cubes of side
+    ``h``, each cut into six tetrahedra by ``dolfinx.mesh.create_box``; other
+    3D shapes are refused with a one-line error.  Everything below is
+    written once for both: triangles and tetrahedra are simplices with
+    ``d + 1`` vertices and ``d + 1`` facets.
 Fields
     Displacement ``u`` and phase field ``c`` are continuous P1.  Strain and
-    stress are constant per triangle, and so is the cell degradation, the
-    exact cell mean of ``g(c)``.
+    stress are constant per cell, and so is the cell degradation, the
+    exact cell mean of ``g(c)``.  In 3D strains and stresses are 3 x 3
+    (columns xx, yy, xy, zz, yz, xz) and the splits are those of
+    :class:`_SolidElastic` (the core binds its splits for 2D strains only).
 History
     ``H`` (K&T eq. 20) lives at the three edge midpoints of each triangle, the
     points of the degree-2 midpoint rule, and the reaction term
@@ -40,10 +47,21 @@ History
     cell too wide on each side (1D profile, band h/2: max error
     0.45-0.48 h / l0 with the centroids, 0.003-0.006 h / l0 with the
     midpoints; tests/test_fem.py, docs/method.md).
+
+    In 3D the points are the four face centroids of each tetrahedron (the
+    facet centroids, as the edge midpoints are a triangle's), with the
+    face-centroid rule (weights V/4; exact for degree 1 only, so a cell-wise
+    ``H`` gives the exact row sums ``(F, N_I)`` but not the exact matrix).  A
+    face off a crack plane along mesh faces has its centroid h/3 from the
+    plane (an edge midpoint is h/2 off a crack line), so a band narrower than
+    h/3 holds only the faces on the plane: at half-width h/4 the 1D profile
+    is within 0.002-0.005 h / l0 of the exact one, at h/2 it is 0.46-0.48
+    h / l0 off (tests/test_fem3d.py).
 Elastodynamics
     Row-sum lumped mass; internal force from the cell stresses (K&T eq. 62 with
     cells in place of particles); tractions as consistent edge forces
-    (half of ``t * length * thickness`` to each end of a loaded edge); body
+    (half of ``t * length * thickness`` to each end of a loaded edge; in
+    3D a third of ``t * area`` to each corner of a loaded face); body
     forces as ``M_I * b``.  Volumes, masses and forces include the
     thickness, as the MPM particle volumes do, so the energies compare.
 Phase field
@@ -111,12 +129,11 @@ from petsc4py import PETSc
 
 from . import _core
 from .crack import initial_history
-from .run import ENERGY_COLUMNS, SIDES, RunResult, region_columns, run_to_end, wall_columns
+from .run import SIDES, RunResult, energy_columns, region_columns, run_to_end, wall_columns
 from .run_folder import check_fresh
-from .scene import (Body, BodyForce, LinearElasticSpec, MaterialSpec, Rectangle, Scene, SceneError,
-                    Traction)
+from .scene import (Body, BodyForce, Box, Extrusion, LinearElasticSpec, MaterialSpec, Rectangle, Scene,
+                    SceneError, Traction)
 from .scene.report import snapshot_warnings
-from .scene.validation import planar
 from .simulation import core_materials
 
 __all__ = ["FemSimulation", "MESH_DIAGONAL", "run_command", "main"]
@@ -124,15 +141,28 @@ __all__ = ["FemSimulation", "MESH_DIAGONAL", "run_command", "main"]
 #: DOLFINx diagonal pattern of the structured triangle mesh (see the module docstring).
 MESH_DIAGONAL = mesh.DiagonalType.left_right
 
-#: Reference-cell gradients of the three P1 basis functions.
-_REF_GRAD = np.array([[-1.0, -1.0], [1.0, 0.0], [0.0, 1.0]])
 _ON_LINE = 1e-6  # a vertex lies on a line within this fraction of h
 _WHOLE = 1e-9  # relative tolerance of "a whole number of cells"
-#: The edge-midpoint rule on the reference triangle (degree 2), point k on the
-#: edge opposite vertex k: the history points and the reaction's quadrature.
-_MIDPOINT_RULE = {"quadrature_rule": "custom", "quadrature_degree": 2,
-                  "quadrature_points": ((0.5, 0.5), (0.0, 0.5), (0.5, 0.0)),
-                  "quadrature_weights": (1 / 6, 1 / 6, 1 / 6)}
+#: The facet-centroid rule on the reference simplex, point k on the facet
+#: opposite vertex k: the history points and the reaction's quadrature.  On
+#: the triangle it is the edge-midpoint rule (degree 2); on the tetrahedron
+#: the face-centroid rule (degree 1).
+_FACET_RULE = {
+    2: {"quadrature_rule": "custom", "quadrature_degree": 2,
+        "quadrature_points": ((0.5, 0.5), (0.0, 0.5), (0.5, 0.0)),
+        "quadrature_weights": (1 / 6, 1 / 6, 1 / 6)},
+    3: {"quadrature_rule": "custom", "quadrature_degree": 1,
+        "quadrature_points": ((1 / 3, 1 / 3, 1 / 3), (0.0, 1 / 3, 1 / 3), (1 / 3, 0.0, 1 / 3),
+                              (1 / 3, 1 / 3, 0.0)),
+        "quadrature_weights": (1 / 24, 1 / 24, 1 / 24, 1 / 24)},
+}
+#: The column of the stress or strain entry (i, j): in 2D xx, yy, xy (and
+#: zz, the fourth stress column); in 3D xx, yy, xy, zz, yz, xz, the layout
+#: of the core's symmetric tensors (cpp/pfmpm/common/symmetric.h).
+_ENTRY = {2: ((0, 2), (2, 1)), 3: ((0, 2, 5), (2, 1, 4), (5, 4, 3))}
+#: The cell types of the meshes.
+_CELL = {2: "triangle", 3: "tetrahedron"}
+_REGION = len(SIDES)  # a hold by region r is _REGION + r, one by a wall its side's index
 
 
 class FemSimulation:
@@ -184,16 +214,18 @@ class FemSimulation:
         self.scene = scene
         self.comm = comm
         self._body, material = _supported(scene)
+        self.dim = d = scene.dim
+        self._box = _box_of(self._body.shape)
         self._fracture = material.fracture
         self._thickness = scene.thickness
         self.dt = scene.dt()
         self._step = 0
         self._work = 0.0  # external work of this rank's owned vertices
         self._wall_work = 0.0  # and the work of the walls on them
-        self._wall_impulse = np.zeros((len(SIDES), 2))  # and their impulses, per side
+        self._wall_impulse = np.zeros((len(SIDES), d))  # and their impulses, per side
         n = len(scene.prescribed)  # the prescribed regions': work, impulse, displacement
         self._region_work = np.zeros(n)
-        self._region_impulse, self._region_displacement = np.zeros((n, 2)), np.zeros((n, 2))
+        self._region_impulse, self._region_displacement = np.zeros((n, d)), np.zeros((n, d))
         with _quiet_jit():
             self._build_mesh()
             self._build_dynamics(material)
@@ -202,61 +234,73 @@ class FemSimulation:
     # -- set-up ---------------------------------------------------------------
 
     def _build_mesh(self) -> None:
-        """Mesh, P1 space, cell-to-vertex map, cell gradients and areas."""
-        h = self.scene.grid.h
-        (x0, y0), (x1, y1) = self._body.shape.min, self._body.shape.max
-        self._cells_xy = (round((x1 - x0) / h), round((y1 - y0) / h))
-        self.mesh = mesh.create_rectangle(
-            self.comm, [np.array([x0, y0]), np.array([x1, y1])], list(self._cells_xy),
-            mesh.CellType.triangle, ghost_mode=mesh.GhostMode.none, diagonal=MESH_DIAGONAL)
+        """Mesh, P1 space, cell-to-vertex map, cell gradients and sizes."""
+        h, d = self.scene.grid.h, self.dim
+        lo, hi = self._box
+        self._cells_xy = tuple(round((b - a) / h) for a, b in zip(lo, hi))
+        corners = [np.array(lo), np.array(hi)]
+        if d == 2:
+            self.mesh = mesh.create_rectangle(self.comm, corners, list(self._cells_xy), mesh.CellType.triangle,
+                                              ghost_mode=mesh.GhostMode.none, diagonal=MESH_DIAGONAL)
+        else:
+            self.mesh = mesh.create_box(self.comm, corners, list(self._cells_xy), mesh.CellType.tetrahedron,
+                                        ghost_mode=mesh.GhostMode.none)
         self.V = fem.FunctionSpace(self.mesh, ("Lagrange", 1))
         imap = self.V.dofmap.index_map
         self._owned = imap.size_local
         self._local = imap.size_local + imap.num_ghosts
-        n_cells = self.mesh.topology.index_map(2).size_local
-        self._dofs = self.V.dofmap.list.array.reshape(-1, 3)[:n_cells]
+        n_cells = self.mesh.topology.index_map(d).size_local
+        nv = d + 1
+        self._dofs = self.V.dofmap.list.array.reshape(-1, nv)[:n_cells]
         self._flat_dofs = self._dofs.ravel()
         # Vertex coordinates from the mesh geometry (P1 dofs sit on the vertices in
         # the cell's vertex order): exact, where tabulated dof coordinates carry
         # round-off that depends on the partition.
         geometry = self.mesh.geometry
-        self._x = np.empty((self._local, 2))
-        self._x[self._flat_dofs] = geometry.x[geometry.dofmap.array.reshape(-1, 3)[:n_cells].ravel(), :2]
-        corners = self._x[self._dofs]  # (cells, 3, 2)
-        jac = np.stack([corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]], axis=2)
-        det = jac[:, 0, 0] * jac[:, 1, 1] - jac[:, 0, 1] * jac[:, 1, 0]
-        inv = np.stack([np.stack([jac[:, 1, 1], -jac[:, 0, 1]], axis=1),
-                        np.stack([-jac[:, 1, 0], jac[:, 0, 0]], axis=1)], axis=1) / det[:, None, None]
-        grad = np.einsum("ak,ckj->caj", _REF_GRAD, inv)  # grad N_a on each cell
-        self._gx, self._gy = grad[..., 0].copy(), grad[..., 1].copy()
-        self._area = 0.5 * np.abs(det)
+        self._x = np.empty((self._local, d))
+        self._x[self._flat_dofs] = geometry.x[geometry.dofmap.array.reshape(-1, nv)[:n_cells].ravel(), :d]
+        corners = self._x[self._dofs]  # (cells, d + 1, d)
+        jac = np.stack([corners[:, k + 1] - corners[:, 0] for k in range(d)], axis=2)
+        if d == 2:  # the inverse written out, as it was before the 3D mesh: the same bits
+            det = jac[:, 0, 0] * jac[:, 1, 1] - jac[:, 0, 1] * jac[:, 1, 0]
+            inv = np.stack([np.stack([jac[:, 1, 1], -jac[:, 0, 1]], axis=1),
+                            np.stack([-jac[:, 1, 0], jac[:, 0, 0]], axis=1)], axis=1) / det[:, None, None]
+        else:
+            det, inv = np.linalg.det(jac), np.linalg.inv(jac)
+        ref_grad = np.vstack([-np.ones(d), np.eye(d)])  # grad of the P1 basis on the reference cell
+        grad = np.einsum("ak,ckj->caj", ref_grad, inv)  # grad N_a on each cell
+        self._grad = [grad[..., k].copy() for k in range(d)]  # per direction, (cells, d + 1)
+        self._area = np.abs(det) / math.factorial(d)  # area or volume of each cell
+        self._square_mean = float((d + 1) * (d + 2))  # the cell mean of f^2 for P1 f: (sum^2 + sum of squares) / this
         self._volume = self._area * self._thickness
-        # Where the history lives: the midpoint of the edge opposite each vertex,
-        # the order of the Crouzeix-Raviart dofs that carry the reaction.
-        self._midpoints = 0.5 * (corners[:, [1, 2, 0]] + corners[:, [2, 0, 1]])  # (cells, 3, 2)
-        # d/dx and d/dy of a P1 field on each cell as sparse (cells x vertices)
+        # Where the history lives: the centroid of the facet opposite each
+        # vertex (the edge midpoints of a triangle), the order of the
+        # Crouzeix-Raviart dofs that carry the reaction.
+        opposite = [[(k + j) % nv for j in range(1, nv)] for k in range(nv)]
+        self._midpoints = np.stack([corners[:, o].sum(axis=1) / d for o in opposite], axis=1)  # (cells, d+1, d)
+        # d/dx_k of a P1 field on each cell as sparse (cells x vertices)
         # matrices, and their transposes, which gather cell fluxes to vertices.
-        rows = np.repeat(np.arange(n_cells), 3)
+        rows = np.repeat(np.arange(n_cells), nv)
         shape = (n_cells, self._local)
-        self._dx = sparse.csr_matrix((self._gx.ravel(), (rows, self._flat_dofs)), shape=shape)
-        self._dy = sparse.csr_matrix((self._gy.ravel(), (rows, self._flat_dofs)), shape=shape)
-        self._dx_t, self._dy_t = self._dx.T.tocsr(), self._dy.T.tocsr()
+        self._D = [sparse.csr_matrix((g.ravel(), (rows, self._flat_dofs)), shape=shape) for g in self._grad]
+        self._D_t = [D.T.tocsr() for D in self._D]
 
     def _build_dynamics(self, material: MaterialSpec) -> None:
         """Material, lumped mass, external force, walls and the initial state."""
-        scene = self.scene
-        self._elastic = core_materials(scene)[0][scene.materials.index(material)]
+        scene, d = self.scene, self.dim
+        core = core_materials(scene)[0][scene.materials.index(material)]
+        self._elastic = core if d == 2 else _SolidElastic(*core.lame, material.core_parameters(scene)["split"])
         imap = self.V.dofmap.index_map
-        self._u = la.vector(imap, bs=2)  # displacement, ghosts kept current
-        self._scratch = la.vector(imap, bs=2)  # assembly buffer for nodal vectors
+        self._u = la.vector(imap, bs=d)  # displacement, ghosts kept current
+        self._scratch = la.vector(imap, bs=d)  # assembly buffer for nodal vectors
         self._density = material.density
-        weights = np.repeat(material.density * self._volume / 3.0, 3)
+        weights = np.repeat(material.density * self._volume / float(d + 1), d + 1)
         self._mass = self._assemble(np.bincount(self._flat_dofs, weights, self._local), scalar=True)
         self._loads = self._load_forces()
         self._fext = self._external_force(0.0)
         self._holds = self._hold_masks()
         self._v = np.tile(np.asarray(self._body.velocity, dtype=float), (self._owned, 1))
-        self._eps = np.zeros((len(self._dofs), 3))
+        self._eps = np.zeros((len(self._dofs), 3 * d - 3))  # xx, yy, xy (, zz, yz, xz)
         self.substeps = self._substeps()
 
     def _build_phase_field(self) -> None:
@@ -271,74 +315,82 @@ class FemSimulation:
         self.c = fem.Function(self.V, name="c")
         self.c.x.array[:] = 1.0
         self._g = np.ones(len(self._dofs))
-        self.history = np.zeros((len(self._dofs), 3))
+        nv = self.dim + 1
+        self.history = np.zeros((len(self._dofs), nv))
         self._pf = None
         if self._fracture is None:
             return
-        points = self._midpoints.reshape(-1, 2)
+        points = self._midpoints.reshape(-1, self.dim)
         for index, crack in enumerate(self.scene.cracks):
             if crack.body not in (None, self._body.name):
                 continue
-            seed = initial_history(points, crack, self._fracture).reshape(-1, 3)
+            seed = initial_history(points, crack, self._fracture).reshape(-1, nv)
             if not self.comm.allreduce(bool(np.any(seed > 0.0)), op=MPI.LOR):
                 w = crack.half_width if crack.half_width is not None else 0.5 * self._fracture.l0
                 h = self.scene.grid.h
-                raise SceneError(f"cracks[{index}].half_width", "the crack's band holds no edge"
-                                 f" midpoint of the FEM mesh (h = {h:g}), so it would not be"
+                what = "edge midpoint" if self.dim == 2 else "face centroid"
+                raise SceneError(f"cracks[{index}].half_width", f"the crack's band holds no {what}"
+                                 f" of the FEM mesh (h = {h:g}), so it would not be"
                                  " imposed: widen it or move the crack onto the body", w)
             np.maximum(self.history, seed, out=self.history)
-        self._pf = _PhaseFieldSolver(self.c, self._fracture, self.scene.phase_field, len(self._dofs))
+        self._pf = _PhaseFieldSolver(self.c, self._fracture, self.scene.phase_field, len(self._dofs), self.dim)
         self._solve_phase_field()  # the phase field of the initial cracks, as the MPM
 
     def _assemble(self, local: np.ndarray, scalar: bool = False) -> np.ndarray:
         """Sum cell contributions across ranks; return the owned vertex values.
 
         ``local`` holds this rank's contributions to its local vertices
-        (owned then ghost), shape (local,) or (local, 2).
+        (owned then ghost), shape (local,) or (local, dim).
         """
         vec = la.vector(self.V.dofmap.index_map, bs=1) if scalar else self._scratch
         vec.array[:] = local.ravel()
         vec.scatter_reverse(la.ScatterMode.add)
-        values = vec.array.reshape(-1) if scalar else vec.array.reshape(-1, 2)
+        values = vec.array.reshape(-1) if scalar else vec.array.reshape(-1, self.dim)
         return values[: self._owned].copy()
 
     def _load_forces(self) -> list[tuple]:
-        """Each load on the body and its force on the owned vertices (owned, 2)
+        """Each load on the body and its force on the owned vertices (owned, dim)
         at amplitude 1.
 
-        Tractions: each cell edge on the loaded side of the rectangle (with
-        a ``span``, whose midpoint lies in it: a span that holds none is a
-        SceneError) gives ``t * length *
-        thickness / 2`` to both its ends, the consistent P1 load (K&T eq. 17); an
-        edge lies on the boundary of one cell only, so every edge counts once
-        over all ranks.  Body forces: ``M_I b``.
+        Tractions: each cell facet (edge of a triangle, face of a
+        tetrahedron) on the loaded side of the body's box (in 2D with a
+        ``span``, whose midpoint lies in it: a span that holds none is a
+        SceneError) gives ``t * size * thickness / dim`` to each of its
+        vertices, the consistent P1 load (K&T eq. 17); a facet lies on the
+        boundary of one cell only, so every facet counts once over all
+        ranks.  Body forces: ``M_I b``.
         """
-        (x0, y0), (x1, y1) = self._body.shape.min, self._body.shape.max
-        line = {"left": (0, x0), "right": (0, x1), "bottom": (1, y0), "top": (1, y1)}
+        d, nv = self.dim, self.dim + 1
+        planes = self._planes(self._box)
         tol = _ON_LINE * self.scene.grid.h
         forces = []
+        # The facets of a cell by their vertices, (0, 1), (1, 2), (2, 0) of a triangle.
+        facets = [[(j + k) % nv for k in range(d)] for j in range(nv)]
         for i, load in enumerate(self.scene.loads):
             if isinstance(load, BodyForce):
                 if load.body in (None, self._body.name):
                     forces.append((load, self._mass[:, None] * np.asarray(load.acceleration)))
                 continue
-            f = np.zeros((self._local, 2))
+            f = np.zeros((self._local, d))
             edges = 0
-            axis, value = line[load.edge]
-            on = np.abs(self._x[self._dofs, axis] - value) <= tol  # (cells, 3)
-            for a, b in ((0, 1), (1, 2), (2, 0)):
-                edge = on[:, a] & on[:, b]
-                ia, ib = self._dofs[edge, a], self._dofs[edge, b]
+            axis, value = planes[load.edge]
+            on = np.abs(self._x[self._dofs, axis] - value) <= tol  # (cells, d + 1)
+            for facet in facets:
+                ends = [self._dofs[np.all(on[:, facet], axis=1), a] for a in facet]
                 if load.span is not None:
-                    mid = 0.5 * (self._x[ia, 1 - axis] + self._x[ib, 1 - axis])
+                    mid = 0.5 * (self._x[ends[0], 1 - axis] + self._x[ends[1], 1 - axis])
                     inside = (mid >= load.span[0]) & (mid <= load.span[1])
-                    ia, ib = ia[inside], ib[inside]
-                edges += len(ia)
-                length = np.hypot(*(self._x[ib] - self._x[ia]).T)
-                share = 0.5 * length * self._thickness
-                for k in range(2):
-                    f[:, k] += np.bincount(ia, share * load.traction[k], self._local)
-                    f[:, k] += np.bincount(ib, share * load.traction[k], self._local)
+                    ends = [e[inside] for e in ends]
+                edges += len(ends[0])
+                if d == 2:
+                    size = np.hypot(*(self._x[ends[1]] - self._x[ends[0]]).T)
+                else:
+                    normal = np.cross(self._x[ends[1]] - self._x[ends[0]], self._x[ends[2]] - self._x[ends[0]])
+                    size = 0.5 * np.sqrt(np.einsum("ij,ij->i", normal, normal))
+                share = size * self._thickness / d
+                for k in range(d):
+                    for e in ends:
+                        f[:, k] += np.bincount(e, share * load.traction[k], self._local)
             if load.span is not None and not self.comm.allreduce(edges, op=MPI.SUM):
                 raise SceneError(f"loads[{i}].span", f"holds the midpoint of no cell edge of the FEM mesh"
                                                      f" on the {load.edge} edge of body {load.body!r}",
@@ -346,10 +398,16 @@ class FemSimulation:
             forces.append((load, self._assemble(f)))
         return forces
 
+    @staticmethod
+    def _planes(box) -> dict[str, tuple[int, float]]:
+        """The sides of a box ``(min, max)`` as (axis, coordinate), by name."""
+        (lo, hi), names = box, ("left", "right", "bottom", "top", "back", "front")
+        return {names[2 * k + j]: (k, (lo, hi)[j][k]) for k in range(len(lo)) for j in range(2)}
+
     def _external_force(self, t: float) -> np.ndarray:
-        """External force on the owned vertices at time ``t`` (owned, 2): each
+        """External force on the owned vertices at time ``t`` (owned, dim): each
         load's times its amplitude then (:meth:`_load_forces`)."""
-        fext = np.zeros((self._owned, 2))
+        fext = np.zeros((self._owned, self.dim))
         for load, force in self._loads:
             fext += (1.0 if load.amplitude is None else load.amplitude(t)) * force
         return fext
@@ -357,32 +415,33 @@ class FemSimulation:
     def _hold_masks(self) -> list[tuple[int, np.ndarray, int]]:
         """What the prescribed regions and the walls hold, as the MPM's grid
         does: (holder, owned vertices, component), the holder a side (a wall)
-        or 4 + the index of a region; each vertex's component once, by a
+        or ``_REGION`` + the index of a region; each vertex's component once, by a
         region first (the vertices in its box, on its body's face or of its
         body), then by the wall it is normal to, then by a fixed wall's
         tangential hold."""
-        (ox, oy), (sx, sy) = self.scene.grid.origin, self.scene.grid.size
-        line = {"left": (0, ox), "right": (0, ox + sx), "bottom": (1, oy), "top": (1, oy + sy)}
-        tol = _ON_LINE * self.scene.grid.h
+        d, grid = self.dim, self.scene.grid
+        line = self._planes((grid.origin, tuple(o + s for o, s in zip(grid.origin, grid.size))))
+        tol = _ON_LINE * grid.h
         x = self._x[: self._owned]
         candidates = []
-        (x0, y0), (x1, y1) = self._body.shape.min, self._body.shape.max
+        faces = self._planes(self._box)
         for r, region in enumerate(self.scene.prescribed):
             if region.box:
                 inside = np.all((x >= np.subtract(region.min, tol)) & (x <= np.add(region.max, tol)), axis=1)
-            elif region.face is not None:  # the vertices on that edge of the body
-                axis, value = {"left": (0, x0), "right": (0, x1), "bottom": (1, y0), "top": (1, y1)}[region.face]
+            elif region.face is not None:  # the vertices on that side of the body
+                axis, value = faces[region.face]
                 inside = np.abs(x[:, axis] - value) <= tol
             else:  # the whole body
                 inside = np.ones(len(x), dtype=bool)
-            candidates += [(4 + r, inside, k) for k in range(2) if region.mask & (1 << k)]
+            candidates += [(_REGION + r, inside, k) for k in range(d) if region.mask & (1 << k)]
         for normal in (True, False):
             for w in self.scene.walls:
                 axis, value = line[w.side]
                 if normal or w.type == "fixed":
-                    candidates.append((SIDES.index(w.side), np.abs(x[:, axis] - value) <= tol,
-                                       axis if normal else 1 - axis))
-        held = np.zeros((self._owned, 2), dtype=bool)
+                    on = np.abs(x[:, axis] - value) <= tol
+                    candidates += [(SIDES.index(w.side), on, k) for k in range(d)
+                                   if (k == axis) == normal]
+        held = np.zeros((self._owned, d), dtype=bool)
         masks = []
         for holder, on, k in candidates:
             on = on & ~held[:, k]
@@ -400,19 +459,24 @@ class FemSimulation:
         (Irons & Treharne 1971).  The eigenvalues of the distinct cell
         shapes are enough (two on the structured mesh).
         """
-        # Columns of the undegraded stiffness: stress of unit strains (xx, yy, xy).
-        unit = self._elastic.stresses(np.eye(3), np.ones(3))[:, :3].T  # (stress, strain)
-        weight = np.array([1.0, 1.0, 2.0])  # sigma : eps = s_xx e_xx + s_yy e_yy + 2 s_xy e_xy
+        d, nv = self.dim, self.dim + 1
+        n = self._eps.shape[1]  # strain entries
+        # Columns of the undegraded stiffness: stress of unit strains (xx, yy, xy, ...).
+        unit = self._elastic.stresses(np.eye(n), np.ones(n))[:, :n].T  # (stress, strain)
+        # sigma : eps = s_xx e_xx + ... + 2 s_xy e_xy + ...
+        weight = np.array([1.0 if i == j else 2.0 for i, j in _entries(d)])
         h = self.scene.grid.h
-        shapes = np.unique(np.round(np.hstack([self._gx, self._gy]) * h, 12), axis=0) / h
-        gx, gy = shapes[:, :3], shapes[:, 3:]
-        b = np.zeros((len(shapes), 3, 6))  # strain (xx, yy, xy) from (ux, uy) of 3 vertices
-        b[:, 0, 0::2] = gx
-        b[:, 1, 1::2] = gy
-        b[:, 2, 0::2] = 0.5 * gy
-        b[:, 2, 1::2] = 0.5 * gx
+        shapes = np.unique(np.round(np.hstack(self._grad) * h, 12), axis=0) / h
+        grads = [shapes[:, k * nv:(k + 1) * nv] for k in range(d)]
+        b = np.zeros((len(shapes), n, d * nv))  # strain from the d components of the nv vertices
+        for e, (i, j) in enumerate(_entries(d)):
+            if i == j:
+                b[:, e, i::d] = grads[i]
+            else:
+                b[:, e, i::d] = 0.5 * grads[j]
+                b[:, e, j::d] = 0.5 * grads[i]
         stiff = np.einsum("cki,k,kl,clj->cij", b, weight, unit, b)  # K_e / area
-        lam = np.linalg.eigvalsh(stiff).max(axis=1).max(initial=0.0) * 3.0 / self._density
+        lam = np.linalg.eigvalsh(stiff).max(axis=1).max(initial=0.0) * float(nv) / self._density
         lam = self.comm.allreduce(lam, op=MPI.MAX)
         dt_crit = 2.0 / math.sqrt(lam)
         return max(1, math.ceil(self.dt / (self.scene.time.cfl * dt_crit) * (1 - _WHOLE)))
@@ -422,7 +486,8 @@ class FemSimulation:
     def columns(self, observed: list[str] = ()) -> list[str]:
         """Columns of ``energies.csv`` for this scene, then the columns
         ``observed`` of the run's observers (:meth:`pfmpm.observe.Observer.columns`)."""
-        return (ENERGY_COLUMNS + wall_columns(self.scene.walls) + region_columns(self.scene.prescribed)
+        d = self.dim
+        return (energy_columns(d) + wall_columns(self.scene.walls, d) + region_columns(self.scene.prescribed, d)
                 + list(observed))
 
     @property
@@ -442,17 +507,17 @@ class FemSimulation:
 
     @property
     def displacement(self) -> np.ndarray:
-        """Displacement of the local vertices (owned then ghost), (local, 2) view."""
-        return self._u.array.reshape(-1, 2)
+        """Displacement of the local vertices (owned then ghost), (local, dim) view."""
+        return self._u.array.reshape(-1, self.dim)
 
     @property
     def velocity(self) -> np.ndarray:
-        """Velocity of the owned vertices, (owned, 2) view."""
+        """Velocity of the owned vertices, (owned, dim) view."""
         return self._v
 
     @property
     def vertices(self) -> np.ndarray:
-        """Coordinates of the local vertices (owned then ghost), (local, 2)."""
+        """Coordinates of the local vertices (owned then ghost), (local, dim)."""
         return self._x
 
     @property
@@ -467,7 +532,7 @@ class FemSimulation:
 
     @property
     def external_force(self) -> np.ndarray:
-        """External force on the owned vertices in the last sub-step, (owned, 2) view."""
+        """External force on the owned vertices in the last sub-step, (owned, dim) view."""
         return self._fext
 
     @property
@@ -498,30 +563,34 @@ class FemSimulation:
     def _degradation(self) -> np.ndarray:
         """Cell mean of ``g = (1 - k_f) c^2 + k_f`` (K&T eq. 15), exact for P1 ``c``."""
         ce = self.c.x.array[self._dofs]
-        mean_sq = (ce.sum(axis=1) ** 2 + (ce * ce).sum(axis=1)) / 12.0
+        mean_sq = (ce.sum(axis=1) ** 2 + (ce * ce).sum(axis=1)) / self._square_mean
         k_f = self._fracture.k_f
         return (1.0 - k_f) * mean_sq + k_f
 
     def _strain(self) -> np.ndarray:
-        """Cell strains (cells, 3): xx, yy and the tensor xy component (K&T eq. 2)."""
-        u = self._u.array.reshape(-1, 2)
-        ux, uy = np.ascontiguousarray(u[:, 0]), np.ascontiguousarray(u[:, 1])
-        eps = np.empty((len(self._dofs), 3))
-        eps[:, 0] = self._dx @ ux
-        eps[:, 1] = self._dy @ uy
-        eps[:, 2] = 0.5 * (self._dy @ ux + self._dx @ uy)
+        """Cell strains (cells, 3) in 2D: xx, yy and the tensor xy component
+        (K&T eq. 2); (cells, 6) in 3D: xx, yy, xy, zz, yz, xz."""
+        u = self._u.array.reshape(-1, self.dim)
+        comp = [np.ascontiguousarray(u[:, k]) for k in range(self.dim)]
+        eps = np.empty_like(self._eps)
+        for e, (i, j) in enumerate(_entries(self.dim)):
+            eps[:, e] = self._D[i] @ comp[i] if i == j else 0.5 * (self._D[j] @ comp[i] + self._D[i] @ comp[j])
         return eps
 
     def stresses(self) -> np.ndarray:
-        """Cell stresses (cells, 4): xx, yy, xy, zz of ``g psi+ + psi-`` (K&T eqs. 14-16)."""
+        """Cell stresses of ``g psi+ + psi-`` (K&T eqs. 14-16): (cells, 4) in
+        2D, xx, yy, xy, zz; (cells, 6) in 3D, xx, yy, xy, zz, yz, xz."""
         return self._elastic.stresses(self._eps, self._g)
 
     def _internal_force(self) -> np.ndarray:
-        """Internal force on the owned vertices (owned, 2), K&T eq. (62) over cells."""
+        """Internal force on the owned vertices (owned, dim), K&T eq. (62) over cells."""
         sig = self.stresses() * self._volume[:, None]
-        f = np.empty((self._local, 2))
-        f[:, 0] = self._dx_t @ sig[:, 0] + self._dy_t @ sig[:, 2]
-        f[:, 1] = self._dx_t @ sig[:, 2] + self._dy_t @ sig[:, 1]
+        entry = _ENTRY[self.dim]
+        f = np.empty((self._local, self.dim))
+        for i in range(self.dim):
+            f[:, i] = self._D_t[0] @ sig[:, entry[i][0]]
+            for j in range(1, self.dim):
+                f[:, i] += self._D_t[j] @ sig[:, entry[i][j]]
         return self._assemble(f)
 
     def _substep(self, t: float, dt: float) -> None:
@@ -533,23 +602,23 @@ class FemSimulation:
         held = [region.velocity_over(t, dt) for region in self.scene.prescribed]
         for r, region in enumerate(self.scene.prescribed):
             self._region_displacement[r] += dt * np.array([held[r][k] if region.mask & (1 << k) else 0.0
-                                                           for k in range(2)])
+                                                           for k in range(self.dim)])
         for holder, on, k in self._holds:
             # As the MPM's holders: the impulse is the momentum added; a
             # wall's work the kinetic energy stopped, a region's the kinetic
             # energy it adds less the work of the forces it balances.
             m, vo, vn = self._mass[on], v_old[on, k], self._v[on, k]
-            if holder < 4:
+            if holder < _REGION:
                 self._wall_work -= 0.5 * float(m @ (vo ** 2))
                 self._wall_impulse[holder, k] -= float(m @ vn)
                 self._v[on, k] = 0.0
             else:
-                u = held[holder - 4][k]
-                self._region_work[holder - 4] += float(m @ (0.5 * (u * u - vo ** 2) - (vn - vo) * u))
-                self._region_impulse[holder - 4, k] += float(m @ (u - vn))
+                u = held[holder - _REGION][k]
+                self._region_work[holder - _REGION] += float(m @ (0.5 * (u * u - vo ** 2) - (vn - vo) * u))
+                self._region_impulse[holder - _REGION, k] += float(m @ (u - vn))
                 self._v[on, k] = u
         self._work += 0.5 * dt * float(np.sum(self._fext * (v_old + self._v)))
-        u = self._u.array.reshape(-1, 2)
+        u = self._u.array.reshape(-1, self.dim)
         u[: self._owned] += dt * self._v
         self._u.scatter_forward()
         self._eps = self._strain()
@@ -569,27 +638,32 @@ class FemSimulation:
         density, see :meth:`_fracture_energy`), exact for P1 ``c``.
         """
         psi_plus, psi_minus = self._elastic.split_energies(self._eps)
-        m, v = self._mass, self._v
+        m, v, axes = self._mass, self._v, "xyz"[:self.dim]
+        momenta = [float(m @ v[:, k]) for k in range(self.dim)]
+        if self.dim == 3:  # and the angular momentum about the origin, sum m x cross v
+            x = self._x[: self._owned] + self.displacement[: self._owned]
+            momenta += [float(m @ a) for a in np.cross(x, v).T]
         local = np.array([
             0.5 * float(np.sum(m * np.einsum("ij,ij->i", v, v))),
             float(self._volume @ (self._g * psi_plus + psi_minus)),
             self._fracture_energy(),
             self._work,
             self._wall_work,
-            float(m @ v[:, 0]),
-            float(m @ v[:, 1]),
+            *momenta,
         ])
-        kinetic, elastic, fracture, work, wall, px, py = self.comm.allreduce(local, op=MPI.SUM)
+        kinetic, elastic, fracture, work, wall, *momenta = self.comm.allreduce(local, op=MPI.SUM)
         impulse = self.comm.allreduce(self._wall_impulse, op=MPI.SUM)
         walls = {f"impulse_{w.side}_{d}": float(impulse[SIDES.index(w.side), k])
-                 for w in self.scene.walls for k, d in enumerate("xy")}
+                 for w in self.scene.walls for k, d in enumerate(axes)}
         region_work = self.comm.allreduce(self._region_work, op=MPI.SUM)
         region_impulse = self.comm.allreduce(self._region_impulse, op=MPI.SUM)
         for r, region in enumerate(self.scene.prescribed):
             walls[f"work_{region.name}"] = float(region_work[r])
-            for k, d in enumerate("xy"):
+            for k, d in enumerate(axes):
                 walls[f"impulse_{region.name}_{d}"] = float(region_impulse[r, k])
                 walls[f"displacement_{region.name}_{d}"] = float(self._region_displacement[r, k])
+        names = [f"momentum_{d}" for d in axes] + [f"angular_momentum_{d}" for d in axes if self.dim == 3]
+        walls |= dict(zip(names, momenta))
         return walls | {
             "step": self._step,
             "t": self.time,
@@ -599,8 +673,6 @@ class FemSimulation:
             "external_work": work,
             "wall_work": wall,
             "total": kinetic + elastic + fracture - work - wall - float(np.sum(region_work)),
-            "momentum_x": px,
-            "momentum_y": py,
         }
 
     def _fracture_energy(self) -> float:
@@ -612,17 +684,33 @@ class FemSimulation:
         """
         if self._fracture is None:
             return 0.0
+        return self._fracture.Gc * self._crack_area()
+
+    def _crack_area(self) -> float:
+        """This rank's ``int Z dV``, the crack surface area of the phase field
+        (the fracture energy over G_c), exact for P1 ``c``: see
+        :meth:`_fracture_energy`.  In 2D a volume integral includes the
+        thickness."""
         ce = self.c.x.array[self._dofs]
         w = 1.0 - ce
-        cx = np.einsum("ca,ca->c", ce, self._gx)
-        cy = np.einsum("ca,ca->c", ce, self._gy)
+        grad = [np.einsum("ca,ca->c", ce, g) for g in self._grad]
+        grad2 = grad[0] * grad[0] + grad[1] * grad[1]
+        if self.dim == 3:
+            grad2 += grad[2] * grad[2]
         l0 = self._fracture.l0
         if self._fracture.model == "AT1":
-            density = 3.0 * w.mean(axis=1) / (16.0 * l0) + 0.75 * l0 * (cx * cx + cy * cy)
+            density = 3.0 * w.mean(axis=1) / (16.0 * l0) + 0.75 * l0 * grad2
         else:
-            mean_sq = (w.sum(axis=1) ** 2 + (w * w).sum(axis=1)) / 12.0  # cell mean of (1 - c)^2
-            density = mean_sq / (4.0 * l0) + l0 * (cx * cx + cy * cy)
-        return self._fracture.Gc * float(self._volume @ density)
+            mean_sq = (w.sum(axis=1) ** 2 + (w * w).sum(axis=1)) / self._square_mean  # cell mean of (1 - c)^2
+            density = mean_sq / (4.0 * l0) + l0 * grad2
+        return float(self._volume @ density)
+
+    def crack_area(self) -> float:
+        """The crack surface area ``int Z dV`` of the phase field over the mesh
+        (collective: the same on every rank), the 3D form of the crack length:
+        the fracture energy over G_c (:meth:`_crack_area`); 0 where nothing
+        can crack."""
+        return self.comm.allreduce(self._crack_area() if self._fracture is not None else 0.0, op=MPI.SUM)
 
     def crack_points(self) -> tuple[np.ndarray, np.ndarray]:
         """This rank's owned vertices and their phase field, which the crack
@@ -661,7 +749,7 @@ class FemSimulation:
     def snapshot_pixels(self) -> tuple[float, np.ndarray, tuple[int, int], float]:
         """The pixels of the phase-field images, like the MPM's
         (``output.snapshots``): one pixel centred on each vertex."""
-        h, (nx, ny) = self.scene.grid.h, self.scene.grid.cells
+        h, (nx, ny) = self.scene.grid.h, self.scene.grid.cells  # 2D only (a 3D scene has no snapshots)
         return h, np.asarray(self.scene.grid.origin, dtype=float) - 0.5 * h, (nx + 1, ny + 1), 0.5 * h
 
     def summary(self) -> dict:
@@ -671,10 +759,10 @@ class FemSimulation:
             "method": "fem",
             "ranks": self.comm.size,
             "vertices": vertices,
-            "cells": self.mesh.topology.index_map(2).size_global,
-            "dofs": 3 * vertices if self._pf is not None else 2 * vertices,
-            "mesh": {"cells": list(self._cells_xy), "h": self.scene.grid.h,
-                     "diagonal": "left/right"},
+            "cells": self.mesh.topology.index_map(self.dim).size_global,
+            "dofs": (self.dim + 1) * vertices if self._pf is not None else self.dim * vertices,
+            "mesh": {"cells": list(self._cells_xy), "h": self.scene.grid.h}
+            | ({"diagonal": "left/right"} if self.dim == 2 else {"cell": "tetrahedron", "per_cube": 6}),
             "dt": self.dt,
             "substeps": self.substeps,
         }
@@ -694,11 +782,12 @@ class FemSimulation:
 class _XdmfFrames:
     """The XDMF series of a FEM run (collective): ``write()`` adds, at the
     current time, the phase field ``c``, the displacement and the velocity
-    (vertex values), and the in-plane stress (a 2 x 2 tensor, which XDMF pads
-    to 3 x 3 with zeros), its out-of-plane entry ``stress_zz`` and the
-    history field ``H`` (cell values: the mean of a cell's three edge-midpoint
-    values, the midpoint rule's cell mean).  (DOLFINx 0.5 writes a cell-wise
-    tensor as cell data only if it is gdim x gdim, hence zz apart.)"""
+    (vertex values), and the stress and the history field ``H`` (cell values:
+    the mean of a cell's facet-centroid values, the facet rule's cell mean).
+    In 2D the stress is the in-plane 2 x 2 tensor (which XDMF pads to 3 x 3
+    with zeros) and its out-of-plane entry ``stress_zz`` apart (DOLFINx 0.5
+    writes a cell-wise tensor as cell data only if it is gdim x gdim); in 3D
+    the 3 x 3 tensor."""
 
     def __init__(self, sim: FemSimulation, path: Path):
         self._sim = sim
@@ -710,28 +799,32 @@ class _XdmfFrames:
         self._u = fem.Function(vector, name="displacement")
         self._v = fem.Function(vector, name="velocity")
         self._stress = fem.Function(tensor, name="stress")
-        self._zz = fem.Function(cells, name="stress_zz")
+        self._zz = fem.Function(cells, name="stress_zz") if sim.dim == 2 else None
         self._history = fem.Function(cells, name="history")
         n_cells = len(sim.history)
         self._cell_dof = cells.dofmap.list.array[:n_cells]
-        # Where each stress entry (xx, yy, xy) goes in the row-major 2 x 2 tensor.
+        # Where each stress entry (xx, yy, xy, ...) goes in the row-major d x d tensor.
+        d = sim.dim
         block = tensor.dofmap.index_map_bs * tensor.dofmap.list.array[:n_cells]
-        self._stress_dofs = [block[:, None] + np.array(entries) for entries in ([0], [3], [1, 2])]
+        self._stress_dofs = [block[:, None] + np.array(sorted({i * d + j, j * d + i}))
+                             for i, j in _entries(d)]
         self._file = io.XDMFFile(sim.comm, str(path), "w")
         self._file.write_mesh(msh)
 
     def write(self) -> None:
         sim, t = self._sim, self._sim.time
         self._u.x.array[:] = sim.displacement.ravel()
-        self._v.x.array[: 2 * sim.owned] = sim.velocity.ravel()
+        self._v.x.array[: sim.dim * sim.owned] = sim.velocity.ravel()
         self._v.x.scatter_forward()
         sigma = sim.stresses()
         for k, dofs in enumerate(self._stress_dofs):
             self._stress.x.array[dofs] = sigma[:, k, None]
-        self._zz.x.array[self._cell_dof] = sigma[:, 3]
+        if self._zz is not None:
+            self._zz.x.array[self._cell_dof] = sigma[:, 3]
         self._history.x.array[self._cell_dof] = sim.history.mean(axis=1)
         for function in (sim.c, self._u, self._v, self._stress, self._zz, self._history):
-            self._file.write_function(function, t)
+            if function is not None:
+                self._file.write_function(function, t)
 
     def close(self) -> None:
         self._file.close()
@@ -744,11 +837,13 @@ class _PhaseFieldSolver:
     particles): ``L_IJ = 4 l0^2 (grad N_J, grad N_I)``,
     ``M_F,IJ = (F N_J, N_I)`` with the reaction ``F`` of :func:`_reaction`
     at the history points, and ``F^c_I = s (1, N_I)`` (K&T eq. 52) with
-    ``s = 1`` (AT2) or ``1/2`` (AT1).  ``M_F`` is integrated with the edge
-    midpoint rule (``sum_k A/3 F_k N_I(m_k) N_J(m_k)`` over the midpoints
-    ``m_k`` of a cell of area ``A``), exact for ``F`` constant per cell;
+    ``s = 1`` (AT2) or ``1/2`` (AT1).  ``M_F`` is integrated with the facet
+    centroid rule (``sum_k V/(d+1) F_k N_I(m_k) N_J(m_k)`` over the centroids
+    ``m_k`` of the facets of a cell of size ``V``: in 2D the edge-midpoint
+    rule, exact for ``F`` constant per cell; in 3D the face-centroid rule,
+    exact for the row sums ``(F, N_I)`` and consistent at second order);
     ``F`` is held by a discontinuous Crouzeix-Raviart function, whose dofs
-    are its values at the edge midpoints.  ``L`` and ``F^c`` are assembled
+    are its values at the facet centroids.  ``L`` and ``F^c`` are assembled
     once; each solve reassembles ``M_F`` into the same sparsity pattern and
     adds ``L``.
 
@@ -772,26 +867,28 @@ class _PhaseFieldSolver:
         (of the CG iterations of one solve, and of its Newton steps).
     n_cells : int
         Number of local cells (the history array's rows).
+    dim : int
+        The mesh's dimension: 2 (triangles) or 3 (tetrahedra).
     """
 
-    def __init__(self, c: fem.Function, fracture, settings, n_cells: int):
+    def __init__(self, c: fem.Function, fracture, settings, n_cells: int, dim: int = 2):
         V = c.function_space
         msh = V.mesh
         self.c = c
         self._fracture = fracture
         self._tol = settings.tol
         # Discontinuous Crouzeix-Raviart: dof k of a cell is the value at the
-        # midpoint of the edge opposite vertex k.
-        W = fem.FunctionSpace(msh, basix.ufl_wrapper.create_element("CR", "triangle", 1,
+        # centroid of the facet opposite vertex k.
+        W = fem.FunctionSpace(msh, basix.ufl_wrapper.create_element("CR", _CELL[dim], 1,
                                                                     discontinuous=True))
-        self._point_dof = W.dofmap.list.array.reshape(-1, 3)[:n_cells]
+        self._point_dof = W.dofmap.list.array.reshape(-1, dim + 1)[:n_cells]
         self._reaction = fem.Function(W)
         p, q = ufl.TrialFunction(V), ufl.TestFunction(V)
         ell2 = fem.Constant(msh, PETSc.ScalarType(4.0 * fracture.l0 ** 2))
         laplace = fem.form(ell2 * ufl.inner(ufl.grad(p), ufl.grad(q)) * ufl.dx)
         self._L = fem_petsc.assemble_matrix(laplace)
         self._L.assemble()
-        self._mass_form = fem.form(self._reaction * p * q * ufl.dx(metadata=_MIDPOINT_RULE))
+        self._mass_form = fem.form(self._reaction * p * q * ufl.dx(metadata=_FACET_RULE[dim]))
         self._M = fem_petsc.create_matrix(self._mass_form)
         self._A = self._L.duplicate(copy=True)
         self._b = fem_petsc.assemble_vector(fem.form(q * ufl.dx))
@@ -867,8 +964,8 @@ class _PhaseFieldSolver:
         return f"{self._snes.getType()}: {inner}" if self.bounded else inner
 
     def solve(self, history: np.ndarray, step: int, t: float) -> None:
-        """Solve for ``c`` with the history ``H`` (cells, 3) at the edge
-        midpoints; raise if the solver fails."""
+        """Solve for ``c`` with the history ``H`` (cells, dim + 1) at the
+        facet centroids; raise if the solver fails."""
         self._reaction.x.array[self._point_dof] = _reaction(self._fracture, history)
         self._M.zeroEntries()
         fem_petsc.assemble_matrix(self._M, self._mass_form)
@@ -950,25 +1047,123 @@ def _quiet_jit():
         root.setLevel(level)
 
 
+def _entries(dim: int) -> list[tuple[int, int]]:
+    """The entries (i, j), i <= j, of a symmetric tensor in the order of its
+    columns (:data:`_ENTRY`): xx, yy, xy in 2D; xx, yy, xy, zz, yz, xz in 3D."""
+    return sorted(((i, j) for i in range(dim) for j in range(i, dim)), key=lambda e: _ENTRY[dim][e[0]][e[1]])
+
+
+def _box_of(shape) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """The corners ``(min, max)`` of a rectangle, a box or an extruded rectangle."""
+    if isinstance(shape, Extrusion):
+        return (*shape.shape.min, shape.z0), (*shape.shape.max, shape.z1)
+    return tuple(shape.min), tuple(shape.max)
+
+
+class _SolidElastic:
+    """Isotropic linear elasticity on 3 x 3 strains with the energy splits of
+    the phase field, vectorised over cells: the 3D form of the core's
+    ``LinearElastic.stresses`` and ``split_energies`` (K&T eqs. 14-16), which
+    the core binds for 2D strains only.  Strains and stresses are (N, 6):
+    xx, yy, xy, zz, yz, xz (tensor components).
+
+    ``none``: ``psi+ = psi``, ``psi- = 0``. ``spectral`` (Miehe et al. 2010):
+    ``psi+- = lambda/2 <tr eps>+-^2 + mu sum_i <eps_i>+-^2`` over the principal
+    strains. ``volumetric_deviatoric`` (Amor et al. 2009): ``psi+ = K/2
+    <tr eps>+^2 + mu dev eps : dev eps``, ``psi- = K/2 <tr eps>-^2``.  In
+    plane strain (``eps_zz = eps_xz = eps_yz = 0``) each is the core's 2D
+    model (tests/test_fem3d.py checks this).
+
+    Parameters
+    ----------
+    lam, mu : float
+        The Lamé constants (3D).
+    split : str
+        ``"none"``, ``"spectral"`` or ``"volumetric_deviatoric"``.
+    """
+
+    def __init__(self, lam: float, mu: float, split: str):
+        self.lam, self.mu, self.split = lam, mu, split
+        self.bulk = lam + 2.0 * mu / 3.0
+
+    @staticmethod
+    def _tensors(eps: np.ndarray) -> np.ndarray:
+        """(N, 3, 3) tensors of (N, 6) columns."""
+        t = np.empty((len(eps), 3, 3))
+        for e, (i, j) in enumerate(_entries(3)):
+            t[:, i, j] = t[:, j, i] = eps[:, e]
+        return t
+
+    @staticmethod
+    def _columns(t: np.ndarray) -> np.ndarray:
+        """(N, 6) columns of (N, 3, 3) symmetric tensors."""
+        return np.stack([t[:, i, j] for i, j in _entries(3)], axis=1)
+
+    def _evaluate(self, eps: np.ndarray, g: np.ndarray):
+        """Stress of ``g psi+ + psi-`` (N, 3, 3), psi+ and psi-."""
+        eps = np.asarray(eps, dtype=float)
+        t = self._tensors(eps)
+        lam, mu = self.lam, self.mu
+        eye = np.eye(3)
+        tr = np.trace(t, axis1=1, axis2=2)
+        trp = np.maximum(tr, 0.0)
+        trn = tr - trp
+        gg = g[:, None, None]
+        if self.split == "spectral":
+            values, vectors = np.linalg.eigh(t)
+            vp = np.maximum(values, 0.0)
+            vn = values - vp
+            plus = 0.5 * lam * trp ** 2 + mu * (vp ** 2).sum(axis=1)
+            minus = 0.5 * lam * trn ** 2 + mu * (vn ** 2).sum(axis=1)
+            eps_p = np.einsum("nik,nk,njk->nij", vectors, vp, vectors)
+            eps_n = t - eps_p
+            sig = (lam * (g * trp + trn))[:, None, None] * eye + 2.0 * mu * (gg * eps_p + eps_n)
+        elif self.split == "volumetric_deviatoric":
+            dev = t - (tr / 3.0)[:, None, None] * eye
+            plus = 0.5 * self.bulk * trp ** 2 + mu * np.einsum("nij,nij->n", dev, dev)
+            minus = 0.5 * self.bulk * trn ** 2
+            sig = (self.bulk * (g * trp + trn))[:, None, None] * eye + 2.0 * mu * gg * dev
+        else:
+            sig0 = (lam * tr)[:, None, None] * eye + 2.0 * mu * t
+            plus = 0.5 * np.einsum("nij,nij->n", sig0, t)
+            minus = np.zeros(len(t))
+            sig = gg * sig0
+        return sig, plus, minus
+
+    def stresses(self, eps: np.ndarray, g: np.ndarray) -> np.ndarray:
+        """Stresses (N, 6) of ``g psi+ + psi-`` (K&T eqs. 14, 16)."""
+        return self._columns(self._evaluate(eps, np.asarray(g, dtype=float))[0])
+
+    def split_energies(self, eps: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(psi+, psi-) of K&T eq. 14 for strains (N, 6)."""
+        _, plus, minus = self._evaluate(eps, np.ones(len(eps)))
+        return plus, minus
+
+
 def _supported(scene: Scene) -> tuple[Body, MaterialSpec]:
     """Check that the FEM path can run the scene; return its body and material."""
-    if scene.dim != 2:
-        raise planar("grid.size", "the FEM path", scene.grid.size)
     if len(scene.bodies) != 1:
         raise SceneError("bodies", f"the FEM path needs exactly one body, not {len(scene.bodies)}")
     body = scene.bodies[0]
-    if not isinstance(body.shape, Rectangle):
-        raise SceneError("bodies[0].shape", "the FEM path needs a rectangle", body.shape.kind)
+    shape = body.shape
+    if scene.dim == 2 and not isinstance(shape, Rectangle):
+        raise SceneError("bodies[0].shape", "the FEM path needs a rectangle", shape.kind)
+    if scene.dim == 3 and not (isinstance(shape, Box)
+                               or isinstance(shape, Extrusion) and isinstance(shape.shape, Rectangle)):
+        kind = f"extrusion of a {shape.shape.kind}" if isinstance(shape, Extrusion) else shape.kind
+        raise SceneError("bodies[0].shape", "the FEM path in 3D needs a box or an extruded rectangle", kind)
     if body.holes:
-        raise SceneError("bodies[0].holes", "the FEM path needs a rectangle without holes")
+        raise SceneError("bodies[0].holes", "the FEM path needs a rectangle or box without holes")
     h, origin = scene.grid.h, scene.grid.origin
-    for corner in (body.shape.min, body.shape.max):
+    lo, hi = _box_of(shape)
+    for corner in (lo, hi):
         for x, o in zip(corner, origin):
             n = (x - o) / h
             if abs(n - round(n)) > _WHOLE * max(1.0, abs(n)):
-                raise SceneError("bodies[0].shape", "the FEM path needs a rectangle whose edges lie"
+                what = "rectangle whose edges" if scene.dim == 2 else "box whose faces"
+                raise SceneError("bodies[0].shape", f"the FEM path needs a {what} lie"
                                  f" on grid lines (multiples of h = {h:g} from the grid origin"
-                                 f" {list(origin)})", [list(body.shape.min), list(body.shape.max)])
+                                 f" {list(origin)})", [list(lo), list(hi)])
     for i, region in enumerate(scene.prescribed):
         if region.particles is not None:
             raise SceneError(f"prescribed[{i}].particles", "the FEM path holds a box, a body or a"

@@ -8,9 +8,12 @@ writes its files and figures when the run ends. :func:`default_observers`
 gives a scene's standard set:
 
 :class:`CrackObserver`
-    with an initial crack: the crack tips (:class:`CrackTip`, their columns)
+    with an initial crack in 2D: the crack tips (:class:`CrackTip`, their columns)
     and where and when each point cracked (:class:`CrackPath`), written to
     :data:`CRACK_PATH` with the plots ``crack_tip.png`` and ``crack_path.png``;
+:class:`CrackFrontObserver`
+    with an initial crack in 3D: the crack front along ``output.crack_direction``
+    and the crack area (:class:`CrackFront`, their columns);
 :class:`SnapshotObserver`
     with ``output.snapshots``: the phase-field images (:class:`Snapshots`)
     of ``phase_field.png``;
@@ -35,8 +38,8 @@ import numpy as np
 
 from .scene import Scene
 
-__all__ = ["Observer", "CrackObserver", "SnapshotObserver", "FrameObserver", "default_observers",
-           "CrackTip", "CrackPath", "Snapshots", "CRACK_PATH", "BRANCH_OFFSET", "speed_fit",
+__all__ = ["Observer", "CrackObserver", "CrackFrontObserver", "SnapshotObserver", "FrameObserver",
+           "default_observers", "CrackTip", "CrackFront", "CrackPath", "Snapshots", "CRACK_PATH", "BRANCH_OFFSET", "speed_fit",
            "write_crack_path", "read_crack_path", "nearest_image"]
 
 BRANCH_OFFSET = 1.0
@@ -96,8 +99,12 @@ class CrackTip:
     @classmethod
     def for_scene(cls, scene: Scene) -> "CrackTip":
         """A tracker for the tip at the last point of the scene's first initial
-        crack, with the scene's ``output.crack_threshold`` and ``crack_speed_samples``."""
+        crack, looking along ``output.crack_direction`` (by default along that
+        crack's last segment), with the scene's ``output.crack_threshold`` and
+        ``crack_speed_samples``."""
         origin, direction = scene.cracks[0].tip()
+        if scene.output.crack_direction is not None:
+            direction = scene.output.crack_direction
         return cls(origin, direction, scene.output.crack_threshold, scene.output.crack_speed_samples)
 
     @staticmethod
@@ -180,6 +187,101 @@ class CrackTip:
         for k, track in enumerate(self.TRACKS):
             out[f"{track}_speed"] = speed_fit(history[:, 0], history[:, k + 1])
         return out
+
+
+class CrackFront:
+    """The crack front of a 3D scene: the farthest extent of the cracked points
+    (phase field below ``threshold``) along ``direction``, with its smoothed
+    speed, and the crack surface area; the 3D forms of the crack tip
+    (:class:`CrackTip`) and of the crack length.
+
+    The extent is ``max x . e`` over the cracked points ``x``, ``e`` the unit
+    ``direction``, the coordinate of the front along it (the initial crack
+    counts: before it grows the front is the initial patch's edge, as the
+    phase field makes it); with no cracked point it is ``start``.  Its speed
+    is the least-squares slope over the last ``samples`` records
+    (:func:`speed_fit`).  The area is the run's ``int Z dV``
+    (``sim.crack_area()``; :func:`pfmpm.post.tip.crack_area` of particle data).
+
+    Parameters
+    ----------
+    direction : sequence of float
+        The direction the crack runs in (``output.crack_direction``), nonzero.
+    threshold : float
+        Phase-field value below which a point is cracked.
+    samples : int
+        Records in the speed fit, at least 2.
+    start : float
+        The front when no point is cracked: the farthest corner of the first
+        initial crack along ``direction``.
+    """
+
+    COLUMNS = ("crack_front", "crack_front_x", "crack_front_y", "crack_front_z", "crack_front_speed",
+               "crack_area")
+    """The ``energies.csv`` columns of :meth:`record`."""
+
+    def __init__(self, direction, threshold: float, samples: int, start: float = 0.0):
+        direction = np.asarray(direction, dtype=float)
+        norm = float(np.sqrt(direction @ direction))
+        if not norm > 0:
+            raise ValueError(f"direction = {tuple(direction)}: must be nonzero")
+        self.direction = direction / norm
+        self.threshold = threshold
+        self.start = float(start)
+        self._history: deque[tuple[float, float]] = deque(maxlen=samples)
+
+    @classmethod
+    def for_scene(cls, scene: Scene) -> "CrackFront":
+        """A tracker along the scene's ``output.crack_direction``, starting at
+        the farthest corner of its first initial crack."""
+        direction = np.asarray(scene.output.crack_direction, dtype=float)
+        corners = np.asarray(scene.cracks[0].points, dtype=float)
+        start = float(np.max(corners @ (direction / np.sqrt(direction @ direction))))
+        return cls(direction, scene.output.crack_threshold, scene.output.crack_speed_samples, start)
+
+    def farthest(self, x: np.ndarray, c: np.ndarray) -> tuple[float, ...] | None:
+        """``(extent, *point)`` of the cracked point of ``x`` (N, dim) with phase
+        field ``c`` farthest along the direction (of equals, the least in
+        reverse coordinate order, ``(z, y, x)``), or ``None`` if none is cracked."""
+        cracked = np.asarray(x, dtype=float)[np.asarray(c) < self.threshold]
+        if not len(cracked):
+            return None
+        along = cracked @ self.direction
+        far = cracked[along == along.max()]
+        point = far[np.lexsort(far.T)[0]]
+        return (float(along.max()), *map(float, point))
+
+    @staticmethod
+    def merge(parts: list) -> tuple[float, ...] | None:
+        """The :meth:`farthest` of all points from those of parts of them (the
+        ranks of a distributed mesh): the same whatever the partition."""
+        found = [p for p in parts if p is not None]
+        if not found:
+            return None
+        far = max(p[0] for p in found)
+        return min((p for p in found if p[0] == far), key=lambda p: p[:0:-1])
+
+    def records(self) -> list[tuple[float, float]]:
+        """The records in the speed fit, oldest first: (time, extent)."""
+        return list(self._history)
+
+    def set_records(self, records) -> None:
+        """Replace the records in the speed fit (from :meth:`records`)."""
+        self._history.clear()
+        self._history.extend((float(t), float(e)) for t, e in records)
+
+    def record(self, t: float, found: tuple[float, ...] | None, area: float) -> dict[str, float]:
+        """Record time ``t`` with the front ``found`` (as :meth:`farthest`
+        gives it) and the crack area; return the :data:`COLUMNS`."""
+        if found is None:
+            found = (self.start, *(self.start * self.direction))
+        extent, *point = found
+        point = list(point) + [0.0] * (3 - len(point))
+        self._history.append((t, extent))
+        history = np.array(self._history)
+        return {"crack_front": extent, "crack_front_x": point[0], "crack_front_y": point[1],
+                "crack_front_z": point[2], "crack_front_speed": speed_fit(history[:, 0], history[:, 1]),
+                "crack_area": float(area)}
 
 
 def speed_fit(t, distance) -> float:
@@ -425,6 +527,39 @@ class CrackObserver(Observer):
         return partial(_draw_cracks, out, self.scene, *path)
 
 
+class CrackFrontObserver(Observer):
+    """The crack front and the crack area of a 3D scene with an initial crack.
+
+    At each row of ``energies.csv`` it adds the :data:`CrackFront.COLUMNS` of
+    the points that can crack of ``sim`` (``sim.crack_points()``, on each rank
+    its own, merged with :meth:`CrackFront.merge`) and of ``sim.crack_area()``
+    (collective). Its checkpoint state: ``crack_front``, the records behind
+    the speed fit.
+    """
+
+    def __init__(self, sim):
+        self.comm = sim.comm
+        self.front = CrackFront.for_scene(sim.scene)
+
+    def columns(self) -> list[str]:
+        return list(CrackFront.COLUMNS)
+
+    def record(self, sim, row: dict | None, force: bool) -> None:
+        if row is None:
+            return
+        found = self.front.farthest(*sim.crack_points())
+        if self.comm is not None:
+            found = CrackFront.merge(self.comm.allgather(found))
+        row.update(self.front.record(sim.time, found, sim.crack_area()))
+
+    def state(self) -> dict[str, np.ndarray]:
+        return {"crack_front": np.asarray(self.front.records(), dtype=float).reshape(-1, 2)}
+
+    def restore(self, sim, state: dict[str, np.ndarray]) -> None:
+        if "crack_front" in state:
+            self.front.set_records(state["crack_front"])
+
+
 def _draw_cracks(out: Path, scene: Scene, xy: np.ndarray, times: np.ndarray) -> None:
     """``crack_tip.png`` and ``crack_path.png`` of a run in ``out`` whose points ``xy`` cracked at ``times``."""
     from . import plots
@@ -536,14 +671,14 @@ class FrameObserver(Observer):
 def default_observers(sim) -> list[Observer]:
     """The standard observers of a run of ``sim``, the set that
     :func:`~pfmpm.run.run_to_end` takes unless given others: a
-    :class:`CrackObserver` with an initial crack, a :class:`SnapshotObserver`
+    :class:`CrackObserver` with an initial crack (in 3D a :class:`CrackFrontObserver`), a :class:`SnapshotObserver`
     with ``output.snapshots`` (both where something can crack,
     ``sim.cracks``) and a :class:`FrameObserver` where ``sim`` writes a
     field series (``sim.field_series``)."""
     scene = sim.scene
     observers: list[Observer] = []
     if sim.cracks and scene.cracks:
-        observers.append(CrackObserver(sim))
+        observers.append(CrackObserver(sim) if scene.dim == 2 else CrackFrontObserver(sim))
     if sim.cracks and scene.output.snapshots:
         observers.append(SnapshotObserver(sim))
     if sim.field_series:

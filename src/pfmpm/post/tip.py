@@ -13,7 +13,8 @@ from ..observe import BRANCH_OFFSET
 from ..output import read_csv
 from ..scene import Crack
 
-__all__ = ["INITIATION_ADVANCE", "BRANCH_OFFSET", "BRANCH_AFTER", "initiation_time", "branch_time", "read_columns"]
+__all__ = ["INITIATION_ADVANCE", "BRANCH_OFFSET", "BRANCH_AFTER", "initiation_time", "branch_time", "read_columns",
+           "crack_area"]
 
 INITIATION_ADVANCE = 0.5
 """Crack initiation: the tip has moved this far (mm) past its position at t = 0."""
@@ -30,12 +31,13 @@ def read_columns(csv_or_columns) -> Mapping[str, np.ndarray]:
 
 
 def initiation_time(e, advance: float = INITIATION_ADVANCE) -> float:
-    """First time ``crack_tip_x`` exceeds its value at t = 0 by ``advance``.
+    """First time ``crack_tip_x`` exceeds its value at t = 0 by ``advance``
+    (in 3D ``crack_front``, the front's extent along ``output.crack_direction``).
 
     Parameters
     ----------
     e : path or mapping of str -> ndarray
-        An ``energies.csv`` with crack-tip columns, or its columns.
+        An ``energies.csv`` with crack-tip (or crack-front) columns, or its columns.
     advance : float
         Distance the tip has to move, in the units of the scene (mm).
 
@@ -45,7 +47,8 @@ def initiation_time(e, advance: float = INITIATION_ADVANCE) -> float:
         The time, or NaN if the tip never gets that far.
     """
     e = read_columns(e)
-    moved = e["crack_tip_x"] > e["crack_tip_x"][0] + advance
+    tip = e["crack_tip_x"] if "crack_tip_x" in e else e["crack_front"]
+    moved = tip > tip[0] + advance
     return float(e["t"][np.argmax(moved)]) if moved.any() else math.nan
 
 
@@ -82,3 +85,21 @@ def branch_time(e, crack: Crack, offset: float = BRANCH_OFFSET, after: float = B
     along, across = rx * d[0] + ry * d[1], np.abs(rx * d[1] - ry * d[0])
     off = (along > after) & (across > offset)
     return float(e["t"][np.argmax(off)]) if off.any() else math.nan
+
+
+def crack_area(fracture_energy, Gc) -> float:
+    """The crack surface area ``int Z dV`` of particle data: the sum of each
+    particle's fracture energy (the core's column ``fracture_energy``,
+    ``G_c V_p Z(c_p, grad c_p)``, K&T eq. 4 with the density of
+    ``Fracture::crack_density``) over its material's ``G_c``.  Of particles in
+    2D or 3D alike; in 2D an area times the thickness.
+
+    Parameters
+    ----------
+    fracture_energy : array (N,)
+        The particles' fracture energies.
+    Gc : float or array (N,)
+        Their critical energy release rates (of each particle's material).
+    """
+    energy = np.asarray(fracture_energy, dtype=float)
+    return float(np.sum(energy / np.broadcast_to(np.asarray(Gc, dtype=float), energy.shape)))

@@ -180,6 +180,13 @@ class Output:
     crack_speed_samples : int
         ``energies.csv`` rows in the least-squares fit that smooths the
         crack-tip speed, at least 2.
+    crack_direction : sequence of float or None
+        The direction the crack runs in, one component per direction of the
+        scene (need not be of unit length). A 2D crack's tip is the cracked
+        point farthest from the end of the first initial crack ahead of it
+        along this; ``None``: along that crack's last segment. A 3D scene
+        with initial cracks needs it: the crack front is the farthest extent
+        of the cracked points along it (:class:`pfmpm.observe.CrackFront`).
     """
 
     every: int = 100
@@ -188,6 +195,7 @@ class Output:
     snapshots: tuple[float, ...] = ()
     crack_threshold: float = 0.2
     crack_speed_samples: int = 9
+    crack_direction: tuple[float, ...] | None = None
 
     def __post_init__(self):
         store(self, "every", integer("every", self.every, ge=1))
@@ -197,6 +205,11 @@ class Output:
         store(self, "snapshots", tuple(real(f"snapshots[{i}]", t, ge=0) for i, t in enumerate(times)))
         store(self, "crack_threshold", real("crack_threshold", self.crack_threshold, gt=0, lt=1))
         store(self, "crack_speed_samples", integer("crack_speed_samples", self.crack_speed_samples, ge=2))
+        if self.crack_direction is not None:
+            direction = vector("crack_direction", self.crack_direction)
+            if not any(direction):
+                raise SceneError("crack_direction", "must not be zero", self.crack_direction)
+            store(self, "crack_direction", direction)
 
 
 @dataclass(frozen=True)

@@ -9,8 +9,8 @@ from typing import ClassVar
 
 import numpy as np
 
-from .validation import (SceneError, boolean, choice, fmt, integer, planar, polyline, real, same_dimension, seq,
-                         store, text, vec2, vector)
+from .validation import (SceneError, boolean, choice, fmt, integer, planar, planar_polygon, polyline, real,
+                         same_dimension, seq, store, text, vec2, vector)
 
 __all__ = ["EDGES", "SIDES", "SIDES_3D", "WALL_TYPES", "COMPONENTS", "COMPONENTS_3D", "Ramp", "Table",
            "AMPLITUDES", "Traction", "BodyForce", "LOADS", "WallSpec", "Prescribed", "MAX_REGIONS", "Crack"]
@@ -382,14 +382,16 @@ class WallSpec:
 class Crack:
     """An initial crack, imposed as an initial history field (Borden et al. 2012).
 
-    Particles within ``half_width`` of the polyline get
-    ``H0 = B G_c / (4 l0) (1 - d / half_width)`` at distance ``d``; with the
-    default ``half_width = l0 / 2`` this is Borden's formula.
+    Points within ``half_width`` of the crack (a polyline in 2D, a planar
+    patch in 3D) get ``H0 = B G_c / (4 l0) (1 - d / half_width)`` at
+    distance ``d``; with the default ``half_width = l0 / 2`` this is
+    Borden's formula.
 
     Parameters
     ----------
-    points : sequence of (float, float)
-        Polyline vertices, at least two.
+    points : sequence of (float, float) or of (float, float, float)
+        In 2D the vertices of a polyline, at least two; in 3D the corners of
+        a convex planar polygon, at least three, in order around it.
     body : str or None
         Body whose particles get the history; ``None``: every body that can crack.
     B : float
@@ -398,21 +400,39 @@ class Crack:
         Half width of the band, > 0; ``None`` means ``l0 / 2``.
     """
 
-    points: tuple[tuple[float, float], ...]
+    points: tuple[tuple[float, ...], ...]
     body: str | None = None
     B: float = 1e3
     half_width: float | None = None
 
     def __post_init__(self):
-        store(self, "points", polyline("points", self.points))
+        points = seq("points", self.points, "points")
+        three = bool(points) and all(isinstance(p, (list, tuple, np.ndarray)) and len(p) == 3 for p in points)
+        store(self, "points", planar_polygon("points", points) if three else polyline("points", points))
         if self.body is not None:
             store(self, "body", text("body", self.body))
         store(self, "B", real("B", self.B, gt=0))
         if self.half_width is not None:
             store(self, "half_width", real("half_width", self.half_width, gt=0))
 
+    @property
+    def dim(self) -> int:
+        """The directions of its points: 2 (a polyline) or 3 (a planar patch)."""
+        return len(self.points[0])
+
+    def check_dimension(self, dim: int) -> None:
+        """Check that the crack is a polyline of a 2D scene or a patch of a 3D one."""
+        if self.dim != dim:
+            want = ("a polyline of [x, y] points" if dim == 2
+                    else "a convex planar polygon of three or more [x, y, z] points")
+            raise SceneError("points", f"{self.dim}D points in a {dim}D scene (grid.size has {dim}"
+                                       f" entries): give {want}", self.points)
+
     def tip(self) -> tuple[tuple[float, float], tuple[float, float]]:
         """The tip at the crack's last point and the direction it points in,
-        along its last segment (not of unit length)."""
+        along its last segment (not of unit length); a 2D crack's."""
+        if self.dim != 2:
+            raise ValueError("a 3D crack (a planar patch) has no tip: its front is measured along"
+                             " output.crack_direction")
         (ax, ay), (bx, by) = self.points[-2], self.points[-1]
         return (bx, by), (bx - ax, by - ay)

@@ -20,7 +20,7 @@ from .loads import MAX_REGIONS, BodyForce, Crack, Prescribed, Traction, WallSpec
 from .materials import PLANES, FractureSpec, MaterialSpec
 from .toml import build_scene, plain, read_toml
 from .units import SOLID_WAVE_SPEEDS, UNIT_SYSTEMS, UnitSystem, unit_system
-from .validation import (MAX_COUNT, SceneError, at, choice, fmt, planar, real, reference, seq, store,
+from .validation import (MAX_COUNT, SceneError, at, choice, fmt, planar, real, reference, same_dimension, seq, store,
                          text)
 
 __all__ = ["Scene"]
@@ -196,7 +196,7 @@ class Scene:
         and vectors, the loads', walls' and regions' vectors and sides; and
         that a 3D scene asks for nothing that is two-dimensional yet."""
         dim = self.grid.dim
-        for key in ("bodies", "loads", "walls", "prescribed", "initial_damage"):
+        for key in ("bodies", "loads", "walls", "prescribed", "initial_damage", "cracks"):
             for i, item in enumerate(getattr(self, key)):
                 with at(f"{key}[{i}]"):
                     item.check_dimension(dim)
@@ -204,6 +204,9 @@ class Scene:
             for i, shape in enumerate(self.contact.surfaces):
                 with at(f"contact.surfaces[{i}]"):
                     shape.check_dimension(dim)
+        if self.output.crack_direction is not None:
+            with at("output"):
+                same_dimension("crack_direction", self.output.crack_direction, dim)
         if dim == 2:
             return
         if self.plane != "strain":
@@ -211,12 +214,14 @@ class Scene:
         if self.thickness != 1.0:
             raise planar("thickness", "an out-of-plane thickness", self.thickness)
         for i, material in enumerate(self.materials):
-            if material.fracture is not None:
-                raise planar(f"materials[{i}].fracture", "the phase field (a fracture table)")
+            if material.fracture is not None and material.fracture.anisotropy is not None:
+                raise planar(f"materials[{i}].fracture.anisotropy", "an anisotropic crack resistance",
+                             material.fracture.anisotropy.symmetry)
             if not material.solid():
                 raise planar(f"materials[{i}].model", f"the {material.model} model", material.model)
-        if self.cracks:
-            raise planar("cracks", "an initial crack (it seeds the phase field)")
+        if self.cracks and self.output.crack_direction is None:
+            raise SceneError("output.crack_direction", "a 3D scene with initial cracks needs the"
+                             " direction its crack front runs in, e.g. [1, 0, 0]")
         if self.output.snapshots:
             raise planar("output.snapshots", "an image of the phase field", self.output.snapshots)
 
@@ -324,13 +329,13 @@ class Scene:
         if self.output.snapshots and not crackable:
             raise SceneError("output.snapshots", "draws the phase field, but no body's material"
                                                  " has a fracture table", self.output.snapshots)
-        for i, crack in enumerate(self.cracks):  # only a 2D scene has cracks
-            (x0, y0), (sx, sy) = self.grid.origin, self.grid.size
-            reach = max(sx, sy)
-            for j, (x, y) in enumerate(crack.points):
-                if not (x0 - reach <= x <= x0 + sx + reach and y0 - reach <= y <= y0 + sy + reach):
+        for i, crack in enumerate(self.cracks):
+            origin, size = np.asarray(self.grid.origin), np.asarray(self.grid.size)
+            reach = size.max()
+            for j, point in enumerate(crack.points):
+                if np.any(point < origin - reach) or np.any(point > origin + size + reach):
                     raise SceneError(f"cracks[{i}].points[{j}]", "lies farther from the grid"
-                                     f" {self.grid.box()} than its longer side", (x, y))
+                                     f" {self.grid.box()} than its {'longer' if len(size) == 2 else 'longest'} side", point)
             if crack.body is not None:
                 reference(f"cracks[{i}].body", crack.body, bodies, "body")
                 if crack.body not in crackable:

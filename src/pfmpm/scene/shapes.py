@@ -15,7 +15,8 @@ import numpy as np
 from .validation import SceneError, fmt, integer, real, seq, store, text, vec2, vector
 
 __all__ = ["Shape", "Rectangle", "Disk", "Ring", "Polygon", "MeshShape", "ImageShape", "Box", "Sphere",
-           "Cylinder", "Extrusion", "SHAPES", "image_colors", "distance_to_polyline"]
+           "Cylinder", "Extrusion", "SHAPES", "image_colors", "distance_to_polyline",
+           "distance_to_polygon"]
 
 
 def distance_to_polyline(xy: np.ndarray, points) -> np.ndarray:
@@ -29,6 +30,29 @@ def distance_to_polyline(xy: np.ndarray, points) -> np.ndarray:
         t = np.clip(((xy - a) @ ab) / max(ab @ ab, np.finfo(float).tiny), 0.0, 1.0)
         d = np.minimum(d, np.hypot(*(xy - a - t[:, None] * ab).T))
     return d
+
+
+def distance_to_polygon(xyz: np.ndarray, points) -> np.ndarray:
+    """Distance from each row of ``xyz`` (N, 3) to the convex planar polygon
+    with corners ``points`` (in order around it; the patch of a 3D initial
+    crack, :func:`~pfmpm.scene.validation.planar_polygon`): the distance to
+    the plane where a point's foot lies inside the polygon, else to the
+    nearest of its sides."""
+    xyz = np.asarray(xyz, dtype=float)
+    pts = np.asarray(points, dtype=float)
+    normal = np.cross(pts, np.roll(pts, -1, axis=0)).sum(axis=0)  # Newell: along the polygon's turn
+    normal /= np.sqrt(normal @ normal)
+    rel = xyz - pts[0]
+    height = rel @ normal
+    inside = np.ones(len(xyz), dtype=bool)
+    side = np.full(len(xyz), np.inf)
+    for a, b in zip(pts, np.roll(pts, -1, axis=0)):
+        ab = b - a
+        inside &= (xyz - a) @ np.cross(normal, ab) >= 0.0  # on the inner side of side ab
+        t = np.clip(((xyz - a) @ ab) / (ab @ ab), 0.0, 1.0)
+        gap = xyz - a - t[:, None] * ab
+        side = np.minimum(side, np.sqrt(np.einsum("ij,ij->i", gap, gap)))
+    return np.where(inside, np.abs(height), side)
 
 
 class Shape:

@@ -19,7 +19,8 @@ from typing import Any
 import numpy as np
 
 __all__ = ["SceneError", "MAX_COUNT", "WHOLE_TOL", "DIMENSIONS", "at", "fmt", "key_text", "real", "integer",
-           "vec2", "vector", "same_dimension", "planar", "text", "choice", "seq", "store", "reference"]
+           "vec2", "vector", "same_dimension", "planar", "text", "choice", "seq", "polyline",
+           "planar_polygon", "store", "reference"]
 
 MAX_COUNT = 2**31 - 1
 """Cells, particles and iteration limits are indexed with int32 in the core."""
@@ -211,6 +212,43 @@ def polyline(path: str, value: Any) -> tuple[tuple[float, float], ...]:
         if not 0 < math.hypot(bx - ax, by - ay) < math.inf:
             raise SceneError(f"{path}[{i}]", f"segment from {path}[{i - 1}] = {fmt(points[i - 1])}"
                                              " must have a positive finite length", points[i])
+    return points
+
+
+def planar_polygon(path: str, value: Any) -> tuple[tuple[float, float, float], ...]:
+    """Check a convex planar polygon in 3D: three or more [x, y, z] points in
+    order around it, on one plane (within 1e-9 of its size), each turn
+    the same way and once around; return its points as tuples."""
+    points = seq(path, value, "[x, y, z] points")
+    if len(points) < 3:
+        raise SceneError(path, "a planar patch needs at least three [x, y, z] points", value)
+    for i, p in enumerate(points):
+        if isinstance(p, np.ndarray):
+            p = p.tolist()
+        if not isinstance(p, (list, tuple)) or len(p) != 3:
+            raise SceneError(f"{path}[{i}]", "must be a list of 3 numbers (a 3D point)", p)
+    points = tuple(tuple(real(f"{path}[{i}][{k}]", v) for k, v in enumerate(p)) for i, p in enumerate(points))
+    p = np.array(points)
+    size = float(np.max(np.ptp(p, axis=0)))
+    edges = np.roll(p, -1, axis=0) - p
+    normal = np.cross(p, np.roll(p, -1, axis=0)).sum(axis=0)  # Newell: twice the vector area
+    area2 = float(np.sqrt(normal @ normal))
+    if not (size < math.inf and area2 > 1e-12 * size * size):
+        raise SceneError(path, "the points enclose no area (they lie on one line, or its sides cross)",
+                         value)
+    normal /= area2
+    off = np.abs((p - p[0]) @ normal)
+    if off.max() > 1e-9 * size:
+        raise SceneError(path, f"the points are not on one plane (up to {off.max():.3g} off it)", value)
+    lengths = np.sqrt(np.einsum("ij,ij->i", edges, edges))
+    if lengths.min() <= 1e-12 * size:
+        i = int(lengths.argmin())
+        raise SceneError(path, f"corners {i} and {(i + 1) % len(points)} coincide", value)
+    turns = np.cross(edges, np.roll(edges, -1, axis=0)) @ normal  # at each point after the first
+    angles = np.arctan2(turns, np.einsum("ij,ij->i", edges, np.roll(edges, -1, axis=0)))
+    if turns.min() <= 1e-12 * size * size or abs(angles.sum() - 2 * math.pi) > 1e-6:
+        raise SceneError(path, "the polygon is not convex (give its corners in order around it,"
+                               " none on a straight side)", value)
     return points
 
 
