@@ -14,7 +14,7 @@ import pytest
 
 from pfmpm import SceneError, _core
 from pfmpm.crack import distance_to_crack, initial_history
-from pfmpm.fem import FemSimulation, _SolidElastic
+from pfmpm.fem import FemSimulation
 from pfmpm.scene import (Body, BodyForce, Box, Crack, Disk, Extrusion, Fracture, Grid, Material, Output,
                          PhaseField, Rectangle, Scene, Sphere, Time, Traction, Wall)
 from pfmpm.scene.shapes import distance_to_polygon
@@ -140,12 +140,12 @@ def test_a_3d_crack_needs_the_front_s_direction_and_a_2d_scene_its_polyline():
 
 @pytest.mark.parametrize("split", ["none", "spectral", "volumetric_deviatoric"])
 def test_3d_splits_are_the_core_s_in_plane_strain(split):
-    """With eps_zz = eps_yz = eps_xz = 0 the 3D split is the core's plane-strain
-    model: stresses (xx, yy, xy, zz) and psi+- to 1e-13 of their scale, over
-    strains of every sign and degradations in [0, 1]."""
+    """With eps_zz = eps_yz = eps_xz = 0 the split of a 3D strain (N, 6) is the
+    plane-strain split of its (N, 3): stresses (xx, yy, xy, zz) and psi+- to
+    1e-13 of their scale, over strains of every sign and degradations in [0, 1]."""
     E, nu = 210.0, 0.3
     core = _core.LinearElastic(E, nu, 1.0, _core.Plane.strain, _core.Split.__members__[split])
-    solid = _SolidElastic(*core.lame, split)
+    solid = core
     rng = np.random.default_rng(51)
     eps2 = rng.normal(size=(400, 3)) * 1e-3
     eps2[:50, 2] = 0.0  # principal axes along x and y
@@ -168,12 +168,35 @@ def test_3d_split_stress_is_the_derivative_of_the_energy():
     g = rng.uniform(0.0, 1.0, len(eps))
     weight = np.array([1.0, 1.0, 2.0, 1.0, 2.0, 2.0])
     for split in ("none", "spectral", "volumetric_deviatoric"):
-        solid = _SolidElastic(120.0, 80.0, split)
+        solid = _core.LinearElastic(200.0, 0.3, 1.0, _core.Plane.strain, _core.Split.__members__[split])
         sig = solid.stresses(eps, g)
 
         def energy(e):
             plus, minus = solid.split_energies(e)
             return g * plus + minus
+
+        if split == "spectral":  # psi+ of the principal strains (Miehe et al. 2010)
+            t = np.zeros((len(eps), 3, 3))
+            for e, (i, j) in enumerate([(0, 0), (1, 1), (0, 1), (2, 2), (1, 2), (0, 2)]):
+                t[:, i, j] = t[:, j, i] = eps[:, e]
+            lam, mu = solid.lame
+            tr, principal = np.trace(t, axis1=1, axis2=2), np.linalg.eigvalsh(t)
+            expected = 0.5 * lam * np.maximum(tr, 0) ** 2 + mu * (np.maximum(principal, 0) ** 2).sum(axis=1)
+            np.testing.assert_allclose(solid.split_energies(eps)[0], expected, rtol=1e-12)
+            # The stress from the eigenvectors, on these strains and on rotated
+            # ones with two equal principal strains of either sign.
+            rot, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+            equal = np.stack([rot @ np.diag(v) @ rot.T for v in ([2e-3, 2e-3, -1e-3], [1e-3, -2e-3, -2e-3])])
+            t = np.concatenate([t, equal])
+            cols = np.stack([t[:, i, j] for i, j in [(0, 0), (1, 1), (0, 1), (2, 2), (1, 2), (0, 2)]], axis=1)
+            gg = np.concatenate([g, [0.3, 0.7]])
+            values, vectors = np.linalg.eigh(t)
+            eps_plus = np.einsum("nik,nk,njk->nij", vectors, np.maximum(values, 0), vectors)
+            tr = np.trace(t, axis1=1, axis2=2)
+            sigma = (lam * (gg * np.maximum(tr, 0) + np.minimum(tr, 0)))[:, None, None] * np.eye(3) \
+                + 2 * mu * (gg[:, None, None] * eps_plus + t - eps_plus)
+            expected = np.stack([sigma[:, i, j] for i, j in [(0, 0), (1, 1), (0, 1), (2, 2), (1, 2), (0, 2)]], axis=1)
+            np.testing.assert_allclose(solid.stresses(cols, gg), expected, rtol=0, atol=1e-12 * np.abs(expected).max())
 
         step = 1e-9
         for k in range(6):

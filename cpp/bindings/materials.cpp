@@ -23,12 +23,23 @@ namespace
 {
 using Strains = py::array_t<double, py::array::c_style | py::array::forcecast>;
 
-/// Number of rows of an (N, 3) strain array; throws on another shape.
+/// Number of rows of an (N, 3) (2D: xx, yy, xy) or (N, 6) (3D: xx, yy, xy,
+/// zz, yz, xz) strain array; throws on another shape.
 py::ssize_t strain_rows(const Strains& strain)
 {
-  if (strain.ndim() != 2 || strain.shape(1) != 3)
-    throw py::value_error("strain must have shape (N, 3)");
+  if (strain.ndim() != 2 || (strain.shape(1) != 3 && strain.shape(1) != 6))
+    throw py::value_error("strain must have shape (N, 3) or (N, 6)");
   return strain.shape(0);
+}
+
+/// LinearElastic::degraded for a 2D (3 entries) or 3D (6 entries) strain.
+void degrade(const LinearElastic& e, bool three, const double* eps, double g, double* sig,
+             double& plus, double& minus)
+{
+  if (three)
+    e.degraded3(eps, g, sig, plus, minus);
+  else
+    e.degraded(eps, g, sig, plus, minus);
 }
 } // namespace
 
@@ -154,34 +165,38 @@ void bind_materials(py::module_& m)
           [](const LinearElastic& e, const Strains& strain)
           {
             const py::ssize_t n = strain_rows(strain);
+            const bool three = strain.shape(1) == 6;
             py::array_t<double> plus(n), minus(n);
             for (py::ssize_t i = 0; i < n; ++i)
             {
-              double sig[4];
-              e.degraded(strain.data(i, 0), 1.0, sig, plus.mutable_data()[i],
-                         minus.mutable_data()[i]);
+              double sig[6];
+              degrade(e, three, strain.data(i, 0), 1.0, sig, plus.mutable_data()[i],
+                      minus.mutable_data()[i]);
             }
             return py::make_tuple(plus, minus);
           },
-          py::arg("strain"), "(psi+, psi-) of K&T eq. 14 for strains (N, 3): xx, yy, xy")
+          py::arg("strain"),
+          "(psi+, psi-) of K&T eq. 14 for strains (N, 3): xx, yy, xy, or (N, 6): xx, yy, xy, zz, yz, xz")
       .def(
           "stresses",
           [](const LinearElastic& e, const Strains& strain,
              py::array_t<double, py::array::c_style | py::array::forcecast> g)
           {
             const py::ssize_t n = strain_rows(strain);
+            const bool three = strain.shape(1) == 6;
             if (g.ndim() != 1 || g.shape(0) != n)
               throw py::value_error("g must have shape (N,) matching strain");
-            py::array_t<double> sig({n, py::ssize_t(4)});
+            py::array_t<double> sig({n, py::ssize_t(three ? 6 : 4)});
             for (py::ssize_t i = 0; i < n; ++i)
             {
               double plus, minus;
-              e.degraded(strain.data(i, 0), g.data()[i], sig.mutable_data(i, 0), plus, minus);
+              degrade(e, three, strain.data(i, 0), g.data()[i], sig.mutable_data(i, 0), plus, minus);
             }
             return sig;
           },
           py::arg("strain"), py::arg("g"),
-          "stresses (N, 4): xx, yy, xy, zz of g psi+ + psi- (K&T eqs. 14, 16)")
+          "stresses of g psi+ + psi- (K&T eqs. 14, 16): (N, 4) xx, yy, xy, zz for 2D strains, (N, 6) "
+          "xx, yy, xy, zz, yz, xz for 3D ones")
       .def_property_readonly("lame", [](const LinearElastic& e)
                              { return std::make_pair(e.lambda(), e.mu()); });
 }

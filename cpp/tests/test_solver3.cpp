@@ -502,6 +502,10 @@ TEST(Solver3, TwoDimensionalFeaturesAreRefused)
   Particles P = ringing_bar();
   StepConfig cracks(0.02);
   cracks.fracture = {Fracture{1.0, 2.0, 0.0}};
+  EXPECT_NO_THROW(Solver(grid, P, steel(), cracks)); // the second-order phase field runs in 3D
+  Voigt gamma{};
+  gamma[0] = 1.0;
+  cracks.fracture = {Fracture{1.0, 2.0, 0.0, gamma}}; // the fourth-order one does not
   EXPECT_THROW(Solver(grid, P, steel(), cracks), std::invalid_argument);
   Particles flat(4, 2);
   EXPECT_THROW(Solver(grid, flat, steel(), StepConfig(0.02)), std::invalid_argument);

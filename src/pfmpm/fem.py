@@ -25,8 +25,8 @@ Fields
     Displacement ``u`` and phase field ``c`` are continuous P1.  Strain and
     stress are constant per cell, and so is the cell degradation, the
     exact cell mean of ``g(c)``.  In 3D strains and stresses are 3 x 3
-    (columns xx, yy, xy, zz, yz, xz) and the splits are those of
-    :class:`_SolidElastic` (the core binds its splits for 2D strains only).
+    (columns xx, yy, xy, zz, yz, xz), split by the core's
+    ``LinearElastic`` as the MPM's are.
 History
     ``H`` (K&T eq. 20) lives at the three edge midpoints of each triangle, the
     points of the degree-2 midpoint rule, and the reaction term
@@ -289,7 +289,7 @@ class FemSimulation:
         """Material, lumped mass, external force, walls and the initial state."""
         scene, d = self.scene, self.dim
         core = core_materials(scene)[0][scene.materials.index(material)]
-        self._elastic = core if d == 2 else _SolidElastic(*core.lame, material.core_parameters(scene)["split"])
+        self._elastic = core  # its splits take (N, 3) or (N, 6) strains
         imap = self.V.dofmap.index_map
         self._u = la.vector(imap, bs=d)  # displacement, ghosts kept current
         self._scratch = la.vector(imap, bs=d)  # assembly buffer for nodal vectors
@@ -1058,86 +1058,6 @@ def _box_of(shape) -> tuple[tuple[float, ...], tuple[float, ...]]:
     if isinstance(shape, Extrusion):
         return (*shape.shape.min, shape.z0), (*shape.shape.max, shape.z1)
     return tuple(shape.min), tuple(shape.max)
-
-
-class _SolidElastic:
-    """Isotropic linear elasticity on 3 x 3 strains with the energy splits of
-    the phase field, vectorised over cells: the 3D form of the core's
-    ``LinearElastic.stresses`` and ``split_energies`` (K&T eqs. 14-16), which
-    the core binds for 2D strains only.  Strains and stresses are (N, 6):
-    xx, yy, xy, zz, yz, xz (tensor components).
-
-    ``none``: ``psi+ = psi``, ``psi- = 0``. ``spectral`` (Miehe et al. 2010):
-    ``psi+- = lambda/2 <tr eps>+-^2 + mu sum_i <eps_i>+-^2`` over the principal
-    strains. ``volumetric_deviatoric`` (Amor et al. 2009): ``psi+ = K/2
-    <tr eps>+^2 + mu dev eps : dev eps``, ``psi- = K/2 <tr eps>-^2``.  In
-    plane strain (``eps_zz = eps_xz = eps_yz = 0``) each is the core's 2D
-    model (tests/test_fem3d.py checks this).
-
-    Parameters
-    ----------
-    lam, mu : float
-        The Lamé constants (3D).
-    split : str
-        ``"none"``, ``"spectral"`` or ``"volumetric_deviatoric"``.
-    """
-
-    def __init__(self, lam: float, mu: float, split: str):
-        self.lam, self.mu, self.split = lam, mu, split
-        self.bulk = lam + 2.0 * mu / 3.0
-
-    @staticmethod
-    def _tensors(eps: np.ndarray) -> np.ndarray:
-        """(N, 3, 3) tensors of (N, 6) columns."""
-        t = np.empty((len(eps), 3, 3))
-        for e, (i, j) in enumerate(_entries(3)):
-            t[:, i, j] = t[:, j, i] = eps[:, e]
-        return t
-
-    @staticmethod
-    def _columns(t: np.ndarray) -> np.ndarray:
-        """(N, 6) columns of (N, 3, 3) symmetric tensors."""
-        return np.stack([t[:, i, j] for i, j in _entries(3)], axis=1)
-
-    def _evaluate(self, eps: np.ndarray, g: np.ndarray):
-        """Stress of ``g psi+ + psi-`` (N, 3, 3), psi+ and psi-."""
-        eps = np.asarray(eps, dtype=float)
-        t = self._tensors(eps)
-        lam, mu = self.lam, self.mu
-        eye = np.eye(3)
-        tr = np.trace(t, axis1=1, axis2=2)
-        trp = np.maximum(tr, 0.0)
-        trn = tr - trp
-        gg = g[:, None, None]
-        if self.split == "spectral":
-            values, vectors = np.linalg.eigh(t)
-            vp = np.maximum(values, 0.0)
-            vn = values - vp
-            plus = 0.5 * lam * trp ** 2 + mu * (vp ** 2).sum(axis=1)
-            minus = 0.5 * lam * trn ** 2 + mu * (vn ** 2).sum(axis=1)
-            eps_p = np.einsum("nik,nk,njk->nij", vectors, vp, vectors)
-            eps_n = t - eps_p
-            sig = (lam * (g * trp + trn))[:, None, None] * eye + 2.0 * mu * (gg * eps_p + eps_n)
-        elif self.split == "volumetric_deviatoric":
-            dev = t - (tr / 3.0)[:, None, None] * eye
-            plus = 0.5 * self.bulk * trp ** 2 + mu * np.einsum("nij,nij->n", dev, dev)
-            minus = 0.5 * self.bulk * trn ** 2
-            sig = (self.bulk * (g * trp + trn))[:, None, None] * eye + 2.0 * mu * gg * dev
-        else:
-            sig0 = (lam * tr)[:, None, None] * eye + 2.0 * mu * t
-            plus = 0.5 * np.einsum("nij,nij->n", sig0, t)
-            minus = np.zeros(len(t))
-            sig = gg * sig0
-        return sig, plus, minus
-
-    def stresses(self, eps: np.ndarray, g: np.ndarray) -> np.ndarray:
-        """Stresses (N, 6) of ``g psi+ + psi-`` (K&T eqs. 14, 16)."""
-        return self._columns(self._evaluate(eps, np.asarray(g, dtype=float))[0])
-
-    def split_energies(self, eps: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(psi+, psi-) of K&T eq. 14 for strains (N, 6)."""
-        _, plus, minus = self._evaluate(eps, np.ones(len(eps)))
-        return plus, minus
 
 
 def _supported(scene: Scene) -> tuple[Body, MaterialSpec]:

@@ -12,6 +12,7 @@ import numpy as np
 
 from . import _core
 from .crack import initial_history
+from .post.tip import crack_area
 from .output import ParticleSeries, Rows
 from .run import SIDES, RunResult, energy_columns, region_columns, run_to_end, wall_columns
 from .scene import Scene, SceneError, seeding
@@ -368,6 +369,16 @@ class Simulation:
         :mod:`pfmpm.observe` watch them): views of the columns, no copies,
         when every particle can."""
         return self._of_crackable(self.particles.x), self._of_crackable(self.particles.c)
+
+    def crack_area(self) -> float:
+        """The crack surface area ``int Z dV`` of the crackable particles
+        (:func:`pfmpm.post.tip.crack_area`): each particle's fracture energy
+        over its material's G_c, as of the last step of an advance (in 2D an
+        area times the thickness)."""
+        gc = np.array([f.Gc if (f := self.scene.fracture_of(b)) is not None else np.inf
+                       for b in self.scene.bodies])
+        return crack_area(self._of_crackable(self.particles.fracture_energy),
+                          self._of_crackable(gc[self.particles.body]))
 
     def _of_crackable(self, column: np.ndarray) -> np.ndarray:
         """A particle column's rows of the crackable particles: the column itself

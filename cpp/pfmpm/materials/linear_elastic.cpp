@@ -4,6 +4,7 @@
 
 #include <Eigen/Dense>
 
+#include <algorithm>
 #include <cmath>
 
 namespace pfmpm
@@ -89,6 +90,29 @@ std::vector<ColumnSpec> LinearElastic::columns(int dim) const
 
 PFMPM_REGISTER_MATERIAL(LinearElastic, "linear_elastic")
 
+namespace
+{
+/// The unit direction n of the principal value `l` of the symmetric `a`:
+/// the largest cross product of two rows of a - l I, which n is orthogonal
+/// to. Its error, round-off over the gap between l and the other principal
+/// values, multiplies l in l n n: where the gap is small, so is l's share,
+/// for a lone principal value of its sign. Zero where a - l I vanishes
+/// (three equal principal values, l's share then being l I / 3 ~ 0 here).
+void principal_direction(const Eigen::Matrix3d& a, double l, double (&n)[3])
+{
+  const Eigen::Matrix3d m = a - l * Eigen::Matrix3d::Identity();
+  const Eigen::Vector3d c[3] = {m.row(0).cross(m.row(1)), m.row(0).cross(m.row(2)),
+                                m.row(1).cross(m.row(2))};
+  int best = 0;
+  for (int k = 1; k < 3; ++k)
+    if (c[k].squaredNorm() > c[best].squaredNorm())
+      best = k;
+  const double norm = c[best].norm();
+  for (int i = 0; i < 3; ++i)
+    n[i] = norm > 0.0 ? c[best][i] / norm : 0.0;
+}
+} // namespace
+
 void LinearElastic::degraded3(const double* eps, double g, double* sig, double& psi_plus,
                               double& psi_minus) const
 {
@@ -97,34 +121,48 @@ void LinearElastic::degraded3(const double* eps, double g, double* sig, double& 
   if (_split == Split::spectral)
   {
     // K&T eq. 14 on the principal strains l_i with directions n_i (Miehe et
-    // al. 2010): sigma = lambda (g <tr>+ + <tr>-) I + 2 mu sum_i (g <l_i>+ + <l_i>-) n_i n_i.
+    // al. 2010): sigma = lambda (g <tr>+ + <tr>-) I + 2 mu (g eps+ + eps-),
+    // eps+ = sum_i <l_i>+ n_i n_i and eps- = eps - eps+.
     Eigen::Matrix3d strain;
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j)
         strain(i, j) = eps[symmetric_entry(i, j)];
-    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(strain); // iterative: orthonormal directions
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen;
+    eigen.computeDirect(strain, Eigen::EigenvaluesOnly); // ascending
     const Eigen::Vector3d& l = eigen.eigenvalues();
-    const Eigen::Matrix3d& n = eigen.eigenvectors();
     double plus = 0.5 * _lambda3 * trp * trp, minus = 0.5 * _lambda3 * trn * trn;
-    double weight[3];
     for (int k = 0; k < 3; ++k)
     {
       const double lp = std::max(l[k], 0.0), ln = l[k] - lp;
       plus += _mu * lp * lp;
       minus += _mu * ln * ln;
-      weight[k] = 2.0 * _mu * (g * lp + ln);
     }
     psi_plus = plus;
     psi_minus = minus;
+    // eps+ needs one direction at most: the lone positive principal strain's
+    // (eps+ = l n n) or the lone negative one's (eps+ = eps - l n n).
+    const int positive = (l[0] > 0.0) + (l[1] > 0.0) + (l[2] > 0.0);
+    double eps_plus[6] = {};
+    if (positive == 3)
+      std::copy_n(eps, 6, eps_plus);
+    else if (positive == 1 || positive == 2)
+    {
+      const double lone = positive == 1 ? l[2] : l[0];
+      double n[3];
+      principal_direction(strain, lone, n);
+      for (int i = 0; i < 3; ++i)
+        for (int j = i; j < 3; ++j)
+        {
+          const int e = symmetric_entry(i, j);
+          eps_plus[e] = positive == 1 ? lone * n[i] * n[j] : eps[e] - lone * n[i] * n[j];
+        }
+    }
     const double vol = _lambda3 * (g * trp + trn);
-    for (int i = 0; i < 3; ++i)
-      for (int j = i; j < 3; ++j)
-      {
-        double s = i == j ? vol : 0.0;
-        for (int k = 0; k < 3; ++k)
-          s += weight[k] * n(i, k) * n(j, k);
-        sig[symmetric_entry(i, j)] = s;
-      }
+    for (int e = 0; e < 6; ++e)
+      sig[e] = 2.0 * _mu * (g * eps_plus[e] + (eps[e] - eps_plus[e]));
+    sig[0] += vol;
+    sig[1] += vol;
+    sig[3] += vol;
     return;
   }
   if (_split == Split::volumetric_deviatoric)
