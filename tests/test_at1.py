@@ -210,3 +210,29 @@ def test_at2_scene_is_unchanged_by_the_model_key():
     b.solver.advance(10)
     assert np.array_equal(a.particles.c, b.particles.c)
     assert a.solver.phase_field_stats()["bounded"]
+
+
+def test_a_breakdown_of_the_free_set_cg_hands_over_to_mprgp():
+    """The AT1 strip at h = l0/16 solved to tol = 1e-12: the SSOR-preconditioned
+    CG of the first pass meets p . K p <= 0 (K is semi-definite to round-off)
+    after about 140 iterations. It hands the solve over to MPRGP, which
+    converges; it used to divide by it, and every particle's c was NaN."""
+    l0, h, n = 1.0, 1.0 / 16, 2
+    half, width, margin = 12 * l0, 4 * h, 3 * h
+    w = h / n
+    scene = Scene(
+        grid=Grid(size=(2 * half + 2 * margin, width + 2 * margin), h=h, origin=(-half - margin, -margin)),
+        time=Time(end=1.0),
+        materials=(Material("m", 1.0, 0.2, 1.0, fracture=Fracture(Gc=2.5, l0=l0, model="AT1")),),
+        bodies=(Body("strip", "m", Rectangle((-half, 0.0), (half, width)), particles_per_cell=n),),
+        cracks=(Crack(points=((0.0, -1.0), (0.0, width + 1.0)), B=1e4 * l0 / w, half_width=w),),
+        phase_field=PhaseField(tol=1e-12, preconditioner="ssor"),
+    )
+    sim = Simulation(scene)
+    stats = sim.solver.phase_field_stats()
+    assert stats["handovers"] == 1 and stats["last_residual"] <= 1e-12
+    assert np.all(np.isfinite(sim.particles.c)) and sim.particles.c.min() >= 0.0
+    d = at1_profile(sim.particles.x[:, 0], l0)
+    error = math.sqrt(np.sum(sim.particles.volume * (sim.particles.c - 1 + d) ** 2)
+                      / np.sum(sim.particles.volume * d ** 2))
+    assert error < 0.02

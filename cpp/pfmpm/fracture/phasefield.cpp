@@ -653,6 +653,8 @@ void PhaseField<Dim>::ssor_iterations(double stop, double& start, double& residu
     const double pq = deterministic_sum<1>(
         na, [&](std::size_t a, std::array<double, 1>& acc)
         { acc[0] += _v[a] * (t[_position[a]] + w[_position[a]]); })[0];
+    if (!(pq > 0.0)) // a breakdown: K is semi-definite to round-off; residual > stop tells the caller
+      break;
     const double alpha = rz / pq;
     const auto rr = deterministic_sum<2>(
         na,
@@ -738,6 +740,8 @@ void PhaseField<Dim>::multigrid_iterations(double norm_f, double stop, double& r
           _q[a] = kz[a] + beta * _q[a];
           acc[0] += p * _q[a];
         })[0];
+    if (!(pq > 0.0)) // a breakdown: K is semi-definite to round-off; residual > stop tells the caller
+      return;
     const double alpha = rz / pq;
     residual = std::sqrt(deterministic_sum<1>(na,
                                               [&](std::size_t a, std::array<double, 1>& acc)
@@ -1075,6 +1079,8 @@ void PhaseField<Dim>::free_set_iterations(double stop, double& start, double& re
           _q[k] = pfmpm::row_product(stencil, rows, node[k], _search.data());
           acc[0] += _search[node[k]] * _q[k];
         })[0];
+    if (!(pq > 0.0)) // a breakdown: K is semi-definite to round-off; residual > stop tells the caller
+      break;
     const double alpha = rz / pq;
     rr = deterministic_sum<2>(
         nf,
