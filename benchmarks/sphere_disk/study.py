@@ -247,7 +247,12 @@ def report(out: Path, argv: list[str] | None = None) -> dict:
                         f" {bits['failed']} failed): 1 = 2 threads; resumed at step {bits['resumed_at']} ="
                         " uninterrupted", f"{bits['threads_identical']}; {bits['resumed_identical']}"])
     tables = {"checks": checks, "summary": results_file.table(["check", "value"], summary)}
-    results_file.write(out, "sphere_disk", "docs/verification/sphere-disk.md", __file__, argv, tables)
+    record = results_file.write(out, "sphere_disk", "docs/verification/sphere-disk.md", __file__, argv, tables)
+    # The commands that made the runs it reports, then its own.
+    made = [r["command"] for r in records if r.get("command")] + ([bits["command"]] if bits and bits.get("command")
+                                                                  else [])
+    record["commands"] = made + record["commands"]
+    (out / results_file.FILE).write_text(results_file.dumps(record))
     return {"records": records, "d50_ratio": ratio, "bitwise": bits, "tables": tables}
 
 
@@ -264,10 +269,14 @@ def main(argv: list[str] | None = None) -> dict:
     args.out.mkdir(parents=True, exist_ok=True)
     for h in args.h or []:
         record = measure(run(h, args.out, args.set, args.resume))
+        record["command"] = results_file.command(__file__, argv)
         (args.out / f"h{h:g}.json").write_text(json.dumps(record, indent=1))
         print(json.dumps({k: v for k, v in record.items() if k != "fragments"}, default=float))
     if args.bitwise:
-        print(json.dumps(bitwise(args.out, args.bitwise_end)))
+        record = bitwise(args.out, args.bitwise_end)
+        record["command"] = results_file.command(__file__, argv)
+        (args.out / "bitwise.json").write_text(json.dumps(record, indent=1))
+        print(json.dumps(record))
     if args.report:
         r = report(args.out, argv)
         for t in r["tables"].values():
