@@ -111,6 +111,19 @@ def test_bench_json():
     assert result["model"] == "linear_elastic"
 
 
+def test_bench_scenes_reports_each_scene_s_particles_and_memory():
+    """``pfmpm bench --scenes``: a row per scene file, run in a process of its
+    own; the bar's particle count is its scene's, its memory per particle
+    positive (the peak less the size before the scene was built)."""
+    r = pfmpm("bench", "--scenes", str(BAR), "--steps", "2", "--set", "time.end=1")
+    assert r.returncode == 0, r.stderr
+    row = next(line for line in r.stdout.splitlines() if line.startswith("| vibrating"))
+    cells = [c.strip() for c in row.strip("|").split("|")]
+    from pfmpm.scene import Scene
+    assert int(cells[1]) == len(Scene.from_toml(BAR).particles()["x"])
+    assert float(cells[5]) > 0
+
+
 @pytest.mark.parametrize("case", ["not utf-8", "a directory", "out is a file", "out under a file"])
 def test_bad_paths_are_one_line_errors(tmp_path, case):
     """Issue 21, defect 2: each of these gave a traceback."""

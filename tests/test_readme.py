@@ -57,6 +57,7 @@ RULES = [
     (r"pfmpm run demos/vibrating_bar\.toml --out out/bar --set time\.end=20$", ["--quiet"]),
     (r"pfmpm run demos/bar3d\.toml --out out/bar3d$", ["--quiet"]),
     (r"pfmpm animate out/bar3d --field velocity --output out/bar3d/speed\.png$", []),
+    (r"pfmpm run demos/borden_slab\.toml --set time\.end=10 --out out/borden_slab$", smoke("borden_slab") + ["--quiet"]),
     (r"pfmpm post forces out/bar$", []),
     (r"pfmpm run demos/three_point_bending\.toml --out out/bending$", ["--set", "time.end=30", "--quiet"]),
     (r"pfmpm post load-displacement out/bending --region striker$", []),

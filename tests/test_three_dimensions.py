@@ -311,8 +311,11 @@ def test_bench_cube():
     r = bench(particles=1000, steps=2, repeats=1, dim=3)
     assert r["dim"] == 3 and r["per_cell"] == 2 and r["particles"] == 5**3 * 8  # 5 cells a side
     assert r["particle_steps_per_s"] == pytest.approx(r["particles"] * 2 / r["seconds"])
-    with pytest.raises(ValueError, match="dim = 3: physics must be elastic, contact or damage_gradient"):
-        bench(physics="phasefield", particles=1000, dim=3)
+    with pytest.raises(ValueError, match="dim = 3: physics must be elastic, contact, damage_gradient or phasefield"):
+        bench(physics="anisotropic", particles=1000, dim=3)
+    # A crack patch to the cube's middle: its phase field is solved every step.
+    r = bench(physics="phasefield", particles=1000, steps=2, repeats=1, dim=3)
+    assert r["particles"] == 5**3 * 8 and r["phase_field_iterations_per_step"] > 0
     r = bench(physics="contact", particles=1000, steps=2, repeats=1, dim=3)
     assert r["particles"] == 5**3 * 8 and r["physics"] == "contact"
     # Three failed planes one cell thick through the cube's middle: the

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from . import _core
-from .scene import (Anisotropy, Body, Box, Contact, Crack, FractureSpec, GridSpec, LinearElasticSpec,
+from .scene import (Anisotropy, Body, Box, Contact, Crack, FractureSpec, GridSpec, LinearElasticSpec, Output,
                     NeoHookeanSpec, PhaseFieldSpec, Rectangle, Scene, Time, TransferSpec)
 from .simulation import Simulation
 
@@ -56,7 +56,8 @@ def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str
     the plane x = its middle, each half its own field with frictional
     contact, and with ``physics="damage_gradient"`` (linear elastic) cut by
     failed planes one cell thick, ``bands`` per direction, into (bands + 1)^3
-    fragments: the physics the core runs in 3D.
+    fragments, and with ``physics="phasefield"`` cut by a crack patch from
+    one face to its middle (the second-order phase field, AT2).
     """
     if bands < 1:
         raise ValueError(f"bands = {bands}: must be >= 1")
@@ -67,9 +68,9 @@ def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str
     if dim not in (2, 3):
         raise ValueError(f"dim = {dim}: must be 2 or 3")
     if dim == 3:
-        if physics not in ("elastic", "contact", "damage_gradient"):
-            raise ValueError(f"dim = 3: physics must be elastic, contact or damage_gradient (not"
-                             f" {physics!r}): the core runs no phase field in 3D yet")
+        if physics not in ("elastic", "contact", "damage_gradient", "phasefield"):
+            raise ValueError(f"dim = 3: physics must be elastic, contact, damage_gradient or phasefield (not"
+                             f" {physics!r}): the fourth-order anisotropic phase field is two-dimensional")
         cells = max(4, math.ceil((particles / per_cell**3) ** (1 / 3) - 1e-9))
         lo, hi = 4.0, 4.0 + cells
         material = (NeoHookeanSpec(name="m", E=1.0, nu=0.3, density=1.0) if model == "neo_hookean"
@@ -86,8 +87,14 @@ def block_scene(particles: int, degree: int = 2, per_cell: int = 3, physics: str
                              max=tuple(c + 0.5 if e == d else hi for e in range(3)))
                          for c in at for d in range(3))
             contact = Contact(friction=0.3, partition="damage_gradient", surfaces=cuts)
+        cracks, output = (), Output()
+        if physics == "phasefield":  # a crack patch from the face x = lo to the middle, through z
+            material = LinearElasticSpec(name="m", E=1.0, nu=0.3, density=1.0, fracture=FractureSpec(Gc=1e-5, l0=2.0))
+            mid = lo + cells / 2
+            cracks = (Crack(points=((lo, mid, lo), (mid, mid, lo), (mid, mid, hi), (lo, mid, hi))),)
+            output = Output(crack_direction=(1.0, 0.0, 0.0))
         return Scene(name="bench-cube", grid=GridSpec(size=(cells + 8.0,) * 3, h=1.0, degree=degree, shape=shape),
-                     time=Time(end=1.0), materials=(material,),
+                     time=Time(end=1.0), materials=(material,), cracks=cracks, output=output,
                      bodies=tuple(Body(name=name, material="m", shape=box, particles_per_cell=per_cell)
                                   for name, box in boxes.items()),
                      contact=contact, transfer=TransferSpec(transfer))
@@ -258,7 +265,7 @@ def scene_bench(path: Path | str, steps: int = 20, overrides: list[str] | tuple[
         "seconds": seconds,
         "particle_steps_per_s": n * steps / seconds,
         "cg_iterations_per_solve": (stats["iterations"] - iterations) / solved if solved else 0.0,
-        "peak_bytes_per_particle": (peak - resident) / n,
+        "peak_bytes_per_particle": (peak - before) / n,
     }
 
 
