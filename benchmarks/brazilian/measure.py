@@ -19,15 +19,13 @@ import math
 
 import numpy as np
 
-from pfmpm.post.fragments import FULL_DAMAGE, failed, fragment_sizes, mean_speed, median_size, size_distribution
+from pfmpm.post.fragments import (FULL_DAMAGE, INTACT, failed, fragment_sizes, intact as intact_particles, mean_speed,
+                                  median_size, size_distribution)
 from pfmpm.scene import Scene
 
 __all__ = ["INTACT", "LINK_CELLS", "SMALLEST", "disk_fragments", "disk_speed", "failed_fraction",
            "contact_distance", "wall_excursion", "platen_penetration"]
 
-INTACT = {"undamaged": 1e-6, "unfailed": FULL_DAMAGE}
-"""Intact particles: D_p at most 1e-6 (the literal "undamaged" of the paper),
-or not failed (D_p below :data:`~pfmpm.post.fragments.FULL_DAMAGE`)."""
 LINK_CELLS = 0.75
 """Connectivity radius in cells: joins lattice and diagonal neighbours of 2 x 2
 particles per cell, not particles across a one-particle crack."""
@@ -35,17 +33,6 @@ SMALLEST = 0.05
 """Smallest resolved fragment, 50 um in the scene's mm (section 3.4)."""
 
 
-def _index(scene: Scene, name: str) -> int:
-    """The index of the body ``name``, the particles' ``body`` value."""
-    return [b.name for b in scene.bodies].index(name)
-
-
-def _intact(damage: np.ndarray, which: str) -> np.ndarray:
-    if which == "undamaged":
-        return damage <= INTACT["undamaged"]
-    if which == "unfailed":
-        return damage < INTACT["unfailed"]
-    raise ValueError(f"intact = {which!r}: one of {sorted(INTACT)}")
 
 
 def disk_fragments(scene: Scene, p, body: str = "disk", intact: str = "undamaged") -> dict:
@@ -65,9 +52,9 @@ def disk_fragments(scene: Scene, p, body: str = "disk", intact: str = "undamaged
         (the mass fraction of the body in them) and ``mean_speed`` (mass-
         weighted, over all the body's particles, failed or not).
     """
-    mine = np.asarray(p.body) == _index(scene, body)
+    mine = np.asarray(p.body) == scene.body_index(body)
     damage = np.asarray(p.damage)
-    keep = mine & _intact(damage, intact)
+    keep = mine & intact_particles(damage, intact)
     mass = np.asarray(p.mass)
     sizes, masses = fragment_sizes(np.asarray(p.x)[keep], np.asarray(p.volume)[keep] / scene.thickness,
                                    mass[keep], LINK_CELLS * scene.grid.h)
@@ -81,13 +68,13 @@ def disk_fragments(scene: Scene, p, body: str = "disk", intact: str = "undamaged
 
 def disk_speed(scene: Scene, p, body: str = "disk") -> float:
     """Mass-weighted mean speed of the body's particles, failed or not (Fig. 18's inset)."""
-    mine = np.asarray(p.body) == _index(scene, body)
+    mine = np.asarray(p.body) == scene.body_index(body)
     return mean_speed(np.asarray(p.v)[mine], np.asarray(p.mass)[mine])
 
 
 def failed_fraction(scene: Scene, p, body: str = "disk") -> float:
     """Failed (:func:`~pfmpm.post.fragments.failed`) fraction of the body's current area (check Z3)."""
-    mine = np.asarray(p.body) == _index(scene, body)
+    mine = np.asarray(p.body) == scene.body_index(body)
     volume = np.asarray(p.volume)[mine]
     return float(volume[failed(np.asarray(p.damage)[mine])].sum() / volume.sum())
 
@@ -122,7 +109,7 @@ def platen_penetration(scene: Scene, x0: np.ndarray, x: np.ndarray, body: np.nda
     a spacing either side of it, so the value is -1/2 spacing.
     """
     x0, x, body = np.asarray(x0).reshape(-1, 2), np.asarray(x).reshape(-1, 2), np.asarray(body)
-    mine, theirs = body == _index(scene, platen), body == _index(scene, into)
+    mine, theirs = body == scene.body_index(platen), body == scene.body_index(into)
     below = np.mean(x0[theirs, 1]) < np.mean(x0[mine, 1])  # the other body lies below the platen
     y0 = x0[mine, 1]
     row = np.flatnonzero(mine)[np.isclose(y0, y0.min() if below else y0.max())]

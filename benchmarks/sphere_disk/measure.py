@@ -21,15 +21,13 @@ import math
 
 import numpy as np
 
-from pfmpm.post.fragments import FULL_DAMAGE, fragment_sizes, linked_sets, median_size, size_distribution
+from pfmpm.post.fragments import (FULL_DAMAGE, INTACT, fragment_sizes, intact as intact_particles, linked_sets,
+                                  median_size, size_distribution)
 from pfmpm.scene import Scene
 
 __all__ = ["INTACT", "LINK_CELLS", "SMALLEST", "INSIDE", "impact_momentum", "momentum_error", "energy_balance",
            "disk_fragments", "material_fragments", "inside_other", "render"]
 
-INTACT = {"undamaged": 1e-6, "unfailed": FULL_DAMAGE}
-"""Intact particles: D_p at most 1e-6 (undamaged), or not failed (D_p below
-:data:`~pfmpm.post.fragments.FULL_DAMAGE`)."""
 LINK_CELLS = 0.75
 """Connectivity radius in cells: with 2 x 2 x 2 particles per cell it joins
 lattice neighbours (0.5 cell) and face diagonals (0.71), not body diagonals
@@ -46,22 +44,12 @@ start 2 spacings apart, and particles of two pieces of the disk at least
 one, across the failed layer between them)."""
 
 
-def _body(scene: Scene, name: str) -> int:
-    return [b.name for b in scene.bodies].index(name)
-
-
-def _intact(damage: np.ndarray, which: str) -> np.ndarray:
-    if which == "undamaged":
-        return damage <= INTACT["undamaged"]
-    if which == "unfailed":
-        return damage < INTACT["unfailed"]
-    raise ValueError(f"intact = {which!r}: one of {sorted(INTACT)}")
 
 
 def impact_momentum(scene: Scene, body: str = "sphere") -> float:
     """|M v| of the body at t = 0: the impact momentum."""
     p = scene.particles()
-    mine = p["body"] == _body(scene, body)
+    mine = p["body"] == scene.body_index(body)
     return float(np.linalg.norm((p["mass"][mine, None] * p["v"][mine]).sum(axis=0)))
 
 
@@ -101,9 +89,9 @@ def disk_fragments(scene: Scene, x: np.ndarray, volume: np.ndarray, mass: np.nda
     (mass-weighted median size), ``fragments`` (their number), ``largest``
     (size), ``intact`` (the mass fraction of the body in them) and
     ``failed`` (the body's failed volume fraction)."""
-    mine = np.asarray(body) == _body(scene, name)
+    mine = np.asarray(body) == scene.body_index(name)
     damage = np.asarray(damage)
-    keep = mine & _intact(damage, intact)
+    keep = mine & intact_particles(damage, intact)
     sizes, masses = fragment_sizes(np.asarray(x)[keep], np.asarray(volume)[keep], np.asarray(mass)[keep],
                                    LINK_CELLS * scene.grid.h)
     s, fraction = size_distribution(sizes, masses, SMALLEST)
@@ -124,13 +112,13 @@ def material_fragments(scene: Scene, X: np.ndarray, damage: np.ndarray, body: np
     pieces are apart where failed particles part them, wherever they have
     moved since; every other body is one piece; failed particles get -1."""
     body = np.asarray(body)
-    mine = body == _body(scene, name)
-    keep = mine & _intact(np.asarray(damage), intact)
+    mine = body == scene.body_index(name)
+    keep = mine & intact_particles(np.asarray(damage), intact)
     labels = np.full(len(body), -1, dtype=np.int64)
     labels[keep] = linked_sets(np.asarray(X)[keep], LINK_CELLS * scene.grid.h)
     top = labels.max() + 1
     for k in range(len(scene.bodies)):
-        if k != _body(scene, name):
+        if k != scene.body_index(name):
             labels[body == k] = top + k
     return labels
 

@@ -187,22 +187,16 @@ struct CellMoments
   /// The block: per pair (a, a') of x nodes, the pairs of the other directions.
   using Block = std::conditional_t<Dim == 2, double[W * W][R], double[W * W][W * W][R]>;
 
-  /// Highest power of xi that weight k's terms need.
-  static constexpr int highest(int k)
+  /// Highest power of xi (axis 0) or eta (axis 1) that weight k's terms need.
+  static constexpr int highest(int k, int axis = 0)
   {
     int h = 0;
     for (const moments::Term& t : terms)
-      if (t.weight == k && 2 * P - t.xi - t.xj > h)
-        h = 2 * P - t.xi - t.xj;
-    return h;
-  }
-  /// Highest power of eta that weight k's terms need (3D).
-  static constexpr int highest_y(int k)
-  {
-    int h = 0;
-    for (const moments::Term& t : terms)
-      if (t.weight == k && 2 * P - t.yi - t.yj > h)
-        h = 2 * P - t.yi - t.yj;
+    {
+      const int power = axis == 0 ? 2 * P - t.xi - t.xj : 2 * P - t.yi - t.yj;
+      if (t.weight == k && power > h)
+        h = power;
+    }
     return h;
   }
 
@@ -229,7 +223,7 @@ struct CellMoments
                 moment[K][m][n] += t * s.y[n];
             }
             else
-              for (int l = 0; l <= highest_y(K); ++l)
+              for (int l = 0; l <= highest(K, 1); ++l)
               {
                 const double u = t * s.y[l];
 #pragma omp simd

@@ -18,7 +18,7 @@ import numpy as np
 from .. import _core
 from ..scene import Scene
 
-__all__ = ["FULL_DAMAGE", "failed", "LINK", "MIN_POINTS", "linked_sets", "count_fragments", "fragments", "closest_approach",
+__all__ = ["FULL_DAMAGE", "failed", "INTACT", "intact", "LINK", "MIN_POINTS", "linked_sets", "count_fragments", "fragments", "closest_approach",
            "particle_domains", "domain_gap", "run_fragments", "fragment_sizes", "size_distribution", "median_size", "mean_speed"]
 
 FULL_DAMAGE = _core.DamageGradient().full_damage
@@ -30,6 +30,22 @@ benchmark's measures."""
 def failed(damage: np.ndarray) -> np.ndarray:
     """Which particles have failed: ``damage >= FULL_DAMAGE``."""
     return np.asarray(damage) >= FULL_DAMAGE
+
+
+INTACT = {"undamaged": 1e-6, "unfailed": FULL_DAMAGE}
+"""The two readings of an intact particle of the fragment measures: D_p at
+most 1e-6 (the literal "undamaged" of H&H section 3.4), or not failed (D_p
+below :data:`FULL_DAMAGE`)."""
+
+
+def intact(damage: np.ndarray, which: str = "undamaged") -> np.ndarray:
+    """Which particles are intact in the reading ``which`` of :data:`INTACT`."""
+    damage = np.asarray(damage)
+    if which == "undamaged":
+        return damage <= INTACT["undamaged"]
+    if which == "unfailed":
+        return damage < INTACT["unfailed"]
+    raise ValueError(f"intact = {which!r}: one of {sorted(INTACT)}")
 
 
 LINK = 1.5

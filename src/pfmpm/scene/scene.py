@@ -525,6 +525,10 @@ class Scene:
         """The body called ``name``."""
         return next(b for b in self.bodies if b.name == name)
 
+    def body_index(self, name: str) -> int:
+        """The index of the body called ``name``: its particles' ``body`` value."""
+        return [b.name for b in self.bodies].index(name)
+
     def initial_damage_bodies(self, entry: InitialDamage) -> list[int]:
         """The indices of the bodies an initial damage entry acts on: its body, or
         every body whose material has a damage model."""
