@@ -15,6 +15,8 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
+#include <cstdio>
 #include <cstring>
 #include <optional>
 #include <vector>
@@ -98,6 +100,138 @@ struct PlateRun
     step.tol = tol;
     step.max_iterations = 100000;
     return step;
+  }
+};
+
+/// splitmix64: a fixed stream of pseudo-random numbers, the same on every
+/// platform (unlike std::uniform_real_distribution).
+struct Random
+{
+  std::uint64_t state;
+  explicit Random(std::uint64_t seed) : state(seed) {}
+  /// Uniform in [0, 1).
+  double operator()()
+  {
+    std::uint64_t z = (state += 0x9e3779b97f4a7c15ULL);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+    return double((z ^ (z >> 31)) >> 11) * 0x1.0p-53;
+  }
+};
+
+/// FNV-1a over the bits of the doubles.
+std::uint64_t bit_hash(const std::vector<double>& v, std::uint64_t h = 0xcbf29ce484222325ULL)
+{
+  const auto* bytes = reinterpret_cast<const unsigned char*>(v.data());
+  for (std::size_t k = 0; k < v.size() * sizeof(double); ++k)
+    h = (h ^ bytes[k]) * 0x100000001b3ULL;
+  return h;
+}
+
+/// @brief A phase-field-like system on a Dim-dimensional grid of unit
+/// cells, in the stencil storage that PhaseField hands the multigrid: K&T
+/// eq. 57 (second order) with G_c = 1, K = sum_q V_q [(1 / l0 + 2 H_q) N N^T
+/// + l0 grad N grad N^T] over 2^Dim particles per cell at random places with
+/// random volumes, the history H large in a band across y = cells_y / 2 over
+/// the first half in x (the crack). Cells of the corner x > 3/4, y < 1/4 have
+/// no particle (their nodes are not unknowns unless another cell touches
+/// them); the cells of the first two columns hold uncrackable particles only
+/// (their nodes that no crackable particle touches get an identity row).
+template <int Dim, int P>
+struct TestSystem
+{
+  using S = SymmetricStencil<Dim, P>;
+  static constexpr int H = S::size, K = [] { int k = 1; for (int a = 0; a < Dim; ++a) k *= P + 1; return k; }();
+  std::array<int, Dim> cells, nodes;
+  std::array<std::size_t, Dim> stride; // of the padded layout
+  std::vector<double> rows;
+  std::vector<std::size_t> position;
+
+  TestSystem(std::array<int, Dim> cells_, double l0, std::uint64_t seed) : cells(cells_)
+  {
+    std::size_t size = 1;
+    for (int a = Dim - 1; a >= 0; --a)
+    {
+      nodes[a] = cells[a] + P;
+      stride[a] = size;
+      size *= static_cast<std::size_t>(nodes[a] + 2 * P);
+    }
+    rows.assign(size * H, 0.0);
+    std::vector<std::uint8_t> active(size, 0), crackable(size, 0);
+    std::vector<BSpline1D> basis;
+    for (int a = 0; a < Dim; ++a)
+      basis.emplace_back(P, cells[a], 1.0, 0.0);
+    Random random(seed);
+    std::array<int, Dim> c{};
+    for (;;)
+    {
+      const bool empty = c[0] >= 3 * cells[0] / 4 && c[1] < cells[1] / 4;
+      const bool cracks = c[0] >= 2;
+      if (!empty)
+        for (int q = 0; q < (1 << Dim); ++q)
+        {
+          double N[Dim][P + 1], dN[Dim][P + 1], x[Dim];
+          for (int a = 0; a < Dim; ++a)
+          {
+            x[a] = c[a] + 0.5 * ((q >> a) & 1) + 0.5 * random();
+            basis[a].evaluate(c[a], x[a], N[a], dN[a], nullptr);
+          }
+          const double volume = (0.5 + random()) / (1 << Dim);
+          const double band = std::abs(x[1] - 0.5 * cells[1]);
+          const double history = x[0] < 0.5 * cells[0] && band < l0 ? 50.0 * (1.0 - band / l0) : 0.0;
+          // The cell's nodes, lexicographic: value, gradient, padded index.
+          double value[K], gradient[K][Dim];
+          std::size_t index[K];
+          for (int n = 0; n < K; ++n)
+          {
+            index[n] = 0;
+            value[n] = 1.0;
+            for (int a = Dim - 1, r = n; a >= 0; --a, r /= P + 1)
+            {
+              const int k = r % (P + 1);
+              index[n] += static_cast<std::size_t>(c[a] + k + P) * stride[a];
+              value[n] *= N[a][k];
+              for (int b = 0; b < Dim; ++b)
+                gradient[n][b] = (a == Dim - 1 ? 1.0 : gradient[n][b]) * (b == a ? dN[a][k] : N[a][k]);
+            }
+            active[index[n]] = 1;
+            crackable[index[n]] |= cracks;
+          }
+          if (!cracks)
+            continue;
+          const double reaction = volume * (1.0 / l0 + 2.0 * history), diffusion = volume * l0;
+          for (int n = 0; n < K; ++n)
+            for (int m = 0; m < K; ++m)
+            {
+              int offset[Dim];
+              for (int a = Dim - 1, rn = n, rm = m; a >= 0; --a, rn /= P + 1, rm /= P + 1)
+                offset[a] = rm % (P + 1) - rn % (P + 1);
+              int slot;
+              if constexpr (Dim == 2)
+                slot = S::slot(offset[0], offset[1]);
+              else
+                slot = S::slot(offset[0], offset[1], offset[2]);
+              if (slot < 0)
+                continue;
+              double g = 0.0;
+              for (int b = 0; b < Dim; ++b)
+                g += gradient[n][b] * gradient[m][b];
+              rows[index[n] * H + slot] += reaction * value[n] * value[m] + diffusion * g;
+            }
+        }
+      int a = Dim - 1;
+      while (a >= 0 && ++c[a] == cells[a])
+        c[a--] = 0;
+      if (a < 0)
+        break;
+    }
+    for (std::size_t i = 0; i < size; ++i)
+      if (active[i])
+      {
+        position.push_back(i);
+        if (!crackable[i])
+          rows[i * H] = 1.0;
+      }
   }
 };
 
@@ -332,4 +466,47 @@ TEST(Multigrid, ThreadCountDoesNotChangeBits)
   EXPECT_EQ(0, std::memcmp(out[0].stress.data(), out[1].stress.data(),
                            out[0].stress.size() * sizeof(double)));
   EXPECT_EQ(0, std::memcmp(out[0].x.data(), out[1].x.data(), out[0].x.size() * sizeof(double)));
+}
+
+TEST(Multigrid, TwoDimensionalVCycleKeepsItsBits)
+{
+  // z = B r and K z of two V-cycles on a fixed system (three levels and the
+  // direct solve, parallel sweeps on the finest), on 1 and 2 threads, against
+  // the bits of the 2D-only multigrid of commit 3894336 (g++ 12.2,
+  // -O3 -march=native on x86-64 with FMA).
+  const std::uint64_t expected[3] = {0x8a88472eea21e8b0ULL, 0xe5374dbcd10b800fULL, 0x33ac84d451e5b615ULL};
+  const int max_threads = omp_get_max_threads();
+  for (int p = 1; p <= 3; ++p)
+    for (int threads : {1, 2})
+    {
+      omp_set_num_threads(threads);
+      std::uint64_t h = 0xcbf29ce484222325ULL;
+      auto run = [&](auto system)
+      {
+        using System = decltype(system);
+        constexpr int P = System::S::size == 5 ? 1 : System::S::size == 13 ? 2 : 3;
+        Multigrid mg(system.cells, P);
+        mg.template setup<P>(system.rows, system.position);
+        const std::size_t n = system.position.size();
+        EXPECT_GE(mg.unknowns().size(), 3u);
+        Random random(7);
+        std::vector<double> r(n), z(n), kz(n);
+        for (int pass = 0; pass < 2; ++pass)
+        {
+          for (double& v : r)
+            v = 2.0 * random() - 1.0;
+          mg.template apply<P>(r.data(), z.data(), kz.data());
+          h = bit_hash(kz, bit_hash(z, h));
+        }
+      };
+      if (p == 1)
+        run(TestSystem<2, 1>({100, 90}, 2.0, 11));
+      else if (p == 2)
+        run(TestSystem<2, 2>({100, 90}, 2.0, 11));
+      else
+        run(TestSystem<2, 3>({100, 90}, 2.0, 11));
+      std::printf("p = %d, %d threads: hash %016llx\n", p, threads, static_cast<unsigned long long>(h));
+      EXPECT_EQ(h, expected[p - 1]) << "p = " << p << ", " << threads << " threads";
+    }
+  omp_set_num_threads(max_threads);
 }
