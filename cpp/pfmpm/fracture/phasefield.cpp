@@ -207,7 +207,7 @@ void PhaseField::set_preconditioner(Preconditioner preconditioner)
   if (!_active)
     return;
   if (this->preconditioner() == Preconditioner::multigrid)
-    _multigrid = std::make_unique<Multigrid>(_grid.cells(), _grid.degree());
+    _multigrid = std::make_unique<Multigrid<2>>(_grid.cells(), _grid.degree());
   if (this->preconditioner() == Preconditioner::ssor && _forward.empty())
     _forward.assign(_c.size(), 0.0);
 }
