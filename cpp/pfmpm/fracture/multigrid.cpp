@@ -3,6 +3,7 @@
 #include "pfmpm/fracture/multigrid.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -125,40 +126,144 @@ Refinement::Refinement(int cells, int degree_) : degree(degree_)
        count_t, weight_t);
 }
 
-Multigrid::Multigrid(std::array<int, 2> cells, int degree, int direct_size)
-    : _degree(degree), _direct_size(direct_size)
+namespace
+{
+/// f() for every multi-index k[A..N) of the box count[A..N), lexicographic
+/// (the last index fastest).
+template <int N, int A = 0, class F>
+[[gnu::always_inline]] inline void for_each_index(const int* count, int* k, F& f)
+{
+  if constexpr (A == N)
+    f();
+  else
+    for (k[A] = 0; k[A] < count[A]; ++k[A])
+      for_each_index<N, A + 1>(count, k, f);
+}
+
+/// sum_a w_0[a] sum_b w_1[b] .. v[i(first + (a, b, ..))] over the box count:
+/// one node of a transfer, P^T r or P x_2h, with the tensor-product weights
+/// of R (the innermost sum over the last direction, then outwards). `base`:
+/// the padded index so far, `stride` the padded layout's, `pad` = p.
+template <int Dim, int A = 0>
+[[gnu::always_inline]] inline double tensor_gather(const double* const (&w)[Dim], const int (&count)[Dim],
+                                                   const int (&first)[Dim],
+                                                   const std::array<std::size_t, Dim>& stride, int pad,
+                                                   const double* v, std::size_t base = 0)
+{
+  double sum = 0.0;
+  for (int a = 0; a < count[A]; ++a)
+  {
+    const std::size_t i = base + static_cast<std::size_t>(first[A] + a + pad) * stride[A];
+    if constexpr (A == Dim - 1)
+      sum += w[A][a] * v[i];
+    else
+      sum += w[A][a] * tensor_gather<Dim, A + 1>(w, count, first, stride, pad, v, i);
+  }
+  return sum;
+}
+
+/// (P e_L) . u over the window u of U^Dim entries (the last direction
+/// fastest) from `origin`: sum_a w_0[a] sum_b w_1[b] .. u[first + (a, b, ..)
+/// - origin], the terms off the window skipped.
+template <int Dim, int U, int A = 0>
+[[gnu::always_inline]] inline double window_product(const double* const (&w)[Dim], const int (&count)[Dim],
+                                                    const int (&first)[Dim], const int (&origin)[Dim],
+                                                    const double* u)
+{
+  constexpr int step = [] { int s = 1; for (int a = A + 1; a < Dim; ++a) s *= U; return s; }();
+  double sum = 0.0;
+  for (int a = 0; a < count[A]; ++a)
+  {
+    const int k = first[A] + a - origin[A];
+    if (k < 0 || k >= U)
+      continue;
+    if constexpr (A == Dim - 1)
+      sum += w[A][a] * u[k];
+    else
+      sum += w[A][a] * window_product<Dim, U, A + 1>(w, count, first, origin, u + k * step);
+  }
+  return sum;
+}
+
+/// The offset of stencil slot k in a window of U^Dim entries, the last
+/// direction fastest.
+template <int Dim, int P, int U>
+constexpr int window_offset(int k)
+{
+  constexpr int width = 2 * P + 1;
+  int rank = SymmetricStencil<Dim, P>::centre + k, offset = 0, scale = 1;
+  for (int a = Dim - 1; a >= 0; --a, rank /= width, scale *= U)
+    offset += (rank % width - P) * scale;
+  return offset;
+}
+
+/// at[o(d)] += w K_{i, i + d} over K's (2p+1)^Dim-point stencil at padded node
+/// i, K stored in `rows`, for `at` in a window of U^Dim entries (o: its
+/// offsets, window_offset): per upper-half slot, d and then -d.
+template <int Dim, int P, int U, std::size_t... K>
+[[gnu::always_inline]] inline void add_row(double* at, double w, const double* rows, std::size_t i,
+                                           const SymmetricStencil<Dim, P>& stencil,
+                                           std::index_sequence<K...>)
+{
+  constexpr int H = SymmetricStencil<Dim, P>::size;
+  at[0] += w * rows[i * H];
+  ((at[window_offset<Dim, P, U>(K + 1)] += w * rows[i * H + K + 1],
+    at[-window_offset<Dim, P, U>(K + 1)] += w * rows[(i - stencil.offset[K + 1]) * H + K + 1]),
+   ...);
+}
+
+constexpr int power(int base, int exponent)
+{
+  int out = 1;
+  for (int k = 0; k < exponent; ++k)
+    out *= base;
+  return out;
+}
+} // namespace
+
+template <int Dim>
+Multigrid<Dim>::Multigrid(std::array<int, Dim> cells, int degree, int direct_size, int sweeps)
+    : _degree(degree), _direct_size(direct_size), _sweeps(sweeps)
 {
   if (degree < 1 || degree > 3)
     throw std::invalid_argument("multigrid: degree = " + std::to_string(degree)
                                 + ": must be 1, 2 or 3");
-  if (cells[0] < 1 || cells[1] < 1)
-    throw std::invalid_argument("multigrid: the grid needs at least one cell each way");
+  for (int a = 0; a < Dim; ++a)
+    if (cells[a] < 1)
+      throw std::invalid_argument("multigrid: the grid needs at least one cell each way");
   if (direct_size < 1)
     throw std::invalid_argument("multigrid: direct_size = " + std::to_string(direct_size)
                                 + ": must be >= 1");
+  if (sweeps < 1)
+    throw std::invalid_argument("multigrid: sweeps = " + std::to_string(sweeps) + ": must be >= 1");
   // The geometry of every level down to one cell each way; setup() decides
   // how many of them a system uses.
   for (;;)
   {
     Level level;
-    level.nx = cells[0] + degree;
-    level.ny = cells[1] + degree;
-    level.padded_ny = static_cast<std::size_t>(level.ny + 2 * degree);
-    level.padded_size = static_cast<std::size_t>(level.nx + 2 * degree) * level.padded_ny;
-    const bool last = cells[0] == 1 && cells[1] == 1;
-    if (!last)
+    std::size_t size = 1;
+    bool last = true;
+    for (int a = Dim - 1; a >= 0; --a)
     {
-      level.refine.emplace_back(cells[0], degree);
-      level.refine.emplace_back(cells[1], degree);
+      level.n[a] = cells[a] + degree;
+      level.stride[a] = size;
+      size *= static_cast<std::size_t>(level.n[a] + 2 * degree);
+      last = last && cells[a] == 1;
     }
+    level.padded_size = size;
+    if (!last)
+      for (int a = 0; a < Dim; ++a)
+        level.refine.emplace_back(cells[a], degree);
     _levels.push_back(std::move(level));
     if (last)
       break;
-    cells = {(cells[0] + 1) / 2, (cells[1] + 1) / 2};
+    for (int a = 0; a < Dim; ++a)
+      cells[a] = (cells[a] + 1) / 2;
   }
 }
 
-std::vector<std::int64_t> Multigrid::unknowns() const
+template <int Dim>
+std::vector<std::int64_t> Multigrid<Dim>::unknowns() const
 {
   std::vector<std::int64_t> out;
   for (std::size_t l = 0; l <= _coarsest && l < _levels.size(); ++l)
@@ -166,7 +271,9 @@ std::vector<std::int64_t> Multigrid::unknowns() const
   return out;
 }
 
-double Multigrid::entry(std::size_t level, int ix, int iy, int dx, int dy) const
+template <int Dim>
+double Multigrid<Dim>::entry(std::size_t level, std::array<int, Dim> node,
+                             std::array<int, Dim> offset) const
 {
   if (level > _coarsest)
     throw std::out_of_range("multigrid: level " + std::to_string(level) + " of "
@@ -174,43 +281,66 @@ double Multigrid::entry(std::size_t level, int ix, int iy, int dx, int dy) const
   switch (_degree)
   {
   case 1:
-    return stencil_entry<1>(_levels[level], ix, iy, dx, dy);
+    return stencil_entry<1>(_levels[level], node, offset);
   case 2:
-    return stencil_entry<2>(_levels[level], ix, iy, dx, dy);
+    return stencil_entry<2>(_levels[level], node, offset);
   default:
-    return stencil_entry<3>(_levels[level], ix, iy, dx, dy);
+    return stencil_entry<3>(_levels[level], node, offset);
   }
 }
 
+template <int Dim>
 template <int P>
-double Multigrid::stencil_entry(const Level& level, int ix, int iy, int dx, int dy) const
+double Multigrid<Dim>::stencil_entry(const Level& level, const std::array<int, Dim>& node,
+                                     const std::array<int, Dim>& offset) const
 {
-  constexpr int H = SymmetricStencil<2, P>::size;
-  if (std::abs(dx) > P || std::abs(dy) > P)
-    throw std::out_of_range("multigrid: offset beyond the stencil");
-  const int jx = ix + dx, jy = iy + dy;
-  if (!level.rows || ix < 0 || ix >= level.nx || iy < 0 || iy >= level.ny || jx < 0
-      || jx >= level.nx || jy < 0 || jy >= level.ny)
+  using S = SymmetricStencil<Dim, P>;
+  constexpr int H = S::size;
+  std::array<int, Dim> other, back;
+  bool on_grid = level.rows != nullptr;
+  for (int a = 0; a < Dim; ++a)
+  {
+    if (std::abs(offset[a]) > P)
+      throw std::out_of_range("multigrid: offset beyond the stencil");
+    other[a] = node[a] + offset[a];
+    back[a] = -offset[a];
+    on_grid = on_grid && node[a] >= 0 && node[a] < level.n[a] && other[a] >= 0
+              && other[a] < level.n[a];
+  }
+  if (!on_grid)
     return 0.0;
-  if (const int k = SymmetricStencil<2, P>::slot(dx, dy); k >= 0)
-    return level.rows[padded(level, ix, iy) * H + k];
-  return level.rows[padded(level, jx, jy) * H + SymmetricStencil<2, P>::slot(-dx, -dy)];
+  auto slot = [](const std::array<int, Dim>& d)
+  {
+    if constexpr (Dim == 2)
+      return S::slot(d[0], d[1]);
+    else
+      return S::slot(d[0], d[1], d[2]);
+  };
+  if (const int k = slot(offset); k >= 0)
+    return level.rows[padded(level, node) * H + k];
+  return level.rows[padded(level, other) * H + slot(back)];
 }
 
-void Multigrid::number_unknowns(Level& level) const
+template <int Dim>
+void Multigrid<Dim>::number_unknowns(Level& level) const
 {
-  // The unknowns are in increasing padded order, column by column.
-  level.column_start.resize(level.nx + 1);
-  for (int ix = 0; ix <= level.nx; ++ix)
-    level.column_start[ix] = static_cast<std::size_t>(
-        std::lower_bound(level.live.begin(), level.live.end(), padded(level, ix, -_degree))
+  // The unknowns are in increasing padded order, x-slab by x-slab.
+  level.slab_start.resize(level.n[0] + 1);
+  for (int ix = 0; ix <= level.n[0]; ++ix)
+    level.slab_start[ix] = static_cast<std::size_t>(
+        std::lower_bound(level.live.begin(), level.live.end(),
+                         static_cast<std::size_t>(ix + _degree) * level.stride[0])
         - level.live.begin());
 }
 
+template <int Dim>
 template <int P>
-void Multigrid::setup(const std::vector<double>& rows, const std::vector<std::size_t>& position)
+void Multigrid<Dim>::setup(const std::vector<double>& rows, const std::vector<std::size_t>& position)
 {
-  constexpr int H = SymmetricStencil<2, P>::size;
+  constexpr int H = SymmetricStencil<Dim, P>::size;
+  if (P != _degree)
+    throw std::invalid_argument("multigrid: a stencil of degree " + std::to_string(P)
+                                + " for a grid of degree " + std::to_string(_degree));
   Level& f = _levels[0];
   if (rows.size() != f.padded_size * H)
     throw std::invalid_argument("multigrid: the stencil does not fit the grid");
@@ -224,7 +354,7 @@ void Multigrid::setup(const std::vector<double>& rows, const std::vector<std::si
   f.r.assign(f.padded_size, 0.0);
   f.inverse.resize(f.live.size());
   _delta.assign(f.padded_size, 0.0);
-  const SymmetricStencil<2, P> stencil(f.padded_ny);
+  const SymmetricStencil<Dim, P> s = stencil<P>(f);
   // A row with no off-diagonal entry (a node no crackable particle touches)
   // is solved exactly by the smoother and stays out of the coarse correction.
 #pragma omp parallel for schedule(static) if (f.live.size() > parallel_nodes)
@@ -233,7 +363,7 @@ void Multigrid::setup(const std::vector<double>& rows, const std::vector<std::si
     const std::size_t i = f.live[u];
     bool coupled = false;
     for (int k = 1; k < H && !coupled; ++k)
-      coupled = f.rows[i * H + k] != 0.0 || f.rows[(i - stencil.offset[k]) * H + k] != 0.0;
+      coupled = f.rows[i * H + k] != 0.0 || f.rows[(i - s.offset[k]) * H + k] != 0.0;
     f.coupled[i] = coupled;
     f.inverse[u] = 1.0 / f.rows[i * H];
   }
@@ -248,92 +378,118 @@ void Multigrid::setup(const std::vector<double>& rows, const std::vector<std::si
   factor_coarsest<P>();
 }
 
-namespace
-{
-/// at[dx * U + dy] += w K_{i, i + (dx, dy)} over K's (2p+1)^2-point stencil
-/// at padded node i, K stored in `rows`, for `at` in a window of rows of U.
-template <int P, int U, std::size_t... K>
-void add_row(double* at, double w, const double* rows, std::size_t i,
-             const SymmetricStencil<2, P>& stencil, std::index_sequence<K...>)
-{
-  constexpr int H = SymmetricStencil<2, P>::size;
-  using S = SymmetricStencil<2, P>;
-  at[0] += w * rows[i * H];
-  ((at[S::column(K + 1) * U + S::row(K + 1)] += w * rows[i * H + K + 1],
-    at[-(S::column(K + 1) * U + S::row(K + 1))] += w * rows[(i - stencil.offset[K + 1]) * H + K + 1]),
-   ...);
-}
-} // namespace
-
-/// The Galerkin operator K_2h = P^T K_h P (P = R_x (x) R_y restricted to the
-/// coupled fine nodes), row by row: for coarse J, u = K_h P e_J on the fine
-/// nodes within p of P e_J's support, then K_2h(J, L) = (P e_L) . u for the
-/// upper half of J's stencil. With nested spaces this is K&T eq. 57 assembled from
-/// the same particles with the coarse basis. Each coarse row is written by one
-/// thread, its terms summed in a fixed order.
+/// The Galerkin operator K_2h = P^T K_h P (P = R_x (x) R_y [(x) R_z]
+/// restricted to the coupled fine nodes), row by row: for coarse J, u = K_h P
+/// e_J on the fine nodes within p of P e_J's support (a window of U^Dim),
+/// then K_2h(J, L) = (P e_L) . u for the upper half of J's stencil. With
+/// nested spaces this is K&T eq. 57 assembled from the same particles with
+/// the coarse basis. Each coarse row is written by one thread, its terms
+/// summed in a fixed order.
+template <int Dim>
 template <int P>
-void Multigrid::galerkin(const Level& fine, Level& coarse)
+void Multigrid<Dim>::galerkin(const Level& fine, Level& coarse)
 {
-  constexpr int H = SymmetricStencil<2, P>::size;
+  constexpr int H = SymmetricStencil<Dim, P>::size;
   constexpr int W = Refinement::width(P); // fine functions per coarse one, at most
   constexpr int U = W + 2 * P;            // the window of u, per direction
-  const SymmetricStencil<2, P> fs(fine.padded_ny), cs(coarse.padded_ny);
-  const Refinement& rx = fine.refine[0];
-  const Refinement& ry = fine.refine[1];
+  constexpr int window = power(U, Dim);
+  const SymmetricStencil<Dim, P> fs = stencil<P>(fine), cs = stencil<P>(coarse);
   coarse.stencil.assign(coarse.padded_size * H, 0.0);
   coarse.rows = coarse.stencil.data();
   const std::size_t fine_nodes = fine.live.size();
+  int rest[Dim - 1]; // coarse nodes per x-plane, per direction
+  for (int a = 1; a < Dim; ++a)
+    rest[a - 1] = coarse.n[a];
 
 #pragma omp parallel for schedule(static) if (fine_nodes > parallel_nodes)
-  for (int jx = 0; jx < coarse.nx; ++jx)
-    for (int jy = 0; jy < coarse.ny; ++jy)
+  for (int jx = 0; jx < coarse.n[0]; ++jx)
+  {
+    std::array<int, Dim> J;
+    J[0] = jx;
+    auto row = [&]
     {
-      const int x0 = rx.first[jx] - P, y0 = ry.first[jy] - P; // window origin
-      double u[U][U] = {};
-      bool touched = false;
-      for (int a = 0; a < rx.count[jx]; ++a)
-        for (int b = 0; b < ry.count[jy]; ++b)
-        {
-          const std::size_t i = padded(fine, rx.first[jx] + a, ry.first[jy] + b);
-          if (!fine.coupled[i])
-            continue;
-          touched = true;
-          const double w = rx.weight[std::size_t(jx) * W + a] * ry.weight[std::size_t(jy) * W + b];
-          add_row<P, U>(&u[a + P][b + P], w, fine.rows, i, fs, std::make_index_sequence<H - 1>{});
-        }
-      if (!touched)
-        continue;
-      double* out = &coarse.stencil[padded(coarse, jx, jy) * H];
-      for (int k = 0; k < H; ++k)
+      const double* w[Dim];
+      int count[Dim], first[Dim], origin[Dim], k[Dim];
+      for (int a = 0; a < Dim; ++a)
       {
-        const int lx = jx + cs.d[k][0], ly = jy + cs.d[k][1];
-        if (lx >= coarse.nx || ly < 0 || ly >= coarse.ny)
-          continue;
-        double sum = 0.0;
-        for (int a = 0; a < rx.count[lx]; ++a)
-        {
-          const int wx = rx.first[lx] + a - x0;
-          if (wx < 0 || wx >= U)
-            continue;
-          double column = 0.0;
-          for (int b = 0; b < ry.count[ly]; ++b)
-          {
-            const int wy = ry.first[ly] + b - y0;
-            if (wy >= 0 && wy < U)
-              column += ry.weight[std::size_t(ly) * W + b] * u[wx][wy];
-          }
-          sum += rx.weight[std::size_t(lx) * W + a] * column;
-        }
-        out[k] = sum;
+        const Refinement& R = fine.refine[a];
+        w[a] = &R.weight[std::size_t(J[a]) * W];
+        count[a] = R.count[J[a]];
+        first[a] = R.first[J[a]];
+        origin[a] = first[a] - P;
       }
-    }
+      double u[window] = {};
+      bool touched = false;
+      auto add = [&]
+      {
+        // Fine node first + k, its slot in the window and its weight (P e_J)_i.
+        std::array<int, Dim> node;
+        int slot = 0;
+        double weight = w[0][k[0]];
+        for (int a = 0; a < Dim; ++a)
+        {
+          node[a] = first[a] + k[a];
+          slot = slot * U + (k[a] + P);
+        }
+        for (int a = 1; a < Dim; ++a)
+          weight *= w[a][k[a]];
+        const std::size_t i = padded(fine, node);
+        if (!fine.coupled[i])
+          return;
+        touched = true;
+        add_row<Dim, P, U>(&u[slot], weight, fine.rows, i, fs, std::make_index_sequence<H - 1>{});
+      };
+      for_each_index<Dim>(count, k, add);
+      if (!touched)
+        return;
+      double* out = &coarse.stencil[padded(coarse, J) * H];
+      for (int s = 0; s < H; ++s)
+      {
+        std::array<int, Dim> L;
+        bool on_grid = true;
+        for (int a = 0; a < Dim; ++a)
+        {
+          L[a] = J[a] + cs.d[s][a];
+          on_grid = on_grid && L[a] < coarse.n[a] && (a == 0 || L[a] >= 0);
+        }
+        if (!on_grid)
+          continue;
+        const double* wl[Dim];
+        int cl[Dim], fl[Dim];
+        for (int a = 0; a < Dim; ++a)
+        {
+          const Refinement& R = fine.refine[a];
+          wl[a] = &R.weight[std::size_t(L[a]) * W];
+          cl[a] = R.count[L[a]];
+          fl[a] = R.first[L[a]];
+        }
+        out[s] = window_product<Dim, U>(wl, cl, fl, origin, u);
+      }
+    };
+    int jr[Dim - 1];
+    auto each = [&]
+    {
+      for (int a = 1; a < Dim; ++a)
+        J[a] = jr[a - 1];
+      row();
+    };
+    for_each_index<Dim - 1>(rest, jr, each);
+  }
 
   // The unknowns: nodes with a nonzero diagonal, i.e. a coupled fine node in their support.
   coarse.live.clear();
-  for (int jx = 0; jx < coarse.nx; ++jx)
-    for (int jy = 0; jy < coarse.ny; ++jy)
-      if (const std::size_t j = padded(coarse, jx, jy); coarse.stencil[j * H] > 0.0)
+  {
+    std::array<int, Dim> J;
+    int all[Dim];
+    for (int a = 0; a < Dim; ++a)
+      all[a] = coarse.n[a];
+    auto each = [&]
+    {
+      if (const std::size_t j = padded(coarse, J); coarse.stencil[j * H] > 0.0)
         coarse.live.push_back(j);
+    };
+    for_each_index<Dim>(all, J.data(), each);
+  }
   number_unknowns(coarse);
   coarse.coupled.assign(coarse.padded_size, 0);
   coarse.inverse.resize(coarse.live.size());
@@ -348,16 +504,16 @@ void Multigrid::galerkin(const Level& fine, Level& coarse)
 }
 
 /// The coarsest level's Cholesky factor in band storage, unknowns in their
-/// column-by-column order. A pivot that vanishes (a direction in which the
-/// Galerkin operator is singular, possible where the coupled fine nodes are
-/// too few to tell coarse functions apart) drops that unknown: the solve
-/// leaves it zero.
+/// node order. A pivot that vanishes (a direction in which the Galerkin
+/// operator is singular, possible where the coupled fine nodes are too few to
+/// tell coarse functions apart) drops that unknown: the solve leaves it zero.
+template <int Dim>
 template <int P>
-void Multigrid::factor_coarsest()
+void Multigrid<Dim>::factor_coarsest()
 {
-  constexpr int H = SymmetricStencil<2, P>::size;
+  constexpr int H = SymmetricStencil<Dim, P>::size;
   Level& c = _levels[_coarsest];
-  const SymmetricStencil<2, P> stencil(c.padded_ny);
+  const SymmetricStencil<Dim, P> s = stencil<P>(c);
   const std::size_t n = c.live.size();
   std::vector<std::ptrdiff_t> index(c.padded_size, -1);
   for (std::size_t u = 0; u < n; ++u)
@@ -366,7 +522,7 @@ void Multigrid::factor_coarsest()
   _band = 0;
   for (std::size_t u = 0; u < n; ++u)
     for (int k = 1; k < H; ++k)
-      if (const std::ptrdiff_t v = index[c.live[u] + stencil.offset[k]]; v >= 0)
+      if (const std::ptrdiff_t v = index[c.live[u] + s.offset[k]]; v >= 0)
         _band = std::max(_band, static_cast<std::size_t>(v) - u);
   const std::size_t B = _band + 1;
   // Row v of the lower triangle: entry (v, u) at v * B + (u + band - v).
@@ -376,7 +532,7 @@ void Multigrid::factor_coarsest()
     const double* row = &c.rows[c.live[u] * H];
     _factor[u * B + _band] = row[0];
     for (int k = 1; k < H; ++k)
-      if (const std::ptrdiff_t v = index[c.live[u] + stencil.offset[k]]; v >= 0)
+      if (const std::ptrdiff_t v = index[c.live[u] + s.offset[k]]; v >= 0)
         _factor[std::size_t(v) * B + (u + _band - std::size_t(v))] = row[k];
   }
   for (std::size_t i = 0; i < n; ++i)
@@ -384,25 +540,26 @@ void Multigrid::factor_coarsest()
     const std::size_t j0 = i >= _band ? i - _band : 0;
     for (std::size_t j = j0; j <= i; ++j)
     {
-      double s = _factor[i * B + (j + _band - i)];
+      double sum = _factor[i * B + (j + _band - i)];
       const std::size_t k0 = std::max(j0, j >= _band ? j - _band : 0);
       for (std::size_t k = k0; k < j; ++k)
-        s -= _factor[i * B + (k + _band - i)] * _factor[j * B + (k + _band - j)];
+        sum -= _factor[i * B + (k + _band - i)] * _factor[j * B + (k + _band - j)];
       if (j < i)
       {
         const double d = _factor[j * B + _band];
-        _factor[i * B + (j + _band - i)] = d > 0.0 ? s / d : 0.0;
+        _factor[i * B + (j + _band - i)] = d > 0.0 ? sum / d : 0.0;
       }
       else
       {
         const double diagonal = c.rows[c.live[i] * H];
-        _factor[i * B + _band] = s > 1e-12 * diagonal ? std::sqrt(s) : 0.0;
+        _factor[i * B + _band] = sum > 1e-12 * diagonal ? std::sqrt(sum) : 0.0;
       }
     }
   }
 }
 
-void Multigrid::solve_coarsest()
+template <int Dim>
+void Multigrid<Dim>::solve_coarsest()
 {
   Level& c = _levels[_coarsest];
   const std::size_t n = c.live.size(), B = _band + 1;
@@ -430,26 +587,28 @@ void Multigrid::solve_coarsest()
 
 /// f(u, left, right, even) for the unknowns u of `level` in the Gauss-Seidel
 /// order (Ordered), or in any order with all strips at once. `left` and
-/// `right`: the columns of u's strip on either side of u's, `even` whether
-/// the strip is. Forward: strip by strip, even strips first, each column by
-/// column upwards; backward: the reverse.
+/// `right`: the x-slabs of u's strip on either side of u's, `even` whether
+/// the strip is. Forward: strip by strip, even strips first, each slab by
+/// slab in node order; backward: the reverse.
+template <int Dim>
 template <bool Ordered, class F>
-void Multigrid::strips(const Level& level, bool forward, F&& f) const
+void Multigrid<Dim>::strips(const Level& level, bool forward, F&& f) const
 {
-  const int strips = (level.nx + sweep_strip - 1) / sweep_strip;
-  auto strip = [&](int s)
+  const int nx = level.n[0];
+  const int strips = (nx + strip - 1) / strip;
+  auto one = [&](int s)
   {
-    const int begin = s * sweep_strip, end = std::min(begin + sweep_strip, level.nx);
+    const int begin = s * strip, end = std::min(begin + strip, nx);
     const bool even = s % 2 == 0;
     for (int n = 0; n < end - begin; ++n)
     {
       const int ix = forward ? begin + n : end - 1 - n;
       const int left = ix - begin, right = end - 1 - ix;
       if (forward)
-        for (std::size_t u = level.column_start[ix]; u < level.column_start[ix + 1]; ++u)
+        for (std::size_t u = level.slab_start[ix]; u < level.slab_start[ix + 1]; ++u)
           f(u, left, right, even);
       else
-        for (std::size_t u = level.column_start[ix + 1]; u-- > level.column_start[ix];)
+        for (std::size_t u = level.slab_start[ix + 1]; u-- > level.slab_start[ix];)
           f(u, left, right, even);
     }
   };
@@ -462,52 +621,35 @@ void Multigrid::strips(const Level& level, bool forward, F&& f) const
       const int parity = forward ? pass : 1 - pass;
 #pragma omp for schedule(dynamic)
       for (int s = parity; s < strips; s += 2)
-        strip(s);
+        one(s);
     }
   }
   else
   {
 #pragma omp parallel for schedule(dynamic) if (level.live.size() > parallel_nodes)
     for (int s = 0; s < strips; ++s)
-      strip(s);
+      one(s);
   }
 }
-
-namespace
-{
-/// sum_a wx[a] sum_e wy[e] v[index(x0 + a, y0 + e)] over a < nx, e < ny: one
-/// node of a transfer, P^T r or P x_2h, with the tensor-product weights of R.
-template <class Index>
-double tensor_gather(const double* wx, int nx, int x0, const double* wy, int ny, int y0,
-                     const std::vector<double>& v, Index index)
-{
-  double sum = 0.0;
-  for (int a = 0; a < nx; ++a)
-  {
-    double column = 0.0;
-    for (int e = 0; e < ny; ++e)
-      column += wy[e] * v[index(x0 + a, y0 + e)];
-    sum += wx[a] * column;
-  }
-  return sum;
-}
-} // namespace
 
 /// The V-cycle on level l for b_l (K&T eq. 50's residual restricted to it), from
 /// x_l = 0:
 ///  - a forward Gauss-Seidel sweep, x_i = (b_i - sum_{j before i} K_ij x_j) / K_ii
 ///    (the nodes after i are still zero), after which the residual is
-///    r_i = -sum_{j after i} K_ij x_j: the two passes read K once;
+///    r_i = -sum_{j after i} K_ij x_j: the two passes read K once; with
+///    `sweeps` > 1, sweeps - 1 more forward sweeps
+///    x_i = (b_i - sum_{j != i} K_ij x_j) / K_ii and then r = b - K x;
 ///  - the coarse correction x += P x_2h with x_2h = K_2h^-1 P^T r, the coarse
 ///    solve the same cycle one level down (a Cholesky solve on the coarsest);
-///  - a backward sweep x_i = (b_i - sum_{j != i} K_ij x_j) / K_ii in the
-///    reverse order, the adjoint of the forward one, so that the cycle is
+///  - `sweeps` backward sweeps x_i = (b_i - sum_{j != i} K_ij x_j) / K_ii in
+///    the reverse order, the adjoint of the forward ones, so that the cycle is
 ///    symmetric.
-/// On the finest level the backward sweep keeps its changes delta, and
+/// On the finest level the last backward sweep keeps its changes delta, and
 /// K x = b + (sum_{j before i} K_ij delta_j)_i, half a product, is returned in
 /// `kx` (when not null) for the conjugate gradients.
+template <int Dim>
 template <int P>
-void Multigrid::cycle(std::size_t l, double* kx)
+void Multigrid<Dim>::cycle(std::size_t l, double* kx)
 {
   if (l == _coarsest)
   {
@@ -515,16 +657,16 @@ void Multigrid::cycle(std::size_t l, double* kx)
     if (kx) // the finest level is the coarsest: K x by a product
     {
       const Level& f = _levels[l];
-      const SymmetricStencil<2, P> stencil(f.padded_ny);
+      const SymmetricStencil<Dim, P> s = stencil<P>(f);
       for (std::size_t u = 0; u < f.live.size(); ++u)
-        kx[u] = row_product(stencil, f.rows, f.live[u], f.x.data());
+        kx[u] = row_product(s, f.rows, f.live[u], f.x.data());
     }
     return;
   }
   constexpr int W = Refinement::width(P);
   Level& f = _levels[l];
   Level& c = _levels[l + 1];
-  const SymmetricStencil<2, P> stencil(f.padded_ny);
+  const SymmetricStencil<Dim, P> s = stencil<P>(f);
   const double* rows = f.rows;
   double* x = f.x.data();
   const double* b = f.b.data();
@@ -533,60 +675,94 @@ void Multigrid::cycle(std::size_t l, double* kx)
                [&](std::size_t u, int left, int right, bool even)
                {
                  const std::size_t i = f.live[u];
-                 x[i] = subtract_neighbours<2, P, true, false>(stencil, rows, i, left, right, even,
-                                                            b[i], x)
+                 x[i] = subtract_neighbours<Dim, P, true, false>(s, rows, i, left, right, even, b[i], x)
                         * f.inverse[u];
                });
+  for (int sweep = 1; sweep < _sweeps; ++sweep)
+    strips<true>(f, true,
+                 [&](std::size_t u, int left, int right, bool even)
+                 {
+                   const std::size_t i = f.live[u];
+                   x[i] = subtract_neighbours<Dim, P, true, true>(s, rows, i, left, right, even, b[i], x)
+                          * f.inverse[u];
+                 });
   // The residual at the coupled nodes (zero elsewhere, from setup).
-  strips<false>(f, true,
-                [&](std::size_t u, int left, int right, bool even)
-                {
-                  if (const std::size_t i = f.live[u]; f.coupled[i])
-                    f.r[i] = subtract_neighbours<2, P, false, true>(stencil, rows, i, left, right,
-                                                                 even, 0.0, x);
-                });
+  if (_sweeps == 1)
+    strips<false>(f, true,
+                  [&](std::size_t u, int left, int right, bool even)
+                  {
+                    if (const std::size_t i = f.live[u]; f.coupled[i])
+                      f.r[i] = subtract_neighbours<Dim, P, false, true>(s, rows, i, left, right, even,
+                                                                        0.0, x);
+                  });
+  else
+    strips<false>(f, true,
+                  [&](std::size_t u, int left, int right, bool even)
+                  {
+                    if (const std::size_t i = f.live[u]; f.coupled[i])
+                      f.r[i] = subtract_neighbours<Dim, P, true, true>(s, rows, i, left, right, even,
+                                                                       b[i], x)
+                               - rows[i * SymmetricStencil<Dim, P>::size] * x[i];
+                  });
 
-  // Restriction b_2h = P^T r.
-  const Refinement& rx = f.refine[0];
-  const Refinement& ry = f.refine[1];
+  // Restriction b_2h = P^T r: per coarse node J, the fine nodes of its run
+  // in each direction.
 #pragma omp parallel for schedule(static) if (parallel)
-  for (int jx = 0; jx < c.nx; ++jx)
-    for (std::size_t v = c.column_start[jx]; v < c.column_start[jx + 1]; ++v)
+  for (int jx = 0; jx < c.n[0]; ++jx)
+    for (std::size_t v = c.slab_start[jx]; v < c.slab_start[jx + 1]; ++v)
     {
       const std::size_t j = c.live[v];
-      const int jy = static_cast<int>(j - padded(c, jx, 0));
-      c.b[j] = tensor_gather(&rx.weight[std::size_t(jx) * W], rx.count[jx], rx.first[jx],
-                             &ry.weight[std::size_t(jy) * W], ry.count[jy], ry.first[jy], f.r,
-                             [&](int ix, int iy) { return padded(f, ix, iy); });
+      const std::array<int, Dim> J = node_of(c, jx, j);
+      const double* w[Dim];
+      int count[Dim], first[Dim];
+      for (int a = 0; a < Dim; ++a)
+      {
+        const Refinement& R = f.refine[a];
+        w[a] = &R.weight[std::size_t(J[a]) * W];
+        count[a] = R.count[J[a]];
+        first[a] = R.first[J[a]];
+      }
+      c.b[j] = tensor_gather<Dim>(w, count, first, f.stride, _degree, f.r.data());
     }
   cycle<P>(l + 1, nullptr);
-  // Prolongation x += P x_2h at the coupled nodes.
+  // Prolongation x += P x_2h at the coupled nodes: per fine node, the
+  // coarse nodes of its run in each direction.
 #pragma omp parallel for schedule(static) if (parallel)
-  for (int ix = 0; ix < f.nx; ++ix)
-    for (std::size_t u = f.column_start[ix]; u < f.column_start[ix + 1]; ++u)
+  for (int ix = 0; ix < f.n[0]; ++ix)
+    for (std::size_t u = f.slab_start[ix]; u < f.slab_start[ix + 1]; ++u)
     {
       const std::size_t i = f.live[u];
       if (!f.coupled[i])
         continue;
-      const int iy = static_cast<int>(i - padded(f, ix, 0));
-      x[i] += tensor_gather(&rx.weight_t[std::size_t(ix) * W], rx.count_t[ix], rx.first_coarse[ix],
-                            &ry.weight_t[std::size_t(iy) * W], ry.count_t[iy], ry.first_coarse[iy],
-                            c.x, [&](int jx, int jy) { return padded(c, jx, jy); });
+      const std::array<int, Dim> I = node_of(f, ix, i);
+      const double* w[Dim];
+      int count[Dim], first[Dim];
+      for (int a = 0; a < Dim; ++a)
+      {
+        const Refinement& R = f.refine[a];
+        w[a] = &R.weight_t[std::size_t(I[a]) * W];
+        count[a] = R.count_t[I[a]];
+        first[a] = R.first_coarse[I[a]];
+      }
+      x[i] += tensor_gather<Dim>(w, count, first, c.stride, _degree, c.x.data());
     }
 
   double* delta = _delta.data();
-  strips<true>(f, false,
-               [&](std::size_t u, int left, int right, bool even)
-               {
-                 const std::size_t i = f.live[u];
-                 const double next
-                     = subtract_neighbours<2, P, true, true>(stencil, rows, i, left, right, even,
-                                                         b[i], x)
-                       * f.inverse[u];
-                 if (kx)
-                   delta[i] = next - x[i];
-                 x[i] = next;
-               });
+  for (int sweep = 0; sweep < _sweeps; ++sweep)
+  {
+    const bool last = sweep + 1 == _sweeps;
+    strips<true>(f, false,
+                 [&](std::size_t u, int left, int right, bool even)
+                 {
+                   const std::size_t i = f.live[u];
+                   const double next
+                       = subtract_neighbours<Dim, P, true, true>(s, rows, i, left, right, even, b[i], x)
+                         * f.inverse[u];
+                   if (kx && last)
+                     delta[i] = next - x[i];
+                   x[i] = next;
+                 });
+  }
   if (!kx)
     return;
   strips<false>(f, true,
@@ -594,13 +770,14 @@ void Multigrid::cycle(std::size_t l, double* kx)
                 {
                   const std::size_t i = f.live[u];
                   // b + sum_{j before i} K_ij delta_j
-                  kx[u] = b[i] - subtract_neighbours<2, P, true, false>(stencil, rows, i, left,
-                                                                     right, even, 0.0, delta);
+                  kx[u] = b[i] - subtract_neighbours<Dim, P, true, false>(s, rows, i, left, right,
+                                                                          even, 0.0, delta);
                 });
 }
 
+template <int Dim>
 template <int P>
-void Multigrid::apply(const double* r, double* z, double* kz)
+void Multigrid<Dim>::apply(const double* r, double* z, double* kz)
 {
   Level& f = _levels[0];
   const auto n = static_cast<std::ptrdiff_t>(f.live.size());
@@ -613,12 +790,18 @@ void Multigrid::apply(const double* r, double* z, double* kz)
     z[u] = f.x[f.live[u]];
 }
 
-#define PFMPM_MULTIGRID(P)                                                                         \
-  template void Multigrid::setup<P>(const std::vector<double>&, const std::vector<std::size_t>&);  \
-  template void Multigrid::apply<P>(const double*, double*, double*);
-PFMPM_MULTIGRID(1)
-PFMPM_MULTIGRID(2)
-PFMPM_MULTIGRID(3)
+template class Multigrid<2>;
+template class Multigrid<3>;
+#define PFMPM_MULTIGRID(D, P)                                                                      \
+  template void Multigrid<D>::setup<P>(const std::vector<double>&,                                 \
+                                       const std::vector<std::size_t>&);                           \
+  template void Multigrid<D>::apply<P>(const double*, double*, double*);
+PFMPM_MULTIGRID(2, 1)
+PFMPM_MULTIGRID(2, 2)
+PFMPM_MULTIGRID(2, 3)
+PFMPM_MULTIGRID(3, 1)
+PFMPM_MULTIGRID(3, 2)
+PFMPM_MULTIGRID(3, 3)
 #undef PFMPM_MULTIGRID
 
 } // namespace pfmpm

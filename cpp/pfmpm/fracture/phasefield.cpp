@@ -216,12 +216,7 @@ void PhaseField<Dim>::set_preconditioner(Preconditioner preconditioner)
   if (!_active)
     return;
   if (this->preconditioner() == Preconditioner::multigrid)
-  {
-    if constexpr (Dim == 2)
-      _multigrid = std::make_unique<Multigrid>(_grid.cells(), _grid.degree());
-    else
-      throw std::invalid_argument("phase_field.preconditioner = multigrid: not yet in 3D; take jacobi or ssor");
-  }
+    _multigrid = std::make_unique<Multigrid<Dim>>(_grid.cells(), _grid.degree());
   if (this->preconditioner() == Preconditioner::ssor && _forward.empty())
     _forward.assign(_c.size(), 0.0);
 }
@@ -678,14 +673,14 @@ void PhaseField<Dim>::prepare_ssor()
 {
   const std::vector<std::int32_t>& nodes = _nodes.nodes();
   const auto na = static_cast<std::ptrdiff_t>(_rhs.size());
-  // About sweep_strip columns per strip, the number of strips a multiple of
-  // 4, so that two or four threads get as many strips of each parity, and
-  // each strip at least p columns wide (strips of one parity must not
-  // touch); widths differ by at most one column.
-  constexpr int multiple = 4;
+  // About Multigrid's strip width of columns (2D) or planes (3D) per strip,
+  // the number of strips a multiple of 4, so that two or four threads get as
+  // many strips of each parity, and each strip at least p columns wide
+  // (strips of one parity must not touch); widths differ by at most one.
+  constexpr int multiple = 4, width = Multigrid<Dim>::strip;
   const int nx = _grid.nodes()[0];
   const std::size_t slab = static_cast<std::size_t>(_grid.num_nodes()) / static_cast<std::size_t>(nx);
-  const int wanted = ((nx + sweep_strip - 1) / sweep_strip + multiple - 1) / multiple * multiple;
+  const int wanted = ((nx + width - 1) / width + multiple - 1) / multiple * multiple;
   const int strips = std::max(1, std::min(wanted, nx / _grid.degree()));
   _strip_column.resize(strips + 1);
   for (int s = 0; s <= strips; ++s)
@@ -719,13 +714,13 @@ void PhaseField<Dim>::multigrid_iterations(double norm_f, double stop, double& r
   if (residual <= stop)
     return;
   _v.resize(na);
-  _multigrid->setup<P>(_stencil, _position);
+  _multigrid->template setup<P>(_stencil, _position);
   // z = B r and K z from the V-cycle; then p = z + beta p and K p = K z + beta K p.
   double* kz = _v.data();
   double rz = 0.0;
   for (;;)
   {
-    _multigrid->apply<P>(_r.data(), _z.data(), kz);
+    _multigrid->template apply<P>(_r.data(), _z.data(), kz);
     const double rz_next = deterministic_sum<1>(
         na, [&](std::size_t a, std::array<double, 1>& acc) { acc[0] += _r[a] * _z[a]; })[0];
     const double beta = it == 0 ? 0.0 : rz_next / rz;

@@ -408,7 +408,7 @@ private:
   std::vector<std::uint32_t> _free_node;
   std::vector<double> _free_diagonal;
   Preconditioner _preconditioner = Preconditioner::automatic;
-  std::unique_ptr<Multigrid> _multigrid; // with Preconditioner::multigrid
+  std::unique_ptr<Multigrid<Dim>> _multigrid; // with Preconditioner::multigrid
   PhaseFieldStats _stats;
 };
 
