@@ -28,7 +28,7 @@ if str(Path(__file__).resolve().parents[2]) not in sys.path:  # run as a file: t
     sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
 from benchmarks.common import results as results_file  # noqa: E402
-from benchmarks.notched_beam3d.measure import FRACTURE, ROWS, area_initiation, checks  # noqa: E402
+from benchmarks.notched_beam3d.measure import FRACTURE, ROWS, area_initiation, checks, fem_crack_area  # noqa: E402
 from pfmpm.compare import PROBLEMS, STUDY, compare  # noqa: E402
 
 PROBLEM = PROBLEMS["notched_beam3d"]
@@ -43,7 +43,7 @@ def tables(out: Path, hs) -> dict:
     with open(out / "speed_vs_error.csv", newline="") as f:
         rows = list(csv.DictReader(f))
     runs = results_file.table(
-        ["method", "h (mm)", "particles / dofs", "steps", "wall (s, 2 threads)", "initiation (us)",
+        ["method", "h (mm)", "particles / dofs", "steps", "wall (s)", "initiation (us)",
          "fracture energy at the end (mJ)", "crack area at the end (mm^2)", "error against the reference"],
         [[r["method"], r["h"], r["particles"] or r["dofs"], r["steps"], fmt(float(r["wall_s"]), ".1f"),
           fmt(float(r["initiation_us"]), ".2f"), fmt(float(r["fracture_energy_end"]), ".4f"),
@@ -69,6 +69,9 @@ def tables(out: Path, hs) -> dict:
             [f"h = {c['h']:g}: elastic energy to the first initiation, RMS difference / peak", "", "",
              fmt(100 * c["elastic_rms_rel"], ".2f") + " %", "reported", ""],
         ]
+        split = fem_crack_area(out / f"fem_h{c['h']:g}")
+        lines.append([f"h = {c['h']:g}: FEM crack area (mm^2) within 8 mm of the notch / elsewhere", "",
+                      f"{split['near']:.2f} / {split['elsewhere']:.2f}", "", "reported", ""])
     agreement = results_file.table(["check", "PF-MPM", "PF-FEM", "MPM - FEM", "required", "verdict"], lines)
     return {"runs": runs, "agreement": agreement}
 

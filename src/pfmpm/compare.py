@@ -760,7 +760,8 @@ def _plot_slices(runs: list[Path], titles: list[str], scene: Scene, png: Path) -
     """The phase field of the last frame of each 3D run on the plane through
     the body's middle spanned by the crack's normal and its direction
     (:func:`_slice_axes`): the particles or vertices of the layer nearest to
-    it, side by side; False if a run wrote no frame."""
+    it (one layer, where two lie as near), side by side; False if a run
+    wrote no frame."""
     plt = _pyplot()
     fields = [_last_phase_field(run) for run in runs]
     if any(f is None for f in fields):
@@ -770,8 +771,9 @@ def _plot_slices(runs: list[Path], titles: list[str], scene: Scene, png: Path) -
     fig, axes = plt.subplots(1, len(fields), figsize=(6.0 * len(fields), 3.6), squeeze=False)
     for ax, (x, c), title in zip(axes[0], fields, titles):
         local = x @ axes_3d.T
-        off = np.abs(local[:, 2] - middle)
-        near = off <= off.min() + 1e-6 * scene.grid.h
+        # The one layer of the point nearest the middle (the lattice's layers lie h / n or h apart).
+        layer = local[np.argmin(np.abs(local[:, 2] - middle)), 2]
+        near = np.abs(local[:, 2] - layer) <= 0.1 * scene.grid.h
         im = ax.tripcolor(local[near, 0], local[near, 1], c[near], shading="gouraud", cmap="inferno",
                           vmin=0.0, vmax=1.0)
         ax.set_aspect("equal")
