@@ -11,8 +11,7 @@ from pathlib import Path
 
 from . import __version__
 from .bench import MODELS, PHYSICS
-from .compare import (BORDEN_SCENE, DEFAULT_END, DEFAULT_FRAMES, DEFAULT_H, DEFAULT_L0, compare_borden,
-                      read_study)
+from .compare import DEFAULT_FRAMES, PROBLEMS, compare, read_study
 from .run_folder import SCENE_FILE, check_fresh, check_resume, read_scene
 from .scene import SceneError
 from .scene.components import SHAPES, TRANSFER_SCHEMES
@@ -158,7 +157,8 @@ def _compare(args: argparse.Namespace) -> int:
     from ._core import SimulationError
     from .checkpoint import CheckpointError
 
-    out = Path(args.out)
+    problem = PROBLEMS[args.problem]
+    out = Path(args.out or f"out/compare_{args.problem}")
     if args.resume:
         given = [f"--{k}" for k in ("h", "l0", "end", "scene", "set", "frames", "model")
                  if getattr(args, k) is not None]
@@ -172,18 +172,19 @@ def _compare(args: argparse.Namespace) -> int:
             study[k] for k in ("h", "l0", "end", "scene", "overrides", "frames", "model"))
     else:
         try:
-            hs = [float(h) for h in (args.h or ",".join(f"{h:g}" for h in DEFAULT_H)).split(",")]
+            hs = [float(h) for h in (args.h or ",".join(f"{h:g}" for h in problem.h)).split(",")]
         except ValueError:
             print(f"error: --h {args.h}: must be a comma-separated list of numbers", file=sys.stderr)
             return 2
-        l0 = DEFAULT_L0 if args.l0 is None else args.l0
-        end = DEFAULT_END if args.end is None else args.end
-        scene, sets = args.scene or str(BORDEN_SCENE), args.set or []
+        l0 = problem.l0 if args.l0 is None else args.l0
+        end = problem.end if args.end is None else args.end
+        scene, sets = args.scene or str(problem.path), args.set or []
         frames = DEFAULT_FRAMES if args.frames is None else args.frames
         model = args.model or "AT2"
     try:
-        result = compare_borden(out, hs, l0, end, scene_path=scene, overrides=sets, progress=not args.quiet,
-                                frames=frames, resume=args.resume, model=model, overwrite=args.overwrite)
+        result = compare(out, hs, l0, end, scene_path=scene, overrides=sets, progress=not args.quiet,
+                         frames=frames, resume=args.resume, model=model, overwrite=args.overwrite,
+                         title=problem.title)
     except (ValueError, CheckpointError) as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
@@ -193,12 +194,14 @@ def _compare(args: argparse.Namespace) -> int:
         return 1
     except KeyboardInterrupt:
         print(f"interrupted; output so far is in {out}; continue with:"
-              f" pfmpm compare borden --resume --out {out}", file=sys.stderr)
+              f" pfmpm compare {args.problem} --resume --out {out}", file=sys.stderr)
         return 130
     a, ref = result.agreement, result.reference
+    branching = ("" if "crack_area_end" in result.rows[0] else  # a 3D crack has a front, no branches
+                 f", branching {a['branch_mpm_us']:.3f} vs {a['branch_fem_us']:.3f} us")
     print(f"{model}: agreement at h = {result.h_common:g}: initiation {a['initiation_mpm_us']:.3f} (MPM)"
-          f" vs {a['initiation_fem_us']:.3f} us (FEM), branching {a['branch_mpm_us']:.3f} vs"
-          f" {a['branch_fem_us']:.3f} us (each +- {a['record_interval_us']:.3f} us); elastic energy"
+          f" vs {a['initiation_fem_us']:.3f} us (FEM){branching}"
+          f" (each +- {a['record_interval_us']:.3f} us); elastic energy"
           f" RMS difference {100 * a['elastic_rms_rel']:.2f} % of the peak; end fracture energy"
           f" {100 * a['fracture_end_rel_diff']:+.2f} %")
     print(f"errors against the {ref['kind']} reference {ref['value']:.5g}: "
@@ -409,30 +412,33 @@ def main(argv: list[str] | None = None) -> int:
                        help="with --scenes: override a scene value in every scene")
     bench.set_defaults(func=_bench)
 
-    compare = sub.add_parser("compare", help="run PF-MPM and PF-FEM on a benchmark and compare them")
-    compare.add_argument("problem", choices=["borden"], help="the benchmark (the Borden plate)")
-    compare.add_argument("--h", help="grid spacings, comma-separated (default "
-                                     + ",".join(f"{h:g}" for h in DEFAULT_H) + ")")
-    compare.add_argument("--l0", type=float, help=f"phase-field length scale (default {DEFAULT_L0:g})")
-    compare.add_argument("--end", type=float, help=f"end time (default {DEFAULT_END:g})")
-    compare.add_argument("--model", choices=["AT2", "AT1"],
+    comparison = sub.add_parser("compare", help="run PF-MPM and PF-FEM on a benchmark and compare them")
+    defaults = "; ".join(f"{name}: {','.join(f'{h:g}' for h in p.h)}, {p.l0:g}, {p.end:g}"
+                         for name, p in PROBLEMS.items())
+    comparison.add_argument("problem", choices=list(PROBLEMS),
+                         help="the benchmark: the Borden plate, or the 3D notched beam in three-point"
+                              f" bending; its defaults of --h, --l0 and --end: {defaults}")
+    comparison.add_argument("--h", help="grid spacings, comma-separated (default: the problem's)")
+    comparison.add_argument("--l0", type=float, help="phase-field length scale (default: the problem's)")
+    comparison.add_argument("--end", type=float, help="end time (default: the problem's)")
+    comparison.add_argument("--model", choices=["AT2", "AT1"],
                          help="phase-field model of both methods (default AT2)")
-    compare.add_argument("--out", default="out/compare_borden", help="output directory (default %(default)s)")
-    compare.add_argument("--scene", help=f"the scene file (default {BORDEN_SCENE})")
-    compare.add_argument("--set", action="append", metavar="KEY=VALUE",
+    comparison.add_argument("--out", help="output directory (default out/compare_PROBLEM)")
+    comparison.add_argument("--scene", help="the scene file (default: the problem's shipped scene)")
+    comparison.add_argument("--set", action="append", metavar="KEY=VALUE",
                          help="override a scene value for both methods,"
                               " e.g. bodies.plate.particles_per_cell=2")
-    compare.add_argument("--frames", type=_count,
+    comparison.add_argument("--frames", type=_count,
                          help="particle (MPM) and field (FEM) frames per run, evenly spaced in time"
                               f" (default {DEFAULT_FRAMES}; 0: none)")
-    compare.add_argument("--resume", action="store_true",
+    comparison.add_argument("--resume", action="store_true",
                          help="continue the comparison in --out with its own settings: keep the"
                               " completed runs, resume an interrupted MPM run from its checkpoint")
-    compare.add_argument("--overwrite", action="store_true",
+    comparison.add_argument("--overwrite", action="store_true",
                          help="if --out holds another comparison or run, delete its files first"
                               " (without it, such a directory is refused)")
-    compare.add_argument("--quiet", action="store_true", help="no progress bars")
-    compare.set_defaults(func=_compare)
+    comparison.add_argument("--quiet", action="store_true", help="no progress bars")
+    comparison.set_defaults(func=_compare)
 
     polar = sub.add_parser("polar",
                            help="anisotropic surface energy G_c(theta) of a gamma tensor (K&T eq. 8)")

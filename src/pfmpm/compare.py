@@ -1,9 +1,10 @@
-"""PF-MPM against PF-FEM on the Borden plate: agreement, and speed against error.
+"""PF-MPM against PF-FEM on one scene: agreement, and speed against error.
 
-:func:`compare_borden` runs the Borden plate scene (shipped as
-``pfmpm/scenes/borden_plate.toml``; ``demos/borden_plate.toml`` links to it)
-with both methods at a list of grid spacings ``h`` and one length scale
-``l0``, then writes, into its output directory:
+:func:`compare` runs a scene, by default the Borden plate (shipped as
+``pfmpm/scenes/borden_plate.toml``; ``demos/borden_plate.toml`` links to it;
+:func:`compare_borden` is the same function), with both methods at a list
+of grid spacings ``h`` and one length scale ``l0``, then writes, into its
+output directory:
 
 ``speed_vs_error.csv``
     One row per run, columns :data:`COLUMNS`: its size (``particles`` for
@@ -57,6 +58,19 @@ and :func:`agreement`):
 Both are read from ``energies.csv`` rows, every ``output.energies_every``
 steps, so they are known to within that record interval
 (``record_interval_us`` of the agreement).
+
+A 3D scene (:data:`PROBLEMS`: ``notched_beam3d``) writes the same files.
+Its crack has a front rather than a tip: initiation is the first time
+``crack_front``, the front's extent along ``output.crack_direction``,
+exceeds its value at t = 0 by 0.5 mm; there is no branch time; the table
+has the columns :data:`COLUMNS_3D` (the front and the crack area
+``int gamma(c) dV`` at the end in place of the branch time and the tip);
+``crack_tip_speed_overlay.png`` draws ``crack_front`` and
+``crack_front_speed``; and the side-by-side pictures are the phase field
+of the last frame of each run on the plane of the initial crack's normal
+and ``output.crack_direction`` through the body's middle (an MPM particle
+frame and an FEM field frame, so ``frames`` must be at least 1;
+``crack_path_side_by_side.png`` is not written).
 """
 
 from __future__ import annotations
@@ -78,8 +92,9 @@ from .post.tip import branch_time, initiation_time, read_columns
 from .scene import Crack, Scene
 from .scene.toml import read_toml
 
-__all__ = ["COLUMNS", "OUTPUTS", "Comparison", "agreement", "branch_time", "comparison_overrides",
-           "compare_borden", "check_fresh", "clear", "initiation_time", "reference", "read_study"]
+__all__ = ["COLUMNS", "COLUMNS_3D", "OUTPUTS", "PROBLEMS", "Comparison", "Problem", "agreement", "branch_time",
+           "comparison_overrides", "compare", "compare_borden", "check_fresh", "clear", "initiation_time",
+           "reference", "read_study"]
 
 BORDEN_SCENE = scenes.path("borden_plate")
 """The Borden plate scene shipped with the package."""
@@ -107,6 +122,46 @@ OUTPUTS = ("speed_vs_error.csv", "energies_overlay.png", "crack_tip_speed_overla
 COLUMNS = ["method", "h", "particles", "dofs", "steps", "wall_s", "initiation_us", "branch_us",
            "fracture_energy_end", "elastic_energy_peak", "crack_tip_x_end", "error"]
 """Columns of ``speed_vs_error.csv``; ``particles`` is empty for FEM runs and ``dofs`` for MPM runs."""
+COLUMNS_3D = ["method", "h", "particles", "dofs", "steps", "wall_s", "initiation_us", "fracture_energy_end",
+              "elastic_energy_peak", "crack_front_end", "crack_area_end", "error"]
+"""The columns of a 3D scene: no branch time, the crack front (``crack_front``)
+in place of the tip and the crack area ``int gamma(c) dV`` (``crack_area``) at
+the end; ``dofs`` counts three displacements and the phase field per vertex."""
+
+
+@dataclass(frozen=True)
+class Problem:
+    """A scene ``pfmpm compare`` runs by name, with its defaults.
+
+    Attributes
+    ----------
+    scene : str
+        The shipped scene (:func:`pfmpm.scenes.path`).
+    title : str
+        The title of ``comparison.md``.
+    h : tuple of float
+        Default grid spacings.
+    l0, end : float
+        Default length scale and end time.
+    """
+
+    scene: str
+    title: str
+    h: tuple[float, ...]
+    l0: float
+    end: float
+
+    @property
+    def path(self) -> Path:
+        return scenes.path(self.scene)
+
+
+PROBLEMS = {
+    "borden": Problem("borden_plate", "Borden plate", DEFAULT_H, DEFAULT_L0, DEFAULT_END),
+    # benchmarks/notched_beam3d: the crack has run through the ligament by about 35 us.
+    "notched_beam3d": Problem("notched_beam3d", "notched beam in three-point bending (3D)", (1.0, 0.5), 1.0, 50.0),
+}
+"""The problems of ``pfmpm compare PROBLEM`` by name."""
 
 
 @dataclass
@@ -282,10 +337,11 @@ def comparison_overrides(scene: dict, h: float, l0: float, end: float,
 
 
 def _for_comparison(scene: Scene, frames: int) -> Scene:
-    """The scene with its snapshot times cut at ``time.end``, which is added,
-    and ``frames`` output frames evenly spaced in time (none for 0)."""
+    """The scene with its snapshot times cut at ``time.end``, which is added
+    (in 2D: a 3D scene has no snapshots), and ``frames`` output frames evenly
+    spaced in time (none for 0)."""
     end = scene.time.end
-    times = sorted({t for t in scene.output.snapshots if t < end} | {end})
+    times = sorted({t for t in scene.output.snapshots if t < end} | {end}) if scene.dim == 2 else []
     every = max(1, math.ceil(scene.steps() / max(frames - 1, 1)))
     output = dataclasses.replace(scene.output, snapshots=tuple(times), particles=frames > 0, every=every)
     return dataclasses.replace(scene, output=output)
@@ -349,12 +405,13 @@ def read_study(out_dir: Path | str) -> dict:
     return json.loads(path.read_text())["settings"]
 
 
-def compare_borden(out_dir: Path | str, hs: Sequence[float] = DEFAULT_H, l0: float = DEFAULT_L0,
-                   end: float = DEFAULT_END, scene_path: Path | str = BORDEN_SCENE,
-                   overrides: Sequence[str] = (), progress: bool = True, log=print,
-                   frames: int = DEFAULT_FRAMES, resume: bool = False,
-                   model: str = "AT2", overwrite: bool = False) -> Comparison:
-    """Run the Borden plate with PF-MPM and PF-FEM at each ``h`` and compare.
+def compare(out_dir: Path | str, hs: Sequence[float] = DEFAULT_H, l0: float = DEFAULT_L0,
+            end: float = DEFAULT_END, scene_path: Path | str = BORDEN_SCENE,
+            overrides: Sequence[str] = (), progress: bool = True, log=print,
+            frames: int = DEFAULT_FRAMES, resume: bool = False,
+            model: str = "AT2", overwrite: bool = False, title: str = "Borden plate") -> Comparison:
+    """Run a scene, by default the Borden plate, with PF-MPM and PF-FEM at
+    each ``h`` and compare.
 
     Parameters
     ----------
@@ -368,7 +425,7 @@ def compare_borden(out_dir: Path | str, hs: Sequence[float] = DEFAULT_H, l0: flo
     end : float
         End time (us).
     scene_path : path
-        The Borden plate scene file.
+        The scene file (2D or 3D), one body the FEM path can mesh.
     overrides : sequence of str
         More ``key=value`` overrides for both methods' scenes, applied after
         those of :func:`comparison_overrides` (the FEM path ignores particle
@@ -389,6 +446,8 @@ def compare_borden(out_dir: Path | str, hs: Sequence[float] = DEFAULT_H, l0: flo
     overwrite : bool
         Without ``resume``: if ``out_dir`` holds another comparison or run,
         delete it first (:func:`clear`) rather than refuse.
+    title : str
+        What ``comparison.md`` calls the scene.
 
     Returns
     -------
@@ -464,13 +523,17 @@ def compare_borden(out_dir: Path | str, hs: Sequence[float] = DEFAULT_H, l0: flo
             runs[method, h] = {"size": size, "steps": result.steps, "wall_s": study["wall_s"][name],
                                "energies": read_csv(path / "energies.csv")}
     scene = by_h[hs[-1]]
-    crack = scene.cracks[0]
+    crack = scene.cracks[0] if scene.dim == 2 else None  # a 3D crack has a front, no tip to branch
     ref = reference({h: float(runs["fem", h]["energies"]["fracture"][-1]) for h in hs})
-    rows = _table(runs, hs, crack, ref["value"])
+    rows = _table(runs, hs, crack, ref["value"], scene.dim)
     fine = hs[-1]
     agree = agreement(runs["mpm", fine]["energies"], runs["fem", fine]["energies"], crack)
-    files = _write_outputs(out, rows, agree, ref, runs, hs, scene, l0, end, model)
+    files = _write_outputs(out, rows, agree, ref, runs, hs, scene, l0, end, model, title)
     return Comparison(out_dir=out, rows=rows, agreement=agree, h_common=fine, reference=ref, files=files)
+
+
+compare_borden = compare
+"""The same as :func:`compare`, whose defaults are the Borden plate's."""
 
 
 def _open_study(out: Path, settings: dict, resume: bool) -> dict:
@@ -511,15 +574,16 @@ def _checkpoint(path: Path, scene: Scene):
     return ckpt
 
 
-def _table(runs: dict, hs: list[float], crack: Crack, ref: float) -> list[dict]:
-    """The rows of ``speed_vs_error.csv``, errors against the reference ``ref``."""
+def _table(runs: dict, hs: list[float], crack: Crack | None, ref: float, dim: int = 2) -> list[dict]:
+    """The rows of ``speed_vs_error.csv`` (:data:`COLUMNS`, in 3D
+    :data:`COLUMNS_3D`), errors against the reference ``ref``."""
     rows = []
     for method in METHODS:
         for h in hs:
             run = runs[method, h]
             e = run["energies"]
             f_end = float(e["fracture"][-1])
-            rows.append({
+            row = {
                 "method": method,
                 "h": h,
                 "particles": run["size"] if method == "mpm" else None,
@@ -527,12 +591,15 @@ def _table(runs: dict, hs: list[float], crack: Crack, ref: float) -> list[dict]:
                 "steps": run["steps"],
                 "wall_s": run["wall_s"],
                 "initiation_us": initiation_time(e),
-                "branch_us": branch_time(e, crack),
                 "fracture_energy_end": f_end,
                 "elastic_energy_peak": float(e["elastic"].max()),
-                "crack_tip_x_end": float(e["crack_tip_x"][-1]),
                 "error": abs(f_end - ref) / ref,
-            })
+            }
+            if dim == 2:
+                row |= {"branch_us": branch_time(e, crack), "crack_tip_x_end": float(e["crack_tip_x"][-1])}
+            else:
+                row |= {"crack_front_end": float(e["crack_front"][-1]), "crack_area_end": float(e["crack_area"][-1])}
+            rows.append({c: row[c] for c in (COLUMNS if dim == 2 else COLUMNS_3D)})
     return rows
 
 
@@ -540,31 +607,39 @@ def _table(runs: dict, hs: list[float], crack: Crack, ref: float) -> list[dict]:
 
 
 def _write_outputs(out: Path, rows: list[dict], agree: dict, ref: dict, runs: dict, hs: list[float],
-                   scene: Scene, l0: float, end: float, model: str) -> dict[str, Path]:
+                   scene: Scene, l0: float, end: float, model: str, title: str = "Borden plate") -> dict[str, Path]:
     """Write the CSV, the plots and ``comparison.md``; return their paths by name."""
     files = {name: out / name for name in OUTPUTS}
+    columns = COLUMNS if scene.dim == 2 else COLUMNS_3D
     with open(files["speed_vs_error.csv"], "w", newline="") as f:
         writer = csv.writer(f)
-        writer.writerow(COLUMNS)
+        writer.writerow(columns)
         for row in rows:
             writer.writerow(["" if v is None else v if isinstance(v, (str, int)) else repr(float(v))
-                             for v in (row[c] for c in COLUMNS)])
+                             for v in (row[c] for c in columns)])
     units = scene.unit_system()
     v_r = scene.crack_rayleigh_speed()
     _plot_overlay(runs, hs, (("elastic", "elastic energy", "energy"), ("fracture", "fracture energy", "energy")),
                   files["energies_overlay.png"], units)
-    _plot_overlay(runs, hs, (("crack_tip_x", "crack tip x", "length"),
-                             ("crack_tip_speed", "crack tip speed", "speed")),
-                  files["crack_tip_speed_overlay.png"], units,
+    front = (("crack_tip_x", "crack tip x", "length"), ("crack_tip_speed", "crack tip speed", "speed"))
+    if scene.dim == 3:
+        front = (("crack_front", "crack front", "length"), ("crack_front_speed", "crack front speed", "speed"))
+    _plot_overlay(runs, hs, front, files["crack_tip_speed_overlay.png"], units,
                   lines=((v_r, "-.", "v_R"), (0.6 * v_r, ":", "0.6 v_R")))
     fine = _run_name("mpm", hs[-1]), _run_name("fem", hs[-1])
     titles = [f"{LABELS[m]}, h = {hs[-1]:g}" for m in METHODS]
-    for key, png in (("phase_field_side_by_side.png", "phase_field.png"),
-                     ("crack_path_side_by_side.png", "crack_path.png")):
-        if not _plot_side_by_side([out / name / png for name in fine], titles, files[key]):
-            del files[key]
+    if scene.dim == 2:
+        for key, png in (("phase_field_side_by_side.png", "phase_field.png"),
+                         ("crack_path_side_by_side.png", "crack_path.png")):
+            if not _plot_side_by_side([out / name / png for name in fine], titles, files[key]):
+                del files[key]
+    else:
+        del files["crack_path_side_by_side.png"]
+        if not _plot_slices([out / name for name in fine], titles, scene, files["phase_field_side_by_side.png"]):
+            del files["phase_field_side_by_side.png"]
     _plot_speed_vs_error(rows, ref, files["speed_vs_error.png"])
-    files["comparison.md"].write_text(_markdown(rows, agree, ref, hs[-1], l0, end, model))
+    markdown = _markdown if scene.dim == 2 else _markdown_3d
+    files["comparison.md"].write_text(markdown(rows, agree, ref, hs[-1], l0, end, model, title))
     plain = {k: v if math.isfinite(v) else None for k, v in {"h": hs[-1], "l0": l0, **agree}.items()}
     plain["reference"] = {k: (v if not isinstance(v, float) or math.isfinite(v) else None)
                           for k, v in ref.items()}
@@ -635,6 +710,82 @@ def _plot_side_by_side(images: list[Path], titles: list[str], png: Path) -> bool
     return True
 
 
+def _slice_axes(scene: Scene) -> tuple[np.ndarray, float]:
+    """The plane of a 3D comparison's pictures: its in-plane axes (the first
+    crack's unit normal and ``output.crack_direction``), their normal ``m``
+    (rows 0, 1, 2 of the returned matrix) and the body's middle along ``m``."""
+    points = np.asarray(scene.cracks[0].points, dtype=float)
+    n = np.cross(points[1] - points[0], points[2] - points[0])
+    n /= np.linalg.norm(n)
+    d = np.asarray(scene.output.crack_direction, dtype=float)
+    d = d - (d @ n) * n
+    d /= np.linalg.norm(d)
+    m = np.cross(n, d)
+    lo, hi = (np.asarray(b) for b in np.reshape(scene.bodies[0].shape.bounds(), (2, 3)))
+    corners = np.array([[(lo, hi)[(k >> j) & 1][j] for j in range(3)] for k in range(8)])
+    along = corners @ m
+    return np.array([n, d, m]), 0.5 * float(along.min() + along.max())
+
+
+def _last_phase_field(run: Path) -> tuple[np.ndarray, np.ndarray] | None:
+    """Positions (N, 3) and phase field of the last frame of a 3D run (MPM
+    particles or FEM vertices); None if it wrote no frame."""
+    if (run / "particles.pvd").is_file():
+        from .post.frames import read_frame, series
+
+        t, path = series(run)[-1]
+        frame = read_frame(t, path, 3)
+        return frame.x, np.asarray(frame.data["c"], dtype=float)
+    xdmf = run / "fields.xdmf"
+    if not xdmf.is_file():
+        return None
+    import xml.etree.ElementTree as ElementTree
+
+    import h5py
+
+    grids = ElementTree.parse(xdmf).getroot().find("Domain").findall("Grid")
+
+    def dataset(item):
+        name, _, where = item.text.strip().partition(":")
+        return run / name, where
+
+    h5, geometry = dataset(next(g for g in grids if g.get("GridType") == "Uniform").find("Geometry/DataItem"))
+    c = next(g for g in grids if g.get("CollectionType") == "Temporal" and g.get("Name") == "c")
+    _, values = dataset(c.findall("Grid")[-1].find("Attribute/DataItem"))
+    with h5py.File(h5, "r") as f:
+        return f[geometry][()][:, :3], f[values][()].ravel()
+
+
+def _plot_slices(runs: list[Path], titles: list[str], scene: Scene, png: Path) -> bool:
+    """The phase field of the last frame of each 3D run on the plane through
+    the body's middle spanned by the crack's normal and its direction
+    (:func:`_slice_axes`): the particles or vertices of the layer nearest to
+    it (one layer, where two lie as near), side by side; False if a run
+    wrote no frame."""
+    plt = _pyplot()
+    fields = [_last_phase_field(run) for run in runs]
+    if any(f is None for f in fields):
+        return False
+    axes_3d, middle = _slice_axes(scene)
+    units = scene.unit_system()
+    fig, axes = plt.subplots(1, len(fields), figsize=(6.0 * len(fields), 3.6), squeeze=False)
+    for ax, (x, c), title in zip(axes[0], fields, titles):
+        local = x @ axes_3d.T
+        # The one layer of the point nearest the middle (the lattice's layers lie h / n or h apart).
+        layer = local[np.argmin(np.abs(local[:, 2] - middle)), 2]
+        near = np.abs(local[:, 2] - layer) <= 0.1 * scene.grid.h
+        im = ax.tripcolor(local[near, 0], local[near, 1], c[near], shading="gouraud", cmap="inferno",
+                          vmin=0.0, vmax=1.0)
+        ax.set_aspect("equal")
+        ax.set_title(title, fontsize=12, fontweight="bold")
+        ax.set_xlabel(units.label("along the crack's normal", "length"))
+        ax.set_ylabel(units.label("along crack_direction", "length"))
+    fig.colorbar(im, ax=axes[0].tolist(), label="phase field c", shrink=0.8)
+    fig.savefig(png, dpi=150, bbox_inches="tight")
+    plt.close(fig)
+    return True
+
+
 def _trim(picture: np.ndarray) -> np.ndarray:
     """An RGB(A) image without its white margins."""
     ink = np.any(picture[..., :3] < 0.99, axis=2)
@@ -695,14 +846,14 @@ def _fmt(value, spec: str = ".4g") -> str:
 
 
 def _markdown(rows: list[dict], agree: dict, ref: dict, h: float, l0: float, end: float,
-              model: str) -> str:
+              model: str, title: str = "Borden plate") -> str:
     """``comparison.md``: the table of runs, the reference and the agreement at the finest common h."""
     a = agree
     res = _fmt(a["record_interval_us"], ".3f")
     observed = ("" if not math.isfinite(ref["observed_order"]) else
                 f" The three finest PF-FEM runs converge at order {ref['observed_order']:.2f}.")
     lines = [
-        "# PF-MPM against PF-FEM: Borden plate",
+        f"# PF-MPM against PF-FEM: {title}",
         "",
         f"{model} phase field, l0 = {l0:g} mm, end time {end:g} us. `error`: relative difference of"
         f" a run's end fracture energy from {_reference_text(ref)}, one reference for both"
@@ -735,6 +886,53 @@ def _markdown(rows: list[dict], agree: dict, ref: dict, h: float, l0: float, end
         "Plots: `energies_overlay.png`, `crack_tip_speed_overlay.png`,"
         " `phase_field_side_by_side.png`, `crack_path_side_by_side.png`, `speed_vs_error.png`."
         " Each run's own output is in `mpm_h<h>/` (particles.pvd) and `fem_h<h>/` (fields.xdmf).",
+        "",
+    ]
+    return "\n".join(lines)
+
+
+def _markdown_3d(rows: list[dict], agree: dict, ref: dict, h: float, l0: float, end: float,
+                 model: str, title: str) -> str:
+    """``comparison.md`` of a 3D scene: the crack front in place of the tip, no branching."""
+    a = agree
+    res = _fmt(a["record_interval_us"], ".3f")
+    observed = ("" if not math.isfinite(ref["observed_order"]) else
+                f" The three finest PF-FEM runs converge at order {ref['observed_order']:.2f}.")
+    lines = [
+        f"# PF-MPM against PF-FEM: {title}",
+        "",
+        f"{model} phase field, l0 = {l0:g} mm, end time {end:g} us. `error`: relative difference of"
+        f" a run's end fracture energy from {_reference_text(ref)}, one reference for both"
+        f" methods.{observed}"
+        " `particles` counts the MPM material points, `dofs` the FEM unknowns (three displacements"
+        " and the phase field per vertex). `crack_front_end`: the crack front (the farthest extent"
+        " of the cracked points along `output.crack_direction`) at the end; `crack_area_end`: the"
+        " crack area int gamma(c) dV at the end. Initiation: the front 0.5 mm past its start, read"
+        f" from `energies.csv` rows, so known to within {res} us.",
+        "",
+        "| " + " | ".join(COLUMNS_3D) + " |",
+        "|" + "---|" * len(COLUMNS_3D),
+    ]
+    lines += ["| " + " | ".join(_fmt(r[c]) for c in COLUMNS_3D) + " |" for r in rows]
+    lines += [
+        "",
+        f"## Agreement at h = {h:g} (MPM minus FEM, relative to FEM)",
+        "",
+        "| quantity | PF-MPM | PF-FEM | difference |",
+        "|---|---|---|---|",
+        f"| crack initiation (front 0.5 mm past its start) [us], +- {res} | {_fmt(a['initiation_mpm_us'], '.3f')}"
+        f" | {_fmt(a['initiation_fem_us'], '.3f')} | {_fmt(a['initiation_diff_us'], '+.3f')} us |",
+        f"| elastic energy up to {_fmt(a['elastic_window_us'], '.3f')} us, RMS difference / peak"
+        f" {_fmt(a['elastic_peak'])} | | | {_fmt(100 * a['elastic_rms_rel'], '.2f')} % |",
+        f"| fracture energy at {_fmt(a['t_end'], '.3f')} us | {_fmt(a['fracture_end_mpm'])}"
+        f" | {_fmt(a['fracture_end_fem'])} | {_fmt(100 * a['fracture_end_rel_diff'], '+.2f')} % |",
+        f"| fracture energy gained since t = 0 | | | {_fmt(100 * a['fracture_gain_rel_diff'], '+.2f')} % |",
+        "",
+        "Plots: `energies_overlay.png`, `crack_tip_speed_overlay.png` (the crack front and its speed),"
+        " `phase_field_side_by_side.png` (the phase field of each run's last frame on the plane"
+        " through the body's middle spanned by the crack's normal and its direction),"
+        " `speed_vs_error.png`. Each run's own output is in `mpm_h<h>/` (particles.pvd) and"
+        " `fem_h<h>/` (fields.xdmf).",
         "",
     ]
     return "\n".join(lines)
