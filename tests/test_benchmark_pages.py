@@ -21,7 +21,7 @@ KEYS = {"benchmark", "page", "commands", "date", "commit", "tables"}
 
 def test_every_driver_with_a_table_has_a_results_file():
     assert set(FILES) == {"kalthoff_winkler", "billet", "wedge_disk_block", "charpy", "brazilian", "efficiency", "sphere_disk",
-                          "notched_beam3d"}
+                          "notched_beam3d", "borden_slab"}
 
 
 @pytest.mark.parametrize("name", sorted(FILES))

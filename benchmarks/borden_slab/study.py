@@ -11,8 +11,10 @@ crack front of each layer of particles through the thickness: the largest
 x of a particle with c below the scene's crack threshold. ``--report``
 compares: the largest relative gap of the slab's energies from the plane
 run's until initiation (1e-10 asked) and after it, the initiation times,
-the largest distance between the 2D tip and the slab's front through 80 us
-(one cell asked), the free slab's front per layer and its spread, and each
+the largest distance between the two runs' crack fronts along x through
+80 us (one cell asked; the plane run records the front beside its tip, the
+cracked point farthest from the notch tip, which is another point near the
+notch and after the crack branches), the free slab's front per layer and its spread, and each
 run's wall time and peak memory per particle; it writes
 ``OUT/benchmark_results.json`` for the page.
 
@@ -39,8 +41,9 @@ if str(Path(__file__).resolve().parents[2]) not in sys.path:  # run as a file: t
 from benchmarks.common import results as results_file  # noqa: E402
 from pfmpm import Simulation, scenes  # noqa: E402
 from pfmpm.bench import _rss_bytes  # noqa: E402
+from pfmpm.observe import CrackFrontObserver, default_observers  # noqa: E402
 from pfmpm.output import read_csv  # noqa: E402
-from pfmpm.post.tip import initiation_time  # noqa: E402
+from pfmpm.post.tip import branch_time, initiation_time  # noqa: E402
 from pfmpm.scene import Scene  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -59,7 +62,7 @@ def case_scene(case: str) -> Scene:
     if case == "plane":
         return Scene.from_toml(ROOT / "demos" / "borden_plate.toml",
                                ["grid.h=1.0", "materials.concrete.fracture.l0=2.0", "thickness=4.0",
-                                "output.snapshots=[]", *fixed])
+                                "output.snapshots=[]", "output.crack_direction=[1.0, 0.0]", *fixed])
     slab = scenes.path("borden_slab")
     if case == "slab":
         return Scene.from_toml(slab, fixed)
@@ -93,7 +96,9 @@ def run(case: str, out: Path) -> None:
     else:
         sim = Simulation(scene)
         record["particles"] = len(sim.particles)
-        result = sim.run(out / case, progress=False, overwrite=True)
+        # The 2D run records the 3D front's measure too (the farthest cracked point along x).
+        observers = default_observers(sim) + ([CrackFrontObserver(sim)] if case == "plane" else [])
+        result = sim.run(out / case, progress=False, overwrite=True, observers=observers)
         record["status"] = result.status
     record["wall_s"] = time.perf_counter() - start
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
@@ -111,7 +116,12 @@ def report(out: Path) -> dict:
     gap = {k: np.abs(a[k][:n] - b[k][:n]) / np.abs(a[k][:n]).max() for k in COMPARED}
     gap_before = max(float(g[before].max()) for g in gap.values())
     gap_after = max(float(g.max()) for g in gap.values())
-    tip = np.abs(a["crack_tip_x"][:n] - b["crack_front_x"][:n])
+    # The 3D front against the same measure of the 2D run (the cracked point
+    # farthest along x), and against the 2D tip (the one farthest from the
+    # notch tip), a different point near the notch and after the branching.
+    t_branch = branch_time(a, case_scene("plane").cracks[0])
+    tip = np.abs(a["crack_front_x"][:n] - b["crack_front_x"][:n])
+    other = np.abs(a["crack_tip_x"][:n] - b["crack_front_x"][:n])
     runs = {c: json.loads((out / f"{c}.json").read_text()) for c in ("plane", "slab", "free")}
     free = runs["free"]["fronts"]
     spread = {t: max(r["front_x"] for r in rows) - min(r["front_x"] for r in rows) for t, rows in free.items()}
@@ -120,8 +130,10 @@ def report(out: Path) -> dict:
          "pass" if gap_before <= ENERGY_GAP else "fail"],
         ["energies.csv, through 80 us", f"{gap_after:.1e}", "", ""],
         ["initiation, plane / slab (us)", f"{t_init:.3f} / {initiation_time(b):.3f}", "", ""],
-        ["tip (2D) against front (slab), largest distance through 80 us (mm)", f"{tip.max():.3f}",
+        ["crack front along x, slab against plane, largest distance through 80 us (mm)", f"{tip.max():.2e}",
          f"<= {TIP_GAP:g} cell", "pass" if tip.max() <= TIP_GAP else "fail"],
+        [f"the 2D tip (farthest from the notch tip) against the slab's front, through 80 us (branching at"
+         f" {t_branch:.2f} us) (mm)", f"{other.max():.3f}", "", ""],
         ["fracture energy at 80 us, plane / slab (mJ)", f"{a['fracture'][n - 1]:.5f} / {b['fracture'][n - 1]:.5f}",
          "", ""],
     ]
