@@ -638,8 +638,7 @@ def _write_outputs(out: Path, rows: list[dict], agree: dict, ref: dict, runs: di
         if not _plot_slices([out / name for name in fine], titles, scene, files["phase_field_side_by_side.png"]):
             del files["phase_field_side_by_side.png"]
     _plot_speed_vs_error(rows, ref, files["speed_vs_error.png"])
-    markdown = _markdown if scene.dim == 2 else _markdown_3d
-    files["comparison.md"].write_text(markdown(rows, agree, ref, hs[-1], l0, end, model, title))
+    files["comparison.md"].write_text(_markdown(rows, agree, ref, hs[-1], l0, end, model, title, scene.dim))
     plain = {k: v if math.isfinite(v) else None for k, v in {"h": hs[-1], "l0": l0, **agree}.items()}
     plain["reference"] = {k: (v if not isinstance(v, float) or math.isfinite(v) else None)
                           for k, v in ref.items()}
@@ -846,93 +845,64 @@ def _fmt(value, spec: str = ".4g") -> str:
 
 
 def _markdown(rows: list[dict], agree: dict, ref: dict, h: float, l0: float, end: float,
-              model: str, title: str = "Borden plate") -> str:
-    """``comparison.md``: the table of runs, the reference and the agreement at the finest common h."""
+              model: str, title: str = "Borden plate", dim: int = 2) -> str:
+    """``comparison.md``: the table of runs, the reference and the agreement at
+    the finest common h; of a 3D scene with the crack front in place of the
+    tip and no branching."""
     a = agree
     res = _fmt(a["record_interval_us"], ".3f")
     observed = ("" if not math.isfinite(ref["observed_order"]) else
                 f" The three finest PF-FEM runs converge at order {ref['observed_order']:.2f}.")
+    columns, crack = (COLUMNS, "tip") if dim == 2 else (COLUMNS_3D, "front")
+    if dim == 2:
+        measures = (" Initiation: the tip 0.5 mm past its start; branching:"
+                    " the tip first more than 1 mm off the notch line while more than 5 mm ahead of the notch"
+                    f" tip; both read from `energies.csv` rows, so known to within {res} us.")
+        plots = (" `phase_field_side_by_side.png`, `crack_path_side_by_side.png`, `speed_vs_error.png`.")
+        tip_plot = "`crack_tip_speed_overlay.png`,"
+    else:
+        measures = (" `crack_front_end`: the crack front (the farthest extent"
+                    " of the cracked points along `output.crack_direction`) at the end; `crack_area_end`: the"
+                    " crack area int gamma(c) dV at the end. Initiation: the front 0.5 mm past its start, read"
+                    f" from `energies.csv` rows, so known to within {res} us.")
+        plots = (" `phase_field_side_by_side.png` (the phase field of each run's last frame on the plane"
+                 " through the body's middle spanned by the crack's normal and its direction),"
+                 " `speed_vs_error.png`.")
+        tip_plot = "`crack_tip_speed_overlay.png` (the crack front and its speed),"
     lines = [
         f"# PF-MPM against PF-FEM: {title}",
         "",
         f"{model} phase field, l0 = {l0:g} mm, end time {end:g} us. `error`: relative difference of"
         f" a run's end fracture energy from {_reference_text(ref)}, one reference for both"
         f" methods.{observed}"
-        " `particles` counts the MPM material points, `dofs` the FEM unknowns (two displacements"
-        " and the phase field per vertex). Initiation: the tip 0.5 mm past its start; branching:"
-        " the tip first more than 1 mm off the notch line while more than 5 mm ahead of the notch"
-        f" tip; both read from `energies.csv` rows, so known to within {res} us.",
+        f" `particles` counts the MPM material points, `dofs` the FEM unknowns ({'two' if dim == 2 else 'three'}"
+        " displacements and the phase field per vertex)." + measures,
         "",
-        "| " + " | ".join(COLUMNS) + " |",
-        "|" + "---|" * len(COLUMNS),
+        "| " + " | ".join(columns) + " |",
+        "|" + "---|" * len(columns),
     ]
-    lines += ["| " + " | ".join(_fmt(r[c]) for c in COLUMNS) + " |" for r in rows]
+    lines += ["| " + " | ".join(_fmt(r[c]) for c in columns) + " |" for r in rows]
     lines += [
         "",
         f"## Agreement at h = {h:g} (MPM minus FEM, relative to FEM)",
         "",
         "| quantity | PF-MPM | PF-FEM | difference |",
         "|---|---|---|---|",
-        f"| crack initiation (tip 0.5 mm past its start) [us], +- {res} | {_fmt(a['initiation_mpm_us'], '.3f')}"
+        f"| crack initiation ({crack} 0.5 mm past its start) [us], +- {res} | {_fmt(a['initiation_mpm_us'], '.3f')}"
         f" | {_fmt(a['initiation_fem_us'], '.3f')} | {_fmt(a['initiation_diff_us'], '+.3f')} us |",
-        f"| crack branching (tip 1 mm off the notch line) [us], +- {res} | {_fmt(a['branch_mpm_us'], '.3f')}"
-        f" | {_fmt(a['branch_fem_us'], '.3f')} | {_fmt(a['branch_diff_us'], '+.3f')} us |",
+    ]
+    if dim == 2:
+        lines.append(f"| crack branching (tip 1 mm off the notch line) [us], +- {res} | {_fmt(a['branch_mpm_us'], '.3f')}"
+                     f" | {_fmt(a['branch_fem_us'], '.3f')} | {_fmt(a['branch_diff_us'], '+.3f')} us |")
+    lines += [
         f"| elastic energy up to {_fmt(a['elastic_window_us'], '.3f')} us, RMS difference / peak"
         f" {_fmt(a['elastic_peak'])} | | | {_fmt(100 * a['elastic_rms_rel'], '.2f')} % |",
         f"| fracture energy at {_fmt(a['t_end'], '.3f')} us | {_fmt(a['fracture_end_mpm'])}"
         f" | {_fmt(a['fracture_end_fem'])} | {_fmt(100 * a['fracture_end_rel_diff'], '+.2f')} % |",
         f"| fracture energy gained since t = 0 | | | {_fmt(100 * a['fracture_gain_rel_diff'], '+.2f')} % |",
         "",
-        "Plots: `energies_overlay.png`, `crack_tip_speed_overlay.png`,"
-        " `phase_field_side_by_side.png`, `crack_path_side_by_side.png`, `speed_vs_error.png`."
+        f"Plots: `energies_overlay.png`, {tip_plot}" + plots +
         " Each run's own output is in `mpm_h<h>/` (particles.pvd) and `fem_h<h>/` (fields.xdmf).",
-        "",
-    ]
-    return "\n".join(lines)
-
-
-def _markdown_3d(rows: list[dict], agree: dict, ref: dict, h: float, l0: float, end: float,
-                 model: str, title: str) -> str:
-    """``comparison.md`` of a 3D scene: the crack front in place of the tip, no branching."""
-    a = agree
-    res = _fmt(a["record_interval_us"], ".3f")
-    observed = ("" if not math.isfinite(ref["observed_order"]) else
-                f" The three finest PF-FEM runs converge at order {ref['observed_order']:.2f}.")
-    lines = [
-        f"# PF-MPM against PF-FEM: {title}",
-        "",
-        f"{model} phase field, l0 = {l0:g} mm, end time {end:g} us. `error`: relative difference of"
-        f" a run's end fracture energy from {_reference_text(ref)}, one reference for both"
-        f" methods.{observed}"
-        " `particles` counts the MPM material points, `dofs` the FEM unknowns (three displacements"
-        " and the phase field per vertex). `crack_front_end`: the crack front (the farthest extent"
-        " of the cracked points along `output.crack_direction`) at the end; `crack_area_end`: the"
-        " crack area int gamma(c) dV at the end. Initiation: the front 0.5 mm past its start, read"
-        f" from `energies.csv` rows, so known to within {res} us.",
-        "",
-        "| " + " | ".join(COLUMNS_3D) + " |",
-        "|" + "---|" * len(COLUMNS_3D),
-    ]
-    lines += ["| " + " | ".join(_fmt(r[c]) for c in COLUMNS_3D) + " |" for r in rows]
-    lines += [
-        "",
-        f"## Agreement at h = {h:g} (MPM minus FEM, relative to FEM)",
-        "",
-        "| quantity | PF-MPM | PF-FEM | difference |",
-        "|---|---|---|---|",
-        f"| crack initiation (front 0.5 mm past its start) [us], +- {res} | {_fmt(a['initiation_mpm_us'], '.3f')}"
-        f" | {_fmt(a['initiation_fem_us'], '.3f')} | {_fmt(a['initiation_diff_us'], '+.3f')} us |",
-        f"| elastic energy up to {_fmt(a['elastic_window_us'], '.3f')} us, RMS difference / peak"
-        f" {_fmt(a['elastic_peak'])} | | | {_fmt(100 * a['elastic_rms_rel'], '.2f')} % |",
-        f"| fracture energy at {_fmt(a['t_end'], '.3f')} us | {_fmt(a['fracture_end_mpm'])}"
-        f" | {_fmt(a['fracture_end_fem'])} | {_fmt(100 * a['fracture_end_rel_diff'], '+.2f')} % |",
-        f"| fracture energy gained since t = 0 | | | {_fmt(100 * a['fracture_gain_rel_diff'], '+.2f')} % |",
-        "",
-        "Plots: `energies_overlay.png`, `crack_tip_speed_overlay.png` (the crack front and its speed),"
-        " `phase_field_side_by_side.png` (the phase field of each run's last frame on the plane"
-        " through the body's middle spanned by the crack's normal and its direction),"
-        " `speed_vs_error.png`. Each run's own output is in `mpm_h<h>/` (particles.pvd) and"
-        " `fem_h<h>/` (fields.xdmf).",
         "",
     ]
     return "\n".join(lines)
