@@ -38,6 +38,7 @@ RULES = [
     (r"pfmpm --version$", []),
     (r"pfmpm compare borden --h ", ["--h", "1.0", "--l0", "2.0", "--end", "0.5", "--set",
                                     "bodies.plate.particles_per_cell=1", "--quiet"]),
+    (r"pfmpm compare notched_beam3d --out out/cmp_beam3d$", ["--h", "1.0", "--end", "1", "--quiet"]),
     # The study above is complete: its runs are kept.
     (r"pfmpm compare borden --resume --out out/study$", ["--quiet"]),
     (r"pfmpm animate out/borden$", []),
