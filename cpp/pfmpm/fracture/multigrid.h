@@ -68,7 +68,7 @@ static_assert(sweep_planes >= 3, "a strip must be at least as wide as the stenci
 /// phase-field matrix K stored as an upper-half (2p+1)^Dim-point stencil on
 /// the B-spline grid (SymmetricStencil), as a preconditioner B ~ K^-1 for
 /// conjugate gradients (Kakouris & Triantafyllou 2019, eqs. 56-57, 52; in 3D
-/// the second-order eq. 57 on the trivariate tensor-product basis).
+/// the second-order K&T eq. 57 on the trivariate tensor-product basis).
 ///
 /// Levels: the grid of the phase field and grids of cells 2h, 4h, ... with the
 /// B-spline bases of the same degree on them, nested by the two-scale relation
