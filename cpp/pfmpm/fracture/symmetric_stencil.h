@@ -140,15 +140,22 @@ template <int Dim, int P, bool Before, bool After, int Q>
     for (int dx = P; dx >= 1; --dx)
       b[q] -= column[dx][q];
   // The own column or plane (slots 1 .. own, offset o_k > 0 in the node
-  // order): i - o_k before i, i + o_k after it.
+  // order): i - o_k before i, i + o_k after it. In 2D o_k = k, a constant.
+  auto own_offset = [&](int k) -> std::ptrdiff_t
+  {
+    if constexpr (Dim == 2)
+      return k;
+    else
+      return stencil.offset[k];
+  };
   if constexpr (Before)
     for (int k = own; k >= 1; --k)
       for (int q = 0; q < Q; ++q)
-        b[q] -= rows[(i - stencil.offset[k]) * H + k] * x[q][i - stencil.offset[k]];
+        b[q] -= rows[(i - own_offset(k)) * H + k] * x[q][i - own_offset(k)];
   if constexpr (After)
     for (int k = own; k >= 1; --k)
       for (int q = 0; q < Q; ++q)
-        b[q] -= row[k] * x[q][i + stencil.offset[k]];
+        b[q] -= row[k] * x[q][i + own_offset(k)];
 }
 
 /// subtract_neighbours for one vector x: b - sum_j K_ij x_j.
