@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import resource
 import sys
 import time
 from pathlib import Path
@@ -40,7 +39,7 @@ if str(Path(__file__).resolve().parents[2]) not in sys.path:  # run as a file: t
 
 from benchmarks.common import results as results_file  # noqa: E402
 from pfmpm import Simulation, scenes  # noqa: E402
-from pfmpm.bench import _rss_bytes  # noqa: E402
+from pfmpm.bench import peak_rss_bytes, rss_bytes  # noqa: E402
 from pfmpm.observe import CrackFrontObserver, default_observers  # noqa: E402
 from pfmpm.output import read_csv  # noqa: E402
 from pfmpm.post.tip import branch_time, initiation_time  # noqa: E402
@@ -82,7 +81,7 @@ def fronts(sim: Simulation, threshold: float) -> list[dict]:
 
 
 def run(case: str, out: Path) -> None:
-    before = _rss_bytes()
+    before = rss_bytes()
     scene = case_scene(case)
     start = time.perf_counter()
     record: dict = {"case": case}
@@ -101,7 +100,7 @@ def run(case: str, out: Path) -> None:
         result = sim.run(out / case, progress=False, overwrite=True, observers=observers)
         record["status"] = result.status
     record["wall_s"] = time.perf_counter() - start
-    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+    peak = peak_rss_bytes()
     record["peak_bytes_per_particle"] = (peak - before) / record["particles"]
     (out / f"{case}.json").write_text(json.dumps(record, indent=1))
     print(json.dumps({k: v for k, v in record.items() if k != "fronts"}))

@@ -158,7 +158,7 @@ def bench(physics: str = "elastic", particles: int = 1_000_000, steps: int = 20,
         raise ValueError(f"physics = {physics!r}: must be one of {', '.join(PHYSICS)}")
     if per_cell is None:
         per_cell = 3 if dim == 2 else 2
-    resident = _rss_bytes()
+    resident = rss_bytes()
     sim = Simulation(block_scene(particles, degree, per_cell, physics=physics, model=model, bands=bands,
                                  shape=shape, transfer=transfer, dim=dim))
     x = sim.particles.x
@@ -177,7 +177,7 @@ def bench(physics: str = "elastic", particles: int = 1_000_000, steps: int = 20,
     seconds = statistics.median(times)
     n = len(sim.particles)
     stats = sim.solver.phase_field_stats()
-    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+    peak = peak_rss_bytes()
     return {
         "physics": physics,
         "model": model,
@@ -217,13 +217,18 @@ def _damage_share(sim: Simulation, before: dict, total: float) -> dict:
             "neighbour_builds": sim.solver.damage_partition()["neighbour_builds"]}
 
 
-def _rss_bytes() -> int:
+def rss_bytes() -> int:
     """Resident set size of this process now."""
     with open("/proc/self/status") as f:
         for line in f:
             if line.startswith("VmRSS:"):
                 return int(line.split()[1]) * 1024
     return 0
+
+
+def peak_rss_bytes() -> int:
+    """The largest resident set size of this process so far (``ru_maxrss``)."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
 
 
 def scene_bench(path: Path | str, steps: int = 20, overrides: list[str] | tuple[str, ...] = ()) -> dict:
@@ -240,7 +245,7 @@ def scene_bench(path: Path | str, steps: int = 20, overrides: list[str] | tuple[
     """
     from .scene import Scene
 
-    before = _rss_bytes()
+    before = rss_bytes()
     scene = Scene.from_toml(path, list(overrides) + ["output.particles=false"])
     sim = Simulation(scene)
     # Warm-up: allocations, the first sort, the cold phase-field solve and the
@@ -253,7 +258,7 @@ def scene_bench(path: Path | str, steps: int = 20, overrides: list[str] | tuple[
     sim.advance(steps)
     seconds = time.perf_counter() - start
     stats = sim.solver.phase_field_stats()
-    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+    peak = peak_rss_bytes()
     n = len(sim.particles)
     solved = stats["solves"] - solves
     return {
