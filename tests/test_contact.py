@@ -82,6 +82,26 @@ def test_disks_collide_conserving_momentum_without_interpenetration(offset, mu, 
     assert vx[0] < 0 < vx[1]
 
 
+def test_normal_contact_loss_shrinks_with_h():
+    """The frictionless head-on disks lose energy in contact, a perfectly
+    inelastic collision of the nodal masses that no column books
+    (docs/contact.md, "Energy"): 0.093 of it at R/h = 8 and 0.035 at R/h = 16
+    (0.013 at 32, docs/verification/sphere-disk.md). A loss that did not
+    shrink with h would be the contact law's, not the resolution's."""
+    lost = []
+    for h in (0.125, 0.0625):
+        scene = disks(0.0, h=h, mu=0.0)
+        sim = Simulation(scene)
+        start = sim.energies()["kinetic"]
+        sim.advance(scene.steps())
+        e = sim.energies()
+        assert e["friction_dissipation"] == 0.0
+        lost.append(1.0 - e["total"] / start)
+    print(f"lost at R/h = 8, 16: {lost[0]:.4f}, {lost[1]:.4f}")
+    assert lost[0] == pytest.approx(0.093, abs=0.005) and lost[1] == pytest.approx(0.035, abs=0.003)
+    assert lost[0] / lost[1] > 2.0
+
+
 def test_bodies_a_gap_apart_do_not_touch():
     """Two blocks a cell apart share grid nodes (Remark 4) but do not touch:
     closing slowly, they exert no force on each other while the gap stays open
