@@ -67,6 +67,12 @@ def test_box_seeding_gives_the_whole_seeding_ids(make, splits):
         np.testing.assert_array_equal(x[order], xs[b])
 
 
+def test_a_box_needs_a_range_per_direction():
+    scene = plane_scene()
+    with pytest.raises(ValueError, match=r"^box = \(\(0, 4\),\): must be 2 \(first, end\) cell ranges"):
+        next(seeding.seed_body(scene.bodies[0], scene.grid, 0, ((0, 4),)))
+
+
 def test_ids_are_the_lattice_positions():
     """A particle's id is its body's base plus its place in the body's
     bounding lattice: cell (the last direction fastest) times n^dim plus its

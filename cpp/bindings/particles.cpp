@@ -61,7 +61,8 @@ void bind_particles(py::module_& m)
                         "Material points: core arrays and the named columns of a scene's models. "
                         "Every column is an attribute, a zero-copy numpy view (N,) or (N, k).")
       .def(py::init<std::size_t, int>(), py::arg("n"), py::arg("dim") = 2,
-           "n particles at rest in dim (2 or 3) directions")
+           "n particles at rest in dim (2 or 3) directions, with the ids 0 to n - 1 (the column id, "
+           "int64, which must ascend: the solver checks it)")
       .def("__len__", &Particles::size)
       .def_property_readonly("dim", &Particles::dim, "the directions: 2 or 3")
       .def("__getattr__", [](py::object self, const std::string& name)

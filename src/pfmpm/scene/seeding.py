@@ -111,8 +111,15 @@ def seed_body(body: Body, grid: GridSpec, base: int = 0,
     box : tuple of (first, end) per direction, optional
         Seed only the cells of this box (cell indices of the grid; those
         outside the bounding box have no particles); default all.
+
+    Raises
+    ------
+    ValueError
+        Naming ``box`` if it has not one (first, end) pair per direction.
     """
     whole = cell_range(body, grid)
+    if box is not None and (len(box) != grid.dim or any(len(r) != 2 for r in box)):
+        raise ValueError(f"box = {box}: must be {grid.dim} (first, end) cell ranges, one per direction")
     cells = whole if box is None else tuple(
         (max(a, first), min(b, end)) for (a, b), (first, end) in zip(box, whole))
     for x, number in _numbered(body, grid, cells, whole):
