@@ -62,10 +62,10 @@ FORMAT = "pfmpm-checkpoint"
 VERSION = 6
 # Version 6 keeps the particles' global ids (particles/id); the rows of an
 # older file are in the seeding order of its scene, so the seeding gives
-# their ids (restore). Version 5 keeps the state of the run's observers as arrays under /output;
-# versions 2-4 kept the particle series and the times of the phase-field
-# images in meta (``series``, ``snapshot_image_times``), which reading turns
-# into those arrays. Version 4 stores the particle columns and the solver
+# their ids (restore). Version 5 keeps the state of the run's observers as
+# arrays under /output; versions 2-4 kept the particle series and the times
+# of the phase-field images in meta (``series``, ``snapshot_image_times``),
+# which reading turns into those arrays. Version 4 stores the particle columns and the solver
 # state by the names the core gives them. Versions 2 and 3 had fixed lists of
 # both (_from_version_3);
 # version 3 turned the frame in which an anisotropic material's gamma is read
