@@ -284,6 +284,33 @@ def test_damaged_checkpoint_is_refused(saved, tmp_path, capsys, how, reason):
     assert f"older: {run / 'checkpoints' / 'step_000000050.h5'}" in err[0]
 
 
+def test_checkpoint_carries_the_ids_and_a_resume_checks_them(saved):
+    """The ids are written and, on resuming, compared with the scene's
+    seeding row by row (not written: a run keeps its particles and their
+    order); a file from before version 6, without them, takes the seeding's."""
+    path = checkpoint.list_checkpoints(saved / "checkpoints")[-1]
+    ckpt = checkpoint.read(path)
+    sim = Simulation(Scene.from_dict(ckpt.scene))
+    assert ckpt.version == checkpoint.VERSION == 6
+    assert ckpt.particles["id"].dtype == np.int64
+    np.testing.assert_array_equal(ckpt.particles["id"], sim.particles.id)
+    checkpoint.restore(sim, ckpt)
+    np.testing.assert_array_equal(sim.particles.x, ckpt.particles["x"])
+
+    ids = ckpt.particles["id"]
+    ids[5] += 1
+    with pytest.raises(checkpoint.CheckpointError) as refused:
+        checkpoint.restore(sim, ckpt)
+    assert str(refused.value) == (f"checkpoint {path}: particles/id of particle 5 is {ids[5]},"
+                                  f" the scene seeds id {ids[5] - 1} there")
+    del ckpt.particles["id"]
+    with pytest.raises(checkpoint.CheckpointError, match="particles/id is missing"):
+        checkpoint.restore(sim, ckpt)
+    ckpt.version = 5
+    checkpoint.restore(sim, ckpt)
+    np.testing.assert_array_equal(sim.particles.id, Scene.from_dict(ckpt.scene).particles()["id"])
+
+
 DATA = Path(__file__).resolve().parent / "data"
 
 

@@ -203,8 +203,8 @@ def test_particle_output_has_displacement_damage_strain_volume_and_id(tmp_path):
     assert {"velocity", "volume", "stress", "strain", "c", "history", "displacement", "damage",
             "id", "body", "material"} <= data.keys()
     p = sim.particles
-    n = len(p)
-    np.testing.assert_array_equal(data["id"].ravel(), np.arange(n))
+    np.testing.assert_array_equal(data["id"].ravel(), p.id)  # the global ids (the seeding's)
+    assert data["id"].dtype == np.int64 and np.array_equal(p.id, scene.particles()["id"])
     np.testing.assert_array_equal(data["displacement"][:, :2], p.x - scene.particles()["x"])
     # Pulled by 1 MPa: the edges move at sigma / (rho c_p) = 1.07e-4 mm/us, for 3 us.
     assert np.abs(data["displacement"][:, 1]).max() == pytest.approx(1.07e-4 * sim.time, rel=0.15)

@@ -7,12 +7,13 @@
 # on the machine's load. Both sides are built for x86-64-v3 (valgrind does not run
 # AVX-512) with symbols.
 #   bash tools/instructions.sh [REV]
-# Builds in /tmp/instructions (a few minutes per side); prints M instructions
+# Builds in /tmp/instructions, or $PFMPM_TOOLS_ROOT/instructions where two
+# sessions share /tmp (a few minutes per side); prints M instructions
 # per case and side and their ratio.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 rev=${1:-HEAD}
-root=/tmp/instructions
+root=${PFMPM_TOOLS_ROOT:-/tmp}/instructions
 source tools/two_trees.sh
 
 cat > "$root/step.py" <<'PY'

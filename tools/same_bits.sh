@@ -6,12 +6,13 @@
 # files whatever the compiler inlines (with contraction on, the fused
 # multiply-adds it forms depend on inlining: docs/performance/determinism.md).
 #   bash tools/same_bits.sh [REV]
-# Builds in /tmp/same_bits (a few minutes per side); prints an md5 per file
+# Builds in /tmp/same_bits, or $PFMPM_TOOLS_ROOT/same_bits where two sessions
+# share /tmp (a few minutes per side); prints an md5 per file
 # and side, and exits 1 when a file differs.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 rev=${1:-HEAD}
-root=/tmp/same_bits
+root=${PFMPM_TOOLS_ROOT:-/tmp}/same_bits
 source tools/two_trees.sh
 
 runs=(

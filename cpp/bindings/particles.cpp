@@ -7,6 +7,7 @@
 #include <pybind11/numpy.h>
 #include <pybind11/stl.h>
 
+#include <stdexcept>
 #include <string>
 
 namespace py = pybind11;
@@ -17,13 +18,27 @@ namespace pfmpm::bindings
 
 namespace
 {
+/// The numpy type of a column's values.
+py::dtype dtype_of(DType t)
+{
+  switch (t)
+  {
+  case DType::f64:
+    return py::dtype::of<double>();
+  case DType::i32:
+    return py::dtype::of<std::int32_t>();
+  case DType::i64:
+    return py::dtype::of<std::int64_t>();
+  }
+  throw std::logic_error("unknown particle column type");
+}
+
 /// Zero-copy (rows,) or (rows, cols) view of a column, owned by `owner`.
 py::array view(const Particles::Entry& e, py::handle owner)
 {
   const auto cols = static_cast<py::ssize_t>(e.spec->components);
   const auto rows = static_cast<py::ssize_t>(e.values) / cols;
-  const py::dtype dtype = e.spec->dtype == DType::f64 ? py::dtype::of<double>()
-                                                       : py::dtype::of<std::int32_t>();
+  const py::dtype dtype = dtype_of(e.spec->dtype);
   const auto item = static_cast<py::ssize_t>(dtype.itemsize());
   if (cols == 1)
     return py::array(dtype, {rows}, {item}, e.data, owner);
@@ -46,7 +61,8 @@ void bind_particles(py::module_& m)
                         "Material points: core arrays and the named columns of a scene's models. "
                         "Every column is an attribute, a zero-copy numpy view (N,) or (N, k).")
       .def(py::init<std::size_t, int>(), py::arg("n"), py::arg("dim") = 2,
-           "n particles at rest in dim (2 or 3) directions")
+           "n particles at rest in dim (2 or 3) directions, with the ids 0 to n - 1 (the column id, "
+           "int64, which must ascend: the solver checks it)")
       .def("__len__", &Particles::size)
       .def_property_readonly("dim", &Particles::dim, "the directions: 2 or 3")
       .def("__getattr__", [](py::object self, const std::string& name)
@@ -71,7 +87,7 @@ void bind_particles(py::module_& m)
               py::dict d;
               d["name"] = e.spec->name;
               d["components"] = e.spec->components;
-              d["dtype"] = e.spec->dtype == DType::f64 ? "float64" : "int32";
+              d["dtype"] = py::str(dtype_of(e.spec->dtype));
               d["doc"] = e.spec->doc;
               d["layout"] = e.spec->layout;
               d["output"] = e.spec->output;

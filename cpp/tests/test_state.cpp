@@ -214,3 +214,58 @@ TEST(SolverState, StepOutrunningTheGridIsUnstable)
     EXPECT_NE(std::string(e.what()).find("after step 2"), std::string::npos) << e.what();
   }
 }
+
+TEST(SolverState, ParticlesOutOfIdOrderAreRefused)
+{
+  const auto mat = elastic(100.0, 0.3, 1.0);
+  const std::vector<std::optional<Fracture>> fracture{Fracture{0.5, 0.5, 0.0}};
+  Grid<2> grid(2, {24, 24}, 0.25, {0.0, 0.0});
+  Particles P = make_block(10);
+  std::swap(P.id[20], P.id[21]);
+  try
+  {
+    Solver solver(grid, P, mat, step_with(1e-3, fracture));
+    FAIL() << "particles out of id order were taken";
+  }
+  catch (const std::invalid_argument& e)
+  {
+    EXPECT_STREQ(e.what(), "particle 21: id 20 after id 21 (the particles must be in ascending id order)");
+  }
+  // Restored particles are checked with the state.
+  std::swap(P.id[20], P.id[21]);
+  Solver solver(grid, P, mat, step_with(1e-3, fracture));
+  solver.advance(2);
+  const SolverState state = solver.state();
+  P.id[99] = P.id[98];
+  EXPECT_THROW(solver.restore(state), std::invalid_argument);
+}
+
+TEST(SolverState, StepsDependOnTheOrderOfTheIdsNotOnTheirValues)
+{
+  // Contact and a phase field: the same particles with ids 0 to n - 1 and
+  // with sparse ids (as the seeding gives where a shape leaves lattice
+  // positions out) take bitwise the same steps.
+  const auto mat = elastic(100.0, 0.3, 1.0, 2);
+  const std::vector<std::optional<Fracture>> fracture{std::nullopt, Fracture{0.5, 0.5, 0.0}};
+  const std::vector<double> friction{0.0, 0.3, 0.3, 0.0};
+  auto disks = []
+  {
+    Particles P = make_disks({{2.0, 2.0, 1.0, 0.5, 0.1}, {4.1, 2.6, 1.0, 0.0, 0.0}}, 0.125);
+    add_model_columns(P, true);
+    for (std::size_t p = 0; p < P.size(); ++p)
+      if (P.body[p] == 1)
+        P.material[p] = 1;
+    return P;
+  };
+  Grid<2> grid(2, {32, 24}, 0.25, {0.0, 0.0}), grid2(2, {32, 24}, 0.25, {0.0, 0.0});
+  Particles P = disks(), Q = disks();
+  for (std::size_t p = 0; p < Q.size(); ++p)
+    Q.id[p] = (std::int64_t{1} << 33) + 7 * static_cast<std::int64_t>(p) + (p * p) % 5;
+  Solver a(grid, P, mat, step_with(2e-3, fracture, friction));
+  Solver b(grid2, Q, mat, step_with(2e-3, fracture, friction));
+  a.advance(60);
+  b.advance(60);
+  ASSERT_GT(a.contact_stats()->active, 0);
+  expect_same_particles(P, Q);
+  EXPECT_EQ(a.energies().friction_work, b.energies().friction_work);
+}

@@ -6,7 +6,9 @@ as an uninterrupted one:
 
 - ``/particles/<name>``: every particle column, as
   ``pfmpm._core.Particles.columns()`` lists them (the core arrays ``x``, ``v``,
-  ``mass``, ``volume``, ``stress``, ``fext``, ``body``, ``material``, then what
+  ``mass``, ``volume``, ``stress``, ``fext``, ``body``, ``material``, ``id``
+  (the particles' global ids, from version 6: :func:`restore` checks them
+  against the scene's seeding), then what
   the scene's models keep: ``strain``, and with a phase field ``c``,
   ``history``, ``fracture_energy`` and, with its fourth-order term, ``phi``;
   files written before 2026-12-02 have ``phi`` with every phase field, which
@@ -57,11 +59,13 @@ from .scene.loads import MAX_REGIONS
 from .scene.stability import grid_dt
 
 FORMAT = "pfmpm-checkpoint"
-VERSION = 5
-# Version 5 keeps the state of the run's observers as arrays under /output;
-# versions 2-4 kept the particle series and the times of the phase-field
-# images in meta (``series``, ``snapshot_image_times``), which reading turns
-# into those arrays. Version 4 stores the particle columns and the solver
+VERSION = 6
+# Version 6 keeps the particles' global ids (particles/id); the rows of an
+# older file are in the seeding order of its scene, so the seeding gives
+# their ids (restore). Version 5 keeps the state of the run's observers as
+# arrays under /output; versions 2-4 kept the particle series and the times
+# of the phase-field images in meta (``series``, ``snapshot_image_times``),
+# which reading turns into those arrays. Version 4 stores the particle columns and the solver
 # state by the names the core gives them. Versions 2 and 3 had fixed lists of
 # both (_from_version_3);
 # version 3 turned the frame in which an anisotropic material's gamma is read
@@ -114,6 +118,8 @@ class Checkpoint:
     scene_sha256 : str or None
         :func:`pfmpm.run_folder.scene_digest` of its scene as the run wrote
         it; ``None`` in files from before it was kept.
+    version : int
+        The format version of the file.
     """
 
     path: Path
@@ -130,6 +136,7 @@ class Checkpoint:
     observed: dict = field(default_factory=dict)
     run_id: str | None = None
     scene_sha256: str | None = None
+    version: int = VERSION
 
 
 def file_name(step: int, failed: bool = False) -> str:
@@ -249,7 +256,7 @@ def read(path: Path | str) -> Checkpoint:
             fmt, version = f.attrs.get("format"), f.attrs.get("version")
             if fmt != FORMAT:
                 raise CheckpointError(f"checkpoint {path}: not a pfmpm checkpoint (format {fmt!r})")
-            if version not in (VERSION, 4, 3, 2):
+            if version not in (VERSION, 5, 4, 3, 2):
                 raise CheckpointError(f"checkpoint {path}: format version {version}, this pfmpm reads {VERSION}")
             meta = json.loads(f.attrs["meta"])
             if version == 2 and _anisotropic(meta["scene"]):
@@ -320,7 +327,7 @@ def read(path: Path | str) -> Checkpoint:
         error=meta["error"], checkpoint_every=meta["checkpoint_every"], keep=meta["keep"],
         particles=particles, solver=solver,
         energies_csv=arrays["output/energies_csv"].tobytes(), observed=observed,
-        run_id=meta.get("run_id"), scene_sha256=meta.get("scene_sha256"))
+        run_id=meta.get("run_id"), scene_sha256=meta.get("scene_sha256"), version=int(version))
 
 
 def _from_version_3(meta: dict, arrays: dict[str, np.ndarray]) -> tuple[dict, dict]:
@@ -402,13 +409,23 @@ def restore(sim, ckpt: Checkpoint) -> None:
     checkpoint's scene (the run's observers take ``ckpt.observed``:
     :func:`pfmpm.run.run_to_end`).
 
+    The particles' ids are not written but checked: ``sim`` seeded its
+    particles from the same scene, and a run neither adds nor removes nor
+    reorders particles, so the checkpoint's ids must be those of the seeding,
+    row by row. Files before version 6 kept no ids; their rows are in the
+    seeding order of their scene (the order the whole run kept), so the
+    seeding's ids are theirs.
+
     Raises
     ------
     CheckpointError
-        If an array does not fit the simulation.
+        If an array does not fit the simulation, or the ids are not the
+        seeding's (naming the first row that differs).
     """
     columns = [c["name"] for c in sim.particles.columns()]
     stored = dict(ckpt.particles)
+    if ckpt.version < 6:
+        stored.setdefault("id", sim.particles.id)
     if "phi" not in columns:
         # Files before 2026-12-02 kept the orientation of every phase-field
         # run; only the fourth-order term has it, and nothing else reads it.
@@ -422,6 +439,12 @@ def restore(sim, ckpt: Checkpoint) -> None:
         if target.shape != value.shape or target.dtype != value.dtype:
             raise CheckpointError(f"checkpoint {ckpt.path}: particles/{name} has shape {value.shape},"
                                   f" the scene gives {target.shape}")
+        if name == "id":
+            if len(differ := np.flatnonzero(value != target)):
+                p = int(differ[0])
+                raise CheckpointError(f"checkpoint {ckpt.path}: particles/id of particle {p} is {value[p]},"
+                                      f" the scene seeds id {target[p]} there")
+            continue
         target[...] = value
     try:
         sim.solver.restore(ckpt.solver)

@@ -115,9 +115,10 @@ class Simulation:
                                      list(region.max)) from None
             if region.steady:
                 self.grid.set_region_velocity(i, list(region.velocity))
-        xs = seeding.positions(scene)
+        xs, ids = seeding.seed(scene)
         self.particles = _core.Particles(sum(len(x) for x in xs), g.dim)
-        core = self._fill(xs)
+        core = self._fill(xs, ids)
+        del ids
         materials, fracture = core_materials(scene)
         self.cracks = any(fracture)
         pf = scene.phase_field
@@ -179,12 +180,14 @@ class Simulation:
             spacing = [b.spacing(self.scene.grid.h) for b in self.scene.bodies]
             self.solver.detect_surfaces(spacing, contact.surface_threshold)
 
-    def _fill(self, xs: list[np.ndarray], done: set[str] = frozenset()) -> set[str]:
+    def _fill(self, xs: list[np.ndarray], ids: list[np.ndarray] | None = None,
+              done: set[str] = frozenset()) -> set[str]:
         """Seed the particles' columns, those not in ``done``, in place
-        (:func:`pfmpm.scene.seeding.fill`) from the bodies' positions ``xs``;
-        return the names of all columns there are now."""
+        (:func:`pfmpm.scene.seeding.fill`) from the bodies' positions ``xs``
+        and ids ``ids`` (needed while ``id`` is not done); return the names
+        of all columns there are now."""
         names = {c["name"] for c in self.particles.columns()}
-        seeding.fill(self.scene, xs, {name: getattr(self.particles, name) for name in names - done})
+        seeding.fill(self.scene, xs, {name: getattr(self.particles, name) for name in names - done}, ids)
         return names
 
     def _initial_columns(self) -> None:
@@ -403,10 +406,10 @@ class Simulation:
         array, layout), made one array at a time: every column that declares an
         output name, under that name, as a view (:func:`pfmpm.output.vtk_values`
         says how tensors are written: ``velocity``, ``volume``, ``stress``,
-        ``strain``, ``body``, ``material``, with a phase field ``c`` and
-        ``history``), then ``displacement`` (:meth:`displacement`), ``damage``
-        (``1 - c``, with a phase field) and ``id`` (the particle's index, which
-        the core keeps: it sorts an index, not the particles), these three as
+        ``strain``, ``body``, ``material``, ``id``, the particle's global id
+        (:func:`pfmpm.scene.seeding.seed_body`), with a phase field ``c`` and
+        ``history``), then ``displacement`` (:meth:`displacement`) and
+        ``damage`` (``1 - c``, with a phase field), these two as
         :class:`~pfmpm.output.Rows`, made a block at a time as they are written."""
         for c in self.particles.columns():
             if c["output"]:
@@ -416,7 +419,6 @@ class Simulation:
         if self.cracks:
             phase = self.particles.c
             yield "damage", Rows.of(n, lambda a, b: 1.0 - phase[a:b]), ""
-        yield "id", Rows.of(n, np.arange, np.int64), ""
 
     def displacement(self) -> np.ndarray:
         """Each particle's displacement from its seeded position. The seeding is

@@ -801,10 +801,11 @@ void DamageFields<Dim>::sides(const Particles& particles, const CellSort& sort, 
   };
   // Algorithm 1, over the open cells (every cell whose block holds an open
   // node): per node and group, the particle gradient of largest magnitude,
-  // ties to the smaller particle index. Each cell finds its own best per
-  // node first (the largest, ties to the smaller index, is the same in any
-  // order of comparison), then compares it with the node's. Strips of one
-  // parity share no node, so the comparisons need no atomics.
+  // ties to the smaller particle index, which is the smaller id (the
+  // particles are in ascending id order: Particles::id). Each cell finds its
+  // own best per node first (the largest, ties to the smaller index, is the
+  // same in any order of comparison), then compares it with the node's.
+  // Strips of one parity share no node, so the comparisons need no atomics.
   for_each_listed_cell<Dim>(
       _grid, *this, _groups, sort, _open_cells,
       [&](const Cell<Dim>& cell, const CellSlots<Dim>& c)
@@ -859,7 +860,8 @@ void DamageFields<Dim>::sides(const Particles& particles, const CellSort& sort, 
   const double reach2 = _radius * _radius;
   const double* x = particles.x.data();
   const NeighbourList<Dim>& list = _neighbours;
-  // The nearest, the first in the list (the smallest index) among equals;
+  // The nearest, the first in the list (the smallest index, so the smallest
+  // id: NeighbourList) among equals;
   // without a branch per neighbour (which of them qualify is unpredictable
   // inside a fragment).
   auto proxy = [&](std::int32_t p)

@@ -115,8 +115,10 @@ struct DamageTimers
 ///   neighbours from the Verlet list;
 /// - per open node and group, the nodal gradient G_i: the particle gradient of
 ///   largest magnitude among the group's particles mapping to the node
-///   (Algorithm 1), ties to the smaller particle index, so that the result
-///   does not depend on the visiting order;
+///   (Algorithm 1), ties to the smaller particle index, which is the smaller
+///   id (the particles are in ascending id order: Particles::id), so that the
+///   result does not depend on the visiting order nor on the particles'
+///   place in the arrays;
 /// - per (particle, node) pair the side: field A if grad D_p . G_i >= 0,
 ///   else B (Algorithm 2), as a bit per node of the particle's cell's block
 ///   (Grid::block(): the B-spline's (degree + 1)^Dim nodes, CPDI's 4^Dim) in a

@@ -28,8 +28,8 @@ struct KernelValue
 
 /// @brief The normalised kernel damage field (H&H eqs. 17-19) and its gradient
 /// at particle p, from the neighbours `q[0, n)` (any superset of those within
-/// `radius`, sorted by index so that the sums have an order fixed by the
-/// positions alone), in Dim directions.
+/// `radius`, sorted by index, which is id order, so that the sums have an
+/// order fixed by the positions and ids alone), in Dim directions.
 ///
 /// With d_q = D_q - D_p, the ratio of H&H eqs. 17 and 19 is D-bar = D_p + sum_q d_q w_q / S
 /// and its gradient (S sum_q d_q grad w_q - sum_q d_q w_q grad S) / S^2, where

@@ -77,8 +77,9 @@ void NeighbourList<Dim>::build(const Grid<Dim>& grid, const CellSort& sort, cons
   // Each slab of cells lists its particles' neighbours, in sort order, into
   // a buffer of its own: one pass over the pairs. The candidates are those
   // of the cells within the cutoff of the particle's cell, gathered once per
-  // cell and sorted by particle index there, so that every particle of the
-  // cell keeps its neighbours in that order by one pass over them.
+  // cell and sorted by particle index (id order: Particles::id) there, so
+  // that every particle of the cell keeps its neighbours in that order by
+  // one pass over them.
 #pragma omp parallel
   {
     std::vector<std::int32_t> candidate; // of the cell, by particle index

@@ -32,10 +32,11 @@ namespace pfmpm
 /// distance, a box's diagonal by 2 sqrt(Dim) times it). Until the sum over the
 /// steps of the largest distance any particle moved in the step (moved(),
 /// which the step knows at no cost) uses the slack up, stale() does not look.
-/// Each particle's list is sorted by particle index, so a sum over the
-/// neighbours within r has an order fixed by the positions alone, whenever
-/// the list was built (a resumed run gives the bits of an uninterrupted one),
-/// and whichever other particles it lists.
+/// Each particle's list is sorted by particle index, which is id order (the
+/// particles are in ascending id order: Particles::id), so a sum over the
+/// neighbours within r has an order fixed by the positions and ids alone,
+/// whenever the list was built (a resumed run gives the bits of an
+/// uninterrupted one), and whichever other particles it lists.
 /// Explicitly instantiated for Dim = 2 and 3.
 template <int Dim>
 class NeighbourList
@@ -66,7 +67,7 @@ public:
   /// Whether the last build listed particle p's neighbours.
   bool listed(std::size_t p) const { return _listed[p] != 0; }
 
-  /// The neighbours of particle p, by index.
+  /// The neighbours of particle p, by index (so by id).
   struct Range
   {
     const std::int32_t* first;

@@ -18,6 +18,9 @@ namespace pfmpm
 /// particles of cell c are order()[cell_start()[c] .. cell_start()[c + 1]).
 /// Within a cell they keep their index order, whatever the thread count, so
 /// every sum taken in this order has the same bits on any number of threads.
+/// The particles are in ascending id order (Particles::id), so this is
+/// (cell, id) order: the order a process holding any part of the particles,
+/// in any array order, would restore by sorting its arrays by id.
 class CellSort
 {
 public:

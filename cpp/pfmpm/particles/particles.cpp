@@ -5,6 +5,7 @@
 #include "pfmpm/common/symmetric.h"
 
 #include <array>
+#include <numeric>
 #include <stdexcept>
 #include <string>
 
@@ -15,9 +16,9 @@ namespace
 {
 /// The core arrays of particles in `dim` directions, in the order of
 /// Particles::columns().
-const std::array<ColumnSpec, 8>& core_specs(int dim)
+const std::array<ColumnSpec, 9>& core_specs(int dim)
 {
-  static const std::array<ColumnSpec, 8> plane{{
+  static const std::array<ColumnSpec, 9> plane{{
       {"x", 2, DType::f64, {0.0}, "position", "x,y", ""},
       {"v", 2, DType::f64, {0.0}, "velocity (K&T eq. 80)", "x,y", "velocity"},
       {"mass", 1, DType::f64, {0.0}, "mass M_p", "", ""},
@@ -26,8 +27,9 @@ const std::array<ColumnSpec, 8>& core_specs(int dim)
       {"fext", 2, DType::f64, {0.0}, "external force (K&T eq. 42)", "x,y", ""},
       {"body", 1, DType::i32, {0.0}, "body index", "", "body"},
       {"material", 1, DType::i32, {0.0}, "material index", "", "material"},
+      {"id", 1, DType::i64, {0.0}, "global id: body and place in its seeding lattice", "", "id"},
   }};
-  static const std::array<ColumnSpec, 8> solid{{
+  static const std::array<ColumnSpec, 9> solid{{
       {"x", 3, DType::f64, {0.0}, "position", "x,y,z", ""},
       {"v", 3, DType::f64, {0.0}, "velocity (K&T eq. 80)", "x,y,z", "velocity"},
       {"mass", 1, DType::f64, {0.0}, "mass M_p", "", ""},
@@ -36,6 +38,7 @@ const std::array<ColumnSpec, 8>& core_specs(int dim)
       {"fext", 3, DType::f64, {0.0}, "external force (K&T eq. 42)", "x,y,z", ""},
       {"body", 1, DType::i32, {0.0}, "body index", "", "body"},
       {"material", 1, DType::i32, {0.0}, "material index", "", "material"},
+      {"id", 1, DType::i64, {0.0}, "global id: body and place in its seeding lattice", "", "id"},
   }};
   return dim == 2 ? plane : solid;
 }
@@ -51,9 +54,19 @@ int checked_dim(int dim)
 
 Particles::Particles(std::size_t n, int dim)
     : x(checked_dim(dim) * n, 0.0), v(dim * n, 0.0), mass(n, 0.0), volume(n, 0.0),
-      stress(symmetric_size(dim) * n, 0.0), fext(dim * n, 0.0), body(n, 0), material(n, 0),
+      stress(symmetric_size(dim) * n, 0.0), fext(dim * n, 0.0), body(n, 0), material(n, 0), id(n),
       _dim(dim)
 {
+  std::iota(id.begin(), id.end(), std::int64_t{0});
+}
+
+void Particles::check_order() const
+{
+  for (std::size_t p = 1; p < id.size(); ++p)
+    if (id[p] <= id[p - 1])
+      throw std::invalid_argument("particle " + std::to_string(p) + ": id " + std::to_string(id[p])
+                                  + " after id " + std::to_string(id[p - 1])
+                                  + " (the particles must be in ascending id order)");
 }
 
 Column& Particles::add(const ColumnSpec& spec)
@@ -61,6 +74,8 @@ Column& Particles::add(const ColumnSpec& spec)
   for (const ColumnSpec& core : core_specs(_dim))
     if (core.name == spec.name)
       throw std::invalid_argument("particle column " + spec.name + ": a core array has that name");
+  if (spec.dtype == DType::i64)
+    throw std::invalid_argument("particle column " + spec.name + ": int64 is the ids' type, not a column's");
   const auto k = static_cast<std::size_t>(spec.components);
   if (spec.components < 1 || (spec.fill.size() != 1 && spec.fill.size() != k))
     throw std::invalid_argument("particle column " + spec.name + ": "
@@ -132,7 +147,8 @@ std::vector<Particles::Entry> Particles::columns()
       {&core[0], x.data(), x.size()},           {&core[1], v.data(), v.size()},
       {&core[2], mass.data(), mass.size()},     {&core[3], volume.data(), volume.size()},
       {&core[4], stress.data(), stress.size()}, {&core[5], fext.data(), fext.size()},
-      {&core[6], body.data(), body.size()},     {&core[7], material.data(), material.size()}};
+      {&core[6], body.data(), body.size()},     {&core[7], material.data(), material.size()},
+      {&core[8], id.data(), id.size()}};
   for (Column& c : _columns)
     out.push_back({&c.spec, c.data(), c.values()});
   return out;

@@ -17,7 +17,8 @@ namespace pfmpm
 enum class DType : int
 {
   f64 = 0, ///< double
-  i32 = 1  ///< std::int32_t
+  i32 = 1, ///< std::int32_t
+  i64 = 2  ///< std::int64_t: the particles' ids (a core array; no named column has it)
 };
 
 /// @brief Declaration of a particle column: N rows of `components` values.
@@ -60,7 +61,8 @@ struct Column
 /// The core arrays are members: x, v, fext (N x Dim, Dim = dim() the
 /// directions, 2 or 3); stress (the Cauchy stress, N x symmetric_size(Dim):
 /// xx, yy, xy, zz, and in 3D yz, xz; common/symmetric.h); mass, volume (N);
-/// body and material indices (N, int32). Everything else a scene's models keep per particle (the
+/// body and material indices (N, int32); id (N, int64), the particle's
+/// global id. Everything else a scene's models keep per particle (the
 /// small strain of a linear elastic material, the phase field c and history H,
 /// ...) is a named column, added by the model that needs it
 /// (Material::columns, PhaseField::columns) and found by name. columns()
@@ -70,7 +72,7 @@ class Particles
 {
 public:
   /// @brief n particles in `dim` directions (2 or 3) at rest, zero mass,
-  /// volume, stress and force.
+  /// volume, stress and force, with the ids 0 to n - 1.
   /// @throws std::invalid_argument for another dim.
   explicit Particles(std::size_t n, int dim = 2);
 
@@ -86,11 +88,24 @@ public:
   std::vector<double> fext;   ///< external force: body force and traction (K&T eq. 42)
   std::vector<std::int32_t> body;     ///< body (velocity field or contact group) index
   std::vector<std::int32_t> material; ///< material index
+  /// Global id: a function of where the particle was seeded (its body and
+  /// its place in the body's seeding lattice), not of its place in these
+  /// arrays, which a process seeding part of a scene, or a migration of
+  /// particles between processes, changes. The arrays are kept in ascending
+  /// id order (check_order()), so that every order and tie-break the core
+  /// keys on the particle index, the stable cell sort's order within a cell
+  /// and "the smaller index" of DamageFields, is keyed on the id.
+  std::vector<std::int64_t> id;
+
+  /// @brief Check that the ids ascend (strictly: they are unique).
+  /// @throws std::invalid_argument naming the first particle out of order,
+  ///         its id and the id before it.
+  void check_order() const;
 
   /// @brief Add a column, every row `spec.fill`; if one of that name exists
   /// with the same shape and type, keep it (its values included).
   /// @throws std::invalid_argument if the name is a core array's or is taken
-  ///         by a column of another shape or type.
+  ///         by a column of another shape or type, or for the type int64.
   Column& add(const ColumnSpec& spec);
   /// The column `name`, or nullptr.
   Column* find(std::string_view name);
@@ -110,7 +125,7 @@ public:
     std::size_t values;
   };
   /// @brief Every array, core ones first (x, v, mass, volume, stress, fext,
-  /// body, material), then the named columns in the order they were added.
+  /// body, material, id), then the named columns in the order they were added.
   std::vector<Entry> columns();
 
 private:

@@ -83,6 +83,8 @@ Solver<Dim>::Solver(Grid<Dim>& grid, Particles& particles,
     if (!m)
       throw std::invalid_argument("materials: a material is missing");
   _fracture = per_material(std::move(fracture), _materials.size());
+  // Orders within a cell and tie-breaks go by the index: by the id, in this order.
+  particles.check_order();
 
   const auto nmat = static_cast<std::int32_t>(_materials.size());
   for (std::size_t i = 0; i < particles.size(); ++i)
@@ -260,6 +262,8 @@ SolverState Solver<Dim>::state() const
 template <int Dim>
 void Solver<Dim>::restore(const SolverState& state)
 {
+  // The particles restored beside this state: in ascending id order, as at construction.
+  _particles.check_order();
   // What this solver's state has: the same keys, arrays of the same sizes.
   const SolverState mine = this->state();
   for (const auto& [key, value] : state.scalars)
@@ -689,7 +693,7 @@ template <int Dim>
 std::string Solver<Dim>::where(std::size_t i) const
 {
   std::ostringstream s;
-  s << "particle " << i << " (body " << _particles.body[i] << ") at x = (";
+  s << "particle " << i << " (id " << _particles.id[i] << ", body " << _particles.body[i] << ") at x = (";
   for (int d = 0; d < Dim; ++d)
     s << (d ? ", " : "") << _particles.x[Dim * i + d];
   s << ") during the step after step " << _step << " (t = " << _time << ")";
@@ -804,7 +808,7 @@ Energies<Dim> Solver<Dim>::energies() const
               acc[angular + a] += m * (B[Dim * (Dim * p + c) + b] - B[Dim * (Dim * p + b) + c]);
           }
         }
-        // The elastic energy of each run of one material, in index order.
+        // The elastic energy of each run of one material, in index order (id order).
         for (std::size_t p = begin; p < end;)
         {
           const std::int32_t mat = P.material[p];

@@ -224,7 +224,8 @@ class Solver
 public:
   /// @param grid Background grid (kept by reference; must outlive the solver).
   /// @param particles Particle state (kept by reference; must outlive the
-  ///        solver). The materials' and the phase field's columns are added.
+  ///        solver), in ascending id order (Particles::check_order). The
+  ///        materials' and the phase field's columns are added.
   /// @param materials Materials indexed by Particles::material.
   /// @param step What each step does (StepConfig).
   /// @throws std::invalid_argument for a bad configuration, or in 3D for one
@@ -288,7 +289,8 @@ public:
   /// @brief Continue from `state`, saved by state() of a solver built on the
   /// same scene, with the particle columns restored beside it.
   /// @throws std::invalid_argument naming the entry if a key is missing or
-  ///         unknown, or an array does not fit this grid.
+  ///         unknown, or an array does not fit this grid; naming the
+  ///         particle if the restored particles are not in ascending id order.
   void restore(const SolverState& state);
 
   /// @brief Energies and momentum of the current particle state.

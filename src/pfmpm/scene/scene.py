@@ -285,10 +285,7 @@ class Scene:
         cracks = any(m.fracture is not None for m in self.materials)
         grid = (_BYTES_PER_TABLE_CELL * sum(cells) + (8 + 8 * (os.cpu_count() or 1)) * math.prod(cells)
                 + nodes * (_BYTES_PER_NODE + (_BYTES_PER_CRACK_NODE + 8 * stencil if cracks else 0)))
-        counts = []
-        for body in self.bodies:
-            ranges = seeding.cell_range(body, self.grid)
-            counts.append(math.prod(b - a for a, b in ranges) * body.particles_per_cell ** dim)
+        counts = [seeding.lattice_size(body, self.grid) for body in self.bodies]
         return grid, _BYTES_PER_PARTICLE * sum(counts), counts
 
     def _check_memory(self) -> None:

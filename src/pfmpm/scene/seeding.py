@@ -16,8 +16,8 @@ from .validation import SceneError
 if TYPE_CHECKING:
     from .scene import Scene
 
-__all__ = ["cell_range", "lattice", "count", "positions", "position_batches", "fill", "load_forces",
-           "particles"]
+__all__ = ["cell_range", "lattice", "lattice_size", "id_bases", "seed_body", "count", "positions", "seed",
+           "position_batches", "fill", "load_forces", "particles"]
 
 _CHUNK = 1 << 16  # candidate particles examined per vectorised batch
 _EDGE_TOL = 0.51  # edge layer thickness in particle spacings
@@ -46,18 +46,84 @@ def lattice(body: Body, grid: GridSpec, *ranges: tuple[int, int]) -> Iterator[np
     fastest), and examined ``_CHUNK`` at a time, so memory stays bounded;
     each yielded (k, dim) array keeps that order.
     """
+    for x, _ in _numbered(body, grid, ranges, ranges):
+        yield x
+
+
+def _numbered(body: Body, grid: GridSpec, ranges, frame) -> Iterator[tuple[np.ndarray, np.ndarray]]:
+    """:func:`lattice` in the cells of ``ranges``, with each particle's number
+    in the lattice of the cells of ``frame`` (which holds ``ranges``): its
+    cell's index there (the last direction fastest) times ``n^dim``, plus its
+    sub-position's index (x fastest). ``frame = ranges`` numbers the
+    candidates in the order they are examined."""
     n, h, dim = body.particles_per_cell, grid.h, len(ranges)
     counts = [max(end - first, 0) for first, end in ranges]
     per_cell = n ** dim
     total = math.prod(counts) * per_cell
+    shift = [first - whole for (first, _), (whole, _) in zip(ranges, frame)]
+    frame_counts = [end - first for first, end in frame]
+    same = list(ranges) == list(frame)
     for start in range(0, total, _CHUNK):
-        cell, sub = np.divmod(np.arange(start, min(start + _CHUNK, total)), per_cell)
+        candidate = np.arange(start, min(start + _CHUNK, total))
+        cell, sub = np.divmod(candidate, per_cell)
         index = np.unravel_index(cell, counts)  # row-major: the last direction fastest
         offset = np.unravel_index(sub, (n,) * dim)[::-1]  # x fastest
         coords = [o + (first + i + (a + 0.5) / n) * h
                   for o, (first, _), i, a in zip(grid.origin, ranges, index, offset)]
         keep = body.contains(*coords)
-        yield np.column_stack([c[keep] for c in coords])
+        number = candidate if same else (
+            np.ravel_multi_index([i + s for i, s in zip(index, shift)], frame_counts) * per_cell + sub)
+        yield np.column_stack([c[keep] for c in coords]), number[keep]
+
+
+def lattice_size(body: Body, grid: GridSpec) -> int:
+    """The candidates of the body's seeding lattice: ``n^dim`` per cell of its
+    bounding box on the grid (:func:`cell_range`)."""
+    return math.prod(end - first for first, end in cell_range(body, grid)) * body.particles_per_cell ** grid.dim
+
+
+def id_bases(scene: "Scene") -> list[int]:
+    """Each body's first particle id: the sum of the lattice sizes
+    (:func:`lattice_size`) of the bodies before it, so that the ids of
+    different bodies never meet and ascend in body order."""
+    sizes = [lattice_size(body, scene.grid) for body in scene.bodies]
+    return [sum(sizes[:b]) for b in range(len(sizes))]
+
+
+def seed_body(body: Body, grid: GridSpec, base: int = 0,
+              box: tuple[tuple[int, int], ...] | None = None) -> Iterator[tuple[np.ndarray, np.ndarray]]:
+    """Yield the body's particles with their ids, a batch at a time: positions
+    (k, dim) and ids (k,), int64, in ascending id order.
+
+    A particle's id is ``base`` (the body's, :func:`id_bases`) plus its number
+    in the body's seeding lattice, the sub-cell centres of the cells of its
+    bounding box (:func:`cell_range`), numbered as :func:`lattice` examines
+    them. It is a function of the particle's lattice position alone, so ids
+    are sparse where the shape leaves candidates out, and they are the same
+    whatever part of the lattice is seeded.
+
+    Parameters
+    ----------
+    body : Body
+    grid : GridSpec
+    base : int
+        The body's first id.
+    box : tuple of (first, end) per direction, optional
+        Seed only the cells of this box (cell indices of the grid; those
+        outside the bounding box have no particles); default all.
+
+    Raises
+    ------
+    ValueError
+        Naming ``box`` if it has not one (first, end) pair per direction.
+    """
+    whole = cell_range(body, grid)
+    if box is not None and (len(box) != grid.dim or any(len(r) != 2 for r in box)):
+        raise ValueError(f"box = {box}: must be {grid.dim} (first, end) cell ranges, one per direction")
+    cells = whole if box is None else tuple(
+        (max(a, first), min(b, end)) for (a, b), (first, end) in zip(box, whole))
+    for x, number in _numbered(body, grid, cells, whole):
+        yield x, base + number
 
 
 def count(scene: "Scene") -> int:
@@ -72,6 +138,17 @@ def positions(scene: "Scene") -> list[np.ndarray]:
             for body in scene.bodies]
 
 
+def seed(scene: "Scene") -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """Each body's particle positions, (k, dim), as :func:`positions` gives
+    them, and their ids, (k,) int64 (:func:`seed_body`)."""
+    xs, ids = [], []
+    for body, base in zip(scene.bodies, id_bases(scene)):
+        batches = list(seed_body(body, scene.grid, base))
+        xs.append(np.concatenate([np.empty((0, scene.dim)), *(x for x, _ in batches)]))
+        ids.append(np.concatenate([np.empty(0, dtype=np.int64), *(i for _, i in batches)]))
+    return xs, ids
+
+
 def position_batches(scene: "Scene") -> Iterator[np.ndarray]:
     """All bodies' particle positions in the order of :func:`positions`, a
     batch of :func:`lattice` at a time (so without an array of them all)."""
@@ -79,17 +156,19 @@ def position_batches(scene: "Scene") -> Iterator[np.ndarray]:
         yield from lattice(body, scene.grid, *cell_range(body, scene.grid))
 
 
-def fill(scene: "Scene", xs: list[np.ndarray], columns: Mapping[str, np.ndarray]) -> None:
+def fill(scene: "Scene", xs: list[np.ndarray], columns: Mapping[str, np.ndarray],
+         ids: list[np.ndarray] | None = None) -> None:
     """Write the initial particle arrays into ``columns``, body by body.
 
-    ``xs`` are the bodies' positions (:func:`positions`); ``columns`` maps
+    ``xs`` are the bodies' positions (:func:`positions`), ``ids`` their ids
+    (:func:`seed`; needed where ``columns`` has ``id``); ``columns`` maps
     names to arrays of all particles (the core's columns, say), and each of
     the names below that it holds is written, in place, so no array of all
     particles is made on the way:
 
     ``x`` (N, dim) positions, ``v`` (N, dim) velocities, ``mass`` (N,),
     ``volume`` (N,) ``= (h/n)^2 * thickness`` (``(h/n)^3`` in 3D), ``body``
-    (N,) body index, ``material`` (N,) material index, ``phi`` (N,) material
+    (N,) body index, ``material`` (N,) material index, ``id`` (N,) the ids, ``phi`` (N,) material
     orientation in radians (clockwise from x) and ``fext`` (N, dim) the external forces at
     t = 0, those of :func:`load_forces` times each load's amplitude then.  With ``grid.shape = "cpdi"`` also the
     half-edges of the particle domains, the ``h/n`` squares (cubes in 3D) of the lattice:
@@ -106,6 +185,8 @@ def fill(scene: "Scene", xs: list[np.ndarray], columns: Mapping[str, np.ndarray]
         volume = math.prod([spacing] * scene.dim) * scene.thickness
         values = {"x": x, "volume": volume, "mass": scene.materials[m].density * volume,
                   "body": b, "material": m, "phi": math.radians(body.orientation)}
+        if "id" in columns:
+            values["id"] = ids[b]
         # CPDI: the domains are the lattice's h/n squares or cubes (half-edges h/2n along the axes)
         for k, edge in enumerate(0.5 * spacing * np.eye(scene.dim), start=1):
             values[f"convected_r{k}"] = values[f"domain_r{k}"] = tuple(edge)
@@ -228,14 +309,15 @@ def region_particles(scene: "Scene", xs: list[np.ndarray]) -> list[np.ndarray | 
 def particles(scene: "Scene") -> dict[str, np.ndarray]:
     """The particles of all bodies of a scene as new arrays, named as in
     :func:`fill`. Bodies come in order; within a body particles are sorted
-    by cell (column by column, x outer) then by sub-position (see :func:`lattice`)."""
-    xs = positions(scene)
+    by cell (column by column, x outer) then by sub-position (see :func:`lattice`),
+    which is ascending id order (:func:`seed_body`)."""
+    xs, ids = seed(scene)
     n, dim = sum(len(x) for x in xs), scene.dim
     out = {"x": np.empty((n, dim)), "v": np.empty((n, dim)), "mass": np.empty(n), "volume": np.empty(n),
            "body": np.empty(n, dtype=np.int32), "material": np.empty(n, dtype=np.int32),
-           "phi": np.empty(n), "fext": np.empty((n, dim))}
+           "id": np.empty(n, dtype=np.int64), "phi": np.empty(n), "fext": np.empty((n, dim))}
     if scene.grid.shape == "cpdi":
         out.update({f"{kind}_r{k}": np.empty((n, dim)) for kind in ("convected", "domain")
                     for k in range(1, dim + 1)})
-    fill(scene, xs, out)
+    fill(scene, xs, out, ids)
     return out
