@@ -7,6 +7,7 @@ The two resolutions to 50 us are the study's (docs/verification/notched-beam3d.m
 import csv
 import json
 import math
+import shutil
 
 import numpy as np
 import pytest
@@ -53,7 +54,7 @@ def test_3d_comparison_writes_the_table_of_the_crack_front(comparison):
                  "speed_vs_error.png", "comparison.md", "agreement.json"):
         assert name in files and (out / name).stat().st_size > 0, name
     text = (out / "comparison.md").read_text()
-    assert text.startswith("# PF-MPM against PF-FEM: notched beam in three-point bending (3D)\n")
+    assert text.startswith("# PF-MPM against PF-FEM: notched beam struck at mid-span (3D)\n")
     assert "branching" not in text and "crack initiation (front 0.5 mm past its start)" in text
     a = json.loads((out / "agreement.json").read_text())
     assert a["branch_mpm_us"] is None and a["branch_fem_us"] is None
@@ -102,3 +103,50 @@ def test_front_width_is_the_beam_s_thickness_and_area_initiation_reads_the_csv(t
     (tmp_path / "energies.csv").write_text("\n".join(lines) + "\n")
     assert area_initiation(tmp_path / "energies.csv", width=4.0) == 7.0
     assert math.isnan(area_initiation(tmp_path / "energies.csv", width=40.0))
+
+
+def test_local_crack_area_of_a_particle_frame_integrates_the_at2_profile(tmp_path):
+    """Particles 0.01 mm apart across the beam with the 1D AT2 profile
+    1 - c = exp(-|x - 20| / (2 l0)) of a crack in the notch's plane: per mm^2
+    of the plane, int (1 - c)^2 / (4 l0) dx is (1 - exp(-a / l0)) / 2
+    within a of the plane, 1/2 in all (half the crack's area, the other half
+    in l0 |grad c|^2)."""
+    import meshio
+
+    from benchmarks.notched_beam3d.measure import ZONES, local_crack_area
+
+    shutil.copy(PROBLEM.path, tmp_path / "scene.toml")
+    l0 = Scene.from_toml(tmp_path / "scene.toml").materials[0].fracture.l0
+    dx, section = 0.01, 2.0  # mm; the particles' cross-section, mm^2
+    x = np.arange(dx / 2, 40.0, dx)
+    points = np.column_stack([x, np.full_like(x, 5.0), np.full_like(x, 2.0)])
+    c = 1.0 - np.exp(-np.abs(x - 20.0) / (2.0 * l0))
+    meshio.Mesh(points, [("vertex", np.arange(len(x))[:, None])],
+                point_data={"c": c, "volume": np.full_like(x, dx * section)}).write(tmp_path / "particles_000000.vtu")
+    (tmp_path / "particles.pvd").write_text(
+        '<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1"><Collection>\n'
+        '<DataSet timestep="50.0" part="0" file="particles_000000.vtu"/>\n</Collection></VTKFile>\n')
+    a = local_crack_area(tmp_path)
+    inner, outer = ZONES
+    within = [section * (1.0 - math.exp(-r)) / 2.0 for r in (inner, outer, 20.0 / l0)]
+    assert a["band"] == pytest.approx(within[0], rel=1e-4)
+    assert a["flanks"] == pytest.approx(within[1] - within[0], rel=1e-4)
+    assert a["ends"] == pytest.approx(within[2] - within[1], rel=1e-3)
+
+
+def test_the_fem_crack_area_by_region_adds_up_to_the_run_s(comparison):
+    """The crack area of the FEM's last frame, summed over its tetrahedra
+    (exact on P1), is the run's own ``crack_area`` at the end (DOLFINx's
+    assembly), split near the notch and elsewhere; its local part
+    (1 - c)^2 / (4 l0) is part of it, with the band about the notch's plane
+    holding most of it at 12 us."""
+    from benchmarks.notched_beam3d.measure import fem_crack_area, local_crack_area
+
+    out, _, _ = comparison
+    e = read_csv(out / "fem_h1" / "energies.csv")
+    split = fem_crack_area(out / "fem_h1")
+    assert split["near"] + split["elsewhere"] == pytest.approx(e["crack_area"][-1], rel=1e-12)
+    assert split["elsewhere"] < 0.1 * split["near"]
+    local = local_crack_area(out / "fem_h1")
+    assert 0.0 < sum(local.values()) < e["crack_area"][-1]  # the rest is l0 |grad c|^2
+    assert local["band"] > local["flanks"] > local["ends"] > 0.0

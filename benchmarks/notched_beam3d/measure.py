@@ -36,7 +36,8 @@ from pfmpm.output import read_csv
 from pfmpm.post.tip import INITIATION_ADVANCE
 from pfmpm.scene import Scene
 
-__all__ = ["FRACTURE", "ROWS", "area_initiation", "checks", "pair", "front_width"]
+__all__ = ["FRACTURE", "ROWS", "ZONES", "area_initiation", "checks", "fem_crack_area", "front_width",
+           "local_crack_area", "pair"]
 
 FRACTURE = 0.05
 """The end fracture energies of the two methods agree to this, relative to FEM."""
@@ -94,19 +95,13 @@ def area_initiation(energies: Path | str, width: float | None = None, advance: f
     return float(e["t"][np.argmax(grown)]) if grown.any() else math.nan
 
 
-def fem_crack_area(run: Path | str, centre: float = 20.0, half: float = 8.0) -> dict:
-    """The crack area ``int gamma(c) dV`` of the last field frame of a 3D FEM
-    run, near the notch's plane (cells whose centroid's x is within ``half``
-    of ``centre``) and elsewhere (at the supports and the beam's ends):
-    ``gamma = (1 - c)^2 / (4 l0) + l0 |grad c|^2`` (AT2) on each P1
-    tetrahedron, the mean of ``(1 - c)^2`` exact; the two add up to the
-    run's last ``crack_area`` when the last frame is the run's end."""
+def _fem_last_frame(run: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Vertices (N, 3), tetrahedra (M, 4) and the phase field at the vertices
+    of the last field frame of a 3D FEM run."""
     import xml.etree.ElementTree as ElementTree
 
     import h5py
 
-    run = Path(run)
-    l0 = Scene.from_toml(run / "scene.toml").materials[0].fracture.l0
     grids = ElementTree.parse(run / "fields.xdmf").getroot().find("Domain").findall("Grid")
 
     def where(item):
@@ -118,12 +113,71 @@ def fem_crack_area(run: Path | str, centre: float = 20.0, half: float = 8.0) -> 
         x = f[where(mesh.find("Geometry/DataItem"))][()]
         cells = f[where(mesh.find("Topology/DataItem"))][()]
         c = f[where(field.findall("Grid")[-1].find("Attribute/DataItem"))][()].ravel()
+    return x, cells, c
+
+
+def _fem_cells(run: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Of each tetrahedron of the last frame of a 3D FEM run: its centroid
+    (M, 3), volume, the exact mean of ``(1 - c)^2`` over it (c linear) and
+    ``|grad c|^2``."""
+    x, cells, c = _fem_last_frame(run)
     corners = x[cells]
     edges = corners[:, 1:] - corners[:, :1]
     volume = np.abs(np.linalg.det(edges)) / 6.0
     grad = np.linalg.solve(edges, (c[cells][:, 1:] - c[cells][:, :1])[..., None])[..., 0]
     d = 1.0 - c[cells]
     mean_square = (d.sum(axis=1) ** 2 + (d ** 2).sum(axis=1)) / 20.0  # exact on a P1 tetrahedron
-    gamma = volume * (mean_square / (4.0 * l0) + l0 * (grad ** 2).sum(axis=1))
-    near = np.abs(corners.mean(axis=1)[:, 0] - centre) < half
+    return corners.mean(axis=1), volume, mean_square, (grad ** 2).sum(axis=1)
+
+
+def fem_crack_area(run: Path | str, centre: float = 20.0, half: float = 8.0) -> dict:
+    """The crack area ``int gamma(c) dV`` of the last field frame of a 3D FEM
+    run, near the notch's plane (cells whose centroid's x is within ``half``
+    of ``centre``) and elsewhere (the beam's ends):
+    ``gamma = (1 - c)^2 / (4 l0) + l0 |grad c|^2`` (AT2) on each P1
+    tetrahedron, the mean of ``(1 - c)^2`` exact; the two add up to the
+    run's last ``crack_area`` when the last frame is the run's end."""
+    run = Path(run)
+    l0 = Scene.from_toml(run / "scene.toml").materials[0].fracture.l0
+    centroid, volume, mean_square, grad_square = _fem_cells(run)
+    gamma = volume * (mean_square / (4.0 * l0) + l0 * grad_square)
+    near = np.abs(centroid[:, 0] - centre) < half
     return {"near": float(gamma[near].sum()), "elsewhere": float(gamma[~near].sum())}
+
+
+ZONES = (2.0, 8.0)
+"""The zones of :func:`local_crack_area`, by the distance from the notch's
+plane in units of l0: the crack's band (within 2 l0, where the AT2 profile
+``1 - c = exp(-|d| / l0)`` of a crack holds 1 - exp(-4) = 98 % of its
+``(1 - c)^2``), its flanks (2 to 8 l0) and the beam's ends beyond."""
+
+
+def local_crack_area(run: Path | str, centre: float = 20.0, zones: tuple[float, float] = ZONES) -> dict:
+    """The local part of the crack area, ``int (1 - c)^2 / (4 l0) dV``, of
+    the last frame of a 3D run of either method, in the zones
+    :data:`ZONES` about the notch's plane x = ``centre``: ``band``,
+    ``flanks`` and ``ends``.
+
+    Of the two terms of the AT2 crack density this is the one both runs'
+    frames hold (an MPM frame has no ``grad c``); for a straight AT2 crack
+    it is half of its area. The MPM integrates it with its particles (their
+    volumes and phase field), the FEM exactly on each P1 tetrahedron (by
+    its centroid's zone).
+    """
+    run = Path(run)
+    l0 = Scene.from_toml(run / "scene.toml").materials[0].fracture.l0
+    if (run / "particles.pvd").is_file():
+        from pfmpm.post.frames import read_frame, series
+
+        t, path = series(run)[-1]
+        frame = read_frame(t, path, 3)
+        at = frame.x[:, 0]
+        density = np.asarray(frame.data["volume"]) * (1.0 - np.asarray(frame.data["c"])) ** 2 / (4.0 * l0)
+    else:
+        centroid, volume, mean_square, _ = _fem_cells(run)
+        at = centroid[:, 0]
+        density = volume * mean_square / (4.0 * l0)
+    d = np.abs(at - centre) / l0
+    band, flanks = d < zones[0], (d >= zones[0]) & (d < zones[1])
+    return {"band": float(density[band].sum()), "flanks": float(density[flanks].sum()),
+            "ends": float(density[d >= zones[1]].sum())}
