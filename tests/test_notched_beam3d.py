@@ -105,7 +105,7 @@ def test_front_width_is_the_beam_s_thickness_and_area_initiation_reads_the_csv(t
     assert math.isnan(area_initiation(tmp_path / "energies.csv", width=40.0))
 
 
-def test_local_crack_area_of_a_particle_frame_integrates_the_at2_profile(tmp_path):
+def test_local_crack_area_and_history_of_a_particle_frame(tmp_path):
     """Particles 0.01 mm apart across the beam with the 1D AT2 profile
     1 - c = exp(-|x - 20| / (2 l0)) of a crack in the notch's plane: per mm^2
     of the plane, int (1 - c)^2 / (4 l0) dx is (1 - exp(-a / l0)) / 2
@@ -113,7 +113,7 @@ def test_local_crack_area_of_a_particle_frame_integrates_the_at2_profile(tmp_pat
     in l0 |grad c|^2)."""
     import meshio
 
-    from benchmarks.notched_beam3d.measure import ZONES, local_crack_area
+    from benchmarks.notched_beam3d.measure import ZONES, history, local_crack_area
 
     shutil.copy(PROBLEM.path, tmp_path / "scene.toml")
     l0 = Scene.from_toml(tmp_path / "scene.toml").materials[0].fracture.l0
@@ -122,7 +122,8 @@ def test_local_crack_area_of_a_particle_frame_integrates_the_at2_profile(tmp_pat
     points = np.column_stack([x, np.full_like(x, 5.0), np.full_like(x, 2.0)])
     c = 1.0 - np.exp(-np.abs(x - 20.0) / (2.0 * l0))
     meshio.Mesh(points, [("vertex", np.arange(len(x))[:, None])],
-                point_data={"c": c, "volume": np.full_like(x, dx * section)}).write(tmp_path / "particles_000000.vtu")
+                point_data={"c": c, "volume": np.full_like(x, dx * section), "history": np.abs(x - 20.0)},
+                ).write(tmp_path / "particles_000000.vtu")
     (tmp_path / "particles.pvd").write_text(
         '<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1"><Collection>\n'
         '<DataSet timestep="50.0" part="0" file="particles_000000.vtu"/>\n</Collection></VTKFile>\n')
@@ -132,6 +133,11 @@ def test_local_crack_area_of_a_particle_frame_integrates_the_at2_profile(tmp_pat
     assert a["band"] == pytest.approx(within[0], rel=1e-4)
     assert a["flanks"] == pytest.approx(within[1] - within[0], rel=1e-4)
     assert a["ends"] == pytest.approx(within[2] - within[1], rel=1e-3)
+    # A history field |x - 20| (mm): its medians over each zone's particles.
+    medians = history(tmp_path)
+    assert medians["band"] == pytest.approx(inner * l0 / 2, abs=dx)
+    assert medians["flanks"] == pytest.approx((inner + outer) * l0 / 2, abs=dx)
+    assert medians["ends"] == pytest.approx((outer * l0 + 20.0) / 2, abs=dx)
 
 
 def test_the_fem_crack_area_by_region_adds_up_to_the_run_s(comparison):
@@ -150,3 +156,18 @@ def test_the_fem_crack_area_by_region_adds_up_to_the_run_s(comparison):
     local = local_crack_area(out / "fem_h1")
     assert 0.0 < sum(local.values()) < e["crack_area"][-1]  # the rest is l0 |grad c|^2
     assert local["band"] > local["flanks"] > local["ends"] > 0.0
+
+
+def test_the_striker_s_impulse_is_the_free_beam_s_momentum(comparison):
+    """No supports and no loads: in both methods the beam's momentum is the
+    striker's impulse to round-off, and :func:`striker_impulse` reads it at
+    the end of the ramp (5 us, from the scene) between rows."""
+    from benchmarks.notched_beam3d.measure import striker_impulse
+
+    out, _, _ = comparison
+    for run in ("mpm_h1", "fem_h1"):
+        e = read_csv(out / run / "energies.csv")
+        p = e["momentum_y"]
+        assert np.max(np.abs(p - e["impulse_striker_y"])) < 1e-12 * np.max(np.abs(p)), run
+        assert striker_impulse(out / run / "energies.csv") == pytest.approx(np.interp(5.0, e["t"], p), rel=1e-12)
+        assert striker_impulse(out / run / "energies.csv", 10.0) < striker_impulse(out / run / "energies.csv") < 0.0

@@ -22,6 +22,13 @@ start" is a different height in each (docs/verification/notched-beam3d.md).
 :func:`area_initiation` is a measure without those steps, reported beside
 it: the first time the crack area ``int gamma(c) dV`` has grown by 0.5 mm
 times the width of the front (the beam's thickness).
+
+Where the end fracture energy lies, reported: :func:`fem_crack_area`, the
+FEM's crack area near the notch and elsewhere, and :func:`local_crack_area`,
+the local part ``int (1 - c)^2 / (4 l0) dV`` of either method's crack area
+in the crack's band, its flanks and the beam's ends (:data:`ZONES`), and
+:func:`history`, the median history field there; and how hard each
+method's striker struck, :func:`striker_impulse`.
 """
 
 from __future__ import annotations
@@ -36,8 +43,8 @@ from pfmpm.output import read_csv
 from pfmpm.post.tip import INITIATION_ADVANCE
 from pfmpm.scene import Scene
 
-__all__ = ["FRACTURE", "ROWS", "ZONES", "area_initiation", "checks", "fem_crack_area", "front_width",
-           "local_crack_area", "pair"]
+__all__ = ["FRACTURE", "ROWS", "ZONES", "area_initiation", "checks", "fem_crack_area", "front_width", "history",
+           "local_crack_area", "pair", "striker_impulse"]
 
 FRACTURE = 0.05
 """The end fracture energies of the two methods agree to this, relative to FEM."""
@@ -95,9 +102,10 @@ def area_initiation(energies: Path | str, width: float | None = None, advance: f
     return float(e["t"][np.argmax(grown)]) if grown.any() else math.nan
 
 
-def _fem_last_frame(run: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Vertices (N, 3), tetrahedra (M, 4) and the phase field at the vertices
-    of the last field frame of a 3D FEM run."""
+def _fem_last_frame(run: Path, name: str = "c") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Vertices (N, 3), tetrahedra (M, 4) and the field ``name`` (the phase
+    field at the vertices, the history field on the cells) of the last field
+    frame of a 3D FEM run."""
     import xml.etree.ElementTree as ElementTree
 
     import h5py
@@ -108,7 +116,7 @@ def _fem_last_frame(run: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         return item.text.strip().partition(":")[2]
 
     mesh = next(g for g in grids if g.get("GridType") == "Uniform")
-    field = next(g for g in grids if g.get("CollectionType") == "Temporal" and g.get("Name") == "c")
+    field = next(g for g in grids if g.get("CollectionType") == "Temporal" and g.get("Name") == name)
     with h5py.File(run / "fields.h5", "r") as f:
         x = f[where(mesh.find("Geometry/DataItem"))][()]
         cells = f[where(mesh.find("Topology/DataItem"))][()]
@@ -147,9 +155,11 @@ def fem_crack_area(run: Path | str, centre: float = 20.0, half: float = 8.0) -> 
 
 ZONES = (2.0, 8.0)
 """The zones of :func:`local_crack_area`, by the distance from the notch's
-plane in units of l0: the crack's band (within 2 l0, where the AT2 profile
-``1 - c = exp(-|d| / l0)`` of a crack holds 1 - exp(-4) = 98 % of its
-``(1 - c)^2``), its flanks (2 to 8 l0) and the beam's ends beyond."""
+plane in units of l0: the crack's band (within 2 l0, where the 1D AT2
+profile ``1 - c = exp(-|d| / (2 l0))`` of a crack in that plane holds
+1 - exp(-2) = 86 % of its ``(1 - c)^2``), its flanks (2 to 8 l0, the rest
+but exp(-8) = 0.03 %) and the beam's ends beyond (|x - 20| > 8 mm, where
+``fem_crack_area`` counts "elsewhere")."""
 
 
 def local_crack_area(run: Path | str, centre: float = 20.0, zones: tuple[float, float] = ZONES) -> dict:
@@ -181,3 +191,40 @@ def local_crack_area(run: Path | str, centre: float = 20.0, zones: tuple[float, 
     band, flanks = d < zones[0], (d >= zones[0]) & (d < zones[1])
     return {"band": float(density[band].sum()), "flanks": float(density[flanks].sum()),
             "ends": float(density[d >= zones[1]].sum())}
+
+
+def history(run: Path | str, centre: float = 20.0, zones: tuple[float, float] = ZONES) -> dict:
+    """The median of the history field (the largest tensile elastic energy
+    density since t = 0, which drives the phase field) at the end of a 3D
+    run of either method, over its MPM particles or FEM cells in each zone of
+    :data:`ZONES` (``band``, ``flanks``, ``ends``): what the damage beside
+    the crack follows."""
+    run = Path(run)
+    l0 = Scene.from_toml(run / "scene.toml").materials[0].fracture.l0
+    if (run / "particles.pvd").is_file():
+        from pfmpm.post.frames import read_frame, series
+
+        t, path = series(run)[-1]
+        frame = read_frame(t, path, 3)
+        at, value = frame.x[:, 0], np.asarray(frame.data["history"], dtype=float)
+    else:
+        x, cells, value = _fem_last_frame(run, "history")
+        if len(value) != len(cells):
+            raise ValueError(f"{run}: the history field is not one value a cell")
+        at = x[cells].mean(axis=1)[:, 0]
+    d = np.abs(at - centre) / l0
+    where = {"band": d < zones[0], "flanks": (d >= zones[0]) & (d < zones[1]), "ends": d >= zones[1]}
+    return {k: float(np.median(value[s])) for k, s in where.items()}
+
+
+def striker_impulse(energies: Path | str, t: float | None = None) -> float:
+    """The striker's impulse along y (``impulse_striker_y``, N us; the
+    momentum it has given the free beam) at time ``t``, by default at the end
+    of its ramp (``amplitude.time``), interpolated between ``energies.csv``
+    rows: how hard each method's striker has struck."""
+    energies = Path(energies)
+    if t is None:
+        striker, = (r for r in Scene.from_toml(energies.parent / "scene.toml").prescribed if r.name == "striker")
+        t = striker.amplitude.time
+    e = read_csv(energies)
+    return float(np.interp(t, e["t"], e["impulse_striker_y"]))

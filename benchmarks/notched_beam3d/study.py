@@ -29,7 +29,8 @@ if str(Path(__file__).resolve().parents[2]) not in sys.path:  # run as a file: t
 
 from benchmarks.common import results as results_file  # noqa: E402
 from benchmarks.notched_beam3d.measure import (  # noqa: E402
-    FRACTURE, ROWS, ZONES, area_initiation, checks, fem_crack_area, local_crack_area)
+    FRACTURE, ROWS, ZONES, area_initiation, checks, fem_crack_area, history, local_crack_area,
+    striker_impulse)
 from pfmpm.compare import PROBLEMS, STUDY, compare  # noqa: E402
 
 PROBLEM = PROBLEMS["notched_beam3d"]
@@ -70,6 +71,12 @@ def tables(out: Path, hs) -> dict:
             [f"h = {c['h']:g}: elastic energy to the first initiation, RMS difference / peak", "", "",
              fmt(100 * c["elastic_rms_rel"], ".2f") + " %", "reported", ""],
         ]
+        impulses = [[striker_impulse(out / f"{m}_h{c['h']:g}" / "energies.csv", t) for m in ("mpm", "fem")]
+                    for t in (None, 10.0)]
+        lines.append([f"h = {c['h']:g}: the striker's impulse (N us) at the end of its ramp (5 us) / at 10 us",
+                      *(" / ".join(f"{-i[k]:.0f}" for i in impulses) for k in range(2)),
+                      " / ".join(fmt(100 * (i[0] - i[1]) / i[1], "+.1f") + " %" for i in impulses),
+                      "reported", ""])
         split = fem_crack_area(out / f"fem_h{c['h']:g}")
         lines.append([f"h = {c['h']:g}: FEM crack area (mm^2) within 8 mm of the notch / elsewhere", "",
                       f"{split['near']:.2f} / {split['elsewhere']:.2f}", "", "reported", ""])
@@ -79,6 +86,13 @@ def tables(out: Path, hs) -> dict:
                       f" notch's plane / {ZONES[0]:g}-{ZONES[1]:g} l0 / beyond",
                       *(" / ".join(f"{x[z]:.2f}" for z in zones) for x in local),
                       " / ".join(fmt(100 * (local[0][z] - local[1][z]) / local[1][z], "+.1f") + " %" for z in zones),
+                      "reported", ""])
+        medians = [history(out / f"{m}_h{c['h']:g}") for m in ("mpm", "fem")]
+        lines.append([f"h = {c['h']:g}: history field at the end, median {ZONES[0]:g}-{ZONES[1]:g} l0 from the notch's"
+                      " plane / beyond (J/m^3)",
+                      *(" / ".join(f"{1e6 * x[z]:.1f}" for z in zones[1:]) for x in medians),
+                      " / ".join(fmt(100 * (medians[0][z] - medians[1][z]) / medians[1][z], "+.1f") + " %"
+                                 for z in zones[1:]),
                       "reported", ""])
     agreement = results_file.table(["check", "PF-MPM", "PF-FEM", "MPM - FEM", "required", "verdict"], lines)
     return {"runs": runs, "agreement": agreement}
