@@ -23,12 +23,13 @@ start" is a different height in each (docs/verification/notched-beam3d.md).
 it: the first time the crack area ``int gamma(c) dV`` has grown by 0.5 mm
 times the width of the front (the beam's thickness).
 
-Where the end fracture energy lies, reported: :func:`fem_crack_area`, the
-FEM's crack area near the notch and elsewhere, and :func:`local_crack_area`,
-the local part ``int (1 - c)^2 / (4 l0) dV`` of either method's crack area
-in the crack's band, its flanks and the beam's ends (:data:`ZONES`), and
-:func:`history`, the median history field there; and how hard each
-method's striker struck, :func:`striker_impulse`.
+Reported beside the checks: how far from the notch's plane either method
+has cracked (:func:`cracked_reach`); where the end fracture energy lies, the
+FEM's crack area near the notch and elsewhere (:func:`fem_crack_area`) and
+the local part ``int (1 - c)^2 / (4 l0) dV`` of either method's in the
+crack's band, its flanks and the beam's ends (:func:`local_crack_area`,
+:data:`ZONES`), with the median history field there (:func:`history`); and
+how hard each method's striker struck (:func:`striker_impulse`).
 """
 
 from __future__ import annotations
@@ -44,7 +45,7 @@ from pfmpm.post.tip import INITIATION_ADVANCE
 from pfmpm.scene import Scene
 
 __all__ = ["FRACTURE", "ROWS", "ZONES", "area_initiation", "checks", "fem_crack_area", "front_width", "history",
-           "local_crack_area", "pair", "striker_impulse"]
+           "cracked_reach", "local_crack_area", "pair", "striker_impulse"]
 
 FRACTURE = 0.05
 """The end fracture energies of the two methods agree to this, relative to FEM."""
@@ -228,3 +229,22 @@ def striker_impulse(energies: Path | str, t: float | None = None) -> float:
         t = striker.amplitude.time
     e = read_csv(energies)
     return float(np.interp(t, e["t"], e["impulse_striker_y"]))
+
+
+def cracked_reach(run: Path | str, centre: float = 20.0) -> float:
+    """The farthest distance from the notch's plane x = ``centre`` of a
+    cracked point (phase field below ``output.crack_threshold``: an MPM
+    particle or an FEM vertex) in the last frame of a 3D run: where a crack
+    away from the notch would show (0 if none is cracked)."""
+    run = Path(run)
+    threshold = Scene.from_toml(run / "scene.toml").output.crack_threshold
+    if (run / "particles.pvd").is_file():
+        from pfmpm.post.frames import read_frame, series
+
+        t, path = series(run)[-1]
+        frame = read_frame(t, path, 3)
+        x, c = frame.x, np.asarray(frame.data["c"], dtype=float)
+    else:
+        x, _, c = _fem_last_frame(run)
+    cracked = c < threshold
+    return float(np.abs(x[cracked, 0] - centre).max()) if cracked.any() else 0.0

@@ -29,8 +29,8 @@ if str(Path(__file__).resolve().parents[2]) not in sys.path:  # run as a file: t
 
 from benchmarks.common import results as results_file  # noqa: E402
 from benchmarks.notched_beam3d.measure import (  # noqa: E402
-    FRACTURE, ROWS, ZONES, area_initiation, checks, fem_crack_area, history, local_crack_area,
-    striker_impulse)
+    FRACTURE, ROWS, ZONES, area_initiation, checks, cracked_reach, fem_crack_area, history,
+    local_crack_area, striker_impulse)
 from pfmpm.compare import PROBLEMS, STUDY, compare  # noqa: E402
 
 PROBLEM = PROBLEMS["notched_beam3d"]
@@ -77,6 +77,9 @@ def tables(out: Path, hs) -> dict:
                       *(" / ".join(f"{-i[k]:.0f}" for i in impulses) for k in range(2)),
                       " / ".join(fmt(100 * (i[0] - i[1]) / i[1], "+.1f") + " %" for i in impulses),
                       "reported", ""])
+        reach = [cracked_reach(out / f"{m}_h{c['h']:g}") for m in ("mpm", "fem")]
+        lines.append([f"h = {c['h']:g}: the cracked points' (c < 0.2) farthest distance from the notch's plane at"
+                      " the end (mm)", f"{reach[0]:.2f}", f"{reach[1]:.2f}", "", "reported", ""])
         split = fem_crack_area(out / f"fem_h{c['h']:g}")
         lines.append([f"h = {c['h']:g}: FEM crack area (mm^2) within 8 mm of the notch / elsewhere", "",
                       f"{split['near']:.2f} / {split['elsewhere']:.2f}", "", "reported", ""])
