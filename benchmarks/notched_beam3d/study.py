@@ -105,12 +105,14 @@ def main(argv: list[str] | None = None) -> dict:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--h", type=float, action="append", help="grid.h of a run pair (repeat; default 1 and 0.5)")
     parser.add_argument("--out", type=Path, default=Path("out/notched_beam3d"))
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                        help="override a scene value for both methods (as pfmpm compare --set)")
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
     args = parser.parse_args(argv)
     hs = args.h or list(PROBLEM.h)
     resume = (args.out / STUDY).is_file()
-    compare(args.out, hs, PROBLEM.l0, PROBLEM.end, scene_path=PROBLEM.path, progress=not args.quiet,
-            resume=resume, title=PROBLEM.title)
+    compare(args.out, hs, PROBLEM.l0, PROBLEM.end, scene_path=PROBLEM.path, overrides=args.set,
+            progress=not args.quiet, resume=resume, title=PROBLEM.title)
     record = results_file.write(args.out, "notched_beam3d", "docs/verification/notched-beam3d.md", __file__,
                                 argv, tables(args.out, hs))
     for t in record["tables"].values():
