@@ -61,14 +61,14 @@ def test_3d_comparison_writes_the_table_of_the_crack_front(comparison):
 
 
 def test_both_methods_agree_on_the_struck_beam_before_it_cracks_far(comparison):
-    """Until the first initiation the two elastic energies differ by 5.2 %
+    """Until the first initiation the two elastic energies differ by 2.6 %
     RMS of the peak (measured); the notch is the same crack in both (areas
     at t = 0: 16.79 and 17.12 mm^2, measured); by 12 us both cracks have
     grown from it by more than 0.5 mm across the thickness, in the same
     output row by the crack area (9.89 us, measured)."""
     out, _, _ = comparison
     c, = checks(out, [1.0])
-    assert c["elastic_rms_rel"] < 0.08
+    assert c["elastic_rms_rel"] < 0.05
     m, f = (read_csv(out / f"{k}_h1" / "energies.csv") for k in ("mpm", "fem"))
     assert m["crack_area"][0] == pytest.approx(f["crack_area"][0], rel=0.03)
     assert 2.0 <= m["crack_front"][0] <= 2.5 and f["crack_front"][0] == pytest.approx(2.0, abs=1e-9)
