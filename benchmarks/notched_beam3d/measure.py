@@ -44,8 +44,8 @@ from pfmpm.output import read_csv
 from pfmpm.post.tip import INITIATION_ADVANCE
 from pfmpm.scene import Scene
 
-__all__ = ["FRACTURE", "ROWS", "ZONES", "area_initiation", "checks", "fem_crack_area", "front_width", "history",
-           "cracked_reach", "local_crack_area", "pair", "striker_impulse"]
+__all__ = ["FRACTURE", "ROWS", "ZONES", "area_initiation", "checks", "cracked_reach", "fem_crack_area", "front_width",
+           "history", "local_crack_area", "pair", "striker_impulse"]
 
 FRACTURE = 0.05
 """The end fracture energies of the two methods agree to this, relative to FEM."""
@@ -101,6 +101,14 @@ def area_initiation(energies: Path | str, width: float | None = None, advance: f
     e = read_csv(energies)
     grown = e["crack_area"] > e["crack_area"][0] + advance * width
     return float(e["t"][np.argmax(grown)]) if grown.any() else math.nan
+
+
+def _mpm_last_frame(run: Path):
+    """The last particle frame of a 3D MPM run (:class:`pfmpm.post.frames.Frame`)."""
+    from pfmpm.post.frames import read_frame, series
+
+    t, path = series(run)[-1]
+    return read_frame(t, path, 3)
 
 
 def _fem_last_frame(run: Path, name: str = "c") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -178,10 +186,7 @@ def local_crack_area(run: Path | str, centre: float = 20.0, zones: tuple[float, 
     run = Path(run)
     l0 = Scene.from_toml(run / "scene.toml").materials[0].fracture.l0
     if (run / "particles.pvd").is_file():
-        from pfmpm.post.frames import read_frame, series
-
-        t, path = series(run)[-1]
-        frame = read_frame(t, path, 3)
+        frame = _mpm_last_frame(run)
         at = frame.x[:, 0]
         density = np.asarray(frame.data["volume"]) * (1.0 - np.asarray(frame.data["c"])) ** 2 / (4.0 * l0)
     else:
@@ -203,10 +208,7 @@ def history(run: Path | str, centre: float = 20.0, zones: tuple[float, float] = 
     run = Path(run)
     l0 = Scene.from_toml(run / "scene.toml").materials[0].fracture.l0
     if (run / "particles.pvd").is_file():
-        from pfmpm.post.frames import read_frame, series
-
-        t, path = series(run)[-1]
-        frame = read_frame(t, path, 3)
+        frame = _mpm_last_frame(run)
         at, value = frame.x[:, 0], np.asarray(frame.data["history"], dtype=float)
     else:
         x, cells, value = _fem_last_frame(run, "history")
@@ -239,10 +241,7 @@ def cracked_reach(run: Path | str, centre: float = 20.0) -> float:
     run = Path(run)
     threshold = Scene.from_toml(run / "scene.toml").output.crack_threshold
     if (run / "particles.pvd").is_file():
-        from pfmpm.post.frames import read_frame, series
-
-        t, path = series(run)[-1]
-        frame = read_frame(t, path, 3)
+        frame = _mpm_last_frame(run)
         x, c = frame.x, np.asarray(frame.data["c"], dtype=float)
     else:
         x, _, c = _fem_last_frame(run)
