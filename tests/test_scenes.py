@@ -84,7 +84,7 @@ BALANCE = {
     # Measured 0.353 by 8 us: the scheme loses energy in the sphere's contact
     # and as the disk fails (docs/verification/sphere-disk.md); it only loses.
     "sphere_disk": 0.4,
-    "notched_beam3d": 0.02,  # measured 0.0045 by 12 us
+    "notched_beam3d": 0.02,  # measured 0.0093 by 12 us
 }
 """Energy-balance tolerances of the smoke runs."""
 
@@ -331,25 +331,31 @@ def check_three_point_bending(scene, sim, out, e):
 
 
 def check_notched_beam3d(scene, sim, out, e):
-    # No loads: the beam's momentum is the impulse of its supports and striker, to
-    # round-off; the striker has moved v (t - T / 2) after its ramp. By 12 us the
-    # crack has grown from the notch (its area by more than 0.5 mm across the
-    # 4 mm thickness) and nowhere else: every cracked particle is within 3 mm of
-    # the notch's plane x = 20 (benchmarks/notched_beam3d/measure.py).
+    # No loads and no supports: the beam's momentum is the striker's impulse, to
+    # round-off, along -y only (the beam and grid are symmetric about x = 20 and
+    # z = 2); the striker has moved v (t - T / 2) after its ramp. The free beam
+    # bends by its inertia: at 12 us its ends (2 mm each) move up, away from the
+    # striker, against the beam's mean motion (measured +0.27 against -0.35 m/s),
+    # alike by symmetry. By 12 us the crack has grown from the notch (its area by
+    # more than 0.5 mm across the 4 mm thickness) and nowhere else: every cracked
+    # particle is within 3 mm of the notch's plane x = 20
+    # (benchmarks/notched_beam3d/measure.py).
     from benchmarks.notched_beam3d.measure import area_initiation, front_width
 
-    impulse = sum(e[f"impulse_{r.name}_y"] for r in scene.prescribed)
-    assert np.max(np.abs(e["momentum_y"] - impulse)) < 1e-12 * np.max(np.abs(e["impulse_striker_y"]))
+    assert [r.name for r in scene.prescribed] == ["striker"]
+    p_y = e["momentum_y"]
+    assert np.max(np.abs(p_y - e["impulse_striker_y"])) < 1e-12 * np.max(np.abs(p_y))
+    assert max(np.abs(e["momentum_x"]).max(), np.abs(e["momentum_z"]).max()) < 1e-12 * np.abs(p_y).max()
     assert e["displacement_striker_y"][-1] == pytest.approx(-0.0005 * (e["t"][-1] - 2.5), rel=1e-6)
-    forces = mean_forces(scene, e)
-    left, right = forces["region_left_support_y"], forces["region_right_support_y"]
-    # The struck beam's ends lift before its middle has bent (inertial loading): the
-    # glued supports hold them down (-2.7 N by 12 us), alike by symmetry.
-    assert left.min() < -1.0 and np.max(np.abs(left - right)) < 1e-6 * np.abs(left).max()
+    x, v, m = sim.particles.x, sim.particles.v, sim.particles.mass
+    mean = (m * v[:, 1]).sum() / m.sum()
+    assert mean == pytest.approx(p_y[-1] / m.sum(), rel=1e-9) and mean < 0
+    left, right = ((m[s] * v[s, 1]).sum() / m[s].sum() for s in (x[:, 0] < 2.0, x[:, 0] > 38.0))
+    assert left > 0.3 * abs(mean) and right == pytest.approx(left, rel=1e-6)
     assert front_width(scene) == 4.0
     assert 2.0 <= e["crack_front"][0] <= 2.5 and e["crack_front"][-1] > e["crack_front"][0]
     assert area_initiation(out / "energies.csv") < e["t"][-1]
-    x, c = sim.particles.x, sim.particles.c
+    c = sim.particles.c
     cracked = c < scene.output.crack_threshold
     assert cracked.any() and np.abs(x[cracked, 0] - 20.0).max() < 3.0
 

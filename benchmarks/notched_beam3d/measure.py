@@ -22,6 +22,14 @@ start" is a different height in each (docs/verification/notched-beam3d.md).
 :func:`area_initiation` is a measure without those steps, reported beside
 it: the first time the crack area ``int gamma(c) dV`` has grown by 0.5 mm
 times the width of the front (the beam's thickness).
+
+Reported beside the checks: how far from the notch's plane either method
+has cracked (:func:`cracked_reach`); where the end fracture energy lies, the
+FEM's crack area near the notch and elsewhere (:func:`fem_crack_area`) and
+the local part ``int (1 - c)^2 / (4 l0) dV`` of either method's in the
+crack's band, its flanks and the beam's ends (:func:`local_crack_area`,
+:data:`ZONES`), with the median history field there (:func:`history`); and
+how hard each method's striker struck (:func:`striker_impulse`).
 """
 
 from __future__ import annotations
@@ -36,7 +44,8 @@ from pfmpm.output import read_csv
 from pfmpm.post.tip import INITIATION_ADVANCE
 from pfmpm.scene import Scene
 
-__all__ = ["FRACTURE", "ROWS", "area_initiation", "checks", "pair", "front_width"]
+__all__ = ["FRACTURE", "ROWS", "ZONES", "area_initiation", "checks", "cracked_reach", "fem_crack_area", "front_width",
+           "history", "local_crack_area", "pair", "striker_impulse"]
 
 FRACTURE = 0.05
 """The end fracture energies of the two methods agree to this, relative to FEM."""
@@ -94,36 +103,147 @@ def area_initiation(energies: Path | str, width: float | None = None, advance: f
     return float(e["t"][np.argmax(grown)]) if grown.any() else math.nan
 
 
-def fem_crack_area(run: Path | str, centre: float = 20.0, half: float = 8.0) -> dict:
-    """The crack area ``int gamma(c) dV`` of the last field frame of a 3D FEM
-    run, near the notch's plane (cells whose centroid's x is within ``half``
-    of ``centre``) and elsewhere (at the supports and the beam's ends):
-    ``gamma = (1 - c)^2 / (4 l0) + l0 |grad c|^2`` (AT2) on each P1
-    tetrahedron, the mean of ``(1 - c)^2`` exact; the two add up to the
-    run's last ``crack_area`` when the last frame is the run's end."""
+def _mpm_last_frame(run: Path):
+    """The last particle frame of a 3D MPM run (:class:`pfmpm.post.frames.Frame`)."""
+    from pfmpm.post.frames import read_frame, series
+
+    t, path = series(run)[-1]
+    return read_frame(t, path, 3)
+
+
+def _fem_last_frame(run: Path, name: str = "c") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Vertices (N, 3), tetrahedra (M, 4) and the field ``name`` (the phase
+    field at the vertices, the history field on the cells) of the last field
+    frame of a 3D FEM run."""
     import xml.etree.ElementTree as ElementTree
 
     import h5py
 
-    run = Path(run)
-    l0 = Scene.from_toml(run / "scene.toml").materials[0].fracture.l0
     grids = ElementTree.parse(run / "fields.xdmf").getroot().find("Domain").findall("Grid")
 
     def where(item):
         return item.text.strip().partition(":")[2]
 
     mesh = next(g for g in grids if g.get("GridType") == "Uniform")
-    field = next(g for g in grids if g.get("CollectionType") == "Temporal" and g.get("Name") == "c")
+    field = next(g for g in grids if g.get("CollectionType") == "Temporal" and g.get("Name") == name)
     with h5py.File(run / "fields.h5", "r") as f:
         x = f[where(mesh.find("Geometry/DataItem"))][()]
         cells = f[where(mesh.find("Topology/DataItem"))][()]
         c = f[where(field.findall("Grid")[-1].find("Attribute/DataItem"))][()].ravel()
+    return x, cells, c
+
+
+def _fem_cells(run: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Of each tetrahedron of the last frame of a 3D FEM run: its centroid
+    (M, 3), volume, the exact mean of ``(1 - c)^2`` over it (c linear) and
+    ``|grad c|^2``."""
+    x, cells, c = _fem_last_frame(run)
     corners = x[cells]
     edges = corners[:, 1:] - corners[:, :1]
     volume = np.abs(np.linalg.det(edges)) / 6.0
     grad = np.linalg.solve(edges, (c[cells][:, 1:] - c[cells][:, :1])[..., None])[..., 0]
     d = 1.0 - c[cells]
     mean_square = (d.sum(axis=1) ** 2 + (d ** 2).sum(axis=1)) / 20.0  # exact on a P1 tetrahedron
-    gamma = volume * (mean_square / (4.0 * l0) + l0 * (grad ** 2).sum(axis=1))
-    near = np.abs(corners.mean(axis=1)[:, 0] - centre) < half
+    return corners.mean(axis=1), volume, mean_square, (grad ** 2).sum(axis=1)
+
+
+def fem_crack_area(run: Path | str, centre: float = 20.0, half: float = 8.0) -> dict:
+    """The crack area ``int gamma(c) dV`` of the last field frame of a 3D FEM
+    run, near the notch's plane (cells whose centroid's x is within ``half``
+    of ``centre``) and elsewhere (the beam's ends):
+    ``gamma = (1 - c)^2 / (4 l0) + l0 |grad c|^2`` (AT2) on each P1
+    tetrahedron, the mean of ``(1 - c)^2`` exact; the two add up to the
+    run's last ``crack_area`` when the last frame is the run's end."""
+    run = Path(run)
+    l0 = Scene.from_toml(run / "scene.toml").materials[0].fracture.l0
+    centroid, volume, mean_square, grad_square = _fem_cells(run)
+    gamma = volume * (mean_square / (4.0 * l0) + l0 * grad_square)
+    near = np.abs(centroid[:, 0] - centre) < half
     return {"near": float(gamma[near].sum()), "elsewhere": float(gamma[~near].sum())}
+
+
+ZONES = (2.0, 8.0)
+"""The zones of :func:`local_crack_area`, by the distance from the notch's
+plane in units of l0: the crack's band (within 2 l0, where the 1D AT2
+profile ``1 - c = exp(-|d| / (2 l0))`` of a crack in that plane holds
+1 - exp(-2) = 86 % of its ``(1 - c)^2``), its flanks (2 to 8 l0, the rest
+but exp(-8) = 0.03 %) and the beam's ends beyond (|x - 20| > 8 mm, where
+``fem_crack_area`` counts "elsewhere")."""
+
+
+def local_crack_area(run: Path | str, centre: float = 20.0, zones: tuple[float, float] = ZONES) -> dict:
+    """The local part of the crack area, ``int (1 - c)^2 / (4 l0) dV``, of
+    the last frame of a 3D run of either method, in the zones
+    :data:`ZONES` about the notch's plane x = ``centre``: ``band``,
+    ``flanks`` and ``ends``.
+
+    Of the two terms of the AT2 crack density this is the one both runs'
+    frames hold (an MPM frame has no ``grad c``); for a straight AT2 crack
+    it is half of its area. The MPM integrates it with its particles (their
+    volumes and phase field), the FEM exactly on each P1 tetrahedron (by
+    its centroid's zone).
+    """
+    run = Path(run)
+    l0 = Scene.from_toml(run / "scene.toml").materials[0].fracture.l0
+    if (run / "particles.pvd").is_file():
+        frame = _mpm_last_frame(run)
+        at = frame.x[:, 0]
+        density = np.asarray(frame.data["volume"]) * (1.0 - np.asarray(frame.data["c"])) ** 2 / (4.0 * l0)
+    else:
+        centroid, volume, mean_square, _ = _fem_cells(run)
+        at = centroid[:, 0]
+        density = volume * mean_square / (4.0 * l0)
+    d = np.abs(at - centre) / l0
+    band, flanks = d < zones[0], (d >= zones[0]) & (d < zones[1])
+    return {"band": float(density[band].sum()), "flanks": float(density[flanks].sum()),
+            "ends": float(density[d >= zones[1]].sum())}
+
+
+def history(run: Path | str, centre: float = 20.0, zones: tuple[float, float] = ZONES) -> dict:
+    """The median of the history field (the largest tensile elastic energy
+    density since t = 0, which drives the phase field) at the end of a 3D
+    run of either method, over its MPM particles or FEM cells in each zone of
+    :data:`ZONES` (``band``, ``flanks``, ``ends``): what the damage beside
+    the crack follows."""
+    run = Path(run)
+    l0 = Scene.from_toml(run / "scene.toml").materials[0].fracture.l0
+    if (run / "particles.pvd").is_file():
+        frame = _mpm_last_frame(run)
+        at, value = frame.x[:, 0], np.asarray(frame.data["history"], dtype=float)
+    else:
+        x, cells, value = _fem_last_frame(run, "history")
+        if len(value) != len(cells):
+            raise ValueError(f"{run}: the history field is not one value a cell")
+        at = x[cells].mean(axis=1)[:, 0]
+    d = np.abs(at - centre) / l0
+    where = {"band": d < zones[0], "flanks": (d >= zones[0]) & (d < zones[1]), "ends": d >= zones[1]}
+    return {k: float(np.median(value[s])) for k, s in where.items()}
+
+
+def striker_impulse(energies: Path | str, t: float | None = None) -> float:
+    """The striker's impulse along y (``impulse_striker_y``, N us; the
+    momentum it has given the free beam) at time ``t``, by default at the end
+    of its ramp (``amplitude.time``), interpolated between ``energies.csv``
+    rows: how hard each method's striker has struck."""
+    energies = Path(energies)
+    if t is None:
+        striker, = (r for r in Scene.from_toml(energies.parent / "scene.toml").prescribed if r.name == "striker")
+        t = striker.amplitude.time
+    e = read_csv(energies)
+    return float(np.interp(t, e["t"], e["impulse_striker_y"]))
+
+
+def cracked_reach(run: Path | str, centre: float = 20.0) -> float:
+    """The farthest distance from the notch's plane x = ``centre`` of a
+    cracked point (phase field below ``output.crack_threshold``: an MPM
+    particle or an FEM vertex) in the last frame of a 3D run: where a crack
+    away from the notch would show (0 if none is cracked)."""
+    run = Path(run)
+    threshold = Scene.from_toml(run / "scene.toml").output.crack_threshold
+    if (run / "particles.pvd").is_file():
+        frame = _mpm_last_frame(run)
+        x, c = frame.x, np.asarray(frame.data["c"], dtype=float)
+    else:
+        x, _, c = _fem_last_frame(run)
+    cracked = c < threshold
+    return float(np.abs(x[cracked, 0] - centre).max()) if cracked.any() else 0.0

@@ -416,8 +416,8 @@ def main(argv: list[str] | None = None) -> int:
     defaults = "; ".join(f"{name}: {','.join(f'{h:g}' for h in p.h)}, {p.l0:g}, {p.end:g}"
                          for name, p in PROBLEMS.items())
     comparison.add_argument("problem", choices=list(PROBLEMS),
-                         help="the benchmark: the Borden plate, or the 3D notched beam in three-point"
-                              f" bending; its defaults of --h, --l0 and --end: {defaults}")
+                         help="the benchmark: the Borden plate, or the 3D notched beam struck at"
+                              f" mid-span; its defaults of --h, --l0 and --end: {defaults}")
     comparison.add_argument("--h", help="grid spacings, comma-separated (default: the problem's)")
     comparison.add_argument("--l0", type=float, help="phase-field length scale (default: the problem's)")
     comparison.add_argument("--end", type=float, help="end time (default: the problem's)")

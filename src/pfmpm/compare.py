@@ -159,7 +159,7 @@ class Problem:
 PROBLEMS = {
     "borden": Problem("borden_plate", "Borden plate", DEFAULT_H, DEFAULT_L0, DEFAULT_END),
     # benchmarks/notched_beam3d: the crack has run through the ligament by about 35 us.
-    "notched_beam3d": Problem("notched_beam3d", "notched beam in three-point bending (3D)", (1.0, 0.5), 1.0, 50.0),
+    "notched_beam3d": Problem("notched_beam3d", "notched beam struck at mid-span (3D)", (1.0, 0.5), 1.0, 50.0),
 }
 """The problems of ``pfmpm compare PROBLEM`` by name."""
 
