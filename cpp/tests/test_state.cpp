@@ -41,6 +41,22 @@ Particles make_block(int n)
   return P;
 }
 
+/// Disk 0 moving obliquely at disk 1, which alone can crack (material 1);
+/// with `notch`, a band of history across disk 1's middle.
+Particles crackable_disks(bool notch)
+{
+  Particles P = make_disks({{2.0, 2.0, 1.0, 0.5, 0.1}, {4.1, 2.6, 1.0, 0.0, 0.0}}, 0.125);
+  add_model_columns(P, true);
+  for (std::size_t p = 0; p < P.size(); ++p)
+    if (P.body[p] == 1)
+    {
+      P.material[p] = 1;
+      if (notch && std::abs(P.x[2 * p + 1] - 2.6) < 0.1)
+        P.f64("history")[p] = 50.0;
+    }
+  return P;
+}
+
 /// Positions, velocities, phase field and stresses bit for bit.
 void expect_same_particles(const Particles& P, const Particles& Q)
 {
@@ -117,21 +133,8 @@ TEST(SolverState, RestoredContactRunContinuesBitwise)
   const auto mat = elastic(100.0, 0.3, 1.0, 2);
   const std::vector<std::optional<Fracture>> fracture{std::nullopt, Fracture{0.5, 0.5, 0.0}};
   const std::vector<double> friction{0.0, 0.3, 0.3, 0.0};
-  auto disks = []
-  {
-    Particles P = make_disks({{2.0, 2.0, 1.0, 0.5, 0.1}, {4.1, 2.6, 1.0, 0.0, 0.0}}, 0.125);
-    add_model_columns(P, true);
-    for (std::size_t p = 0; p < P.size(); ++p)
-      if (P.body[p] == 1)
-      {
-        P.material[p] = 1;
-        if (std::abs(P.x[2 * p + 1] - 2.6) < 0.1)
-          P.f64("history")[p] = 50.0;
-      }
-    return P;
-  };
   Grid<2> grid(2, {32, 24}, 0.25, {0.0, 0.0});
-  Particles P = disks();
+  Particles P = crackable_disks(true);
   Solver original(grid, P, mat, step_with(2e-3, fracture, friction));
   original.advance(100);
   ASSERT_GT(original.contact_stats()->nodes, 0) << "the disks should be in contact";
@@ -248,17 +251,8 @@ TEST(SolverState, StepsDependOnTheOrderOfTheIdsNotOnTheirValues)
   const auto mat = elastic(100.0, 0.3, 1.0, 2);
   const std::vector<std::optional<Fracture>> fracture{std::nullopt, Fracture{0.5, 0.5, 0.0}};
   const std::vector<double> friction{0.0, 0.3, 0.3, 0.0};
-  auto disks = []
-  {
-    Particles P = make_disks({{2.0, 2.0, 1.0, 0.5, 0.1}, {4.1, 2.6, 1.0, 0.0, 0.0}}, 0.125);
-    add_model_columns(P, true);
-    for (std::size_t p = 0; p < P.size(); ++p)
-      if (P.body[p] == 1)
-        P.material[p] = 1;
-    return P;
-  };
   Grid<2> grid(2, {32, 24}, 0.25, {0.0, 0.0}), grid2(2, {32, 24}, 0.25, {0.0, 0.0});
-  Particles P = disks(), Q = disks();
+  Particles P = crackable_disks(false), Q = crackable_disks(false);
   for (std::size_t p = 0; p < Q.size(); ++p)
     Q.id[p] = (std::int64_t{1} << 33) + 7 * static_cast<std::int64_t>(p) + (p * p) % 5;
   Solver a(grid, P, mat, step_with(2e-3, fracture, friction));
