@@ -171,6 +171,13 @@ but exp(-8) = 0.03 %) and the beam's ends beyond (|x - 20| > 8 mm, where
 ``fem_crack_area`` counts "elsewhere")."""
 
 
+def _zones(at: np.ndarray, centre: float, l0: float, zones: tuple[float, float]) -> dict:
+    """Which points, at x = ``at``, lie in each zone of :data:`ZONES` about
+    the notch's plane x = ``centre``: ``band``, ``flanks`` and ``ends``."""
+    d = np.abs(at - centre) / l0
+    return {"band": d < zones[0], "flanks": (d >= zones[0]) & (d < zones[1]), "ends": d >= zones[1]}
+
+
 def local_crack_area(run: Path | str, centre: float = 20.0, zones: tuple[float, float] = ZONES) -> dict:
     """The local part of the crack area, ``int (1 - c)^2 / (4 l0) dV``, of
     the last frame of a 3D run of either method, in the zones
@@ -193,10 +200,7 @@ def local_crack_area(run: Path | str, centre: float = 20.0, zones: tuple[float, 
         centroid, volume, mean_square, _ = _fem_cells(run)
         at = centroid[:, 0]
         density = volume * mean_square / (4.0 * l0)
-    d = np.abs(at - centre) / l0
-    band, flanks = d < zones[0], (d >= zones[0]) & (d < zones[1])
-    return {"band": float(density[band].sum()), "flanks": float(density[flanks].sum()),
-            "ends": float(density[d >= zones[1]].sum())}
+    return {k: float(density[inside].sum()) for k, inside in _zones(at, centre, l0, zones).items()}
 
 
 def history(run: Path | str, centre: float = 20.0, zones: tuple[float, float] = ZONES) -> dict:
@@ -215,9 +219,7 @@ def history(run: Path | str, centre: float = 20.0, zones: tuple[float, float] = 
         if len(value) != len(cells):
             raise ValueError(f"{run}: the history field is not one value a cell")
         at = x[cells].mean(axis=1)[:, 0]
-    d = np.abs(at - centre) / l0
-    where = {"band": d < zones[0], "flanks": (d >= zones[0]) & (d < zones[1]), "ends": d >= zones[1]}
-    return {k: float(np.median(value[s])) for k, s in where.items()}
+    return {k: float(np.median(value[inside])) for k, inside in _zones(at, centre, l0, zones).items()}
 
 
 def striker_impulse(energies: Path | str, t: float | None = None) -> float:
