@@ -3,7 +3,7 @@
 /// directions, from one source: node blocks, active nodes, walls and
 /// regions; P2G conserves mass and momentum to round-off, G2P reproduces a
 /// linear velocity field exactly (the B-splines' linear precision), and
-/// neither depends on the thread count (bitwise).
+/// neither depends on the thread count (bitwise); the sums by tile of cells.
 #include "pfmpm/grid/grid.h"
 #include "pfmpm/particles/cell_sort.h"
 #include "pfmpm/shape/stencil.h"
@@ -14,6 +14,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numeric>
 #include <random>
 #include <stdexcept>
 #include <vector>
@@ -143,6 +144,75 @@ TEST(Grid3, SizesKeysAndSort)
   // A particle past the front (z) side is reported.
   x[3 * 7 + 2] = 5.0 + 1e-9;
   EXPECT_EQ(sort.sort(grid, x), 7u);
+}
+
+TEST(TileSort, TilesHoldTheirParticlesInIndexOrderAndSumTheSameOnAnyArrayOrder)
+{
+  // 21 x 13 cells: tiles of 8 x 8 cells, the last ones cut (3 x 2 tiles).
+  Grid<2> grid(2, {21, 13}, 0.5, {-1.0, 2.0});
+  const Cloud<2> c = cloud<2>(3000, 0.0, 6.49, 5);
+  std::vector<double> x = c.x;
+  for (std::size_t p = 0; p < 3000; ++p)
+    x[2 * p] -= 1.0, x[2 * p + 1] += 2.0;
+  CellSort tiles;
+  ASSERT_EQ((tiles.sort<2, tile_cells>(grid, x)), 3000u);
+  ASSERT_EQ(tiles.cell_start().size(), 3u * 2u + 1u);
+  std::vector<int> tile_of(3000);
+  for (std::int64_t t = 0; t < 6; ++t)
+    for (std::int64_t k = tiles.cell_start()[t]; k < tiles.cell_start()[t + 1]; ++k)
+    {
+      const std::size_t p = tiles.order()[k];
+      const int tx = grid.basis(0).cell(x[2 * p]) / 8, ty = grid.basis(1).cell(x[2 * p + 1]) / 8;
+      EXPECT_EQ(tx * 2 + ty, t);
+      if (k > tiles.cell_start()[t])
+        EXPECT_LT(tiles.order()[k - 1], tiles.order()[k]);
+      tile_of[p] = static_cast<int>(t);
+    }
+  // Terms of very different sizes, so that the order of the additions shows.
+  std::vector<double> term(3000);
+  for (std::size_t p = 0; p < 3000; ++p)
+    term[p] = c.m[p] * std::pow(10.0, 8.0 * c.v[2 * p]);
+  const auto sum = [](const CellSort& sort, const std::vector<double>& f)
+  {
+    return tile_sum<1>(sort,
+                       [&](const std::int32_t* order, std::int64_t begin, std::int64_t end, std::array<double, 1>& acc)
+                       {
+                         for (std::int64_t k = begin; k < end; ++k)
+                           acc[0] += f[order[k]];
+                       })[0];
+  };
+  // By hand: each tile's terms in index order, the tiles in key order.
+  double expected = 0.0;
+  for (int t = 0; t < 6; ++t)
+  {
+    double part = 0.0;
+    for (std::size_t p = 0; p < 3000; ++p)
+      if (tile_of[p] == t)
+        part += term[p];
+    expected += part;
+  }
+  const int threads = omp_get_max_threads();
+  for (int n : {1, 2})
+  {
+    omp_set_num_threads(n);
+    EXPECT_EQ(sum(tiles, term), expected);
+  }
+  // The arrays in another order that keeps each tile's particles in their
+  // order (the tiles interleaved backwards, as another process's arrays
+  // would hold them): the same bits.
+  std::vector<std::size_t> moved(3000);
+  std::iota(moved.begin(), moved.end(), 0);
+  std::stable_sort(moved.begin(), moved.end(), [&](auto a, auto b) { return tile_of[a] > tile_of[b]; });
+  std::vector<double> x2(6000), term2(3000);
+  for (std::size_t k = 0; k < 3000; ++k)
+  {
+    x2[2 * k] = x[2 * moved[k]], x2[2 * k + 1] = x[2 * moved[k] + 1];
+    term2[k] = term[moved[k]];
+  }
+  CellSort other;
+  ASSERT_EQ((other.sort<2, tile_cells>(grid, x2)), 3000u);
+  EXPECT_EQ(sum(other, term2), expected);
+  omp_set_num_threads(threads);
 }
 
 TEST(Grid3, ActiveNodesAreTheSupportsOfTheOccupiedCells)

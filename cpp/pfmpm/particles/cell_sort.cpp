@@ -9,12 +9,17 @@
 namespace pfmpm
 {
 
-template <int Dim>
+template <int Dim, int Tile>
 std::size_t CellSort::sort(const Grid<Dim>& grid, const std::vector<double>& x)
 {
   const auto n = static_cast<std::ptrdiff_t>(x.size() / Dim);
-  const std::array<int, Dim> cells = grid.cells();
-  const auto ncells = static_cast<std::size_t>(grid.num_cells());
+  std::array<int, Dim> cells = grid.cells(); // per direction: cells, or tiles
+  std::size_t ncells = 1;
+  for (int d = 0; d < Dim; ++d)
+  {
+    cells[d] = (cells[d] + Tile - 1) / Tile;
+    ncells *= static_cast<std::size_t>(cells[d]);
+  }
   _cell.resize(n);
   _order.resize(n);
   _cell_start.resize(ncells + 1);
@@ -29,6 +34,7 @@ std::size_t CellSort::sort(const Grid<Dim>& grid, const std::vector<double>& x)
     {
       c[d] = grid.basis(d).cell(x[Dim * i + d]);
       inside = inside && c[d] >= 0;
+      c[d] /= Tile;
     }
     if (!inside)
     {
@@ -76,7 +82,9 @@ std::size_t CellSort::sort(const Grid<Dim>& grid, const std::vector<double>& x)
   return static_cast<std::size_t>(n);
 }
 
-template std::size_t CellSort::sort(const Grid<2>&, const std::vector<double>&);
-template std::size_t CellSort::sort(const Grid<3>&, const std::vector<double>&);
+template std::size_t CellSort::sort<2, 1>(const Grid<2>&, const std::vector<double>&);
+template std::size_t CellSort::sort<3, 1>(const Grid<3>&, const std::vector<double>&);
+template std::size_t CellSort::sort<2, tile_cells>(const Grid<2>&, const std::vector<double>&);
+template std::size_t CellSort::sort<3, tile_cells>(const Grid<3>&, const std::vector<double>&);
 
 } // namespace pfmpm

@@ -4,6 +4,7 @@
 
 #include "pfmpm/grid/grid.h"
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <vector>
@@ -24,10 +25,12 @@ namespace pfmpm
 class CellSort
 {
 public:
-  /// @brief Sort the particles at positions `x` (N x Dim) into the cells of `grid`.
+  /// @brief Sort the particles at positions `x` (N x Dim) into the cells of `grid`,
+  /// or with `Tile` > 1 into its tiles: boxes of `Tile` cells per side from the
+  /// grid's origin (the last ones cut by the grid's end), keyed as cells are.
   /// @return N when all lie on the grid, else the first particle that does not
   ///         (the sort is then incomplete).
-  template <int Dim>
+  template <int Dim, int Tile = 1>
   std::size_t sort(const Grid<Dim>& grid, const std::vector<double>& x);
 
   /// @brief The particles of `all` for which keep(p) holds, in the same order.
@@ -48,8 +51,14 @@ private:
   std::vector<std::int64_t> _histogram;  // threads x cells, scratch
 };
 
-extern template std::size_t CellSort::sort(const Grid<2>&, const std::vector<double>&);
-extern template std::size_t CellSort::sort(const Grid<3>&, const std::vector<double>&);
+/// Cells per side of the tiles that particle sums run by (Solver::energies):
+/// a sum in the same order on any split of the grid into whole tiles.
+inline constexpr int tile_cells = 8;
+
+extern template std::size_t CellSort::sort<2, 1>(const Grid<2>&, const std::vector<double>&);
+extern template std::size_t CellSort::sort<3, 1>(const Grid<3>&, const std::vector<double>&);
+extern template std::size_t CellSort::sort<2, tile_cells>(const Grid<2>&, const std::vector<double>&);
+extern template std::size_t CellSort::sort<3, tile_cells>(const Grid<3>&, const std::vector<double>&);
 
 template <class Keep>
 void CellSort::select(const CellSort& all, Keep&& keep)
@@ -75,6 +84,35 @@ void CellSort::select(const CellSort& all, Keep&& keep)
       if (keep(static_cast<std::size_t>(all._order[k])))
         _order[next++] = all._order[k];
   }
+}
+
+/// @brief Sum K quantities over the particles of a tile sort
+/// (CellSort::sort<Dim, tile_cells>): f(order, begin, end, acc) adds the terms
+/// of the particles order[begin, end), one tile's in index (id) order, into
+/// acc, which starts at zero for every tile; the tile sums are added in tile
+/// order. The bits depend neither on the thread count nor on which process
+/// holds which whole tiles.
+template <std::size_t K, class F>
+std::array<double, K> tile_sum(const CellSort& tiles, F&& f)
+{
+  const std::vector<std::int64_t>& start = tiles.cell_start();
+  const std::int32_t* order = tiles.order().data();
+  const auto ntiles = static_cast<std::ptrdiff_t>(start.size()) - 1;
+  std::vector<std::array<double, K>> partial(ntiles);
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t t = 0; t < ntiles; ++t)
+  {
+    std::array<double, K> acc{};
+    if (start[t] < start[t + 1])
+      f(order, start[t], start[t + 1], acc);
+    partial[t] = acc;
+  }
+  std::array<double, K> total{};
+  for (std::ptrdiff_t t = 0; t < ntiles; ++t)
+    if (start[t] < start[t + 1])
+      for (std::size_t k = 0; k < K; ++k)
+        total[k] += partial[t][k];
+  return total;
 }
 
 } // namespace pfmpm

@@ -784,12 +784,18 @@ Energies<Dim> Solver<Dim>::energies() const
   constexpr int first_axis = Dim == 2 ? 2 : 0; // of the angular momentum's components
   constexpr int momentum = 4, angular = momentum + Dim - first_axis;
   constexpr int N = angular + 3;
-  const auto sums = deterministic_block_sum<N>(
-      n,
-      [&](std::size_t begin, std::size_t end, std::array<double, N>& acc)
+  // Every sum runs by tile of cells (tile_sum), so that a process holding some
+  // whole tiles adds its particles as one holding all of them would.
+  CellSort tiles;
+  if (const std::size_t outside = tiles.sort<Dim, tile_cells>(_grid, P.x); outside < n)
+    throw SimulationError(where(outside) + " is outside the grid");
+  const auto sums = tile_sum<N>(
+      tiles,
+      [&](const std::int32_t* order, std::int64_t begin, std::int64_t end, std::array<double, N>& acc)
       {
-        for (std::size_t p = begin; p < end; ++p)
+        for (std::int64_t k = begin; k < end; ++k)
         {
+          const auto p = static_cast<std::size_t>(order[k]);
           const double m = P.mass[p];
           const double* x = &P.x[Dim * p];
           const double* v = &P.v[Dim * p];
@@ -808,16 +814,10 @@ Energies<Dim> Solver<Dim>::energies() const
               acc[angular + a] += m * (B[Dim * (Dim * p + c) + b] - B[Dim * (Dim * p + b) + c]);
           }
         }
-        // The elastic energy of each run of one material, in index order (id order).
-        for (std::size_t p = begin; p < end;)
-        {
-          const std::int32_t mat = P.material[p];
-          std::size_t stop = p + 1;
-          while (stop < end && P.material[stop] == mat)
-            ++stop;
-          bound[mat]->add_energy(Batch{nullptr, p, stop - p}, by_material[mat], acc[1]);
-          p = stop;
-        }
+        // The elastic energy of each run of one material in the tile's (id) order.
+        for_each_material_run(P.material.data(), order, begin, end,
+                              [&](std::int32_t mat, const Batch& batch)
+                              { bound[mat]->add_energy(batch, by_material[mat], acc[1]); });
       });
   Energies<Dim> e;
   e.kinetic = sums[0];
@@ -833,8 +833,12 @@ Energies<Dim> Solver<Dim>::energies() const
   for (const auto& [column, kind] : kept)
   {
     const double* w = P.f64(column).data();
-    e.dissipation[kind] += deterministic_sum<1>(n, [&](std::size_t p, std::array<double, 1>& acc)
-                                                { acc[0] += w[p]; })[0];
+    e.dissipation[kind] +=
+        tile_sum<1>(tiles, [&](const std::int32_t* order, std::int64_t begin, std::int64_t end, std::array<double, 1>& acc)
+                    {
+                      for (std::int64_t k = begin; k < end; ++k)
+                        acc[0] += w[order[k]];
+                    })[0];
   }
   e.external_work = _external_work;
   e.wall_work = _wall_work;
@@ -860,9 +864,12 @@ Energies<Dim> Solver<Dim>::energies() const
     {
       const std::int32_t* body = P.body.data();
       for (std::int32_t f = 0; f < nbodies; ++f)
-        e.fracture_by_field[f] = deterministic_sum<1>(
-            n, [&](std::size_t p, std::array<double, 1>& acc)
-            { acc[0] += body[p] == f ? fe[p] : 0.0; })[0];
+        e.fracture_by_field[f] =
+            tile_sum<1>(tiles, [&](const std::int32_t* order, std::int64_t begin, std::int64_t end, std::array<double, 1>& acc)
+                        {
+                          for (std::int64_t k = begin; k < end; ++k)
+                            acc[0] += body[order[k]] == f ? fe[order[k]] : 0.0;
+                        })[0];
     }
     e.fracture = 0.0;
     for (double f : e.fracture_by_field)
