@@ -1,11 +1,11 @@
 """The particle files of pfmpm.output, read back by meshio, the names in them,
-the particle columns as attributes, and the seeding that writes positions in place."""
+and the particle columns as attributes."""
 
 import meshio
 import numpy as np
 
 from pfmpm.output import _BLOCK, Rows, write_vtu
-from pfmpm.scene import Scene, seeding
+from pfmpm.scene import Scene
 
 
 def test_vtu_written_in_blocks_reads_back_exactly(tmp_path):
@@ -30,13 +30,6 @@ def test_vtu_written_in_blocks_reads_back_exactly(tmp_path):
     assert np.array_equal(mesh.cells_dict["vertex"][:, 0], np.arange(n))
 
 
-def test_position_batches_are_the_positions():
-    scene = Scene.from_toml("demos/disk_beam.toml")
-    xs = seeding.positions(scene)
-    batches = list(seeding.position_batches(scene))
-    assert np.array_equal(np.concatenate(batches), np.concatenate(xs))
-
-
 def test_rows_are_written_as_the_array_they_make(tmp_path):
     """A field given as Rows, in blocks of uneven length (one empty), writes
     the same bytes as the array it adds up to."""
@@ -53,7 +46,8 @@ def test_rows_are_written_as_the_array_they_make(tmp_path):
 def test_a_snapshot_holds_no_array_of_all_particles(tmp_path, monkeypatch):
     """Issue 18 (memory of a whole run): writing a particle file, taking a
     phase-field image and recording the crack tip make no copy of a particle
-    column. With blocks, seeding batches and image bands of about 1024
+    column. With blocks (of the files, and of the seeded positions the
+    displacement reads back from the ids) and image bands of about 1024
     particles, everything they allocate at once is below 4 bytes per
     particle (the masks of one comparison over all particles); one column
     of doubles is 8, the displacement or a tree of every point 16 or more."""
@@ -65,7 +59,6 @@ def test_a_snapshot_holds_no_array_of_all_particles(tmp_path, monkeypatch):
     from pfmpm.simulation import Simulation
 
     monkeypatch.setattr(output, "_BLOCK", 1024)
-    monkeypatch.setattr(seeding, "_CHUNK", 1024)
     monkeypatch.setattr(observe, "_QUERY_PIXELS", 1024)
     scene = Scene.from_toml("demos/borden_plate.toml", ["grid.h=0.5", "materials.concrete.fracture.l0=1.0"])
     sim = Simulation(scene)

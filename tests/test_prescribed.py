@@ -196,6 +196,8 @@ def test_a_region_that_reaches_no_particle_is_reported():
     (warning,) = [w for w in setup_report(away).warnings if "prescribed region" in w]
     assert warning == ("prescribed region grip reaches no particle at t = 0 (none within 1.5 of its box, its"
                        " nodes' reach): it moves nothing until material comes within it")
+    # A region of a body's face has no box and holds its particles: no warning.
+    assert not any("prescribed region" in w for w in setup_report(face_scene(face="left")).warnings)
 
 
 @pytest.mark.parametrize("moving", [True, False])

@@ -5,8 +5,9 @@ the repository root (every top-level entry linked, ``out/`` its own), so a
 source folder at the root that hid the installed package would break them as
 it would for a user.  Long commands get smoke arguments appended (the
 benchmark's smoke ``--set``s for a scene, fewer particles for the bench); a
-command with no rule here fails the test, so the README cannot drift from
-what is tested.  ``bash tools/main.sh`` and ``bash tools/test.sh`` are not
+command with no rule here fails the suite, so the README cannot drift from
+what is tested.  Commands that share an output folder run in README order as
+one test, each such chain in its own mirror, so the workers share them.  ``bash tools/main.sh`` and ``bash tools/test.sh`` are not
 run from inside the suite.
 """
 
@@ -81,13 +82,43 @@ def readme_commands() -> list[list[str]]:
     return commands
 
 
-def rule(words: list[str]):
-    """The smoke arguments of a README command; fails for a command without a rule."""
-    program = next(i for i, w in enumerate(words) if not re.match(r"[A-Z_][A-Z0-9_]*=", w))
-    text = " ".join(words[program:])  # without the environment assignments
-    found = [extra for pattern, extra in RULES if re.search(pattern, text)]
-    assert len(found) == 1, f"README command without one rule in tests/test_readme.py: {text}"
-    return found[0]
+def program(words: list[str]) -> str:
+    """A command without its leading environment assignments."""
+    start = next(i for i, w in enumerate(words) if not re.match(r"[A-Z_][A-Z0-9_]*=", w))
+    return " ".join(words[start:])
+
+
+def rules(text: str) -> list:
+    """The smoke arguments of every rule that matches the command ``text``."""
+    return [extra for pattern, extra in RULES if re.search(pattern, text)]
+
+
+def chains() -> dict[str, list[list[str]]]:
+    """The README commands that run here, in README order, grouped by the
+    output folder they name (``out/NAME``): a command that reads a folder runs
+    after the one that wrote it, in the same mirror. A command that names none
+    is a chain of its own, named by its subcommand and line. Commands without exactly one
+    rule are left to test_every_readme_command_has_one_rule."""
+    found = {}
+    for line, words in enumerate(readme_commands()):
+        matched = rules(program(words))
+        if len(matched) != 1 or matched[0] is None:
+            continue
+        folder = re.search(r"\bout/(\w+)", program(words))
+        name = folder.group(1) if folder else f"{program(words).split()[1].lstrip('-')}@{line}"
+        found.setdefault(name, []).append(words)
+    return found
+
+
+# What a chain leaves in its out/, beyond exit status 0: (path, text it holds).
+LEAVES = {
+    "borden": [("borden/summary.json", '"resumed_from"'), ("borden/summary.json", "step_000000500.h5"),
+               ("borden/c.gif", "")],
+    "borden_fem": [("borden_fem/summary.json", "")],
+    "borden_fem1": [("borden_fem1/summary.json", "")],
+    "notebooks": [("notebooks/phase_field_profiles.html", "")],
+    "polar": [("polar.png", "")],
+}
 
 
 @pytest.fixture
@@ -108,27 +139,29 @@ def run(words: list[str], cwd: Path) -> subprocess.CompletedProcess:
                           capture_output=True, text=True, timeout=600)
 
 
-def test_every_readme_command_runs_as_written(mirror):
-    assert (ROOT / ".venv" / "bin" / "pfmpm").exists(), "the README's commands use .venv: run tools/setup.sh"
+def test_every_readme_command_has_one_rule():
+    """A README command with no rule here, or with two, fails the suite, so the
+    README cannot drift from what is tested."""
     commands = readme_commands()
     assert len(commands) >= 10
     for words in commands:
-        extra = rule(words)
-        if extra is None:
-            continue
+        assert len(rules(program(words))) == 1, f"README command without one rule in tests/test_readme.py: {program(words)}"
+    assert set(LEAVES) <= set(chains())
+
+
+@pytest.mark.parametrize("chain", list(chains()))
+def test_every_readme_command_runs_as_written(chain, mirror):
+    assert (ROOT / ".venv" / "bin" / "pfmpm").exists(), "the README's commands use .venv: run tools/setup.sh"
+    for words in chains()[chain]:
+        extra = rules(program(words))[0]
         r = run(words + extra, mirror)
         assert r.returncode == 0, f"{shlex.join(words + extra)}\n{r.stderr[-3000:]}"
         assert "Traceback" not in r.stderr, r.stderr
         # Quiet kernels and JIT: debugpy's warning that frozen modules may hide
         # breakpoints, and FFCx's log of each compiler command, are gone.
         assert "frozen modules" not in r.stderr and "ffcx" not in r.stderr.lower(), r.stderr
-    summary = (mirror / "out" / "borden" / "summary.json").read_text()
-    assert '"resumed_from"' in summary and "step_000000500.h5" in summary
-    assert (mirror / "out" / "borden_fem" / "summary.json").exists()
-    assert (mirror / "out" / "borden_fem1" / "summary.json").exists()
-    assert (mirror / "out" / "borden" / "c.gif").exists()
-    assert (mirror / "out" / "notebooks" / "phase_field_profiles.html").exists()
-    assert (mirror / "out" / "polar.png").exists()
+    for path, text in LEAVES.get(chain, []):
+        assert text in (mirror / "out" / path).read_text(errors="replace"), path
 
 
 def test_the_python_quickstart_runs_as_written(mirror):

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from pfmpm import Scene, Simulation, checkpoint
-from pfmpm.observe import CRACK_PATH, CrackTip, Observer, default_observers
+from pfmpm.observe import CRACK_PATH, CrackObserver, CrackPath, CrackTip, Observer, default_observers
 from pfmpm.output import read_csv
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -106,7 +106,7 @@ def test_a_resumed_run_continues_the_observers_state(runs, tmp_path):
         path.unlink()
     ckpt = checkpoint.find(part)
     assert ckpt.step == step and ckpt.observed["max_travel"].tolist() == [travel, full["t"][full["step"] == step][0]]
-    assert {"crack_tip", "crack_time", "crack_xy", "snapshot_times", "series_time"} <= ckpt.observed.keys()
+    assert {"crack_tip", "crack_id", "crack_time", "crack_xy", "snapshot_times", "series_time"} <= ckpt.observed.keys()
     sim = Simulation(Scene.from_dict(ckpt.scene))
     result = sim.run(part, progress=False, checkpoint_every=ckpt.checkpoint_every, keep=ckpt.keep, resume=ckpt,
                      observers=default_observers(sim) + [MaxSpeed()])
@@ -135,3 +135,56 @@ def test_the_figures_are_drawn_after_the_simulation_is_gone(tmp_path):
     result.figures.draw()
     assert sorted(p.name for p in tmp_path.glob("*.png")) == ["crack_path.png", "crack_tip.png", "energies.png",
                                                               "phase_field.png"]
+
+
+def test_the_crack_path_follows_the_ids_whatever_the_order():
+    """Points given in any order, or split between two owners (ranks), give
+    the same path by id: the ids cracked, ascending, the time of the first
+    record each was cracked at and its position then."""
+    rng = np.random.default_rng(5)
+    n = 60
+    ids = np.sort(rng.choice(1000, size=n, replace=False))
+    xy1, xy2 = rng.random((n, 2)), rng.random((n, 2))
+    c1 = np.where(rng.random(n) < 0.2, 0.0, 1.0)
+    c2 = np.minimum(c1, np.where(rng.random(n) < 0.3, 0.0, 1.0))
+    paths = [CrackPath(0.5) for _ in range(4)]
+    order = rng.permutation(n)
+    half = [order[:n // 2], order[n // 2:]]
+    for t, c, xy in ((1.0, c1, xy1), (2.0, c2, xy2)):
+        paths[0].update(t, c, xy, ids)
+        paths[1].update(t, c[order], xy[order], ids[order])
+        for path, part in zip(paths[2:], half):
+            path.update(t, c[part], xy[part], ids[part])
+    first = c1 < 0.5
+    cracked = c2 < 0.5
+    np.testing.assert_array_equal(paths[0].ids, ids[cracked])
+    np.testing.assert_array_equal(paths[0].times, np.where(first, 1.0, 2.0)[cracked])
+    np.testing.assert_array_equal(paths[0].positions, np.where(first[:, None], xy1, xy2)[cracked])
+    merged = CrackPath(0.5)
+    merged.restore(*(np.concatenate([getattr(p, name) for p in paths[2:]]) for name in ("ids", "times", "positions")))
+    for path in (paths[1], merged):
+        for name in ("ids", "times", "positions"):
+            np.testing.assert_array_equal(getattr(path, name), getattr(paths[0], name))
+
+
+def test_the_crack_path_of_a_file_by_rows_is_read_by_the_ids_of_those_rows():
+    """Checkpoints before version 7 kept the crack path with a row per
+    crackable particle, NaN while intact: a restore takes the ids of those
+    rows, as the path by id of the same particles. A hole in the plate makes
+    the ids past it differ from the rows."""
+    sim = Simulation(Scene.from_toml(BORDEN, COARSE + ['bodies.plate.holes=[{type = "disk", center = [80.0, 5.0],'
+                                                       ' radius = 3.0}]']))
+    p = sim.particles
+    p.c[[3500, 3900]] = 0.0
+    assert p.id[3500] != 3500
+    watched = CrackObserver(sim)
+    watched.record(sim, {}, True)
+    state = watched.state()
+    rows = np.flatnonzero(p.c < sim.scene.output.crack_threshold)  # with the initial crack's
+    np.testing.assert_array_equal(state["crack_id"], p.id[rows])
+    times, xy = np.full(len(p), np.nan), np.full((len(p), 2), np.nan)
+    times[rows], xy[rows] = sim.time, p.x[rows]
+    again = CrackObserver(sim)
+    again.restore(sim, {"crack_tip": state["crack_tip"], "crack_time": times, "crack_xy": xy})
+    for name, value in again.state().items():
+        np.testing.assert_array_equal(value, state[name], err_msg=name)

@@ -22,8 +22,9 @@ as an uninterrupted one:
   the state of each observer of the run (:meth:`pfmpm.observe.Observer.state`),
   an array under each name it gives; those of the standard observers are
   the crack-tip records behind the smoothed tip speeds (``crack_tip``), the
-  time each crackable particle cracked and where (``crack_time``,
-  ``crack_xy``, for the crack path and its arms), the phase-field images
+  time each crackable particle cracked and where, by particle id
+  (``crack_id``, ``crack_time``, ``crack_xy``, from version 7; for the crack
+  path and its arms), the phase-field images
   taken so far (``snapshot_<k>``, at ``snapshot_image_times``) with the
   times still due (``snapshot_times``), and the particle series so far
   (``series_time``, ``series_file``).
@@ -59,8 +60,11 @@ from .scene.loads import MAX_REGIONS
 from .scene.stability import grid_dt
 
 FORMAT = "pfmpm-checkpoint"
-VERSION = 6
-# Version 6 keeps the particles' global ids (particles/id); the rows of an
+VERSION = 7
+# Version 7 keeps the crack path by particle id: output/crack_id, with
+# crack_time and crack_xy of the cracked particles only, where version 6 had
+# a row per crackable particle, in row order (CrackObserver.restore reads
+# both). Version 6 keeps the particles' global ids (particles/id); the rows of an
 # older file are in the seeding order of its scene, so the seeding gives
 # their ids (restore). Version 5 keeps the state of the run's observers as
 # arrays under /output; versions 2-4 kept the particle series and the times
@@ -107,11 +111,13 @@ class Checkpoint:
         The state of the run's observers (:meth:`pfmpm.observe.Observer.state`),
         by name, which :func:`pfmpm.run.run_to_end` hands back to them
         (:meth:`~pfmpm.observe.Observer.restore`). Files from before the
-        observers have the same names (``crack_tip``, ``crack_time``,
-        ``crack_xy``, ``snapshot_*``, ``series_*``), some of them missing
-        or older: ``crack_tip`` is (M, 2), time and the one tip's distance,
-        in files from before the branch tips were tracked, and ``crack_time``
-        and ``crack_xy`` are missing in files from before they were kept.
+        observers have the same names (``crack_tip``, ``crack_id``,
+        ``crack_time``, ``crack_xy``, ``snapshot_*``, ``series_*``), some of
+        them missing or older: ``crack_tip`` is (M, 2), time and the one tip's
+        distance, in files from before the branch tips were tracked;
+        ``crack_id`` is missing before version 7, where ``crack_time`` and
+        ``crack_xy`` have a row per crackable particle; and those two are
+        missing in files from before they were kept.
     run_id : str or None
         The id of the run that wrote it (:mod:`pfmpm.run_folder`); ``None``
         in files from before runs had ids.
@@ -256,7 +262,7 @@ def read(path: Path | str) -> Checkpoint:
             fmt, version = f.attrs.get("format"), f.attrs.get("version")
             if fmt != FORMAT:
                 raise CheckpointError(f"checkpoint {path}: not a pfmpm checkpoint (format {fmt!r})")
-            if version not in (VERSION, 5, 4, 3, 2):
+            if version not in (VERSION, 6, 5, 4, 3, 2):
                 raise CheckpointError(f"checkpoint {path}: format version {version}, this pfmpm reads {VERSION}")
             meta = json.loads(f.attrs["meta"])
             if version == 2 and _anisotropic(meta["scene"]):

@@ -724,6 +724,11 @@ class FemSimulation:
         the mesh is partitioned)."""
         return self._x[: self._owned], self.c.x.array[: self._owned]
 
+    def crack_ids(self) -> np.ndarray:
+        """The ids of the points of :meth:`crack_points`, in their order: the
+        owned vertices' global indices, by which the crack path keeps them."""
+        return np.arange(*self.V.dofmap.index_map.local_range, dtype=np.int64)
+
     # -- run with output ------------------------------------------------------
 
     def run(self, out_dir: Path | str, progress: bool = True, overwrite: bool = False,

@@ -297,66 +297,71 @@ def speed_fit(t, distance) -> float:
 class CrackPath:
     """When and where each point cracked: the time of the first record at which
     its phase field was below ``threshold``, and its position then, for the
-    crack-path plot and the crack arms (:mod:`pfmpm.post.cracks`). It keeps a
-    flag per point and the times and positions of the cracked ones only, since
-    a crack is a thin band of a body's points.
+    crack-path plot and the crack arms (:mod:`pfmpm.post.cracks`).
+
+    It keeps the points by id (a particle's global id, an FEM vertex's global
+    index), not by their place in the arrays: the ids of the cracked points
+    only, ascending, with the time and position of each, since a crack is a
+    thin band of a body's points.
 
     Parameters
     ----------
-    n : int
-        Number of points.
     threshold : float
         The scene's ``output.crack_threshold``.
     """
 
-    def __init__(self, n: int, threshold: float):
+    def __init__(self, threshold: float):
         self.threshold = threshold
-        self._cracked = np.zeros(n, dtype=bool)
-        self._index = np.empty(0, dtype=np.int64)
+        self._id = np.empty(0, dtype=np.int64)
         self._time = np.empty(0)
         self._xy = np.empty((0, 2))
 
-    def update(self, t: float, c: np.ndarray, xy: np.ndarray) -> None:
+    def update(self, t: float, c: np.ndarray, xy: np.ndarray, ids: np.ndarray) -> None:
         """Note time ``t`` and the position in ``xy`` of the points that crack
-        now, given the phase field ``c`` and positions ``xy`` of all."""
-        new = np.flatnonzero(~self._cracked & (c < self.threshold))
-        if len(new):
-            self._cracked[new] = True
-            self._index = np.concatenate((self._index, new))
-            self._time = np.concatenate((self._time, np.full(len(new), t)))
-            self._xy = np.concatenate((self._xy, xy[new]))
+        now, given the phase field ``c``, positions ``xy`` and ids ``ids`` of
+        all, in any one order."""
+        below = np.flatnonzero(c < self.threshold)
+        found = np.asarray(ids)[below]
+        at = np.searchsorted(self._id, found)
+        new = at == len(self._id)
+        new[~new] = self._id[at[~new]] != found[~new]
+        if not new.any():
+            return
+        order = np.argsort(found[new], kind="stable")
+        rows, found = below[new][order], found[new][order]
+        at = np.searchsorted(self._id, found)  # where each goes in the ascending ids
+        self._id = np.insert(self._id, at, found)
+        self._time = np.insert(self._time, at, t)
+        self._xy = np.insert(self._xy, at, xy[rows], axis=0)
+
+    @property
+    def ids(self) -> np.ndarray:
+        """(k,) the ids of the cracked points, ascending."""
+        return self._id
 
     @property
     def times(self) -> np.ndarray:
-        """(n,) the time each point cracked, NaN while intact."""
-        times = np.full(len(self._cracked), np.nan)
-        times[self._index] = self._time
-        return times
+        """(k,) the time each point of :attr:`ids` cracked."""
+        return self._time
 
     @property
     def positions(self) -> np.ndarray:
-        """(n, 2) where each point cracked, NaN while intact."""
-        xy = np.full((len(self._cracked), 2), np.nan)
-        xy[self._index] = self._xy
-        return xy
+        """(k, 2) where each point of :attr:`ids` cracked."""
+        return self._xy
 
-    def restore(self, times: np.ndarray, positions: np.ndarray) -> None:
-        """Continue from :attr:`times` and :attr:`positions` (of a checkpoint)."""
-        self._cracked = np.isfinite(times)
-        self._index = np.flatnonzero(self._cracked)
-        self._time = np.asarray(times)[self._index]
-        self._xy = np.asarray(positions, dtype=float)[self._index]
-
-    def cracked(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The indices of the cracked points, ascending, the time each cracked
-        and where."""
-        order = np.argsort(self._index)
-        return self._index[order], self._time[order], self._xy[order]
+    def restore(self, ids: np.ndarray, times: np.ndarray, positions: np.ndarray) -> None:
+        """Continue from the cracked points ``ids``, their :attr:`times` and
+        :attr:`positions` (of a checkpoint), in any one order."""
+        order = np.argsort(ids, kind="stable")
+        self._id = np.asarray(ids, dtype=np.int64)[order]
+        self._time = np.asarray(times, dtype=float)[order]
+        self._xy = np.asarray(positions, dtype=float).reshape(-1, 2)[order]
 
 
 CRACK_PATH = "crack_path.csv"
 """The file of a completed run with an initial crack: where and when each
-point cracked (:meth:`CrackPath.cracked`), one row per point, by time."""
+point cracked (:class:`CrackPath`), one row per point, by time (of equal
+times, by id)."""
 
 
 def write_crack_path(path: Path, xy: np.ndarray, times: np.ndarray) -> None:
@@ -466,16 +471,17 @@ class CrackObserver(Observer):
     :mod:`pfmpm.post.cracks`) and ``crack_path.png``.
 
     Its checkpoint state: ``crack_tip``, the records behind the tips' speed
-    fits (:meth:`CrackTip.records`), and ``crack_time`` and ``crack_xy``
-    (:attr:`CrackPath.times`, :attr:`CrackPath.positions`).
+    fits (:meth:`CrackTip.records`), and ``crack_id``, ``crack_time`` and
+    ``crack_xy`` (:attr:`CrackPath.ids`, :attr:`CrackPath.times`,
+    :attr:`CrackPath.positions`), of the cracked points by id
+    (``sim.crack_ids()``).
     """
 
     def __init__(self, sim):
         self.scene = sim.scene
         self.comm = sim.comm
         self.tip = CrackTip.for_scene(sim.scene)
-        xy, _ = sim.crack_points()
-        self.path = CrackPath(len(xy), sim.scene.output.crack_threshold)
+        self.path = CrackPath(sim.scene.output.crack_threshold)
 
     def columns(self) -> list[str]:
         return CrackTip.columns()
@@ -484,7 +490,7 @@ class CrackObserver(Observer):
         if row is None:
             return
         xy, c = sim.crack_points()
-        self.path.update(sim.time, c, xy)
+        self.path.update(sim.time, c, xy, sim.crack_ids())
         found = self.tip.farthest(xy, c)
         if self.comm is not None:
             found = CrackTip.merge(self.comm.allgather(found))
@@ -492,26 +498,36 @@ class CrackObserver(Observer):
 
     def state(self) -> dict[str, np.ndarray]:
         records = np.asarray(self.tip.records(), dtype=float).reshape(-1, 1 + len(CrackTip.TRACKS))
-        return {"crack_tip": records, "crack_time": self.path.times, "crack_xy": self.path.positions}
+        return {"crack_tip": records, "crack_id": self.path.ids, "crack_time": self.path.times,
+                "crack_xy": self.path.positions}
 
     def restore(self, sim, state: dict[str, np.ndarray]) -> None:
-        """Continue the tips' speed fits and the crack path; from a file
-        without the crack's positions, the points' positions now stand in,
-        and from one without its times, the checkpoint's time for the points
-        cracked by then."""
+        """Continue the tips' speed fits and the crack path.
+
+        Files from before the path was kept by id (checkpoint version 7) have
+        no ``crack_id``: their ``crack_time`` and ``crack_xy`` have a row per
+        crackable particle, in the order of ``sim.crack_points()`` (a run
+        keeps its rows), NaN while intact; from one without the crack's
+        positions, the points' positions now stand in, and from one without
+        its times, the checkpoint's time for the points cracked by then."""
         if "crack_tip" in state:
             self.tip.set_records(state["crack_tip"])
         xy, c = sim.crack_points()
-        if state.get("crack_time") is not None:
-            positions = state.get("crack_xy")
-            self.path.restore(state["crack_time"], xy if positions is None else positions)
+        ids = sim.crack_ids()
+        times = state.get("crack_time")
+        if times is None:
+            self.path.update(sim.time, c, xy, ids)
+        elif "crack_id" in state:
+            self.path.restore(state["crack_id"], times, state["crack_xy"])
         else:
-            self.path.update(sim.time, c, xy)
+            positions = state.get("crack_xy")
+            cracked = np.isfinite(times)
+            self.path.restore(ids[cracked], times[cracked], (xy if positions is None else positions)[cracked])
 
     def points(self) -> tuple[np.ndarray, np.ndarray] | None:
         """Where each cracked point cracked and when (of all ranks, on rank 0;
         ``None`` on the others); collective."""
-        _, times, xy = self.path.cracked()
+        times, xy = self.path.times, self.path.positions
         if self.comm is None:
             return xy, times
         xy, times = self.comm.gather(xy), self.comm.gather(times)

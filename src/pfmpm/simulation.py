@@ -118,7 +118,10 @@ class Simulation:
         xs, ids = seeding.seed(scene)
         self.particles = _core.Particles(sum(len(x) for x in xs), g.dim)
         core = self._fill(xs, ids)
-        del ids
+        # From here on each body's seeding ids are views of the id column they
+        # were written to, in seeding order: no second array of them while the
+        # models' columns are added.
+        ids = np.split(self.particles.id, np.cumsum([len(x) for x in xs[:-1]]))
         materials, fracture = core_materials(scene)
         self.cracks = any(fracture)
         pf = scene.phase_field
@@ -145,21 +148,19 @@ class Simulation:
         if self.contact:
             self.solver.set_touch_fill(contact.touch_fill)
         columns = self._fill(xs, done=core)  # the models' columns the seeding sets: orientation, CPDI domains
-        self._amplified = self._amplified_loads(xs)
-        self._hold_particles(xs)
-        del xs
+        self._amplified = self._amplified_loads(xs, ids)
+        self._hold_particles(xs, ids)
+        self._impose_damage(xs, ids)
+        del xs, ids
         self._initial_columns()
-        self._impose_damage()
         if scene.transfer.scheme == "apic":
             self._initial_affine()
         self.dissipation = sorted({kind for m in materials for kind in m.dissipation})
         """The kinds of work the scene's models dissipate (``"damage"``, ``"plastic"``)."""
         if self.damage_gradient:
             self._flag_surfaces()
-        self._crackable = np.zeros(len(self.particles), dtype=bool)
-        for b, body in enumerate(scene.bodies):
-            if scene.fracture_of(body) is not None:
-                self._crackable |= self.particles.body == b
+        self._crackable = np.array([scene.fracture_of(body) is not None for body in scene.bodies])
+        """Whether each body's particles can crack, by body index."""
         self._all_crackable = bool(self._crackable.all())
         self._impose_cracks()
         self.solver.set_stability_length(scene.critical_length())
@@ -200,19 +201,22 @@ class Simulation:
             for name, value in values.items():
                 getattr(self.particles, name)[sel] = value
 
-    def _impose_damage(self) -> None:
+    def _impose_damage(self, xs: list[np.ndarray], ids: list[np.ndarray]) -> None:
         """Set the damage of every ``[[initial_damage]]`` entry on the particles its
         region selects at t = 0, the largest D where entries overlap; before the
         first step and the set-up's solver preparation, so that the stresses, the
         damage-gradient fields and the CPDI domains see it from the start. A
-        resumed run sets it too, then takes the checkpoint's ``damage`` column."""
+        resumed run sets it too, then takes the checkpoint's ``damage`` column.
+
+        The region selects from each body's seeding, its positions ``xs`` and
+        ids ``ids`` in seeding order (where its ``particles`` index), and the
+        damage goes to the rows of the ids selected."""
         damage = self.particles.damage if self.scene.initial_damage else None
         for entry in self.scene.initial_damage:
             for b in self.scene.initial_damage_bodies(entry):
-                sel = np.flatnonzero(self.particles.body == b)
-                for start in range(0, len(sel), _BLOCK):  # a block at a time: no copies of all
-                    part = sel[start:start + _BLOCK]
-                    hit = part[entry.select(self.particles.x[part], start)]
+                for start in range(0, len(xs[b]), _BLOCK):  # a block at a time: no copies of all
+                    block = slice(start, start + _BLOCK)
+                    hit = seeding.rows_of(self.particles.id, ids[b][block][entry.select(xs[b][block], start)])
                     damage[hit] = np.maximum(damage[hit], entry.D)
 
     def _initial_affine(self) -> None:
@@ -287,41 +291,45 @@ class Simulation:
         for _ in range(steps):
             t = self.time
             if self._amplified:
+                # The loads are kept by particle id: their rows are looked up each step.
                 steady, touched, loads = self._amplified
-                fext = self.particles.fext
-                fext[touched] = steady
-                for amplitude, rows, force in loads:
-                    fext[rows] += amplitude(t + 0.5 * self.dt) * force
+                fext, ids = self.particles.fext, self.particles.id
+                fext[seeding.rows_of(ids, touched)] = steady
+                for amplitude, particles, force in loads:
+                    fext[seeding.rows_of(ids, particles)] += amplitude(t + 0.5 * self.dt) * force
             for k, region in unsteady:
                 self.grid.set_region_velocity(k, list(region.velocity_over(t, self.dt)))
             self.solver.advance(1)
 
-    def _hold_particles(self, xs: list[np.ndarray]) -> None:
+    def _hold_particles(self, xs: list[np.ndarray], ids: list[np.ndarray]) -> None:
         """Mark the particles of each body's prescribed region in the column
         ``held_by`` (bit k for region k), whose nodes the grid then holds."""
-        members = seeding.region_particles(self.scene, xs)
-        if all(rows is None for rows in members):
+        members = seeding.region_particles(self.scene, xs, ids)
+        if all(region is None for region in members):
             return
         held = self.particles.held_by
-        for k, rows in enumerate(members):
-            if rows is not None:
-                held[rows] |= np.int32(1 << k)
+        for k, region in enumerate(members):
+            if region is not None:
+                held[seeding.rows_of(self.particles.id, region)] |= np.int32(1 << k)
 
-    def _amplified_loads(self, xs: list[np.ndarray]) -> tuple | None:
-        """The loads with an amplitude, for :meth:`advance`: the particles they
-        touch, the force there of the loads without one, and each load's
-        (amplitude, particles, force at amplitude 1); None without any."""
+    def _amplified_loads(self, xs: list[np.ndarray], ids: list[np.ndarray]) -> tuple | None:
+        """The loads with an amplitude, for :meth:`advance`, by particle id: the
+        ids of the particles they touch (ascending), the force there of the
+        loads without one (in that order), and each load's (amplitude, ids,
+        force at amplitude 1) (:func:`pfmpm.scene.seeding.load_forces`); None
+        without any."""
         if all(load.amplitude is None for load in self.scene.loads):
             return None
-        forces = seeding.load_forces(self.scene, xs, self.particles.mass)
-        loads = [(load.amplitude, rows, force) for load, rows, force in forces if load.amplitude is not None]
-        n = len(self.particles)
-        touched = np.unique(np.concatenate([np.arange(n)[rows] for _, rows, _ in loads]))
-        steady = np.zeros((n, self.scene.dim))
-        for load, rows, force in forces:
+        forces = seeding.load_forces(self.scene, xs, ids)
+        loads = [(load.amplitude, particles, force) for load, particles, force in forces
+                 if load.amplitude is not None]
+        touched = np.unique(np.concatenate([particles for _, particles, _ in loads]))
+        steady = np.zeros((len(touched), self.scene.dim))
+        for load, particles, force in forces:
             if load.amplitude is None:
-                steady[rows] += force
-        return steady[touched], touched, loads
+                _, at, _ = np.intersect1d(touched, particles, assume_unique=True, return_indices=True)
+                steady[at] += force
+        return steady, touched, loads
 
     def energies(self) -> dict[str, float]:
         """Energies and momentum now, with the columns of ``energies.csv``."""
@@ -373,6 +381,12 @@ class Simulation:
         when every particle can."""
         return self._of_crackable(self.particles.x), self._of_crackable(self.particles.c)
 
+    def crack_ids(self) -> np.ndarray:
+        """The ids of the points of :meth:`crack_points`, in their order: the
+        particles' global ids (a view of the column when every particle can
+        crack), by which the crack path keeps them."""
+        return self._of_crackable(self.particles.id)
+
     def crack_area(self) -> float:
         """The crack surface area ``int Z dV`` of the crackable particles
         (:func:`pfmpm.post.tip.crack_area`): each particle's fracture energy
@@ -384,9 +398,10 @@ class Simulation:
                           self._of_crackable(gc[self.particles.body]))
 
     def _of_crackable(self, column: np.ndarray) -> np.ndarray:
-        """A particle column's rows of the crackable particles: the column itself
-        (a view, no copy) when every particle is crackable."""
-        return column if self._all_crackable else column[self._crackable]
+        """A particle column's rows of the crackable particles, those of a
+        crackable body (by the ``body`` column now): the column itself (a view,
+        no copy) when every particle is crackable."""
+        return column if self._all_crackable else column[self._crackable[self.particles.body]]
 
     @cached_property
     def setup(self) -> SetupReport:
@@ -415,23 +430,21 @@ class Simulation:
             if c["output"]:
                 yield c["output"], getattr(self.particles, c["name"]), c["layout"]
         n = len(self.particles)
-        yield "displacement", Rows(n, self._displacements), ""
+        yield "displacement", Rows.of(n, self._displacement), ""
         if self.cracks:
             phase = self.particles.c
             yield "damage", Rows.of(n, lambda a, b: 1.0 - phase[a:b]), ""
 
     def displacement(self) -> np.ndarray:
-        """Each particle's displacement from its seeded position. The seeding is
-        deterministic, so it is seeded again rather than kept (a resumed run
-        gets the same start)."""
-        return np.concatenate(list(self._displacements()))
+        """Each particle's displacement from its seeded position, in row order.
+        The seeded position is not kept: it is read back from the particle's
+        id (:func:`pfmpm.scene.seeding.seeded_positions`), so a resumed run
+        gets the same start."""
+        return self._displacement(0, len(self.particles))
 
-    def _displacements(self) -> Iterator[np.ndarray]:
-        """:meth:`displacement` a batch of the seeding at a time, in order."""
-        x, start = self.particles.x, 0
-        for seeded in seeding.position_batches(self.scene):
-            yield x[start:start + len(seeded)] - seeded
-            start += len(seeded)
+    def _displacement(self, a: int, b: int) -> np.ndarray:
+        """:meth:`displacement` of the rows ``[a, b)``."""
+        return self.particles.x[a:b] - seeding.seeded_positions(self.scene, self.particles.id[a:b])
 
     def modules(self) -> list[str]:
         """The parts of the method this scene switches on."""

@@ -202,12 +202,15 @@ def setup_report(scene: "Scene") -> SetupReport:
 
 
 def _idle_regions(scene: "Scene", x: np.ndarray, length: str) -> list[str]:
-    """A warning for each prescribed region whose nodes reach no particle at
-    t = 0: none lies within its box widened by the reach of a node's basis
-    function, (degree + 1) h / 2, so it moves nothing until material comes."""
+    """A warning for each prescribed box whose nodes reach no particle at
+    t = 0: none lies within it widened by the reach of a node's basis
+    function, (degree + 1) h / 2, so it moves nothing until material comes.
+    A region of a body's particles holds them by construction."""
     reach = 0.5 * (scene.grid.degree + 1) * scene.grid.h
     warnings = []
     for region in scene.prescribed:
+        if region.min is None:
+            continue
         lo, hi = np.subtract(region.min, reach), np.add(region.max, reach)
         if not np.any(np.all((x > lo) & (x < hi), axis=1)):
             warnings.append(f"prescribed region {region.name} reaches no particle at t = 0 (none within"

@@ -16,8 +16,8 @@ from .validation import SceneError
 if TYPE_CHECKING:
     from .scene import Scene
 
-__all__ = ["cell_range", "lattice", "lattice_size", "id_bases", "seed_body", "count", "positions", "seed",
-           "position_batches", "fill", "load_forces", "particles"]
+__all__ = ["cell_range", "lattice", "lattice_size", "id_bases", "seed_body", "seeded_positions", "rows_of",
+           "count", "positions", "seed", "particle_volume", "fill", "load_forces", "particles"]
 
 _CHUNK = 1 << 16  # candidate particles examined per vectorised batch
 _EDGE_TOL = 0.51  # edge layer thickness in particle spacings
@@ -56,7 +56,7 @@ def _numbered(body: Body, grid: GridSpec, ranges, frame) -> Iterator[tuple[np.nd
     cell's index there (the last direction fastest) times ``n^dim``, plus its
     sub-position's index (x fastest). ``frame = ranges`` numbers the
     candidates in the order they are examined."""
-    n, h, dim = body.particles_per_cell, grid.h, len(ranges)
+    n, dim = body.particles_per_cell, len(ranges)
     counts = [max(end - first, 0) for first, end in ranges]
     per_cell = n ** dim
     total = math.prod(counts) * per_cell
@@ -68,12 +68,19 @@ def _numbered(body: Body, grid: GridSpec, ranges, frame) -> Iterator[tuple[np.nd
         cell, sub = np.divmod(candidate, per_cell)
         index = np.unravel_index(cell, counts)  # row-major: the last direction fastest
         offset = np.unravel_index(sub, (n,) * dim)[::-1]  # x fastest
-        coords = [o + (first + i + (a + 0.5) / n) * h
-                  for o, (first, _), i, a in zip(grid.origin, ranges, index, offset)]
+        coords = _centres(grid, n, [first for first, _ in ranges], index, offset)
         keep = body.contains(*coords)
         number = candidate if same else (
             np.ravel_multi_index([i + s for i, s in zip(index, shift)], frame_counts) * per_cell + sub)
         yield np.column_stack([c[keep] for c in coords]), number[keep]
+
+
+def _centres(grid: GridSpec, n: int, firsts, index, offset) -> list[np.ndarray]:
+    """The coordinates, one array per direction, of the sub-cell centres at
+    cell ``first + index`` and sub-position ``offset`` (0 to n - 1) in each
+    direction: ``origin + (first + index + (offset + 0.5) / n) * h``, the one
+    formula of a seeded position (:func:`lattice`, :func:`seeded_positions`)."""
+    return [o + (first + i + (a + 0.5) / n) * grid.h for o, first, i, a in zip(grid.origin, firsts, index, offset)]
 
 
 def lattice_size(body: Body, grid: GridSpec) -> int:
@@ -126,6 +133,76 @@ def seed_body(body: Body, grid: GridSpec, base: int = 0,
         yield x, base + number
 
 
+def seeded_positions(scene: "Scene", ids) -> np.ndarray:
+    """The positions at t = 0, (k, dim), of the particles with ids ``ids``
+    (k,), in that order: the lattice positions the ids number
+    (:func:`seed_body`), read back from the ids alone, bit for bit those the
+    seeding gives.
+
+    Raises
+    ------
+    ValueError
+        Naming the first id that no particle of the seeding has: outside every
+        body's lattice, or a candidate its body's shape or holes leave out.
+    """
+    ids = np.asarray(ids, dtype=np.int64)
+    grid = scene.grid
+    bases = id_bases(scene)
+    ends = [base + lattice_size(body, grid) for body, base in zip(scene.bodies, bases)]
+    body_of = np.searchsorted(ends, ids, side="right")  # the body whose id range holds each id
+    outside = (ids < 0) | (body_of == len(ends))
+    if outside.any():
+        raise ValueError(f"particle id {ids[np.argmax(outside)]}: outside the lattices of the scene's bodies"
+                         f" (ids 0 to {ends[-1] - 1})")
+    out = np.empty((len(ids), grid.dim))
+    for b, body in enumerate(scene.bodies):
+        mine = body_of == b
+        if not mine.any():
+            continue
+        sel = slice(None) if mine.all() else np.flatnonzero(mine)  # all of one body: no index array
+        whole = cell_range(body, grid)
+        n = body.particles_per_cell
+        # The numbering of _numbered read backwards: cell (the last direction
+        # fastest) times n^dim plus sub-position (x fastest).
+        cell, sub = np.divmod(ids[sel] - bases[b], n ** grid.dim)
+        index = np.unravel_index(cell, [end - first for first, end in whole])
+        offset = np.unravel_index(sub, (n,) * grid.dim)[::-1]
+        coords = _centres(grid, n, [first for first, _ in whole], index, offset)
+        kept = body.contains(*coords)
+        if not kept.all():
+            raise ValueError(f"particle id {ids[sel][np.argmin(kept)]}: a lattice position that body"
+                             f" {body.name!r} leaves out, no particle of the seeding")
+        for d, coord in enumerate(coords):
+            out[sel, d] = coord
+    return out
+
+
+def rows_of(ids: np.ndarray, wanted) -> slice | np.ndarray:
+    """The rows of the particles with ids ``wanted`` in local arrays whose id
+    column is ``ids``, in the order of ``wanted``.
+
+    ``ids`` ascends (the invariant of the particle arrays, docs/particle-ids.md),
+    so each id is found by bisection. Where ``wanted`` are the ids of a run of
+    consecutive rows, in order (a body's particles, say), the rows are that
+    slice, so that indexing with them makes views.
+
+    Raises
+    ------
+    ValueError
+        Naming the first id of ``wanted`` that no row holds.
+    """
+    wanted = np.asarray(wanted, dtype=np.int64)
+    start = int(np.searchsorted(ids, wanted[0])) if len(wanted) else 0
+    if np.array_equal(ids[start:start + len(wanted)], wanted):
+        return slice(start, start + len(wanted))
+    rows = np.searchsorted(ids, wanted)
+    held = rows < len(ids)
+    held[held] = ids[rows[held]] == wanted[held]
+    if not held.all():
+        raise ValueError(f"particle id {wanted[np.argmin(held)]}: no particle here has it")
+    return rows
+
+
 def count(scene: "Scene") -> int:
     """Number of particles of all bodies, without storing them."""
     return sum(len(p) for body in scene.bodies
@@ -149,11 +226,10 @@ def seed(scene: "Scene") -> tuple[list[np.ndarray], list[np.ndarray]]:
     return xs, ids
 
 
-def position_batches(scene: "Scene") -> Iterator[np.ndarray]:
-    """All bodies' particle positions in the order of :func:`positions`, a
-    batch of :func:`lattice` at a time (so without an array of them all)."""
-    for body in scene.bodies:
-        yield from lattice(body, scene.grid, *cell_range(body, scene.grid))
+def particle_volume(scene: "Scene", body: Body) -> float:
+    """The volume of each of a body's particles, ``(h/n)^2 * thickness``
+    (``(h/n)^3`` in 3D): the lattice's sub-cell."""
+    return math.prod([body.spacing(scene.grid.h)] * scene.dim) * scene.thickness
 
 
 def fill(scene: "Scene", xs: list[np.ndarray], columns: Mapping[str, np.ndarray],
@@ -161,16 +237,17 @@ def fill(scene: "Scene", xs: list[np.ndarray], columns: Mapping[str, np.ndarray]
     """Write the initial particle arrays into ``columns``, body by body.
 
     ``xs`` are the bodies' positions (:func:`positions`), ``ids`` their ids
-    (:func:`seed`; needed where ``columns`` has ``id``); ``columns`` maps
-    names to arrays of all particles (the core's columns, say), and each of
-    the names below that it holds is written, in place, so no array of all
-    particles is made on the way:
+    (:func:`seed`; needed where ``columns`` has ``id`` or ``fext``);
+    ``columns`` maps names to arrays of all particles (the core's columns,
+    say), and each of the names below that it holds is written, in place, so
+    no array of all particles is made on the way:
 
     ``x`` (N, dim) positions, ``v`` (N, dim) velocities, ``mass`` (N,),
-    ``volume`` (N,) ``= (h/n)^2 * thickness`` (``(h/n)^3`` in 3D), ``body``
+    ``volume`` (N,) (:func:`particle_volume`), ``body``
     (N,) body index, ``material`` (N,) material index, ``id`` (N,) the ids, ``phi`` (N,) material
     orientation in radians (clockwise from x) and ``fext`` (N, dim) the external forces at
-    t = 0, those of :func:`load_forces` times each load's amplitude then.  With ``grid.shape = "cpdi"`` also the
+    t = 0, those of :func:`load_forces` times each load's amplitude then, on
+    the rows of their ids (``fext`` needs ``id`` among the columns).  With ``grid.shape = "cpdi"`` also the
     half-edges of the particle domains, the ``h/n`` squares (cubes in 3D) of the lattice:
     ``convected_r1`` and ``domain_r1`` (N, dim) ``= (h/2n, 0[, 0])``,
     ``convected_r2`` and ``domain_r2`` ``= (0, h/2n[, 0])`` and in 3D
@@ -182,7 +259,7 @@ def fill(scene: "Scene", xs: list[np.ndarray], columns: Mapping[str, np.ndarray]
         part = slice(start, start + len(x))
         m = materials[body.material]
         spacing = body.spacing(scene.grid.h)
-        volume = math.prod([spacing] * scene.dim) * scene.thickness
+        volume = particle_volume(scene, body)
         values = {"x": x, "volume": volume, "mass": scene.materials[m].density * volume,
                   "body": b, "material": m, "phi": math.radians(body.orientation)}
         if "id" in columns:
@@ -202,12 +279,12 @@ def fill(scene: "Scene", xs: list[np.ndarray], columns: Mapping[str, np.ndarray]
         return
     fext = columns["fext"]
     fext[...] = 0.0
-    for load, rows, force in load_forces(scene, xs, columns["mass"]):
-        fext[rows] += (1.0 if load.amplitude is None else load.amplitude(0.0)) * force
+    for load, particles, force in load_forces(scene, xs, ids):
+        fext[rows_of(columns["id"], particles)] += (1.0 if load.amplitude is None else load.amplitude(0.0)) * force
 
 
-def load_forces(scene: "Scene", xs: list[np.ndarray], mass: np.ndarray) -> list[tuple]:
-    """Each load's particles and the force on each at amplitude 1.
+def load_forces(scene: "Scene", xs: list[np.ndarray], ids: list[np.ndarray]) -> list[tuple]:
+    """Each load's particles, by id, and the force on each at amplitude 1.
 
     Parameters
     ----------
@@ -215,49 +292,50 @@ def load_forces(scene: "Scene", xs: list[np.ndarray], mass: np.ndarray) -> list[
     xs : list of ndarray
         The bodies' particle positions at t = 0, in body order
         (:func:`positions`).
-    mass : ndarray (N,)
-        The particles' masses.
+    ids : list of ndarray
+        Their ids (:func:`seed`).
 
     Returns
     -------
-    list of (load, rows, force)
-        Per entry of ``scene.loads``: its particles (a slice or indices into
-        all particles) and the force on them, ``(dim,)`` or ``(len(rows), dim)``.
+    list of (load, ids, force)
+        Per entry of ``scene.loads``, in order (a body force on all bodies:
+        one per body, in body order): the ids of its particles, ascending, an
+        array of its own, and the force on each, ``(dim,)``.
         A traction gives each particle of the body's edge layer (within
         ``0.51 h/n`` of its extreme particle coordinate on that side; with a
         ``span``, those whose coordinates along the edge or face lie in it)
         ``traction * (h/n) * thickness``, in 3D ``traction * (h/n)^2`` (the
         face area a particle stands for); a body force gives each particle
-        of its body (or of all) ``mass * acceleration``.
+        of its body (or of all) ``mass * acceleration``, the mass of its
+        body's particles (:func:`fill`).
 
     Raises
     ------
     SceneError
         If a traction's span holds no particle of its edge (face) layer.
     """
-    parts, start = {}, 0
-    for body, x in zip(scene.bodies, xs):
-        parts[body.name] = (slice(start, start + len(x)), body.spacing(scene.grid.h), x)
-        start += len(x)
+    body_index = {body.name: b for b, body in enumerate(scene.bodies)}
     forces = []
     for i, load in enumerate(scene.loads):
         if isinstance(load, BodyForce):
-            rows = slice(None) if load.body is None else parts[load.body][0]
-            forces.append((load, rows, mass[rows, None] * np.asarray(load.acceleration)))
+            for b in ([body_index[load.body]] if load.body is not None else range(len(scene.bodies))):
+                body = scene.bodies[b]
+                mass = scene.material_of(body).density * particle_volume(scene, body)
+                forces.append((load, ids[b].copy(), mass * np.asarray(load.acceleration)))
             continue
-        part, spacing, x = parts[load.body]
+        b = body_index[load.body]
+        x, spacing = xs[b], scene.bodies[b].spacing(scene.grid.h)
         layer = edge_layer(x, spacing, load.edge)
         if load.span is not None:
             eps = 1e-9 * spacing
-            for axis, a, b in load.patch():
-                layer &= (x[:, axis] >= a - eps) & (x[:, axis] <= b + eps)
+            for axis, lo, hi in load.patch():
+                layer &= (x[:, axis] >= lo - eps) & (x[:, axis] <= hi + eps)
             if not layer.any():
                 side = "edge" if scene.dim == 2 else "face"
                 raise SceneError(f"loads[{i}].span", f"holds no particle of the {load.edge} {side} layer"
                                                      f" of body {load.body!r}", load.span)
-        rows = part.start + np.flatnonzero(layer)
         area = math.prod([spacing] * (scene.dim - 1)) * scene.thickness  # a particle's share of the face
-        forces.append((load, rows, np.multiply(load.traction, area)))
+        forces.append((load, ids[b][layer], np.multiply(load.traction, area)))
     return forces
 
 
@@ -270,35 +348,37 @@ def edge_layer(x: np.ndarray, spacing: float, edge: str) -> np.ndarray:
     return coord >= coord.max() - tol if edge in ("right", "top", "front") else coord <= coord.min() + tol
 
 
-def region_particles(scene: "Scene", xs: list[np.ndarray]) -> list[np.ndarray | None]:
-    """Per prescribed region, the particles (indices into all particles) of a
-    body's region, or None for a box.
+def region_particles(scene: "Scene", xs: list[np.ndarray], ids: list[np.ndarray]) -> list[np.ndarray | None]:
+    """Per prescribed region, the ids of a body's region, or None for a box.
+
+    ``xs`` are the bodies' positions at t = 0 (:func:`positions`), ``ids``
+    their ids (:func:`seed`): a face is the body's edge layer there, and the
+    region's ``particles``, indices into the body's particles in seeding
+    order, are the ids at those places of the body's ``ids``.
 
     Raises
     ------
     SceneError
         Naming ``prescribed[i].particles`` for an index past the body's particles.
     """
-    start, first = 0, {}
-    for body, x in zip(scene.bodies, xs):
-        first[body.name] = (start, x, body.spacing(scene.grid.h))
-        start += len(x)
+    body_index = {body.name: b for b, body in enumerate(scene.bodies)}
     out: list[np.ndarray | None] = []
     for i, region in enumerate(scene.prescribed):
         if region.box:
             out.append(None)
             continue
-        offset, x, spacing = first[region.body]
+        b = body_index[region.body]
+        x, body_ids = xs[b], ids[b]
         if region.face is not None:
-            rows = np.flatnonzero(edge_layer(x, spacing, region.face))
+            out.append(body_ids[edge_layer(x, scene.bodies[b].spacing(scene.grid.h), region.face)])
         elif region.particles is not None:
-            rows = np.asarray(region.particles)
-            if rows.max() >= len(x):
+            places = np.asarray(region.particles)  # in the body's seeding order
+            if places.max() >= len(x):
                 raise SceneError(f"prescribed[{i}].particles", f"body {region.body!r} has {len(x)} particles"
-                                 f" (0 to {len(x) - 1})", int(rows.max()))
+                                 f" (0 to {len(x) - 1})", int(places.max()))
+            out.append(body_ids[places])
         else:
-            rows = np.arange(len(x))
-        out.append(offset + rows)
+            out.append(body_ids)
     return out
 
 
