@@ -1,10 +1,12 @@
-"""Loads over time and on part of an edge (issue 53): a load's ``amplitude``
-(a smooth ramp or a table) and a traction's ``span``, in both methods.
+"""Loads over time and on part of an edge or face (issue 53): a load's
+``amplitude`` (a smooth ramp or a table) and a traction's ``span``, in both
+methods.
 
 A bar loaded by a ramp slower than its wave period carries the load to its
 fixed end without the step's twofold overshoot, and the energy balance
 closes with the work of the changing load; a span loads its part of the edge
-exactly; bad amplitudes and spans are one-line errors.
+exactly, and in 3D a patch of a face its area; bad amplitudes and spans are
+one-line errors.
 """
 
 import subprocess
@@ -127,3 +129,84 @@ def test_a_span_off_the_edge_is_named():
         Simulation(scene)
     with pytest.raises(SceneError, match=r"loads\[0\].span = \[4.5, 6.0\]: holds the midpoint of no cell edge"):
         FemSimulation(scene)
+
+
+def block(h: float, span) -> dict:
+    """A 3D box 8 x 4 x 4 on a grid of cell ``h``, its faces on grid lines,
+    with a traction on a patch ``span`` of its top face, as tables."""
+    return {"name": "block", "grid": {"size": [10.0, 6.0, 6.0], "origin": [-1.0, -1.0, -1.0], "h": h},
+            "time": {"end": 1.0}, "materials": [{"name": "m", "E": 100.0, "nu": 0.3, "density": 1.0}],
+            "bodies": [{"name": "b", "material": "m", "particles_per_cell": 2,
+                        "shape": {"type": "box", "min": [0.0, 0.0, 0.0], "max": [8.0, 4.0, 4.0]}}],
+            "loads": [{"type": "traction", "body": "b", "edge": "top", "traction": list(TRACTION), "span": span}]}
+
+
+TRACTION = (0.5, -2.0, 0.25)
+"""The patch's traction: every component, so that each is checked."""
+
+
+@pytest.mark.parametrize("h", [1.0, 0.5])
+def test_a_patch_of_a_face_gets_traction_times_its_area_in_both_methods(h):
+    """The patch x in [2, 6], z in [1, 3] of the block's top face (area 8),
+    its edges on grid lines: the MPM loads the top layer's particles in it
+    ((h/2)^2 each), the FEM the face's triangles whose centroids lie in it
+    (a third of each's area to its corners); both total the traction times
+    8, and nothing outside the patch is loaded."""
+    from pfmpm.fem import FemSimulation
+
+    scene = Scene.from_dict(block(h, [[2.0, 6.0], [1.0, 3.0]]))
+    assert scene.loads[0].patch() == ((0, 2.0, 6.0), (2, 1.0, 3.0))
+    mpm, fem = Simulation(scene), FemSimulation(scene)
+    runs = {"mpm": (mpm.particles.x, mpm.particles.fext, 4.0 - h / 4),  # the top particle layer
+            "fem": (fem.vertices[:fem.owned], fem.external_force, 4.0)}  # the top face
+    for name, (x, f, top) in runs.items():
+        np.testing.assert_allclose(f.sum(axis=0), 8.0 * np.asarray(TRACTION), rtol=1e-12, err_msg=name)
+        loaded = x[np.any(f != 0.0, axis=1)]
+        assert np.all(loaded[:, 1] == top), name
+        assert loaded[:, 0].min() >= 2.0 and loaded[:, 0].max() <= 6.0, name
+        assert loaded[:, 2].min() >= 1.0 and loaded[:, 2].max() <= 3.0, name
+    # The patch's particles, (4 / (h/2)) x (2 / (h/2)); its vertices, (4 / h + 1) x (2 / h + 1).
+    assert np.count_nonzero(mpm.particles.fext[:, 1]) == (8 / h) * (4 / h)
+    assert np.count_nonzero(fem.external_force[:, 1]) == (4 / h + 1) * (2 / h + 1)
+
+
+@pytest.mark.parametrize("span, message", [
+    ([2.0, 3.0], "loads[0].span = [2.0, 3.0]: in 3D a span is two intervals [[a, b], [c, d]], along x then z"
+                 " on the top face"),
+    ([[2.0, 6.0], [3.0, 1.0]], "loads[0].span = [[2.0, 6.0], [3.0, 1.0]]: must be [[a, b], [c, d]] with a < b"
+                               " and c < d"),
+    ([[2.0, 6.0], 1.0], "loads[0].span = [[2.0, 6.0], 1.0]: must be [a, b] (an edge's, 2D) or [[a, b], [c, d]]"),
+    ([[2.0, 6.0], [1.0, 2.0], [0.0, 1.0]], "loads[0].span = [[2.0, 6.0], [1.0, 2.0], [0.0, 1.0]]: must be [a, b]"),
+    ([[2.0, 6.0], [1.0, "z"]], "loads[0].span[1][1] = 'z': must be a number"),
+])
+def test_bad_patches_are_named(span, message):
+    with pytest.raises(SceneError) as error:
+        Scene.from_dict(block(1.0, span))
+    assert str(error.value).startswith(message) and "\n" not in str(error.value), str(error.value)
+
+
+def test_a_2d_span_of_two_intervals_is_named():
+    with pytest.raises(SceneError) as error:
+        Scene.from_toml(BAR, ["loads.0.span=[[2.0, 3.0], [0.0, 1.0]]"])
+    assert str(error.value) == ("loads[0].span = [[2.0, 3.0], [0.0, 1.0]]: in 2D a span is one interval [a, b],"
+                                " along y on the right edge")
+
+
+def test_a_patch_off_the_face_is_named():
+    """A patch beside the block's top face (z in [4.5, 5]) holds no particle
+    and no triangle's centroid."""
+    from pfmpm.fem import FemSimulation
+
+    scene = Scene.from_dict(block(1.0, [[2.0, 6.0], [4.5, 5.0]]))
+    with pytest.raises(SceneError, match=r"loads\[0\].span = \[\[2.0, 6.0\], \[4.5, 5.0\]\]: holds no particle of"
+                                         r" the top face layer of body 'b'$"):
+        Simulation(scene)
+    with pytest.raises(SceneError, match=r"loads\[0\].span = .*: holds the centroid of no cell face of the FEM"
+                                         r" mesh on the top face of body 'b'$"):
+        FemSimulation(scene)
+
+
+def test_patches_round_trip_through_toml():
+    scene = Scene.from_dict(block(1.0, [[2.0, 6.0], [1.0, 3.0]]))
+    assert scene.loads[0].span == ((2.0, 6.0), (1.0, 3.0))
+    assert Scene.from_dict(plain(scene)) == scene

@@ -84,7 +84,7 @@ BALANCE = {
     # Measured 0.353 by 8 us: the scheme loses energy in the sphere's contact
     # and as the disk fails (docs/verification/sphere-disk.md); it only loses.
     "sphere_disk": 0.4,
-    "notched_beam3d": 0.02,  # measured 0.0093 by 12 us
+    "notched_beam3d": 0.02,  # measured 0.0055 by 12 us
 }
 """Energy-balance tolerances of the smoke runs."""
 
@@ -331,22 +331,20 @@ def check_three_point_bending(scene, sim, out, e):
 
 
 def check_notched_beam3d(scene, sim, out, e):
-    # No loads and no supports: the beam's momentum is the striker's impulse, to
-    # round-off, along -y only (the beam and grid are symmetric about x = 20 and
-    # z = 2); the striker has moved v (t - T / 2) after its ramp. The free beam
-    # bends by its inertia: at 12 us its ends (2 mm each) move up, away from the
-    # striker, against the beam's mean motion (measured +0.27 against -0.35 m/s),
-    # alike by symmetry. By 12 us the crack has grown from the notch (its area by
-    # more than 0.5 mm across the 4 mm thickness) and nowhere else: every cracked
-    # particle is within 3 mm of the notch's plane x = 20
-    # (benchmarks/notched_beam3d/measure.py).
-    from benchmarks.notched_beam3d.measure import area_initiation, front_width
+    # Nothing but the traction on the patch of the top face (12.5 MPa on 4 x 4
+    # mm, 200 N at its peak) acts on the free beam: its momentum is the load's
+    # impulse to round-off, along -y only (the beam and grid are symmetric
+    # about x = 20 and z = 2). The free beam bends by its inertia: at 12 us its
+    # ends (2 mm each) move up, away from the load, against the beam's mean
+    # motion (measured +0.24 against -0.35 m/s), alike by symmetry. By 12 us
+    # the crack has grown from the notch (its area by more than 0.5 mm across
+    # the 4 mm thickness) and nowhere else: every cracked particle is within
+    # 3 mm of the notch's plane x = 20 (benchmarks/notched_beam3d/measure.py).
+    from benchmarks.notched_beam3d.measure import MOMENTUM, area_initiation, front_width, load_force, momentum_error
 
-    assert [r.name for r in scene.prescribed] == ["striker"]
+    assert not scene.prescribed and load_force(scene).tolist() == [0.0, -200.0, 0.0]
+    assert np.all(momentum_error(out) <= MOMENTUM)
     p_y = e["momentum_y"]
-    assert np.max(np.abs(p_y - e["impulse_striker_y"])) < 1e-12 * np.max(np.abs(p_y))
-    assert max(np.abs(e["momentum_x"]).max(), np.abs(e["momentum_z"]).max()) < 1e-12 * np.abs(p_y).max()
-    assert e["displacement_striker_y"][-1] == pytest.approx(-0.0005 * (e["t"][-1] - 2.5), rel=1e-6)
     x, v, m = sim.particles.x, sim.particles.v, sim.particles.mass
     mean = (m * v[:, 1]).sum() / m.sum()
     assert mean == pytest.approx(p_y[-1] / m.sum(), rel=1e-9) and mean < 0

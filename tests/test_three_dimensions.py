@@ -535,7 +535,7 @@ BAD = [
     (solid, ['loads=[{type = "body_force", acceleration = [0.0, -1.0]}]'],
      "loads[0].acceleration = [0.0, -1.0]: has 2 components, but the scene is 3D"),
     (solid, ['loads=[{type = "traction", body = "b", edge = "top", traction = [0.0, 1.0, 0.0], span = [2.0, 3.0]}]'],
-     "loads[0].span = [2.0, 3.0]: a traction's span is two-dimensional yet"),
+     "loads[0].span = [2.0, 3.0]: in 3D a span is two intervals [[a, b], [c, d]], along x then z on the top face"),
     (solid, ["grid.origin=[0.0, 0.0]"], "grid.origin = [0.0, 0.0]: has 2 components, but the scene is 3D"),
     (solid, ['bodies.b.shape={type = "extrusion", shape = {type = "box", min = [0, 0, 0], max = [1, 1, 1]},'
              " z0 = 0.0, z1 = 1.0}"], "bodies[0].shape.shape = 'box': a 3D shape (box): an extrusion takes a 2D one"),

@@ -29,11 +29,13 @@ FEM's crack area near the notch and elsewhere (:func:`fem_crack_area`) and
 the local part ``int (1 - c)^2 / (4 l0) dV`` of either method's in the
 crack's band, its flanks and the beam's ends (:func:`local_crack_area`,
 :data:`ZONES`), with the median history field there (:func:`history`); and
-how hard each method's striker struck (:func:`striker_impulse`).
+that the free beam's momentum is the impulse of the traction on its top
+face, the same in both methods (:func:`load_impulse`).
 """
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 
@@ -44,13 +46,16 @@ from pfmpm.output import read_csv
 from pfmpm.post.tip import INITIATION_ADVANCE
 from pfmpm.scene import Scene
 
-__all__ = ["FRACTURE", "ROWS", "ZONES", "area_initiation", "checks", "cracked_reach", "fem_crack_area", "front_width",
-           "history", "local_crack_area", "pair", "striker_impulse"]
+__all__ = ["FRACTURE", "MOMENTUM", "ROWS", "ZONES", "area_initiation", "checks", "cracked_reach", "fem_crack_area",
+           "front_width", "history", "load_force", "load_impulse", "local_crack_area", "momentum_error", "pair"]
 
 FRACTURE = 0.05
 """The end fracture energies of the two methods agree to this, relative to FEM."""
 ROWS = 1.0
 """Their initiation times lie within this many output rows."""
+MOMENTUM = 1e-12
+"""The free beam's momentum is the load's impulse to this, relative to the
+impulse at the end (round-off): :func:`momentum_error`."""
 
 
 def pair(out: Path | str, h: float) -> dict:
@@ -222,17 +227,44 @@ def history(run: Path | str, centre: float = 20.0, zones: tuple[float, float] = 
     return {k: float(np.median(value[inside])) for k, inside in _zones(at, centre, l0, zones).items()}
 
 
-def striker_impulse(energies: Path | str, t: float | None = None) -> float:
-    """The striker's impulse along y (``impulse_striker_y``, N us; the
-    momentum it has given the free beam) at time ``t``, by default at the end
-    of its ramp (``amplitude.time``), interpolated between ``energies.csv``
-    rows: how hard each method's striker has struck."""
-    energies = Path(energies)
-    if t is None:
-        striker, = (r for r in Scene.from_toml(energies.parent / "scene.toml").prescribed if r.name == "striker")
-        t = striker.amplitude.time
-    e = read_csv(energies)
-    return float(np.interp(t, e["t"], e["impulse_striker_y"]))
+def load_force(scene: Scene) -> np.ndarray:
+    """The total force (N) of the scene's one load, a traction with a
+    ``span``, at amplitude 1: the traction times its patch's area, which
+    both methods apply exactly when the patch's edges lie on grid lines
+    (tests/test_loads.py)."""
+    load, = scene.loads
+    return np.asarray(load.traction) * math.prod(b - a for _, a, b in load.patch())
+
+
+def load_impulse(run: Path | str) -> np.ndarray:
+    """The impulse (N us) of the scene's traction by each row of a run's
+    ``energies.csv``, (rows, 3): :func:`load_force` times the integral of
+    its amplitude as the run takes it, by the midpoint rule over its steps
+    (each step, or FEM sub-step, takes the load at its midpoint time; ``dt``
+    and ``substeps`` from the run's ``summary.json``)."""
+    run = Path(run)
+    scene = Scene.from_toml(run / "scene.toml")
+    summary = json.loads((run / "summary.json").read_text())
+    substeps = summary.get("substeps", 1)
+    h = summary["dt"] / substeps
+    steps = read_csv(run / "energies.csv")["step"].astype(int) * substeps
+    amplitude = scene.loads[0].amplitude
+    a = np.ones(steps[-1]) if amplitude is None else np.array([amplitude((k + 0.5) * h) for k in range(steps[-1])])
+    integral = np.concatenate([[0.0], np.cumsum(a * h)])
+    return integral[steps][:, None] * load_force(scene)
+
+
+def momentum_error(run: Path | str) -> np.ndarray:
+    """The largest difference over the rows of a run's ``energies.csv``
+    between the free beam's momentum (``momentum_x|y|z``) and the load's
+    impulse (:func:`load_impulse`), per direction, relative to the
+    impulse's size at the end: nothing but the load acts on the beam, so
+    round-off."""
+    run = Path(run)
+    e = read_csv(run / "energies.csv")
+    impulse = load_impulse(run)
+    momentum = np.column_stack([e[f"momentum_{d}"] for d in "xyz"])
+    return np.abs(momentum - impulse).max(axis=0) / np.linalg.norm(impulse[-1])
 
 
 def cracked_reach(run: Path | str, centre: float = 20.0) -> float:

@@ -353,12 +353,12 @@ class FemSimulation:
         at amplitude 1.
 
         Tractions: each cell facet (edge of a triangle, face of a
-        tetrahedron) on the loaded side of the body's box (in 2D with a
-        ``span``, whose midpoint lies in it: a span that holds none is a
-        SceneError) gives ``t * size * thickness / dim`` to each of its
-        vertices, the consistent P1 load (K&T eq. 17); a facet lies on the
-        boundary of one cell only, so every facet counts once over all
-        ranks.  Body forces: ``M_I b``.
+        tetrahedron) on the loaded side of the body's box (with a ``span``,
+        whose midpoint, or centroid in 3D, lies in it: a span that holds
+        none is a SceneError) gives ``t * size * thickness / dim`` to each
+        of its vertices, the consistent P1 load (K&T eq. 17); a facet lies
+        on the boundary of one cell only, so every facet counts once over
+        all ranks.  Body forces: ``M_I b``.
         """
         d, nv = self.dim, self.dim + 1
         planes = self._planes(self._box)
@@ -372,16 +372,18 @@ class FemSimulation:
                     forces.append((load, self._mass[:, None] * np.asarray(load.acceleration)))
                 continue
             f = np.zeros((self._local, d))
-            edges = 0
+            loaded = 0  # facets in the span
             axis, value = planes[load.edge]
             on = np.abs(self._x[self._dofs, axis] - value) <= tol  # (cells, d + 1)
             for facet in facets:
                 ends = [self._dofs[np.all(on[:, facet], axis=1), a] for a in facet]
                 if load.span is not None:
-                    mid = 0.5 * (self._x[ends[0], 1 - axis] + self._x[ends[1], 1 - axis])
-                    inside = (mid >= load.span[0]) & (mid <= load.span[1])
+                    centre = sum(self._x[e] for e in ends) / d  # the facet's midpoint (2D) or centroid (3D)
+                    inside = np.ones(len(centre), dtype=bool)
+                    for along, a, b in load.patch():
+                        inside &= (centre[:, along] >= a) & (centre[:, along] <= b)
                     ends = [e[inside] for e in ends]
-                edges += len(ends[0])
+                loaded += len(ends[0])
                 if d == 2:
                     size = np.hypot(*(self._x[ends[1]] - self._x[ends[0]]).T)
                 else:
@@ -391,9 +393,11 @@ class FemSimulation:
                 for k in range(d):
                     for e in ends:
                         f[:, k] += np.bincount(e, share * load.traction[k], self._local)
-            if load.span is not None and not self.comm.allreduce(edges, op=MPI.SUM):
-                raise SceneError(f"loads[{i}].span", f"holds the midpoint of no cell edge of the FEM mesh"
-                                                     f" on the {load.edge} edge of body {load.body!r}",
+            if load.span is not None and not self.comm.allreduce(loaded, op=MPI.SUM):
+                what = "the midpoint of no cell edge" if d == 2 else "the centroid of no cell face"
+                side = "edge" if d == 2 else "face"
+                raise SceneError(f"loads[{i}].span", f"holds {what} of the FEM mesh"
+                                                     f" on the {load.edge} {side} of body {load.body!r}",
                                  load.span)
             forces.append((load, self._assemble(f)))
         return forces

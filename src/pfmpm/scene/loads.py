@@ -9,11 +9,12 @@ from typing import ClassVar
 
 import numpy as np
 
-from .validation import (SceneError, boolean, choice, fmt, integer, planar, planar_polygon, polyline, real,
-                         same_dimension, seq, store, text, vec2, vector)
+from .validation import (SceneError, boolean, choice, fmt, integer, planar_polygon, polyline, real, same_dimension,
+                         seq, store, text, vec2, vector)
 
 __all__ = ["EDGES", "SIDES", "SIDES_3D", "WALL_TYPES", "COMPONENTS", "COMPONENTS_3D", "Ramp", "Table",
-           "AMPLITUDES", "Traction", "BodyForce", "LOADS", "WallSpec", "Prescribed", "MAX_REGIONS", "Crack"]
+           "AMPLITUDES", "normal_axis", "face_axes", "Traction", "BodyForce", "LOADS", "WallSpec", "Prescribed",
+           "MAX_REGIONS", "Crack"]
 
 EDGES = ("top", "bottom", "left", "right")
 SIDES = ("left", "right", "bottom", "top")
@@ -100,6 +101,45 @@ AMPLITUDES: dict[str, type] = {cls.kind: cls for cls in (Ramp, Table)}
 """Amplitude classes by their TOML ``type``."""
 
 
+_NORMALS = {"left": 0, "right": 0, "bottom": 1, "top": 1, "back": 2, "front": 2}
+"""The axis normal to each edge (face) of a body."""
+_FACET = {2: "edge", 3: "face"}
+"""What a body's side is in each dimension."""
+
+
+def normal_axis(edge: str) -> int:
+    """The axis normal to a body's ``edge`` (a face in 3D)."""
+    return _NORMALS[edge]
+
+
+def face_axes(edge: str, dim: int) -> tuple[int, ...]:
+    """The axes along a body's ``edge`` (a face in 3D), in axis order: all
+    but its normal."""
+    return tuple(k for k in range(dim) if k != _NORMALS[edge])
+
+
+def _span(value) -> tuple[float, float] | tuple[tuple[float, float], tuple[float, float]]:
+    """Check a traction's span: ``[a, b]`` (2D) or ``[[a, b], [c, d]]``
+    (3D), each interval with a < b; its dimension is checked against the
+    scene's (:meth:`Traction.check_dimension`)."""
+    if isinstance(value, np.ndarray):
+        value = value.tolist()
+    shape = "must be [a, b] (an edge's, 2D) or [[a, b], [c, d]] (a face's, 3D)"
+    if not isinstance(value, (list, tuple)) or len(value) != 2:
+        raise SceneError("span", shape, value)
+    nested = [isinstance(v, (list, tuple, np.ndarray)) for v in value]
+    if all(nested):
+        intervals = tuple(vec2(f"span[{k}]", v) for k, v in enumerate(value))
+    elif not any(nested):
+        intervals = (vec2("span", value),)
+    else:
+        raise SceneError("span", shape, value)
+    if not all(a < b for a, b in intervals):
+        ordered = "[a, b] with a < b" if len(intervals) == 1 else "[[a, b], [c, d]] with a < b and c < d"
+        raise SceneError("span", f"must be {ordered}", value)
+    return intervals[0] if len(intervals) == 1 else intervals
+
+
 def _amplitude(value) -> Ramp | Table | None:
     """Check a load's ``amplitude``: None (constant) or an amplitude."""
     if value is not None and not isinstance(value, (Ramp, Table)):
@@ -124,11 +164,17 @@ class Traction:
     amplitude : Ramp or Table or None
         The factor of the traction over time; ``None``: constant (a step at
         t = 0).
-    span : (float, float) or None
-        Only the part of the edge between these two coordinates along it (x
-        on the top and bottom edges, y on the left and right ones): the
-        particles of the layer whose coordinate lies in ``[a, b]``, each
-        carrying its spacing's share. ``None``: the whole edge (2D only).
+    span : (float, float) or ((float, float), (float, float)) or None
+        Only part of the edge or face. In 2D one interval ``[a, b]`` of the
+        coordinate along the edge (x on the top and bottom edges, y on the
+        left and right ones); in 3D a rectangular patch of the face, one
+        interval per axis along it in axis order (``[[x0, x1], [z0, z1]]``
+        on the top and bottom faces, ``[[y0, y1], [z0, z1]]`` on the left
+        and right ones, ``[[x0, x1], [y0, y1]]`` on the back and front
+        ones). The particles of the layer whose coordinates lie in it are
+        loaded, each carrying its share of the edge or face (the FEM's
+        facets whose midpoint or centroid lies in it). ``None``: the whole
+        edge or face.
     """
 
     kind: ClassVar[str] = "traction"
@@ -136,7 +182,7 @@ class Traction:
     edge: str
     traction: tuple[float, ...]
     amplitude: Ramp | Table | None = None
-    span: tuple[float, float] | None = None
+    span: tuple[float, float] | tuple[tuple[float, float], tuple[float, float]] | None = None
 
     def __post_init__(self):
         store(self, "body", text("body", self.body))
@@ -144,17 +190,32 @@ class Traction:
         store(self, "traction", vector("traction", self.traction))
         store(self, "amplitude", _amplitude(self.amplitude))
         if self.span is not None:
-            span = vec2("span", self.span)
-            if not span[0] < span[1]:
-                raise SceneError("span", "must be [a, b] with a < b", self.span)
-            store(self, "span", span)
+            store(self, "span", _span(self.span))
 
     def check_dimension(self, dim: int) -> None:
-        """Check the edge and the traction against a ``dim``-dimensional scene."""
+        """Check the edge, the traction and the span's shape against a
+        ``dim``-dimensional scene."""
         _check_side("edge", self.edge, dim)
         same_dimension("traction", self.traction, dim)
-        if dim == 3 and self.span is not None:
-            raise planar("span", "a traction's span", self.span)
+        if self.span is not None and len(self.intervals) != dim - 1:
+            axes = " then ".join("xyz"[k] for k in face_axes(self.edge, dim))
+            want = ("one interval [a, b], along " if dim == 2
+                    else "two intervals [[a, b], [c, d]], along ") + f"{axes} on the {self.edge} {_FACET[dim]}"
+            raise SceneError("span", f"in {dim}D a span is {want}", self.span)
+
+    @property
+    def intervals(self) -> tuple[tuple[float, float], ...]:
+        """The span as intervals, one per axis along the edge or face; ()
+        without one."""
+        if self.span is None:
+            return ()
+        return (self.span,) if isinstance(self.span[0], float) else self.span
+
+    def patch(self) -> tuple[tuple[int, float, float], ...]:
+        """The span as ``(axis, a, b)``: the loaded part of the edge or face
+        is where ``a <= x[axis] <= b`` for each; () without a span."""
+        intervals = self.intervals
+        return tuple((axis, a, b) for axis, (a, b) in zip(face_axes(self.edge, len(intervals) + 1), intervals))
 
 
 @dataclass(frozen=True)

@@ -10,7 +10,7 @@ import numpy as np
 
 from .bodies import Body
 from .components import GridSpec
-from .loads import BodyForce, Traction
+from .loads import BodyForce, Traction, normal_axis
 from .validation import SceneError
 
 if TYPE_CHECKING:
@@ -303,7 +303,7 @@ def load_forces(scene: "Scene", xs: list[np.ndarray], ids: list[np.ndarray]) -> 
         array of its own, and the force on each, ``(dim,)``.
         A traction gives each particle of the body's edge layer (within
         ``0.51 h/n`` of its extreme particle coordinate on that side; with a
-        ``span``, those whose coordinate along the edge lies in it)
+        ``span``, those whose coordinates along the edge or face lie in it)
         ``traction * (h/n) * thickness``, in 3D ``traction * (h/n)^2`` (the
         face area a particle stands for); a body force gives each particle
         of its body (or of all) ``mass * acceleration``, the mass of its
@@ -312,7 +312,7 @@ def load_forces(scene: "Scene", xs: list[np.ndarray], ids: list[np.ndarray]) -> 
     Raises
     ------
     SceneError
-        If a traction's span holds no particle of its edge layer.
+        If a traction's span holds no particle of its edge (face) layer.
     """
     body_index = {body.name: b for b, body in enumerate(scene.bodies)}
     forces = []
@@ -325,29 +325,25 @@ def load_forces(scene: "Scene", xs: list[np.ndarray], ids: list[np.ndarray]) -> 
             continue
         b = body_index[load.body]
         x, spacing = xs[b], scene.bodies[b].spacing(scene.grid.h)
-        normal = _NORMALS[load.edge]
         layer = edge_layer(x, spacing, load.edge)
         if load.span is not None:
-            along = x[:, 1 - normal]
-            (a, c), eps = load.span, 1e-9 * spacing
-            layer &= (along >= a - eps) & (along <= c + eps)
+            eps = 1e-9 * spacing
+            for axis, lo, hi in load.patch():
+                layer &= (x[:, axis] >= lo - eps) & (x[:, axis] <= hi + eps)
             if not layer.any():
-                raise SceneError(f"loads[{i}].span", f"holds no particle of the {load.edge} edge layer"
+                side = "edge" if scene.dim == 2 else "face"
+                raise SceneError(f"loads[{i}].span", f"holds no particle of the {load.edge} {side} layer"
                                                      f" of body {load.body!r}", load.span)
         area = math.prod([spacing] * (scene.dim - 1)) * scene.thickness  # a particle's share of the face
         forces.append((load, ids[b][layer], np.multiply(load.traction, area)))
     return forces
 
 
-_NORMALS = {"left": 0, "right": 0, "bottom": 1, "top": 1, "back": 2, "front": 2}
-"""The direction normal to each edge (face) of a body."""
-
-
 def edge_layer(x: np.ndarray, spacing: float, edge: str) -> np.ndarray:
     """Which of a body's particles ``x`` (k, dim) form its layer on ``edge``:
     those within 0.51 particle ``spacing`` of its outermost particle
     coordinate on that side."""
-    coord = x[:, _NORMALS[edge]]
+    coord = x[:, normal_axis(edge)]
     tol = _EDGE_TOL * spacing
     return coord >= coord.max() - tol if edge in ("right", "top", "front") else coord <= coord.min() + tol
 
