@@ -356,8 +356,10 @@ def test_version_3_borden_resumes_as_it_ran(tmp_path):
 
 def test_version_3_contact_state_is_restored(tmp_path):
     """A version-3 checkpoint of the disk-beam (two crackable bodies in
-    contact, each with its phase field) restores the energies of its step
-    exactly, friction and per-body fracture included, and resumes."""
+    contact, each with its phase field) restores the energies of its step,
+    friction and per-body fracture included, and resumes. The columns not
+    summed over the particles come back exactly; the particle sums to their
+    last bits, which the sums by tile (2026-12-07) changed from the file's."""
     path = DATA / "disk_beam_v3_step100.h5"
     ckpt = checkpoint.read(path)
     assert ckpt.solver["scalars"]["contact/active"] > 0
@@ -366,9 +368,10 @@ def test_version_3_contact_state_is_restored(tmp_path):
     e = read_csv(DATA / "disk_beam_v3_energies.csv")
     k = np.flatnonzero(e["step"] == 100)[0]
     now = sim.energies()
-    for column in ("kinetic", "elastic", "fracture", "friction_dissipation", "fracture_beam",
-                   "fracture_disk", "external_work"):
+    for column in ("friction_dissipation", "external_work"):
         assert now[column] == e[column][k], column
+    for column in ("kinetic", "elastic", "fracture", "fracture_beam", "fracture_disk"):
+        assert now[column] == pytest.approx(e[column][k], rel=1e-14, abs=0), column
     sim.advance(10)
     assert sim.step == 110
 
