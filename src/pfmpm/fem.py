@@ -133,6 +133,7 @@ from .run import SIDES, RunResult, energy_columns, region_columns, run_to_end, w
 from .run_folder import check_fresh
 from .scene import (Body, BodyForce, Box, Extrusion, LinearElasticSpec, MaterialSpec, Rectangle, Scene,
                     SceneError, Traction)
+from .scene.loads import SIDE_NAME
 from .scene.report import snapshot_warnings
 from .simulation import core_materials
 
@@ -395,9 +396,8 @@ class FemSimulation:
                         f[:, k] += np.bincount(e, share * load.traction[k], self._local)
             if load.span is not None and not self.comm.allreduce(loaded, op=MPI.SUM):
                 what = "the midpoint of no cell edge" if d == 2 else "the centroid of no cell face"
-                side = "edge" if d == 2 else "face"
                 raise SceneError(f"loads[{i}].span", f"holds {what} of the FEM mesh"
-                                                     f" on the {load.edge} {side} of body {load.body!r}",
+                                                     f" on the {load.edge} {SIDE_NAME[d]} of body {load.body!r}",
                                  load.span)
             forces.append((load, self._assemble(f)))
         return forces

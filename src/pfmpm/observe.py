@@ -328,8 +328,8 @@ class CrackPath:
         if not new.any():
             return
         order = np.argsort(found[new], kind="stable")
-        rows, found = below[new][order], found[new][order]
-        at = np.searchsorted(self._id, found)  # where each goes in the ascending ids
+        # where each goes in the ascending ids: its bisection above
+        rows, found, at = below[new][order], found[new][order], at[new][order]
         self._id = np.insert(self._id, at, found)
         self._time = np.insert(self._time, at, t)
         self._xy = np.insert(self._xy, at, xy[rows], axis=0)

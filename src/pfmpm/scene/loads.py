@@ -13,7 +13,7 @@ from .validation import (SceneError, boolean, choice, fmt, integer, planar_polyg
                          seq, store, text, vec2, vector)
 
 __all__ = ["EDGES", "SIDES", "SIDES_3D", "WALL_TYPES", "COMPONENTS", "COMPONENTS_3D", "Ramp", "Table",
-           "AMPLITUDES", "normal_axis", "face_axes", "Traction", "BodyForce", "LOADS", "WallSpec", "Prescribed",
+           "AMPLITUDES", "SIDE_NAME", "normal_axis", "face_axes", "Traction", "BodyForce", "LOADS", "WallSpec", "Prescribed",
            "MAX_REGIONS", "Crack"]
 
 EDGES = ("top", "bottom", "left", "right")
@@ -103,8 +103,8 @@ AMPLITUDES: dict[str, type] = {cls.kind: cls for cls in (Ramp, Table)}
 
 _NORMALS = {"left": 0, "right": 0, "bottom": 1, "top": 1, "back": 2, "front": 2}
 """The axis normal to each edge (face) of a body."""
-_FACET = {2: "edge", 3: "face"}
-"""What a body's side is in each dimension."""
+SIDE_NAME = {2: "edge", 3: "face"}
+"""What a body's side is called in each dimension."""
 
 
 def normal_axis(edge: str) -> int:
@@ -200,7 +200,7 @@ class Traction:
         if self.span is not None and len(self.intervals) != dim - 1:
             axes = " then ".join("xyz"[k] for k in face_axes(self.edge, dim))
             want = ("one interval [a, b], along " if dim == 2
-                    else "two intervals [[a, b], [c, d]], along ") + f"{axes} on the {self.edge} {_FACET[dim]}"
+                    else "two intervals [[a, b], [c, d]], along ") + f"{axes} on the {self.edge} {SIDE_NAME[dim]}"
             raise SceneError("span", f"in {dim}D a span is {want}", self.span)
 
     @property

@@ -10,7 +10,7 @@ import numpy as np
 
 from .bodies import Body
 from .components import GridSpec
-from .loads import BodyForce, Traction, normal_axis
+from .loads import SIDE_NAME, BodyForce, Traction, normal_axis
 from .validation import SceneError
 
 if TYPE_CHECKING:
@@ -331,9 +331,9 @@ def load_forces(scene: "Scene", xs: list[np.ndarray], ids: list[np.ndarray]) -> 
             for axis, lo, hi in load.patch():
                 layer &= (x[:, axis] >= lo - eps) & (x[:, axis] <= hi + eps)
             if not layer.any():
-                side = "edge" if scene.dim == 2 else "face"
-                raise SceneError(f"loads[{i}].span", f"holds no particle of the {load.edge} {side} layer"
-                                                     f" of body {load.body!r}", load.span)
+                raise SceneError(f"loads[{i}].span", f"holds no particle of the {load.edge}"
+                                                     f" {SIDE_NAME[scene.dim]} layer of body {load.body!r}",
+                                 load.span)
         area = math.prod([spacing] * (scene.dim - 1)) * scene.thickness  # a particle's share of the face
         forces.append((load, ids[b][layer], np.multiply(load.traction, area)))
     return forces
