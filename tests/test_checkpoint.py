@@ -291,7 +291,7 @@ def test_checkpoint_carries_the_ids_and_a_resume_checks_them(saved):
     path = checkpoint.list_checkpoints(saved / "checkpoints")[-1]
     ckpt = checkpoint.read(path)
     sim = Simulation(Scene.from_dict(ckpt.scene))
-    assert ckpt.version == checkpoint.VERSION == 7
+    assert ckpt.version == checkpoint.VERSION == 8
     assert ckpt.particles["id"].dtype == np.int64
     np.testing.assert_array_equal(ckpt.particles["id"], sim.particles.id)
     checkpoint.restore(sim, ckpt)

@@ -64,6 +64,9 @@ void bind_particles(py::module_& m)
            "n particles at rest in dim (2 or 3) directions, with the ids 0 to n - 1 (the column id, "
            "int64, which must ascend: the solver checks it)")
       .def("__len__", &Particles::size)
+      .def("resize", &Particles::resize, py::arg("n"),
+           "n rows in every column: the first rows kept, new rows zero (ids included); views "
+           "taken before do not survive it")
       .def_property_readonly("dim", &Particles::dim, "the directions: 2 or 3")
       .def("__getattr__", [](py::object self, const std::string& name)
            { return view(entry(self.cast<Particles&>(), name), self); })

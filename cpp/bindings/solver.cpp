@@ -63,6 +63,15 @@ py::dict dict_of(SolverState st)
   return d;
 }
 
+/// Energies as a dict of their fields.
+template <int Dim>
+py::dict energies_dict(const Energies<Dim>& e)
+{
+  py::dict d;
+  Energies<Dim>::each([&](const char* name, const auto& value) { d[name] = value; }, e);
+  return d;
+}
+
 /// The solver state of a dict made by dict_of.
 SolverState state_of(const py::dict& d)
 {
@@ -214,14 +223,45 @@ void bind_solver_class(py::module_& m, const char* name)
           "v_p + G_p (x - x_p) about it (G: (n, dim, dim), G[p, i, j] = dv_i/dx_j)")
       .def_property_readonly("time", &Solver<Dim>::time)
       .def_property_readonly("step_count", &Solver<Dim>::step_count)
-      .def("energies",
-           [](const Solver<Dim>& s)
-           {
-             const Energies<Dim> e = s.energies();
-             py::dict d;
-             Energies<Dim>::each([&](const char* name, const auto& value) { d[name] = value; }, e);
-             return d;
-           })
+      .def("energies", [](const Solver<Dim>& s) { return energies_dict(s.energies()); },
+           "energies and momentum now: a dict of the Energies fields")
+      .def(
+          "tile_sums",
+          [](const Solver<Dim>& s)
+          {
+            TileSums t = s.tile_sums();
+            const auto rows = static_cast<py::ssize_t>(t.keys.size());
+            py::array_t<std::int64_t> keys(rows, t.keys.data());
+            py::array_t<double> sums = array_of(std::move(t.sums)).reshape({rows, py::ssize_t{t.width}});
+            return py::make_tuple(keys, sums);
+          },
+          "the particle sums of energies() per non-empty tile of 8 cells a side: (keys, sums), "
+          "sums one row per tile (Solver::tile_sums)")
+      .def(
+          "energies_of",
+          [](const Solver<Dim>& s, const py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>& keys,
+             const py::array_t<double, py::array::c_style | py::array::forcecast>& sums,
+             const py::array_t<double, py::array::c_style | py::array::forcecast>& slabs)
+          {
+            if (sums.ndim() != 2 || sums.shape(0) != keys.size())
+              throw py::value_error("tile sums: one row per tile key is needed");
+            TileSums t{static_cast<int>(sums.shape(1)), std::vector<std::int64_t>(keys.data(), keys.data() + keys.size()),
+                       std::vector<double>(sums.data(), sums.data() + sums.size())};
+            return energies_dict(s.energies_of(t, std::vector<double>(slabs.data(), slabs.data() + slabs.size())));
+          },
+          py::arg("keys"), py::arg("sums"), py::arg("slabs"),
+          "energies() from the tile sums of every process (keys ascending) and the slab sums of "
+          "every slab in order")
+      .def_property_readonly(
+          "slab_sums", [](const Solver<Dim>& s) { return array_of(std::vector<double>(s.slab_sums())); },
+          "the grid update's sums over the steps per owned slab of 8 node columns along x, "
+          "slab after slab (a copy)")
+      .def("set_owned_slabs", &Solver<Dim>::set_owned_slabs, py::arg("first"), py::arg("last"),
+           "keep the grid sums of the slabs [first, last) only: a rank's own")
+      .def_property_readonly("owned_slabs", &Solver<Dim>::owned_slabs)
+      .def("set_mass_tol", &Solver<Dim>::set_mass_tol, py::arg("tol"),
+           "the mass at or below which a node slot is too light to divide by: a rank sets that "
+           "of all particles")
       .def(
           "contact_stats",
           [](const Solver<Dim>& s) -> py::object

@@ -4,6 +4,7 @@
 /// regions; P2G conserves mass and momentum to round-off, G2P reproduces a
 /// linear velocity field exactly (the B-splines' linear precision), and
 /// neither depends on the thread count (bitwise); the sums by tile of cells.
+#include "pfmpm/common/reduce.h"
 #include "pfmpm/grid/grid.h"
 #include "pfmpm/particles/cell_sort.h"
 #include "pfmpm/shape/stencil.h"
@@ -174,12 +175,12 @@ TEST(TileSort, TilesHoldTheirParticlesInIndexOrderAndSumTheSameOnAnyArrayOrder)
     term[p] = c.m[p] * std::pow(10.0, 8.0 * c.v[2 * p]);
   const auto sum = [](const CellSort& sort, const std::vector<double>& f)
   {
-    return tile_sum<1>(sort,
-                       [&](const std::int32_t* order, std::int64_t begin, std::int64_t end, std::array<double, 1>& acc)
-                       {
-                         for (std::int64_t k = begin; k < end; ++k)
-                           acc[0] += f[order[k]];
-                       })[0];
+    return fold_tiles(tile_sums(sort, 1,
+                                [&](const std::int32_t* order, std::int64_t begin, std::int64_t end, double* acc)
+                                {
+                                  for (std::int64_t k = begin; k < end; ++k)
+                                    acc[0] += f[order[k]];
+                                }))[0];
   };
   // By hand: each tile's terms in index order, the tiles in key order.
   double expected = 0.0;
@@ -212,6 +213,45 @@ TEST(TileSort, TilesHoldTheirParticlesInIndexOrderAndSumTheSameOnAnyArrayOrder)
   CellSort other;
   ASSERT_EQ((other.sort<2, tile_cells>(grid, x2)), 3000u);
   EXPECT_EQ(sum(other, term2), expected);
+  omp_set_num_threads(threads);
+  // Two processes' tiles, each sent apart: the fold gives the same bits;
+  // tiles out of order are refused.
+  const TileSums all = tile_sums(tiles, 1,
+                                 [&](const std::int32_t* order, std::int64_t begin, std::int64_t end, double* acc)
+                                 {
+                                   for (std::int64_t k = begin; k < end; ++k)
+                                     acc[0] += term[order[k]];
+                                 });
+  ASSERT_GE(all.keys.size(), 2u);
+  EXPECT_EQ(fold_tiles(all)[0], expected);
+  TileSums swapped = all;
+  std::swap(swapped.keys[0], swapped.keys[1]);
+  EXPECT_THROW(fold_tiles(swapped), std::invalid_argument);
+}
+
+TEST(SlabSum, EachSlabSumsItsNodesInIndexOrderOnAnyThreadCount)
+{
+  // Active nodes of a 21 x 5 node lattice (stride 5): every third node, so
+  // that slabs of 8 x-columns hold runs of unequal length.
+  std::vector<std::int32_t> nodes;
+  for (std::int32_t key = 0; key < 21 * 5; key += 3)
+    nodes.push_back(key);
+  std::vector<double> term(nodes.size());
+  for (std::size_t a = 0; a < nodes.size(); ++a)
+    term[a] = std::pow(10.0, static_cast<double>(a % 17)) / 3.0;
+  ASSERT_EQ(num_slabs(21), 3);
+  std::array<double, 3> expected{};
+  for (std::size_t a = 0; a < nodes.size(); ++a)
+    expected[nodes[a] / 5 / slab_nodes] += term[a];
+  const int threads = omp_get_max_threads();
+  for (int n : {1, 2})
+  {
+    omp_set_num_threads(n);
+    const auto slabs = slab_sum<1>(nodes, 5, 3, [&](std::size_t a, std::array<double, 1>& acc) { acc[0] += term[a]; });
+    ASSERT_EQ(slabs.size(), 3u);
+    for (int s = 0; s < 3; ++s)
+      EXPECT_EQ(slabs[s][0], expected[s]) << s;
+  }
   omp_set_num_threads(threads);
 }
 

@@ -52,6 +52,27 @@ TEST(Particles, IdIsAnInt64CoreColumnWrittenToTheOutput)
   EXPECT_EQ(static_cast<const std::int64_t*>(id.data)[1], 40);
 }
 
+TEST(Particles, ResizeKeepsTheFirstRowsAndZeroesNewOnes)
+{
+  Particles p(3, 3);
+  p.add({"c", 1, DType::f64, {1.0}, "phase field", "", ""});
+  p.add({"held_by", 1, DType::i32, {0.0}, "regions", "", ""});
+  p.x[3] = 7.0;
+  p.f64("c")[1] = 0.5;
+  p.i32("held_by")[2] = 4;
+  p.resize(5);
+  ASSERT_EQ(p.size(), 5u);
+  EXPECT_EQ(p.x.size(), 15u);
+  EXPECT_EQ(p.stress.size(), 30u);
+  EXPECT_EQ(p.x[3], 7.0);
+  EXPECT_EQ(p.f64("c"), (std::vector<double>{1.0, 0.5, 1.0, 0.0, 0.0}));
+  EXPECT_EQ(p.i32("held_by"), (std::vector<std::int32_t>{0, 0, 4, 0, 0}));
+  EXPECT_EQ(p.id, (std::vector<std::int64_t>{0, 1, 2, 0, 0}));
+  p.resize(2);
+  EXPECT_EQ(p.f64("c"), (std::vector<double>{1.0, 0.5}));
+  EXPECT_EQ(p.v.size(), 6u);
+}
+
 TEST(Particles, OrderCheckNamesTheFirstParticleOutOfOrder)
 {
   Particles P(4);

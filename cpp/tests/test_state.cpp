@@ -146,7 +146,8 @@ TEST(SolverState, RestoredContactRunContinuesBitwise)
   Solver resumed(grid2, Q, mat, step_with(2e-3, fracture, friction));
   SolverState state = original.state();
   // One phase field (of the crackable disk) and the contact record.
-  EXPECT_EQ(state.arrays.size(), 3u);
+  EXPECT_EQ(state.arrays.size(), 4u);
+  EXPECT_EQ(state.arrays.count("grid/slab_sums"), 1u);
   EXPECT_EQ(state.arrays.count("phase_field/0/c"), 1u);
   EXPECT_EQ(state.arrays.count("contact/pair_impulse"), 1u);
   EXPECT_EQ(state.scalars.count("contact/friction_work"), 1u);
@@ -175,6 +176,53 @@ TEST(SolverState, RestoredContactRunContinuesBitwise)
   EXPECT_EQ(p.solves, q.solves);
   EXPECT_EQ(p.iterations, q.iterations);
   EXPECT_EQ(original.time(), resumed.time());
+}
+
+TEST(SolverState, SlabsOfTwoOwnersAddUpToTheWholeRun)
+{
+  // The contact run of RestoredContactRunContinuesBitwise in three solvers
+  // on the same particles: one keeps every slab of nodes, two keep
+  // complementary ones, as two ranks owning them would. The two's slab sums
+  // in slab order, with the particles' tile sums, give the energies of the
+  // first bit for bit.
+  const auto mat = elastic(100.0, 0.3, 1.0, 2);
+  const std::vector<std::optional<Fracture>> fracture{std::nullopt, Fracture{0.5, 0.5, 0.0}};
+  const std::vector<double> friction{0.0, 0.3, 0.3, 0.0};
+  Grid<2> g0(2, {32, 24}, 0.25, {0.0, 0.0}), g1 = g0, g2 = g0;
+  Particles P = crackable_disks(true), Q = P, R = P;
+  Solver whole(g0, P, mat, step_with(2e-3, fracture, friction));
+  Solver left(g1, Q, mat, step_with(2e-3, fracture, friction));
+  Solver right(g2, R, mat, step_with(2e-3, fracture, friction));
+  ASSERT_EQ(whole.owned_slabs(), (std::array<std::int64_t, 2>{0, 5})); // 34 node columns
+  left.set_owned_slabs(0, 2);
+  right.set_owned_slabs(2, 5);
+  EXPECT_THROW(right.set_owned_slabs(2, 6), std::invalid_argument);
+  EXPECT_THROW(right.set_owned_slabs(3, 2), std::invalid_argument);
+  for (Solver<2>* s : {&whole, &left, &right})
+    s->advance(100);
+  expect_same_particles(P, Q);
+  std::vector<double> slabs = left.slab_sums();
+  slabs.insert(slabs.end(), right.slab_sums().begin(), right.slab_sums().end());
+  EXPECT_EQ(slabs, whole.slab_sums());
+  const Energies<2> a = whole.energies(), b = right.energies_of(whole.tile_sums(), slabs);
+  ASSERT_LT(a.friction_work, 0.0);
+  EXPECT_EQ(a.friction_work, b.friction_work);
+  EXPECT_EQ(a.pair_impulse, b.pair_impulse);
+  EXPECT_EQ(a.external_work, b.external_work);
+  EXPECT_EQ(a.kinetic, b.kinetic);
+  EXPECT_EQ(a.fracture_by_field, b.fracture_by_field);
+  // A state without the slab sums (a checkpoint before version 8) puts its
+  // totals into the first slab: the same totals.
+  SolverState old = whole.state();
+  ASSERT_EQ(old.arrays.erase("grid/slab_sums"), 1u);
+  Grid<2> g3 = g0;
+  Particles S = P;
+  Solver again(g3, S, mat, step_with(2e-3, fracture, friction));
+  again.restore(old);
+  const Energies<2> c = again.energies();
+  EXPECT_EQ(c.friction_work, a.friction_work);
+  EXPECT_EQ(c.pair_impulse, a.pair_impulse);
+  EXPECT_EQ(c.wall_impulse, a.wall_impulse);
 }
 
 TEST(SolverState, StateWithOtherFieldsIsRefused)

@@ -17,7 +17,10 @@ as an uninterrupted one:
   (``pfmpm._core.Solver.state()``): each phase field's warm start, the nodal
   solutions of its last two solves (``phase_field/<k>/c``,
   ``phase_field/<k>/c_previous``; one phase field, ``k = 0``, or with
-  multi-body contact one per crackable body in body order);
+  multi-body contact one per crackable body in body order), and the grid
+  update's works and impulses per slab of 8 node columns along x
+  (``grid/slab_sums``, from version 8; before, the meta's totals go into the
+  first slab);
 - ``/output``: ``energies.csv`` so far (its bytes, ``energies_csv``) and
   the state of each observer of the run (:meth:`pfmpm.observe.Observer.state`),
   an array under each name it gives; those of the standard observers are
@@ -60,8 +63,11 @@ from .scene.loads import MAX_REGIONS
 from .scene.stability import grid_dt
 
 FORMAT = "pfmpm-checkpoint"
-VERSION = 7
-# Version 7 keeps the crack path by particle id: output/crack_id, with
+VERSION = 8
+# Version 8 keeps the grid update's sums per slab of nodes (solver/grid/slab_sums):
+# the works and impulses are their totals in slab order, so that ranks owning
+# whole slabs add them as one process does; the core's restore puts an older
+# file's totals into the first slab. Version 7 keeps the crack path by particle id: output/crack_id, with
 # crack_time and crack_xy of the cracked particles only, where version 6 had
 # a row per crackable particle, in row order (CrackObserver.restore reads
 # both). Version 6 keeps the particles' global ids (particles/id); the rows of an
@@ -262,7 +268,7 @@ def read(path: Path | str) -> Checkpoint:
             fmt, version = f.attrs.get("format"), f.attrs.get("version")
             if fmt != FORMAT:
                 raise CheckpointError(f"checkpoint {path}: not a pfmpm checkpoint (format {fmt!r})")
-            if version not in (VERSION, 6, 5, 4, 3, 2):
+            if version not in (VERSION, 7, 6, 5, 4, 3, 2):
                 raise CheckpointError(f"checkpoint {path}: format version {version}, this pfmpm reads {VERSION}")
             meta = json.loads(f.attrs["meta"])
             if version == 2 and _anisotropic(meta["scene"]):

@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import sys
 from pathlib import Path
 
@@ -19,7 +20,7 @@ from .scene.units import unit_system
 
 
 def _run(args: argparse.Namespace) -> int:
-    from . import checkpoint
+    from . import checkpoint, parallel
     from ._core import SimulationError
     from .scene import Scene
     from .simulation import Simulation
@@ -55,17 +56,39 @@ def _run(args: argparse.Namespace) -> int:
     if keep < 1:
         print(f"error: --keep {keep}: must be >= 1", file=sys.stderr)
         return 2
+    comm = None
+    if parallel.ranks() > 1:  # under mpirun -n N: a slab of the grid per rank
+        from mpi4py import MPI
+
+        comm = MPI.COMM_WORLD
+    root = comm is None or comm.rank == 0
+    if comm is not None and (every or resume is not None):
+        if root:
+            print(f"error: {'--resume' if resume is not None else '--checkpoint-every'}: a run on"
+                  f" {comm.size} ranks writes and resumes no checkpoints yet", file=sys.stderr)
+        return 2
     try:
-        sim = Simulation(scene)  # solves the phase field of initial cracks
+        sim = Simulation(scene) if comm is None else parallel.DistributedSimulation(scene, comm)
+    except parallel.RankError as err:  # the same on every rank: rank 0 says it
+        if root:
+            print(f"error: {err}", file=sys.stderr)
+        return 2
     except SimulationError as err:
         print(f"error: {err}", file=sys.stderr)
         return 1
     where = f" from step {resume.step} ({resume.path})" if resume else ""
-    print(f"{scene.name}: {len(sim.particles)} particles, {scene.steps()} steps of dt = {scene.dt():.6g}{where} -> {out}")
+    if not root:  # rank 0 reports; every rank has the same errors (DistributedSimulation)
+        sys.stdout = sys.stderr = open(os.devnull, "w")
+    count = len(sim.particles) if comm is None else sim.owned_count()
+    ranks = f" on {comm.size} ranks" if comm is not None else ""
+    print(f"{scene.name}: {count} particles, {scene.steps()} steps of dt = {scene.dt():.6g}{where}"
+          f"{ranks} -> {out}")
     for line in sim.setup.lines():
         print(f"  {line}")
     for warning in sim.setup.warnings:  # with the report: stderr's first line is a failure's
         print(f"warning: {warning}")
+    if comm is not None and scene.output.particles:
+        print("warning: output.particles: the particle series is not written on many ranks yet")
     try:
         result = sim.run(out, progress=not args.quiet, checkpoint_every=every, keep=keep, resume=resume,
                          draw=False, overwrite=args.overwrite)

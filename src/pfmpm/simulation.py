@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import math
 import os
 from collections.abc import Iterator
@@ -22,6 +23,16 @@ from .scene.validation import at
 CONTACT_COLUMNS = ["friction_dissipation"]
 """Extra ``energies.csv`` columns of scenes with contact: the energy the friction forces took
 out since t = 0, then ``fracture_<body>`` per body."""
+
+
+def columns_sha256(columns: list[dict], values: dict[str, np.ndarray]) -> str:
+    """The SHA-256 of particle columns (``Particles.columns()``) with these
+    ``values`` (rows in ascending id order): each column's name, then its bytes."""
+    digest = hashlib.sha256()
+    for c in columns:
+        digest.update(c["name"].encode())
+        digest.update(np.ascontiguousarray(values[c["name"]]).tobytes())
+    return digest.hexdigest()
 
 
 def dissipation_columns(kinds) -> list[str]:
@@ -333,7 +344,7 @@ class Simulation:
 
     def energies(self) -> dict[str, float]:
         """Energies and momentum now, with the columns of ``energies.csv``."""
-        e = self.solver.energies()
+        e = self._raw_energies()
         axes = "xyz"[:self.scene.dim]
         by_body = e.pop("fracture_by_body")
         impulse = e.pop("wall_impulse")
@@ -373,6 +384,10 @@ class Simulation:
             for body, value in zip(self.scene.bodies, by_body):
                 e[f"fracture_{body.name}"] = value
         return e
+
+    def _raw_energies(self) -> dict:
+        """The core's energies (``Solver.energies``)."""
+        return self.solver.energies()
 
     def crack_points(self) -> tuple[np.ndarray, np.ndarray]:
         """The positions and phase field of the particles that can crack (the
@@ -546,6 +561,13 @@ class Simulation:
             })
         return record
 
+    def state_sha256(self) -> str:
+        """The SHA-256 of the particle state: every column, in ``columns()``
+        order, its name and then its values, rows in ascending id order. A
+        run on any number of ranks gives the same."""
+        return columns_sha256(self.particles.columns(), {c["name"]: getattr(self.particles, c["name"])
+                                                         for c in self.particles.columns()})
+
     def light_momentum(self) -> float:
         """A bound on the momentum the light grid nodes held (``Solver.light_nodes``,
         given zero velocity), over the run so far, as a fraction of the bodies'
@@ -563,6 +585,7 @@ class Simulation:
             "t_end": self.time,
             "particles": len(self.particles),
             "particle_steps_per_s": len(self.particles) * result.steps / max(result.wall_s, 1e-12),
+            "ranks": 1,
             "threads": _core.num_threads(),
             # Steps the solver ran on fewer threads, finding them faster (ThreadGovernor).
             "reduced_thread_steps": self.solver.reduced_thread_steps,
@@ -574,6 +597,7 @@ class Simulation:
             # Wall seconds per stage of the step (the damage-gradient blocks in contact.seconds).
             "seconds": self.solver.stage_seconds(),
             "setup": self.setup.to_dict(),
+            "particles_sha256": self.state_sha256(),
         }
         if self.cracks:
             stats = self.solver.phase_field_stats()

@@ -5,6 +5,8 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <stdexcept>
+#include <string>
 
 namespace pfmpm
 {
@@ -80,6 +82,25 @@ std::size_t CellSort::sort(const Grid<Dim>& grid, const std::vector<double>& x)
       _order[count[_cell[i]]++] = static_cast<std::int32_t>(i);
   }
   return static_cast<std::size_t>(n);
+}
+
+std::vector<double> fold_tiles(const TileSums& tiles)
+{
+  const auto width = static_cast<std::size_t>(tiles.width);
+  if (tiles.sums.size() != width * tiles.keys.size())
+    throw std::invalid_argument("tile sums: " + std::to_string(tiles.sums.size()) + " values for "
+                                + std::to_string(tiles.keys.size()) + " tiles of "
+                                + std::to_string(width));
+  std::vector<double> total(width, 0.0);
+  for (std::size_t i = 0; i < tiles.keys.size(); ++i)
+  {
+    if (i > 0 && tiles.keys[i] <= tiles.keys[i - 1])
+      throw std::invalid_argument("tile sums: tile " + std::to_string(tiles.keys[i]) + " after tile "
+                                  + std::to_string(tiles.keys[i - 1]) + " (the keys must ascend)");
+    for (std::size_t k = 0; k < width; ++k)
+      total[k] += tiles.sums[i * width + k];
+  }
+  return total;
 }
 
 template std::size_t CellSort::sort<2, 1>(const Grid<2>&, const std::vector<double>&);

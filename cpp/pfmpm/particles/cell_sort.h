@@ -7,6 +7,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <stdexcept>
 #include <vector>
 
 namespace pfmpm
@@ -86,33 +87,46 @@ void CellSort::select(const CellSort& all, Keep&& keep)
   }
 }
 
-/// @brief Sum K quantities over the particles of a tile sort
-/// (CellSort::sort<Dim, tile_cells>): f(order, begin, end, acc) adds the terms
-/// of the particles order[begin, end), one tile's in index (id) order, into
-/// acc, which starts at zero for every tile; the tile sums are added in tile
-/// order. The bits depend neither on the thread count nor on which process
-/// holds which whole tiles.
-template <std::size_t K, class F>
-std::array<double, K> tile_sum(const CellSort& tiles, F&& f)
+/// @brief Sums of `width` quantities per tile of particles, as a process
+/// holding some whole tiles gives them to the one that adds them (fold_tiles).
+struct TileSums
+{
+  int width = 0;                  ///< quantities per tile
+  std::vector<std::int64_t> keys; ///< the non-empty tiles' keys, ascending
+  std::vector<double> sums;       ///< per tile, its `width` sums
+};
+
+/// @brief The sums per non-empty tile of a tile sort (CellSort::sort<Dim,
+/// tile_cells>): f(order, begin, end, row) adds the terms of the particles
+/// order[begin, end), one tile's in index (id) order, into row (`width`
+/// values, zero at the start). The bits depend neither on the thread count
+/// nor on the process that holds the tile.
+template <class F>
+TileSums tile_sums(const CellSort& tiles, int width, F&& f)
 {
   const std::vector<std::int64_t>& start = tiles.cell_start();
   const std::int32_t* order = tiles.order().data();
-  const auto ntiles = static_cast<std::ptrdiff_t>(start.size()) - 1;
-  std::vector<std::array<double, K>> partial(ntiles);
+  const auto ntiles = static_cast<std::int64_t>(start.size()) - 1;
+  TileSums out;
+  out.width = width;
+  for (std::int64_t t = 0; t < ntiles; ++t)
+    if (start[t] < start[t + 1])
+      out.keys.push_back(t);
+  const auto n = static_cast<std::ptrdiff_t>(out.keys.size());
+  out.sums.assign(n * width, 0.0);
 #pragma omp parallel for schedule(static)
-  for (std::ptrdiff_t t = 0; t < ntiles; ++t)
+  for (std::ptrdiff_t i = 0; i < n; ++i)
   {
-    std::array<double, K> acc{};
-    if (start[t] < start[t + 1])
-      f(order, start[t], start[t + 1], acc);
-    partial[t] = acc;
+    const std::int64_t t = out.keys[i];
+    f(order, start[t], start[t + 1], &out.sums[i * width]);
   }
-  std::array<double, K> total{};
-  for (std::ptrdiff_t t = 0; t < ntiles; ++t)
-    if (start[t] < start[t + 1])
-      for (std::size_t k = 0; k < K; ++k)
-        total[k] += partial[t][k];
-  return total;
+  return out;
 }
+
+/// @brief The sum of each quantity over the tiles: each tile's sum added to
+/// zero in the order of `tiles.keys`, which must ascend. The tiles of all
+/// processes, each from the one that holds it, give the sums of one process.
+/// @throws std::invalid_argument if the keys do not ascend strictly.
+std::vector<double> fold_tiles(const TileSums& tiles);
 
 } // namespace pfmpm

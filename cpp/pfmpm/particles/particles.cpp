@@ -69,6 +69,27 @@ void Particles::check_order() const
                                   + " (the particles must be in ascending id order)");
 }
 
+void Particles::resize(std::size_t n)
+{
+  x.resize(_dim * n);
+  v.resize(_dim * n);
+  mass.resize(n);
+  volume.resize(n);
+  stress.resize(symmetric_size(_dim) * n);
+  fext.resize(_dim * n);
+  body.resize(n);
+  material.resize(n);
+  id.resize(n);
+  for (Column& c : _columns)
+  {
+    const auto k = static_cast<std::size_t>(c.spec.components);
+    if (c.spec.dtype == DType::f64)
+      c.f64.resize(k * n);
+    else
+      c.i32.resize(k * n);
+  }
+}
+
 Column& Particles::add(const ColumnSpec& spec)
 {
   for (const ColumnSpec& core : core_specs(_dim))

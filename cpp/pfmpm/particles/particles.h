@@ -77,6 +77,11 @@ public:
   explicit Particles(std::size_t n, int dim = 2);
 
   std::size_t size() const { return mass.size(); }
+
+  /// @brief n rows in every array and column: the first rows kept, new rows
+  /// zero (ids included). A process that receives particles from another
+  /// (a migration) resizes, then writes every column of its rows.
+  void resize(std::size_t n);
   /// The directions: 2 or 3 coordinates per position.
   int dim() const { return _dim; }
 

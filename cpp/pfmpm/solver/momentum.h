@@ -534,9 +534,9 @@ void update_damage_node(int n, const NodeSums<Dim>* sums, const SurfaceSums<Dim>
 /// (K&T eqs. 66-77; with damage fields H&H Algorithm 3), walls, and the nodal
 /// accelerations that G2P reads. Two fields touch at a node where their
 /// volumes there fill `touch_fill` of its volume (coulomb_forces).
-/// @return The sums of GridUpdate.
+/// @return The sums of GridUpdate per slab of nodes (slab_sum).
 template <int Dim, class Fields>
-std::array<double, GridUpdate<Dim>::size>
+std::vector<std::array<double, GridUpdate<Dim>::size>>
 update_grid(const Grid<Dim>& grid, Fields& fields, const std::vector<NodeSums<Dim>>& sums,
             const std::vector<SurfaceSums<Dim>>& surface, std::vector<NodeKinematics<Dim>>& kinematics,
             double dt, double mass_tol, double touch_fill)
@@ -545,10 +545,11 @@ update_grid(const Grid<Dim>& grid, Fields& fields, const std::vector<NodeSums<Di
   const std::vector<NodeHold>& constrained = grid.constraints();
   const bool holds = !constrained.empty();
   const Velocity<Dim>* held = grid.holder_velocity().data();
-  const auto na = static_cast<std::size_t>(grid.num_active());
   kinematics.resize(sums.size());
-  return deterministic_sum<sums_n>(
-      na,
+  const std::array<int, Dim> nodes = grid.nodes();
+  const std::int64_t stride = grid.num_nodes() / nodes[0];
+  return slab_sum<sums_n>(
+      grid.active_nodes(), stride, num_slabs(nodes[0]),
       [&](std::size_t a, std::array<double, sums_n>& acc)
       {
         const NodeHold hold = holds ? constrained[a] : NodeHold{};

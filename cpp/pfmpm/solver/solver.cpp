@@ -31,6 +31,9 @@ std::vector<std::optional<Fracture>> per_material(std::vector<std::optional<Frac
   return fracture;
 }
 
+/// The state's array of the grid update's sums per slab (Solver::slab_sums), all slabs.
+const std::string slab_key = "grid/slab_sums";
+
 std::string phase_key(std::size_t k, const char* name)
 {
   return "phase_field/" + std::to_string(k) + "/" + name;
@@ -62,6 +65,54 @@ std::string region_key(int k, const std::string& name)
 {
   return "region/" + std::to_string(k) + "/" + name;
 }
+} // namespace
+
+namespace
+{
+/// The columns of Solver::tile_sums: kinetic, elastic, mass, fracture,
+/// momentum (Dim), angular momentum (its z component in 2D, 3 in 3D); then
+/// one per column of dissipated work, then one per body's fracture energy.
+template <int Dim>
+struct TileColumns
+{
+  static constexpr int first_axis = Dim == 2 ? 2 : 0; // of the angular momentum's components
+  static constexpr int kinetic = 0, elastic = 1, mass = 2, fracture = 3, momentum = 4;
+  static constexpr int angular = momentum + Dim - first_axis; // + axis a (first_axis <= a < 3)
+  static constexpr int core = angular + 3;
+};
+
+/// The works and impulses of the grid update: each the sum of its slabs'
+/// sums (Solver::slab_sums) in slab order.
+template <int Dim>
+struct GridTotals
+{
+  std::array<double, GridUpdate<Dim>::size> total{};
+  explicit GridTotals(const std::vector<double>& slabs)
+  {
+    for (std::size_t s = 0; s < slabs.size(); s += GridUpdate<Dim>::size)
+      for (int k = 0; k < GridUpdate<Dim>::size; ++k)
+        total[k] += slabs[s + k];
+  }
+  /// Into the fields of the same names of `t` (an Energies).
+  template <class Target>
+  void into(Target& t, double& friction_work) const
+  {
+    using U = GridUpdate<Dim>;
+    constexpr int sides = num_sides(Dim);
+    t.external_work = total[U::external_work];
+    t.wall_work = total[U::wall_work];
+    friction_work = total[U::friction_work];
+    for (int side = 0; side < sides; ++side)
+      std::copy_n(&total[U::hold_impulse + Dim * side], Dim, t.wall_impulse[side].begin());
+    for (int k = 0; k < max_regions; ++k)
+    {
+      t.region_work[k] = total[U::region_work + k];
+      std::copy_n(&total[U::hold_impulse + Dim * (sides + k)], Dim, t.region_impulse[k].begin());
+    }
+    for (int q = 0; q < max_field_pairs; ++q)
+      std::copy_n(&total[U::pair_impulse + Dim * q], Dim, t.pair_impulse[q].begin());
+  }
+};
 } // namespace
 
 template <int Dim>
@@ -116,6 +167,8 @@ Solver<Dim>::Solver(Grid<Dim>& grid, Particles& particles,
   // Nodes lighter than this carry no velocity: dividing by their mass would
   // amplify round-off (a particle at the edge of a node's support).
   _mass_tol = 1e-12 * max_mass;
+  _bodies = particles.size() == 0 ? 0 : *std::max_element(particles.body.begin(), particles.body.end()) + 1;
+  set_owned_slabs(0, num_slabs(grid.nodes()[0]));
 
   if (shape == ShapeFunctions::cpdi)
   {
@@ -211,6 +264,48 @@ void Solver<Dim>::set_touch_fill(double fill)
 }
 
 template <int Dim>
+void Solver<Dim>::set_mass_tol(double tol)
+{
+  if (!(tol >= 0.0) || !std::isfinite(tol))
+    throw std::invalid_argument("mass_tol = " + std::to_string(tol) + ": must be >= 0 and finite");
+  _mass_tol = tol;
+}
+
+template <int Dim>
+void Solver<Dim>::set_owned_slabs(std::int64_t first, std::int64_t last)
+{
+  const std::int64_t slabs = num_slabs(_grid.nodes()[0]);
+  if (!(0 <= first && first <= last && last <= slabs))
+    throw std::invalid_argument("owned slabs [" + std::to_string(first) + ", " + std::to_string(last)
+                                + "): must lie in [0, " + std::to_string(slabs) + ")");
+  _slab_first = first;
+  _slab_last = last;
+  _slab_sums.assign(GridUpdate<Dim>::size * (last - first), 0.0);
+  total_slab_sums();
+}
+
+template <int Dim>
+void Solver<Dim>::total_slab_sums()
+{
+  Energies<Dim> e;
+  double friction_work = 0.0;
+  GridTotals<Dim>(_slab_sums).into(e, friction_work);
+  _external_work = e.external_work;
+  _wall_work = e.wall_work;
+  _wall_impulse = e.wall_impulse;
+  _region_work = e.region_work;
+  _region_impulse = e.region_impulse;
+  _pair_impulse = e.pair_impulse;
+  std::visit(
+      [&](auto& fields)
+      {
+        if constexpr (std::decay_t<decltype(fields)>::discrete)
+          fields.stats().friction_work = friction_work;
+      },
+      _fields);
+}
+
+template <int Dim>
 template <class Self, class Visit>
 void Solver<Dim>::each_scalar(Self& s, Visit&& visit)
 {
@@ -238,6 +333,10 @@ SolverState Solver<Dim>::state() const
   SolverState s;
   each_scalar(*this, [&](const std::string& key, const auto& value)
               { s.scalars[key] = static_cast<double>(value); });
+  // Every slab's sums, zero where another process owns the slab.
+  std::vector<double>& slabs = s.arrays[slab_key];
+  slabs.assign(GridUpdate<Dim>::size * num_slabs(_grid.nodes()[0]), 0.0);
+  std::copy(_slab_sums.begin(), _slab_sums.end(), slabs.begin() + GridUpdate<Dim>::size * _slab_first);
   for (std::size_t k = 0; k < _phase.size(); ++k)
   {
     PhaseFieldState pf = _phase[k].field.state();
@@ -266,6 +365,9 @@ void Solver<Dim>::restore(const SolverState& state)
   _particles.check_order();
   // What this solver's state has: the same keys, arrays of the same sizes.
   const SolverState mine = this->state();
+  // Before the sums by slab (checkpoints before version 8) the works and
+  // impulses were totals: they go into the first owned slab.
+  const bool slabs = state.arrays.count(slab_key) > 0;
   for (const auto& [key, value] : state.scalars)
     if (!mine.scalars.count(key))
       throw std::invalid_argument("solver state: " + key + " is not part of this run's state"
@@ -280,6 +382,8 @@ void Solver<Dim>::restore(const SolverState& state)
   for (const auto& [key, value] : mine.arrays)
   {
     const auto it = state.arrays.find(key);
+    if (it == state.arrays.end() && key == slab_key)
+      continue;
     if (it == state.arrays.end())
       throw std::invalid_argument("solver state: " + key + " is missing");
     if (it->second.size() != value.size())
@@ -315,6 +419,32 @@ void Solver<Dim>::restore(const SolverState& state)
   }
   each_scalar(*this, [&](const std::string& key, auto& value)
               { value = static_cast<std::decay_t<decltype(value)>>(state.scalars.at(key)); });
+  using U = GridUpdate<Dim>;
+  if (slabs)
+  {
+    const std::vector<double>& all = state.arrays.at(slab_key);
+    std::copy_n(all.begin() + U::size * _slab_first, _slab_sums.size(), _slab_sums.begin());
+  }
+  else if (!_slab_sums.empty())
+  {
+    std::fill(_slab_sums.begin(), _slab_sums.end(), 0.0);
+    double* first = _slab_sums.data();
+    first[U::external_work] = _external_work;
+    first[U::wall_work] = _wall_work;
+    constexpr int sides = Grid<Dim>::sides;
+    for (int side = 0; side < sides; ++side)
+      std::copy_n(_wall_impulse[side].begin(), Dim, &first[U::hold_impulse + Dim * side]);
+    for (int k = 0; k < max_regions; ++k)
+    {
+      first[U::region_work + k] = _region_work[k];
+      std::copy_n(_region_impulse[k].begin(), Dim, &first[U::hold_impulse + Dim * (sides + k)]);
+    }
+    for (int q = 0; q < max_field_pairs; ++q)
+      std::copy_n(_pair_impulse[q].begin(), Dim, &first[U::pair_impulse + Dim * q]);
+    if (const ContactStats* c = contact_stats())
+      first[U::friction_work] = c->friction_work;
+  }
+  total_slab_sums();
   for (int k = 0; k < static_cast<int>(_grid.regions().size()); ++k)
     _grid.move_region(k, _region_displacement[k]);
 }
@@ -561,37 +691,35 @@ void Solver<Dim>::step(Fields& fields, bool energy)
     particle_to_grid<Shape, Affine>(fields);
   }
   using U = GridUpdate<Dim>;
-  std::array<double, U::size> sums;
+  std::vector<std::array<double, U::size>> slabs;
   {
     Stopwatch clock{_timers.grid};
-    sums = update_grid(_grid, fields, _sums, _surface, _kinematics, _dt, _mass_tol, _touch_fill);
+    slabs = update_grid(_grid, fields, _sums, _surface, _kinematics, _dt, _mass_tol, _touch_fill);
   }
-  _external_work += sums[U::external_work];
-  _wall_work += sums[U::wall_work];
+  // The owned slabs' sums: each slab's over the steps (the works and
+  // impulses total them in slab order), and the step's counts, which are
+  // integers and so exact in any order.
+  std::array<double, U::size> sums{};
+  for (std::int64_t s = _slab_first; s < _slab_last; ++s)
+    for (int k = 0; k < U::size; ++k)
+    {
+      _slab_sums[U::size * (s - _slab_first) + k] += slabs[s][k];
+      sums[k] += slabs[s][k];
+    }
+  total_slab_sums();
   constexpr int sides = Grid<Dim>::sides;
-  for (int side = 0; side < sides; ++side)
-    for (int d = 0; d < Dim; ++d)
-      _wall_impulse[side][d] += sums[U::hold_impulse + Dim * side + d];
   const std::vector<Region<Dim>>& regions = _grid.regions();
   for (std::size_t k = 0; k < regions.size(); ++k)
   {
-    _region_work[k] += sums[U::region_work + k];
     for (int d = 0; d < Dim; ++d)
-    {
-      _region_impulse[k][d] += sums[U::hold_impulse + Dim * (sides + k) + d];
       if (regions[k].components & (1 << d))
         _region_displacement[k][d] += _dt * _grid.holder_velocity()[sides + k][d];
-    }
     _grid.move_region(static_cast<int>(k), _region_displacement[k]);
   }
   _light_nodes += static_cast<std::int64_t>(sums[U::light]);
   if constexpr (Fields::discrete)
   {
-    for (int q = 0; q < max_field_pairs; ++q)
-      for (int d = 0; d < Dim; ++d)
-        _pair_impulse[q][d] += sums[U::pair_impulse + Dim * q + d];
     ContactStats& c = fields.stats();
-    c.friction_work += sums[U::friction_work];
     c.pairs += static_cast<std::int64_t>(sums[U::contact + count_pairs]);
     c.active += static_cast<std::int64_t>(sums[U::contact + count_active]);
     c.sliding += static_cast<std::int64_t>(sums[U::contact + count_sliding]);
@@ -757,9 +885,22 @@ void Solver<Dim>::check_stability_exactly() const
   throw SimulationError(msg.str());
 }
 
+
 template <int Dim>
-Energies<Dim> Solver<Dim>::energies() const
+std::map<std::string, std::string> Solver<Dim>::dissipation_columns() const
 {
+  std::map<std::string, std::string> kept; // column -> kind
+  for (const auto& m : _materials)
+    for (const ColumnSpec& c : m->columns(_particles.dim()))
+      if (!c.dissipation.empty())
+        kept.emplace(c.name, c.dissipation);
+  return kept;
+}
+
+template <int Dim>
+TileSums Solver<Dim>::tile_sums() const
+{
+  using C = TileColumns<Dim>;
   const auto n = _particles.size();
   const Particles& P = _particles;
   const Column* fracture = P.find("fracture_energy");
@@ -779,19 +920,21 @@ Energies<Dim> Solver<Dim>::energies() const
   // With APIC, the angular momentum of each particle's affine velocity.
   const Column* affine = P.find("affine");
   const double* B = affine ? affine->f64.data() : nullptr;
-  // The sums: kinetic, elastic, mass, fracture, momentum (Dim), angular
-  // momentum (its z component in 2D, 3 in 3D).
-  constexpr int first_axis = Dim == 2 ? 2 : 0; // of the angular momentum's components
-  constexpr int momentum = 4, angular = momentum + Dim - first_axis;
-  constexpr int N = angular + 3;
-  // Every sum runs by tile of cells (tile_sum), so that a process holding some
-  // whole tiles adds its particles as one holding all of them would.
+  std::vector<const double*> dissipated;
+  for (const auto& [column, kind] : dissipation_columns())
+    dissipated.push_back(P.f64(column).data());
+  const auto ndissipated = static_cast<int>(dissipated.size());
+  // The fracture energy per body, with contact.
+  const int bodies = contact_stats() && fe ? _bodies : 0;
+  const std::int32_t* body = P.body.data();
+  // Every sum runs by tile of cells, so that a process holding some whole
+  // tiles adds its particles as one holding all of them would.
   CellSort tiles;
   if (const std::size_t outside = tiles.sort<Dim, tile_cells>(_grid, P.x); outside < n)
     throw SimulationError(where(outside) + " is outside the grid");
-  const auto sums = tile_sum<N>(
-      tiles,
-      [&](const std::int32_t* order, std::int64_t begin, std::int64_t end, std::array<double, N>& acc)
+  return pfmpm::tile_sums(
+      tiles, C::core + ndissipated + bodies,
+      [&](const std::int32_t* order, std::int64_t begin, std::int64_t end, double* acc)
       {
         for (std::int64_t k = begin; k < end; ++k)
         {
@@ -799,78 +942,76 @@ Energies<Dim> Solver<Dim>::energies() const
           const double m = P.mass[p];
           const double* x = &P.x[Dim * p];
           const double* v = &P.v[Dim * p];
-          acc[0] += 0.5 * m * squared_length<Dim>(v);
-          acc[2] += m;
+          acc[C::kinetic] += 0.5 * m * squared_length<Dim>(v);
+          acc[C::mass] += m;
           if (fe)
-            acc[3] += fe[p];
+            acc[C::fracture] += fe[p];
           for (int d = 0; d < Dim; ++d)
-            acc[momentum + d] += m * v[d];
+            acc[C::momentum + d] += m * v[d];
           // (x_p x v_p)_a, and with APIC eps_abc (B_p)_cb
-          for (int a = first_axis; a < 3; ++a)
+          for (int a = C::first_axis; a < 3; ++a)
           {
             const int b = (a + 1) % 3, c = (a + 2) % 3;
-            acc[angular + a] += m * (x[b] * v[c] - x[c] * v[b]);
+            acc[C::angular + a] += m * (x[b] * v[c] - x[c] * v[b]);
             if (B)
-              acc[angular + a] += m * (B[Dim * (Dim * p + c) + b] - B[Dim * (Dim * p + b) + c]);
+              acc[C::angular + a] += m * (B[Dim * (Dim * p + c) + b] - B[Dim * (Dim * p + b) + c]);
           }
+          for (int w = 0; w < ndissipated; ++w)
+            acc[C::core + w] += dissipated[w][p];
+          if (bodies)
+            acc[C::core + ndissipated + body[p]] += fe[p];
         }
         // The elastic energy of each run of one material in the tile's (id) order.
         for_each_material_run(P.material.data(), order, begin, end,
                               [&](std::int32_t mat, const Batch& batch)
-                              { bound[mat]->add_energy(batch, by_material[mat], acc[1]); });
+                              { bound[mat]->add_energy(batch, by_material[mat], acc[C::elastic]); });
       });
+}
+
+template <int Dim>
+Energies<Dim> Solver<Dim>::energies() const
+{
+  return energies_of(tile_sums(), _slab_sums);
+}
+
+template <int Dim>
+Energies<Dim> Solver<Dim>::energies_of(const TileSums& tiles, const std::vector<double>& slabs) const
+{
+  using C = TileColumns<Dim>;
+  const std::vector<double> sums = fold_tiles(tiles);
+  const std::map<std::string, std::string> kept = dissipation_columns();
+  const int bodies = tiles.width - C::core - static_cast<int>(kept.size());
+  if (bodies < 0 || (bodies > 0 && bodies != _bodies))
+    throw std::invalid_argument("tile sums: " + std::to_string(tiles.width) + " per tile for "
+                                + std::to_string(C::core) + " sums, " + std::to_string(kept.size())
+                                + " dissipation columns and " + std::to_string(_bodies) + " bodies");
+  if (slabs.size() % GridUpdate<Dim>::size != 0)
+    throw std::invalid_argument("slab sums: " + std::to_string(slabs.size()) + " values, not a multiple of "
+                                + std::to_string(GridUpdate<Dim>::size));
   Energies<Dim> e;
-  e.kinetic = sums[0];
-  e.elastic = sums[1];
-  e.fracture = sums[3];
+  e.kinetic = sums[C::kinetic];
+  e.elastic = sums[C::elastic];
+  e.fracture = sums[C::fracture];
   // The work the models dissipated, summed per kind over the columns that
   // keep it per particle (ColumnSpec::dissipation), each column once.
-  std::map<std::string, std::string> kept; // column -> kind
-  for (const auto& m : _materials)
-    for (const ColumnSpec& c : m->columns(_particles.dim()))
-      if (!c.dissipation.empty())
-        kept.emplace(c.name, c.dissipation);
+  int w = C::core;
   for (const auto& [column, kind] : kept)
-  {
-    const double* w = P.f64(column).data();
-    e.dissipation[kind] +=
-        tile_sum<1>(tiles, [&](const std::int32_t* order, std::int64_t begin, std::int64_t end, std::array<double, 1>& acc)
-                    {
-                      for (std::int64_t k = begin; k < end; ++k)
-                        acc[0] += w[order[k]];
-                    })[0];
-  }
-  e.external_work = _external_work;
-  e.wall_work = _wall_work;
-  e.wall_impulse = _wall_impulse;
-  e.region_impulse = _region_impulse;
-  e.region_work = _region_work;
+    e.dissipation[kind] += sums[w++];
+  double friction_work = 0.0;
+  GridTotals<Dim>(slabs).into(e, friction_work);
   e.region_displacement = _region_displacement;
-  e.pair_impulse = _pair_impulse;
-  std::copy_n(&sums[momentum], Dim, e.momentum.begin());
+  std::copy_n(&sums[C::momentum], Dim, e.momentum.begin());
   if constexpr (Dim == 2)
-    e.angular_momentum = sums[angular + 2];
+    e.angular_momentum = sums[C::angular + 2];
   else
-    std::copy_n(&sums[angular], 3, e.angular_momentum.begin());
-  e.mass = sums[2];
-  if (const ContactStats* stats = contact_stats())
+    std::copy_n(&sums[C::angular], 3, e.angular_momentum.begin());
+  e.mass = sums[C::mass];
+  if (contact_stats())
   {
     // Fracture energy per body (with damage-gradient fields too).
-    const std::int32_t nbodies =
-        n == 0 ? 0 : *std::max_element(P.body.begin(), P.body.end()) + 1;
-    e.friction_work = stats->friction_work;
-    e.fracture_by_field.assign(nbodies, 0.0);
-    if (fe)
-    {
-      const std::int32_t* body = P.body.data();
-      for (std::int32_t f = 0; f < nbodies; ++f)
-        e.fracture_by_field[f] =
-            tile_sum<1>(tiles, [&](const std::int32_t* order, std::int64_t begin, std::int64_t end, std::array<double, 1>& acc)
-                        {
-                          for (std::int64_t k = begin; k < end; ++k)
-                            acc[0] += body[order[k]] == f ? fe[order[k]] : 0.0;
-                        })[0];
-    }
+    e.friction_work = friction_work;
+    e.fracture_by_field.assign(_bodies, 0.0);
+    std::copy_n(&sums[w], bodies, e.fracture_by_field.begin());
     e.fracture = 0.0;
     for (double f : e.fracture_by_field)
       e.fracture += f;

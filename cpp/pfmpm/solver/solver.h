@@ -113,7 +113,11 @@ struct Energies
 /// `.../unknowns`, `.../passes`, `.../last_passes`, `.../at_bound`; with discrete fields `contact/nodes`, `contact/pairs`,
 /// `contact/active`, `contact/sliding`, `contact/C1` .. `contact/C4`,
 /// `contact/friction_work`; with damage-gradient fields also
-/// `contact/split`, `contact/separable`, `contact/separable_total`. Arrays: `phase_field/k/c` and
+/// `contact/split`, `contact/separable`, `contact/separable_total`. The
+/// works, impulses and friction work are the totals of the array
+/// `grid/slab_sums` (Solver::slab_sums, every slab of the grid, zero where
+/// another process owns it), which a state without it (before checkpoint
+/// version 8) takes from these scalars. Arrays: `phase_field/k/c` and
 /// `phase_field/k/c_previous`, the nodal warm start; with discrete fields
 /// `contact/pair_impulse` (x, y per field_pair, max_field_pairs of them).
 struct SolverState
@@ -283,6 +287,23 @@ public:
   /// @brief The mass at or below which a slot is too light to divide by:
   /// 1e-12 of the heaviest particle's at construction.
   double mass_tol() const { return _mass_tol; }
+  /// @brief Set mass_tol(): a rank holding part of the particles sets that
+  /// of all of them.
+  /// @throws std::invalid_argument unless it is >= 0 and finite.
+  void set_mass_tol(double tol);
+
+  /// @brief The slabs of nodes (slab_sum) whose sums this solver keeps:
+  /// the works, impulses and counts of the grid update over all steps are
+  /// those of the nodes of slabs [first, last). All of them by default; a
+  /// rank owning the cells of whole tiles along x keeps its own.
+  /// @throws std::invalid_argument unless 0 <= first <= last <= the grid's slabs.
+  void set_owned_slabs(std::int64_t first, std::int64_t last);
+  /// The owned slabs, [first, last).
+  std::array<std::int64_t, 2> owned_slabs() const { return {_slab_first, _slab_last}; }
+  /// @brief The grid update's sums over all steps so far per owned slab
+  /// (GridUpdate's entries, its `size` per slab, slab by slab): every work
+  /// and impulse is the sum of its slabs' in slab order.
+  const std::vector<double>& slab_sums() const { return _slab_sums; }
 
   /// @brief The state besides the particle columns, for a checkpoint.
   SolverState state() const;
@@ -293,8 +314,22 @@ public:
   ///         particle if the restored particles are not in ascending id order.
   void restore(const SolverState& state);
 
-  /// @brief Energies and momentum of the current particle state.
+  /// @brief Energies and momentum of the current particle state:
+  /// energies_of(tile_sums(), slab_sums()).
   Energies<Dim> energies() const;
+  /// @brief The particle sums of energies() per tile of cells (TileSums):
+  /// kinetic, elastic, mass and fracture energy, momentum, angular momentum
+  /// (its z component in 2D, three in 3D), the work kept by each column of
+  /// dissipated work (in the order of their names), and with contact each
+  /// body's fracture energy.
+  TileSums tile_sums() const;
+  /// @brief The energies from the tile sums of all particles (the tiles
+  /// of every process, keys ascending) and the grid update's sums of all
+  /// slabs (slab_sums() of every process, in slab order); with one
+  /// process, energies().
+  /// @throws std::invalid_argument if the tiles' width or the slab sums'
+  ///         size does not fit this run.
+  Energies<Dim> energies_of(const TileSums& tiles, const std::vector<double>& slabs) const;
 
   /// @brief With APIC: set each particle's affine matrix to that of the
   /// velocity field v_p + G_p (x - x_p) about it, B_p = G_p D_p, D_p at its
@@ -427,6 +462,11 @@ private:
   std::array<std::array<double, Dim>, max_field_pairs> _pair_impulse{};
   double _mass_tol;
   std::int64_t _light_nodes = 0;
+  std::int32_t _bodies = 0;                      // bodies: the largest body index + 1
+  std::map<std::string, std::string> dissipation_columns() const; // column -> kind of dissipation
+  std::int64_t _slab_first = 0, _slab_last = 0; // owned slabs (set_owned_slabs)
+  std::vector<double> _slab_sums;                // per owned slab: GridUpdate's sums over the steps
+  void total_slab_sums();
   double _stability_length = 0.0; // 0: no check
   double _touch_fill = default_touch_fill;
   bool _external = false; // some particle carries an external force

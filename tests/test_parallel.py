@@ -1,0 +1,140 @@
+"""The MPM on many MPI ranks (pfmpm.parallel): the bits of one process on
+1, 2 and 3 ranks, no particle lost, and the refusals."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pfmpm import Scene
+from pfmpm.output import read_csv
+from pfmpm.parallel import RankError, Slabs, check_distributable
+from test_fem import _mpirun
+
+DEMOS = Path(__file__).resolve().parent.parent / "demos"
+
+#: A block of the vibrating bar's soft material flying along x at 30 (three
+#: times its wave speed) through 80 cells: about 0.6 cells a step, so in
+#: 100 steps it crosses from rank 0's cells into rank 2's on 3 ranks.
+PROJECTILE = """
+name = "projectile"
+plane = "strain"
+[grid]
+size = [80.0, 8.0]
+h = 1.0
+degree = 2
+[time]
+end = 1.0
+cfl = 0.8
+[output]
+every = 100
+energies_every = 5
+particles = false
+[[materials]]
+name = "soft"
+E = 100.0
+nu = 0.3
+density = 1.0
+[[bodies]]
+name = "block"
+material = "soft"
+particles_per_cell = 2
+shape = { type = "rectangle", min = [3.0, 2.0], max = [9.0, 6.0] }
+velocity = [30.0, 0.0]
+"""
+
+
+def _run(tmp_path: Path, scene: Path, sets: list[str], ranks: int | None, steps: int) -> tuple[bytes, dict]:
+    """``pfmpm run`` of ``scene`` for ``steps`` steps, on ``ranks`` ranks under
+    mpirun or (None) in one process without MPI: its energies.csv and summary."""
+    env = dict(os.environ, OMP_NUM_THREADS="1")
+    if os.geteuid() == 0:
+        env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
+    launcher = [sys.executable]
+    if ranks is not None:
+        mpirun = _mpirun()  # mpirun -n 2 [--oversubscribe]
+        mpirun[2] = str(ranks)
+        launcher = mpirun + launcher
+    out = tmp_path / f"ranks{ranks}"
+    args = ["-m", "pfmpm.cli", "run", str(scene), "--quiet", "--out", str(out)]
+    args += [item for s in sets + [f"time.end={steps * Scene.from_toml(scene).dt()!r}"] for item in ("--set", s)]
+    proc = subprocess.run(launcher + args, env=env, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "completed"
+    return (out / "energies.csv").read_bytes(), summary
+
+
+def test_slabs_split_whole_tiles_by_particle_count():
+    # 10 tiles along x (80 cells); the particles crowd into the first 16 cells.
+    counts = np.zeros(80, dtype=np.int64)
+    counts[:16] = 100
+    counts[16:] = 1
+    slabs = Slabs(80, counts, 3)
+    assert slabs.tiles.tolist() == [0, 1, 2, 10]
+    assert slabs.loads.tolist() == [800, 800, 64]
+    assert slabs.cell_range(1) == (8, 16) and slabs.cell_range(2) == (16, 80)
+    assert slabs.owner(np.array([0, 7, 8, 15, 16, 79])).tolist() == [0, 0, 1, 1, 2, 2]
+    # Even counts split evenly; a grid's last tile may be cut short.
+    slabs = Slabs(30, np.ones(30), 2)
+    assert slabs.tiles.tolist() == [0, 2, 4] and slabs.cell_range(1) == (16, 30)
+
+
+def test_more_ranks_than_tiles_are_refused():
+    with pytest.raises(RankError, match=r"^mpirun -n 5: the grid has 30 cells along x, 4 tiles of 8; at most 4 ranks$"):
+        Slabs(30, np.ones(30), 5)
+
+
+def test_scenes_that_do_not_run_distributed_yet_are_refused():
+    with pytest.raises(RankError, match=r"^scene 'borden-plate' has a phase field .* run it without mpirun$"):
+        check_distributable(Scene.from_toml(DEMOS / "borden_plate.toml"))
+    check_distributable(Scene.from_toml(DEMOS / "vibrating_bar.toml"))
+
+
+@pytest.mark.parametrize("scene", ["vibrating_bar", "projectile"])
+def test_ranks_give_the_bits_of_one_process(tmp_path, scene):
+    """``mpirun -n 1, 2, 3 pfmpm run`` writes the energies.csv of one process
+    without MPI byte for byte, and the same SHA-256 of the id-sorted particle
+    state: 200 steps of the vibrating bar (a wall, a traction, 4 tiles along
+    x) and the projectile's 100 (every particle changes rank)."""
+    if scene == "projectile":
+        path = tmp_path / "projectile.toml"
+        path.write_text(PROJECTILE)
+        sets, steps = [], 100
+    else:
+        path = DEMOS / "vibrating_bar.toml"
+        sets, steps = ["output.particles=false"], 200
+    serial, summary = _run(tmp_path, path, sets, None, steps)
+    assert read_csv(tmp_path / "ranksNone" / "energies.csv")["step"][-1] == steps
+    for ranks in (1, 2, 3):
+        csv, other = _run(tmp_path, path, sets, ranks, steps)
+        assert other["ranks"] == ranks  # -n 1 runs as one process without MPI
+        assert csv == serial, f"{ranks} ranks"
+        assert other["particles_sha256"] == summary["particles_sha256"], f"{ranks} ranks"
+        assert other["particles"] == summary["particles"]
+
+
+def test_a_projectile_crossing_three_ranks_loses_nothing(tmp_path):
+    """The block flies from rank 0's cells through rank 1's into rank 2's:
+    its mass and momentum stay those of t = 0 to round-off, and its
+    particles are all there."""
+    path = tmp_path / "projectile.toml"
+    path.write_text(PROJECTILE)
+    _, summary = _run(tmp_path, path, [], 3, 100)
+    e = read_csv(tmp_path / "ranks3" / "energies.csv")
+    assert summary["particles"] == 6 * 4 * 4  # every particle at the end
+    assert summary["tiles_per_rank"] == [1, 1, 8]  # the split by particle count at t = 0
+    assert e["step"][-1] == 100
+    # The block's back, x = 3 at t = 0, ends in rank 2's cells [16, 80).
+    assert 3.0 + 30.0 * e["t"][-1] > 16.0
+    p0 = e["momentum_x"][0]
+    assert p0 == pytest.approx(30.0 * 24.0)  # 24 of mass at 30
+    np.testing.assert_allclose(e["momentum_x"], p0, rtol=1e-13)
+    np.testing.assert_allclose(e["momentum_y"], 0.0, atol=1e-13 * p0)
+    np.testing.assert_allclose(e["kinetic"], e["kinetic"][0], rtol=1e-12)
