@@ -20,7 +20,7 @@ def test_the_site_builds_without_warnings(tmp_path):
     pages = {page: (html / "api" / f"{page}.html").read_text() for page in ("pfmpm", "scene", "post")}
     documented = {
         "pfmpm": ["pfmpm.simulation.Simulation", "pfmpm.SimulationError", "pfmpm.run.run_to_end",
-                  "pfmpm.observe.CrackTip"],
+                  "pfmpm.observe.CrackTip", "pfmpm.parallel.DistributedSimulation"],
         "scene": ["pfmpm.scene.Scene", "pfmpm.scene.GridSpec", "pfmpm.scene.Body", "pfmpm.scene.LinearElasticSpec",
                   "pfmpm.scene.NeoHookeanSpec", "pfmpm.scene.Contact", "pfmpm.scene.units.UnitSystem"],
         "post": ["pfmpm.post.tip.initiation_time", "pfmpm.post.forces.mean_forces", "pfmpm.post.fragments.fragments"],

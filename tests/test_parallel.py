@@ -49,8 +49,19 @@ shape = { type = "rectangle", min = [3.0, 2.0], max = [9.0, 6.0] }
 velocity = [30.0, 0.0]
 """
 
+#: The projectile and a block at rest far ahead of it, with no contact
+#: between them (one velocity field): the momentum columns per body.
+TWO_BLOCKS = PROJECTILE.replace('name = "projectile"', 'name = "two-blocks"') + """
+[[bodies]]
+name = "target"
+material = "soft"
+particles_per_cell = 2
+shape = { type = "rectangle", min = [70.0, 2.0], max = [76.0, 6.0] }
+"""
 
-def _run(tmp_path: Path, scene: Path, sets: list[str], ranks: int | None, steps: int) -> tuple[bytes, dict]:
+
+def _run(tmp_path: Path, scene: Path, sets: list[str], ranks: int | None, steps: int,
+         extra: tuple[str, ...] = ()) -> tuple[bytes, dict]:
     """``pfmpm run`` of ``scene`` for ``steps`` steps, on ``ranks`` ranks under
     mpirun or (None) in one process without MPI: its energies.csv and summary."""
     env = dict(os.environ, OMP_NUM_THREADS="1")
@@ -62,7 +73,7 @@ def _run(tmp_path: Path, scene: Path, sets: list[str], ranks: int | None, steps:
         mpirun[2] = str(ranks)
         launcher = mpirun + launcher
     out = tmp_path / f"ranks{ranks}"
-    args = ["-m", "pfmpm.cli", "run", str(scene), "--quiet", "--out", str(out)]
+    args = ["-m", "pfmpm.cli", "run", str(scene), "--quiet", "--out", str(out), *extra]
     args += [item for s in sets + [f"time.end={steps * Scene.from_toml(scene).dt()!r}"] for item in ("--set", s)]
     proc = subprocess.run(launcher + args, env=env, capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
@@ -97,27 +108,36 @@ def test_scenes_that_do_not_run_distributed_yet_are_refused():
     check_distributable(Scene.from_toml(DEMOS / "vibrating_bar.toml"))
 
 
-@pytest.mark.parametrize("scene", ["vibrating_bar", "projectile"])
+@pytest.mark.parametrize("scene", ["vibrating_bar", "projectile", "two_blocks"])
 def test_ranks_give_the_bits_of_one_process(tmp_path, scene):
     """``mpirun -n 1, 2, 3 pfmpm run`` writes the energies.csv of one process
     without MPI byte for byte, and the same SHA-256 of the id-sorted particle
     state: 200 steps of the vibrating bar (a wall, a traction, 4 tiles along
-    x) and the projectile's 100 (every particle changes rank)."""
-    if scene == "projectile":
-        path = tmp_path / "projectile.toml"
-        path.write_text(PROJECTILE)
+    x), with its particle series (every 50 steps), and the projectile's 100
+    (every particle changes rank), alone and with a second body."""
+    if scene != "vibrating_bar":
+        path = tmp_path / f"{scene}.toml"
+        path.write_text(PROJECTILE if scene == "projectile" else TWO_BLOCKS)
         sets, steps = [], 100
     else:
         path = DEMOS / "vibrating_bar.toml"
-        sets, steps = ["output.particles=false"], 200
+        sets, steps = [], 200
     serial, summary = _run(tmp_path, path, sets, None, steps)
-    assert read_csv(tmp_path / "ranksNone" / "energies.csv")["step"][-1] == steps
+    rows = read_csv(tmp_path / "ranksNone" / "energies.csv")
+    assert rows["step"][-1] == steps
+    if scene == "two_blocks":
+        assert rows["momentum_x_block"][-1] == pytest.approx(30.0 * 24.0) and rows["momentum_x_target"][-1] == 0.0
+    frames = sorted(p.name for p in (tmp_path / "ranksNone").glob("particles*"))
+    assert len(frames) == (6 if scene == "vibrating_bar" else 0)  # the index and steps 0, 50, .., 200
     for ranks in (1, 2, 3):
         csv, other = _run(tmp_path, path, sets, ranks, steps)
         assert other["ranks"] == ranks  # -n 1 runs as one process without MPI
         assert csv == serial, f"{ranks} ranks"
         assert other["particles_sha256"] == summary["particles_sha256"], f"{ranks} ranks"
         assert other["particles"] == summary["particles"]
+        for name in frames:
+            assert (tmp_path / f"ranks{ranks}" / name).read_bytes() == (tmp_path / "ranksNone" / name).read_bytes(), \
+                f"{name} on {ranks} ranks"
 
 
 def test_a_projectile_crossing_three_ranks_loses_nothing(tmp_path):
@@ -138,3 +158,38 @@ def test_a_projectile_crossing_three_ranks_loses_nothing(tmp_path):
     np.testing.assert_allclose(e["momentum_x"], p0, rtol=1e-13)
     np.testing.assert_allclose(e["momentum_y"], 0.0, atol=1e-13 * p0)
     np.testing.assert_allclose(e["kinetic"], e["kinetic"][0], rtol=1e-12)
+
+
+def test_a_checkpoint_of_two_ranks_resumes_on_three_bitwise(tmp_path):
+    """The vibrating bar on 2 ranks, checkpointed at steps 100 and 200; the
+    step-200 file removed, it resumes from step 100 on 3 ranks. Its
+    energies.csv is byte for byte that of one process run straight through,
+    and its particle state has the same SHA-256. The checkpoint holds what
+    one process's holds."""
+    from pfmpm import checkpoint
+
+    path = DEMOS / "vibrating_bar.toml"
+    sets = ["output.particles=false"]
+    straight, summary = _run(tmp_path, path, sets, None, 200, ("--checkpoint-every", "100"))
+    _run(tmp_path, path, sets, 2, 200, ("--checkpoint-every", "100"))
+    one = checkpoint.read(tmp_path / "ranksNone" / "checkpoints" / "step_000000100.h5")
+    two = checkpoint.read(tmp_path / "ranks2" / "checkpoints" / "step_000000100.h5")
+    assert one.particles.keys() == two.particles.keys()
+    for name in one.particles:
+        assert np.array_equal(one.particles[name], two.particles[name]), name
+    assert one.solver["scalars"] == two.solver["scalars"]
+    for name in one.solver["arrays"]:
+        assert np.array_equal(one.solver["arrays"][name], two.solver["arrays"][name]), name
+    (tmp_path / "ranks2" / "checkpoints" / "step_000000200.h5").unlink()
+    env = dict(os.environ, OMP_NUM_THREADS="1")
+    if os.geteuid() == 0:
+        env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
+    mpirun = _mpirun()
+    mpirun[2] = "3"
+    proc = subprocess.run(mpirun + [sys.executable, "-m", "pfmpm.cli", "run", "--resume", str(tmp_path / "ranks2"),
+                                    "--quiet"], env=env, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+    resumed = json.loads((tmp_path / "ranks2" / "summary.json").read_text())
+    assert resumed["ranks"] == 3 and resumed["resumed_from"].endswith("step_000000100.h5")
+    assert (tmp_path / "ranks2" / "energies.csv").read_bytes() == straight
+    assert resumed["particles_sha256"] == summary["particles_sha256"]

@@ -57,6 +57,7 @@ RULES = [
       "--quiet"]),
     (r"pfmpm post crack-tip out/borden$", []),
     (r"pfmpm run demos/vibrating_bar\.toml --out out/bar --set time\.end=20$", ["--quiet"]),
+    (r"mpirun -n 2 \.venv/bin/pfmpm run demos/vibrating_bar\.toml --out out/bar_2ranks$", ["--set", "time.end=20", "--quiet"]),
     (r"pfmpm run demos/bar3d\.toml --out out/bar3d$", ["--quiet"]),
     (r"pfmpm animate out/bar3d --field velocity --output out/bar3d/speed\.png$", []),
     (r"pfmpm run demos/borden_slab\.toml --set time\.end=10 --out out/borden_slab$", smoke("borden_slab") + ["--quiet"]),
@@ -116,6 +117,7 @@ LEAVES = {
                ("borden/c.gif", "")],
     "borden_fem": [("borden_fem/summary.json", "")],
     "borden_fem1": [("borden_fem1/summary.json", "")],
+    "bar_2ranks": [("bar_2ranks/summary.json", '"ranks": 2'), ("bar_2ranks/particles.pvd", "")],
     "notebooks": [("notebooks/phase_field_profiles.html", "")],
     "polar": [("polar.png", "")],
 }

@@ -173,11 +173,11 @@ def _digest(attrs: dict, arrays: dict[str, np.ndarray]) -> str:
     return h.hexdigest()
 
 
-def _state_of(sim, run) -> tuple[dict, dict[str, np.ndarray]]:
-    """Split the state of ``sim`` and its output ``run`` into scalar attributes and arrays."""
-    state = sim.solver.state()
-    arrays = {f"particles/{c['name']}": np.asarray(getattr(sim.particles, c["name"]))
-              for c in sim.particles.columns()}
+def _state_of(columns: dict[str, np.ndarray], state: dict, run) -> tuple[dict, dict[str, np.ndarray]]:
+    """Split the particle ``columns`` and solver ``state`` of a simulation
+    (``Simulation.checkpoint_state``) and its output ``run`` into scalar
+    attributes and arrays."""
+    arrays = {f"particles/{name}": np.asarray(values) for name, values in columns.items()}
     arrays.update({f"solver/{name}": a for name, a in state["arrays"].items()})
     attrs = {"solver": state["scalars"]}
     arrays["output/energies_csv"] = np.frombuffer(run.energies_csv(), dtype=np.uint8)
@@ -207,19 +207,23 @@ def write(directory: Path | str, sim, run, *, every: int, keep: int, status: str
     Returns
     -------
     Path
-        The file written.
+        The file written (by rank 0 of a distributed run, whose other ranks
+        give their particles and return the same path).
     """
     import h5py
 
     directory = Path(directory)
+    path = directory / file_name(sim.step, failed=status != "ok")
+    whole = sim.checkpoint_state()
+    if whole is None:
+        return path
     directory.mkdir(parents=True, exist_ok=True)
-    attrs, arrays = _state_of(sim, run)
+    attrs, arrays = _state_of(*whole, run)
     attrs.update(format=FORMAT, version=VERSION, scene=sim.scene.to_dict(), run_id=run.run_id,
                  scene_sha256=run.scene_sha256, step=int(sim.step), time=float(sim.time),
                  dt=float(sim.dt), status=status, error=error, checkpoint_every=int(every),
                  keep=int(keep))
     digest = _digest(attrs, arrays)
-    path = directory / file_name(sim.step, failed=status != "ok")
     tmp = directory / f".{path.name}.tmp"
     with h5py.File(tmp, "w") as f:
         f.attrs["format"] = FORMAT
@@ -435,9 +439,10 @@ def restore(sim, ckpt: Checkpoint) -> None:
         seeding's (naming the first row that differs).
     """
     columns = [c["name"] for c in sim.particles.columns()]
+    seeded = sim.seeded_ids()
     stored = dict(ckpt.particles)
     if ckpt.version < 6:
-        stored.setdefault("id", sim.particles.id)
+        stored.setdefault("id", seeded)
     if "phi" not in columns:
         # Files before 2026-12-02 kept the orientation of every phase-field
         # run; only the fourth-order term has it, and nothing else reads it.
@@ -447,18 +452,16 @@ def restore(sim, ckpt: Checkpoint) -> None:
     for name in columns:
         if name not in stored:
             raise CheckpointError(f"checkpoint {ckpt.path}: particles/{name} is missing")
-        target, value = getattr(sim.particles, name), stored[name]
-        if target.shape != value.shape or target.dtype != value.dtype:
+        local, value = getattr(sim.particles, name), stored[name]
+        shape = (len(seeded),) + local.shape[1:]  # every particle's row
+        if shape != value.shape or local.dtype != value.dtype:
             raise CheckpointError(f"checkpoint {ckpt.path}: particles/{name} has shape {value.shape},"
-                                  f" the scene gives {target.shape}")
-        if name == "id":
-            if len(differ := np.flatnonzero(value != target)):
-                p = int(differ[0])
-                raise CheckpointError(f"checkpoint {ckpt.path}: particles/id of particle {p} is {value[p]},"
-                                      f" the scene seeds id {target[p]} there")
-            continue
-        target[...] = value
+                                  f" the scene gives {shape}")
+        if name == "id" and len(differ := np.flatnonzero(value != seeded)):
+            p = int(differ[0])
+            raise CheckpointError(f"checkpoint {ckpt.path}: particles/id of particle {p} is {value[p]},"
+                                  f" the scene seeds id {seeded[p]} there")
     try:
-        sim.solver.restore(ckpt.solver)
+        sim.restore_state({name: stored[name] for name in columns}, ckpt.solver)
     except ValueError as err:
         raise CheckpointError(f"checkpoint {ckpt.path}: {err}") from None

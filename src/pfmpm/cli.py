@@ -62,23 +62,19 @@ def _run(args: argparse.Namespace) -> int:
 
         comm = MPI.COMM_WORLD
     root = comm is None or comm.rank == 0
-    if comm is not None and (every or resume is not None):
-        if root:
-            print(f"error: {'--resume' if resume is not None else '--checkpoint-every'}: a run on"
-                  f" {comm.size} ranks writes and resumes no checkpoints yet", file=sys.stderr)
-        return 2
+    # Rank 0 says what happened; the ranks agree on a run's errors (DistributedSimulation).
+    err_out = sys.stderr if root else open(os.devnull, "w")
     try:
         sim = Simulation(scene) if comm is None else parallel.DistributedSimulation(scene, comm)
-    except parallel.RankError as err:  # the same on every rank: rank 0 says it
-        if root:
-            print(f"error: {err}", file=sys.stderr)
+    except parallel.RankError as err:
+        print(f"error: {err}", file=err_out)
         return 2
     except SimulationError as err:
         print(f"error: {err}", file=sys.stderr)
         return 1
     where = f" from step {resume.step} ({resume.path})" if resume else ""
-    if not root:  # rank 0 reports; every rank has the same errors (DistributedSimulation)
-        sys.stdout = sys.stderr = open(os.devnull, "w")
+    if not root:  # rank 0 reports
+        sys.stdout = err_out
     count = len(sim.particles) if comm is None else sim.owned_count()
     ranks = f" on {comm.size} ranks" if comm is not None else ""
     print(f"{scene.name}: {count} particles, {scene.steps()} steps of dt = {scene.dt():.6g}{where}"
@@ -87,13 +83,11 @@ def _run(args: argparse.Namespace) -> int:
         print(f"  {line}")
     for warning in sim.setup.warnings:  # with the report: stderr's first line is a failure's
         print(f"warning: {warning}")
-    if comm is not None and scene.output.particles:
-        print("warning: output.particles: the particle series is not written on many ranks yet")
     try:
         result = sim.run(out, progress=not args.quiet, checkpoint_every=every, keep=keep, resume=resume,
                          draw=False, overwrite=args.overwrite)
     except checkpoint.CheckpointError as err:
-        print(f"error: {err}", file=sys.stderr)
+        print(f"error: {err}", file=err_out)
         return 2
     del sim  # the figures need none of its state: draw them without it
     result.figures.draw()
@@ -104,16 +98,16 @@ def _run(args: argparse.Namespace) -> int:
              f" zero velocity; the momentum they held is at most {result.light_momentum:.2g} of the total"
              f" mass times the top particle speed: {matters}")
     if result.status == "failed":  # the error first: a failure's first line says what failed
-        print(f"error: {result.error}", file=sys.stderr)
-        print(f"output so far is in {out}; the state at the failure is in {result.checkpoint}", file=sys.stderr)
+        print(f"error: {result.error}", file=err_out)
+        print(f"output so far is in {out}; the state at the failure is in {result.checkpoint}", file=err_out)
         if result.light_nodes:
-            print(light, file=sys.stderr)
+            print(light, file=err_out)
         return 1
     if result.light_nodes:
-        print(light, file=sys.stderr)
+        print(light, file=err_out)
     if result.status == "interrupted":
         print(f"interrupted at step {result.steps}; output so far is in {out};"
-              f" resume with: pfmpm run --resume {out}", file=sys.stderr)
+              f" resume with: pfmpm run --resume {out}", file=err_out)
         return 128 + (result.signal or 2)
     print(f"done: {result.steps} steps in {result.wall_s:.1f} s; output in {out}")
     return 0

@@ -26,13 +26,18 @@ tile of cells (``Solver.tile_sums``) and grid sums per slab, added in tile
 and slab order (``Solver.energies_of``), so ``energies.csv`` has the bits of
 one process on any number of ranks.
 
+The particle series is written by rank 0, which gathers every rank's
+particles at each frame. So is a checkpoint: it holds every particle and
+every slab, as one process writes it, and resumes on any number of ranks,
+which split the particles anew (:meth:`DistributedSimulation.restore_state`).
+
 This is the first part of the issue's design. The grid is still whole on
 every rank, where the issue asks for a DMDA window; a ghost layer of
 particles replaces the exchange of ghost nodes (``DMGlobalToLocal``). Each
 rank seeds the whole scene and keeps its own particles. The phase field,
 contact, the damage-gradient partition, CPDI, loads with an amplitude and
-checkpoints are not distributed yet: a scene with them is refused with one
-line (:func:`check_distributable`).
+initial damage are not distributed yet: a scene with them is refused with
+one line (:func:`check_distributable`).
 """
 
 from __future__ import annotations
@@ -41,6 +46,7 @@ import numpy as np
 
 from . import _core
 from .scene import Scene
+from .run import SIDES
 from .simulation import Simulation, columns_sha256
 
 __all__ = ["TILE", "Slabs", "DistributedSimulation", "check_distributable", "ranks", "RankError"]
@@ -72,7 +78,6 @@ def check_distributable(scene: Scene) -> None:
         "grid.shape = \"cpdi\"": scene.grid.shape == "cpdi",
         "a load with an amplitude": any(load.amplitude is not None for load in scene.loads),
         "[[initial_damage]]": bool(scene.initial_damage),
-        "more than one body (momentum columns per body)": len(scene.bodies) > 1,
     }
     for what, present in refused.items():
         if present:
@@ -152,8 +157,6 @@ class DistributedSimulation(Simulation):
         tiles along x.
     """
 
-    checkpoints = False
-    """Distributed runs write no checkpoints yet."""
 
     def __init__(self, scene: Scene, comm):
         check_distributable(scene)
@@ -162,19 +165,24 @@ class DistributedSimulation(Simulation):
         g = scene.grid
         self._origin, self._inv_h = g.origin[0], 1.0 / g.h  # the core's cell arithmetic (bspline.h)
         x = self.particles.x[:, 0]
-        self.slabs = Slabs(g.cells[0], np.bincount(self._cell_x(x), minlength=g.cells[0]), comm.size)
-        self._first, self._end = self.slabs.cell_range(comm.rank)
-        last = comm.rank == comm.size - 1
-        # The node slabs of its tiles; the last rank's reach the grid's last node.
-        slabs = -(-self.grid.nodes[0] // TILE)
-        self.solver.set_owned_slabs(int(self.slabs.tiles[comm.rank]),
-                                    slabs if last else int(self.slabs.tiles[comm.rank + 1]))
         # Ghosts: the particles of a neighbour's cells within the stencil's
         # reach (the degree: two cells whose B-spline stencils share a node lie
         # at most that far apart), plus one.
         self._halo = g.degree + 1
         self._names = [c["name"] for c in self.particles.columns()]
-        columns = self._columns()
+        self._seeded = np.array(self.particles.id)
+        self._split(self._columns())
+
+    def _split(self, columns: dict[str, np.ndarray]) -> None:
+        """Split all particles, ``columns``, over the ranks by particle count
+        (:class:`Slabs`) and keep this rank's."""
+        cells = self.scene.grid.cells[0]
+        rank = self.comm.rank
+        self.slabs = Slabs(cells, np.bincount(self._cell_x(columns["x"][:, 0]), minlength=cells), self.comm.size)
+        self._first, self._end = self.slabs.cell_range(rank)
+        # The node slabs of its tiles; the last rank's reach the grid's last node.
+        last = -(-self.grid.nodes[0] // TILE) if rank == self.comm.size - 1 else int(self.slabs.tiles[rank + 1])
+        self.solver.set_owned_slabs(int(self.slabs.tiles[rank]), last)
         self._put(_rows(columns, self._owns(columns["x"])))
         self._ghost = np.zeros(len(self.particles), dtype=bool)
 
@@ -287,6 +295,41 @@ class DistributedSimulation(Simulation):
         order = np.argsort(columns["id"], kind="stable")
         return {name: values[order] for name, values in columns.items()}
 
+    def seeded_ids(self) -> np.ndarray:
+        return self._seeded
+
+    def checkpoint_state(self) -> tuple[dict[str, np.ndarray], dict] | None:
+        """Every rank's particles and the solver state of all slabs, on rank 0
+        (None on the others; collective): the checkpoint one process writes,
+        which resumes on any number of ranks."""
+        state = self.solver.state()
+        first, _ = self.solver.owned_slabs
+        parts = self.comm.gather((first, self.solver.slab_sums), root=0)
+        light = self.comm.allreduce(self.solver.light_nodes)
+        e = self._raw_energies()
+        columns = self.gathered()
+        if columns is None:
+            return None
+        # Each slab's sums from the rank that owns it, and the totals of all.
+        slabs = state["arrays"]["grid/slab_sums"]
+        per = len(slabs) // -(-self.grid.nodes[0] // TILE)
+        for first, sums in parts:
+            slabs[per * first:per * first + len(sums)] = sums
+        scalars = state["scalars"]
+        scalars.update(light_nodes=light, external_work=e["external_work"], wall_work=e["wall_work"])
+        axes = "xyz"[:self.scene.dim]
+        for side, impulse in zip(SIDES, e["wall_impulse"]):
+            scalars.update({f"wall_impulse/{side}/{d}": value for d, value in zip(axes, impulse)})
+        for k, (work, impulse) in enumerate(zip(e["region_work"], e["region_impulse"])):
+            scalars[f"region/{k}/work"] = work
+            scalars.update({f"region/{k}/impulse/{d}": value for d, value in zip(axes, impulse)})
+        return columns, state
+
+    def restore_state(self, columns: dict[str, np.ndarray], state: dict) -> None:
+        """Split the checkpoint's particles over the ranks by their count now and keep this rank's."""
+        self._split(columns)
+        self.solver.restore(state)
+
     def state_sha256(self) -> str:
         """:meth:`Simulation.state_sha256` of all ranks' particles (collective)."""
         columns = self.gathered()
@@ -312,9 +355,34 @@ class DistributedSimulation(Simulation):
         })
         return fields
 
+    def open_frames(self, out, entries=()) -> "_GatheredFrames":
+        """The particle series, written by rank 0 from all ranks' particles (collective)."""
+        from .output import ParticleSeries
+
+        series = ParticleSeries(out, entries, self.legend()) if self.comm.rank == 0 else None
+        return _GatheredFrames(self, series)
+
+
+class _GatheredFrames:
+    """The particle series of a distributed run: ``write()`` gathers every
+    rank's particles on rank 0, which writes them in id order (collective)."""
+
+    def __init__(self, sim: DistributedSimulation, series):
+        self._sim = sim
+        self._series = series
+
     @property
-    def field_series(self) -> bool:
-        return False
+    def entries(self) -> list[tuple[float, str]]:
+        return self._sim.comm.bcast(None if self._series is None else self._series.entries, root=0)
+
+    def write(self) -> None:
+        sim = self._sim
+        columns = sim.gathered()
+        if columns is not None:
+            self._series.write(sim.step, sim.time, columns["x"], sim.point_data(columns))
+
+    def close(self) -> None:
+        """Nothing to close: every VTU file and the index are complete when written."""
 
 
 def _max():

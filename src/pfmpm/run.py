@@ -251,7 +251,7 @@ def run_to_end(sim, out_dir: Path | str, progress: bool = True, checkpoint_every
         result.write_summary(out / "summary.json", {"scene": sim.scene.name, "units": sim.scene.units})
     if comm is not None:
         comm.barrier()
-    if resume is not None:
+    if resume is not None and root:
         tmp = out / "energies.csv.tmp"
         tmp.write_bytes(resume.energies_csv)
         tmp.replace(out / "energies.csv")

@@ -364,12 +364,11 @@ class Simulation:
                 e[f"impulse_{name}_{d}"] = impulse_d
                 e[f"displacement_{name}_{d}"] = displacement_d
             e[f"work_{name}"] = region_work[k]
+        body_momentum = np.reshape(e.pop("momentum_by_body"), (-1, self.scene.dim))
         if len(self.scene.bodies) > 1:
-            p = self.particles
             for d, name in enumerate(axes):
-                momentum = np.bincount(p.body, weights=p.mass * p.v[:, d], minlength=len(self.scene.bodies))
-                for body, value in zip(self.scene.bodies, momentum):
-                    e[f"momentum_{name}_{body.name}"] = float(value)
+                for body, value in zip(self.scene.bodies, body_momentum[:, d]):
+                    e[f"momentum_{name}_{body.name}"] = value
         e["step"] = self.step
         e["t"] = self.time
         friction = -e.pop("friction_work")
@@ -431,7 +430,7 @@ class Simulation:
         return {**{f"body {b.name}": i for i, b in enumerate(self.scene.bodies)},
                 **{f"material {m.name}": i for i, m in enumerate(self.scene.materials)}}
 
-    def point_data(self) -> Iterator[tuple[str, np.ndarray, str]]:
+    def point_data(self, values: dict[str, np.ndarray] | None = None) -> Iterator[tuple[str, np.ndarray, str]]:
         """The particle output as :func:`pfmpm.output.write_vtu` takes it, (name,
         array, layout), made one array at a time: every column that declares an
         output name, under that name, as a view (:func:`pfmpm.output.vtk_values`
@@ -440,26 +439,25 @@ class Simulation:
         (:func:`pfmpm.scene.seeding.seed_body`), with a phase field ``c`` and
         ``history``), then ``displacement`` (:meth:`displacement`) and
         ``damage`` (``1 - c``, with a phase field), these two as
-        :class:`~pfmpm.output.Rows`, made a block at a time as they are written."""
+        :class:`~pfmpm.output.Rows`, made a block at a time as they are written.
+        With ``values``, of those columns (by name) instead of this process's
+        particle arrays: all ranks' particles, gathered."""
+        get = (lambda name: getattr(self.particles, name)) if values is None else values.__getitem__
         for c in self.particles.columns():
             if c["output"]:
-                yield c["output"], getattr(self.particles, c["name"]), c["layout"]
-        n = len(self.particles)
-        yield "displacement", Rows.of(n, self._displacement), ""
+                yield c["output"], get(c["name"]), c["layout"]
+        x, ids = get("x"), get("id")
+        yield "displacement", Rows.of(len(ids), lambda a, b: x[a:b] - seeding.seeded_positions(self.scene, ids[a:b])), ""
         if self.cracks:
-            phase = self.particles.c
-            yield "damage", Rows.of(n, lambda a, b: 1.0 - phase[a:b]), ""
+            phase = get("c")
+            yield "damage", Rows.of(len(ids), lambda a, b: 1.0 - phase[a:b]), ""
 
     def displacement(self) -> np.ndarray:
         """Each particle's displacement from its seeded position, in row order.
         The seeded position is not kept: it is read back from the particle's
         id (:func:`pfmpm.scene.seeding.seeded_positions`), so a resumed run
         gets the same start."""
-        return self._displacement(0, len(self.particles))
-
-    def _displacement(self, a: int, b: int) -> np.ndarray:
-        """:meth:`displacement` of the rows ``[a, b)``."""
-        return self.particles.x[a:b] - seeding.seeded_positions(self.scene, self.particles.id[a:b])
+        return self.particles.x - seeding.seeded_positions(self.scene, self.particles.id)
 
     def modules(self) -> list[str]:
         """The parts of the method this scene switches on."""
@@ -560,6 +558,31 @@ class Simulation:
                 "seconds": part["seconds"],
             })
         return record
+
+    def checkpoint_state(self) -> tuple[dict[str, np.ndarray], dict] | None:
+        """What a checkpoint keeps of the run (:func:`pfmpm.checkpoint.write`):
+        every particle column by name (views) and the solver state."""
+        return {c["name"]: getattr(self.particles, c["name"]) for c in self.particles.columns()}, self.solver.state()
+
+    def seeded_ids(self) -> np.ndarray:
+        """The ids of all particles the scene seeds, ascending: those a
+        checkpoint of the scene must hold, row by row."""
+        return self.particles.id
+
+    def restore_state(self, columns: dict[str, np.ndarray], state: dict) -> None:
+        """Continue from a checkpoint's particle ``columns`` (every particle,
+        rows in id order, the ids checked) and solver ``state``
+        (:func:`pfmpm.checkpoint.restore`).
+
+        Raises
+        ------
+        ValueError
+            If the solver state does not fit this run.
+        """
+        for name, values in columns.items():
+            if name != "id":
+                getattr(self.particles, name)[...] = values
+        self.solver.restore(state)
 
     def state_sha256(self) -> str:
         """The SHA-256 of the particle state: every column, in ``columns()``

@@ -924,8 +924,10 @@ TileSums Solver<Dim>::tile_sums() const
   for (const auto& [column, kind] : dissipation_columns())
     dissipated.push_back(P.f64(column).data());
   const auto ndissipated = static_cast<int>(dissipated.size());
-  // The fracture energy per body, with contact.
+  // The fracture energy per body, with contact; the momentum per body, with more than one.
   const int bodies = contact_stats() && fe ? _bodies : 0;
+  const int moving = _bodies > 1 ? Dim * _bodies : 0;
+  const int by_body = C::core + ndissipated + bodies; // the first momentum per body
   const std::int32_t* body = P.body.data();
   // Every sum runs by tile of cells, so that a process holding some whole
   // tiles adds its particles as one holding all of them would.
@@ -933,7 +935,7 @@ TileSums Solver<Dim>::tile_sums() const
   if (const std::size_t outside = tiles.sort<Dim, tile_cells>(_grid, P.x); outside < n)
     throw SimulationError(where(outside) + " is outside the grid");
   return pfmpm::tile_sums(
-      tiles, C::core + ndissipated + bodies,
+      tiles, by_body + moving,
       [&](const std::int32_t* order, std::int64_t begin, std::int64_t end, double* acc)
       {
         for (std::int64_t k = begin; k < end; ++k)
@@ -960,6 +962,9 @@ TileSums Solver<Dim>::tile_sums() const
             acc[C::core + w] += dissipated[w][p];
           if (bodies)
             acc[C::core + ndissipated + body[p]] += fe[p];
+          if (moving)
+            for (int d = 0; d < Dim; ++d)
+              acc[by_body + Dim * body[p] + d] += m * v[d];
         }
         // The elastic energy of each run of one material in the tile's (id) order.
         for_each_material_run(P.material.data(), order, begin, end,
@@ -980,8 +985,9 @@ Energies<Dim> Solver<Dim>::energies_of(const TileSums& tiles, const std::vector<
   using C = TileColumns<Dim>;
   const std::vector<double> sums = fold_tiles(tiles);
   const std::map<std::string, std::string> kept = dissipation_columns();
-  const int bodies = tiles.width - C::core - static_cast<int>(kept.size());
-  if (bodies < 0 || (bodies > 0 && bodies != _bodies))
+  const int bodies = contact_stats() && _particles.find("fracture_energy") ? _bodies : 0;
+  const int moving = _bodies > 1 ? Dim * _bodies : 0;
+  if (tiles.width != C::core + static_cast<int>(kept.size()) + bodies + moving)
     throw std::invalid_argument("tile sums: " + std::to_string(tiles.width) + " per tile for "
                                 + std::to_string(C::core) + " sums, " + std::to_string(kept.size())
                                 + " dissipation columns and " + std::to_string(_bodies) + " bodies");
@@ -1016,6 +1022,7 @@ Energies<Dim> Solver<Dim>::energies_of(const TileSums& tiles, const std::vector<
     for (double f : e.fracture_by_field)
       e.fracture += f;
   }
+  e.momentum_by_body.assign(sums.begin() + w + bodies, sums.begin() + w + bodies + moving);
   return e;
 }
 

@@ -61,6 +61,8 @@ struct Energies
   Angular angular_momentum{};
   double mass = 0.0;           ///< sum of M_p
   std::vector<double> fracture_by_field; ///< with discrete fields: fracture energy per field
+  /// With more than one body: each body's momentum, Dim values per body in body order.
+  std::vector<double> momentum_by_body;
 
   /// @brief Call `visit(name, member)` for every entry, by the names the
   /// bindings give them (momentum as momentum_x, momentum_y (, momentum_z);
@@ -84,6 +86,7 @@ struct Energies
     visit("pair_impulse", e.pair_impulse);
     visit("dissipation", e.dissipation);
     visit("fracture_by_body", e.fracture_by_field);
+    visit("momentum_by_body", e.momentum_by_body);
     for (int d = 0; d < Dim; ++d)
       visit(momentum[d], e.momentum[d]);
     if constexpr (Dim == 2)
@@ -320,8 +323,9 @@ public:
   /// @brief The particle sums of energies() per tile of cells (TileSums):
   /// kinetic, elastic, mass and fracture energy, momentum, angular momentum
   /// (its z component in 2D, three in 3D), the work kept by each column of
-  /// dissipated work (in the order of their names), and with contact each
-  /// body's fracture energy.
+  /// dissipated work (in the order of their names), with contact each
+  /// body's fracture energy, and with more than one body each body's
+  /// momentum (Dim per body).
   TileSums tile_sums() const;
   /// @brief The energies from the tile sums of all particles (the tiles
   /// of every process, keys ascending) and the grid update's sums of all
