@@ -184,7 +184,7 @@ class DistributedSimulation(Simulation):
         last = -(-self.grid.nodes[0] // TILE) if rank == self.comm.size - 1 else int(self.slabs.tiles[rank + 1])
         self.solver.set_owned_slabs(int(self.slabs.tiles[rank]), last)
         self._put(_rows(columns, self._owns(columns["x"])))
-        self._ghost = np.zeros(len(self.particles), dtype=bool)
+        self._owned = len(self.particles)
 
     # -- the particle arrays ------------------------------------------------
 
@@ -196,9 +196,9 @@ class DistributedSimulation(Simulation):
         cx = self._cell_x(x[:, 0])
         return (cx >= self._first) & (cx < self._end)
 
-    def _columns(self) -> dict[str, np.ndarray]:
-        """A copy of every particle column."""
-        return {name: np.array(getattr(self.particles, name)) for name in self._names}
+    def _columns(self, rows=slice(None)) -> dict[str, np.ndarray]:
+        """A copy of every particle column's ``rows``."""
+        return {name: np.array(getattr(self.particles, name)[rows]) for name in self._names}
 
     def _put(self, columns: dict[str, np.ndarray]) -> None:
         """Make the particle arrays ``columns``, rows in ascending id order."""
@@ -207,49 +207,72 @@ class DistributedSimulation(Simulation):
         for name in self._names:
             getattr(self.particles, name)[...] = columns[name][order]
 
+    def _append(self, parts: list[dict[str, np.ndarray]]) -> None:
+        """Add the rows of ``parts`` after the particles, in that order."""
+        n = len(self.particles)
+        self.particles.resize(n + sum(len(part["id"]) for part in parts))
+        for name in self._names:
+            column, start = getattr(self.particles, name), n
+            for part in parts:
+                column[start:start + len(part[name])] = part[name]
+                start += len(part[name])
+
     def _neighbours(self) -> tuple[int, int]:
         from mpi4py import MPI
 
         r, n = self.comm.rank, self.comm.size
         return (r - 1 if r > 0 else MPI.PROC_NULL), (r + 1 if r < n - 1 else MPI.PROC_NULL)
 
-    def _exchange(self, columns: dict[str, np.ndarray], left: np.ndarray, right: np.ndarray) -> list[dict]:
+    def _exchange(self, left: np.ndarray, right: np.ndarray) -> list[dict]:
         """Send the rows ``left`` to the left neighbour and ``right`` to the
         right one; return what the neighbours sent (none past the ends)."""
         lo, hi = self._neighbours()
         got = []
         # Rightwards then leftwards: each rank sends to one side and hears from the other.
         for dest, source, rows in ((hi, lo, right), (lo, hi, left)):
-            received = self.comm.sendrecv(_rows(columns, rows), dest=dest, source=source)
-            if received is not None:
+            received = self.comm.sendrecv(self._columns(rows), dest=dest, source=source)
+            if received is not None and len(received["id"]):
                 got.append(received)
         return got
 
     def _add_ghosts(self) -> None:
-        columns = self._columns()
-        cx = self._cell_x(columns["x"][:, 0])
-        left = cx < self._first + self._halo
-        right = cx >= self._end - self._halo
-        ghosts = self._exchange(columns, left, right)
-        self._put(_concat([columns] + ghosts))
-        self._ghost = ~np.isin(self.particles.id, columns["id"], assume_unique=True)
+        """Append the ghosts: each neighbour's particles within reach of this
+        rank's cells, in its (id) order, after the owned particles. A cell
+        holds owned particles or ghosts, never both, so the core's order
+        within each cell is still the id order."""
+        cx = self._cell_x(self.particles.x[:, 0])
+        ghosts = self._exchange(np.flatnonzero(cx < self._first + self._halo),
+                                np.flatnonzero(cx >= self._end - self._halo))
+        self._owned = len(self.particles)
+        self._append(ghosts)
 
     def _migrate(self) -> None:
-        """Drop the ghosts; send each particle that left the rank's cells to its new owner."""
-        columns = _rows(self._columns(), ~self._ghost)
-        owner = self.slabs.owner(self._cell_x(columns["x"][:, 0]))
+        """Drop the ghosts; send each particle that left the rank's cells to
+        its new owner, and merge the arrivals into the kept particles by id."""
+        self.particles.resize(self._owned)
+        x = self.particles.x[:, 0]
+        owner = self.slabs.owner(self._cell_x(x))
         rank = self.comm.rank
         far = np.flatnonzero(np.abs(owner - rank) > 1)
         message = None
         if far.size:
             p = far[0]
-            message = (f"particle id {columns['id'][p]} at x = {columns['x'][p, 0]:.6g} moved from rank {rank}'s"
+            message = (f"particle id {self.particles.id[p]} at x = {x[p]:.6g} moved from rank {rank}'s"
                        f" cells past a neighbour's, into rank {owner[p]}'s, at step {self.step} (t = {self.time:g});"
                        f" a particle may only cross into a neighbouring rank's cells: run on fewer ranks")
         self._agree(message)
-        arrivals = self._exchange(columns, owner < rank, owner > rank)
-        self._put(_concat([_rows(columns, owner == rank)] + arrivals))
-        self._ghost = np.zeros(len(self.particles), dtype=bool)
+        arrivals = self._exchange(np.flatnonzero(owner < rank), np.flatnonzero(owner > rank))
+        kept = owner == rank
+        if kept.all() and not arrivals:
+            return
+        kept = self._columns(kept)
+        came = _concat(arrivals) if arrivals else _rows(kept, slice(0))
+        order = np.argsort(came["id"], kind="stable")
+        at = np.searchsorted(kept["id"], came["id"][order])
+        self.particles.resize(len(kept["id"]) + len(order))
+        for name in self._names:
+            getattr(self.particles, name)[...] = np.insert(kept[name], at, came[name][order], axis=0)
+        self._owned = len(self.particles)
 
     def _agree(self, message: str | None) -> None:
         """Raise on every rank the first rank's error, if any rank has one (collective)."""
