@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -193,3 +194,40 @@ def test_a_checkpoint_of_two_ranks_resumes_on_three_bitwise(tmp_path):
     assert resumed["ranks"] == 3 and resumed["resumed_from"].endswith("step_000000100.h5")
     assert (tmp_path / "ranks2" / "energies.csv").read_bytes() == straight
     assert resumed["particles_sha256"] == summary["particles_sha256"]
+
+
+def test_a_particle_passing_a_neighbour_stops_the_run_on_every_rank(tmp_path):
+    """A particle of rank 0 put into rank 2's cells before a step: after it,
+    every rank stops with one error naming the particle's id, never a silent
+    loss."""
+    scene = tmp_path / "projectile.toml"
+    scene.write_text(PROJECTILE)
+    script = tmp_path / "jump.py"
+    script.write_text(f"""
+from mpi4py import MPI
+from pfmpm import Scene, SimulationError
+from pfmpm.parallel import DistributedSimulation
+sim = DistributedSimulation(Scene.from_toml({str(scene)!r}), MPI.COMM_WORLD)
+if MPI.COMM_WORLD.rank == 0:
+    sim.particles.x[0, 0] = 75.0
+    print("moved", sim.particles.id[0], flush=True)
+try:
+    sim.advance(1)
+except SimulationError as err:
+    print("rank", MPI.COMM_WORLD.rank, "error:", err, flush=True)
+""")
+    env = dict(os.environ, OMP_NUM_THREADS="1")
+    if os.geteuid() == 0:
+        env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
+    mpirun = _mpirun()
+    mpirun[2] = "3"
+    proc = subprocess.run(mpirun + [sys.executable, str(script)], env=env, capture_output=True, text=True,
+                          timeout=120)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    moved = next(line.split()[1] for line in proc.stdout.splitlines() if line.startswith("moved"))
+    errors = sorted(line for line in proc.stdout.splitlines() if " error: " in line)
+    assert len(errors) == 3
+    for rank, line in enumerate(errors):
+        assert re.fullmatch(rf"rank {rank} error: particle id {moved} at x = 75\.\d+ moved from rank 0's cells past"
+                            rf" a neighbour's, into rank 2's, at step 1 \(t = 0\.0\d+\); a particle may only cross"
+                            rf" into a neighbouring rank's cells: run on fewer ranks", line), line

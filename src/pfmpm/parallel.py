@@ -12,14 +12,17 @@ One step, on every rank (:meth:`DistributedSimulation.advance`):
    cells lie within the stencil's reach (``Grid.reach``), plus one cell, of
    theirs. Every particle whose stencil reaches a node that an owned
    particle reads is then present, so the rank's P2G gives those nodes the
-   sums one process gives them: the core sums each node in (cell, id) order,
-   and the arrays, owned and ghosts merged, ascend by id.
+   sums one process gives them: the core sums each node in (cell, index)
+   order. The ghosts follow the owned particles, each neighbour's in id
+   order, and a cell holds owned particles or ghosts, never both, so that is
+   the (cell, id) order of one process.
 2. **The step.** The core's unchanged step, on owned and ghost particles.
    The grid update is node by node. The works and impulses it sums are kept
    per slab, the owned slabs only, so no node is counted twice.
 3. **Migration.** The ghosts are dropped. A particle that left the rank's
    cells goes to the neighbour that owns its new cell; one that would pass
-   a neighbour is an error naming its id, never a silent loss.
+   a neighbour is an error naming its id, never a silent loss. Arrivals
+   merge into the kept particles by id.
 
 Energies are gathered as the core sums them: each rank's particle sums per
 tile of cells (``Solver.tile_sums``) and grid sums per slab, added in tile
