@@ -60,6 +60,19 @@ particles_per_cell = 2
 shape = { type = "rectangle", min = [70.0, 2.0], max = [76.0, 6.0] }
 """
 
+#: The projectile strikes a block at rest, with Coulomb friction between
+#: them (a field per body, K&T eqs. 63-77).
+CONTACT = PROJECTILE.replace('name = "projectile"', 'name = "strike"').replace("[80.0, 8.0]", "[80.0, 16.0]") + """
+[contact]
+friction = 0.3
+
+[[bodies]]
+name = "target"
+material = "soft"
+particles_per_cell = 2
+shape = { type = "rectangle", min = [20.0, 3.0], max = [26.0, 7.0] }
+"""
+
 
 def _run(tmp_path: Path, scene: Path, sets: list[str], ranks: int | None, steps: int,
          extra: tuple[str, ...] = ()) -> tuple[bytes, dict]:
@@ -106,19 +119,22 @@ def test_more_ranks_than_tiles_are_refused():
 def test_scenes_that_do_not_run_distributed_yet_are_refused():
     with pytest.raises(RankError, match=r"^scene 'borden-plate' has a phase field .* run it without mpirun$"):
         check_distributable(Scene.from_toml(DEMOS / "borden_plate.toml"))
+    with pytest.raises(RankError, match=r"^scene 'brazilian' has the damage-gradient partition, which does not"):
+        check_distributable(Scene.from_toml(DEMOS / "brazilian.toml"))
     check_distributable(Scene.from_toml(DEMOS / "vibrating_bar.toml"))
 
 
-@pytest.mark.parametrize("scene", ["vibrating_bar", "projectile", "two_blocks"])
+@pytest.mark.parametrize("scene", ["vibrating_bar", "projectile", "two_blocks", "contact"])
 def test_ranks_give_the_bits_of_one_process(tmp_path, scene):
     """``mpirun -n 1, 2, 3 pfmpm run`` writes the energies.csv of one process
     without MPI byte for byte, and the same SHA-256 of the id-sorted particle
     state: 200 steps of the vibrating bar (a wall, a traction, 4 tiles along
     x), with its particle series (every 50 steps), and the projectile's 100
-    (every particle changes rank), alone and with a second body."""
+    (every particle changes rank), alone, with a second body, and striking
+    it with friction."""
     if scene != "vibrating_bar":
         path = tmp_path / f"{scene}.toml"
-        path.write_text(PROJECTILE if scene == "projectile" else TWO_BLOCKS)
+        path.write_text({"projectile": PROJECTILE, "two_blocks": TWO_BLOCKS, "contact": CONTACT}[scene])
         sets, steps = [], 100
     else:
         path = DEMOS / "vibrating_bar.toml"
@@ -128,6 +144,9 @@ def test_ranks_give_the_bits_of_one_process(tmp_path, scene):
     assert rows["step"][-1] == steps
     if scene == "two_blocks":
         assert rows["momentum_x_block"][-1] == pytest.approx(30.0 * 24.0) and rows["momentum_x_target"][-1] == 0.0
+    if scene == "contact":  # the strike happened: momentum passed to the target, friction worked
+        assert rows["momentum_x_target"][-1] > 0.1 * 30.0 * 24.0
+        assert summary["contact"]["active_node_pairs"] > 0
     frames = sorted(p.name for p in (tmp_path / "ranksNone").glob("particles*"))
     assert len(frames) == (6 if scene == "vibrating_bar" else 0)  # the index and steps 0, 50, .., 200
     for ranks in (1, 2, 3):
@@ -136,6 +155,7 @@ def test_ranks_give_the_bits_of_one_process(tmp_path, scene):
         assert csv == serial, f"{ranks} ranks"
         assert other["particles_sha256"] == summary["particles_sha256"], f"{ranks} ranks"
         assert other["particles"] == summary["particles"]
+        assert other.get("contact") == summary.get("contact"), f"{ranks} ranks"
         for name in frames:
             assert (tmp_path / f"ranks{ranks}" / name).read_bytes() == (tmp_path / "ranksNone" / name).read_bytes(), \
                 f"{name} on {ranks} ranks"

@@ -38,8 +38,8 @@ This is the first part of the issue's design. The grid is still whole on
 every rank, where the issue asks for a DMDA window; a ghost layer of
 particles replaces the exchange of ghost nodes (``DMGlobalToLocal``). Each
 rank seeds the whole scene and keeps its own particles. The phase field,
-contact, the damage-gradient partition, CPDI, loads with an amplitude and
-initial damage are not distributed yet: a scene with them is refused with
+the damage-gradient partition, CPDI, loads with an amplitude and initial
+damage are not distributed yet: a scene with them is refused with
 one line (:func:`check_distributable`).
 """
 
@@ -77,7 +77,7 @@ def check_distributable(scene: Scene) -> None:
     """Refuse, with one line, a scene whose models do not run on many ranks yet."""
     refused = {
         "a phase field (a body with fracture)": any(scene.fracture_of(b) is not None for b in scene.bodies),
-        "[contact]": scene.contact is not None,
+        "the damage-gradient partition": scene.contact is not None and scene.contact.damage_gradient,
         "grid.shape = \"cpdi\"": scene.grid.shape == "cpdi",
         "a load with an amplitude": any(load.amplitude is not None for load in scene.loads),
         "[[initial_damage]]": bool(scene.initial_damage),
@@ -366,6 +366,19 @@ class DistributedSimulation(Simulation):
         light = self.comm.allreduce(self.solver.light_nodes)
         mass = self.comm.allreduce(float(np.sum(self.particles.mass)))
         return light * self.solver.mass_tol / mass
+
+    def contact_record(self) -> dict:
+        """:meth:`Simulation.contact_record` of all ranks: the counts of
+        their own nodes added, the friction's dissipation from all slabs
+        (collective)."""
+        record = super().contact_record()
+        if not record:
+            return record
+        for key in ("contact_nodes_last_step", "node_pairs", "active_node_pairs", "sliding_node_pairs"):
+            record[key] = self.comm.allreduce(record[key])
+        record["violations"] = {c: self.comm.allreduce(v) for c, v in record["violations"].items()}
+        record["friction_dissipation"] = -self._raw_energies()["friction_work"]
+        return record
 
     def summary_fields(self, result) -> dict:
         fields = super().summary_fields(result)

@@ -101,6 +101,7 @@ enum ContactCount : int
   count_c4,        ///< violations of C.4
   count_split,     ///< (node, group)s with both damage-gradient sides
   count_separable, ///< of them, separable (H&H eq. 21)
+  count_nodes,     ///< contact nodes: nodes with two or more fields
   contact_counts
 };
 

@@ -163,14 +163,12 @@ void BodyFields<Dim>::build(const Particles& particles, const CellSort& sort, bo
   if (overflow < na)
     throw std::runtime_error("contact: more than " + std::to_string(max_fields)
                              + " bodies meet at grid node " + std::to_string(nodes[overflow]));
-  std::int32_t contact = 0;
+  std::int32_t contact = 0; // nodes with two or more fields
   for (std::ptrdiff_t a = 0; a < na; ++a)
   {
     contact += _slot_start[a + 1] >= 2 ? 1 : 0;
     _slot_start[a + 1] += _slot_start[a];
   }
-  _contact_nodes = contact;
-  _stats.nodes = contact;
   _slot_field.resize(_slot_start[na]);
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t a = 0; a < na; ++a)

@@ -971,13 +971,12 @@ void DamageFields<Dim>::layout(const CellSort& sort, bool any_split)
       n += 1 + _has_b[g];
     _slot_start[a + 1] = n;
   }
-  std::int32_t contact = 0;
+  std::int32_t contact = 0; // nodes with two or more fields
   for (std::ptrdiff_t a = 0; a < na; ++a)
   {
     contact += _slot_start[a + 1] >= 2 ? 1 : 0;
     _slot_start[a + 1] += _slot_start[a];
   }
-  _stats.nodes = contact;
   _slot_field.resize(_slot_start[na]);
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t a = 0; a < na; ++a)

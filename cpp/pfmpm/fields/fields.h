@@ -139,8 +139,6 @@ public:
   int cell_fields(std::size_t key, std::int32_t* out) const;
   /// Whether cell `key` has a contact node among its nodes.
   bool touches(std::size_t key) const { return _touches[key] != 0; }
-  /// Contact nodes of the last build.
-  std::int32_t contact_nodes() const { return _contact_nodes; }
 
   ContactStats& stats() { return _stats; }
   const ContactStats& stats() const { return _stats; }
@@ -162,7 +160,6 @@ private:
   std::vector<std::int32_t> _slot_start;  // per active node + 1
   std::vector<std::int32_t> _slot_field;  // per slot
   std::vector<std::int32_t> _lone_field;  // per active node: its field, when it has one (build scratch)
-  std::int32_t _contact_nodes = 0;
   ContactStats _stats;
 };
 

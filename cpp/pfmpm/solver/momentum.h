@@ -563,6 +563,7 @@ update_grid(const Grid<Dim>& grid, Fields& fields, const std::vector<NodeSums<Di
           return update_free_slot<Dim>(sums[s0], hold, held, dt, mass_tol, kinematics[s0], acc.data());
         if constexpr (Fields::discrete)
         {
+          acc[GridUpdate<Dim>::contact + count_nodes] += 1.0; // a contact node
           // The volume of two touching fields: a fraction of the node's, the
           // integral of its basis function.
           const std::array<int, Dim> i = lattice_indices<Dim>(

@@ -720,6 +720,7 @@ void Solver<Dim>::step(Fields& fields, bool energy)
   if constexpr (Fields::discrete)
   {
     ContactStats& c = fields.stats();
+    c.nodes = static_cast<std::int32_t>(sums[U::contact + count_nodes]);
     c.pairs += static_cast<std::int64_t>(sums[U::contact + count_pairs]);
     c.active += static_cast<std::int64_t>(sums[U::contact + count_active]);
     c.sliding += static_cast<std::int64_t>(sums[U::contact + count_sliding]);
