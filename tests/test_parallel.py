@@ -50,42 +50,47 @@ shape = { type = "rectangle", min = [3.0, 2.0], max = [9.0, 6.0] }
 velocity = [30.0, 0.0]
 """
 
+
+def _target(x: float, y: float) -> str:
+    """A body "target" of the projectile's size and material, at rest, its
+    lower left corner at (x, y)."""
+    return f"""
+[[bodies]]
+name = "target"
+material = "soft"
+particles_per_cell = 2
+shape = {{ type = "rectangle", min = [{x}, {y}], max = [{x + 6.0}, {y + 4.0}] }}
+"""
+
+
 #: The projectile and a block at rest far ahead of it, with no contact
 #: between them (one velocity field): the momentum columns per body.
-TWO_BLOCKS = PROJECTILE.replace('name = "projectile"', 'name = "two-blocks"') + """
-[[bodies]]
-name = "target"
-material = "soft"
-particles_per_cell = 2
-shape = { type = "rectangle", min = [70.0, 2.0], max = [76.0, 6.0] }
-"""
+TWO_BLOCKS = PROJECTILE.replace('name = "projectile"', 'name = "two-blocks"') + _target(70.0, 2.0)
 
 #: The projectile strikes a block at rest, with Coulomb friction between
-#: them (a field per body, K&T eqs. 63-77).
-CONTACT = PROJECTILE.replace('name = "projectile"', 'name = "strike"').replace("[80.0, 8.0]", "[80.0, 16.0]") + """
-[contact]
-friction = 0.3
+#: them (a field per body, K&T eqs. 63-77), on a taller grid.
+CONTACT = (PROJECTILE.replace('name = "projectile"', 'name = "strike"').replace("[80.0, 8.0]", "[80.0, 16.0]")
+           + "\n[contact]\nfriction = 0.3\n" + _target(20.0, 3.0))
 
-[[bodies]]
-name = "target"
-material = "soft"
-particles_per_cell = 2
-shape = { type = "rectangle", min = [20.0, 3.0], max = [26.0, 7.0] }
-"""
+
+def _python(ranks: int | None) -> tuple[list[str], dict]:
+    """The command that starts Python on ``ranks`` ranks under mpirun, or
+    (None) in one process without MPI, and its environment: one thread."""
+    env = dict(os.environ, OMP_NUM_THREADS="1")
+    if os.geteuid() == 0:
+        env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
+    if ranks is None:
+        return [sys.executable], env
+    mpirun = _mpirun()  # mpirun -n 2 [--oversubscribe]
+    mpirun[2] = str(ranks)
+    return mpirun + [sys.executable], env
 
 
 def _run(tmp_path: Path, scene: Path, sets: list[str], ranks: int | None, steps: int,
          extra: tuple[str, ...] = ()) -> tuple[bytes, dict]:
     """``pfmpm run`` of ``scene`` for ``steps`` steps, on ``ranks`` ranks under
     mpirun or (None) in one process without MPI: its energies.csv and summary."""
-    env = dict(os.environ, OMP_NUM_THREADS="1")
-    if os.geteuid() == 0:
-        env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
-    launcher = [sys.executable]
-    if ranks is not None:
-        mpirun = _mpirun()  # mpirun -n 2 [--oversubscribe]
-        mpirun[2] = str(ranks)
-        launcher = mpirun + launcher
+    launcher, env = _python(ranks)
     out = tmp_path / f"ranks{ranks}"
     args = ["-m", "pfmpm.cli", "run", str(scene), "--quiet", "--out", str(out), *extra]
     args += [item for s in sets + [f"time.end={steps * Scene.from_toml(scene).dt()!r}"] for item in ("--set", s)]
@@ -202,12 +207,8 @@ def test_a_checkpoint_of_two_ranks_resumes_on_three_bitwise(tmp_path):
     for name in one.solver["arrays"]:
         assert np.array_equal(one.solver["arrays"][name], two.solver["arrays"][name]), name
     (tmp_path / "ranks2" / "checkpoints" / "step_000000200.h5").unlink()
-    env = dict(os.environ, OMP_NUM_THREADS="1")
-    if os.geteuid() == 0:
-        env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
-    mpirun = _mpirun()
-    mpirun[2] = "3"
-    proc = subprocess.run(mpirun + [sys.executable, "-m", "pfmpm.cli", "run", "--resume", str(tmp_path / "ranks2"),
+    launcher, env = _python(3)
+    proc = subprocess.run(launcher + ["-m", "pfmpm.cli", "run", "--resume", str(tmp_path / "ranks2"),
                                     "--quiet"], env=env, capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
     resumed = json.loads((tmp_path / "ranks2" / "summary.json").read_text())
@@ -236,12 +237,8 @@ try:
 except SimulationError as err:
     print("rank", MPI.COMM_WORLD.rank, "error:", err, flush=True)
 """)
-    env = dict(os.environ, OMP_NUM_THREADS="1")
-    if os.geteuid() == 0:
-        env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
-    mpirun = _mpirun()
-    mpirun[2] = "3"
-    proc = subprocess.run(mpirun + [sys.executable, str(script)], env=env, capture_output=True, text=True,
+    launcher, env = _python(3)
+    proc = subprocess.run(launcher + [str(script)], env=env, capture_output=True, text=True,
                           timeout=120)
     assert proc.returncode == 0, proc.stderr[-2000:]
     moved = next(line.split()[1] for line in proc.stdout.splitlines() if line.startswith("moved"))
