@@ -45,6 +45,8 @@ one line (:func:`check_distributable`).
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 
 from . import _core
@@ -68,8 +70,6 @@ class RankError(ValueError):
 def ranks() -> int:
     """The number of MPI ranks this process was started among, from Open
     MPI's environment, without importing MPI: 1 outside ``mpirun``."""
-    import os
-
     return int(os.environ.get("OMPI_COMM_WORLD_SIZE", "1"))
 
 
@@ -137,10 +137,6 @@ class Slabs:
         """The rank owning each cell index along x."""
         return np.searchsorted(self.tiles, np.asarray(cell_x) // TILE, side="right") - 1
 
-    def imbalance(self) -> float:
-        """The most particles a rank holds over the mean."""
-        return float(self.loads.max() / max(self.loads.mean(), 1e-300))
-
 
 class DistributedSimulation(Simulation):
     """A :class:`~pfmpm.simulation.Simulation` of one rank of many: see the
@@ -160,14 +156,12 @@ class DistributedSimulation(Simulation):
         tiles along x.
     """
 
-
     def __init__(self, scene: Scene, comm):
         check_distributable(scene)
         super().__init__(scene)
         self.comm = comm
         g = scene.grid
         self._origin, self._inv_h = g.origin[0], 1.0 / g.h  # the core's cell arithmetic (bspline.h)
-        x = self.particles.x[:, 0]
         # Ghosts: the particles of a neighbour's cells within the stencil's
         # reach (the degree: two cells whose B-spline stencils share a node lie
         # at most that far apart), plus one.

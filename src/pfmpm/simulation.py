@@ -562,7 +562,11 @@ class Simulation:
     def checkpoint_state(self) -> tuple[dict[str, np.ndarray], dict] | None:
         """What a checkpoint keeps of the run (:func:`pfmpm.checkpoint.write`):
         every particle column by name (views) and the solver state."""
-        return {c["name"]: getattr(self.particles, c["name"]) for c in self.particles.columns()}, self.solver.state()
+        return self._column_views(), self.solver.state()
+
+    def _column_views(self) -> dict[str, np.ndarray]:
+        """Every particle column by name, as views."""
+        return {c["name"]: getattr(self.particles, c["name"]) for c in self.particles.columns()}
 
     def seeded_ids(self) -> np.ndarray:
         """The ids of all particles the scene seeds, ascending: those a
@@ -588,8 +592,7 @@ class Simulation:
         """The SHA-256 of the particle state: every column, in ``columns()``
         order, its name and then its values, rows in ascending id order. A
         run on any number of ranks gives the same."""
-        return columns_sha256(self.particles.columns(), {c["name"]: getattr(self.particles, c["name"])
-                                                         for c in self.particles.columns()})
+        return columns_sha256(self.particles.columns(), self._column_views())
 
     def light_momentum(self) -> float:
         """A bound on the momentum the light grid nodes held (``Solver.light_nodes``,
