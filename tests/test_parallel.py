@@ -129,21 +129,22 @@ def test_scenes_that_do_not_run_distributed_yet_are_refused():
     check_distributable(Scene.from_toml(DEMOS / "vibrating_bar.toml"))
 
 
-@pytest.mark.parametrize("scene", ["vibrating_bar", "projectile", "two_blocks", "contact"])
+@pytest.mark.parametrize("scene", ["vibrating_bar", "bar3d", "projectile", "two_blocks", "contact"])
 def test_ranks_give_the_bits_of_one_process(tmp_path, scene):
     """``mpirun -n 1, 2, 3 pfmpm run`` writes the energies.csv of one process
     without MPI byte for byte, and the same SHA-256 of the id-sorted particle
     state: 200 steps of the vibrating bar (a wall, a traction, 4 tiles along
-    x), with its particle series (every 50 steps), and the projectile's 100
+    x) and of its 3D twin (8 tiles), with their particle series (every 50
+    steps), and the projectile's 100
     (every particle changes rank), alone, with a second body, and striking
     it with friction."""
-    if scene != "vibrating_bar":
+    if scene in ("vibrating_bar", "bar3d"):
+        path = DEMOS / f"{scene}.toml"
+        sets, steps = [], 200
+    else:
         path = tmp_path / f"{scene}.toml"
         path.write_text({"projectile": PROJECTILE, "two_blocks": TWO_BLOCKS, "contact": CONTACT}[scene])
         sets, steps = [], 100
-    else:
-        path = DEMOS / "vibrating_bar.toml"
-        sets, steps = [], 200
     serial, summary = _run(tmp_path, path, sets, None, steps)
     rows = read_csv(tmp_path / "ranksNone" / "energies.csv")
     assert rows["step"][-1] == steps
@@ -153,7 +154,7 @@ def test_ranks_give_the_bits_of_one_process(tmp_path, scene):
         assert rows["momentum_x_target"][-1] > 0.1 * 30.0 * 24.0
         assert summary["contact"]["active_node_pairs"] > 0
     frames = sorted(p.name for p in (tmp_path / "ranksNone").glob("particles*"))
-    assert len(frames) == (6 if scene == "vibrating_bar" else 0)  # the index and steps 0, 50, .., 200
+    assert len(frames) == (6 if "bar" in scene else 0)  # the index and steps 0, 50, .., 200
     for ranks in (1, 2, 3):
         csv, other = _run(tmp_path, path, sets, ranks, steps)
         assert other["ranks"] == ranks  # -n 1 runs as one process without MPI
