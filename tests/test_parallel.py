@@ -129,7 +129,7 @@ def test_scenes_that_do_not_run_distributed_yet_are_refused():
     check_distributable(Scene.from_toml(DEMOS / "vibrating_bar.toml"))
 
 
-@pytest.mark.parametrize("scene", ["vibrating_bar", "bar3d", "projectile", "two_blocks", "contact"])
+@pytest.mark.parametrize("scene", ["vibrating_bar", "pulse", "bar3d", "projectile", "two_blocks", "contact"])
 def test_ranks_give_the_bits_of_one_process(tmp_path, scene):
     """``mpirun -n 1, 2, 3 pfmpm run`` writes the energies.csv of one process
     without MPI byte for byte, and the same SHA-256 of the id-sorted particle
@@ -141,6 +141,12 @@ def test_ranks_give_the_bits_of_one_process(tmp_path, scene):
     if scene in ("vibrating_bar", "bar3d"):
         path = DEMOS / f"{scene}.toml"
         sets, steps = [], 200
+    elif scene == "pulse":  # the bar's traction as a triangle pulse, over by t = 4 (step 87)
+        path = tmp_path / "pulse.toml"
+        path.write_text((DEMOS / "vibrating_bar.toml").read_text().replace(
+            "traction = [0.1, 0.0]",
+            "traction = [0.1, 0.0]\namplitude = { type = \"table\", times = [0.0, 2.0, 4.0], values = [0.0, 1.0, 0.0] }"))
+        sets, steps = ["output.particles=false"], 200
     else:
         path = tmp_path / f"{scene}.toml"
         path.write_text({"projectile": PROJECTILE, "two_blocks": TWO_BLOCKS, "contact": CONTACT}[scene])
@@ -155,6 +161,9 @@ def test_ranks_give_the_bits_of_one_process(tmp_path, scene):
         assert summary["contact"]["active_node_pairs"] > 0
     frames = sorted(p.name for p in (tmp_path / "ranksNone").glob("particles*"))
     assert len(frames) == (6 if "bar" in scene else 0)  # the index and steps 0, 50, .., 200
+    if scene == "pulse":  # the pulse's work, then none
+        work = rows["external_work"]
+        assert work[-1] > 0.0 and work[-1] == work[rows["t"] > 4.1][0]
     for ranks in (1, 2, 3):
         csv, other = _run(tmp_path, path, sets, ranks, steps)
         assert other["ranks"] == ranks  # -n 1 runs as one process without MPI

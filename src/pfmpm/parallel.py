@@ -38,8 +38,8 @@ This is the first part of the issue's design. The grid is still whole on
 every rank, where the issue asks for a DMDA window; a ghost layer of
 particles replaces the exchange of ghost nodes (``DMGlobalToLocal``). Each
 rank seeds the whole scene and keeps its own particles. The phase field,
-the damage-gradient partition, CPDI, loads with an amplitude and initial
-damage are not distributed yet: a scene with them is refused with
+the damage-gradient partition, CPDI and initial damage are not distributed
+yet: a scene with them is refused with
 one line (:func:`check_distributable`).
 """
 
@@ -50,7 +50,7 @@ import os
 import numpy as np
 
 from . import _core
-from .scene import Scene
+from .scene import Scene, seeding
 from .run import SIDES
 from .simulation import Simulation, columns_sha256
 
@@ -79,7 +79,6 @@ def check_distributable(scene: Scene) -> None:
         "a phase field (a body with fracture)": any(scene.fracture_of(b) is not None for b in scene.bodies),
         "the damage-gradient partition": scene.contact is not None and scene.contact.damage_gradient,
         "grid.shape = \"cpdi\"": scene.grid.shape == "cpdi",
-        "a load with an amplitude": any(load.amplitude is not None for load in scene.loads),
         "[[initial_damage]]": bool(scene.initial_damage),
     }
     for what, present in refused.items():
@@ -280,16 +279,23 @@ class DistributedSimulation(Simulation):
     # -- the run ------------------------------------------------------------
 
     def advance(self, steps: int) -> None:
-        """Take ``steps`` steps on every rank: ghosts, the core's step, migration."""
+        """Take ``steps`` steps on every rank: the loads of the step, ghosts,
+        the core's step, migration."""
         for _ in range(steps):
+            self._set_step_loads()  # on the owned particles: the ghosts take their forces
             self._add_ghosts()
             message = None
             try:
-                super().advance(1)
+                self.solver.advance(1)
             except _core.SimulationError as err:
                 message = f"rank {self.comm.rank}: {err}"
             self._agree(message)
             self._migrate()
+
+    @staticmethod
+    def _load_rows(ids: np.ndarray, wanted: np.ndarray) -> tuple:
+        """The rows of those of the particles ``wanted`` this rank owns, and which they are."""
+        return seeding.held_rows(ids, wanted)
 
     def _raw_energies(self) -> dict:
         keys, sums = self.solver.tile_sums()

@@ -295,22 +295,35 @@ class Simulation:
         """Take ``steps`` explicit steps in C++; with loads or prescribed
         motion that change over time, one at a time, each with the external
         forces at its midpoint time and the prescribed velocities over it."""
-        unsteady = [(k, r) for k, r in enumerate(self.scene.prescribed) if not r.steady]
-        if not self._amplified and not unsteady:
+        if not self._amplified and all(r.steady for r in self.scene.prescribed):
             self.solver.advance(steps)
             return
         for _ in range(steps):
-            t = self.time
-            if self._amplified:
-                # The loads are kept by particle id: their rows are looked up each step.
-                steady, touched, loads = self._amplified
-                fext, ids = self.particles.fext, self.particles.id
-                fext[seeding.rows_of(ids, touched)] = steady
-                for amplitude, particles, force in loads:
-                    fext[seeding.rows_of(ids, particles)] += amplitude(t + 0.5 * self.dt) * force
-            for k, region in unsteady:
-                self.grid.set_region_velocity(k, list(region.velocity_over(t, self.dt)))
+            self._set_step_loads()
             self.solver.advance(1)
+
+    def _set_step_loads(self) -> None:
+        """The external forces of the loads with an amplitude at the midpoint
+        of the next step, and the velocities of the unsteady prescribed
+        regions over it."""
+        t = self.time
+        if self._amplified:
+            # The loads are kept by particle id: their rows are looked up each step.
+            steady, touched, loads = self._amplified
+            fext, ids = self.particles.fext, self.particles.id
+            rows, held = self._load_rows(ids, touched)
+            fext[rows] = steady[held]
+            for amplitude, particles, force in loads:
+                fext[self._load_rows(ids, particles)[0]] += amplitude(t + 0.5 * self.dt) * force
+        for k, region in enumerate(self.scene.prescribed):
+            if not region.steady:
+                self.grid.set_region_velocity(k, list(region.velocity_over(t, self.dt)))
+
+    @staticmethod
+    def _load_rows(ids: np.ndarray, wanted: np.ndarray) -> tuple:
+        """The rows of the particles ``wanted`` and which of them they are:
+        all of them, in one process (:func:`pfmpm.scene.seeding.rows_of`)."""
+        return seeding.rows_of(ids, wanted), slice(None)
 
     def _hold_particles(self, xs: list[np.ndarray], ids: list[np.ndarray]) -> None:
         """Mark the particles of each body's prescribed region in the column

@@ -195,12 +195,21 @@ def rows_of(ids: np.ndarray, wanted) -> slice | np.ndarray:
     start = int(np.searchsorted(ids, wanted[0])) if len(wanted) else 0
     if np.array_equal(ids[start:start + len(wanted)], wanted):
         return slice(start, start + len(wanted))
-    rows = np.searchsorted(ids, wanted)
-    held = rows < len(ids)
-    held[held] = ids[rows[held]] == wanted[held]
+    rows, held = held_rows(ids, wanted)
     if not held.all():
         raise ValueError(f"particle id {wanted[np.argmin(held)]}: no particle here has it")
     return rows
+
+
+def held_rows(ids: np.ndarray, wanted) -> tuple[np.ndarray, np.ndarray]:
+    """The rows of those of the ids ``wanted`` that local arrays whose id
+    column is ``ids`` (ascending) hold, in the order of ``wanted``, and which
+    of ``wanted`` they are (a mask): a rank of a distributed run holds some."""
+    wanted = np.asarray(wanted, dtype=np.int64)
+    rows = np.searchsorted(ids, wanted)
+    held = rows < len(ids)
+    held[held] = ids[rows[held]] == wanted[held]
+    return rows[held], held
 
 
 def count(scene: "Scene") -> int:
