@@ -93,7 +93,7 @@ def _run(tmp_path: Path, scene: Path, sets: list[str], ranks: int | None, steps:
     launcher, env = _python(ranks)
     out = tmp_path / f"ranks{ranks}"
     args = ["-m", "pfmpm.cli", "run", str(scene), "--quiet", "--out", str(out), *extra]
-    args += [item for s in sets + [f"time.end={steps * Scene.from_toml(scene).dt()!r}"] for item in ("--set", s)]
+    args += [item for s in sets + [f"time.end={steps * Scene.from_toml(scene, sets).dt()!r}"] for item in ("--set", s)]
     proc = subprocess.run(launcher + args, env=env, capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
     summary = json.loads((out / "summary.json").read_text())
@@ -129,7 +129,8 @@ def test_scenes_that_do_not_run_distributed_yet_are_refused():
     check_distributable(Scene.from_toml(DEMOS / "vibrating_bar.toml"))
 
 
-@pytest.mark.parametrize("scene", ["vibrating_bar", "pulse", "bar3d", "projectile", "two_blocks", "contact"])
+@pytest.mark.parametrize("scene", ["vibrating_bar", "pulse", "bar_cpdi", "bar3d", "projectile", "two_blocks",
+                                   "contact"])
 def test_ranks_give_the_bits_of_one_process(tmp_path, scene):
     """``mpirun -n 1, 2, 3 pfmpm run`` writes the energies.csv of one process
     without MPI byte for byte, and the same SHA-256 of the id-sorted particle
@@ -141,6 +142,9 @@ def test_ranks_give_the_bits_of_one_process(tmp_path, scene):
     if scene in ("vibrating_bar", "bar3d"):
         path = DEMOS / f"{scene}.toml"
         sets, steps = [], 200
+    elif scene == "bar_cpdi":  # CPDI's stencils reach 5 cells apart: a wider ghost layer
+        path = DEMOS / "vibrating_bar.toml"
+        sets, steps = ["grid.degree=1", "grid.shape=cpdi"], 200
     elif scene == "pulse":  # the bar's traction as a triangle pulse, over by t = 4 (step 87)
         path = tmp_path / "pulse.toml"
         path.write_text((DEMOS / "vibrating_bar.toml").read_text().replace(

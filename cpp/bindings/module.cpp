@@ -36,6 +36,10 @@ void bind_grid_class(py::module_& m, const char* name)
       .def_property_readonly("cells", &Grid<Dim>::cells)
       .def_property_readonly("nodes", &Grid<Dim>::nodes)
       .def_property_readonly("num_active", &Grid<Dim>::num_active, "active nodes in the last step")
+      .def_property_readonly(
+          "reach", [](const Grid<Dim>& g) { return g.block().reach(); },
+          "the farthest apart, in cells, two cells whose particles reach a common node (NodeBlock::reach): "
+          "the degree for B-splines, up to 5 for CPDI")
       .def("set_wall", &Grid<Dim>::set_wall, py::arg("side"), py::arg("wall"))
       .def("add_region", &Grid<Dim>::add_region, py::arg("min"), py::arg("max"), py::arg("components"),
            py::arg("moves") = false,

@@ -38,8 +38,7 @@ This is the first part of the issue's design. The grid is still whole on
 every rank, where the issue asks for a DMDA window; a ghost layer of
 particles replaces the exchange of ghost nodes (``DMGlobalToLocal``). Each
 rank seeds the whole scene and keeps its own particles. The phase field,
-the damage-gradient partition, CPDI and initial damage are not distributed
-yet: a scene with them is refused with
+the damage-gradient partition and initial damage are not distributed yet: a scene with them is refused with
 one line (:func:`check_distributable`).
 """
 
@@ -78,7 +77,6 @@ def check_distributable(scene: Scene) -> None:
     refused = {
         "a phase field (a body with fracture)": any(scene.fracture_of(b) is not None for b in scene.bodies),
         "the damage-gradient partition": scene.contact is not None and scene.contact.damage_gradient,
-        "grid.shape = \"cpdi\"": scene.grid.shape == "cpdi",
         "[[initial_damage]]": bool(scene.initial_damage),
     }
     for what, present in refused.items():
@@ -161,10 +159,10 @@ class DistributedSimulation(Simulation):
         self.comm = comm
         g = scene.grid
         self._origin, self._inv_h = g.origin[0], 1.0 / g.h  # the core's cell arithmetic (bspline.h)
-        # Ghosts: the particles of a neighbour's cells within the stencil's
-        # reach (the degree: two cells whose B-spline stencils share a node lie
-        # at most that far apart), plus one.
-        self._halo = g.degree + 1
+        # Ghosts: the particles of a neighbour's cells within the stencils'
+        # reach (two cells whose particles reach a common node lie at most
+        # that far apart: the degree for B-splines, up to 5 for CPDI), plus one.
+        self._halo = self.grid.reach + 1
         self._names = [c["name"] for c in self.particles.columns()]
         self._seeded = np.array(self.particles.id)
         self._split(self._columns())
