@@ -103,7 +103,8 @@ class Simulation:
     """
 
     comm = None
-    """No MPI communicator: the MPM path runs in one process (on OpenMP threads)."""
+    """No MPI communicator: one process, on OpenMP threads (a rank of many
+    is a :class:`pfmpm.parallel.DistributedSimulation`)."""
     checkpoints = True
     """The MPM path writes checkpoints and resumes from them."""
 
