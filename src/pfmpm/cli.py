@@ -70,7 +70,7 @@ def _run(args: argparse.Namespace) -> int:
         print(f"error: {err}", file=err_out)
         return 2
     except SimulationError as err:
-        print(f"error: {err}", file=sys.stderr)
+        print(f"error: {err}", file=err_out)
         return 1
     where = f" from step {resume.step} ({resume.path})" if resume else ""
     if not root:  # rank 0 reports

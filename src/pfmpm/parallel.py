@@ -386,7 +386,7 @@ class DistributedSimulation(Simulation):
             "particle_steps_per_s": n * result.steps / max(result.wall_s, 1e-12),
             "light_nodes": self.comm.allreduce(self.solver.light_nodes),
             "ranks": self.comm.size,
-            # The most particles a rank holds over the mean, now and at the split.
+            # The most particles a rank holds now, over the mean.
             "imbalance": self.comm.allreduce(len(self.particles), op=_max()) * self.comm.size / max(n, 1),
             "tiles_per_rank": np.diff(self.slabs.tiles).tolist(),
         })

@@ -886,7 +886,6 @@ void Solver<Dim>::check_stability_exactly() const
   throw SimulationError(msg.str());
 }
 
-
 template <int Dim>
 std::map<std::string, std::string> Solver<Dim>::dissipation_columns() const
 {
@@ -896,6 +895,23 @@ std::map<std::string, std::string> Solver<Dim>::dissipation_columns() const
       if (!c.dissipation.empty())
         kept.emplace(c.name, c.dissipation);
   return kept;
+}
+
+template <int Dim>
+int Solver<Dim>::TileLayout::width() const
+{
+  return TileColumns<Dim>::core + dissipated + bodies + moving;
+}
+
+template <int Dim>
+typename Solver<Dim>::TileLayout Solver<Dim>::tile_layout() const
+{
+  TileLayout layout;
+  layout.dissipated = static_cast<int>(dissipation_columns().size());
+  // The fracture energy per body, with contact; the momentum per body, with more than one.
+  layout.bodies = contact_stats() && _particles.find("fracture_energy") ? _bodies : 0;
+  layout.moving = _bodies > 1 ? Dim * _bodies : 0;
+  return layout;
 }
 
 template <int Dim>
@@ -924,10 +940,8 @@ TileSums Solver<Dim>::tile_sums() const
   std::vector<const double*> dissipated;
   for (const auto& [column, kind] : dissipation_columns())
     dissipated.push_back(P.f64(column).data());
-  const auto ndissipated = static_cast<int>(dissipated.size());
-  // The fracture energy per body, with contact; the momentum per body, with more than one.
-  const int bodies = contact_stats() && fe ? _bodies : 0;
-  const int moving = _bodies > 1 ? Dim * _bodies : 0;
+  const TileLayout layout = tile_layout();
+  const int ndissipated = layout.dissipated, bodies = layout.bodies, moving = layout.moving;
   const int by_body = C::core + ndissipated + bodies; // the first momentum per body
   const std::int32_t* body = P.body.data();
   // Every sum runs by tile of cells, so that a process holding some whole
@@ -936,7 +950,7 @@ TileSums Solver<Dim>::tile_sums() const
   if (const std::size_t outside = tiles.sort<Dim, tile_cells>(_grid, P.x); outside < n)
     throw SimulationError(where(outside) + " is outside the grid");
   return pfmpm::tile_sums(
-      tiles, by_body + moving,
+      tiles, layout.width(),
       [&](const std::int32_t* order, std::int64_t begin, std::int64_t end, double* acc)
       {
         for (std::int64_t k = begin; k < end; ++k)
@@ -986,9 +1000,9 @@ Energies<Dim> Solver<Dim>::energies_of(const TileSums& tiles, const std::vector<
   using C = TileColumns<Dim>;
   const std::vector<double> sums = fold_tiles(tiles);
   const std::map<std::string, std::string> kept = dissipation_columns();
-  const int bodies = contact_stats() && _particles.find("fracture_energy") ? _bodies : 0;
-  const int moving = _bodies > 1 ? Dim * _bodies : 0;
-  if (tiles.width != C::core + static_cast<int>(kept.size()) + bodies + moving)
+  const TileLayout layout = tile_layout();
+  const int bodies = layout.bodies, moving = layout.moving;
+  if (tiles.width != layout.width())
     throw std::invalid_argument("tile sums: " + std::to_string(tiles.width) + " per tile for "
                                 + std::to_string(C::core) + " sums, " + std::to_string(kept.size())
                                 + " dissipation columns and " + std::to_string(_bodies) + " bodies");

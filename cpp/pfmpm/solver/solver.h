@@ -468,6 +468,14 @@ private:
   std::int64_t _light_nodes = 0;
   std::int32_t _bodies = 0;                      // bodies: the largest body index + 1
   std::map<std::string, std::string> dissipation_columns() const; // column -> kind of dissipation
+  /// The columns of tile_sums() after the core sums (TileColumns): one per
+  /// dissipation column, one per body's fracture energy, Dim per body's momentum.
+  struct TileLayout
+  {
+    int dissipated = 0, bodies = 0, moving = 0;
+    int width() const;
+  };
+  TileLayout tile_layout() const;
   std::int64_t _slab_first = 0, _slab_last = 0; // owned slabs (set_owned_slabs)
   std::vector<double> _slab_sums;                // per owned slab: GridUpdate's sums over the steps
   void total_slab_sums();
